@@ -1,0 +1,46 @@
+# The two commands that do all the set-up on a fresh machine:
+#   make book   -- build the HTML book into _build/html
+#   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
+# and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks).
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+JB     := $(VENV)/bin/jupyter-book
+STAMP  := $(VENV)/.installed-stamp
+NODE_STAMP := node_modules/.installed-stamp
+
+.PHONY: setup book test lab bench notebooks clean
+
+$(STAMP): pyproject.toml constraints.txt
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade "pip>=24"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev]"
+	touch $(STAMP)
+
+$(NODE_STAMP): package.json package-lock.json
+	npm ci --no-audit --no-fund --loglevel=error
+	touch $(NODE_STAMP)
+
+setup: $(STAMP) $(NODE_STAMP)
+
+book: setup
+	$(JB) build --all -W -n --keep-going .
+	@echo
+	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
+
+test: setup
+	$(PY) -m pytest
+
+lab: setup
+	$(VENV)/bin/jupyter lab --notebook-dir=. book exercises
+
+bench: setup
+	$(PY) benchmarks/run.py
+
+# Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
+notebooks: setup
+	$(PY) tools/execute_notebooks.py book
+
+clean:
+	rm -rf _build
