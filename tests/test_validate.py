@@ -1,0 +1,80 @@
+"""The shared input checks: each names the argument and says what to do."""
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+from hypothesis.extra.numpy import arrays
+
+from uwtutor import _validate as v
+
+
+def test_finite_reports_the_first_bad_index():
+    with pytest.raises(ValueError, match=r"ranges must be finite; got nan at index 2"):
+        v.as_finite("ranges", [1.0, 2.0, np.nan, np.inf])
+
+
+def test_positive_and_nonnegative():
+    with pytest.raises(ValueError, match=r"sound_speed must be > 0; got -1500.0"):
+        v.as_positive("sound_speed", -1500.0)
+    with pytest.raises(ValueError, match=r"sigma must be >= 0"):
+        v.as_nonnegative("sigma", [0.0, -0.1])
+    assert v.as_nonnegative("sigma", 0.0) == 0.0
+
+
+def test_range_array_allows_nan_only_when_asked():
+    with pytest.raises(ValueError, match="ranges must be finite and >= 0; got nan at index 1"):
+        v.as_range_array("ranges", [1.0, np.nan])
+    out = v.as_range_array("ranges", [1.0, np.nan], allow_nan=True)
+    assert np.isnan(out[1])
+    with pytest.raises(ValueError, match="use NaN for a missing range; got -3.0 at index 0"):
+        v.as_range_array("ranges", [-3.0, 1.0], allow_nan=True)
+    with pytest.raises(ValueError, match="got inf"):
+        v.as_range_array("ranges", [np.inf], allow_nan=True)
+
+
+def test_shapes():
+    with pytest.raises(ValueError, match=r"positions must have shape \(any, 2\); got \(3, 3\)"):
+        v.as_float_array("positions", np.zeros((3, 3)), shape=(None, 2))
+    with pytest.raises(ValueError, match=r"times must have 1 dimension"):
+        v.as_float_array("times", np.zeros((2, 2)), ndim=1)
+    with pytest.raises(TypeError, match="times must be numeric"):
+        v.as_float_array("times", "soon")
+    with pytest.raises(ValueError, match="same length.*times has 3, ranges has 2"):
+        v.check_same_length(times=np.zeros(3), ranges=np.zeros(2))
+
+
+def test_covariance_checks():
+    assert v.as_covariance("R", 4.0, 1).shape == (1, 1)
+    with pytest.raises(ValueError, match="P must be a square matrix"):
+        v.as_covariance("P", np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="Q must be 3x3 to match the state"):
+        v.as_covariance("Q", np.eye(2), 3)
+    with pytest.raises(ValueError, match="P must be positive definite; its smallest eigenvalue"):
+        v.as_covariance("P", [[1.0, 0.0], [0.0, 0.0]])
+    v.as_covariance("Q", [[1.0, 0.0], [0.0, 0.0]], allow_singular=True)   # semi-definite is fine for Q
+
+
+def test_rng_and_int():
+    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+        v.as_rng(np.random.RandomState(0))
+    with pytest.raises(TypeError, match="n_runs must be an integer"):
+        v.as_int("n_runs", 2.5)
+    with pytest.raises(ValueError, match="n_runs must be >= 1"):
+        v.as_int("n_runs", 0, minimum=1)
+    assert v.as_int("n_runs", np.int64(3)) == 3
+
+
+@given(arrays(float, st.integers(1, 6), elements=st.floats(allow_nan=True, allow_infinity=True)))
+def test_as_finite_accepts_exactly_the_finite_arrays(a):
+    if np.isfinite(a).all():
+        np.testing.assert_array_equal(v.as_finite("a", a), a)
+    else:
+        with pytest.raises(ValueError, match="a must be finite"):
+            v.as_finite("a", a)
+
+
+@given(st.lists(st.floats(-3, 3), min_size=4, max_size=4))
+def test_gram_matrices_are_accepted_as_covariances(values):
+    A = np.array(values).reshape(2, 2)
+    P = A @ A.T + 1e-3 * np.eye(2)
+    np.testing.assert_array_equal(v.as_covariance("P", P, 2), P)

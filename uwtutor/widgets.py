@@ -1,0 +1,239 @@
+"""Interactive figures of the book: a pure compute function, a plot function and a thin ipywidgets layer each.
+
+The compute functions take plain parameters and return a small dataclass of arrays; they are tested without a UI and
+timed by the benchmark suite (``make bench``) through :data:`COMPUTE_FUNCTIONS`. The ``*_widget`` functions only
+wire sliders to compute + plot. In the static HTML book a widget cannot recompute, so each chapter follows a widget
+with a precomputed view (a parameter sweep drawn by the same plot function).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from . import acoustics, motion, ranging
+from ._validate import as_finite, as_nonnegative, as_positive
+
+__all__ = [
+    "SoundSpeedView",
+    "sound_speed_view",
+    "plot_sound_speed_view",
+    "sound_speed_widget",
+    "RangeErrorView",
+    "range_error_view",
+    "plot_range_error_view",
+    "range_error_widget",
+    "COMPUTE_FUNCTIONS",
+]
+
+
+# --- Chapter 1: sound speed ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SoundSpeedView:
+    """What the sound-speed widget shows for one choice of temperature, salinity and depth.
+
+    Attributes
+    ----------
+    temperature, salinity, depth : float
+        The chosen water properties [deg C, PSU, m].
+    speed : float
+        Mackenzie sound speed there [m/s].
+    sensitivity : dict of float
+        Partial derivatives of the speed: ``"temperature"`` [m/s per deg C], ``"salinity"`` [m/s per PSU],
+        ``"depth"`` [m/s per m].
+    range_error_per_km : float
+        Range error per kilometre of true range made by a navigator that assumes 1500 m/s here [m/km].
+    temperatures, speed_vs_temperature : ndarray
+        The speed over a temperature grid, salinity and depth held.
+    depths, speed_vs_depth : ndarray
+        The speed over a depth grid, temperature and salinity held.
+    """
+
+    temperature: float
+    salinity: float
+    depth: float
+    speed: float
+    sensitivity: dict[str, float]
+    range_error_per_km: float
+    temperatures: np.ndarray
+    speed_vs_temperature: np.ndarray
+    depths: np.ndarray
+    speed_vs_depth: np.ndarray
+
+
+def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: float = 1000.0) -> SoundSpeedView:
+    """Compute everything the sound-speed widget shows (see :class:`SoundSpeedView`).
+
+    Sensitivities are central differences of the Mackenzie equation (steps 0.01 deg C, 0.01 PSU, 1 m).
+    """
+    T = float(as_finite("temperature", temperature))
+    S = float(as_finite("salinity", salinity))
+    D = float(as_nonnegative("depth", depth))
+    c = acoustics.sound_speed(T, S, D)
+    steps = {"temperature": 0.01, "salinity": 0.01, "depth": 1.0}
+    sens = {}
+    for name, h in steps.items():
+        args = {"temperature": T, "salinity": S, "depth": D}
+        lo, hi = dict(args), dict(args)
+        lo[name] -= h
+        hi[name] += h
+        sens[name] = (acoustics.sound_speed(**hi) - acoustics.sound_speed(**lo)) / (2 * h)
+    temperatures = np.linspace(2.0, 30.0, 57)
+    depths = np.linspace(0.0, 6000.0, 61)
+    return SoundSpeedView(
+        temperature=T, salinity=S, depth=D, speed=c, sensitivity=sens,
+        range_error_per_km=1000.0 * (1500.0 / c - 1.0),
+        temperatures=temperatures, speed_vs_temperature=acoustics.sound_speed(temperatures, S, D),
+        depths=depths, speed_vs_depth=acoustics.sound_speed(T, S, depths),
+    )
+
+
+def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
+    """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked."""
+    fig = fig or plt.figure(figsize=(7.0, 3.2))
+    ax_t, ax_d = fig.subplots(1, 2)
+    ax_t.plot(view.temperatures, view.speed_vs_temperature)
+    ax_t.plot([view.temperature], [view.speed], "o", color="C3")
+    ax_t.set_xlabel("temperature [°C]")
+    ax_t.set_ylabel("sound speed [m/s]")
+    ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
+    ax_d.plot(view.speed_vs_depth, view.depths)
+    ax_d.plot([view.speed], [view.depth], "o", color="C3")
+    ax_d.invert_yaxis()
+    ax_d.set_xlabel("sound speed [m/s]")
+    ax_d.set_ylabel("depth [m]")
+    ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
+    fig.suptitle(f"c = {view.speed:.2f} m/s;  assuming 1500 m/s costs {view.range_error_per_km:+.1f} m per km",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _slider_panel(sliders: dict[str, Any], draw: Callable[..., None]) -> Any:
+    """Sliders above an output area; ``draw(**values)`` is called at start and whenever a slider is released."""
+    import ipywidgets as w
+
+    out = w.Output()
+
+    def refresh(_change: Any = None) -> None:
+        with out:
+            out.clear_output(wait=True)
+            draw(**{name: s.value for name, s in sliders.items()})
+            plt.show()
+
+    for s in sliders.values():
+        s.observe(refresh, names="value")
+    refresh()
+    return w.VBox([w.HBox(list(sliders.values())[:3]), w.HBox(list(sliders.values())[3:]), out])
+
+
+def sound_speed_widget() -> Any:
+    """Sliders for temperature, salinity and depth over the Mackenzie sound speed (chapter 1)."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "temperature": w.FloatSlider(value=10.0, min=2.0, max=30.0, step=0.5, description="T [°C]",
+                                     continuous_update=False, style=style),
+        "salinity": w.FloatSlider(value=35.0, min=25.0, max=40.0, step=0.5, description="S [PSU]",
+                                  continuous_update=False, style=style),
+        "depth": w.FloatSlider(value=1000.0, min=0.0, max=6000.0, step=100.0, description="D [m]",
+                               continuous_update=False, style=style),
+    }
+    return _slider_panel(sliders, lambda **p: plot_sound_speed_view(sound_speed_view(**p)))
+
+
+# --- Chapter 1: range error models ----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RangeErrorView:
+    """Range errors of each model along one simulated approach to a beacon (chapter 1).
+
+    Attributes
+    ----------
+    times : ndarray, shape (K,)
+        Ping times [s].
+    true_ranges : ndarray, shape (K,)
+        Horizontal range to the beacon [m].
+    errors : dict of ndarray
+        The error of each model, in the order additive, multiplicative (sound speed), slow bias, outliers, and
+        their sum under ``"total"``.
+    """
+
+    times: np.ndarray
+    true_ranges: np.ndarray
+    errors: dict[str, np.ndarray]
+
+
+def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bias_mean: float = 5.0,
+                     bias_sigma: float = 3.0, bias_time_constant: float = 200.0, outlier_amplitude: float = 80.0,
+                     seed: int = 1) -> RangeErrorView:
+    """Simulate each range error model on a 1500 s approach to a beacon at 2 m/s with pings every 10 s.
+
+    The track starts 3000 m from the beacon (paper D's setting); the true sound speed is N(1500, 1) m/s per ping.
+    Outliers: a patch of 5 one-sided ones at 400 s and 8 two-sided ones at 1000 s (paper E's kinds).
+    """
+    as_positive("assumed_speed", assumed_speed)
+    rng = np.random.default_rng(seed)
+    times = np.arange(0.0, 1500.0 + 1e-9, 10.0)
+    track = motion.straight_track(times, start=(-3000.0, 400.0), speed=2.0, heading=0.0)
+    true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))
+    models = {
+        "additive": ranging.GaussianNoise(noise_sigma),
+        "multiplicative": ranging.SoundSpeedError(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
+        "slow bias": ranging.SlowBias(mean=bias_mean, sigma=bias_sigma, time_constant=bias_time_constant),
+        "outliers": (ranging.Outliers(onset_times=[400.0], count=5, amplitude=outlier_amplitude)
+                     + ranging.Outliers(onset_times=[1000.0], count=8, amplitude=outlier_amplitude,
+                                        two_sided=True)),
+    }
+    errors = {name: model.sample(true_ranges, times, rng) for name, model in models.items()}
+    errors["total"] = sum(errors.values())
+    return RangeErrorView(times=times, true_ranges=true_ranges, errors=errors)
+
+
+def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
+    """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range."""
+    fig = fig or plt.figure(figsize=(7.0, 3.4))
+    ax_t, ax_r = fig.subplots(1, 2)
+    for name, err in view.errors.items():
+        if name != "total":
+            ax_t.plot(view.times, err, label=name, lw=1)
+    ax_t.set_xlabel("time [s]")
+    ax_t.set_ylabel("range error [m]")
+    ax_t.legend(loc="lower left", fontsize=8)
+    ax_r.plot(view.true_ranges, view.errors["total"], ".", ms=3, color="C4")
+    ax_r.set_xlabel("true range [m]")
+    ax_r.set_ylabel("total error [m]")
+    fig.tight_layout()
+    return fig
+
+
+def range_error_widget() -> Any:
+    """Sliders over the parameters of the four range error models (chapter 1)."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "noise_sigma": w.FloatSlider(value=0.7, min=0.0, max=10.0, step=0.1, description="σ white [m]",
+                                     continuous_update=False, style=style),
+        "assumed_speed": w.FloatSlider(value=1470.0, min=1440.0, max=1560.0, step=5.0,
+                                       description="assumed c [m/s]", continuous_update=False, style=style),
+        "bias_sigma": w.FloatSlider(value=3.0, min=0.0, max=20.0, step=0.5, description="bias σ [m]",
+                                    continuous_update=False, style=style),
+        "bias_time_constant": w.FloatSlider(value=200.0, min=10.0, max=1000.0, step=10.0,
+                                            description="bias τ [s]", continuous_update=False, style=style),
+        "outlier_amplitude": w.FloatSlider(value=80.0, min=0.0, max=200.0, step=5.0,
+                                           description="outlier size [m]", continuous_update=False, style=style),
+    }
+    return _slider_panel(sliders, lambda **p: plot_range_error_view(range_error_view(**p)))
+
+
+#: Zero-argument callables running each widget's computation at its default parameters (timed by ``make bench``).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch01 sound speed": sound_speed_view,
+    "ch01 range errors": range_error_view,
+}
