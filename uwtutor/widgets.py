@@ -68,20 +68,21 @@ class SoundSpeedView:
 def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: float = 1000.0) -> SoundSpeedView:
     """Compute everything the sound-speed widget shows (see :class:`SoundSpeedView`).
 
-    Sensitivities are central differences of the Mackenzie equation (steps 0.01 deg C, 0.01 PSU, 1 m).
+    Sensitivities are central differences of the Mackenzie equation (steps 0.01 deg C, 0.01 PSU, 1 m; one-sided at
+    the surface).
     """
     T = float(as_finite("temperature", temperature))
     S = float(as_finite("salinity", salinity))
     D = float(as_nonnegative("depth", depth))
     c = acoustics.sound_speed(T, S, D)
     steps = {"temperature": 0.01, "salinity": 0.01, "depth": 1.0}
+    args = {"temperature": T, "salinity": S, "depth": D}
     sens = {}
     for name, h in steps.items():
-        args = {"temperature": T, "salinity": S, "depth": D}
         lo, hi = dict(args), dict(args)
-        lo[name] -= h
-        hi[name] += h
-        sens[name] = (acoustics.sound_speed(**hi) - acoustics.sound_speed(**lo)) / (2 * h)
+        lo[name] = max(args[name] - h, 0.0) if name == "depth" else args[name] - h  # no negative depth
+        hi[name] = args[name] + h
+        sens[name] = (acoustics.sound_speed(**hi) - acoustics.sound_speed(**lo)) / (hi[name] - lo[name])
     temperatures = np.linspace(2.0, 30.0, 57)
     depths = np.linspace(0.0, 6000.0, 61)
     return SoundSpeedView(
