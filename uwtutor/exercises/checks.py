@@ -1,0 +1,856 @@
+"""Generic building blocks for answer checkers that say what is wrong and hint at why.
+
+Three checkers cover the exercises of the book:
+
+- ``check_number`` for a single number: it recognises the exercise's known wrong answers (``common_mistakes``),
+  then a wrong sign, a factor of 2 and a power of ten (a unit conversion), then says how far off the answer is;
+- ``check_array`` for an array: it reports a wrong shape (and suggests a transpose), NaNs, swapped columns, and
+  otherwise the worst element; with a boolean ``expected`` it compares flags and names the missed and the false ones;
+- ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
+  reports the first failing case with its inputs, the expected result and the student's result; an exception raised
+  by the student's code is caught and reported with the line it came from.
+
+None of them ever raises because of the *answer*: ``None`` (not answered yet), a string, a list of the wrong length or a
+function that crashes all give a ``Feedback`` with ``correct=False`` and a helpful message. They do raise ``ValueError``
+or ``TypeError`` when the *checker* is misconfigured (an ``expected`` that is not finite, no test cases...).
+
+Examples
+--------
+>>> from uwtutor.exercises.checks import check_number
+>>> check_number(3600.0, 1800.0, name="the range", units="m",
+...              common_mistakes={3600.0: "A two-way travel time covers the path twice."})
+✘ Not yet: your value for the range, 3600 m, is twice the expected value.
+  Hint: A two-way travel time covers the path twice.
+>>> check_number(1800.2, 1800.0, name="the range", units="m")
+✔ Correct: the range is 1800.2 m.
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import math
+import numbers
+import reprlib
+import traceback
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .feedback import Feedback
+
+__all__ = ["Case", "check_number", "check_array", "check_function", "not_answered", "DEFAULT_HINT"]
+
+#: The hint given when an answer is wrong and no more specific cause is recognised.
+DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
+
+_NOT_YET = "Not yet: "
+_PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# formatting
+# ---------------------------------------------------------------------------------------------------------------------
+def _fmt(x: float, digits: int = 6) -> str:
+    """A number with up to ``digits`` significant digits: ``1506.26``, ``7200``, ``-60``."""
+    x = float(x)
+    if x == 0:
+        return "0"
+    return f"{x:.{digits}g}"
+
+
+def _with_units(x: float, units: str, digits: int = 6) -> str:
+    return f"{_fmt(x, digits)} {units}".rstrip()
+
+
+def _percent(p: float) -> str:
+    p = abs(p) * 100
+    if p >= 10:
+        return f"{p:.0f} %"
+    if p >= 1:
+        return f"{p:.1f} %"
+    return f"{p:.2g} %"
+
+
+def _fmt_value(value: Any) -> str:
+    """A short, readable rendering of a test input or result (arrays printed compactly)."""
+    if isinstance(value, np.ndarray) or (isinstance(value, (list, tuple)) and value
+                                         and all(isinstance(v, numbers.Number) for v in value)):
+        try:
+            arr = np.asarray(value)
+            if arr.dtype.kind in "biuf":
+                return np.array2string(arr, separator=", ", threshold=30, edgeitems=5, precision=3,
+                                       floatmode="maxprec", suppress_small=True, max_line_width=100)
+        except (TypeError, ValueError):
+            pass
+    if isinstance(value, (float, np.floating)) and math.isfinite(value):
+        return _fmt(value)
+    short = reprlib.Repr()
+    short.maxstring = 80
+    short.maxother = 80
+    return short.repr(value)
+
+
+def _fmt_index(idx: tuple[int, ...]) -> str:
+    if len(idx) == 1:
+        return str(int(idx[0]))
+    return "(" + ", ".join(str(int(i)) for i in idx) + ")"
+
+
+def _list_indices(indices: Sequence[tuple[int, ...]], limit: int = 5) -> str:
+    shown = [_fmt_index(i) for i in indices[:limit]]
+    word = "index" if len(indices) == 1 else "indices"
+    if len(indices) > limit:
+        return f"{word} {', '.join(shown)}, ... ({len(indices)} in all)"
+    if len(shown) > 1:
+        return f"{word} {', '.join(shown[:-1])} and {shown[-1]}"
+    return f"{word} {shown[0]}"
+
+
+def _type_name(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return "NumPy array"
+    return type(value).__name__
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# answers that are not (yet) numbers
+# ---------------------------------------------------------------------------------------------------------------------
+def not_answered(what: str) -> Feedback:
+    """The feedback for an exercise whose answer is still ``None`` (or ``...``).
+
+    Parameters
+    ----------
+    what : str
+        What the answer should be, e.g. ``"the two-way range in metres (a number)"``.
+
+    Returns
+    -------
+    Feedback
+        Not correct, with a message that asks for the answer and a hint on where to write it.
+    """
+    return Feedback(False, f"No answer yet: replace `None` with {what}.",
+                    hint="Write your code in the answer cell above (where it says `# YOUR CODE HERE`), delete the "
+                         "`raise NotImplementedError()` line, then run that cell and this one again.",
+                    details={"answered": False})
+
+
+def _is_unanswered(answer: Any) -> bool:
+    return answer is None or answer is Ellipsis
+
+
+def _wrong_type(answer: Any, name: str, kind: str = "a number") -> Feedback | None:
+    """Feedback for an answer that is text, a truth value, a function or a container of the wrong kind, else None."""
+    if isinstance(answer, (bool, np.bool_)):
+        return Feedback(False, f"Your answer is {bool(answer)}, a truth value; {name} should be {kind}.",
+                        hint="Did you assign the result of a comparison (`==`, `<`) instead of the quantity itself?")
+    if isinstance(answer, (str, bytes)):
+        text = answer.decode(errors="replace") if isinstance(answer, bytes) else answer
+        try:
+            float(text.strip())
+        except ValueError:
+            return Feedback(False, f"Your answer is the text {text!r}; {name} should be {kind}.",
+                            hint="Assign the result of your calculation, not text.")
+        return Feedback(False, f"Your answer is the text {text!r} (a string, in quotes); {name} should be {kind}.",
+                        hint=f"Remove the quotes: write {text.strip()} rather than {text!r}.")
+    if callable(answer):
+        fname = getattr(answer, "__name__", "it")
+        return Feedback(False, f"Your answer is a function (`{fname}`); {name} should be {kind}.",
+                        hint=f"Call it and assign its result, e.g. `{fname}(...)` with the inputs of the task.")
+    if isinstance(answer, (dict, set, frozenset)):
+        return Feedback(False, f"Your answer is a {type(answer).__name__}; {name} should be {kind}.",
+                        hint="Give the value itself, not a dictionary or a set.")
+    return None
+
+
+def _as_scalar(answer: Any, name: str, what: str) -> tuple[float | None, Feedback | None]:
+    """Turn ``answer`` into a float, or explain why it cannot be one (``what`` describes the answer if missing)."""
+    if _is_unanswered(answer):
+        return None, not_answered(what)
+    wrong = _wrong_type(answer, name)
+    if wrong is not None:
+        return None, wrong
+    if isinstance(answer, (numbers.Number, np.number)):
+        if isinstance(answer, (complex, np.complexfloating)):
+            if answer.imag != 0:
+                return None, Feedback(False, f"Your answer, {answer}, is a complex number; {name} should be real.",
+                                      hint="A square root of a negative number? Check the signs under the root.")
+            answer = answer.real
+        try:
+            return float(answer), None
+        except (TypeError, ValueError, OverflowError):
+            pass
+    if isinstance(answer, (list, tuple, np.ndarray)) or hasattr(answer, "__array__"):
+        try:
+            arr = np.asarray(answer)
+        except (TypeError, ValueError):
+            arr = np.asarray([None], dtype=object)
+        kind = _type_name(answer)
+        if arr.dtype.kind not in "iuf" or arr.size == 0:
+            if arr.size == 0:
+                return None, Feedback(False, f"Your answer is an empty {kind}; {name} should be a number.",
+                                      hint="Assign the number itself, not a container.")
+            if arr.dtype.kind == "b" and arr.size == 1:
+                return None, _wrong_type(bool(arr.reshape(())), name)
+            return None, Feedback(False, f"Your answer is a {kind} that does not hold a number; "
+                                         f"{name} should be a single number.",
+                                  hint="Assign the number itself.")
+        if arr.size == 1:
+            return float(arr.reshape(())), None
+        return None, Feedback(False, f"Your answer is a {kind} of {arr.size} numbers (shape {arr.shape}); "
+                                     f"{name} should be a single number.",
+                              hint="If you computed it for several cases, give the one the task asks for "
+                                   "(for example the last one, `values[-1]`).")
+    try:
+        return float(answer), None
+    except (TypeError, ValueError, OverflowError):
+        return None, Feedback(False, f"Your answer is a {type(answer).__name__}; {name} should be a number.",
+                              hint="Assign the number itself.")
+
+
+def _non_finite(value: float, name: str) -> Feedback | None:
+    if math.isnan(value):
+        return Feedback(False, f"Not yet: your value for {name} is NaN (not a number).",
+                        hint="NaN comes from an undefined operation (0/0, the square root of a negative number...) or "
+                             "from a NaN among the inputs: print the intermediate results to see where it appears.")
+    if math.isinf(value):
+        return Feedback(False, f"Not yet: your value for {name} is infinite.",
+                        hint="A division by zero? Check the denominators.")
+    return None
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# how a wrong number relates to the right one
+# ---------------------------------------------------------------------------------------------------------------------
+_SIGN_HINT = "Check the sign convention of the task (for example, error = estimated value − true value)."
+_TWICE_HINT = "Look for a factor of 2 too many (a two-way path, a diameter instead of a radius...)."
+_HALF_HINT = "Look for a missing factor of 2."
+
+
+def _power_hint(k: int, units: str) -> str:
+    inunits = f" and the answer in {units}" if units else ""
+    return (f"A factor of {10 ** k:,} usually comes from a unit conversion (metres and kilometres, seconds and "
+            f"milliseconds...): check that every input is in SI units{inunits}.")
+
+
+def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tuple[str, str | None]:
+    """How the answer ``a`` relates to the expected ``e`` (``e != 0``), with a hint when the relation is telling."""
+
+    def close(target: float) -> bool:
+        return abs(a - target) <= atol + max(rtol, 1e-12) * abs(target)
+
+    if close(-e):
+        return "has the right size but the wrong sign", _SIGN_HINT
+    if close(2 * e):
+        return "is twice the expected value", _TWICE_HINT
+    if close(e / 2):
+        return "is half the expected value", _HALF_HINT
+    for k in range(1, 10):
+        for sign, prefix, hint_extra in ((1, "", ""), (-1, "has the wrong sign and ", " Check the sign too.")):
+            if close(sign * e * 10 ** k):
+                return f"{prefix}is {10 ** k:,} times larger than expected", _power_hint(k, units) + hint_extra
+            if close(sign * e / 10 ** k):
+                return f"{prefix}is {10 ** k:,} times smaller than expected", _power_hint(k, units) + hint_extra
+    tol = atol + rtol * abs(e)
+    if a == 0:
+        return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
+                                                   "division (`//`) round the result down to 0?")
+    if abs(a - e) <= 10 * tol:
+        return (f"is close, but just outside the tolerance (off by {_with_units(a - e, units, 3)}; "
+                f"the tolerance is ±{_with_units(tol, units, 3)})",
+                "Did you round an intermediate value or a constant? Keep full precision until the end, and check "
+                "that no small term is missing.")
+    ratio = a / e
+    if ratio < 0:
+        size = abs(ratio)
+        if size >= 3:
+            return f"has the wrong sign and is about {size:.3g} times the expected size", None
+        if size <= 1 / 3:
+            return f"has the wrong sign and is about {1 / size:.3g} times smaller than the expected size", None
+        return f"has the wrong sign (and its size is off by {_percent(size - 1)})", None
+    if ratio >= 3:
+        return f"is about {ratio:.3g} times the expected value", None
+    if ratio <= 1 / 3:
+        return f"is about {1 / ratio:.3g} times smaller than the expected value", None
+    if e > 0:
+        return f"is {_percent(ratio - 1)} too {'large' if a > e else 'small'}", None
+    return f"is {_percent(ratio - 1)} {'larger' if abs(a) > abs(e) else 'smaller'} in size than expected", None
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# check_number
+# ---------------------------------------------------------------------------------------------------------------------
+def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: float = 0.0, name: str = "the answer",
+                 units: str = "", common_mistakes: Mapping[float, str] | None = None, hint: str | None = None,
+                 explanation: str | None = None) -> Feedback:
+    """Check a single number against the expected value and explain a wrong one.
+
+    The answer is accepted when ``abs(answer - expected) <= atol + rtol * abs(expected)``. A wrong answer is first
+    compared with the exercise's known wrong answers (``common_mistakes``, same tolerance); then with a wrong sign, a
+    factor of 2 and a power of ten (a unit conversion); a near miss (within ten tolerances) is called close; otherwise
+    the message says how far off the answer is (in % or as a ratio) and shows ``hint``.
+
+    Parameters
+    ----------
+    answer : object
+        The student's answer. ``None`` (or ``...``) means "not answered yet". A one-element array or list is accepted
+        as its element; text, truth values, functions and longer arrays get a message explaining what is expected.
+    expected : float
+        The right value (finite).
+    rtol, atol : float
+        Relative and absolute tolerance.
+    name : str
+        What the number is, with its article, e.g. ``"the two-way range"``; used in the messages.
+    units : str
+        The units the answer is expected in, e.g. ``"m"``; shown after the numbers.
+    common_mistakes : mapping of float to str, optional
+        Known wrong answers of this exercise, each with the hint that explains it (the likely cause).
+    hint : str, optional
+        The hint shown when no specific cause is recognised (default ``DEFAULT_HINT``).
+    explanation : str, optional
+        A sentence appended to the message of a correct answer (why it is right, what it means).
+
+    Returns
+    -------
+    Feedback
+        ``correct`` is true when the answer is within tolerance; ``details`` holds ``answer`` (as a float),
+        ``relative_error`` and, for a recognised mistake, ``mistake`` (its value).
+
+    Raises
+    ------
+    ValueError
+        If ``expected`` is not a finite number or a tolerance is negative (a bug in the checker, not in the answer).
+
+    Examples
+    --------
+    >>> check_number(-60.0, 60.0, name="the range error", units="m")
+    ✘ Not yet: your value for the range error, -60 m, has the right size but the wrong sign.
+      Hint: Check the sign convention of the task (for example, error = estimated value − true value).
+    """
+    e = float(expected)
+    if not math.isfinite(e):
+        raise ValueError(f"expected must be a finite number; got {expected!r}")
+    if rtol < 0 or atol < 0:
+        raise ValueError(f"rtol and atol must be >= 0; got rtol={rtol}, atol={atol}")
+    what = f"{name} in {units} (a number)" if units else f"{name} (a number)"
+    a, problem = _as_scalar(answer, name, what)
+    if problem is not None:
+        return problem
+    assert a is not None
+    problem = _non_finite(a, name)
+    if problem is not None:
+        return problem
+    rel = (a - e) / abs(e) if e != 0 else math.inf if a != e else 0.0
+    details: dict[str, Any] = {"answer": a, "relative_error": rel}
+    tol = atol + rtol * abs(e)
+    if abs(a - e) <= tol:
+        message = f"Correct: {name} is {_with_units(a, units)}."
+        if explanation:
+            message += " " + explanation
+        return Feedback(True, message, details=details)
+
+    subject = f"{_NOT_YET}your value for {name}, {_with_units(a, units)},"
+    for value, mistake_hint in (common_mistakes or {}).items():
+        v = float(value)
+        if abs(a - v) <= atol + rtol * abs(v):
+            relation = _relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 else "is not right"
+            return Feedback(False, f"{subject} {relation}.", hint=mistake_hint, details={**details, "mistake": v})
+    if e == 0:
+        return Feedback(False, f"{subject} should be zero (within ±{_with_units(atol, units)}).",
+                        hint=hint or DEFAULT_HINT, details=details)
+    relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units)
+    return Feedback(False, f"{subject} {relation}.", hint=special_hint or hint or DEFAULT_HINT, details=details)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# check_array
+# ---------------------------------------------------------------------------------------------------------------------
+def _as_array(answer: Any, name: str, expected: np.ndarray) -> tuple[np.ndarray | None, Feedback | None]:
+    """Turn ``answer`` into an array comparable with ``expected``, or explain why it cannot be."""
+    boolean = expected.dtype == bool
+    what = f"{name} (an array of shape {expected.shape})"
+    if _is_unanswered(answer):
+        return None, not_answered(what)
+    if isinstance(answer, (str, bytes, dict, set, frozenset)) or callable(answer):
+        fb = _wrong_type(answer, name, f"an array of shape {expected.shape}")
+        assert fb is not None
+        return None, fb
+    try:
+        arr = np.asarray(answer)
+    except (TypeError, ValueError):
+        return None, Feedback(False, f"{_NOT_YET}{name} cannot be turned into an array of numbers.",
+                              hint="Its rows probably have different lengths: every row needs the same number of "
+                                   "elements.")
+    if arr.dtype.kind == "O" and arr.ndim == 0:
+        return None, Feedback(False, f"Your answer is a {_type_name(answer)}; {name} should be an array of shape "
+                                     f"{expected.shape}.",
+                              hint="Build the array itself, e.g. with `np.array(...)` or `np.column_stack(...)`.")
+    if arr.dtype.kind in "OUSV":
+        for idx, item in np.ndenumerate(arr):
+            if item is None or isinstance(item, (str, bytes, bool, np.bool_)) or not isinstance(item, numbers.Number):
+                shown = repr(str(item)) if isinstance(item, str) else repr(item)
+                where = f" at index {_fmt_index(idx)}" if idx else ""
+                return None, Feedback(False, f"{_NOT_YET}{name} contains {shown}{where}, "
+                                             "which is not a number.",
+                                      hint="Every element must be a number (use NaN for a missing value).")
+        arr = arr.astype(complex) if any(isinstance(v, complex) for v in arr.flat) else arr.astype(float)
+    if arr.dtype.kind == "c":
+        if np.any(arr.imag != 0):
+            return None, Feedback(False, f"Not yet: {name} contains complex numbers.",
+                                  hint="A square root of a negative number? Check the signs under the root.")
+        arr = arr.real
+    if arr.ndim == 0 and expected.ndim > 0:
+        return None, Feedback(False, f"Not yet: {name} is a single value; expected an array of shape "
+                                     f"{expected.shape}.",
+                              hint="Compute one value per element (a NumPy expression on arrays, or a loop that "
+                                   "fills an array).")
+    if boolean:
+        if arr.dtype.kind in "iu" and arr.ndim == 1 and expected.ndim == 1 and arr.shape != expected.shape \
+                and np.all((arr >= 0) & (arr < expected.size)):
+            return None, Feedback(False, f"{_NOT_YET}{name} looks like a list of positions (indices), not one "
+                                         "True/False flag per element.",
+                                  hint="Return a boolean mask as long as the input: "
+                                       "`mask = np.zeros(n, dtype=bool)`, then `mask[i] = True`.")
+        if arr.dtype.kind in "iuf" and arr.size and not np.all(np.isin(arr, (0, 1))):
+            return None, Feedback(False, f"Not yet: {name} should hold True/False flags, but it holds numbers "
+                                         f"such as {_fmt(arr.flat[np.flatnonzero(~np.isin(arr, (0, 1)))[0]])}.",
+                                  hint="Return a boolean array (for example start from "
+                                       "`np.zeros(len(x), dtype=bool)` and set the flagged elements to True), not "
+                                       "the values themselves.")
+        if arr.dtype.kind in "biuf":
+            arr = arr.astype(bool)
+    elif arr.dtype.kind == "b":
+        return None, Feedback(False, f"Not yet: {name} holds True/False values; expected numbers.",
+                              hint="Did you assign the result of a comparison instead of the quantity itself?")
+    else:
+        arr = arr.astype(float)
+    return arr, None
+
+
+def _shape_feedback(arr: np.ndarray, expected: np.ndarray, name: str) -> Feedback:
+    got, want = arr.shape, expected.shape
+    prefix = f"{_NOT_YET}{name} has the wrong shape: expected shape {want}, got {got}"
+    if arr.ndim == 2 and expected.ndim == 2 and got == want[::-1]:
+        return Feedback(False, prefix + ": transpose?",
+                        hint="Use `.T` to transpose it, or build it with `np.column_stack(...)` (1-D arrays side by "
+                             "side as columns) rather than `np.array([...])` or `np.vstack(...)` (one row each).",
+                        details={"shape": got})
+    if arr.ndim and got[0] == want[0] - 1 and got[1:] == want[1:]:
+        short = f"{got[0]} values instead of {want[0]}" if arr.ndim == 1 else "one row short"
+        return Feedback(False, prefix + f": {short}.",
+                        hint="`np.arange(start, stop, step)` leaves out `stop`: use `np.arange(start, stop + step, "
+                             "step)` or `np.linspace(start, stop, n)`, and check the ends of your loops.",
+                        details={"shape": got})
+    if arr.size == expected.size:
+        if np.squeeze(arr).shape == np.squeeze(expected).shape:
+            fix = "remove the extra axis of length 1 (`np.squeeze`, `.ravel()`) or add the missing one"
+        else:
+            fix = "check how you stacked or reshaped it"
+        return Feedback(False, prefix + f": the same number of elements ({arr.size}), arranged differently.",
+                        hint=f"Arrange the elements as the task asks: {fix}.", details={"shape": got})
+    if arr.ndim == 1 and expected.ndim == 1:
+        return Feedback(False, prefix + f": {got[0]} values instead of {want[0]}.",
+                        hint="Check the range of your loop or of `np.arange` (which leaves out its end).",
+                        details={"shape": got})
+    return Feedback(False, prefix + ".", hint="Compare the number of rows and columns with the task.",
+                    details={"shape": got})
+
+
+def _array_relation(arr: np.ndarray, exp: np.ndarray, rtol: float, atol: float) -> tuple[str, str | None] | None:
+    """A whole-array relation between a wrong answer and the expected array (wrong sign, factor, transpose...)."""
+
+    def close(candidate: np.ndarray) -> bool:
+        return candidate.shape == exp.shape and bool(np.allclose(candidate, exp, rtol=rtol, atol=atol, equal_nan=True))
+
+    if not np.any(exp[np.isfinite(exp)] != 0):
+        return None
+    if close(-arr):
+        return "has the right size but the wrong sign everywhere", _SIGN_HINT
+    if close(arr / 2):
+        return "is twice the expected array everywhere", _TWICE_HINT
+    if close(arr * 2):
+        return "is half the expected array everywhere", _HALF_HINT
+    for k in range(1, 10):
+        if close(arr / 10 ** k):
+            return f"is {10 ** k:,} times larger than expected everywhere", _power_hint(k, "")
+        if close(arr * 10 ** k):
+            return f"is {10 ** k:,} times smaller than expected everywhere", _power_hint(k, "")
+    if arr.ndim == 2 and arr.shape[0] == arr.shape[1] and close(arr.T):
+        return "is the transpose of the expected array", "Swap rows and columns (`.T`): check which axis is which."
+    if arr.ndim == 2 and arr.shape[1] > 1 and close(arr[:, ::-1]):
+        return "has its columns in reverse order", "Check the order of the columns the task asks for."
+    if arr.ndim >= 1 and arr.shape[0] > 1 and close(arr[::-1]):
+        return "is in reverse order", "Check the order the task asks for (first element first)."
+    return None
+
+
+def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float = 0.0, name: str = "the array",
+                units: str = "", common_mistakes: Iterable[tuple[Any, str]] | None = None, hint: str | None = None,
+                explanation: str | None = None) -> Feedback:
+    """Check an array against the expected array and explain a wrong one.
+
+    Elements are compared with ``numpy.isclose(answer, expected, rtol, atol, equal_nan=True)`` (a NaN where NaN is
+    expected, a missing value, is right). The checks, in order: the answer can be an array of numbers; its shape
+    (a transposed ``(2, K)`` for ``(K, 2)`` is named as such, so is a row too few); NaN or infinite elements where
+    numbers are expected; the exercise's known wrong arrays (``common_mistakes``); a wrong sign, a factor of 2, a
+    power of ten, a transpose, reversed columns or order; otherwise the worst element (relative to the tolerance) and
+    the number of wrong elements.
+
+    With a boolean ``expected`` the answer must hold flags (booleans, or 0 and 1); the message names the elements
+    flagged by mistake and those missed. A 1-D integer answer of another length is recognised as a list of indices.
+
+    Parameters
+    ----------
+    answer : object
+        The student's array (anything ``numpy.asarray`` accepts). ``None`` means "not answered yet".
+    expected : array_like
+        The right array (numbers, possibly NaN for missing values, or booleans).
+    rtol, atol : float
+        Relative and absolute tolerance for numeric arrays.
+    name : str
+        What the array is, e.g. ``"the track"``; used in the messages.
+    units : str
+        Units of the elements, shown after the numbers.
+    common_mistakes : iterable of (array_like, str), optional
+        Known wrong arrays of this exercise, each with the hint that explains it.
+    hint : str, optional
+        The hint shown when no specific cause is recognised.
+    explanation : str, optional
+        A sentence appended to the message of a correct answer.
+
+    Returns
+    -------
+    Feedback
+        ``details`` holds the answer's ``shape`` and, for a numeric array with wrong elements, ``n_wrong`` and
+        ``worst_index``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fb = check_array(np.zeros((2, 5)), np.ones((5, 2)), name="the track")
+    >>> print(fb.message)
+    Not yet: the track has the wrong shape: expected shape (5, 2), got (2, 5): transpose?
+    """
+    exp = np.asarray(expected)
+    boolean = exp.dtype == bool
+    if not boolean:
+        exp = exp.astype(float)
+    if rtol < 0 or atol < 0:
+        raise ValueError(f"rtol and atol must be >= 0; got rtol={rtol}, atol={atol}")
+    arr, problem = _as_array(answer, name, exp)
+    if problem is not None:
+        return problem
+    assert arr is not None
+    if arr.shape != exp.shape:
+        return _shape_feedback(arr, exp, name)
+    details: dict[str, Any] = {"shape": arr.shape}
+    if boolean:
+        return _compare_flags(arr, exp, name, hint, explanation, details)
+
+    nan_where_number = np.isnan(arr) & ~np.isnan(exp)
+    if nan_where_number.any():
+        where = [tuple(i) for i in np.argwhere(nan_where_number)]
+        return Feedback(False, f"{_NOT_YET}{name} contains NaN (not a number) at {_list_indices(where)}, where a "
+                               "number is expected.",
+                        hint="NaN comes from an undefined operation (0/0, the square root of a negative number...), "
+                             "from a NaN among the inputs, or from an array made with `np.empty` and never filled.",
+                        details=details)
+    number_where_nan = ~np.isnan(arr) & np.isnan(exp)
+    if number_where_nan.any():
+        where = [tuple(i) for i in np.argwhere(number_where_nan)]
+        return Feedback(False, f"{_NOT_YET}{name} has a number at {_list_indices(where)}, where NaN (a missing "
+                               "value) is expected.",
+                        hint="A missing input should give a missing output: do not replace NaN by 0.", details=details)
+    inf_where_finite = np.isinf(arr) & ~np.isinf(exp)
+    if inf_where_finite.any():
+        where = [tuple(i) for i in np.argwhere(inf_where_finite)]
+        return Feedback(False, f"{_NOT_YET}{name} is infinite at {_list_indices(where)}.",
+                        hint="A division by zero? Check the denominators.", details=details)
+
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        diff = np.abs(arr - exp)
+        same = (np.isnan(arr) & np.isnan(exp)) | (np.isinf(exp) & (arr == exp))
+        tol = atol + rtol * np.abs(exp)
+        ok = same | (diff <= tol)
+        if ok.all():
+            message = f"Correct: {name} is right (shape {arr.shape})."
+            if explanation:
+                message += " " + explanation
+            return Feedback(True, message, details=details)
+        excess = np.where(ok, 0.0, diff / np.maximum(tol, np.finfo(float).tiny))
+    worst = tuple(int(i) for i in np.unravel_index(int(np.argmax(excess)), arr.shape))
+    n_wrong = int((~ok).sum())
+    details.update(n_wrong=n_wrong, worst_index=worst)
+
+    with np.errstate(all="ignore"):
+        relation = _array_relation(arr, exp, rtol, atol)
+        for candidate, mistake_hint in common_mistakes or ():
+            cand = np.asarray(candidate, dtype=float)
+            if cand.shape == arr.shape and np.allclose(arr, cand, rtol=rtol, atol=atol, equal_nan=True):
+                text = relation[0] if relation else f"has {n_wrong} of {arr.size} elements off"
+                return Feedback(False, f"{_NOT_YET}{name} {text}.", hint=mistake_hint, details=details)
+    if relation is not None:
+        return Feedback(False, f"{_NOT_YET}{name} {relation[0]}.", hint=relation[1] or hint or DEFAULT_HINT,
+                        details=details)
+    u = f" {units}" if units else ""
+    verb = "is" if n_wrong == 1 else "are"
+    return Feedback(False, f"{_NOT_YET}{n_wrong} of {arr.size} elements of {name} {verb} off; the worst is at index "
+                           f"{_fmt_index(worst)}: got {_fmt(arr[worst])}{u}, expected {_fmt(exp[worst])}{u}.",
+                    hint=hint or DEFAULT_HINT, details=details)
+
+
+def _compare_flags(arr: np.ndarray, exp: np.ndarray, name: str, hint: str | None, explanation: str | None,
+                   details: dict[str, Any]) -> Feedback:
+    false_alarms = [tuple(i) for i in np.argwhere(arr & ~exp)]
+    misses = [tuple(i) for i in np.argwhere(~arr & exp)]
+    if not false_alarms and not misses:
+        message = f"Correct: all {arr.size} flags of {name} are right."
+        if explanation:
+            message += " " + explanation
+        return Feedback(True, message, details=details)
+    parts = []
+    if false_alarms:
+        parts.append(f"flags {_list_indices(false_alarms)}, which should not be flagged")
+    if misses:
+        parts.append(f"misses {_list_indices(misses)}, which should be flagged")
+    n_wrong = len(false_alarms) + len(misses)
+    details.update(n_wrong=n_wrong, false_alarms=false_alarms, misses=misses)
+    return Feedback(False, f"{_NOT_YET}{name} {' and '.join(parts)} ({n_wrong} of {arr.size} flags differ).",
+                    hint=hint or DEFAULT_HINT, details=details)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# check_function
+# ---------------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Case:
+    """One test case for ``check_function``: the arguments, a label and an optional hint.
+
+    Parameters
+    ----------
+    args : tuple
+        Positional arguments.
+    kwargs : dict
+        Keyword arguments.
+    label : str, optional
+        What the case tests, e.g. ``"an outlier in the first sample"``; shown when the case fails.
+    hint : str, optional
+        The hint shown when this case fails (the likely cause), instead of the general one.
+
+    Examples
+    --------
+    >>> Case((np.array([1.0, 2.0]), 5.0), label="two ranges")  # doctest: +SKIP
+    """
+
+    args: tuple = ()
+    kwargs: dict[str, Any] = field(default_factory=dict, hash=False)
+    label: str | None = None
+    hint: str | None = None
+
+
+def _as_case(case: Any) -> Case:
+    if isinstance(case, Case):
+        return case
+    if isinstance(case, tuple):
+        return Case(args=case)
+    if isinstance(case, Mapping):
+        return Case(kwargs=dict(case))
+    raise TypeError(f"each test case must be a Case, a tuple of positional arguments or a dict of keyword arguments; "
+                    f"got {type(case).__name__}")
+
+
+_EXCEPTION_HINTS: tuple[tuple[type[BaseException], str], ...] = (
+    (IndexError, "An index is out of range: check the first and the last elements (where some neighbours do not "
+                 "exist) and the ends of your loops."),
+    (KeyError, "A key is missing from a dictionary: print the keys to see what is there."),
+    (ZeroDivisionError, "A division by zero: which denominator can be 0 for these inputs?"),
+    (UnboundLocalError, "A variable is used before it is given a value on some path through the function (inside an "
+                        "`if` that was not taken?)."),
+    (NameError, "A name is not defined: is it spelt the same everywhere, and did you run the cell that defines it?"),
+    (TypeError, "A value has the wrong type, or a function got the wrong number of arguments: print the types "
+                "(`type(x)`) of your variables."),
+    (ValueError, "A function got a value it cannot handle: check the shapes and lengths of your arrays "
+                 "(`x.shape`)."),
+    (AttributeError, "An object does not have the attribute or method you used: print its type (`type(x)`)."),
+    (RecursionError, "The function calls itself without end: check its stopping condition."),
+)
+
+
+def _exception_hint(exc: BaseException) -> str:
+    for kind, text in _EXCEPTION_HINTS:
+        if isinstance(exc, kind):
+            return text
+    return "Read the error message and the line it points to."
+
+
+def _where(exc: BaseException) -> str | None:
+    """The line of the student's code where ``exc`` was raised (skipping this package and installed libraries)."""
+    frames = traceback.extract_tb(exc.__traceback__)[1:]  # the first frame is check_function itself
+    own = [f for f in frames
+           if not f.filename.startswith(_PACKAGE_DIR) and "site-packages" not in f.filename
+           and "dist-packages" not in f.filename and not f.filename.startswith("<frozen")]
+    if not own:
+        return None
+    frame = own[-1]
+    line = (frame.line or "").strip()
+    return f"line {frame.lineno} of your code" + (f": `{line}`" if line else "")
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether an input is unchanged by the call (used to detect in-place modification)."""
+    try:
+        if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            a_arr, b_arr = np.asarray(a), np.asarray(b)
+            if a_arr.shape != b_arr.shape or a_arr.dtype != b_arr.dtype:
+                return False
+            if a_arr.dtype.kind in "fc":
+                return bool(np.array_equal(a_arr, b_arr, equal_nan=True))
+            return bool(np.array_equal(a_arr, b_arr))
+        if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+            return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+        result = a == b
+        if isinstance(result, bool):
+            return result or (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b))
+        return True
+    except Exception:  # an exotic object that cannot be compared: assume it is unchanged
+        return True
+
+
+def _default_compare(got: Any, expected: Any, rtol: float, atol: float) -> Feedback:
+    if isinstance(expected, (numbers.Real, np.number)) and not isinstance(expected, (bool, np.bool_)):
+        return check_number(got, expected, rtol=rtol, atol=atol, name="the result")
+    if isinstance(expected, (np.ndarray, list, tuple)):
+        return check_array(got, expected, rtol=rtol, atol=atol, name="the result")
+    try:
+        equal = bool(got == expected)
+    except Exception:
+        equal = False
+    if equal:
+        return Feedback(True, "Correct.")
+    return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}, expected {_fmt_value(expected)}.")
+
+
+def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
+                   compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
+                   hint: str | None = None, explanation: str | None = None,
+                   allow_mutation: bool = False) -> Feedback:
+    """Run a student's function on test cases and report the first case where it disagrees with a reference.
+
+    For each case the reference and the student's function are called on separate deep copies of the arguments.
+    An exception raised by the student's code is caught and reported with its type, its message, the failing case
+    and the line it came from (``NotImplementedError`` means "not answered yet"). Returning ``None`` is reported as a
+    forgotten ``return``; modifying an input array in place is reported unless ``allow_mutation``.
+
+    Parameters
+    ----------
+    func : object
+        The student's function. ``None`` means "not answered yet"; anything not callable gets a message.
+    reference : callable
+        The reference implementation; its parameter names label the inputs in the messages.
+    cases : iterable
+        Test cases: ``Case`` objects, tuples of positional arguments or dicts of keyword arguments.
+    name : str, optional
+        The function's name as the student knows it (default: ``func.__name__``).
+    compare : callable, optional
+        ``compare(got, expected) -> Feedback``; the default uses ``check_number`` for numbers, ``check_array`` for
+        arrays (boolean arrays compared as flags) and ``==`` otherwise.
+    rtol, atol : float
+        Tolerances of the default comparison.
+    hint : str, optional
+        The hint shown when a case fails and neither the case nor the comparison gives a more specific one.
+    explanation : str, optional
+        A sentence appended to the message when every case passes.
+    allow_mutation : bool
+        Whether the function may modify its input arrays in place (default: no).
+
+    Returns
+    -------
+    Feedback
+        For a failure, ``details`` holds ``case`` (its index from 0), ``label``, ``inputs``, ``expected`` and ``got``
+        (or ``exception``).
+
+    Raises
+    ------
+    ValueError
+        If there are no cases (a bug in the checker).
+    """
+    case_list = [_as_case(c) for c in cases]
+    if not case_list:
+        raise ValueError("check_function needs at least one test case")
+    fname = name or getattr(func, "__name__", None) or "your function"
+    if _is_unanswered(func):
+        return Feedback(False, f"No answer yet: define the function `{fname}` (replace `None` with it).",
+                        hint="Write it in the answer cell above, run that cell, then this one.",
+                        details={"answered": False})
+    if not callable(func):
+        article = "an" if _type_name(func)[0].lower() in "aeiou" else "a"
+        return Feedback(False, f"`{fname}` is {article} {_type_name(func)}, not a function.",
+                        hint=f"Define it with `def {fname}(...):` and run that cell again.")
+    try:
+        param_names = [p.name for p in inspect.signature(reference).parameters.values()
+                       if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    except (TypeError, ValueError):
+        param_names = []
+    n = len(case_list)
+    for i, case in enumerate(case_list):
+        label = f" ({case.label})" if case.label else ""
+        names = [param_names[j] if j < len(param_names) else f"argument {j + 1}" for j in range(len(case.args))]
+        inputs = dict(zip(names, case.args)) | dict(case.kwargs)
+        shown_inputs = ", ".join(f"{k} = {_fmt_value(v)}" for k, v in inputs.items())
+        where_case = f"case {i + 1} of {n}{label}"
+        expected = reference(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
+        args, kwargs = copy.deepcopy(case.args), copy.deepcopy(case.kwargs)
+        base_details = {"case": i, "label": case.label, "inputs": inputs, "expected": expected}
+        try:
+            got = func(*args, **kwargs)
+        except NotImplementedError:
+            return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
+                            hint="Replace the `raise NotImplementedError()` line in its body with your code, run that "
+                                 "cell, then this one.",
+                            details={**base_details, "answered": False})
+        except Exception as exc:  # the student's code failed: report it, never crash the checker
+            where = _where(exc)
+            message = (f"{_NOT_YET}`{fname}` raised {type(exc).__name__}: {exc} on {where_case}."
+                       f"\nInputs: {shown_inputs}")
+            if where:
+                message += f"\nWhere: {where}"
+                exc_hint = _exception_hint(exc)
+            elif isinstance(exc, TypeError) and "argument" in str(exc):  # raised by the call itself
+                exc_hint = f"`{fname}` must accept the arguments ({', '.join(inputs)}) in this order."
+            else:
+                exc_hint = _exception_hint(exc)
+            return Feedback(False, message, hint=exc_hint,
+                            details={**base_details, "exception": exc})
+        if not allow_mutation:
+            for key, original, passed in [*zip(names, case.args, args),
+                                          *((k, case.kwargs[k], kwargs[k]) for k in case.kwargs)]:
+                if not _same(original, passed):
+                    return Feedback(False, f"{_NOT_YET}`{fname}` changed its input `{key}` in place on {where_case}.",
+                                    hint="Work on a copy (for example `x = np.array(x, dtype=float)` makes one), so "
+                                         "that the caller's data stay untouched.",
+                                    details={**base_details, "got": got})
+        if got is None and expected is not None:
+            return Feedback(False, f"{_NOT_YET}`{fname}` returned None on {where_case}.",
+                            hint="Did you forget the `return` statement at the end of the function?",
+                            details={**base_details, "got": got})
+        verdict = compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol)
+        if not verdict:
+            core = verdict.message.removeprefix(_NOT_YET).removeprefix("No answer yet: ")
+            if core.startswith("Your answer is "):
+                core = f"`{fname}` returned " + core.removeprefix("Your answer is ")
+            message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
+                       f"\nExpected: {_fmt_value(expected)}\nGot: {_fmt_value(got)}")
+            specific = verdict.hint if verdict.hint != DEFAULT_HINT else None
+            if "n_wrong" in verdict.details:  # wrong values: the case knows best why
+                best_hint = case.hint or specific or hint or DEFAULT_HINT
+            else:  # wrong type or shape: the comparison knows best
+                best_hint = specific or case.hint or hint or DEFAULT_HINT
+            return Feedback(False, message, hint=best_hint,
+                            details={**base_details, "got": got, "comparison": verdict})
+    message = f"Correct: `{fname}` passes all {n} test cases."
+    if explanation:
+        message += " " + explanation
+    return Feedback(True, message)

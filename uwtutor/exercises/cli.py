@@ -1,0 +1,142 @@
+"""The ``uwtutor`` command: fresh student copies of the exercise notebooks.
+
+Usage::
+
+    uwtutor exercises DIR [--source SRC] [--force]
+
+writes the student version of every exercise notebook into ``DIR`` (created if needed). A notebook that already
+exists in ``DIR`` is never overwritten, so running the command again is safe: it only adds what is missing and says
+which files it skipped. ``--force`` overwrites them (the work in them is lost). ``--source`` names the directory of the
+solution sources when uwtutor is not installed from a clone of the repository.
+
+Exit status: 0 on success (also when some files were skipped), 1 when a file cannot be read or written, 2 on a usage
+error (unknown option, missing sources, ``DIR`` is a file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["main", "build_parser"]
+
+_DESCRIPTION = """\
+uwtutor: companion command of the textbook "Single-Beacon Underwater Acoustic Navigation".
+
+Use "uwtutor exercises DIR" to get your own copies of the exercise notebooks, then open them in JupyterLab."""
+
+_EXERCISES_DESCRIPTION = """\
+Write fresh student versions of the exercise notebooks into DIR (created if needed).
+
+Each exercise has an answer cell (write your code below "# YOUR CODE HERE" and delete the
+"raise NotImplementedError()" line) and a check cell that tells you what is wrong and why.
+
+A notebook that already exists in DIR is never overwritten (it holds your work): it is skipped
+and reported. To get a fresh copy, rename or delete yours and run the command again, write to
+another directory, or pass --force."""
+
+_EXERCISES_EPILOG = """\
+examples:
+  uwtutor exercises ./my-work            # first time: writes every notebook
+  uwtutor exercises ./my-work            # later: adds only the notebooks you do not have yet
+  uwtutor exercises ./my-work --force    # start again from fresh copies (your changes are lost)
+  uwtutor exercises ./lab --source path/to/uwtutor/exercises"""
+
+
+def _version() -> str:
+    try:
+        from uwtutor import __version__
+    except ImportError:  # pragma: no cover - the package is always importable when this runs
+        return "unknown"
+    return __version__
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``uwtutor`` command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser, with one sub-command, ``exercises``.
+    """
+    parser = argparse.ArgumentParser(prog="uwtutor", description=_DESCRIPTION,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
+    exercises = commands.add_parser(
+        "exercises", help="write fresh student copies of the exercise notebooks into a directory",
+        description=_EXERCISES_DESCRIPTION, epilog=_EXERCISES_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    exercises.add_argument("dir", metavar="DIR", type=Path,
+                           help="where to write the notebooks (created if it does not exist)")
+    exercises.add_argument("--source", metavar="SRC", type=Path, default=None,
+                           help="the directory of the exercise sources (with solutions); default: the exercises/ "
+                                "directory of the repository uwtutor is installed from")
+    exercises.add_argument("--force", action="store_true",
+                           help="overwrite notebooks that already exist in DIR (your changes in them are lost)")
+    return parser
+
+
+def _error(message: str) -> None:
+    print(f"uwtutor exercises: error: {message}", file=sys.stderr)
+
+
+def _exercises(args: argparse.Namespace) -> int:
+    from .generate import ExerciseSourceError, exercise_source_dir, list_exercise_sources, write_student_versions
+
+    try:
+        source_dir = args.source if args.source is not None else exercise_source_dir()
+        list_exercise_sources(source_dir)
+    except FileNotFoundError as exc:
+        _error(str(exc))
+        return 2
+    dest: Path = args.dir
+    if dest.exists() and not dest.is_dir():
+        _error(f"{dest} exists and is not a directory; choose a directory for the notebooks")
+        return 2
+    try:
+        report = write_student_versions(source_dir, dest, overwrite=args.force)
+    except ExerciseSourceError as exc:
+        _error(f"a source notebook is malformed: {exc}")
+        return 1
+    except ValueError as exc:
+        _error(str(exc))
+        return 2
+    except OSError as exc:
+        _error(f"could not write the notebooks: {exc}")
+        return 1
+    print(report.summary(force_hint=f"run 'uwtutor exercises {dest} --force'"))
+    if report.written:
+        print(f"Next: open them in JupyterLab (jupyter lab {dest}) and run the cells in order.")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``uwtutor`` command.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (without the program name); default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status: 0 on success, 1 when files cannot be read or written, 2 on a usage error. ``--help`` and
+        ``--version`` print and return 0; argparse's own messages go to the standard streams as usual.
+    """
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error reported by argparse
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return 2
+    return _exercises(args)
+
+
+if __name__ == "__main__":  # python -m uwtutor.exercises.cli
+    sys.exit(main())

@@ -1,0 +1,351 @@
+"""Student versions of the exercise sources: solutions replaced, hidden tests removed, outputs cleared.
+
+The sources (``exercises/*.ipynb`` in the repository) hold the solutions between nbgrader's markers, each marker on a
+line of its own::
+
+    speed = None
+    ### BEGIN SOLUTION
+    speed = 1448.96 + 4.591 * T + ...
+    ### END SOLUTION
+
+In the student version the region between (and including) the markers of a code cell becomes, at the indentation of
+the ``BEGIN`` marker::
+
+    # YOUR CODE HERE
+    raise NotImplementedError()
+
+so that running the student notebook stops at the first unanswered exercise; in a Markdown cell it becomes
+``YOUR ANSWER HERE``. Regions between ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` are removed (a cell
+left empty by that is dropped). Outputs and execution counts are cleared and the metadata reduced to the kernel's
+name and the cells' tags. Since the markers are nbgrader's, an instructor can also hand the sources to nbgrader.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import re
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import nbformat
+
+__all__ = [
+    "make_student_version",
+    "write_student_versions",
+    "list_exercise_sources",
+    "exercise_source_dir",
+    "WriteReport",
+    "ExerciseSourceError",
+    "CODE_STUB",
+    "TEXT_STUB",
+]
+
+#: The lines that replace a solution region in a code cell (nbgrader's default stub).
+CODE_STUB = ("# YOUR CODE HERE", "raise NotImplementedError()")
+#: The line that replaces a solution region in a Markdown cell.
+TEXT_STUB = "YOUR ANSWER HERE"
+
+_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+(SOLUTION|HIDDEN TESTS)\s*$")
+_MARKER_TEXT = re.compile(r"(BEGIN|END)\s+(SOLUTION|HIDDEN TESTS)")
+
+
+class ExerciseSourceError(ValueError):
+    """A source notebook's markers are malformed (unmatched, nested, or not on a line of their own)."""
+
+
+def _strip_regions(source: str, *, cell_type: str, where: str) -> tuple[str, bool]:
+    """Replace solution regions by the stub and drop hidden-test regions; return the new source and if it changed."""
+    new_lines: list[str] = []
+    region: str | None = None  # "SOLUTION" or "HIDDEN TESTS" while inside one
+    changed = False
+    lines = source.split("\n")
+    for number, line in enumerate(lines, start=1):
+        match = _MARKER.match(line)
+        if match is None:
+            if _MARKER_TEXT.search(line) and "###" in line:
+                raise ExerciseSourceError(f"{where}, line {number}: a marker must stand on a line of its own "
+                                          f"(for example '### BEGIN SOLUTION'); got {line.strip()!r}")
+            if region is None:
+                new_lines.append(line)
+            continue
+        kind, what = match.group(1), match.group(2)
+        changed = True
+        if kind == "BEGIN":
+            if region is not None:
+                raise ExerciseSourceError(f"{where}, line {number}: '### BEGIN {what}' inside an open "
+                                          f"'### BEGIN {region}' region (regions cannot be nested)")
+            region = what
+            if what == "SOLUTION":
+                indent = line[:len(line) - len(line.lstrip())]
+                if cell_type == "code":
+                    new_lines.extend(indent + stub for stub in CODE_STUB)
+                else:
+                    new_lines.append(indent + TEXT_STUB)
+        else:
+            if region != what:
+                opened = f"an open '### BEGIN {region}' region" if region else "no open region"
+                raise ExerciseSourceError(f"{where}, line {number}: '### END {what}' with {opened}")
+            region = None
+    if region is not None:
+        raise ExerciseSourceError(f"{where}: '### BEGIN {region}' without a matching '### END {region}'")
+    new_source = "\n".join(new_lines)
+    if changed:
+        new_source = re.sub(r"\n{3,}", "\n\n", new_source).strip("\n")
+    return new_source, changed
+
+
+def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
+    if isinstance(source_nb, (str, os.PathLike)):
+        path = Path(source_nb)
+        return nbformat.read(path, as_version=4), path.name
+    if isinstance(source_nb, dict):
+        return nbformat.from_dict(copy.deepcopy(source_nb)), "the notebook"
+    raise TypeError(f"source_nb must be a notebook (nbformat.NotebookNode) or a path; got {type(source_nb).__name__}")
+
+
+def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
+    """Make the student version of an exercise source notebook.
+
+    Parameters
+    ----------
+    source_nb : nbformat.NotebookNode, dict, str or path
+        The source notebook (with solutions), or the path of its file. It is not modified.
+
+    Returns
+    -------
+    nbformat.NotebookNode
+        A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
+        and ``raise NotImplementedError()`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
+        TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
+        execution counts cleared; notebook metadata reduced to ``kernelspec`` and the language's name, cell metadata
+        to ``tags``.
+
+    Raises
+    ------
+    ValueError
+        An ``ExerciseSourceError`` (a ``ValueError``) if a marker is unmatched, nested, or not on a line of its own;
+        the message names the cell and the line.
+    """
+    nb, label = _read(source_nb)
+    nb = copy.deepcopy(nb)
+    cells = []
+    for index, cell in enumerate(nb.cells):
+        where = f"{label}, cell {index} ({cell.cell_type})"
+        if cell.cell_type in ("code", "markdown"):
+            source, changed = _strip_regions(cell.source, cell_type=cell.cell_type, where=where)
+            if changed and not source.strip():
+                continue  # the cell held only hidden tests
+            cell.source = source
+        if cell.cell_type == "code":
+            cell.outputs = []
+            cell.execution_count = None
+        tags = cell.get("metadata", {}).get("tags")
+        cell.metadata = nbformat.NotebookNode({"tags": list(tags)} if tags else {})
+        cells.append(cell)
+    nb.cells = cells
+    kernelspec = nb.metadata.get("kernelspec") or {"name": "python3", "display_name": "Python 3",
+                                                   "language": "python"}
+    language = (nb.metadata.get("language_info") or {}).get("name", kernelspec.get("language", "python"))
+    nb.metadata = nbformat.NotebookNode({
+        "kernelspec": nbformat.NotebookNode(dict(kernelspec)),
+        "language_info": nbformat.NotebookNode({"name": language}),
+    })
+    nbformat.validate(nb)
+    return nb
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# finding the sources and writing the student versions
+# ---------------------------------------------------------------------------------------------------------------------
+def exercise_source_dir() -> Path:
+    """The repository's ``exercises/`` directory (uwtutor must be installed from a clone, e.g. ``pip install -e .``).
+
+    Returns
+    -------
+    pathlib.Path
+        The directory that holds the exercise sources.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no ``exercises/`` directory beside the installed package (a wheel install): pass the source
+        directory explicitly instead (``--source`` on the command line).
+    """
+    import uwtutor
+
+    directory = Path(uwtutor.__file__).resolve().parents[1] / "exercises"
+    if not directory.is_dir():
+        raise FileNotFoundError(
+            f"the exercise sources were not found at {directory}. They ship with the repository, not with the "
+            "installed package: install uwtutor from a clone (pip install -e .), or pass the directory that holds "
+            "the source notebooks (--source DIR on the command line, source_dir=... in Python).")
+    return directory
+
+
+def list_exercise_sources(source_dir: str | os.PathLike[str] | None = None) -> list[Path]:
+    """The exercise source notebooks, sorted by name.
+
+    Parameters
+    ----------
+    source_dir : str or path, optional
+        Where the sources are; by default the repository's ``exercises/`` directory.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The ``*.ipynb`` files directly in ``source_dir`` (hidden files and checkpoints left out).
+
+    Raises
+    ------
+    FileNotFoundError
+        If the directory does not exist or holds no notebook.
+    """
+    directory = exercise_source_dir() if source_dir is None else Path(source_dir)
+    if not directory.is_dir():
+        raise FileNotFoundError(f"the exercise source directory {directory} does not exist")
+    sources = sorted(p for p in directory.glob("*.ipynb") if not p.name.startswith("."))
+    if not sources:
+        raise FileNotFoundError(f"no exercise notebooks (*.ipynb) in {directory}")
+    return sources
+
+
+@dataclass(frozen=True)
+class WriteReport:
+    """What ``write_student_versions`` did.
+
+    ``dest_dir`` is the directory the student versions went to; ``written`` the files written (new, or overwritten
+    with ``overwrite=True``); ``skipped`` the files left alone because they already existed; ``overwritten`` the files
+    among ``written`` that existed before. All are ``pathlib.Path`` objects, the last three in tuples. ``str(report)``
+    and ``report.summary()`` describe them for a person.
+    """
+
+    dest_dir: Path
+    written: tuple[Path, ...] = field(default_factory=tuple)
+    skipped: tuple[Path, ...] = field(default_factory=tuple)
+    overwritten: tuple[Path, ...] = field(default_factory=tuple)
+
+    def summary(self, *, force_hint: str | None = "pass --force") -> str:
+        """A human-readable summary: what was written, what was skipped and how to get a fresh copy.
+
+        Parameters
+        ----------
+        force_hint : str or None
+            How to overwrite, as the user would type it; ``None`` to leave that advice out.
+
+        Returns
+        -------
+        str
+            Several lines of text.
+        """
+        lines = []
+
+        def plural(n: int) -> str:
+            return f"{n} notebook" + ("" if n == 1 else "s")
+
+        if self.written:
+            lines.append(f"Wrote {plural(len(self.written))} to {self.dest_dir}:")
+            lines.extend(f"  {p.name}" + ("  (overwritten)" if p in self.overwritten else "") for p in self.written)
+        else:
+            lines.append(f"Wrote nothing to {self.dest_dir}.")
+        if self.skipped:
+            lines.append(f"Skipped {plural(len(self.skipped))} that already exist"
+                         + ("s" if len(self.skipped) == 1 else "") + " (your work is never overwritten):")
+            lines.extend(f"  {p.name}" for p in self.skipped)
+            advice = ("To get a fresh copy of a skipped notebook, rename or delete your copy and run this again, or "
+                      "write to another directory")
+            if force_hint:
+                advice += f", or {force_hint} to overwrite it (your changes to it are lost)"
+            lines.append(advice + ".")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary(force_hint="pass overwrite=True")
+
+
+def _write_new(path: Path, text: str) -> bool:
+    """Create ``path`` with ``text``; return False (and leave it alone) if it already exists."""
+    try:
+        with open(path, "x", encoding="utf-8") as handle:
+            handle.write(text)
+    except FileExistsError:
+        return False
+    return True
+
+
+def _write_replace(path: Path, text: str) -> None:
+    """Write ``path`` atomically (a temporary file in the same directory, then a rename)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: str | os.PathLike[str], *,
+                           overwrite: bool = False, names: Iterable[str] | None = None) -> WriteReport:
+    """Write the student version of every exercise source into ``dest_dir``, never clobbering existing files.
+
+    Every student version is made before anything is written, so a malformed source writes nothing.
+
+    Parameters
+    ----------
+    source_dir : str, path or None
+        The directory of the sources; ``None`` for the repository's ``exercises/`` directory.
+    dest_dir : str or path
+        Where to write (created if needed). It must not be the source directory.
+    overwrite : bool
+        Replace files that already exist (default: leave them alone and report them as skipped).
+    names : iterable of str, optional
+        Only these source file names (default: all).
+
+    Returns
+    -------
+    WriteReport
+        The files written and the files skipped.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there are no sources (see ``list_exercise_sources``) or a requested name is not among them.
+    NotADirectoryError
+        If ``dest_dir`` exists and is not a directory.
+    ValueError
+        If ``dest_dir`` is the source directory, or a source's markers are malformed (``ExerciseSourceError``).
+    """
+    sources = list_exercise_sources(source_dir)
+    if names is not None:
+        wanted = set(names)
+        missing = wanted - {p.name for p in sources}
+        if missing:
+            raise FileNotFoundError(f"no exercise source named {', '.join(sorted(missing))}; "
+                                    f"available: {', '.join(p.name for p in sources)}")
+        sources = [p for p in sources if p.name in wanted]
+    dest = Path(dest_dir)
+    if dest.exists() and not dest.is_dir():
+        raise NotADirectoryError(f"{dest} exists and is not a directory")
+    if dest.exists() and dest.resolve() == sources[0].parent.resolve():
+        raise ValueError(f"refusing to write student versions into the source directory {dest}")
+    rendered = [(src.name, nbformat.writes(make_student_version(src)) + "\n") for src in sources]
+    dest.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    skipped: list[Path] = []
+    overwritten: list[Path] = []
+    for filename, text in rendered:
+        target = dest / filename
+        if overwrite:
+            if target.exists():
+                overwritten.append(target)
+            _write_replace(target, text)
+            written.append(target)
+        elif _write_new(target, text):
+            written.append(target)
+        else:
+            skipped.append(target)
+    return WriteReport(dest_dir=dest, written=tuple(written), skipped=tuple(skipped), overwritten=tuple(overwritten))
