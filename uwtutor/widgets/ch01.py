@@ -1,21 +1,16 @@
-"""Interactive figures of the book: a pure compute function, a plot function and a thin ipywidgets layer each.
-
-The compute functions take plain parameters and return a small dataclass of arrays; they are tested without a UI and
-timed by the benchmark suite (``make bench``) through :data:`COMPUTE_FUNCTIONS`. The ``*_widget`` functions only
-wire sliders to compute + plot. In the static HTML book a widget cannot recompute, so each chapter follows a widget
-with a precomputed view (a parameter sweep drawn by the same plot function).
-"""
+"""Chapter 1 widgets: the Mackenzie sound speed, and the four range error models on one simulated approach."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from . import acoustics, motion, ranging
-from ._validate import as_finite, as_nonnegative, as_positive
+from .. import acoustics, motion, ranging
+from .._validate import as_finite, as_nonnegative, as_positive
+from ._panel import slider_panel
 
 __all__ = [
     "SoundSpeedView",
@@ -26,7 +21,6 @@ __all__ = [
     "range_error_view",
     "plot_range_error_view",
     "range_error_widget",
-    "COMPUTE_FUNCTIONS",
 ]
 
 
@@ -114,24 +108,6 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     return fig
 
 
-def _slider_panel(sliders: dict[str, Any], draw: Callable[..., None]) -> Any:
-    """Sliders above an output area; ``draw(**values)`` is called at start and whenever a slider is released."""
-    import ipywidgets as w
-
-    out = w.Output()
-
-    def refresh(_change: Any = None) -> None:
-        with out:
-            out.clear_output(wait=True)
-            draw(**{name: s.value for name, s in sliders.items()})
-            plt.show()
-
-    for s in sliders.values():
-        s.observe(refresh, names="value")
-    refresh()
-    return w.VBox([w.HBox(list(sliders.values())[:3]), w.HBox(list(sliders.values())[3:]), out])
-
-
 def sound_speed_widget() -> Any:
     """Sliders for temperature, salinity and depth over the Mackenzie sound speed (chapter 1)."""
     import ipywidgets as w
@@ -145,7 +121,7 @@ def sound_speed_widget() -> Any:
         "depth": w.FloatSlider(value=1000.0, min=0.0, max=6000.0, step=100.0, description="D [m]",
                                continuous_update=False, style=style),
     }
-    return _slider_panel(sliders, lambda **p: plot_sound_speed_view(sound_speed_view(**p)))
+    return slider_panel(sliders, lambda **p: plot_sound_speed_view(sound_speed_view(**p)))
 
 
 # --- Chapter 1: range error models ----------------------------------------------------------------------------------
@@ -230,11 +206,4 @@ def range_error_widget() -> Any:
         "outlier_amplitude": w.FloatSlider(value=80.0, min=0.0, max=200.0, step=5.0,
                                            description="outlier size [m]", continuous_update=False, style=style),
     }
-    return _slider_panel(sliders, lambda **p: plot_range_error_view(range_error_view(**p)))
-
-
-#: Zero-argument callables running each widget's computation at its default parameters (timed by ``make bench``).
-COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
-    "ch01 sound speed": sound_speed_view,
-    "ch01 range errors": range_error_view,
-}
+    return slider_panel(sliders, lambda **p: plot_range_error_view(range_error_view(**p)))
