@@ -18,8 +18,10 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev]"
 	touch $(STAMP)
 
+# MathJax, require.js and the widget manager for the offline HTML (copied into the build by
+# book/_ext/offline_assets.py). Exactly the versions of package-lock.json; no install scripts needed.
 $(NODE_STAMP): package.json package-lock.json
-	npm ci --no-audit --no-fund --loglevel=error
+	npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
 	touch $(NODE_STAMP)
 
 setup: $(STAMP) $(NODE_STAMP)
@@ -29,8 +31,13 @@ book: setup
 	@echo
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
 
+# One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
+# exercises, the strict book build and the browser test over it) and every book notebook re-run by
+# nbval in strict mode (text outputs compared with the committed ones, after tests/nbval_sanitize.cfg).
+NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg
+
 test: setup
-	$(PY) -m pytest
+	$(PY) -m pytest $(NBVAL) tests book $(PYTEST_ARGS)
 
 lab: setup
 	$(VENV)/bin/jupyter lab --notebook-dir=. book exercises

@@ -1,4 +1,4 @@
-"""Input validation shared by every public function of :mod:`uwtutor`.
+"""Input validation shared by every public function of ``uwtutor``.
 
 Each helper checks one argument and raises an error that names the argument, says what was wrong and what to do
 about it. Public functions call these at their boundary so that bad input never turns into a silent wrong answer

@@ -1,4 +1,4 @@
-"""The filter protocol that every filter of :mod:`uwtutor` follows.
+"""The filter protocol that every filter of ``uwtutor`` follows.
 
 A filter holds its estimate in two attributes,
 
@@ -59,8 +59,10 @@ class FilterResult:
         Posterior state estimate after each step's update.
     P : ndarray, shape (K, n, n) or (M, K, n, n)
         Posterior covariance after each step.
-    x_prior, P_prior : ndarray
-        The predictions, before each step's update (same shapes as ``x`` and ``P``).
+    x_prior : ndarray
+        The prediction of the state before each step's update (same shape as ``x``).
+    P_prior : ndarray
+        The covariance of that prediction (same shape as ``P``).
     innovations : ndarray, shape (K, m) or (M, K, m)
         Measurement minus predicted measurement; NaN where no measurement was used.
     innovation_cov : ndarray, shape (K, m, m) or (M, K, m, m)

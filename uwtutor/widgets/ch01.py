@@ -32,8 +32,12 @@ class SoundSpeedView:
 
     Attributes
     ----------
-    temperature, salinity, depth : float
-        The chosen water properties [deg C, PSU, m].
+    temperature : float
+        The chosen temperature [deg C].
+    salinity : float
+        The chosen salinity [PSU].
+    depth : float
+        The chosen depth [m].
     speed : float
         Mackenzie sound speed there [m/s].
     sensitivity : dict of float
@@ -41,10 +45,14 @@ class SoundSpeedView:
         ``"depth"`` [m/s per m].
     range_error_per_km : float
         Range error per kilometre of true range made by a navigator that assumes 1500 m/s here [m/km].
-    temperatures, speed_vs_temperature : ndarray
-        The speed over a temperature grid, salinity and depth held.
-    depths, speed_vs_depth : ndarray
-        The speed over a depth grid, temperature and salinity held.
+    temperatures : ndarray
+        A temperature grid [deg C].
+    speed_vs_temperature : ndarray
+        The speed over that grid, salinity and depth held [m/s].
+    depths : ndarray
+        A depth grid [m].
+    speed_vs_depth : ndarray
+        The speed over that grid, temperature and salinity held [m/s].
     """
 
     temperature: float
