@@ -1,0 +1,318 @@
+"""uwtutor benchmark suite: ``make bench`` prints one table; ``--save`` also records it.
+
+Measured in one run, on this machine:
+
+1. the range-only EKF Monte Carlo study (1000 runs x 1500 steps, one batched call), best of a few repeats, and
+   its speed-up over filterpy's ``ExtendedKalmanFilter`` stepped in a Python loop (a sample of runs is timed and
+   the time scaled to 1000 runs);
+2. the bootstrap particle filter on paper C's depth/speed/pitch model, N = 1000 particles, 2000 steps, in steps
+   per second, and the same filter with filterpy's loop-based ``systematic_resample``;
+3. each widget's compute function at its default parameters (``uwtutor.widgets.COMPUTE_FUNCTIONS``), in ms;
+4. the peak memory of the 1000-run EKF study, in a fresh subprocess.
+
+``--save`` writes ``benchmarks/results.json`` and regenerates the table of ``book/appendix_performance.md``
+between its marker comments, so that the committed page always shows the committed results (the book build
+never times anything). Speed numbers are never asserted by the unit tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS_FILE = ROOT / "benchmarks" / "results.json"
+PAGE_FILE = ROOT / "book" / "appendix_performance.md"
+START_MARKER = "<!-- BENCH-TABLE:START -->"
+END_MARKER = "<!-- BENCH-TABLE:END -->"
+
+EKF_RUNS, EKF_STEPS = 1000, 1500
+FILTERPY_SAMPLE_RUNS = 20
+PF_PARTICLES, PF_STEPS = 1000, 2000
+
+#: Targets on the project's reference machine (2 cores); see book/appendix_performance.md.
+TARGETS = {
+    "ekf_study_s": ("<=", 0.25),
+    "ekf_speedup_vs_filterpy": (">=", 100.0),
+    "pf_steps_per_s": (">=", 5000.0),
+    "widget_ms": ("<=", 150.0),
+    "peak_memory_mb": ("<=", 500.0),
+}
+
+
+# --- inputs ---------------------------------------------------------------------------------------------------
+
+def ekf_study_inputs(M: int = EKF_RUNS, K: int = EKF_STEPS, seed: int = 0) -> dict[str, Any]:
+    """A vehicle circling a beacon: noisy dead reckoning and ranges (10 % missing) for M runs of K epochs."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(0.0, 6 * np.pi, K + 1)
+    track = np.column_stack([500.0 + 300.0 * np.cos(theta), 300.0 * np.sin(theta)])
+    truth = track[1:] + np.cumsum(rng.normal(0.0, 0.5, (M, K, 2)), axis=1)
+    u = np.broadcast_to(np.diff(track, axis=0), (M, K, 2)) + rng.normal(0.0, 0.05, (M, K, 2))
+    z = np.linalg.norm(truth, axis=-1) + rng.normal(0.0, 2.0, (M, K))
+    z[rng.random((M, K)) < 0.1] = np.nan
+    x0 = track[0] + rng.normal(0.0, 20.0, (M, 2))
+    return dict(x0=x0, P0=np.eye(2) * 400.0, u=u, z=z, Q=np.eye(2) * 0.25, R=4.0)
+
+
+def best_time(fn: Callable[[], Any], repeats: int) -> float:
+    """Best wall time of ``repeats`` calls (the least disturbed by other processes)."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+# --- the measurements -----------------------------------------------------------------------------------------
+
+def bench_ekf(repeats: int) -> dict[str, Any]:
+    import numpy as np
+    from filterpy.kalman import ExtendedKalmanFilter
+
+    from uwtutor.filters import range_only_ekf
+
+    inputs = ekf_study_inputs()
+    range_only_ekf(**{**inputs, "x0": inputs["x0"][:10], "u": inputs["u"][:10], "z": inputs["z"][:10]})  # warm-up
+    batched = best_time(lambda: range_only_ekf(**inputs), repeats)
+
+    def hx(x: np.ndarray) -> np.ndarray:
+        return np.array([[np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)]])
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        r = np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)
+        return np.array([[x[0, 0] / r, x[1, 0] / r]])
+
+    def filterpy_sample() -> None:
+        for m in range(FILTERPY_SAMPLE_RUNS):
+            ekf = ExtendedKalmanFilter(dim_x=2, dim_z=1, dim_u=2)
+            ekf.x = inputs["x0"][m].reshape(2, 1).copy()
+            ekf.P = inputs["P0"].copy()
+            ekf.F = np.eye(2)
+            ekf.B = np.eye(2)
+            ekf.Q = inputs["Q"]
+            ekf.R = np.array([[inputs["R"]]])
+            for uk, zk in zip(inputs["u"][m], inputs["z"][m]):
+                ekf.predict(u=uk.reshape(2, 1))
+                if zk == zk:                                   # not NaN
+                    ekf.update(np.array([[zk]]), jacobian, hx)
+
+    sample = best_time(filterpy_sample, max(1, min(2, repeats)))
+    filterpy_full = sample * EKF_RUNS / FILTERPY_SAMPLE_RUNS
+    return {"ekf_study_s": batched, "filterpy_sample_s": sample, "filterpy_sample_runs": FILTERPY_SAMPLE_RUNS,
+            "filterpy_scaled_s": filterpy_full, "ekf_speedup_vs_filterpy": filterpy_full / batched}
+
+
+def bench_pf(repeats: int) -> dict[str, Any]:
+    import numpy as np
+    from filterpy.monte_carlo import systematic_resample as filterpy_systematic
+
+    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+
+    model = DepthSpeedPitchModel()
+    truth, measurements = model.simulate([20.0, 1.5, 0.05], PF_STEPS, np.random.default_rng(1))
+
+    def run(resampler: Any = None) -> None:
+        kwargs = {} if resampler is None else {"resampler": resampler}
+        pf = BootstrapParticleFilter.from_gaussian(model, measurements[0], model.R, PF_PARTICLES,
+                                                   np.random.default_rng(2), **kwargs)
+        pf.run(measurements)
+
+    def with_filterpy(weights: Any, rng: Any) -> Any:
+        return filterpy_systematic(weights)                   # global numpy.random state
+
+    np.random.seed(3)
+    ours = best_time(run, repeats)
+    theirs = best_time(lambda: run(with_filterpy), max(1, min(2, repeats)))
+    return {"pf_s": ours, "pf_steps_per_s": PF_STEPS / ours, "pf_filterpy_resampler_s": theirs,
+            "pf_filterpy_resampler_steps_per_s": PF_STEPS / theirs, "pf_speedup_vs_filterpy_resampler": theirs / ours}
+
+
+def bench_widgets(repeats: int) -> dict[str, Any]:
+    """ms per update of each registered widget compute function (``widgets_ms``), or a note why there are none."""
+    try:
+        import importlib
+
+        widgets = importlib.import_module("uwtutor.widgets")
+    except ModuleNotFoundError as exc:
+        if exc.name != "uwtutor.widgets":
+            raise
+        return {"widgets_ms": {}, "widgets_note": "no uwtutor.widgets module: no widgets registered"}
+    functions = getattr(widgets, "COMPUTE_FUNCTIONS", None)
+    if not functions:
+        return {"widgets_ms": {}, "widgets_note": "uwtutor.widgets.COMPUTE_FUNCTIONS is empty or missing: "
+                                                  "no widgets registered"}
+    out = {}
+    for name, fn in functions.items():
+        fn()                                                    # warm-up (imports, caches)
+        out[name] = best_time(fn, repeats) * 1000.0
+    return {"widgets_ms": out, "widgets_note": ""}
+
+
+def _memory_probe() -> None:
+    """Run the 1000-run EKF study in this (fresh) process and print its memory use as JSON."""
+    import resource
+    import tracemalloc
+
+    from uwtutor.filters import range_only_ekf
+
+    tracemalloc.start()
+    inputs = ekf_study_inputs()
+    inputs_mb = tracemalloc.get_traced_memory()[0] / 2**20
+    tracemalloc.reset_peak()
+    result = range_only_ekf(**inputs)
+    study_peak_mb = tracemalloc.get_traced_memory()[1] / 2**20
+    del result
+    tracemalloc.stop()
+    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024        # kB on Linux
+    print(json.dumps({"peak_memory_mb": rss_mb, "inputs_mb": inputs_mb, "study_traced_peak_mb": study_peak_mb}))
+
+
+def bench_memory() -> dict[str, float]:
+    proc = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--memory-probe"], capture_output=True,
+                          text=True, check=True, cwd=ROOT)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def machine_info() -> dict[str, Any]:
+    import filterpy
+    import numpy as np
+    import scipy
+
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            cpu = next((line.split(":", 1)[1].strip() for line in fh if line.startswith("model name")), cpu)
+    except OSError:
+        pass
+    return {"cpu_count": os.cpu_count(), "cpu": cpu, "python": platform.python_version(),
+            "numpy": np.__version__, "scipy": scipy.__version__, "filterpy": filterpy.__version__,
+            "platform": platform.platform(terse=True), "date": _dt.date.today().isoformat()}
+
+
+def run_all(repeats: int) -> dict[str, Any]:
+    results: dict[str, Any] = {"machine": machine_info(), "repeats": repeats,
+                               "sizes": {"ekf_runs": EKF_RUNS, "ekf_steps": EKF_STEPS,
+                                         "pf_particles": PF_PARTICLES, "pf_steps": PF_STEPS},
+                               "targets": {k: list(v) for k, v in TARGETS.items()}}
+    results.update(bench_ekf(repeats))
+    results.update(bench_pf(repeats))
+    results.update(bench_widgets(repeats))
+    results.update(bench_memory())
+    return results
+
+
+# --- the table ------------------------------------------------------------------------------------------------
+
+def _status(key: str, value: float, targets: dict[str, list[Any]]) -> str:
+    op, limit = targets[key]
+    ok = value <= limit if op == "<=" else value >= limit
+    return "PASS" if ok else "MISS"
+
+
+def _target(key: str, targets: dict[str, list[Any]], unit: str) -> str:
+    op, limit = targets[key]
+    sign = "≤" if op == "<=" else "≥"
+    return f"{sign} {limit:g}{unit}"
+
+
+def render_table(results: dict[str, Any]) -> str:
+    """The benchmark table as Markdown (deterministic: the same results always give the same text)."""
+    t = results["targets"]
+    sizes = results["sizes"]
+    rows = [("Benchmark", "Measured", "Target", "Status")]
+    ekf = results["ekf_study_s"]
+    rows.append((f"Range-only EKF study, {sizes['ekf_runs']} runs × {sizes['ekf_steps']} steps, one batched call",
+                 f"{ekf:.3f} s", _target("ekf_study_s", t, " s"), _status("ekf_study_s", ekf, t)))
+    speedup = results["ekf_speedup_vs_filterpy"]
+    rows.append((f"Speed-up over filterpy's EKF in a Python loop ({results['filterpy_sample_runs']} runs timed: "
+                 f"{results['filterpy_sample_s']:.2f} s, scaled to {sizes['ekf_runs']}: "
+                 f"{results['filterpy_scaled_s']:.1f} s)",
+                 f"{speedup:.0f}×", _target("ekf_speedup_vs_filterpy", t, "×"),
+                 _status("ekf_speedup_vs_filterpy", speedup, t)))
+    pf = results["pf_steps_per_s"]
+    rows.append((f"Bootstrap PF, paper C depth/speed/pitch model, N = {sizes['pf_particles']}, "
+                 f"{sizes['pf_steps']} steps (systematic resampling every step)",
+                 f"{pf:,.0f} steps/s", _target("pf_steps_per_s", t, " steps/s"), _status("pf_steps_per_s", pf, t)))
+    rows.append(("Same PF with filterpy's loop-based systematic_resample",
+                 f"{results['pf_filterpy_resampler_steps_per_s']:,.0f} steps/s "
+                 f"(ours {results['pf_speedup_vs_filterpy_resampler']:.1f}× faster)", "(reference)", "–"))
+    widgets = results["widgets_ms"]
+    if not widgets:
+        rows.append(("Widget compute functions", results["widgets_note"], _target("widget_ms", t, " ms"), "–"))
+    else:
+        for name in sorted(widgets):
+            ms = widgets[name]
+            rows.append((f"Widget “{name}”: compute at default parameters", f"{ms:.1f} ms",
+                         _target("widget_ms", t, " ms"), _status("widget_ms", ms, t)))
+    mem = results["peak_memory_mb"]
+    rows.append((f"Peak memory of the {sizes['ekf_runs']}-run EKF study (RSS of a fresh process; inputs "
+                 f"{results['inputs_mb']:.0f} MB, study allocations {results['study_traced_peak_mb']:.0f} MB)",
+                 f"{mem:.0f} MB", _target("peak_memory_mb", t, " MB"), _status("peak_memory_mb", mem, t)))
+    m = results["machine"]
+    lines = ["| " + " | ".join(r) + " |" for r in rows]
+    lines.insert(1, "|:---|---:|---:|:---:|")
+    lines += ["", f"Measured {m['date']} on {m['cpu_count']} CPU(s) ({m['cpu'] or 'unknown CPU'}), "
+                  f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, filterpy {m['filterpy']}; "
+                  f"times are the best of {results['repeats']} repeats."]
+    return "\n".join(lines)
+
+
+def page_table(page_text: str) -> str:
+    """The text between the benchmark markers of the Performance page."""
+    try:
+        start = page_text.index(START_MARKER) + len(START_MARKER)
+        end = page_text.index(END_MARKER, start)
+    except ValueError:
+        raise ValueError(f"{PAGE_FILE.name} must contain the markers {START_MARKER} and {END_MARKER}") from None
+    return page_text[start:end].strip("\n")
+
+
+def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
+    """Replace the table between the markers of the Performance page by the one rendered from ``results``."""
+    text = page.read_text(encoding="utf-8")
+    page_table(text)                                            # checks the markers
+    start = text.index(START_MARKER) + len(START_MARKER)
+    end = text.index(END_MARKER, start)
+    page.write_text(text[:start] + "\n" + render_table(results) + "\n" + text[end:], encoding="utf-8")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--save", action="store_true",
+                        help=f"write {RESULTS_FILE.relative_to(ROOT)} and the table of {PAGE_FILE.relative_to(ROOT)}")
+    parser.add_argument("--repeats", type=int, default=5, help="timing repeats; the best is kept (default 5)")
+    parser.add_argument("--memory-probe", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.memory_probe:
+        _memory_probe()
+        return 0
+    if args.repeats < 1:
+        parser.error("--repeats must be >= 1")
+    print("Running the uwtutor benchmarks (about a minute)...", flush=True)
+    results = run_all(args.repeats)
+    print()
+    print(render_table(results))
+    if args.save:
+        RESULTS_FILE.write_text(json.dumps(results, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        update_page(results)
+        print(f"\nSaved {RESULTS_FILE.relative_to(ROOT)} and updated the table in {PAGE_FILE.relative_to(ROOT)}.")
+    missed = [row for row in render_table(results).splitlines() if row.endswith("| MISS |")]
+    if missed:
+        print(f"\n{len(missed)} target(s) missed on this machine.")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,58 @@
+"""The Performance page shows exactly the committed benchmark results (no speed is asserted here)."""
+
+import copy
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_bench():
+    spec = importlib.util.spec_from_file_location("uwtutor_bench_run", ROOT / "benchmarks" / "run.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+bench = load_bench()
+
+
+def committed_results():
+    return json.loads((ROOT / "benchmarks" / "results.json").read_text(encoding="utf-8"))
+
+
+def test_page_table_matches_the_committed_results():
+    page = (ROOT / "book" / "appendix_performance.md").read_text(encoding="utf-8")
+    assert bench.page_table(page) == bench.render_table(committed_results()), (
+        "book/appendix_performance.md is out of date with benchmarks/results.json: "
+        "run `python benchmarks/run.py --save` and commit both files")
+
+
+def test_results_record_the_machine_and_the_targets():
+    results = committed_results()
+    assert {"cpu_count", "numpy", "date", "python"} <= set(results["machine"])
+    assert results["targets"] == {k: list(v) for k, v in bench.TARGETS.items()}
+    assert results["sizes"] == {"ekf_runs": 1000, "ekf_steps": 1500, "pf_particles": 1000, "pf_steps": 2000}
+
+
+def test_table_marks_targets(tmp_path):
+    results = copy.deepcopy(committed_results())
+    results["ekf_study_s"] = 9.0
+    results["pf_steps_per_s"] = 1e6
+    results["widgets_ms"] = {"slow one": 400.0}
+    table = bench.render_table(results)
+    assert table.count("| MISS |") == 2                       # the EKF time and the slow widget
+    assert "Widget “slow one”" in table
+    results["widgets_ms"], results["widgets_note"] = {}, "no uwtutor.widgets module: no widgets registered"
+    assert "no widgets registered" in bench.render_table(results)
+    page = tmp_path / "page.md"
+    page.write_text(f"# P\n\nintro\n\n{bench.START_MARKER}\nold\n{bench.END_MARKER}\n\nafter\n", encoding="utf-8")
+    bench.update_page(results, page)
+    text = page.read_text(encoding="utf-8")
+    assert bench.page_table(text) == bench.render_table(results)
+    assert text.startswith("# P\n\nintro\n\n") and text.endswith("\n\nafter\n")
+    with pytest.raises(ValueError, match="must contain the markers"):
+        bench.page_table("no markers here")

@@ -1,0 +1,374 @@
+r"""Accuracy and consistency metrics for Monte Carlo studies of a filter.
+
+Conventions: ``M`` Monte Carlo runs, ``K`` steps, state size ``n``, measurement size ``m``. Estimates have shape
+``(M, K, n)`` (a single run ``(K, n)`` is treated as ``M = 1``), covariances ``(M, K, n, n)``, the truth
+``(K, n)`` (shared by every run) or ``(M, K, n)``.
+
+Accuracy
+    * :func:`estimation_errors` -- the error norm :math:`\lVert \hat x_{j,k} - x_{j,k} \rVert` of every run and step;
+    * :func:`rmse_over_time` -- its root mean square over the runs, one value per step;
+    * :func:`final_errors` and :func:`error_cdf` -- the distribution of the error at the last step (or any step),
+      as an empirical cumulative distribution function.
+
+Consistency (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4)
+    * :func:`nees` -- normalized estimation error squared :math:`\epsilon_k = e_k^T P_k^{-1} e_k`;
+    * :func:`nis` -- normalized innovation squared :math:`\nu_k = y_k^T S_k^{-1} y_k`;
+    * :func:`average_over_runs` -- their mean over the runs (ignoring NaN: steps without a measurement);
+    * :func:`chi2_mean_bounds` -- the two-sided chi-square acceptance interval for such a mean.
+
+A consistent filter has :math:`\epsilon_k \sim \chi^2_n` and :math:`\nu_k \sim \chi^2_m`; the mean over ``M``
+independent runs, times ``M``, is then :math:`\chi^2_{Mn}` (resp. :math:`\chi^2_{Mm}`), which gives the bounds.
+
+References
+----------
+Bar-Shalom, Y., Li, X. R. and Kirubarajan, T. (2001). *Estimation with Applications to Tracking and Navigation*.
+Wiley. Sections 5.4.2 (NEES, NIS and their chi-square tests) and 5.4.3 (Monte Carlo averages).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from ._validate import as_finite, as_float_array
+
+__all__ = [
+    "estimation_errors",
+    "rmse_over_time",
+    "final_errors",
+    "error_cdf",
+    "nees",
+    "nis",
+    "average_over_runs",
+    "chi2_mean_bounds",
+    "fraction_within",
+]
+
+
+def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate ``estimates`` (K, n) / (M, K, n) and ``truth``; return both as (M, K, n') float arrays."""
+    x = as_float_array("estimates", estimates, ndim=(2, 3))
+    if x.ndim == 2:
+        x = x[None]
+    t = as_finite("truth", truth, ndim=(1, 2, 3))
+    if t.ndim == 1:          # (K,) for a scalar state
+        t = t[:, None]
+    try:
+        t = np.broadcast_to(t, x.shape)
+    except ValueError:
+        raise ValueError(f"truth must have shape (K, n) or (M, K, n) matching the estimates {x.shape}; "
+                         f"got {np.shape(truth)}") from None
+    if components is not None:
+        idx = np.atleast_1d(np.asarray(components))
+        if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or \
+                idx.min() < -x.shape[-1] or idx.max() >= x.shape[-1]:
+            raise ValueError(f"components must be a non-empty list of state indices below {x.shape[-1]}; "
+                             f"got {components!r}")
+        x, t = x[..., idx], t[..., idx]
+    return x, t
+
+
+def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+    r"""Euclidean estimation error of every run and step, :math:`\lVert \hat x_{j,k} - x_{j,k} \rVert`.
+
+    Parameters
+    ----------
+    estimates : array_like, shape (M, K, n) or (K, n)
+        Filter estimates.
+    truth : array_like, shape (K, n) or (M, K, n)
+        True states (a ``(K, n)`` truth is shared by every run).
+    components : sequence of int, optional
+        State components to include, e.g. ``[0, 1]`` for the horizontal position of a state that also holds
+        a range bias. All of them by default.
+
+    Returns
+    -------
+    ndarray, shape (M, K)
+        Error norms (``M = 1`` for a single run).
+    """
+    x, t = _estimates_and_truth(estimates, truth, components)
+    return np.linalg.norm(x - t, axis=-1)
+
+
+def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+    r"""Root mean square error over the Monte Carlo runs, at each step.
+
+    .. math::
+
+        \mathrm{RMSE}_k = \sqrt{\frac{1}{M} \sum_{j=1}^{M} \lVert \hat x_{j,k} - x_{j,k} \rVert^2}
+
+    Parameters
+    ----------
+    estimates, truth, components
+        As in :func:`estimation_errors`.
+
+    Returns
+    -------
+    ndarray, shape (K,)
+        The RMSE of each step (with one run, the error norm itself).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import rmse_over_time
+    >>> est = np.array([[[3.0, 4.0], [0.0, 1.0]], [[0.0, 0.0], [1.0, 0.0]]])   # M = 2 runs, K = 2 steps
+    >>> rmse_over_time(est, np.zeros((2, 2)))
+    array([3.53553391, 1.        ])
+    """
+    err = estimation_errors(estimates, truth, components)
+    return np.sqrt(np.mean(err**2, axis=0))
+
+
+def final_errors(estimates: Any, truth: Any, components: Any = None, step: int = -1) -> np.ndarray:
+    """Error norm of every run at one step (the last by default): the sample of the final-error distribution.
+
+    Parameters
+    ----------
+    estimates, truth, components
+        As in :func:`estimation_errors`.
+    step : int, optional
+        The step to look at (Python indexing; ``-1`` is the last).
+
+    Returns
+    -------
+    ndarray, shape (M,)
+        One error norm per run.
+    """
+    err = estimation_errors(estimates, truth, components)
+    K = err.shape[1]
+    if not isinstance(step, (int, np.integer)) or not -K <= step < K:
+        raise ValueError(f"step must be an integer index into the {K} steps; got {step!r}")
+    return err[:, step]
+
+
+def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
+    r"""Empirical cumulative distribution function of a sample of errors.
+
+    Sorting the ``M`` finite values :math:`e_{(1)} \le \dots \le e_{(M)}` gives
+    :math:`\hat F(e_{(i)}) = i / M`: the fraction of runs whose error is at most :math:`e_{(i)}`.
+    Plot it as a step function (``plt.step(values, probabilities, where="post")``); read percentiles off it
+    (the 95 % error is the first value whose probability reaches 0.95).
+
+    Parameters
+    ----------
+    errors : array_like, shape (M,)
+        Error sample, e.g. from :func:`final_errors`. NaN values (diverged runs) are dropped.
+
+    Returns
+    -------
+    values : ndarray, shape (M',)
+        The sorted finite errors.
+    probabilities : ndarray, shape (M',)
+        :math:`i / M'` for ``i = 1..M'``.
+
+    Examples
+    --------
+    >>> from uwtutor.metrics import error_cdf
+    >>> error_cdf([3.0, 1.0, 2.0, 4.0])
+    (array([1., 2., 3., 4.]), array([0.25, 0.5 , 0.75, 1.  ]))
+    """
+    e = as_float_array("errors", errors, ndim=1)
+    e = np.sort(e[~np.isnan(e)])
+    if e.size == 0:
+        raise ValueError("errors must contain at least one value that is not NaN")
+    return e, np.arange(1, e.size + 1) / e.size
+
+
+def _quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
+    r""":math:`v^T C^{-1} v` over stacked vectors ``(..., n)`` and matrices ``(..., n, n)``; explicit for n <= 2."""
+    n = vec.shape[-1]
+    if n <= 2:
+        if n == 1:
+            det = cov[..., 0, 0]
+            num = vec[..., 0] ** 2
+        else:
+            a, b, d = cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 1]
+            e0, e1 = vec[..., 0], vec[..., 1]
+            det = a * d - b * b
+            num = d * e0 * e0 - 2.0 * b * e0 * e1 + a * e1 * e1
+        if np.any((det <= 0) & np.isfinite(vec).all(axis=-1)):
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix with "
+                             "determinant <= 0")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return num / det
+    out = np.full(vec.shape[:-1], np.nan)
+    ok = np.isfinite(vec).all(axis=-1)
+    if ok.any():
+        try:
+            sol = np.linalg.solve(cov[ok], vec[ok][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a singular "
+                             "matrix") from None
+        out[ok] = np.einsum("...i,...i->...", vec[ok], sol)
+    return out
+
+
+def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
+    r"""Normalized estimation error squared of every run and step.
+
+    .. math::
+
+        \epsilon_{j,k} = (x_{j,k} - \hat x_{j,k})^T P_{j,k}^{-1} (x_{j,k} - \hat x_{j,k})
+
+    Under a consistent filter (errors zero-mean Gaussian with the covariance the filter claims)
+    :math:`\epsilon_{j,k} \sim \chi^2_n`, mean ``n``.
+
+    Parameters
+    ----------
+    estimates : array_like, shape (M, K, n) or (K, n)
+        Filter estimates.
+    covariances : array_like, shape (M, K, n, n) or (K, n, n)
+        Their covariances (positive definite).
+    truth : array_like, shape (K, n) or (M, K, n)
+        True states.
+
+    Returns
+    -------
+    ndarray, shape (M, K)
+        NEES values (``M = 1`` for a single run).
+
+    See Also
+    --------
+    chi2_mean_bounds : the acceptance interval of their mean over runs.
+    """
+    x, t = _estimates_and_truth(estimates, truth, None)
+    P = as_float_array("covariances", covariances, ndim=(3, 4))
+    if P.ndim == 3:
+        P = P[None]
+    if P.shape != x.shape + (x.shape[-1],):
+        raise ValueError(f"covariances must have shape {x.shape + (x.shape[-1],)} to match the estimates; "
+                         f"got {P.shape}")
+    return _quadratic_form(t - x, P, "covariances")
+
+
+def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
+    r"""Normalized innovation squared of every run and step (NaN where no measurement was used).
+
+    .. math::
+
+        \nu_{j,k} = y_{j,k}^T S_{j,k}^{-1} y_{j,k}, \qquad \nu_{j,k} \sim \chi^2_m \text{ if consistent}.
+
+    Unlike the NEES it needs no truth, so it can be checked on real data too.
+
+    Parameters
+    ----------
+    innovations : array_like, shape (M, K, m) or (K, m)
+        Innovations :math:`y = z - h(\hat x^-)` (NaN rows: no measurement at that step).
+    innovation_cov : array_like, shape (M, K, m, m) or (K, m, m)
+        Their covariances :math:`S`.
+
+    Returns
+    -------
+    ndarray, shape (M, K)
+        NIS values, NaN where the innovation is NaN.
+    """
+    y = as_float_array("innovations", innovations, ndim=(2, 3))
+    if y.ndim == 2:
+        y = y[None]
+    S = as_float_array("innovation_cov", innovation_cov, ndim=(3, 4))
+    if S.ndim == 3:
+        S = S[None]
+    if S.shape != y.shape + (y.shape[-1],):
+        raise ValueError(f"innovation_cov must have shape {y.shape + (y.shape[-1],)} to match the innovations; "
+                         f"got {S.shape}")
+    out = _quadratic_form(y, S, "innovation_cov")
+    out[~np.isfinite(y).all(axis=-1)] = np.nan
+    return out
+
+
+def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
+    r"""Mean over the Monte Carlo runs of NEES or NIS values, step by step, ignoring NaN entries.
+
+    .. math::
+
+        \bar\epsilon_k = \frac{1}{M_k} \sum_{j \,:\, \epsilon_{j,k} \ne \mathrm{NaN}} \epsilon_{j,k}
+
+    Parameters
+    ----------
+    values : array_like, shape (M, K)
+        Per-run values, e.g. from :func:`nees` or :func:`nis`.
+
+    Returns
+    -------
+    mean : ndarray, shape (K,)
+        Mean over the runs (NaN at a step where every run is NaN).
+    counts : ndarray of int, shape (K,)
+        :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
+    """
+    v = as_float_array("values", values, ndim=2)
+    ok = ~np.isnan(v)
+    counts = ok.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(ok, v, 0.0).sum(axis=0) / counts
+    return np.where(counts > 0, mean, np.nan), counts
+
+
+def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[Any, Any]:
+    r"""Two-sided chi-square acceptance interval for the mean of ``n_runs`` NEES or NIS values.
+
+    If each value is :math:`\chi^2_d` (``d = dof``, the state size for the NEES, the measurement size for the
+    NIS) and the ``M`` runs are independent, :math:`M \bar\epsilon \sim \chi^2_{Md}`, so with probability
+    ``confidence`` the mean lies in
+
+    .. math::
+
+        \left[ \frac{\chi^2_{Md}(\alpha/2)}{M}, \; \frac{\chi^2_{Md}(1 - \alpha/2)}{M} \right],
+        \qquad \alpha = 1 - \text{confidence},
+
+    where :math:`\chi^2_{\nu}(p)` is the ``p`` quantile (``scipy.stats.chi2.ppf``). Bar-Shalom et al. (2001),
+    sec. 5.4.2.
+
+    Parameters
+    ----------
+    dof : int
+        Degrees of freedom ``d`` of one value (>= 1).
+    n_runs : int or array_like of int
+        Number of runs ``M`` averaged (>= 1), or one count per step (from :func:`average_over_runs`).
+    confidence : float, optional
+        Probability of the interval, in (0, 1); 0.95 by default.
+
+    Returns
+    -------
+    lower, upper : float or ndarray
+        The bounds (arrays when ``n_runs`` is an array; NaN where a count is 0).
+
+    Examples
+    --------
+    >>> from uwtutor.metrics import chi2_mean_bounds
+    >>> lo, hi = chi2_mean_bounds(2, 50)      # NEES of a 2-D position, 50 runs
+    >>> round(lo, 3), round(hi, 3)
+    (1.484, 2.591)
+    """
+    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
+        raise ValueError(f"dof must be a positive integer (state or measurement size); got {dof!r}")
+    conf = float(as_finite("confidence", confidence))
+    if not 0.0 < conf < 1.0:
+        raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
+    m = np.asarray(n_runs)
+    if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1):
+        raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got {n_runs!r}")
+    alpha = 1.0 - conf
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mf = np.where(m > 0, m, np.nan).astype(float)
+        lower = stats.chi2.ppf(alpha / 2, mf * dof) / mf
+        upper = stats.chi2.ppf(1 - alpha / 2, mf * dof) / mf
+    if m.ndim == 0:
+        return float(lower), float(upper)
+    return lower, upper
+
+
+def fraction_within(values: Any, lower: Any, upper: Any) -> float:
+    """Fraction of the (non-NaN) ``values`` that lie within ``[lower, upper]`` (bounds broadcast).
+
+    With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
+    """
+    v = as_float_array("values", values)
+    lo = np.broadcast_to(as_float_array("lower", lower), v.shape)
+    hi = np.broadcast_to(as_float_array("upper", upper), v.shape)
+    ok = ~np.isnan(v) & ~np.isnan(lo) & ~np.isnan(hi)
+    if not ok.any():
+        raise ValueError("values must contain at least one entry that is not NaN (with finite bounds)")
+    inside = (v[ok] >= lo[ok]) & (v[ok] <= hi[ok])
+    return float(inside.mean())
