@@ -189,11 +189,11 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
             ax_t.plot(view.times, err, label=name, lw=1)
     ax_t.set_xlabel("time [s]")
     ax_t.set_ylabel("range error [m]")
-    ax_t.legend(loc="lower left", fontsize=8)
     ax_r.plot(view.true_ranges, view.errors["total"], ".", ms=3, color="C4")
     ax_r.set_xlabel("true range [m]")
     ax_r.set_ylabel("total error [m]")
-    fig.tight_layout()
+    fig.legend(loc="lower center", ncol=4, fontsize=8)
+    fig.tight_layout(rect=(0.0, 0.08, 1.0, 1.0))
     return fig
 
 
