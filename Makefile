@@ -39,8 +39,11 @@ NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.
 test: setup
 	$(PY) -m pytest $(NBVAL) tests book $(PYTEST_ARGS)
 
+# JupyterLab on the chapters (book/) and on your own copies of the exercises (my-work/, made on first
+# use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.
 lab: setup
-	$(VENV)/bin/jupyter lab --notebook-dir=. book exercises
+	$(VENV)/bin/uwtutor exercises my-work
+	$(VENV)/bin/jupyter lab --ServerApp.root_dir=. $(if $(filter 0,$(shell id -u)),--allow-root)
 
 bench: setup
 	$(PY) benchmarks/run.py
