@@ -664,7 +664,9 @@ class TestCommand:
         dest = tmp_path / "my-work"
         assert main(["exercises", str(dest)]) == 0
         out = capsys.readouterr().out
-        assert "Wrote 1 notebook" in out and NAME in out and "jupyter lab" in out
+        n_sources = len(generate.list_exercise_sources())
+        plural = "notebook" if n_sources == 1 else "notebooks"
+        assert f"Wrote {n_sources} {plural}" in out and NAME in out and "jupyter lab" in out
         student = dest / NAME
         assert "# YOUR CODE HERE" in student.read_text()
 
@@ -672,7 +674,8 @@ class TestCommand:
         assert main(["exercises", str(dest)]) == 0
         out = capsys.readouterr().out
         assert student.read_text() == "my precious work"
-        assert "Wrote nothing" in out and "Skipped 1 notebook that already exists" in out and NAME in out
+        skipped = "1 notebook that already exists" if n_sources == 1 else f"{n_sources} notebooks that already exist"
+        assert "Wrote nothing" in out and f"Skipped {skipped}" in out and NAME in out
         assert "--force" in out and "rename or delete your copy" in out
 
         assert main(["exercises", str(dest), "--force"]) == 0

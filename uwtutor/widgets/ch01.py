@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -215,3 +215,10 @@ def range_error_widget() -> Any:
                                            description="outlier size [m]", continuous_update=False, style=style),
     }
     return slider_panel(sliders, lambda **p: plot_range_error_view(range_error_view(**p)))
+
+
+#: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch01 sound speed": sound_speed_view,
+    "ch01 range errors": range_error_view,
+}

@@ -1,0 +1,259 @@
+"""Chapter 2 widget: observability and the Cramér–Rao bound along a track (mirror solution, rank, CRLB ellipses)."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .. import motion, observability
+from .._validate import as_finite, as_positive
+from ..plotting import mark_beacon, plot_track
+from ._panel import slider_panel
+
+__all__ = [
+    "TRACK_CHOICES",
+    "STATE_CHOICES",
+    "ObservabilityView",
+    "observability_view",
+    "plot_observability_view",
+    "observability_widget",
+]
+
+#: The tracks the widget offers (beacon at the origin, 2 m/s, a range every 10 s for 1200 s).
+TRACK_CHOICES = ("circle", "straight", "straight + turn", "lawnmower", "radial")
+#: The choices of unknowns, the position alone, with a constant range bias (paper A) or with a constant current
+#: (paper B).
+STATE_CHOICES = ("position", "position + bias", "position + current")
+
+_STATE_FLAGS = {
+    "position": {},
+    "position + bias": {"unknown_bias": True},
+    "position + current": {"unknown_current": True},
+}
+_SPEED = 2.0
+_TURN_TIME = 600.0
+_STRAIGHT_START = (-1500.0, 600.0)
+# Epochs (every how many) at which the widget draws CRLB ellipses, and their magnification.
+_ELLIPSE_EVERY = 20
+ELLIPSE_SCALE = 20.0
+
+
+@dataclass(frozen=True)
+class ObservabilityView:
+    """What the observability widget shows for one track, turn angle, range noise and choice of unknowns.
+
+    Parameters
+    ----------
+    track : str
+        One of ``TRACK_CHOICES``.
+    turn_angle_deg : float
+        Heading change of the ``"straight + turn"`` track at 600 s [deg], positive to the left
+        (counter-clockwise); ignored by the other tracks.
+    sigma : float
+        Range noise standard deviation [m].
+    state : str
+        The unknowns whose CRLB ellipses are drawn, one of ``STATE_CHOICES``.
+    times : ndarray, shape (K,)
+        Ranging epochs [s].
+    positions : ndarray, shape (K, 2)
+        True track [m]; the beacon is at ``beacon``.
+    beacon : ndarray, shape (2,)
+        Beacon position [m].
+    mirror_positions : ndarray, shape (K, 2)
+        The mirror track: the same dead-reckoned shape started from the reflection of the start point across
+        the line through the beacon along the initial heading. On a straight leg it fits every range exactly.
+    mirror_misfit : ndarray, shape (K,)
+        Range of the mirror track minus the true range at each epoch [m]: zero until a heading change betrays it.
+    ranks : dict of ndarray
+        For each entry of ``STATE_CHOICES``, the numerical rank of the information after each epoch, shape (K,).
+    n_states : dict of int
+        The number of unknowns of each choice (2, 3, 4): full rank.
+    rmse : dict of ndarray
+        For each choice, the bound on the RMS position error after each epoch [m] (``inf`` while unobservable).
+    crlb : ndarray, shape (K, 2, 2)
+        The position block of the bound of ``state`` after each epoch [m²].
+    """
+
+    track: str
+    turn_angle_deg: float
+    sigma: float
+    state: str
+    times: np.ndarray
+    positions: np.ndarray
+    beacon: np.ndarray
+    mirror_positions: np.ndarray
+    mirror_misfit: np.ndarray
+    ranks: dict[str, np.ndarray]
+    n_states: dict[str, int]
+    rmse: dict[str, np.ndarray]
+    crlb: np.ndarray
+
+
+def _make_track(track: str, turn_angle_deg: float, times: np.ndarray) -> motion.Track:
+    if track == "circle":
+        return motion.circle_track(times, radius=800.0, speed=_SPEED, start_angle=-np.pi / 2)
+    if track == "straight":
+        return motion.straight_track(times, start=_STRAIGHT_START, speed=_SPEED, heading=0.0)
+    if track == "straight + turn":
+        return motion.turning_track(times, start=_STRAIGHT_START, speed=_SPEED,
+                                    headings=[0.0, np.radians(turn_angle_deg)], turn_times=[_TURN_TIME])
+    if track == "lawnmower":
+        return motion.lawnmower_track(times, start=(-600.0, -700.0), speed=_SPEED, leg_length=800.0, spacing=250.0)
+    if track == "radial":
+        return motion.straight_track(times, start=(-2600.0, 0.0), speed=_SPEED, heading=0.0)
+    raise ValueError(f"track must be one of {', '.join(repr(t) for t in TRACK_CHOICES)}; got {track!r}")
+
+
+def observability_view(track: str = "straight + turn", turn_angle_deg: float = 60.0, sigma: float = 5.0,
+                       state: str = "position") -> ObservabilityView:
+    """Compute everything the observability widget shows (see ``ObservabilityView``).
+
+    The vehicle runs at 2 m/s with a range to a beacon at the origin every 10 s for 1200 s (121 ranges); dead
+    reckoning is exact, so the bounds show what the geometry alone allows. Expected degeneracies (the first epoch,
+    a straight track with a current) are silenced here: they show as infinite bounds and low ranks.
+
+    Parameters
+    ----------
+    track : str, default "straight + turn"
+        One of ``TRACK_CHOICES``.
+    turn_angle_deg : float, default 60
+        Heading change at 600 s for ``"straight + turn"`` [deg], positive to the left.
+    sigma : float, default 5
+        Range noise standard deviation [m], > 0.
+    state : str, default "position"
+        Whose CRLB ellipses to keep in ``crlb``; one of ``STATE_CHOICES``.
+
+    Returns
+    -------
+    ObservabilityView
+    """
+    if track not in TRACK_CHOICES:
+        raise ValueError(f"track must be one of {', '.join(repr(t) for t in TRACK_CHOICES)}; got {track!r}")
+    if state not in STATE_CHOICES:
+        raise ValueError(f"state must be one of {', '.join(repr(s) for s in STATE_CHOICES)}; got {state!r}")
+    theta = float(as_finite("turn_angle_deg", turn_angle_deg))
+    s = float(as_positive("sigma", sigma))
+    times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
+    tr = _make_track(track, theta, times)
+    beacon = np.zeros(2)
+    p = np.array(tr.positions)
+    mirror_start = observability.mirror_point(p[0], beacon, tr.velocities[0])
+    mirror = mirror_start + (p - p[0])
+    misfit = np.hypot(*(mirror - beacon).T) - np.hypot(*(p - beacon).T)
+    ranks, n_states, rmse = {}, {}, {}
+    crlb = np.empty((len(times), 2, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", observability.UnobservableWarning)
+        for name, flags in _STATE_FLAGS.items():
+            bound = observability.track_crlb(p, beacon, s, times=times, **flags)
+            ranks[name] = observability.observability_rank(p, beacon, times=times, **flags)
+            n_states[name] = bound.shape[-1]
+            rmse[name] = observability.rmse_bound(bound)
+            if name == state:
+                crlb = bound[:, :2, :2].copy()
+    return ObservabilityView(track=track, turn_angle_deg=theta, sigma=s, state=state, times=times, positions=p,
+                             beacon=beacon, mirror_positions=mirror, mirror_misfit=misfit, ranks=ranks,
+                             n_states=n_states, rmse=rmse, crlb=crlb)
+
+
+def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
+    """Draw an ``ObservabilityView``: the track with its mirror and CRLB ellipses, the mirror's range misfit, the
+    rank of the information over time and the RMSE bound of each choice of unknowns."""
+    fig = fig or plt.figure(figsize=(8.0, 5.6))
+    # fixed margins rather than tight_layout: the static sweep redraws this figure frame after frame
+    grid = fig.add_gridspec(3, 2, width_ratios=(1.15, 1.0), left=0.09, right=0.98, bottom=0.08, top=0.95,
+                            wspace=0.3, hspace=0.32)
+    ax_map = fig.add_subplot(grid[:, 0])
+    ax_mis, ax_rank, ax_rmse = (fig.add_subplot(grid[i, 1]) for i in range(3))
+    colors = {"position": "C0", "position + bias": "C1", "position + current": "C2"}
+
+    mark_beacon(ax_map, view.beacon)
+    plot_track(ax_map, view.positions, label="true track", color="black", lw=1.2)
+    plot_track(ax_map, view.mirror_positions, label="mirror track", color="C3", lw=1.0, ls="--")
+    drawn = False
+    for k in range(_ELLIPSE_EVERY, len(view.times), _ELLIPSE_EVERY):
+        C = view.crlb[k]
+        if np.all(np.isfinite(C)):
+            pts = observability.error_ellipse(C, view.positions[k], scale=ELLIPSE_SCALE)
+            ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
+                        label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")
+            drawn = True
+    if not drawn:
+        ax_map.plot([], [], color=colors[view.state], label=f"{view.state}: no finite bound")
+    # frame the tracks, not the ellipses (an early ellipse can be kilometres long)
+    pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
+    ax_map.set_xlim(center[0] - half, center[0] + half)
+    ax_map.set_ylim(center[1] - half, center[1] + half)
+    ax_map.set_aspect("equal", adjustable="box")
+    ax_map.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=7)
+    ax_map.set_xlabel("x east [m]", fontsize=8)
+    ax_map.set_ylabel("y north [m]", fontsize=8)
+    ax_map.tick_params(labelsize=7)
+    title = view.track + (f", turn {view.turn_angle_deg:+.0f}°" if view.track == "straight + turn" else "")
+    ax_map.set_title(title, fontsize=9)
+
+    t_min = view.times / 60.0
+    floor = 0.1
+    ax_mis.semilogy(t_min, np.maximum(np.abs(view.mirror_misfit), floor), color="C3",
+                    label="|mirror − true range| (0 drawn at 0.1)")
+    ax_mis.axhline(view.sigma, color="gray", ls=":", label=f"range noise σ = {view.sigma:g} m")
+    ax_mis.set_ylim(floor / 1.5, 1e4)
+    ax_mis.tick_params(labelbottom=False)
+    ax_mis.set_ylabel("misfit [m]", fontsize=8)
+    ax_mis.set_title(f"mirror track: ranges off by {abs(view.mirror_misfit[-1]):.0f} m at the end", fontsize=8)
+    ax_mis.legend(loc="lower right", fontsize=6.5)
+    ax_mis.tick_params(labelsize=7)
+    ax_mis.minorticks_off()             # hundreds of minor log ticks would slow every redraw
+
+    for i, (name, r) in enumerate(view.ranks.items()):
+        ax_rank.step(t_min, r + 0.06 * (i - 1), where="post", color=colors[name],
+                     label=f"{name} (full: {view.n_states[name]})")
+    ax_rank.set_yticks(range(0, 5))
+    ax_rank.set_ylim(0.5, 4.5)
+    ax_rank.tick_params(labelbottom=False)
+    ax_rank.set_ylabel("rank", fontsize=8)
+    ax_rank.legend(loc="lower right", fontsize=6.5, ncol=1)
+    ax_rank.tick_params(labelsize=7)
+
+    finals = []
+    for name, e in view.rmse.items():
+        shown = np.where(np.isfinite(e), e, np.nan)
+        ax_rmse.semilogy(t_min, shown, color=colors[name], label=name)
+        finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
+    ax_rmse.set_xlabel("time [min]", fontsize=8)
+    ax_rmse.set_ylabel("RMSE bound [m]", fontsize=8)
+    ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
+    ax_rmse.legend(loc="upper right", fontsize=6.5)
+    ax_rmse.tick_params(labelsize=7)
+    ax_rmse.minorticks_off()
+    return fig
+
+
+def observability_widget() -> Any:
+    """A track, a turn angle, the range noise and the unknowns over the observability view (chapter 2)."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "track": w.Dropdown(options=list(TRACK_CHOICES), value="straight + turn", description="track",
+                            style=style),
+        "turn_angle_deg": w.IntSlider(value=60, min=-180, max=180, step=15, description="turn [°]",
+                                      continuous_update=False, style=style),
+        "sigma": w.FloatSlider(value=5.0, min=0.5, max=20.0, step=0.5, description="σ range [m]",
+                               continuous_update=False, style=style),
+        "state": w.Dropdown(options=list(STATE_CHOICES), value="position", description="ellipses of",
+                            style=style),
+    }
+    return slider_panel(sliders, lambda **p: plot_observability_view(observability_view(**p)))
+
+
+#: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch02 observability": observability_view,
+}
