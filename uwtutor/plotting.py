@@ -7,12 +7,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import re
+
 import matplotlib.pyplot as plt
 import numpy as np
 
-__all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track"]
+__all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "animation_html"]
 
-#: matplotlib settings of every figure in the book: readable at the book's column width, PNG output.
+#: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {
     "figure.figsize": (7.0, 3.6),
     "figure.dpi": 100,
@@ -47,3 +49,31 @@ def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) 
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x east [m]")
     ax.set_ylabel("y north [m]")
+
+
+# matplotlib's HTML animation template links Font Awesome 4 from a CDN for its buttons. The book must load nothing
+# from outside (it is read offline, at sea), and its theme already bundles Font Awesome, whose ``fa fa-play``-style
+# classes the buttons use, so the link is dropped rather than vendored a second time.
+_CDN_STYLESHEET = re.compile(r"<link[^>]*href=\"https?://[^\"]*font-awesome[^\"]*\"[^>]*>\s*", re.IGNORECASE)
+
+
+def animation_html(animation: Any, default_mode: str = "loop") -> Any:
+    """An animation as self-contained HTML for the book: frames embedded, no stylesheet fetched from a CDN.
+
+    Parameters
+    ----------
+    animation : matplotlib.animation.Animation
+        The animation to render (with ``to_jshtml``).
+    default_mode : str
+        ``"loop"``, ``"once"`` or ``"reflect"``: what the player does at the last frame.
+
+    Returns
+    -------
+    IPython.display.HTML
+        The player, ready to be the last expression of a notebook cell.
+    """
+    from IPython.display import HTML
+
+    if default_mode not in ("loop", "once", "reflect"):
+        raise ValueError(f"default_mode must be 'loop', 'once' or 'reflect'; got {default_mode!r}")
+    return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))

@@ -1,14 +1,19 @@
 """Filters for single-beacon navigation, all following the protocol of :mod:`uwtutor.filters.base`."""
 
 from .base import Filter, FilterResult, run_filter
+from .depth_ekf import DepthEKF
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
+from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
 from .kalman import KalmanFilter
 from .particle import (
     BootstrapParticleFilter,
     DepthSpeedPitchModel,
+    GreyParticleFilter,
     LinearGaussianModel,
+    MultipleModelParticleFilter,
     ParticleDegeneracyError,
     ParticleModel,
+    PitchManeuverModel,
 )
 
 __all__ = [
@@ -16,4 +21,6 @@ __all__ = [
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
     "ParticleDegeneracyError",
+    "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
+    "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",
 ]

@@ -1,0 +1,122 @@
+"""Chapter 6 widget and study helpers: the maneuvering profile, the sensors, the filter study, the GPF explorer."""
+
+from __future__ import annotations
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+from uwtutor.widgets import ch06  # noqa: E402
+
+
+def test_profile_follows_the_kinematics_and_the_noise_schedule():
+    p = ch06.maneuvering_depth_profile()
+    assert p.n_steps == 1200 and p.T == 0.05
+    np.testing.assert_allclose(p.times, 0.05 * np.arange(1, 1201))
+    z, v, phi = p.truth.T
+    np.testing.assert_allclose(np.diff(z), v[1:] * np.sin(phi[1:]) * p.T, atol=1e-12)
+    assert z[0] == pytest.approx(10.0 + v[0] * np.sin(phi[0]) * p.T)
+    assert np.degrees(phi.max()) == pytest.approx(20.0) and np.degrees(phi.min()) == pytest.approx(-25.0)
+    nominal = ch06.PAPER_C["sensor_std"]
+    for time, factor in ((5.0, 1.0), (20.0, 3.0), (35.0, 1.0), (50.0, 0.5)):
+        k = np.searchsorted(p.times, time)
+        np.testing.assert_allclose(p.sensor_std[k], factor * nominal)
+    assert p.maneuvering[p.mask(9.0, 10.0)].all() and not p.maneuvering[p.mask(15.0, 20.0)].any()
+    assert set(p.segments) >= {"dive", "level", "climb", "noise x3 (2)", "noise x0.5 (4)"}
+    part = p.between(6.0, 18.0)
+    assert part.n_steps == 240 and part.times[0] == pytest.approx(6.0)
+    assert part.segments["dive"] == (8.0, 18.0)
+
+
+def test_profile_bad_input():
+    with pytest.raises(ValueError, match="one entry more than noise_change_times"):
+        ch06.maneuvering_depth_profile(noise_factors=(1.0, 2.0), noise_change_times=(10.0, 20.0))
+    with pytest.raises(ValueError, match="noise_factors must be > 0"):
+        ch06.maneuvering_depth_profile(noise_factors=(1.0, 0.0), noise_change_times=(10.0,))
+    with pytest.raises(ValueError, match="noise_change_times must increase"):
+        ch06.maneuvering_depth_profile(noise_factors=(1.0, 2.0, 3.0), noise_change_times=(20.0, 10.0))
+    with pytest.raises(ValueError, match="at least 20 samples"):
+        ch06.maneuvering_depth_profile(duration=0.5)
+    with pytest.raises(ValueError, match="at least 20 samples"):
+        ch06.maneuvering_depth_profile().between(10.0, 10.5)
+
+
+def test_sensors_have_the_profile_noise():
+    p = ch06.maneuvering_depth_profile()
+    Z = ch06.simulate_depth_sensors(p, 200, np.random.default_rng(0))
+    assert Z.shape == (200, 1200, 3)
+    ratio = np.std(Z - p.truth, axis=0) / p.sensor_std
+    assert np.mean(ratio) == pytest.approx(1.0, abs=0.01)
+    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+        ch06.simulate_depth_sensors(p, 2, None)
+
+
+def test_run_depth_study_runs_every_filter():
+    p = ch06.maneuvering_depth_profile(duration=6.0, noise_factors=(1.0, 3.0), noise_change_times=(30.0,))
+    Z = ch06.simulate_depth_sensors(p, 2, np.random.default_rng(1))
+    study = ch06.run_depth_study(p, Z, ch06.FILTER_NAMES, n_particles=100)
+    assert list(study.estimates) == list(ch06.FILTER_NAMES)
+    for name, x in study.estimates.items():
+        assert x.shape == (2, p.n_steps, 3), name
+        assert np.isfinite(x).all(), name
+        assert study.rmse(name).shape == (p.n_steps, 3)
+        assert study.rmse_over(name).shape == (3,)
+    assert set(study.ess) == {"MMPF", "GPF", "PF", "PF + wavelet R"}
+    assert study.extras["GPF noise_std"].shape == (2, p.n_steps, 3)
+    assert study.extras["MMPF mode_probabilities"].shape == (2, p.n_steps, 3)
+    # the EKF with the wavelet R alone (no GPF to borrow the estimates from) computes them itself
+    alone = ch06.run_depth_study(p, Z, ("EKF + wavelet R",))
+    np.testing.assert_allclose(alone.estimates["EKF + wavelet R"], study.estimates["EKF + wavelet R"], rtol=1e-9)
+    # same seed, same result
+    again = ch06.run_depth_study(p, Z, ("GPF",), n_particles=100)
+    np.testing.assert_array_equal(again.estimates["GPF"], study.estimates["GPF"])
+    modes = ch06.run_depth_study(p, Z, ("MMPF",), n_particles=100, mmpf_targets_deg=(0.0, 15.0))
+    assert modes.extras["MMPF mode_probabilities"].shape == (2, p.n_steps, 2)
+
+
+def test_run_depth_study_bad_input():
+    p = ch06.maneuvering_depth_profile(duration=3.0)
+    Z = ch06.simulate_depth_sensors(p, 1, np.random.default_rng(1))
+    with pytest.raises(ValueError, match="filters must be names from"):
+        ch06.run_depth_study(p, Z, ("UKF",))
+    with pytest.raises(ValueError, match=r"measurements must have shape \(M, 60, 3\)"):
+        ch06.run_depth_study(p, Z[:, :10], ("EKF",))
+    with pytest.raises(ValueError, match="mmpf_stay must lie in"):
+        ch06.run_depth_study(p, Z, ("MMPF",), mmpf_stay=1.5)
+
+
+def test_gpf_view_at_its_defaults():
+    v = ch06.gpf_view()
+    assert v.times.shape == (240,) and v.truth.shape == (240, 3)
+    assert set(v.estimates) == {"EKF", "GPF"} and v.rmse["GPF"].shape == (3,)
+    assert v.n_particles == 200 and v.n_grey == 20
+    assert v.ess.shape == (240,) and (v.ess <= 200 + 1e-9).all()
+    # the noise changes at 13 s by the chosen factor
+    k = np.searchsorted(v.times, 14.0)
+    np.testing.assert_allclose(v.true_noise_std[k], 3.0 * ch06.PAPER_C["sensor_std"])
+    # reproducible, and the GPF beats the EKF in depth when the noise triples
+    w = ch06.gpf_view()
+    np.testing.assert_array_equal(v.estimates["GPF"], w.estimates["GPF"])
+    assert v.rmse["GPF"][0] < v.rmse["EKF"][0]
+    with pytest.raises(ValueError, match="noise_change must be > 0"):
+        ch06.gpf_view(noise_change=0.0)
+    with pytest.raises(ValueError, match="n_particles must be >= 10"):
+        ch06.gpf_view(n_particles=5)
+
+
+def test_widget_builds_and_plot_draws():
+    import matplotlib.pyplot as plt
+
+    panel = ch06.gpf_widget()
+    assert len(panel.children) == 3
+    fig = ch06.plot_gpf_view(ch06.gpf_view(n_particles=50))
+    assert len(fig.axes) == 4
+    plt.close("all")
+
+
+def test_compute_functions_registry():
+    assert set(ch06.COMPUTE_FUNCTIONS) == {"ch06 grey particle filter"}
+    for fn in ch06.COMPUTE_FUNCTIONS.values():
+        assert fn() is not None

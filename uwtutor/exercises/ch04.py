@@ -1,0 +1,336 @@
+"""Checkers for the exercises of chapter 4, "The range-only EKF".
+
+Each checker computes the expected value from the exercise's data (the constants below) with the library and
+returns a ``Feedback`` that recognises the usual mistakes of that exercise:
+
+===============================================  =======================================================================
+checker                                          exercise
+===============================================  =======================================================================
+``check_range_jacobian(H)``                      the range Jacobian at a predicted position
+``check_ekf_update(ekf_update)``                 one EKF update with one range, as a function (against ``RangeOnlyEKF``)
+``check_nees(value)``                            the NEES of one estimate
+``check_nees_bounds(bounds)``                    the 95 % chi-square interval of a mean NEES over 50 runs
+``check_diagnosis(consistent, overconfident)``   which of three tuned filters is consistent, which overconfident
+===============================================  =======================================================================
+
+The exercises themselves are in the repository's ``exercises/ch04_range_only_ekf.ipynb``.
+
+References
+----------
+Bar-Shalom, Li and Kirubarajan (2001), sec. 5.4 (NEES and its chi-square test) and 10.3 (EKF).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from ..filters import RangeOnlyEKF
+from .checks import Case, check_array, check_function, check_number, not_answered
+from .feedback import Feedback
+
+__all__ = [
+    "check_range_jacobian",
+    "check_ekf_update",
+    "check_nees",
+    "check_nees_bounds",
+    "check_diagnosis",
+    "JACOBIAN_BEACON",
+    "JACOBIAN_POSITION",
+    "NEES_TRUTH",
+    "NEES_ESTIMATE",
+    "NEES_COVARIANCE",
+    "BOUNDS_RUNS",
+    "BOUNDS_STATES",
+    "BOUNDS_CONFIDENCE",
+    "DIAGNOSIS_FILTERS",
+    "diagnosis_studies",
+    "ekf_update_reference",
+]
+
+# -- the data of the exercises -----------------------------------------------------------------------------------------
+#: Exercise 4.1: the beacon (m) ...
+JACOBIAN_BEACON = (200.0, 100.0)
+#: ... and the predicted position (m) where the Jacobian is evaluated.
+JACOBIAN_POSITION = (500.0, -300.0)
+#: Exercise 4.3: the true position (m), ...
+NEES_TRUTH = (100.0, -200.0)
+#: ... the estimate (m) ...
+NEES_ESTIMATE = (105.0, -196.0)
+#: ... and its covariance (m²).
+NEES_COVARIANCE = ((16.0, 6.0), (6.0, 9.0))
+#: Exercise 4.4: number of Monte Carlo runs, state dimension and two-sided confidence of the interval.
+BOUNDS_RUNS = 50
+BOUNDS_STATES = 2
+BOUNDS_CONFIDENCE = 0.95
+#: Exercise 4.5: the three filters' tuning (multiples of the true Q and R), keyed by the letter the notebook uses.
+DIAGNOSIS_FILTERS = {"A": {"q_scale": 5.0, "r_scale": 25.0}, "B": {"q_scale": 0.02, "r_scale": 1.0},
+                     "C": {"q_scale": 1.0, "r_scale": 1.0}}
+
+
+# -- exercise 4.1: the Jacobian --------------------------------------------------------------------------------------
+def check_range_jacobian(answer: Any) -> Feedback:
+    r"""Check the range Jacobian :math:`H = (\hat x^- - b)^\mathsf{T} / \lVert \hat x^- - b\rVert` of exercise 4.1.
+
+    Parameters
+    ----------
+    answer : array_like, shape (2,), or None
+        The student's :math:`H` (as a 1-D array ``[dr/dx, dr/dy]``; a (1, 2) row is accepted too).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the reversed direction (beacon minus position), the unnormalized difference, the gradient
+        of the squared range, the position used without subtracting the beacon and swapped components are
+        recognised.
+    """
+    b = np.array(JACOBIAN_BEACON)
+    p = np.array(JACOBIAN_POSITION)
+    d = p - b
+    expected = d / np.linalg.norm(d)
+    if answer is not None and np.shape(answer) == (1, 2):
+        answer = np.asarray(answer)[0]
+    mistakes = [
+        (-expected, "The range grows when the vehicle moves away from the beacon: H points from the beacon to the "
+                    "vehicle, (x − b)/‖x − b‖."),
+        (d, "Divide by the range: H is a unit vector (its length is 1)."),
+        (2 * d, "That is the gradient of the squared range, 2(x − b); the range's gradient is (x − b)/‖x − b‖."),
+        (p / np.linalg.norm(p), "Subtract the beacon's position first: the beacon is not at the origin here."),
+        (expected[::-1], "The first component is ∂r/∂x = (x − b_x)/r, the second ∂r/∂y = (y − b_y)/r."),
+    ]
+    return check_array(answer, expected, rtol=1e-6, atol=1e-9, name="H", common_mistakes=mistakes,
+                       hint="H = (x − b)/‖x − b‖ with x the predicted position and b the beacon.",
+                       explanation="A unit vector along the line of sight: a range tells nothing across it.")
+
+
+# -- exercise 4.2: one EKF update --------------------------------------------------------------------------------------
+def ekf_update_reference(x: Any, P: Any, z: float, R: float, beacon: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The reference answer of exercise 4.2: ``RangeOnlyEKF``'s update with one range (no prediction).
+
+    Parameters
+    ----------
+    x : array_like, shape (2,)
+        Predicted position [m].
+    P : array_like, shape (2, 2)
+        Its covariance [m²].
+    z : float
+        Measured range [m].
+    R : float
+        Range noise variance [m²].
+    beacon : array_like, shape (2,)
+        Beacon position [m].
+
+    Returns
+    -------
+    tuple of ndarray
+        The updated position (2,) and covariance (2, 2).
+    """
+    ekf = RangeOnlyEKF(x0=x, P0=P, Q=np.zeros((2, 2)), R=R, beacon=beacon)
+    ekf.update(z)
+    return np.array(ekf.x), np.array(ekf.P)
+
+
+def _update_cases() -> list[Case]:
+    P = np.array([[400.0, 50.0], [50.0, 100.0]])
+    return [
+        Case((np.array([300.0, 400.0]), P, 505.0, 4.0, np.array([0.0, 0.0])),
+             label="beacon at the origin, range 5 m longer than predicted",
+             hint="The innovation is z − h(x) (measured minus predicted): a range longer than predicted pushes "
+                  "the estimate away from the beacon."),
+        Case((np.array([300.0, 400.0]), P, 480.0, 4.0, np.array([-100.0, 50.0])),
+             label="a beacon away from the origin",
+             hint="Both h(x) = ‖x − b‖ and H = (x − b)ᵀ/‖x − b‖ use the beacon's position."),
+        Case((np.array([-1200.0, 900.0]), np.diag([2500.0, 2500.0]), 1480.0, 0.49, np.array([0.0, 0.0])),
+             label="a large prior uncertainty, a precise range",
+             hint="S = H P Hᵀ + R, K = P Hᵀ / S, x⁺ = x + K (z − h(x)), P⁺ = (I − K H) P."),
+        Case((np.array([10.0, -20.0]), P, 25.0, 9.0, np.array([0.0, 0.0])),
+             label="close to the beacon",
+             hint="Keep P symmetric: (I − K H) P is, in exact arithmetic; the Joseph form "
+                  "(I − KH) P (I − KH)ᵀ + K R Kᵀ is, in floating point too."),
+    ]
+
+
+def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedback:
+    if not isinstance(got, (tuple, list)) or len(got) != 2:
+        return Feedback(False, "Not yet: the function should return two things, `x_new, P_new`.",
+                        hint="End it with `return x_new, P_new`.")
+    x_new, P_new = got
+    if np.shape(x_new) in ((2, 1), (1, 2)):
+        x_new = np.ravel(x_new)
+    fb = check_array(x_new, expected[0], rtol=1e-9, atol=1e-9, name="the updated position", units="m")
+    if not fb:
+        return fb
+    return check_array(P_new, expected[1], rtol=1e-8, atol=1e-9, name="the updated covariance", units="m²",
+                       common_mistakes=[])
+
+
+def check_ekf_update(func: Any) -> Feedback:
+    r"""Check a student's ``ekf_update(x, P, z, R, beacon)`` returning the updated ``x, P``.
+
+    It must equal ``RangeOnlyEKF.update`` (Joseph form or the simple form :math:`(I - KH)P`, which agree to
+    rounding) on four cases.
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function.
+
+    Returns
+    -------
+    Feedback
+        The verdict, with the failing case and a hint.
+    """
+    return check_function(func, ekf_update_reference, _update_cases(), name="ekf_update",
+                          compare=_compare_update,
+                          hint="h(x) = ‖x − b‖, H = (x − b)ᵀ/h(x), S = H P Hᵀ + R, K = P Hᵀ/S, "
+                               "x⁺ = x + K (z − h(x)), P⁺ = (I − K H) P.",
+                          explanation="This is the update that filterpy's ExtendedKalmanFilter and "
+                                      "uwtutor's RangeOnlyEKF run at every range.")
+
+
+# -- exercise 4.3: NEES ----------------------------------------------------------------------------------------------
+def check_nees(answer: Any) -> Feedback:
+    r"""Check the NEES :math:`e^\mathsf{T} P^{-1} e` of exercise 4.3, :math:`e = x - \hat x`.
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's NEES.
+
+    Returns
+    -------
+    Feedback
+        The verdict; :math:`e^\mathsf{T} P e`, :math:`\lVert e\rVert^2`, the square root, the diagonal of
+        :math:`P` alone (correlation ignored) and the sum of squared standardized components are recognised.
+    """
+    e = np.array(NEES_TRUTH) - np.array(NEES_ESTIMATE)
+    P = np.array(NEES_COVARIANCE)
+    expected = float(e @ np.linalg.solve(P, e))
+    mistakes = {
+        float(e @ P @ e): "That is eᵀ P e; the NEES weights the error with the *inverse* covariance, eᵀ P⁻¹ e.",
+        float(e @ e): "That is ‖e‖², in m²; the NEES divides by the covariance and has no units.",
+        float(np.sqrt(expected)): "That is the square root (a Mahalanobis distance); the NEES is its square.",
+        float(np.sum(e**2 / np.diag(P))): "Dividing each component by its own variance ignores the correlation: "
+                                          "use the full inverse, np.linalg.inv(P) or np.linalg.solve(P, e).",
+    }
+    return check_number(answer, expected, rtol=1e-6, name="the NEES", common_mistakes=mistakes,
+                        hint="e = truth − estimate, NEES = e @ np.linalg.solve(P, e).",
+                        explanation="For a consistent filter it follows a chi-square distribution with 2 degrees of "
+                                    "freedom: mean 2.")
+
+
+# -- exercise 4.4: chi-square bounds ---------------------------------------------------------------------------------
+def check_nees_bounds(answer: Any) -> Feedback:
+    r"""Check the two-sided 95 % acceptance interval of the mean NEES over 50 runs of a 2-state filter.
+
+    :math:`M \bar\epsilon \sim \chi^2_{Mn}`, so the interval is
+    :math:`[\chi^2_{Mn}(0.025), \chi^2_{Mn}(0.975)]/M`.
+
+    Parameters
+    ----------
+    answer : array_like, shape (2,), or None
+        The student's ``[lower, upper]``.
+
+    Returns
+    -------
+    Feedback
+        The verdict; the bounds of a single run (n degrees of freedom), bounds not divided by M, one-sided
+        quantiles and the normal approximation are recognised.
+    """
+    M, n, conf = BOUNDS_RUNS, BOUNDS_STATES, BOUNDS_CONFIDENCE
+    tail = (1.0 - conf) / 2.0
+    expected = stats.chi2.ppf([tail, 1.0 - tail], M * n) / M
+    mistakes = [
+        (stats.chi2.ppf([tail, 1.0 - tail], n), "Those are the bounds of one run's NEES (n degrees of freedom); the "
+                                                "mean over M runs has M·n degrees of freedom, divided by M."),
+        (stats.chi2.ppf([tail, 1.0 - tail], M * n), "Divide by M: the bounds are for the *mean* NEES, "
+                                                    "χ²_{Mn}(q)/M."),
+        (stats.chi2.ppf([1.0 - conf, conf], M * n) / M, "A two-sided 95 % interval leaves 2.5 % in each tail: "
+                                                        "quantiles 0.025 and 0.975."),
+        (n + np.array([-1.96, 1.96]) * np.sqrt(2 * n / M), "That is the normal approximation; use the chi-square "
+                                                           "quantiles (scipy.stats.chi2.ppf)."),
+    ]
+    return check_array(answer, expected, rtol=1e-4, name="the interval", common_mistakes=mistakes,
+                       hint="Use scipy.stats.chi2.ppf([0.025, 0.975], M * n) / M.",
+                       explanation="A consistent filter's mean NEES stays inside it at about 95 % of the epochs.")
+
+
+# -- exercise 4.5: diagnosis ------------------------------------------------------------------------------------------
+def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
+    """The three Monte Carlo studies of exercise 4.5 (``uwtutor.widgets.ch04.ekf_view``), keyed by letter.
+
+    Parameters
+    ----------
+    n_runs : int, default 50
+        Monte Carlo runs per filter.
+    seed : int, default 4
+        Seed (the same draws for the three filters).
+
+    Returns
+    -------
+    dict
+        ``{"A": EKFView, "B": ..., "C": ...}``.
+    """
+    from ..widgets.ch04 import ekf_view
+
+    return {k: ekf_view(n_runs=n_runs, seed=seed, **kw) for k, kw in DIAGNOSIS_FILTERS.items()}
+
+
+def _classify(studies: dict[str, Any]) -> tuple[str, str, str]:
+    mean = {k: float(np.nanmean(v.mean_nees)) for k, v in studies.items()}
+    lo, hi = next(iter(studies.values())).nees_bounds
+    consistent = max(studies, key=lambda k: studies[k].nees_fraction_within)
+    overconfident = max(mean, key=lambda k: mean[k])
+    underconfident = min(mean, key=lambda k: mean[k])
+    if not (mean[overconfident] > hi and mean[underconfident] < lo):
+        raise RuntimeError("the exercise's filters are not clearly over- and underconfident: retune them")
+    return consistent, overconfident, underconfident
+
+
+def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
+    """Check which filter of exercise 4.5 is consistent and which is overconfident (letters ``"A"``, ``"B"``, ``"C"``).
+
+    The checker reruns the three studies (``diagnosis_studies``) and classifies them by their mean NEES against
+    the 95 % interval: the consistent one stays inside, the overconfident one (its P too small) lies far above, the
+    underconfident one below.
+
+    Parameters
+    ----------
+    consistent : str or None
+        The letter of the consistent filter.
+    overconfident : str or None
+        The letter of the overconfident filter.
+
+    Returns
+    -------
+    Feedback
+        The verdict, with a hint on how to read a NEES curve.
+    """
+    right_c, right_o, right_u = _classify(diagnosis_studies())
+    letters = set(DIAGNOSIS_FILTERS)
+    for name, value in (("consistent", consistent), ("overconfident", overconfident)):
+        if value is None or value is Ellipsis:
+            return not_answered(f"the letter of the {name} filter (\"A\", \"B\" or \"C\")")
+        if not isinstance(value, str) or value.strip().upper() not in letters:
+            return Feedback(False, f"Not yet: `{name}` should be one of the letters \"A\", \"B\", \"C\"; got "
+                                   f"{value!r}.", hint="Write the letter in quotes, e.g. `consistent = \"A\"`.")
+    c, o = consistent.strip().upper(), overconfident.strip().upper()
+    read = ("A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
+            "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
+            "(underconfident).")
+    if c == right_c and o == right_o:
+        over, under = DIAGNOSIS_FILTERS[right_o], DIAGNOSIS_FILTERS[right_u]
+        return Feedback(True, f"Correct: {c} is consistent and {o} overconfident (its Q is {over['q_scale']:g} "
+                              f"times the true DR noise); {right_u} is underconfident (its Q and R are "
+                              f"{under['q_scale']:g} and {under['r_scale']:g} times the true ones).")
+    if c == o:
+        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
+    if o == right_u:
+        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident (its P is larger "
+                               "than its errors), not overconfident.", hint=read)
+    if c != right_c:
+        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the "
+                               "band.", hint=read)
+    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)

@@ -1,0 +1,432 @@
+r"""Checkers for the exercises of chapter 5, "Multiplicative range noise and fading-memory filters".
+
+Each checker takes the student's answer, computes the expected value from the exercise's data (the constants below)
+with ``uwtutor`` itself, and returns a ``Feedback`` that recognises the usual mistakes of that exercise:
+
+==================================================  ====================================================================
+checker                                             exercise
+==================================================  ====================================================================
+``check_mu_gamma(mu)``                              5.1: the mean multiplicative range factor from two sound speeds
+``check_sigma_gamma(sigma)``                        5.1: its standard deviation
+``check_mean_range_error(error)``                   5.1: the mean range error at 2500 m
+``check_fading_factors(func)``                      5.2: the fading factor with a forgetting factor (a function)
+``check_threshold_beta_one(z)``                     5.3: the smallest gross error that makes the fading factor act,
+                                                    with :math:`\beta = 1` ...
+``check_threshold_beta_range(z)``                   5.3: ... and with paper D's :math:`\beta \approx 2000`
+``check_final_rmse(rmse_ekf, rmse_mult, ...)``      5.4: where the ISFEKF's advantage comes from
+==================================================  ====================================================================
+
+The exercises themselves are in the repository's ``exercises/ch05_multiplicative_noise.ipynb``.
+
+References
+----------
+Zhu Z., Han S., Guo Z., Liu J. (2019). Single beacon location algorithm based on nonlinear fading filter under
+multiplicative noise background. J. Electronics & Information Technology 41(1), 165-171 (paper D).
+
+Zhou D., Xi Y. (1990). Suboptimal fading extended Kalman filtering for nonlinear systems. Control and Decision
+5(5), 1-6.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .. import scenarios
+from ..filters.ekf import range_only_ekf
+from ..filters.fading import fading_ekf, range_factor_moments
+from .checks import Case, check_array, check_function, check_number
+from .feedback import Feedback
+
+__all__ = [
+    "check_mu_gamma",
+    "check_sigma_gamma",
+    "check_mean_range_error",
+    "check_fading_factors",
+    "fading_factors_reference",
+    "check_threshold_beta_one",
+    "check_threshold_beta_range",
+    "threshold_innovation",
+    "study",
+    "final_rmse",
+    "check_final_rmse",
+    "ASSUMED_SPEED",
+    "EFFECTIVE_SPEED",
+    "SPEED_SIGMA",
+    "TRUE_RANGE",
+    "STEADY",
+    "BETA_RANGE",
+    "STUDY_SEED",
+    "STUDY_RUNS",
+    "STUDY_INITIAL_ERROR",
+]
+
+# -- the data of the exercises -----------------------------------------------------------------------------------------
+#: Exercise 5.1: the speed the vehicle converts travel times with (m/s) ...
+ASSUMED_SPEED = 1480.0
+#: ... the mean true effective sound speed (m/s) ...
+EFFECTIVE_SPEED = 1510.0
+#: ... its standard deviation from ping to ping (m/s) ...
+SPEED_SIGMA = 2.0
+#: ... and the true range at which the mean error is asked (m).
+TRUE_RANGE = 2500.0
+
+#: Exercise 5.3: a converged filter at about 2000 m from the beacon (all in m²): the terms of the fading rule,
+#: :math:`\mathcal N_k = \mu_\gamma^2 C P_{k-1} C^T`, :math:`\mu_\gamma^2 C Q C^T`, :math:`\sigma_\gamma^2 T_k`, the
+#: range noise variance :math:`R`, and the forgetting factor :math:`\rho`.
+STEADY: dict[str, float] = {"N": 0.5, "CQC": 0.78, "mult": 1.78, "R": 0.49, "rho": 0.95}
+#: ... and paper D's weakening factor there, about the predicted range (m).
+BETA_RANGE = 2000.0
+
+#: Exercise 5.4: the Monte Carlo study (seed, number of runs, initial error in m).
+STUDY_SEED = 2019
+STUDY_RUNS = 200
+STUDY_INITIAL_ERROR = 30.0
+
+
+# -- exercise 5.1: the multiplicative factor ---------------------------------------------------------------------------
+def check_mu_gamma(answer: Any) -> Feedback:
+    r"""Check :math:`\mu_\gamma = c / c_\mathrm e = 1 + \Delta c / c_\mathrm e` for exercise 5.1.
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's mean factor (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; paper D's sign slip :math:`1 - \Delta c / c_\mathrm e`, the inverse ratio and
+        :math:`\Delta c / c_\mathrm e` without the 1 are recognised.
+    """
+    c, ce = ASSUMED_SPEED, EFFECTIVE_SPEED
+    expected, _ = range_factor_moments(c, ce, SPEED_SIGMA)
+    dc = c - ce
+    too_long = ("The factor must be below 1: the vehicle assumes a speed that is too low, so it converts a travel "
+                "time into a range that is too short. Your value is what paper D's eq. (30) prints (a sign slip), "
+                "or the ratio upside down: the measured range is c·τ = (c / c_e)·r, assumed speed over true one.")
+    mistakes = {
+        1.0 - dc / ce: too_long,
+        ce / c: too_long,
+        dc / ce: "That is the relative error γ − 1; the factor itself is 1 + Δc / c_e.",
+        -dc / ce: "That is minus the relative error; the factor itself is 1 + Δc / c_e, with Δc = c − c_e < 0 "
+                  "here.",
+    }
+    return check_number(answer, expected, rtol=1e-3, name="μ_γ", common_mistakes=mistakes,
+                        hint="A range is the travel time times the assumed speed: r_meas = c·τ with τ = r / c_e.",
+                        explanation=f"The ranges are {100 * (1 - expected):.2f} % short on average. Writing "
+                                    "1 + Δc / c instead (dividing by the assumed speed) is the same to first order.")
+
+
+def check_sigma_gamma(answer: Any) -> Feedback:
+    r"""Check :math:`\sigma_\gamma \approx \sigma_c / c_\mathrm e` for exercise 5.1 (first-order forms accepted).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's standard deviation of the factor (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the variance instead of the standard deviation, :math:`\sigma_c` itself and a factor of
+        :math:`c` too many are recognised.
+    """
+    c, ce, sc = ASSUMED_SPEED, EFFECTIVE_SPEED, SPEED_SIGMA
+    _, expected = range_factor_moments(c, ce, sc)
+    mistakes = {
+        (sc / ce) ** 2: "That is the variance σ_γ²; the task asks for the standard deviation σ_γ.",
+        sc: "That is σ_c, in m/s; divide by the sound speed to make it a relative (dimensionless) spread.",
+        sc / ce**2: "Divide σ_c by the speed once: γ ≈ 1 + (Δc + δc)/c_e, so σ_γ ≈ σ_c / c_e.",
+    }
+    return check_number(answer, expected, rtol=0.05, name="σ_γ", common_mistakes=mistakes,
+                        hint="γ ≈ 1 + (Δc + δc) / c_e with δc ~ N(0, σ_c²): its spread is that of δc / c_e.",
+                        explanation="σ_c / c_e, c·σ_c / c_e² and σ_c / c all agree to first order (within a few "
+                                    "%).")
+
+
+def check_mean_range_error(answer: Any) -> Feedback:
+    r"""Check the mean range error :math:`(\mu_\gamma - 1)\, r` at ``TRUE_RANGE`` for exercise 5.1.
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's mean error, measured minus true [m].
+
+    Returns
+    -------
+    Feedback
+        The verdict; the wrong sign and the error of the measured (not true) range are recognised.
+    """
+    mu, _ = range_factor_moments(ASSUMED_SPEED, EFFECTIVE_SPEED, SPEED_SIGMA)
+    expected = (mu - 1.0) * TRUE_RANGE
+    mistakes = {
+        -expected: "Measured minus true: the ranges are short, so the mean error is negative.",
+        mu * TRUE_RANGE: "That is the mean measured range; the error is the measured range minus the true one.",
+    }
+    return check_number(answer, expected, rtol=2e-3, name="the mean range error", units="m",
+                        common_mistakes=mistakes, hint="The mean measured range is μ_γ·r; subtract r.",
+                        explanation="It grows in proportion to the range: multiplicative noise.")
+
+
+# -- exercise 5.2: the fading factor -----------------------------------------------------------------------------------
+def fading_factors_reference(innovations: Any, predicted: Any, subtracted: Any, rho: float) -> np.ndarray:
+    r"""The fading factors of a sequence of scalar innovations (paper D, eqs. 17-20; Zhou and Xi 1990).
+
+    .. math::
+
+        V_1 = \tilde z_1^2, \quad V_k = \frac{\rho V_{k-1} + \tilde z_k^2}{1 + \rho}, \qquad
+        \lambda_k = \max\Big(1, \frac{V_k - s_k}{\mathcal N_k}\Big),
+
+    with :math:`s_k` the terms subtracted in :math:`\mathcal M_k` (:math:`\sigma_\gamma^2 T_k + \mu_\gamma^2
+    C Q C^T + \beta_k R`).
+
+    Parameters
+    ----------
+    innovations : array_like, shape (K,)
+        :math:`\tilde z_k` [m].
+    predicted : array_like, shape (K,)
+        :math:`\mathcal N_k` [m²], > 0.
+    subtracted : array_like, shape (K,)
+        :math:`s_k` [m²].
+    rho : float
+        Forgetting factor in (0, 1].
+
+    Returns
+    -------
+    ndarray, shape (K,)
+        :math:`\lambda_k`.
+    """
+    z = np.asarray(innovations, dtype=float)
+    n = np.asarray(predicted, dtype=float)
+    s = np.asarray(subtracted, dtype=float)
+    lam = np.empty_like(z)
+    V = 0.0
+    for k in range(len(z)):
+        V = z[k] ** 2 if k == 0 else (rho * V + z[k] ** 2) / (1.0 + rho)
+        lam[k] = max(1.0, (V - s[k]) / n[k])
+    return lam
+
+
+def _fading_cases() -> list[Case]:
+    quiet_z = np.array([0.8, -1.1, 0.3, 1.5, -0.6, 0.9])
+    s_quiet = np.full(6, 2.5)
+    return [
+        Case((quiet_z, np.full(6, 0.5), s_quiet, 0.95),
+             label="small innovations (the model is right): every λ must be 1",
+             hint="λ = max(1, M/N): a fading factor never shrinks the covariance, so it is never below 1."),
+        Case((np.array([12.0]), np.array([0.5]), np.array([2.5]), 0.95),
+             label="a single step: V₁ is the first innovation squared",
+             hint="Start the recursion with V₁ = z̃₁² (paper D, eq. 20), not with V = 0."),
+        Case((np.array([1.0, 20.0, 1.0, 1.0, 1.0]), np.full(5, 0.5), np.full(5, 2.5), 0.5),
+             label="a gross error at step 2 with ρ = 0.5",
+             hint="The forgetting factor weighs the *old* value: V_k = (ρ V_{k−1} + z̃_k²) / (1 + ρ)."),
+        Case((np.array([3.0, -4.0, 8.0, -2.0]), np.array([0.4, 0.6, 0.8, 1.0]), np.array([1.0, 2.0, 3.0, 4.0]),
+              1.0),
+             label="ρ = 1 (no forgetting) and terms that change every step",
+             hint="Use the k-th entry of `predicted` and `subtracted` at step k."),
+    ]
+
+
+def check_fading_factors(func: Any) -> Feedback:
+    r"""Check a student's ``fading_factors(innovations, predicted, subtracted, rho)`` (exercise 5.2).
+
+    The specification is that of ``fading_factors_reference``; the input arrays must not be modified.
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function.
+
+    Returns
+    -------
+    Feedback
+        The verdict; the first failing case is reported with its inputs, the expected and the student's factors,
+        and a hint aimed at the mistake that case catches (no ``max``, a wrong start, a wrong weighting).
+    """
+    return check_function(
+        func, fading_factors_reference, _fading_cases(), name="fading_factors",
+        compare=lambda got, expected: check_array(got, expected, rtol=1e-9, atol=1e-12, name="the fading factors"),
+        hint="Loop over the steps: update V with the forgetting factor, then λ = max(1, (V − s) / N).",
+        explanation="One large innovation lifts V for a few steps (its weight decays like (ρ/(1+ρ))^j), so λ "
+                    "stays above 1 after it too.")
+
+
+# -- exercise 5.3: the weakening factor as a threshold -----------------------------------------------------------------
+def threshold_innovation(beta: float, steady: dict[str, float] | None = None) -> float:
+    r"""The smallest :math:`|\tilde z_k|` that makes :math:`\lambda_k > 1` when :math:`V_{k-1}` sits at its
+    expected value :math:`\bar V = \mathcal N + \mu_\gamma^2 CQC^T + \sigma_\gamma^2 T + R` (exercise 5.3).
+
+    :math:`\lambda_k > 1 \iff V_k > \bar V + (\beta - 1) R` and :math:`V_k = (\rho \bar V + \tilde z_k^2)/(1 +
+    \rho)`, so
+
+    .. math::
+
+        |\tilde z_k| > \sqrt{\bar V + (1 + \rho)(\beta - 1) R}.
+
+    Parameters
+    ----------
+    beta : float
+        Weakening factor (>= 0).
+    steady : dict, optional
+        The terms (default ``STEADY``).
+
+    Returns
+    -------
+    float
+        The threshold [m].
+    """
+    st = STEADY if steady is None else steady
+    vbar = st["N"] + st["CQC"] + st["mult"] + st["R"]
+    return math.sqrt(vbar + (1.0 + st["rho"]) * (beta - 1.0) * st["R"])
+
+
+def _threshold_mistakes(beta: float) -> dict[float, str]:
+    st = STEADY
+    vbar = st["N"] + st["CQC"] + st["mult"] + st["R"]
+    out = {
+        threshold_innovation(beta) ** 2: "That is the threshold on z̃² (m²); take the square root for metres.",
+        math.sqrt(vbar + (beta - 1.0) * st["R"]): "One innovation enters V with weight 1/(1 + ρ): z̃² must exceed "
+                                                  "(1 + ρ) times the margin, not the margin itself.",
+    }
+    if beta == 1.0:
+        out[math.sqrt((1.0 + st["rho"]) * vbar)] = ("V_{k−1} = V̄ keeps its weight ρ/(1 + ρ): z̃² > V̄ + "
+                                                    "(1 + ρ)(β − 1)R, not (1 + ρ)(V̄ + (β − 1)R).")
+    else:
+        out[math.sqrt(vbar + (1.0 + st["rho"]) * (beta - 1.0))] = ("The weakening factor multiplies R = "
+                                                                    f"{st['R']} m²: the margin is (β − 1)·R.")
+    return out
+
+
+def check_threshold_beta_one(answer: Any) -> Feedback:
+    r"""Check the threshold innovation of exercise 5.3 with :math:`\beta = 1` (Zhou and Xi's filter).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's threshold [m].
+
+    Returns
+    -------
+    Feedback
+        The verdict; the square, a missing :math:`1 + \rho` and a misplaced one are recognised.
+    """
+    expected = threshold_innovation(1.0)
+    return check_number(answer, expected, rtol=2e-3, name="the threshold with β = 1", units="m",
+                        common_mistakes=_threshold_mistakes(1.0),
+                        hint="With V_{k−1} = V̄, λ_k > 1 exactly when V_k > V̄ + (β − 1)R; solve for z̃_k.",
+                        explanation="With β = 1 any innovation larger than its own standard deviation √V̄ triggers "
+                                    "the fading factor: about a third of all steps under a correct model.")
+
+
+def check_threshold_beta_range(answer: Any) -> Feedback:
+    r"""Check the threshold innovation of exercise 5.3 with paper D's :math:`\beta = 2000` (about the range).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's threshold [m].
+
+    Returns
+    -------
+    Feedback
+        The verdict; the square, a missing :math:`1 + \rho` and :math:`\beta` not multiplied by :math:`R` are
+        recognised.
+    """
+    expected = threshold_innovation(BETA_RANGE)
+    return check_number(answer, expected, rtol=2e-3, name=f"the threshold with β = {BETA_RANGE:g}", units="m",
+                        common_mistakes=_threshold_mistakes(BETA_RANGE),
+                        hint="Same rule, with β = 2000: V_k must exceed V̄ + (β − 1)R.",
+                        explanation=f"About {expected / threshold_innovation(1.0):.0f} times the threshold of "
+                                    "β = 1: the weakening factor turns the fading rule into a gate for gross errors, "
+                                    "and it grows like the square root of the range.")
+
+
+# -- exercise 5.4: EKF, multiplicative EKF, ISFEKF ---------------------------------------------------------------------
+def study() -> dict[str, Any]:
+    """The Monte Carlo study of exercise 5.4: paper D's scenario, ``STUDY_RUNS`` runs, a start
+    ``STUDY_INITIAL_ERROR`` metres off in a random direction.
+
+    Returns
+    -------
+    dict
+        ``x0`` (M, 2), ``P0`` (2, 2), ``u`` (M, K, 2), ``z`` (M, K), ``Q`` (2, 2), ``R`` (float), ``truth``
+        (M, K, 2) and ``times`` (K,).
+    """
+    rng = np.random.default_rng(STUDY_SEED)
+    sc = scenarios.approach_with_turn_scenario(rng, n_runs=STUDY_RUNS)
+    angle = rng.uniform(0.0, 2.0 * np.pi, STUDY_RUNS)
+    d0 = STUDY_INITIAL_ERROR
+    x0 = sc.true_positions[:, 0] + d0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    return {"x0": x0, "P0": np.eye(2) * d0**2, "u": np.array(sc.dr_displacements), "z": np.array(sc.ranges),
+            "Q": np.eye(2) * 0.81, "R": 0.49, "truth": np.array(sc.true_positions), "times": np.array(sc.times)}
+
+
+def final_rmse(estimates: Any, truth: Any) -> float:
+    """RMS over the runs of the position error at the last epoch [m]."""
+    err = np.linalg.norm(np.asarray(estimates)[:, -1] - np.asarray(truth)[:, -1], axis=-1)
+    return float(np.sqrt(np.mean(err**2)))
+
+
+def _study_results() -> dict[str, np.ndarray]:
+    s = study()
+    mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
+    common = (s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"])
+    return {
+        "ekf": range_only_ekf(*common).x,
+        "mult": fading_ekf(*common, mu_gamma=mu, sigma_gamma=sigma, fading=False).x,
+        "isfekf": fading_ekf(*common, mu_gamma=mu, sigma_gamma=sigma, rho=0.95, beta="range").x,
+        "truth": s["truth"],
+    }
+
+
+def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedback:
+    r"""Check the three final RMS errors of exercise 5.4 (EKF, multiplicative-noise EKF without fading, ISFEKF).
+
+    Parameters
+    ----------
+    rmse_ekf : float or None
+        Final RMSE of the additive-noise EKF [m].
+    rmse_mult : float or None
+        Final RMSE of the multiplicative-noise EKF, ``fading=False`` [m].
+    rmse_isfekf : float or None
+        Final RMSE of the ISFEKF [m].
+
+    Returns
+    -------
+    Feedback
+        The first of the three that is wrong, with a hint (the mean error instead of the RMS error, the RMSE over
+        all epochs instead of the last one, the paper's :math:`\mu_\gamma = 1.02`); correct when all three are.
+    """
+    res = _study_results()
+    truth = res["truth"]
+    labels = {"ekf": ("rmse_ekf", "the EKF's final RMSE"), "mult": ("rmse_mult", "the multiplicative EKF's final RMSE"),
+              "isfekf": ("rmse_isfekf", "the ISFEKF's final RMSE")}
+    answers = {"ekf": rmse_ekf, "mult": rmse_mult, "isfekf": rmse_isfekf}
+    expected = {key: final_rmse(res[key], truth) for key in answers}
+    for key, answer in answers.items():
+        x = res[key]
+        err = np.linalg.norm(x - truth, axis=-1)
+        mistakes = {
+            float(np.mean(err[:, -1])): "That is the mean error; the RMSE is the square root of the mean squared "
+                                        "error: np.sqrt(np.mean(err**2)).",
+            float(np.sqrt(np.mean(err**2))): "That is the RMSE over all epochs; the task asks for the last epoch "
+                                             "only (index -1).",
+            float(np.median(err[:, -1])): "That is the median error; the task asks for the root mean square.",
+        }
+        if key != "ekf":
+            s = study()
+            wrong_mu = fading_ekf(s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"], mu_gamma=1.02,
+                                  sigma_gamma=1 / 1500, fading=(key == "isfekf"))
+            mistakes[final_rmse(wrong_mu.x, truth)] = ("μ_γ = 1.02 is paper D's sign slip: 1470 m/s assumed "
+                                                       "against 1500 m/s true makes the ranges 2 % short, "
+                                                       "μ_γ = 0.98.")
+        fb = check_number(answer, expected[key], rtol=1e-3, name=labels[key][1], units="m", common_mistakes=mistakes,
+                          hint="Run the filter on the study, then `ch05.final_rmse(result.x, s['truth'])`.")
+        if not fb.correct:
+            return Feedback(False, f"`{labels[key][0]}`: {fb.message}", hint=fb.hint, details=fb.details)
+    return Feedback(True, f"Correct: EKF {expected['ekf']:.1f} m, multiplicative EKF {expected['mult']:.1f} m, "
+                          f"ISFEKF {expected['isfekf']:.1f} m.",
+                    details={"expected": expected})

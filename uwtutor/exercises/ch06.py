@@ -1,0 +1,397 @@
+"""Checkers for the exercises of chapter 6, "Particle filters for a maneuvering AUV's depth" (paper C).
+
+Each checker takes the student's answer, computes the expected value from the exercise's data (the constants below)
+with ``uwtutor``'s own implementation, and returns a ``Feedback`` that recognises the usual mistakes:
+
+=============================================  ======================================================================
+checker                                        exercise
+=============================================  ======================================================================
+``check_gm11_coefficients(a, b)``              GM(1,1) development coefficient and grey input of ``DEPTH_SERIES``
+``check_grey_forecast(value)``                 the GM(1,1) forecast of the next depth reading
+``check_mad_sigma(sigma)``                     the wavelet (MAD) noise estimate of ``NOISE_WINDOW``
+``check_effective_sample_size(ess)``           the effective sample size of ``PARTICLE_WEIGHTS``
+``check_systematic_resample(func)``            a systematic resampler ``func(weights, u) -> indices``
+``check_q_smallest_eigenvalue(value)``         the smallest eigenvalue of paper C's process covariance as printed
+``check_q_correlation(value)``                 the depth-speed correlation that matrix implies
+=============================================  ======================================================================
+
+The exercises themselves are in the repository's ``exercises/ch06_particle_filters.ipynb``.
+
+References
+----------
+Li Ting, Zhao Dexin, Huang Zhiping and Su Shaojing (2013), paper C; Donoho and Johnstone (1994); Douc, Cappé and
+Moulines (2005).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..grey import fit_gm11
+from ..wavelet import MAD_TO_SIGMA, detail_coefficients, noise_sigma
+from .checks import Case, check_array, check_function, check_number, not_answered
+from .feedback import Feedback
+
+__all__ = [
+    "check_gm11_coefficients",
+    "check_grey_forecast",
+    "check_mad_sigma",
+    "check_effective_sample_size",
+    "check_systematic_resample",
+    "check_q_smallest_eigenvalue",
+    "check_q_correlation",
+    "DEPTH_SERIES",
+    "NOISE_WINDOW",
+    "PARTICLE_WEIGHTS",
+    "Q_PRINTED",
+]
+
+# -- the data of the exercises -----------------------------------------------------------------------------------------
+#: Six depth readings (m), one every 0.05 s, for exercises 8.1 and 8.2.
+DEPTH_SERIES = np.array([12.1, 12.6, 13.0, 13.5, 14.1, 14.6])
+
+
+def _noise_window() -> np.ndarray:
+    rng = np.random.default_rng(818)
+    t = 0.05 * np.arange(50)
+    return 12.0 + 0.9 * t - 0.2 * t**2 + rng.normal(0.0, 0.15, 50)
+
+
+#: Fifty depth readings (m) of a vehicle starting a dive, with sensor noise of unknown level (exercise 8.3).
+NOISE_WINDOW = _noise_window()
+#: Unnormalized particle weights of exercise 8.4.
+PARTICLE_WEIGHTS = np.array([0.5, 2.0, 1.0, 0.1, 3.0, 0.4])
+#: Paper C's process noise covariance as printed, in the units m, cm/s and degrees (exercise 8.5).
+Q_PRINTED = np.array([[0.2**2, 0.8**2, 0.6**2], [0.8**2, 1.0**2, 0.0], [0.6**2, 0.0, 0.5**2]])
+
+
+def _both_numbers(a: Any, b: Any) -> tuple[float, float] | None:
+    try:
+        return float(np.asarray(a, dtype=float).reshape(())), float(np.asarray(b, dtype=float).reshape(()))
+    except (TypeError, ValueError):
+        return None
+
+
+def _lstsq_ab(z: np.ndarray, y: np.ndarray, sign: float = -1.0) -> tuple[float, float]:
+    B = np.column_stack([sign * z, np.ones(z.size)])
+    a, b = np.linalg.lstsq(B, y, rcond=None)[0]
+    return float(a), float(b)
+
+
+# -- exercise 8.1: GM(1,1) coefficients --------------------------------------------------------------------------------
+def check_gm11_coefficients(a: Any, b: Any) -> Feedback:
+    """Check the GM(1,1) development coefficient ``a`` and grey input ``b`` of ``DEPTH_SERIES``.
+
+    Expected: the least-squares solution of ``x0(k) + a z1(k) = b``, ``k = 2..6``, with background values
+    ``z1(k) = 0.5 (x1(k) + x1(k-1))`` (computed by ``uwtutor.grey.fit_gm11``).
+
+    Parameters
+    ----------
+    a : float or None
+        The student's development coefficient.
+    b : float or None
+        The student's grey input.
+
+    Returns
+    -------
+    Feedback
+        The verdict; a flipped sign of the background column, the accumulated series on the right-hand side, a
+        background weight of 1 or 0, a fit of the raw series without accumulation and rows starting at ``k = 1``
+        are recognised.
+    """
+    if a is None or a is Ellipsis or b is None or b is Ellipsis:
+        return not_answered("the development coefficient `a` and the grey input `b` (two numbers)")
+    x0 = DEPTH_SERIES
+    model = fit_gm11(x0)
+    x1 = np.cumsum(x0)
+    z = 0.5 * (x1[1:] + x1[:-1])
+    mistakes = [
+        (_lstsq_ab(z, x0[1:], sign=+1.0),
+         "The rows of B are [−z1(k), 1]: the equation is x0(k) + a·z1(k) = b, so z1 enters with a minus sign "
+         "(your a has the wrong sign)."),
+        (_lstsq_ab(z, x1[1:]),
+         "The right-hand side Y holds the raw readings x0(2), ..., x0(n), not the accumulated series x1."),
+        (_lstsq_ab(x1[1:], x0[1:]),
+         "The background value is the mean of two neighbouring accumulated values, 0.5·(x1(k) + x1(k−1)), not "
+         "x1(k) itself."),
+        (_lstsq_ab(x1[:-1], x0[1:]),
+         "The background value is the mean of two neighbouring accumulated values, 0.5·(x1(k) + x1(k−1)), not "
+         "x1(k−1)."),
+        (_lstsq_ab(0.5 * (x0[1:] + x0[:-1]), x0[1:]),
+         "GM(1,1) works on the accumulated series x1 = cumsum(x0): the background values are means of x1, not of "
+         "the raw readings."),
+        (_lstsq_ab(np.concatenate([[x1[0]], z]), x0),
+         "The equations run from k = 2 to n (five rows for six readings): there is no background value for k = 1."),
+    ]
+    pair = _both_numbers(a, b)
+    if pair is not None:
+        for (ma, mb), hint in mistakes:
+            if math.isclose(pair[0], ma, rel_tol=1e-3, abs_tol=1e-6) and math.isclose(pair[1], mb, rel_tol=1e-3):
+                return Feedback(False, f"Not yet: a = {pair[0]:.6g} and b = {pair[1]:.6g} come from a different "
+                                       "system of equations.", hint=hint,
+                                details={"answer": pair, "mistake": (ma, mb)})
+    fb = check_number(a, model.a, rtol=1e-3, name="the development coefficient a",
+                      hint="Build x1 = np.cumsum(x0), z1 = 0.5 * (x1[1:] + x1[:-1]), B = [−z1, 1] (one row per "
+                           "k = 2..n) and Y = x0[1:], then solve with np.linalg.lstsq(B, Y, rcond=None).")
+    if not fb:
+        return fb
+    fb_b = check_number(b, model.b, rtol=1e-3, name="the grey input b",
+                        hint="b comes from the same least-squares solution as a: the second entry of "
+                             "np.linalg.lstsq(B, Y, rcond=None)[0].")
+    if not fb_b:
+        return fb_b
+    return Feedback(True, f"Correct: a = {model.a:.5f} and b = {model.b:.4f}. A negative a means a growing series: "
+                          f"the depth grows by about {100 * (math.exp(-model.a) - 1):.1f} % per reading.",
+                    details={"answer": pair})
+
+
+# -- exercise 8.2: the forecast ----------------------------------------------------------------------------------------
+def check_grey_forecast(value: Any) -> Feedback:
+    """Check the GM(1,1) forecast (m) of the seventh reading of ``DEPTH_SERIES``.
+
+    Expected: ``(1 - e^a) (x0(1) - b/a) e^{-6a}`` with the exercise 8.1 coefficients.
+
+    Parameters
+    ----------
+    value : float or None
+        The student's forecast in metres.
+
+    Returns
+    -------
+    Feedback
+        The verdict; paper C's misprinted factor ``(1 - e^{-a})``, the accumulated forecast not differenced, the
+        fitted sixth value instead of the seventh and a wrong sign in the exponent are recognised.
+    """
+    x0 = DEPTH_SERIES
+    model = fit_gm11(x0)
+    a, b, n = model.a, model.b, x0.size
+    expected = float(model.forecast(1)[0])
+    c = x0[0] - b / a
+    mistakes = {
+        (1 - math.exp(-a)) * c * math.exp(-a * n):
+            "That is paper C's eq. (12) as printed, with (1 − e^{−a}). Difference the two exponentials of the time "
+            "response yourself: e^{−ak} − e^{−a(k−1)} = (1 − e^{a})·e^{−ak}.",
+        c * math.exp(-a * n) + b / a:
+            "That is the accumulated forecast x1̂(7). Restore the reading by differencing: x0̂(7) = x1̂(7) − x1̂(6).",
+        (1 - math.exp(a)) * c * math.exp(-a * (n - 1)):
+            "That is the model's value for the sixth reading (k = 5). The seventh reading is x0̂(k+1) with k = 6.",
+        (1 - math.exp(a)) * c * math.exp(a * n):
+            "The time response decays as e^{−ak}: check the sign in the exponent.",
+    }
+    return check_number(value, expected, rtol=1e-3, name="the forecast of the seventh depth", units="m",
+                        common_mistakes=mistakes,
+                        hint="x0̂(k+1) = (1 − e^{a})·(x0(1) − b/a)·e^{−ak} with k = 6 and the a, b of exercise 8.1.",
+                        explanation="The readings grow by about half a metre per step, and so does the forecast.")
+
+
+# -- exercise 8.3: the wavelet noise estimate --------------------------------------------------------------------------
+def check_mad_sigma(sigma: Any) -> Feedback:
+    """Check the noise standard deviation (m) of ``NOISE_WINDOW`` by the wavelet MAD estimate.
+
+    Expected: ``median(|d|) / 0.6745`` over the db6 detail coefficients that lie inside the window
+    (``uwtutor.wavelet.detail_coefficients(NOISE_WINDOW)``).
+
+    Parameters
+    ----------
+    sigma : float or None
+        The student's estimate in metres.
+
+    Returns
+    -------
+    Feedback
+        The verdict; a missing absolute value, multiplying by 0.6745, forgetting it, the standard deviation or the
+        mean of the coefficients, PyWavelets' extended (symmetric) coefficients and the standard deviation of the
+        raw readings are recognised.
+    """
+    d = detail_coefficients(NOISE_WINDOW)
+    expected = float(noise_sigma(NOISE_WINDOW))
+    import pywt
+
+    d_sym = np.asarray(pywt.dwt(NOISE_WINDOW, "db6")[1])
+    mistakes = {
+        float(np.median(d)) / MAD_TO_SIGMA:
+            "Take the median of the absolute values, |d|: the coefficients are spread around zero, so their plain "
+            "median is close to zero.",
+        float(np.median(np.abs(d))) * MAD_TO_SIGMA:
+            "Divide by 0.6745, do not multiply: the median of |N(0, σ²)| is 0.6745·σ, so σ = median / 0.6745.",
+        float(np.median(np.abs(d))):
+            "The median of |d| is 0.6745·σ for Gaussian noise: divide it by 0.6745.",
+        float(np.std(d)):
+            "That is the standard deviation of the coefficients, which a few spoiled coefficients can inflate; the "
+            "estimate uses the median of their absolute values divided by 0.6745.",
+        float(np.mean(np.abs(d))) / MAD_TO_SIGMA:
+            "Use the median of |d|, not its mean: the median is what makes the estimate robust.",
+        float(np.median(np.abs(d_sym))) / MAD_TO_SIGMA:
+            "These are the coefficients of pywt.dwt with its default symmetric extension, which invents samples "
+            "beyond the window's edges. Use only the coefficients whose filter lies inside the window: "
+            "wavelet.detail_coefficients(window) (mode='valid').",
+        float(np.std(NOISE_WINDOW)):
+            "That is the spread of the readings themselves, which includes the vehicle's descent. The wavelet's "
+            "detail coefficients remove the smooth part first.",
+    }
+    return check_number(sigma, expected, rtol=1e-3, name="the noise standard deviation", units="m",
+                        common_mistakes=mistakes,
+                        hint="d = wavelet.detail_coefficients(window) (db6), then np.median(np.abs(d)) / 0.6745.",
+                        explanation="The readings were simulated with σ = 0.15 m; a single estimate from 20 "
+                                    "coefficients scatters by about 25 % around the true value.")
+
+
+# -- exercise 8.4: effective sample size and systematic resampling ----------------------------------------------------
+def check_effective_sample_size(ess: Any) -> Feedback:
+    """Check the effective sample size of ``PARTICLE_WEIGHTS`` (which are not normalized).
+
+    Parameters
+    ----------
+    ess : float or None
+        The student's effective sample size.
+
+    Returns
+    -------
+    Feedback
+        The verdict; weights used without normalizing, the sum of squares without the reciprocal, the number of
+        particles and the reciprocal of the largest weight are recognised.
+    """
+    w = PARTICLE_WEIGHTS
+    wn = w / w.sum()
+    expected = float(1.0 / np.sum(wn**2))
+    mistakes = {
+        float(1.0 / np.sum(w**2)):
+            "Normalize the weights first (w / w.sum()): N_eff = 1 / Σ w_i² holds for weights that sum to one.",
+        float(np.sum(wn**2)):
+            "N_eff is the reciprocal of the sum of squared normalized weights: 1 / Σ w_i².",
+        float(w.size):
+            "N_eff equals the number of particles only when all weights are equal; here they are not.",
+        float(1.0 / wn.max()):
+            "1 / max(w) is how many copies of the heaviest particle would fill the set; the effective sample "
+            "size is 1 / Σ w_i² of the normalized weights.",
+    }
+    return check_number(ess, expected, rtol=1e-3, name="the effective sample size", common_mistakes=mistakes,
+                        hint="w = w / w.sum(); ess = 1 / np.sum(w**2).",
+                        explanation="Of six particles, fewer than four effectively carry the estimate.")
+
+
+def _systematic_reference(weights: Any, u: float) -> np.ndarray:
+    w = np.asarray(weights, dtype=float)
+    w = w / w.sum()
+    c = np.cumsum(w)
+    c[-1] = 1.0
+    return np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
+
+
+def _systematic_cases() -> list[Case]:
+    rng = np.random.default_rng(2005)
+    random_weights = rng.random(10)
+    return [
+        Case((np.array([0.1, 0.2, 0.3, 0.4]), 0.5), label="four weights, u = 0.5",
+             hint="The N points are (j + u)/N for j = 0..N−1; each selects the first particle whose cumulative weight "
+                  "exceeds it (np.searchsorted(np.cumsum(w), points, side='right'))."),
+        Case((np.array([0.25, 0.25, 0.25, 0.25]), 0.0), label="equal weights, u = 0 (points on the boundaries)",
+             hint="A point that equals a cumulative weight belongs to the next particle: use side='right' in "
+                  "np.searchsorted, so that equal weights give one copy of each particle."),
+        Case((np.array([1.0, 3.0, 0.0, 4.0]), 0.3), label="unnormalized weights with a zero",
+             hint="Normalize the weights first (w / w.sum()); a particle of weight zero must never be selected."),
+        Case((np.array([5.0]), 0.7), label="a single particle",
+             hint="With one particle every point selects it: the result is [0]."),
+        Case((np.array([0.97, 0.01, 0.01, 0.01]), 0.9), label="one dominant particle"),
+        Case((random_weights, 0.123), label="ten random weights"),
+        Case((np.array([0.2, 0.3, 0.5]), 0.999), label="u close to 1",
+             hint="Points stay below 1 when 0 <= u < 1; set the last cumulative weight to exactly 1 so that rounding "
+                  "cannot push a point past the end."),
+    ]
+
+
+def check_systematic_resample(func: Any) -> Feedback:
+    """Check a student's ``systematic(weights, u)``: systematic resampling with a given uniform offset ``u``.
+
+    The specification (also in the notebook): normalize the weights, form the points ``(j + u) / N`` for
+    ``j = 0, ..., N-1`` and return, for each point, the index of the first particle whose cumulative weight is
+    greater than the point (an integer array of length ``N``).
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function.
+
+    Returns
+    -------
+    Feedback
+        The verdict; a failing case is reported with its inputs, the expected indices and the student's.
+    """
+    return check_function(
+        func, _systematic_reference, _systematic_cases(), name="systematic",
+        compare=lambda got, expected: check_array(got, expected, name="the indices"),
+        hint="Normalize, cumulate (np.cumsum), set the last cumulative weight to 1, then "
+             "np.searchsorted(c, (np.arange(N) + u) / N, side='right').",
+        explanation="One uniform number per step and a single pass over the particles: the cheapest resampler, and "
+                    "usually the least noisy.")
+
+
+# -- exercise 8.5: paper C's Q -----------------------------------------------------------------------------------------
+def check_q_smallest_eigenvalue(value: Any) -> Feedback:
+    """Check the smallest eigenvalue of paper C's process covariance as printed (``Q_PRINTED``).
+
+    Parameters
+    ----------
+    value : float or None
+        The student's smallest eigenvalue.
+
+    Returns
+    -------
+    Feedback
+        The verdict; the matrix of the unsquared entries, the largest eigenvalue, the determinant and the smallest
+        diagonal entry are recognised.
+    """
+    Q = Q_PRINTED
+    expected = float(np.linalg.eigvalsh(Q)[0])
+    unsquared = np.sqrt(Q)
+    mistakes = {
+        float(np.linalg.eigvalsh(unsquared)[0]):
+            "The entries are printed as squares (0.8² = 0.64, 0.6² = 0.36, ...): build the matrix from the squared "
+            "values.",
+        float(np.linalg.eigvalsh(Q)[-1]):
+            "That is the largest eigenvalue; the question is whether any eigenvalue is negative.",
+        float(np.linalg.det(Q)):
+            "That is the determinant (the product of the eigenvalues); compute the eigenvalues themselves with "
+            "np.linalg.eigvalsh(Q).",
+        float(np.diag(Q).min()):
+            "The diagonal entries are variances, all positive; a matrix with a positive diagonal can still have a "
+            "negative eigenvalue. Use np.linalg.eigvalsh(Q).",
+    }
+    return check_number(value, expected, rtol=1e-3, name="the smallest eigenvalue", common_mistakes=mistakes,
+                        hint="np.linalg.eigvalsh(Q) returns the eigenvalues of a symmetric matrix in increasing order.",
+                        explanation="A covariance matrix cannot have a negative eigenvalue: Q as printed is not a "
+                                    "covariance.")
+
+
+def check_q_correlation(value: Any) -> Feedback:
+    """Check the correlation between the depth and the speed noise implied by ``Q_PRINTED``.
+
+    Parameters
+    ----------
+    value : float or None
+        The student's correlation coefficient.
+
+    Returns
+    -------
+    Feedback
+        The verdict; the covariance itself, division by the variances instead of the standard deviations, the
+        unsquared entries and the depth-pitch pair are recognised.
+    """
+    Q = Q_PRINTED
+    expected = float(Q[0, 1] / math.sqrt(Q[0, 0] * Q[1, 1]))
+    mistakes = {
+        float(Q[0, 1]): "That is the covariance; the correlation divides it by both standard deviations.",
+        float(Q[0, 1] / (Q[0, 0] * Q[1, 1])):
+            "Divide by the standard deviations sqrt(Q_zz)·sqrt(Q_vv), not by the variances.",
+        float(math.sqrt(Q[0, 1]) / math.sqrt(Q[0, 0] * Q[1, 1])):
+            "The covariance is the printed 0.8² = 0.64, not 0.8.",
+        float(Q[0, 2] / math.sqrt(Q[0, 0] * Q[2, 2])):
+            "That is the depth-pitch correlation (entries (0, 2)); the question asks for depth and speed, (0, 1).",
+    }
+    return check_number(value, expected, rtol=1e-3, name="the depth-speed correlation", common_mistakes=mistakes,
+                        hint="ρ = Q[0, 1] / sqrt(Q[0, 0] · Q[1, 1]).",
+                        explanation="A correlation must lie between −1 and 1, and it has no units, so no reading of the "
+                                    "paper's units can make this Q valid.")

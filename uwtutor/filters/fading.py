@@ -1,0 +1,925 @@
+r"""Fading-memory range-only EKFs for multiplicative range noise (paper D's ISFEKF and LS-ISFEKF), batched.
+
+**Model** (Zhu et al. 2019, paper D, eqs. 10-11). The horizontal position :math:`\mathbf x_k` moves by the
+dead-reckoned displacement :math:`\mathbf u_k` and is observed through a range whose error grows with the range
+(a sound-speed error):
+
+.. math::
+
+    \mathbf x_k = \mathbf x_{k-1} + \mathbf u_k + \mathbf w_k, \quad \mathbf w_k \sim N(0, \mathbf Q), \qquad
+    z_k = \gamma_k\, h(\mathbf x_k) + v_k, \quad \gamma_k \sim N(\mu_\gamma, \sigma_\gamma^2),\
+    v_k \sim N(0, R),
+
+with :math:`h(\mathbf x) = \lVert \mathbf x - \mathbf b\rVert`. A vehicle converting travel times with a speed
+:math:`c` while the true effective speed is :math:`c_\mathrm e` measures :math:`\gamma_k \approx c / c_\mathrm e`:
+:math:`\mu_\gamma = 0.98` for paper D's 1470 against 1500 m/s (see :func:`range_factor_moments`).
+
+**Linearization** at the prediction :math:`\hat{\mathbf x}^-_k`: :math:`h(\mathbf x) \approx \mathbf C_k \mathbf x
++ d_k` with :math:`\mathbf C_k = (\hat{\mathbf x}^-_k - \mathbf b)^\mathsf T / \lVert\hat{\mathbf x}^-_k -
+\mathbf b\rVert` and :math:`d_k = h(\hat{\mathbf x}^-_k) - \mathbf C_k\hat{\mathbf x}^-_k = -\mathbf C_k\mathbf b`
+(zero for a beacon at the origin). The multiplicative noise then adds
+:math:`\sigma_\gamma^2\,\mathrm E[(\mathbf C_k\mathbf x_k + d_k)^2]` to the innovation variance, which needs the
+prior mean :math:`\mathbf m_k` and second moment :math:`\boldsymbol\Xi_k` of the state (paper D's
+:math:`\mathbf J_i`, :math:`\mathbf S_i`, eqs. 14-15):
+
+.. math::
+
+    \mathbf m_k = \mathbf m_{k-1} + \mathbf u_k, \qquad
+    \boldsymbol\Xi_k = \boldsymbol\Xi_{k-1} + \mathbf m_{k-1}\mathbf u_k^\mathsf T + \mathbf u_k
+    \mathbf m_{k-1}^\mathsf T + \mathbf u_k\mathbf u_k^\mathsf T + \mathbf Q,
+
+    T_k = \mathbf C_k\boldsymbol\Xi_k\mathbf C_k^\mathsf T + 2 (\mathbf C_k\mathbf m_k) d_k + d_k^2
+    = \mathrm E[(\mathbf C_k\mathbf x_k + d_k)^2].
+
+**Fading factor** (Zhou and Xi 1990; paper D eqs. 16-21). With the innovation
+:math:`\tilde z_k = z_k - \mu_\gamma h(\hat{\mathbf x}^-_k)` and its power estimated with a forgetting factor
+:math:`0 < \rho \le 1`,
+
+.. math::
+
+    V_1 = \tilde z_1^2, \qquad V_k = \frac{\rho V_{k-1} + \tilde z_k^2}{1 + \rho},
+
+    \mathcal M_k = V_k - \sigma_\gamma^2 T_k - \mu_\gamma^2 \mathbf C_k\mathbf Q\mathbf C_k^\mathsf T - \beta_k R,
+    \qquad \mathcal N_k = \mu_\gamma^2\, \mathbf C_k \mathbf P_{k-1}\mathbf C_k^\mathsf T,
+    \qquad \lambda_k = \max(1, \mathcal M_k / \mathcal N_k),
+
+    \mathbf P^-_k = \lambda_k \mathbf P_{k-1} + \mathbf Q .
+
+:math:`\mathcal M_k/\mathcal N_k` compares the innovation power actually seen with the power the filter predicts
+from its own covariance: when the model is right, :math:`\mathrm E[V_k] = \mu_\gamma^2\mathbf C_k
+\mathbf P^-_k\mathbf C_k^\mathsf T + \sigma_\gamma^2 T_k + R`, so :math:`\mathrm E[\mathcal M_k] \approx
+\mathcal N_k + (1 - \beta_k) R` and :math:`\lambda_k` stays at 1 unless the innovations are larger than they
+should be (a wrong model, a jump of the state); then :math:`\lambda_k > 1` inflates the prediction's covariance,
+the gain grows and the filter forgets the past faster.
+
+**Weakening factor** :math:`\beta_k`. Zhou and Xi's filter uses a constant :math:`\beta \ge 1` to make
+:math:`\lambda_k` less eager. Paper D's ISFEKF (eq. 27) sets :math:`\beta_k = \mathbf C_k\mathbf m_k` (here
+:math:`\mathbf C_k\mathbf m_k + d_k = \mathbf C_k(\mathbf m_k - \mathbf b)`, the same for a beacon at the origin
+and invariant to moving the frame): about the predicted range, hundreds to thousands. Then
+:math:`\beta_k R \gg R`, and :math:`\lambda_k > 1` only when the smoothed innovation power exceeds its expected
+value by about :math:`R\,h(\hat{\mathbf x}^-_k)` square metres: a range-dependent threshold that lets the filter
+fade near the beacon but suppresses fading after one gross range error far from it.
+
+**Update** (eqs. 22-25, covariance in Joseph form):
+
+.. math::
+
+    R_\delta = \sigma_\gamma^2 T_k + \mu_\gamma^2 \mathbf C_k\mathbf P^-_k\mathbf C_k^\mathsf T + R, \qquad
+    \mathbf K_k = \frac{\mu_\gamma}{R_\delta}\mathbf P^-_k\mathbf C_k^\mathsf T, \qquad
+    \hat{\mathbf x}_k = \hat{\mathbf x}^-_k + \mathbf K_k\tilde z_k,
+
+    \mathbf P_k = (\mathbf I - \mu_\gamma\mathbf K_k\mathbf C_k)\mathbf P^-_k
+    (\mathbf I - \mu_\gamma\mathbf K_k\mathbf C_k)^\mathsf T + \mathbf K_k (\sigma_\gamma^2 T_k + R)
+    \mathbf K_k^\mathsf T .
+
+This is the range-only EKF's update for the scaled range :math:`z_k / \mu_\gamma` with noise variance
+:math:`(\sigma_\gamma^2 T_k + R)/\mu_\gamma^2`, and this module calls exactly that update (the step functions of
+``uwtutor.filters.ekf``). Hence with :math:`\mu_\gamma = 1`, :math:`\sigma_\gamma = 0` and ``fading=False``
+the filter *is* the plain EKF, number for number.
+
+Special cases, by parameters:
+
+=============================================  =====================================================================
+filter                                         parameters
+=============================================  =====================================================================
+plain EKF (additive noise)                     ``mu_gamma=1, sigma_gamma=0, fading=False``
+suboptimal fading EKF (Zhou and Xi 1990)       ``mu_gamma=1, sigma_gamma=0, beta=1.0``
+fading EKF for multiplicative noise (paper D)  ``mu_gamma, sigma_gamma, beta=1.0``
+ISFEKF (paper D)                               ``mu_gamma, sigma_gamma, beta="range"``
+LS-EKF, LS-ISFEKF (paper D)                    :func:`ls_fading_ekf` (grid-search start, then one of the above)
+=============================================  =====================================================================
+
+Forms: :func:`fading_ekf` runs ``M`` Monte Carlo runs of ``K`` steps in one call (explicit 2x2 algebra on arrays of
+length ``M``, like ``uwtutor.filters.ekf``: 1000 runs of 151 steps take a few tens of milliseconds);
+:class:`FadingEKF` follows the filter protocol (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``)
+with the same arithmetic; :func:`ls_fading_ekf` adds paper D's least-squares pre-location
+(``uwtutor.lsq``).
+
+Notes on paper D's text (see chapter 5): its eq. (30) writes :math:`\mu_\gamma = 1 - (1470 - 1500)/1500 = 1.02`,
+but its own model (eqs. 2-4) gives ranges 2 % *short*, :math:`\mu_\gamma = 0.98`; and it starts the second moment
+at :math:`\mathbf S_1 = \mathbf P_1`, while a second moment is :math:`\mathbf P_1 + \hat{\mathbf x}_1
+\hat{\mathbf x}_1^\mathsf T` (the default here, ``second_moment0=None``). With :math:`\mathbf S_1 = \mathbf P_1`
+the term :math:`T_k` can turn negative; it is clipped at zero.
+
+References
+----------
+Zhu Z., Han S., Guo Z., Liu J. (2019). Single beacon location algorithm based on nonlinear fading filter under
+multiplicative noise background. J. Electronics & Information Technology 41(1), 165-171 (paper D), eqs. (10)-(27).
+
+Zhou D., Xi Y. (1990). Suboptimal fading extended Kalman filtering for nonlinear systems. Control and Decision
+5(5), 1-6.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
+from .base import FilterResult
+from .ekf import (_PXX, _PXY, _PYX, _PYY, _X, _Y, _N_ROWS, _P_view, _beacon, _initial_state, _noise_parameters,
+                  _pack, _predict_step, _runs, _steps_and_times, _update_step, _x_view)
+
+__all__ = [
+    "range_factor_moments",
+    "fading_ekf",
+    "FadingEKF",
+    "FadingResult",
+    "ls_fading_ekf",
+    "LSFadingResult",
+]
+
+# Rows of the packed (6, M) fading memory: prior mean m (2), second moment Xi (xx, xy, yy) and V.
+_MX, _MY, _XXX, _XXY, _XYY, _V = range(6)
+
+#: Names of the per-step outputs in ``FilterResult.extras`` (besides ``"updated"``).
+_EXTRAS = ("fading_factor", "weakening_factor", "innovation_power", "fading_numerator", "fading_denominator",
+           "multiplicative_variance")
+
+
+def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 1500.0,
+                         speed_sigma: Any = 1.0) -> tuple[float, float]:
+    r"""Mean and standard deviation of the multiplicative range factor :math:`\gamma` from sound-speed errors.
+
+    A vehicle converting the travel time :math:`\tau = r / c'_k` with the speed :math:`c` reports
+    :math:`r_k = (c / c'_k)\, r`. With the true speed :math:`c'_k = c_\mathrm e + \epsilon_k`,
+    :math:`\epsilon_k \sim N(0, \sigma_c^2)` (the book's :math:`c = c_\mathrm e + \Delta c + \delta c`,
+    :math:`\Delta c = c - c_\mathrm e`), to first order in :math:`\sigma_c / c_\mathrm e`
+
+    .. math::
+
+        \mu_\gamma = \frac{c}{c_\mathrm e} = 1 + \frac{\Delta c}{c_\mathrm e}, \qquad
+        \sigma_\gamma = \frac{c}{c_\mathrm e}\,\frac{\sigma_c}{c_\mathrm e}.
+
+    Paper D (eq. 4) writes :math:`\mu_\gamma = 1 + \Delta c / c'` and :math:`\sigma_\gamma = \sigma_c / c'` (its
+    :math:`c'` is the book's :math:`c_\mathrm e`); the factor :math:`c / c_\mathrm e` in :math:`\sigma_\gamma`
+    (0.98 here) is second order. For 1470 against 1500 m/s, :math:`\mu_\gamma = 0.98`: ranges 2 % short (paper
+    D's eq. 30 prints 1.02, a sign slip).
+
+    Parameters
+    ----------
+    assumed_speed : float, default 1470
+        Speed :math:`c` the vehicle converts with [m/s], > 0.
+    effective_speed : float, default 1500
+        Mean true effective speed :math:`c_\mathrm e` [m/s], > 0.
+    speed_sigma : float, default 1
+        Standard deviation :math:`\sigma_c` of the true speed from ping to ping [m/s], >= 0.
+
+    Returns
+    -------
+    mu_gamma : float
+        :math:`\mu_\gamma`.
+    sigma_gamma : float
+        :math:`\sigma_\gamma`.
+
+    Examples
+    --------
+    >>> from uwtutor.filters.fading import range_factor_moments
+    >>> mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
+    >>> round(mu, 4), round(sigma * 1500, 4)
+    (0.98, 0.98)
+    """
+    c = _positive_scalar("assumed_speed", assumed_speed)
+    ce = _positive_scalar("effective_speed", effective_speed)
+    sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
+    if sc < 0:
+        raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
+    return c / ce, c * sc / ce**2
+
+
+def _positive_scalar(name: str, value: Any) -> float:
+    v = float(as_finite(name, value, ndim=0))
+    if v <= 0:
+        raise ValueError(f"{name} must be > 0; got {v:g}")
+    return v
+
+
+# --- the step (the only implementation of the fading arithmetic) ----------------------------------------------------
+
+@dataclass(frozen=True)
+class _Params:
+    """Validated filter parameters; ``mu``/``sigma2`` are floats or (M,) arrays, ``beta`` a float or None (range)."""
+
+    q4: np.ndarray
+    Q: np.ndarray
+    R: float
+    beacon: tuple[float, float]
+    mu: Any
+    sigma2: Any
+    rho: float
+    beta: float | None
+    fading: bool
+
+
+def _fading_step(s: np.ndarray, mem: np.ndarray, started: np.ndarray, u: np.ndarray, z: np.ndarray,
+                 use: np.ndarray, p: _Params, prior: np.ndarray, post: np.ndarray, y_out: np.ndarray,
+                 S_out: np.ndarray, diag: np.ndarray) -> np.ndarray:
+    """One predict + update of the packed states ``s`` (6, M) with the fading memory ``mem`` (6, M, in place).
+
+    ``started`` (M,) bool marks the runs whose ``V`` has been initialized (updated in place). ``prior`` and
+    ``post`` (6, M) receive the prediction (with the fading factor applied) and the posterior; ``y_out``/``S_out``
+    (M,) the innovation and its variance; ``diag`` (6, M) the per-step diagnostics in the order of ``_EXTRAS``.
+    Returns the ``use`` array actually applied (runs whose prediction is on the beacon removed).
+    """
+    mx, my = mem[_MX], mem[_MY]
+    ux, uy = u[0], u[1]
+    # moments of the state's prior distribution (paper D, eqs. 14-15; F = G = I)
+    mem[_XXX] += 2.0 * mx * ux + ux * ux + p.Q[0, 0]
+    mem[_XXY] += mx * uy + ux * my + ux * uy + p.Q[0, 1]
+    mem[_XYY] += 2.0 * my * uy + uy * uy + p.Q[1, 1]
+    mx += ux
+    my += uy
+    # prediction without fading: x + u, P + Q (the EKF's step), then linearize at x-
+    _predict_step(s, u, p.q4, prior)
+    bx, by = p.beacon
+    dx = prior[_X] - bx if bx else prior[_X]
+    dy = prior[_Y] - by if by else prior[_Y]
+    r = np.sqrt(dx * dx + dy * dy)
+    safe_r = np.where(r > 0.0, r, 1.0)
+    cx = dx / safe_r                                 # C = (x- - b)^T / |x- - b|
+    cy = dy / safe_r
+    d = -(cx * bx + cy * by)                         # d = h(x-) - C x- = -C b
+    cm = cx * mx + cy * my                           # C m
+    T = cx * cx * mem[_XXX] + 2.0 * cx * cy * mem[_XXY] + cy * cy * mem[_XYY] + 2.0 * cm * d + d * d
+    np.maximum(T, 0.0, out=T)                        # E[(C x + d)^2] >= 0 (can fail only with S_1 = P_1)
+    mult = p.sigma2 * T                              # sigma_gamma^2 E[(C x + d)^2]
+    beta = cm + d if p.beta is None else np.full_like(r, p.beta)
+    ztil = z - p.mu * r                              # innovation z - mu h(x-)
+    # innovation power with the forgetting factor (eq. 20); unused ranges leave V unchanged
+    used = use != 0.0
+    first = used & ~started
+    V = mem[_V]
+    np.copyto(V, np.where(first, ztil * ztil, np.where(used, (p.rho * V + ztil * ztil) / (1.0 + p.rho), V)))
+    started |= used
+    mu2 = p.mu * p.mu
+    cqc = cx * cx * p.Q[0, 0] + 2.0 * cx * cy * p.Q[0, 1] + cy * cy * p.Q[1, 1]
+    pxx, pxy, pyy = s[_PXX], s[_PXY], s[_PYY]       # the previous posterior P_{k-1}
+    num = V - mult - mu2 * cqc - beta * p.R          # script M (eq. 26)
+    den = mu2 * (cx * cx * pxx + 2.0 * cx * cy * pxy + cy * cy * pyy)   # script N (eq. 19)
+    if p.fading:
+        ratio = np.divide(num, den, out=np.zeros_like(num), where=den > 0.0)
+        lam = np.where(used, np.maximum(ratio, 1.0), 1.0)
+        grow = lam - 1.0                             # P- = lam P + Q = (P + Q) + (lam - 1) P
+        prior[_PXX] += grow * pxx
+        prior[_PXY] += grow * pxy
+        prior[_PYY] += grow * pyy
+        prior[_PYX] = prior[_PXY]
+    else:
+        lam = np.ones_like(r)
+    # the update: the EKF's, for the range z / mu with noise variance (sigma^2 T + R) / mu^2
+    applied = _update_step(prior, z / p.mu, use, (mult + p.R) / mu2, p.beacon, post, y_out, S_out)
+    y_out *= p.mu                                    # back to z - mu h(x-) and R_delta
+    S_out *= mu2
+    diag[0] = lam
+    diag[1] = beta
+    diag[2] = V
+    diag[3] = num
+    diag[4] = den
+    diag[5] = mult
+    return applied
+
+
+# --- validation ----------------------------------------------------------------------------------------------------
+
+def _per_run(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[Any, int | None]:
+    """A scalar or one value per run (shape (M,)), finite and > (or >=) ``minimum``."""
+    arr = as_finite(name, value, ndim=(0, 1))
+    bad = arr <= minimum if strict else arr < minimum
+    if np.any(bad):
+        rel = ">" if strict else ">="
+        raise ValueError(f"{name} must be {rel} {minimum:g}; got {arr[bad].flat[0]:g}")
+    if arr.ndim == 0:
+        return float(arr), None
+    return arr, arr.shape[0]
+
+
+def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: Any, rho: Any, beta: Any,
+                       fading: Any) -> tuple[_Params, int | None]:
+    Qm, R_val, q4 = _noise_parameters(Q, R)
+    b = _beacon(beacon)
+    mu, m_mu = _per_run("mu_gamma", mu_gamma, minimum=0.0, strict=True)
+    sigma, m_sigma = _per_run("sigma_gamma", sigma_gamma, minimum=0.0, strict=False)
+    rho_v = float(as_finite("rho", rho, ndim=0))
+    if not 0.0 < rho_v <= 1.0:
+        raise ValueError(f"rho is a forgetting factor and must lie in (0, 1]; got {rho_v:g} (paper D: 0.95)")
+    if isinstance(beta, str):
+        if beta != "range":
+            raise ValueError(f'beta must be "range" (paper D: beta = C m, about the predicted range) or a number '
+                             f'>= 0 (Zhou and Xi: 1); got {beta!r}')
+        beta_v = None
+    else:
+        beta_v = float(as_finite("beta", beta, ndim=0))
+        if beta_v < 0:
+            raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
+    if not isinstance(fading, (bool, np.bool_)):
+        raise TypeError(f"fading must be True or False; got {fading!r}")
+    M = _runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
+    sigma2 = sigma * sigma
+    return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M
+
+
+def _second_moment(x0: np.ndarray, P0: np.ndarray, second_moment0: Any, M: int) -> np.ndarray:
+    """Initial second moment (M, 2, 2): ``P0 + x0 x0^T`` by default, else the given one (e.g. paper D's ``P0``)."""
+    x = np.broadcast_to(x0, (M, 2))
+    if second_moment0 is None:
+        return np.broadcast_to(P0, (M, 2, 2)) + x[:, :, None] * x[:, None, :]
+    S = as_finite("second_moment0", second_moment0, ndim=(2, 3))
+    if S.shape[-2:] != (2, 2) or (S.ndim == 3 and S.shape[0] != M):
+        raise ValueError(f"second_moment0 must have shape (2, 2) or (M, 2, 2) with M = {M}; got {S.shape}")
+    if not np.allclose(S, np.swapaxes(S, -1, -2)):
+        raise ValueError("second_moment0 must be symmetric")
+    return np.broadcast_to(S, (M, 2, 2))
+
+
+def _memory(x0: np.ndarray, Xi0: np.ndarray) -> np.ndarray:
+    M = Xi0.shape[0]
+    mem = np.zeros((6, M))
+    mem[_MX:_MY + 1] = np.broadcast_to(x0, (M, 2)).T
+    mem[_XXX] = Xi0[:, 0, 0]
+    mem[_XXY] = 0.5 * (Xi0[:, 0, 1] + Xi0[:, 1, 0])
+    mem[_XYY] = Xi0[:, 1, 1]
+    return mem
+
+
+# --- results ---------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FadingResult(FilterResult):
+    r"""What a fading EKF run produced: a :class:`~uwtutor.filters.base.FilterResult` plus the fading diagnostics.
+
+    The ``extras`` dictionary holds, per step (shape (K,) or (M, K)): ``"fading_factor"`` :math:`\lambda_k`
+    (1 where no range was used or ``fading=False``), ``"weakening_factor"`` :math:`\beta_k`,
+    ``"innovation_power"`` :math:`V_k`, ``"fading_numerator"`` :math:`\mathcal M_k` and ``"fading_denominator"``
+    :math:`\mathcal N_k` (NaN where no range was used), ``"multiplicative_variance"``
+    :math:`\sigma_\gamma^2 T_k` (the part of the innovation variance due to the multiplicative noise) and
+    ``"updated"`` (True where a range was used). ``innovations`` are
+    :math:`\tilde z_k = z_k - \mu_\gamma h(\hat{\mathbf x}^-_k)` and ``innovation_cov`` is :math:`R_\delta`.
+    """
+
+    @property
+    def fading_factor(self) -> np.ndarray:
+        r"""The fading factor :math:`\lambda_k \ge 1` of every step, shape (K,) or (M, K)."""
+        return self.extras["fading_factor"]
+
+    @property
+    def weakening_factor(self) -> np.ndarray:
+        r"""The weakening factor :math:`\beta_k` of every step, shape (K,) or (M, K)."""
+        return self.extras["weakening_factor"]
+
+
+def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Params, times: np.ndarray,
+         batched: bool) -> tuple[FadingResult, np.ndarray, np.ndarray, np.ndarray]:
+    """K steps from the packed states ``s0`` and memory ``mem0`` (copied). Returns the result and the last state."""
+    M = s0.shape[1]
+    K = len(times)
+    if u.ndim == 3:
+        u_steps = np.ascontiguousarray(np.moveaxis(u, 0, -1))       # (K, 2, M)
+    else:
+        u_steps = u[:, :, None]
+    z_fill = np.array(np.broadcast_to(z, (M, K)).T, order="C")     # (K, M)
+    use = np.isfinite(z_fill).astype(float)
+    z_fill[use == 0.0] = 0.0
+    prior = np.empty((K, _N_ROWS, M))
+    post = np.empty((K, _N_ROWS, M))
+    innov = np.empty((K, M))
+    innov_var = np.empty((K, M))
+    diag = np.empty((K, len(_EXTRAS), M))
+    mem = mem0.copy()
+    started = np.zeros(M, dtype=bool)
+    s = s0
+    for k in range(K):
+        applied = _fading_step(s, mem, started, u_steps[k], z_fill[k], use[k], p, prior[k], post[k], innov[k],
+                               innov_var[k], diag[k])
+        if applied is not use[k]:
+            use[k] = applied
+        s = post[k]
+    unused = use == 0.0
+    innov[unused] = np.nan
+    innov_var[unused] = np.nan
+    for name in ("fading_numerator", "fading_denominator"):     # undefined without a range
+        diag[:, _EXTRAS.index(name)][unused] = np.nan
+
+    def runs_first(a: np.ndarray) -> np.ndarray:
+        return a if batched else a[0]
+
+    extras = {name: runs_first(diag[:, i].T) for i, name in enumerate(_EXTRAS)}
+    extras["updated"] = runs_first(~unused.T)
+    result = FadingResult(
+        times=times,
+        x=runs_first(np.moveaxis(_x_view(post), 0, 1)),
+        P=runs_first(np.moveaxis(_P_view(post), 0, 1)),
+        x_prior=runs_first(np.moveaxis(_x_view(prior), 0, 1)),
+        P_prior=runs_first(np.moveaxis(_P_view(prior), 0, 1)),
+        innovations=runs_first(innov.T[:, :, None]),
+        innovation_cov=runs_first(innov_var.T[:, :, None, None]),
+        extras=extras,
+    )
+    return result, post[-1].copy(), mem, started
+
+
+def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
+               rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
+               beacon: Any = (0.0, 0.0), times: Any = None) -> FadingResult:
+    r"""Run the fading EKF for multiplicative range noise (paper D's ISFEKF by default), one run or ``M`` at once.
+
+    Each step ``k`` predicts with the DR displacement ``u[..., k, :]``, computes the fading factor
+    :math:`\lambda_k` from the innovation of the range ``z[..., k]`` and updates (equations in the module
+    docstring). A NaN range means no reply: that step is predict only (:math:`\lambda_k = 1`, :math:`V` kept).
+
+    Parameters
+    ----------
+    x0 : array_like, shape (2,) or (M, 2)
+        Initial position estimate [m].
+    P0 : array_like, shape (2, 2) or (M, 2, 2)
+        Its covariance (positive definite) [m^2]; paper D: ``diag(dr^2, dr^2)`` with ``dr`` the initial error.
+    u : array_like, shape (K, 2) or (M, K, 2)
+        DR displacement from epoch ``k - 1`` to epoch ``k`` [m].
+    z : array_like, shape (K,) or (M, K)
+        Measured ranges [m] (finite and >= 0, NaN where missing).
+    Q : array_like, shape (2, 2)
+        DR noise covariance per step [m^2] (paper D: ``diag(0.81, 0.81)``).
+    R : float
+        Additive range noise variance [m^2] (paper D: 0.49).
+    mu_gamma : float or array_like, shape (M,), default 1
+        Mean :math:`\mu_\gamma > 0` of the multiplicative factor (paper D's simulation: 0.98, see
+        :func:`range_factor_moments`); one per run allowed (e.g. from a pre-location).
+    sigma_gamma : float or array_like, shape (M,), default 0
+        Its standard deviation :math:`\sigma_\gamma \ge 0` (paper D: 1/1500).
+    rho : float, default 0.95
+        Forgetting factor :math:`0 < \rho \le 1` of the innovation power.
+    beta : {"range"} or float, default "range"
+        Weakening factor: ``"range"`` for paper D's :math:`\beta_k = \mathbf C_k(\mathbf m_k - \mathbf b)`
+        (ISFEKF), a number :math:`\ge 0` for a constant one (1: Zhou and Xi's suboptimal fading EKF).
+    fading : bool, default True
+        ``False`` keeps :math:`\lambda_k = 1` (the multiplicative-noise EKF without fading).
+    second_moment0 : array_like, shape (2, 2) or (M, 2, 2), optional
+        Initial second moment :math:`\boldsymbol\Xi_0` of the state; default :math:`\mathbf P_0 +
+        \hat{\mathbf x}_0\hat{\mathbf x}_0^\mathsf T`. Pass ``P0`` to follow paper D's text literally.
+    beacon : array_like, shape (2,), optional
+        Beacon position [m], the origin by default.
+    times : array_like, shape (K,), optional
+        Epoch times for the result (default ``0..K-1``).
+
+    Returns
+    -------
+    FadingResult
+        With a runs axis first if any input had one: ``x`` (M, K, 2), ``P`` (M, K, 2, 2), the predictions,
+        the innovations :math:`\tilde z_k` (M, K, 1) and :math:`R_\delta` (M, K, 1, 1), and per step the
+        ``fading_factor`` :math:`\lambda_k` and ``weakening_factor`` :math:`\beta_k` (M, K) with the other
+        diagnostics in ``extras``. The arrays are views into shared buffers: copy one before changing it.
+
+    Raises
+    ------
+    ValueError
+        On a wrong shape, non-finite inputs, a negative range, a ``Q`` that is not positive semi-definite, an
+        ``R``/``P0`` that is not positive definite, ``mu_gamma <= 0``, ``sigma_gamma < 0``, ``rho`` outside
+        (0, 1] or a ``beta`` that is neither ``"range"`` nor a number >= 0; the message names the argument.
+
+    Warns
+    -----
+    BeaconSingularityWarning
+        When a prediction falls exactly on the beacon (that run's update is skipped).
+
+    See Also
+    --------
+    FadingEKF : the same filter one step at a time.
+    ls_fading_ekf : paper D's LS-ISFEKF and LS-EKF (grid-search pre-location first).
+    uwtutor.filters.ekf.range_only_ekf : the plain EKF (``mu_gamma=1, sigma_gamma=0, fading=False`` here).
+
+    References
+    ----------
+    Zhu et al. (2019), paper D, eqs. (12)-(27); Zhou and Xi (1990).
+
+    Examples
+    --------
+    Paper D's simulation (approach with one turn, 1470 m/s assumed against 1500 m/s), 200 runs at once:
+
+    >>> import numpy as np
+    >>> from uwtutor import scenarios
+    >>> from uwtutor.filters.fading import fading_ekf, range_factor_moments
+    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(3), n_runs=200)
+    >>> mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
+    >>> x0 = sc.true_positions[:, 0] + [30.0, 0.0]                  # 30 m initial error
+    >>> res = fading_ekf(x0, np.eye(2) * 30.0**2, sc.dr_displacements, sc.ranges, Q=np.eye(2) * 0.81,
+    ...                  R=0.49, mu_gamma=mu, sigma_gamma=sigma, rho=0.95, beta="range", times=sc.times)
+    >>> res.x.shape, res.fading_factor.shape, res.weakening_factor.shape
+    ((200, 151, 2), (200, 151), (200, 151))
+    >>> err = np.linalg.norm(res.x[:, -1] - sc.true_positions[:, -1], axis=-1)
+    >>> bool(np.sqrt(np.mean(err**2)) < 15.0), bool(np.all(res.fading_factor >= 1.0))
+    (True, True)
+    """
+    x0, P0 = _initial_state(x0, P0)
+    u = as_finite("u", u, ndim=(2, 3))
+    if u.shape[-1] != 2:
+        raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
+    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
+    K = u.shape[-2]
+    if z.shape[-1] != K:
+        raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")
+    p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
+    times = _steps_and_times(K, times)
+    M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+              u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None,
+              mu_gamma_or_sigma_gamma=m_par)
+    batched = M is not None
+    M = M or 1
+    s0 = _pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
+    mem0 = _memory(x0, _second_moment(x0, P0, second_moment0, M))
+    result, _, _, _ = _run(s0, mem0, u, z, p, times, batched)
+    return result
+
+
+class FadingEKF:
+    r"""Paper D's fading EKF for multiplicative range noise as an object: ``predict(u)``, ``update(z)``.
+
+    Same model and arithmetic as :func:`fading_ekf` (both call this module's step function). The fading factor
+    needs the range, so ``predict(u)`` moves the estimate (``x`` becomes :math:`\hat{\mathbf x}^-_k`, ``P``
+    becomes :math:`\mathbf P_{k-1} + \mathbf Q`, i.e. :math:`\lambda_k = 1` provisionally) and ``update(z)``
+    computes :math:`\lambda_k`, applies :math:`\mathbf P^-_k = \lambda_k\mathbf P_{k-1} + \mathbf Q` and then
+    corrects. Two ``predict`` calls in a row make the first a predict-only step; ``update`` must follow a
+    ``predict``.
+
+    Parameters
+    ----------
+    x0 : array_like, shape (2,) or (M, 2)
+        Initial position estimate; a leading axis runs ``M`` filters at once.
+    P0 : array_like, shape (2, 2) or (M, 2, 2)
+        Initial covariance (positive definite).
+    Q : array_like, shape (2, 2)
+        Process (DR) noise covariance per step.
+    R : float
+        Additive range noise variance.
+    mu_gamma : float or array_like, shape (M,), default 1
+        Mean of the multiplicative factor.
+    sigma_gamma : float or array_like, shape (M,), default 0
+        Its standard deviation.
+    rho : float, default 0.95
+        Forgetting factor.
+    beta : {"range"} or float, default "range"
+        Weakening factor (see :func:`fading_ekf`).
+    fading : bool, default True
+        ``False`` keeps the fading factor at 1.
+    second_moment0 : array_like, optional
+        Initial second moment of the state (default ``P0 + x0 x0^T``).
+    beacon : array_like, shape (2,), optional
+        Beacon position, the origin by default.
+
+    Attributes
+    ----------
+    x : ndarray
+        Current estimate, shape (2,) or (M, 2).
+    P : ndarray
+        Current covariance, shape (2, 2) or (M, 2, 2).
+    y : ndarray
+        Innovation :math:`\tilde z_k` of the last update, shape (1,) or (M, 1) (NaN where no range was used).
+    S : ndarray
+        Its variance :math:`R_\delta`, shape (1, 1) or (M, 1, 1).
+    fading_factor : ndarray
+        :math:`\lambda_k` of the last update, shape () or (M,).
+    weakening_factor : ndarray
+        :math:`\beta_k` of the last update, shape () or (M,).
+    extra_outputs : tuple of str
+        The attributes :func:`uwtutor.filters.base.run_filter` records per step.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters.fading import FadingEKF
+    >>> f = FadingEKF([1000.0, 0.0], np.eye(2) * 100.0, Q=np.eye(2) * 0.81, R=0.49, mu_gamma=0.98,
+    ...               sigma_gamma=1 / 1500, beta=1.0)
+    >>> f.predict([-20.0, 0.0])
+    >>> f.update(0.98 * 980.0 + 60.0)          # a range 60 m longer than the model expects
+    >>> bool(f.fading_factor > 1.0), f.y.shape
+    (True, (1,))
+    """
+
+    extra_outputs = ("fading_factor", "weakening_factor")
+
+    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
+                 rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
+                 beacon: Any = (0.0, 0.0)) -> None:
+        x0, P0 = _initial_state(x0, P0)
+        self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
+        M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+                  mu_gamma_or_sigma_gamma=m_par)
+        self._batched = M is not None
+        self._M = M or 1
+        self._s = _pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
+        self._mem = _memory(x0, _second_moment(x0, P0, second_moment0, self._M))
+        self._started = np.zeros(self._M, dtype=bool)
+        self._pending: np.ndarray | None = None        # the DR displacement of a prediction awaiting its range
+        self._shown = self._s                           # what x and P show (the prediction after predict)
+        nan = np.full(self._M, np.nan)
+        self._set_outputs(nan, nan, np.ones(self._M), nan)
+
+    # -- parameters --
+    @property
+    def Q(self) -> np.ndarray:
+        """Process noise covariance (2, 2)."""
+        return self._p.Q
+
+    @property
+    def R(self) -> float:
+        """Additive range noise variance."""
+        return self._p.R
+
+    @property
+    def beacon(self) -> np.ndarray:
+        """Beacon position (2,)."""
+        return np.array(self._p.beacon)
+
+    # -- state access --
+    def _out(self, a: np.ndarray) -> np.ndarray:
+        return a if self._batched else a[0]
+
+    @property
+    def x(self) -> np.ndarray:
+        """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2)."""
+        return self._out(_x_view(self._shown)).copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2)."""
+        return self._out(_P_view(self._shown)).copy()
+
+    def _set_outputs(self, y: np.ndarray, S: np.ndarray, lam: np.ndarray, beta: np.ndarray) -> None:
+        self.y = y[:, None] if self._batched else y[:1].copy()
+        self.S = S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy()
+        self.fading_factor = lam.copy() if self._batched else np.array(lam[0])
+        self.weakening_factor = beta.copy() if self._batched else np.array(beta[0])
+
+    def _u_column(self, u: Any) -> np.ndarray:
+        if u is None:
+            return np.zeros((2, 1))
+        arr = as_finite("u", u)
+        if arr.shape == (2,):
+            return arr[:, None]
+        if self._batched and arr.shape == (self._M, 2):
+            return arr.T.copy()
+        raise ValueError(f"u must have shape (2,) or (M, 2) with M = {self._M}; got {arr.shape}")
+
+    def _step(self, u_col: np.ndarray, z: np.ndarray, use: np.ndarray) -> None:
+        prior = np.empty_like(self._s)
+        post = np.empty_like(self._s)
+        y = np.empty(self._M)
+        S = np.empty(self._M)
+        diag = np.empty((len(_EXTRAS), self._M))
+        applied = _fading_step(self._s, self._mem, self._started, np.broadcast_to(u_col, (2, self._M)), z, use,
+                               self._p, prior, post, y, S, diag)
+        unused = applied == 0.0
+        y[unused] = np.nan
+        S[unused] = np.nan
+        self._s = self._shown = post
+        self._set_outputs(y, S, diag[0], diag[1])
+
+    # -- the protocol --
+    def predict(self, u: Any = None) -> None:
+        """Move the estimate by the DR displacement ``u`` (shape (2,) or (M, 2); ``None``: no move)."""
+        u_col = self._u_column(u)
+        if self._pending is not None:               # the previous prediction got no range: predict-only step
+            self._step(self._pending, np.zeros(self._M), np.zeros(self._M))
+        self._pending = u_col
+        shown = np.empty_like(self._s)
+        _predict_step(self._s, u_col, self._p.q4, shown)
+        self._shown = shown
+
+    def update(self, z: Any) -> None:
+        """Fading factor, then correction with the range ``z`` (scalar, or (M,) when batched; NaN: no range)."""
+        if self._pending is None:
+            raise RuntimeError("call predict(u) before update(z): the fading factor scales the prediction's "
+                               "covariance, so each update needs its own prediction")
+        z = as_range_array("z", z, allow_nan=True)
+        if z.size == 1 and z.ndim <= 1:
+            z = np.broadcast_to(z.reshape(()), (self._M,))
+        elif z.shape != (self._M,) or not self._batched:
+            raise ValueError(f"z must be a scalar or, for a batched filter, shape ({self._M},); got {z.shape}")
+        has = np.isfinite(z)
+        u_col, self._pending = self._pending, None
+        self._step(u_col, np.where(has, z, 0.0), has.astype(float))
+
+    def run(self, z: Any, u: Any = None, times: Any = None) -> FadingResult:
+        """Predict with ``u[..., k, :]`` and update with ``z[..., k]`` for every step; return the history.
+
+        ``z`` has shape (K,) or, batched, (M, K) (NaN: predict only); ``u`` (K, 2) or (M, K, 2) (``None``: no
+        displacement). Uses the engine of :func:`fading_ekf`, so the result is identical to calling it with this
+        filter's state; the filter is left at the last step.
+        """
+        if self._pending is not None:
+            raise RuntimeError("run() starts from an updated state: call update(z) for the pending prediction first")
+        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1))
+        if z.ndim == 2 and z.shape[0] != self._M:
+            raise ValueError(f"z must have shape (K,) or (M, K) with M = {self._M}; got {z.shape}")
+        K = z.shape[-1]
+        u = np.zeros((K, 2)) if u is None else as_finite("u", u, ndim=(3 if self._batched else 2, 2))
+        if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
+            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2); got {u.shape}")
+        times = _steps_and_times(K, times)
+        result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
+        self._s = self._shown = last
+        self._mem = mem
+        self._started = started
+        ys = np.array(result.innovations[..., -1, 0], ndmin=1)
+        Ss = np.array(result.innovation_cov[..., -1, 0, 0], ndmin=1)
+        self._set_outputs(ys, Ss, np.array(result.fading_factor[..., -1], ndmin=1),
+                          np.array(result.weakening_factor[..., -1], ndmin=1))
+        return result
+
+
+# --- LS-EKF and LS-ISFEKF --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LSFadingResult:
+    r"""Paper D's two-stage estimate: grid-search pre-location until accepted, then a filter (``ls_fading_ekf``).
+
+    Shapes: ``M`` runs (always a runs axis), ``K`` epochs.
+
+    Attributes
+    ----------
+    times : ndarray, shape (K,)
+        Epoch times.
+    x : ndarray, shape (M, K, 2)
+        The estimate of the method: the pre-location's position up to and including the start epoch, the
+        filter's after it.
+    P : ndarray, shape (M, K, 2, 2)
+        The filter's covariance (NaN up to the start epoch: the grid search gives none).
+    fading_factor : ndarray, shape (M, K)
+        :math:`\lambda_k` (NaN up to the start epoch).
+    weakening_factor : ndarray, shape (M, K)
+        :math:`\beta_k` (NaN up to the start epoch).
+    start_epoch : ndarray of int, shape (M,)
+        The epoch at which the pre-location was accepted and the filter started from it; ``K`` for a run whose
+        pre-location was never accepted (then ``x`` is the pre-location throughout).
+    mu_gamma : ndarray, shape (M,)
+        The multiplicative-noise mean the filter used (the pre-location's :math:`c / \hat c_\mathrm e` with
+        ``mu_gamma="prelocation"``).
+    prelocation : object
+        The grid search at every epoch, a ``uwtutor.lsq.Prelocation`` (from ``grid_prelocation``).
+    acceptance : object
+        The acceptance test, a ``uwtutor.lsq.PrelocationAcceptance`` (from ``prelocation_acceptance``).
+    filter_result : FadingResult
+        The filter's own run, in *filter time*: step ``j`` of run ``m`` is epoch ``start_epoch[m] + 1 + j``
+        (steps past the last epoch are padding without ranges).
+    """
+
+    times: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    fading_factor: np.ndarray
+    weakening_factor: np.ndarray
+    start_epoch: np.ndarray
+    mu_gamma: np.ndarray
+    prelocation: Any
+    acceptance: Any
+    filter_result: FadingResult
+
+    @property
+    def accepted(self) -> np.ndarray:
+        """Whether the pre-location was accepted and the filter ran, one boolean per run, shape (M,)."""
+        return self.start_epoch < len(self.times)
+
+
+def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *, mu_gamma: Any = "prelocation",
+                  sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
+                  assumed_speed: Any = 1470.0, beacon: Any = (0.0, 0.0), times: Any = None,
+                  n_consecutive: int = 10, max_shift: Any = 50.0, min_heading_change: Any = np.deg2rad(10.0),
+                  prelocation: Any = None, acceptance: Any = None) -> LSFadingResult:
+    r"""Paper D's LS-ISFEKF (and LS-EKF): grid-search pre-location, then a fading EKF started from it.
+
+    1. **Pre-location** (``uwtutor.lsq.grid_prelocation``): at every epoch, the start bearing and sound-speed
+       error whose DR track best fits the travel times :math:`\tau_k = r_k / c` (paper D, eq. 6).
+    2. **Acceptance** (``uwtutor.lsq.prelocation_acceptance``): a heading change of more than
+       ``min_heading_change``, then ``n_consecutive`` (:math:`K_\mathrm{stop}`) consecutive fixes moving less than
+       ``max_shift`` (:math:`D_\mathrm{stop}`); paper D's simulation: 10 degrees, 10, 50 m.
+    3. **Filter** from the accepted epoch :math:`k_\mathrm a`: :func:`fading_ekf` with
+       :math:`\hat{\mathbf x}_{k_\mathrm a} =` the pre-location's position, covariance ``P0``, and (with
+       ``mu_gamma="prelocation"``) :math:`\mu_\gamma = c / \hat c_\mathrm e`, the pre-location's range scale,
+       "passing on its sound-speed error estimate". The filter processes epochs :math:`k_\mathrm a + 1, \dots`.
+
+    LS-ISFEKF: the defaults with paper D's ``sigma_gamma``; LS-EKF: ``mu_gamma=1.0, sigma_gamma=0.0,
+    fading=False`` (the additive-noise EKF, which ignores the speed estimate). All runs are processed at once:
+    each run's arrays are shifted so that its filter starts at step 0.
+
+    Parameters
+    ----------
+    ranges : array_like, shape (M, K)
+        Measured ranges, converted with ``assumed_speed`` (e.g. ``Scenario.ranges``); NaN where missing (not at
+        epoch 0).
+    dr_displacements : array_like, shape (M, K, 2)
+        DR displacements (row 0 not used).
+    Q : array_like, shape (2, 2)
+        DR noise covariance per step [m^2].
+    R : float
+        Additive range noise variance [m^2].
+    P0 : array_like, shape (2, 2)
+        Covariance of the pre-location when the filter starts [m^2] (paper D: "can be set slightly smaller" than
+        for an unknown start; its trial uses ``diag(100^2, 100^2)``).
+    mu_gamma : {"prelocation"} or float or array_like, shape (M,), default "prelocation"
+        Mean multiplicative factor for the filter; ``"prelocation"`` takes each run's estimate.
+    sigma_gamma : float, default 0
+        Standard deviation of the factor (paper D: 1/1500).
+    rho : float, default 0.95
+        Forgetting factor.
+    beta : {"range"} or float, default "range"
+        Weakening factor (see :func:`fading_ekf`).
+    fading : bool, default True
+        ``False``: no fading (the filter is a multiplicative-noise EKF, or the plain EKF with ``mu_gamma=1,
+        sigma_gamma=0``).
+    assumed_speed : float, default 1470
+        The speed the ranges were converted with [m/s].
+    beacon : array_like, shape (2,), optional
+        Beacon position [m].
+    times : array_like, shape (K,), optional
+        Epoch times (default ``0..K-1``).
+    n_consecutive : int, default 10
+        :math:`K_\mathrm{stop}`.
+    max_shift : float, default 50
+        :math:`D_\mathrm{stop}` [m].
+    min_heading_change : float, default 10 degrees
+        Heading change required [rad].
+    prelocation : object, optional
+        A grid search already computed for these ranges (it does not depend on the filter: pass it to compare
+        several filters without repeating the search).
+    acceptance : object, optional
+        Its acceptance, likewise.
+
+    Returns
+    -------
+    LSFadingResult
+
+    Raises
+    ------
+    ValueError
+        On inputs of the wrong shape, or a ``prelocation``/``acceptance`` that does not match them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import scenarios
+    >>> from uwtutor.filters.fading import ls_fading_ekf
+    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(5), n_runs=50)
+    >>> res = ls_fading_ekf(sc.ranges, sc.dr_displacements, Q=np.eye(2) * 0.81, R=0.49,
+    ...                     P0=np.eye(2) * 50.0**2, sigma_gamma=1 / 1500, times=sc.times)
+    >>> res.x.shape, bool(res.accepted.all())
+    ((50, 151, 2), True)
+    >>> err = np.linalg.norm(res.x[:, -1] - sc.true_positions[:, -1], axis=-1)
+    >>> bool(np.sqrt(np.mean(err**2)) < 30.0)
+    True
+    """
+    from .. import lsq   # imported here: lsq is a sibling top-level module of the filters package
+
+    z = as_range_array("ranges", ranges, allow_nan=True, ndim=2)
+    u = as_finite("dr_displacements", dr_displacements, ndim=3)
+    M, K = z.shape
+    if u.shape != (M, K, 2):
+        raise ValueError(f"dr_displacements must have shape (M, K, 2) = {(M, K, 2)} to match ranges; got {u.shape}")
+    as_int("n_consecutive", n_consecutive, minimum=1)
+    times = _steps_and_times(K, times)
+    P0 = as_covariance("P0", P0, 2)
+    if P0.shape != (2, 2):
+        raise ValueError(f"P0 must be one 2x2 matrix; got shape {P0.shape}")
+    if prelocation is None:
+        prelocation = lsq.grid_prelocation(ranges=z, dr_displacements=u, assumed_speed=assumed_speed,
+                                           beacon=beacon)
+    pos = as_float_array("prelocation.position", prelocation.position)
+    if pos.shape != (M, K, 2):
+        raise ValueError(f"prelocation must come from these ranges: its positions have shape {pos.shape}, "
+                         f"expected {(M, K, 2)}")
+    if acceptance is None:
+        acceptance = lsq.prelocation_acceptance(prelocation.start, u, min_heading_change=min_heading_change,
+                                                n_consecutive=n_consecutive, max_shift=max_shift)
+    epoch = np.asarray(acceptance.epoch)
+    if epoch.shape != (M,):
+        raise ValueError(f"acceptance must come from these ranges: its epochs have shape {epoch.shape}, "
+                         f"expected ({M},)")
+    start = np.where(epoch >= 0, epoch, K).astype(int)
+    take = np.minimum(start, K - 1)
+    rows = np.arange(M)
+    x_start = pos[rows, take]
+    if isinstance(mu_gamma, str):
+        if mu_gamma != "prelocation":
+            raise ValueError(f'mu_gamma must be "prelocation" or a number > 0; got {mu_gamma!r}')
+        mu = np.asarray(prelocation.range_scale, dtype=float)[rows, take]
+    else:
+        mu = np.broadcast_to(_per_run("mu_gamma", mu_gamma, minimum=0.0, strict=True)[0], (M,)).astype(float)
+
+    # shift every run so that its filter starts at step 0 (epoch start + 1); pad the tail with no ranges
+    idx = start[:, None] + 1 + np.arange(K)[None, :]
+    inside = idx < K
+    idx_c = np.minimum(idx, K - 1)
+    z_shift = np.where(inside, z[rows[:, None], idx_c], np.nan)
+    u_shift = np.where(inside[..., None], u[rows[:, None], idx_c], 0.0)
+    filt = fading_ekf(x_start, P0, u_shift, z_shift, Q, R, mu_gamma=mu, sigma_gamma=sigma_gamma, rho=rho, beta=beta,
+                      fading=fading, beacon=beacon, times=np.arange(K, dtype=float))
+
+    # back to epochs: epoch k > start takes filter step k - start - 1
+    k = np.arange(K)[None, :]
+    after = k > start[:, None]
+    j = np.clip(k - start[:, None] - 1, 0, K - 1)
+    x = np.where(after[..., None], filt.x[rows[:, None], j], pos)
+    P = np.where(after[..., None, None], filt.P[rows[:, None], j], np.nan)
+    lam = np.where(after, filt.fading_factor[rows[:, None], j], np.nan)
+    beta_k = np.where(after, filt.weakening_factor[rows[:, None], j], np.nan)
+    return LSFadingResult(times=times, x=x, P=P, fading_factor=lam, weakening_factor=beta_k, start_epoch=start,
+                          mu_gamma=mu, prelocation=prelocation, acceptance=acceptance, filter_result=filt)

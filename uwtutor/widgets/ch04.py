@@ -1,0 +1,214 @@
+"""Chapter 4 widget: the range-only EKF on paper D's approach, with its tuning, initial error and a range bias."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .. import scenarios
+from .._validate import as_finite, as_int, as_positive
+from ..filters import range_only_ekf
+from ..montecarlo import run_monte_carlo
+from ..plotting import mark_beacon
+from ._panel import slider_panel
+
+__all__ = [
+    "EKFView",
+    "ekf_view",
+    "plot_ekf_view",
+    "ekf_widget",
+    "plain_log_ticks",
+    "COMPUTE_FUNCTIONS",
+]
+
+#: DR noise variance per axis per ping and white range noise variance of paper D's simulation [m²].
+DR_VARIANCE = 0.81
+RANGE_VARIANCE = 0.49
+
+
+@dataclass(frozen=True)
+class EKFView:
+    r"""A Monte Carlo study of the range-only EKF on paper D's approach track (chapter 4).
+
+    Attributes
+    ----------
+    initial_error : float
+        Standard deviation of the initial position error per axis [m] (also the filter's :math:`\sqrt{P_0}`).
+    q_scale : float
+        The filter's :math:`Q` divided by the true DR noise covariance.
+    r_scale : float
+        The filter's :math:`R` divided by the true range noise variance.
+    bias : float
+        Constant range bias added to every range, not modelled by the filter [m].
+    times : ndarray, shape (K,)
+        Epoch times [s].
+    truth : ndarray, shape (K, 2)
+        True track [m].
+    estimates : ndarray, shape (S, K, 2)
+        Estimated tracks of the first S (``n_shown``) runs [m].
+    rmse : ndarray, shape (K,)
+        RMS position error over the runs [m].
+    mean_nees : ndarray, shape (K,)
+        NEES averaged over the runs.
+    nees_bounds : tuple of float
+        95 % chi-square interval of ``mean_nees`` for a consistent filter.
+    mean_nis : ndarray, shape (K,)
+        NIS averaged over the runs.
+    nis_bounds : tuple of ndarray
+        95 % interval of ``mean_nis``.
+    nees_fraction_within : float
+        Fraction of epochs whose mean NEES is inside its interval.
+    nis_fraction_within : float
+        The same for the NIS.
+    n_runs : int
+        Number of Monte Carlo runs.
+    """
+
+    initial_error: float
+    q_scale: float
+    r_scale: float
+    bias: float
+    times: np.ndarray
+    truth: np.ndarray
+    estimates: np.ndarray
+    rmse: np.ndarray
+    mean_nees: np.ndarray
+    nees_bounds: tuple[float, float]
+    mean_nis: np.ndarray
+    nis_bounds: tuple[np.ndarray, np.ndarray]
+    nees_fraction_within: float
+    nis_fraction_within: float
+    n_runs: int
+
+
+def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float = 1.0, bias: float = 0.0,
+             n_runs: int = 50, seed: int = 0, n_shown: int = 8) -> EKFView:
+    r"""Run the range-only EKF on ``n_runs`` draws of paper D's approach with white range noise (plus a bias).
+
+    The scenario is ``scenarios.approach_with_turn_scenario`` with the sound speed known exactly (so that the only
+    range errors are the white noise of variance 0.49 m² and the constant ``bias``); DR noise has variance
+    0.81 m² per axis per ping. The filter uses :math:`Q` = ``q_scale`` x 0.81 I, :math:`R` = ``r_scale`` x 0.49
+    and :math:`P_0` = ``initial_error`` squared times I; each run starts from the truth plus an error drawn from
+    :math:`N(0, P_0)`, so the filter is consistent when both scales are 1 and the bias is 0 (up to linearization).
+
+    Parameters
+    ----------
+    initial_error : float, default 30
+        Initial error standard deviation per axis [m], > 0.
+    q_scale : float, default 1
+        Filter Q / true DR noise, > 0.
+    r_scale : float, default 1
+        Filter R / true range noise, > 0.
+    bias : float, default 0
+        Unmodelled constant range bias [m].
+    n_runs : int, default 50
+        Monte Carlo runs.
+    seed : int, default 0
+        Seed of the noise and the initial errors.
+    n_shown : int, default 8
+        Runs whose estimated tracks are kept for the plot.
+
+    Returns
+    -------
+    EKFView
+    """
+    p0 = float(as_positive("initial_error", initial_error, ndim=0))
+    qs = float(as_positive("q_scale", q_scale, ndim=0))
+    rs = float(as_positive("r_scale", r_scale, ndim=0))
+    b = float(as_finite("bias", bias, ndim=0))
+    M = as_int("n_runs", n_runs, minimum=2)
+    shown = as_int("n_shown", n_shown, minimum=0)
+    rng = np.random.default_rng(as_int("seed", seed))
+    sc = scenarios.approach_with_turn_scenario(rng, n_runs=M, assumed_speed=1500.0, speed_sigma=0.0,
+                                               noise_sigma=np.sqrt(RANGE_VARIANCE), dr_sigma=np.sqrt(DR_VARIANCE))
+    truth = np.array(sc.true_positions[0])
+    x0 = truth[0] + p0 * rng.standard_normal((M, 2))
+    z = np.maximum(sc.ranges + b, 0.0)
+    study = run_monte_carlo(range_only_ekf, truth, x0=x0, P0=np.eye(2) * p0**2, u=sc.dr_displacements, z=z,
+                            Q=np.eye(2) * qs * DR_VARIANCE, R=rs * RANGE_VARIANCE)
+    if study.mean_nis is None or study.nis_bounds is None:      # pragma: no cover - the EKF reports innovations
+        raise RuntimeError("the EKF reported no innovations")
+    return EKFView(initial_error=p0, q_scale=qs, r_scale=rs, bias=b, times=np.array(sc.times), truth=truth,
+                   estimates=np.array(study.x[:min(shown, M)]), rmse=study.rmse, mean_nees=study.mean_nees,
+                   nees_bounds=study.nees_bounds, mean_nis=study.mean_nis, nis_bounds=study.nis_bounds,
+                   nees_fraction_within=study.nees_fraction_within(),
+                   nis_fraction_within=study.nis_fraction_within(), n_runs=M)
+
+
+def plain_log_ticks(ax: Any, axis: str = "y") -> None:
+    """Label a logarithmic axis with plain numbers (1, 2, 5, 10, 20...) instead of powers of ten."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    if axis not in ("x", "y"):
+        raise ValueError(f"axis must be 'x' or 'y'; got {axis!r}")
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    lo, hi = ax.get_ylim() if axis == "y" else ax.get_xlim()
+    decades = np.log10(hi / max(lo, 1e-300))
+    if decades < 1.0:                                  # less than a decade: a few round numbers
+        target.set_major_locator(MaxNLocator(nbins=4))
+    else:
+        target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0) if decades < 3.0 else (1.0,)))
+    target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    target.set_minor_formatter(NullFormatter())
+
+
+def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
+    """Draw an ``EKFView``: a few estimated tracks, the RMSE over time, and the mean NEES against its bounds."""
+    fig = fig or plt.figure(figsize=(7.6, 3.6))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.15))
+    ax_m = fig.add_subplot(grid[:, 0])
+    ax_r = fig.add_subplot(grid[0, 1])
+    ax_n = fig.add_subplot(grid[1, 1], sharex=ax_r)
+    for est in view.estimates:
+        ax_m.plot(*est.T, color="C0", lw=0.6, alpha=0.7)
+    ax_m.plot(*view.truth.T, color="black", lw=1.4, label="truth")
+    ax_m.plot([], [], color="C0", lw=0.8, label="EKF runs")
+    mark_beacon(ax_m)
+    ax_m.set_aspect("equal", adjustable="datalim")
+    ax_m.set_xlabel("x east [m]")
+    ax_m.set_ylabel("y north [m]")
+    ax_m.legend(loc="upper left", fontsize=7)
+    ax_r.semilogy(view.times, view.rmse, color="C0")
+    ax_r.set_ylabel("RMSE [m]")
+    plain_log_ticks(ax_r)
+    ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:g}, R×{view.r_scale:g}, "
+                   f"bias {view.bias:g} m; {view.n_runs} runs", fontsize=9)
+    lo, hi = view.nees_bounds
+    ax_n.semilogy(view.times, view.mean_nees, color="C3", label="mean NEES")
+    ax_n.axhspan(lo, hi, color="C2", alpha=0.25, label="95 % bounds")
+    ax_n.axhline(2.0, color="gray", lw=0.6)
+    ax_n.set_xlabel("time [s]")
+    ax_n.set_ylabel("NEES")
+    plain_log_ticks(ax_n)
+    ax_n.legend(loc="upper right", fontsize=7)
+    ax_n.text(0.01, 0.04, f"{100 * view.nees_fraction_within:.0f} % of epochs inside", transform=ax_n.transAxes,
+              fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def ekf_widget() -> Any:
+    """Sliders for the initial error, Q, R and a range bias over the EKF's tracks and NEES (chapter 4)."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "initial_error": w.FloatSlider(value=30.0, min=5.0, max=500.0, step=5.0, description="initial σ [m]",
+                                       continuous_update=False, style=style),
+        "q_scale": w.FloatLogSlider(value=1.0, base=10, min=-2, max=2, step=0.25, description="Q scale",
+                                    continuous_update=False, style=style),
+        "r_scale": w.FloatLogSlider(value=1.0, base=10, min=-2, max=2, step=0.25, description="R scale",
+                                    continuous_update=False, style=style),
+        "bias": w.FloatSlider(value=0.0, min=-30.0, max=30.0, step=1.0, description="range bias [m]",
+                              continuous_update=False, style=style),
+    }
+    return slider_panel(sliders, lambda **p: plot_ekf_view(ekf_view(**p)))
+
+
+#: Zero-argument callables running the chapter-4 widget's computation at its defaults (for ``make bench``).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch04 range-only EKF": ekf_view,
+}

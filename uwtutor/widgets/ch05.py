@@ -1,0 +1,233 @@
+r"""Chapter 5 widget: paper D's fading EKF on the approach track (assumed sound-speed error, forgetting factor,
+weakening factor on or off, initial error) against the additive-noise EKF."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .. import scenarios
+from .._validate import as_finite, as_int
+from ..filters.ekf import range_only_ekf
+from ..filters.fading import fading_ekf
+from ..plotting import mark_beacon, plot_track
+from ._panel import slider_panel
+
+__all__ = [
+    "PAPER_D",
+    "FadingView",
+    "fading_view",
+    "plot_fading_view",
+    "fading_widget",
+    "COMPUTE_FUNCTIONS",
+]
+
+#: Paper D's simulation and filter parameters (sec. 4.1, eqs. 28-30), as the widget uses them. ``Q`` is the DR
+#: noise variance per axis per ping and ``R`` the additive range noise variance (m²), ``rho`` the forgetting
+#: factor, ``true_speed`` and ``speed_sigma`` the true effective sound speed and its standard deviation, and
+#: ``assumed_speed`` the speed the vehicle converts with (m/s).
+PAPER_D: dict[str, float] = {
+    "Q": 0.81,
+    "R": 0.49,
+    "rho": 0.95,
+    "true_speed": 1500.0,
+    "speed_sigma": 1.0,
+    "assumed_speed": 1470.0,
+}
+#: Start of the steady-state window of the summaries, in seconds (epochs at or after it count).
+STEADY_FROM = 1200.0
+
+
+@dataclass(frozen=True)
+class FadingView:
+    r"""What the chapter-5 widget shows for one setting (returned by ``fading_view``).
+
+    Shapes: ``K`` epochs; ``n_runs`` Monte Carlo runs behind the error curves.
+
+    Attributes
+    ----------
+    assumed_dc : float
+        The sound-speed error :math:`\Delta c = c - c_\mathrm e` the filter assumes [m/s] (the truth is -30).
+    rho : float
+        Forgetting factor.
+    weakening : bool
+        True: paper D's :math:`\beta_k = \mathbf C_k \mathbf m_k` (ISFEKF); False: :math:`\beta = 1`.
+    initial_error : float
+        Distance of the initial estimate from the truth [m].
+    n_runs : int
+        Number of Monte Carlo runs.
+    times : ndarray, shape (K,)
+        Reception times [s].
+    truth : ndarray, shape (K, 2)
+        True track [m] (the same in every run).
+    x_fading : ndarray, shape (K, 2)
+        The fading filter's estimate in the displayed run.
+    x_ekf : ndarray, shape (K, 2)
+        The additive-noise EKF's estimate in the displayed run.
+    rmse_fading : ndarray, shape (K,)
+        RMS error of the fading filter over the runs at each epoch [m].
+    rmse_ekf : ndarray, shape (K,)
+        The same for the EKF.
+    median_fading : ndarray, shape (K,)
+        Median error of the fading filter over the runs [m].
+    median_ekf : ndarray, shape (K,)
+        The same for the EKF.
+    fading_factor : ndarray, shape (K,)
+        :math:`\lambda_k` in the displayed run.
+    weakening_factor : ndarray, shape (K,)
+        :math:`\beta_k` in the displayed run.
+    fraction_faded : float
+        Fraction of all steps of all runs with :math:`\lambda_k > 1`.
+    steady_rmse : dict of float
+        ``"fading"`` and ``"ekf"``: RMS error over the runs and the epochs after ``STEADY_FROM`` [m].
+    steady_median : dict of float
+        The median over the runs of each run's RMS error after ``STEADY_FROM`` [m].
+    """
+
+    assumed_dc: float
+    rho: float
+    weakening: bool
+    initial_error: float
+    n_runs: int
+    times: np.ndarray
+    truth: np.ndarray
+    x_fading: np.ndarray
+    x_ekf: np.ndarray
+    rmse_fading: np.ndarray
+    rmse_ekf: np.ndarray
+    median_fading: np.ndarray
+    median_ekf: np.ndarray
+    fading_factor: np.ndarray
+    weakening_factor: np.ndarray
+    fraction_faded: float
+    steady_rmse: dict[str, float]
+    steady_median: dict[str, float]
+
+
+def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = True, initial_error: float = 150.0,
+                n_runs: int = 100, seed: int = 0) -> FadingView:
+    r"""Run the fading EKF and the additive EKF on ``n_runs`` draws of paper D's approach scenario.
+
+    The filter assumes :math:`\mu_\gamma = 1 + \Delta c / 1500` (``assumed_dc`` = :math:`\Delta c`; the scenario's
+    truth is :math:`1470 - 1500 = -30` m/s) and :math:`\sigma_\gamma = 1/1500`; both filters start
+    ``initial_error`` metres from the truth, in a random direction per run, with
+    :math:`\mathbf P_1 = \mathrm{diag}(\Delta r^2, \Delta r^2)` (paper D, eq. 28). Run 0 is displayed.
+
+    Parameters
+    ----------
+    assumed_dc : float, default -30
+        Assumed systematic sound-speed error [m/s], between -200 and 200.
+    rho : float, default 0.95
+        Forgetting factor, in (0, 1].
+    weakening : bool, default True
+        Paper D's range weakening factor (True) or Zhou and Xi's :math:`\beta = 1` (False).
+    initial_error : float, default 150
+        Initial position error [m], > 0.
+    n_runs : int, default 100
+        Monte Carlo runs (>= 1).
+    seed : int, default 0
+        Seed of the scenario and of the initial errors.
+
+    Returns
+    -------
+    FadingView
+    """
+    dc = float(as_finite("assumed_dc", assumed_dc, ndim=0))
+    if not -200.0 <= dc <= 200.0:
+        raise ValueError(f"assumed_dc must lie between -200 and 200 m/s; got {dc:g}")
+    d0 = float(as_finite("initial_error", initial_error, ndim=0))
+    if d0 <= 0:
+        raise ValueError(f"initial_error must be > 0 (the filter's P1 is diag(d0², d0²)); got {d0:g}")
+    if not isinstance(weakening, (bool, np.bool_)):
+        raise TypeError(f"weakening must be True or False; got {weakening!r}")
+    M = as_int("n_runs", n_runs, minimum=1)
+    seed = as_int("seed", seed, minimum=0)
+    rng = np.random.default_rng(seed)
+    sc = scenarios.approach_with_turn_scenario(rng, n_runs=M)
+    angle = rng.uniform(0.0, 2.0 * np.pi, M)
+    truth = sc.true_positions
+    x0 = truth[:, 0] + d0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    P0 = np.eye(2) * d0**2
+    Q = np.eye(2) * PAPER_D["Q"]
+    c = PAPER_D["true_speed"]
+    fad = fading_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, PAPER_D["R"], mu_gamma=1.0 + dc / c,
+                     sigma_gamma=PAPER_D["speed_sigma"] / c, rho=rho, beta="range" if weakening else 1.0,
+                     times=sc.times)
+    ekf = range_only_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, PAPER_D["R"], times=sc.times)
+    err_f = np.linalg.norm(fad.x - truth, axis=-1)
+    err_e = np.linalg.norm(ekf.x - truth, axis=-1)
+    late = sc.times >= STEADY_FROM
+
+    def steady(err: np.ndarray) -> tuple[float, float]:
+        per_run = np.sqrt(np.mean(err[:, late] ** 2, axis=1))
+        return float(np.sqrt(np.mean(per_run**2))), float(np.median(per_run))
+
+    (rf, mf), (re, me) = steady(err_f), steady(err_e)
+    return FadingView(assumed_dc=dc, rho=float(rho), weakening=bool(weakening), initial_error=d0, n_runs=M,
+                      times=np.array(sc.times), truth=np.array(truth[0]), x_fading=np.array(fad.x[0]),
+                      x_ekf=np.array(ekf.x[0]), rmse_fading=np.sqrt(np.mean(err_f**2, axis=0)),
+                      rmse_ekf=np.sqrt(np.mean(err_e**2, axis=0)), median_fading=np.median(err_f, axis=0),
+                      median_ekf=np.median(err_e, axis=0), fading_factor=np.array(fad.fading_factor[0]),
+                      weakening_factor=np.array(fad.weakening_factor[0]),
+                      fraction_faded=float(np.mean(fad.fading_factor > 1.0)),
+                      steady_rmse={"fading": rf, "ekf": re}, steady_median={"fading": mf, "ekf": me})
+
+
+def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
+    """Draw a ``FadingView``: the tracks of the displayed run, the error over time (RMS and median over the runs)
+    and the fading factor of the displayed run."""
+    fig = fig or plt.figure(figsize=(8.0, 5.0))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.25))
+    ax_map = fig.add_subplot(grid[:, 0])
+    ax_err = fig.add_subplot(grid[0, 1])
+    ax_lam = fig.add_subplot(grid[1, 1], sharex=ax_err)
+    name = "ISFEKF" if view.weakening else "fading EKF, β = 1"
+    plot_track(ax_map, view.truth, label="truth", color="black", lw=1.2)
+    plot_track(ax_map, view.x_ekf, label="EKF (additive)", color="C0", lw=1)
+    plot_track(ax_map, view.x_fading, label=name, color="C3", lw=1)
+    mark_beacon(ax_map, (0.0, 0.0))
+    ax_map.set_aspect("equal", adjustable="datalim")
+    ax_map.legend(loc="upper left", fontsize=7)
+    ax_map.set_title("run 0", fontsize=9)
+    t = view.times
+    ax_err.semilogy(t, view.rmse_ekf, color="C0", label="EKF, RMS")
+    ax_err.semilogy(t, view.median_ekf, color="C0", ls="--", label="EKF, median")
+    ax_err.semilogy(t, view.rmse_fading, color="C3", label=f"{name}, RMS")
+    ax_err.semilogy(t, view.median_fading, color="C3", ls="--", label=f"{name}, median")
+    ax_err.set_ylabel("position error [m]")
+    ax_err.set_title(f"{view.n_runs} runs; steady RMS {view.steady_rmse['fading']:.1f} m "
+                     f"(EKF {view.steady_rmse['ekf']:.1f} m)", fontsize=8)
+    ax_err.legend(fontsize=6, ncol=2, loc="upper right")
+    ax_lam.semilogy(t, view.fading_factor, ".", ms=3, color="C3")
+    ax_lam.set_ylim(0.8, None)
+    ax_lam.set_xlabel("time [s]")
+    ax_lam.set_ylabel("fading factor λ (run 0)")
+    ax_lam.set_title(f"λ > 1 in {100 * view.fraction_faded:.1f} % of all steps", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def fading_widget() -> Any:
+    """Assumed sound-speed error, forgetting factor, weakening factor on/off and initial error over the view."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "assumed_dc": w.FloatSlider(value=-30.0, min=-70.0, max=10.0, step=5.0, description="assumed Δc [m/s]",
+                                    continuous_update=False, style=style),
+        "rho": w.FloatSlider(value=0.95, min=0.3, max=1.0, step=0.05, description="ρ", continuous_update=False,
+                             style=style),
+        "weakening": w.Checkbox(value=True, description="β = C m (paper D)", style=style),
+        "initial_error": w.FloatLogSlider(value=150.0, base=10, min=1.0, max=3.0, step=0.1,
+                                          description="initial error [m]", continuous_update=False, style=style),
+    }
+    return slider_panel(sliders, lambda **p: plot_fading_view(fading_view(**p)))
+
+
+#: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch05 fading filter": fading_view,
+}
