@@ -50,7 +50,7 @@ __all__ = [
 ]
 
 # -- the data of the exercises -----------------------------------------------------------------------------------------
-#: Six depth readings (m), one every 0.05 s, for exercises 8.1 and 8.2.
+#: Six depth readings (m), one every 0.05 s, for exercises 6.1 and 6.2.
 DEPTH_SERIES = np.array([12.1, 12.6, 13.0, 13.5, 14.1, 14.6])
 
 
@@ -60,11 +60,11 @@ def _noise_window() -> np.ndarray:
     return 12.0 + 0.9 * t - 0.2 * t**2 + rng.normal(0.0, 0.15, 50)
 
 
-#: Fifty depth readings (m) of a vehicle starting a dive, with sensor noise of unknown level (exercise 8.3).
+#: Fifty depth readings (m) of a vehicle starting a dive, with sensor noise of unknown level (exercise 6.3).
 NOISE_WINDOW = _noise_window()
-#: Unnormalized particle weights of exercise 8.4.
+#: Unnormalized particle weights of exercise 6.4.
 PARTICLE_WEIGHTS = np.array([0.5, 2.0, 1.0, 0.1, 3.0, 0.4])
-#: Paper C's process noise covariance as printed, in the units m, cm/s and degrees (exercise 8.5).
+#: Paper C's process noise covariance as printed, in the units m, cm/s and degrees (exercise 6.5).
 Q_PRINTED = np.array([[0.2**2, 0.8**2, 0.6**2], [0.8**2, 1.0**2, 0.0], [0.6**2, 0.0, 0.5**2]])
 
 
@@ -81,7 +81,7 @@ def _lstsq_ab(z: np.ndarray, y: np.ndarray, sign: float = -1.0) -> tuple[float, 
     return float(a), float(b)
 
 
-# -- exercise 8.1: GM(1,1) coefficients --------------------------------------------------------------------------------
+# -- exercise 6.1: GM(1,1) coefficients --------------------------------------------------------------------------------
 def check_gm11_coefficients(a: Any, b: Any) -> Feedback:
     """Check the GM(1,1) development coefficient ``a`` and grey input ``b`` of ``DEPTH_SERIES``.
 
@@ -148,11 +148,11 @@ def check_gm11_coefficients(a: Any, b: Any) -> Feedback:
                     details={"answer": pair})
 
 
-# -- exercise 8.2: the forecast ----------------------------------------------------------------------------------------
+# -- exercise 6.2: the forecast ----------------------------------------------------------------------------------------
 def check_grey_forecast(value: Any) -> Feedback:
     """Check the GM(1,1) forecast (m) of the seventh reading of ``DEPTH_SERIES``.
 
-    Expected: ``(1 - e^a) (x0(1) - b/a) e^{-6a}`` with the exercise 8.1 coefficients.
+    Expected: ``(1 - e^a) (x0(1) - b/a) e^{-6a}`` with the exercise 6.1 coefficients.
 
     Parameters
     ----------
@@ -183,11 +183,11 @@ def check_grey_forecast(value: Any) -> Feedback:
     }
     return check_number(value, expected, rtol=1e-3, name="the forecast of the seventh depth", units="m",
                         common_mistakes=mistakes,
-                        hint="x0̂(k+1) = (1 − e^{a})·(x0(1) − b/a)·e^{−ak} with k = 6 and the a, b of exercise 8.1.",
+                        hint="x0̂(k+1) = (1 − e^{a})·(x0(1) − b/a)·e^{−ak} with k = 6 and the a, b of exercise 6.1.",
                         explanation="The readings grow by about half a metre per step, and so does the forecast.")
 
 
-# -- exercise 8.3: the wavelet noise estimate --------------------------------------------------------------------------
+# -- exercise 6.3: the wavelet noise estimate --------------------------------------------------------------------------
 def check_mad_sigma(sigma: Any) -> Feedback:
     """Check the noise standard deviation (m) of ``NOISE_WINDOW`` by the wavelet MAD estimate.
 
@@ -239,7 +239,7 @@ def check_mad_sigma(sigma: Any) -> Feedback:
                                     "coefficients scatters by about 25 % around the true value.")
 
 
-# -- exercise 8.4: effective sample size and systematic resampling ----------------------------------------------------
+# -- exercise 6.4: effective sample size and systematic resampling ----------------------------------------------------
 def check_effective_sample_size(ess: Any) -> Feedback:
     """Check the effective sample size of ``PARTICLE_WEIGHTS`` (which are not normalized).
 
@@ -329,7 +329,7 @@ def check_systematic_resample(func: Any) -> Feedback:
                     "usually the least noisy.")
 
 
-# -- exercise 8.5: paper C's Q -----------------------------------------------------------------------------------------
+# -- exercise 6.5: paper C's Q -----------------------------------------------------------------------------------------
 def check_q_smallest_eigenvalue(value: Any) -> Feedback:
     """Check the smallest eigenvalue of paper C's process covariance as printed (``Q_PRINTED``).
 
