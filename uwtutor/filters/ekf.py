@@ -227,20 +227,28 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: float,
     innov[unused] = np.nan
     innov_var[unused] = np.nan
 
-    def runs_first(a: np.ndarray) -> np.ndarray:
-        return a if batched else a[0]
-
-    result = FilterResult(
-        times=times,
-        x=runs_first(np.moveaxis(_x_view(post), 0, 1)),
-        P=runs_first(np.moveaxis(_P_view(post), 0, 1)),
-        x_prior=runs_first(np.moveaxis(_x_view(prior), 0, 1)),
-        P_prior=runs_first(np.moveaxis(_P_view(prior), 0, 1)),
-        innovations=runs_first(innov.T[:, :, None]),
-        innovation_cov=runs_first(innov_var.T[:, :, None, None]),
-        extras={"updated": runs_first(~unused.T)},
-    )
+    fields = _result_fields(times, post, prior, innov, innov_var, batched)
+    result = FilterResult(**fields, extras={"updated": _runs_first(~unused.T, batched)})
     return result, post[-1].copy()
+
+
+def _runs_first(a: np.ndarray, batched: bool) -> np.ndarray:
+    """A (M, K, ...) result array as returned to the caller: without the runs axis for an unbatched call."""
+    return a if batched else a[0]
+
+
+def _result_fields(times: np.ndarray, post: np.ndarray, prior: np.ndarray, innov: np.ndarray,
+                   innov_var: np.ndarray, batched: bool) -> dict[str, np.ndarray]:
+    """The common ``FilterResult`` fields of a run held in packed (K, rows, M) buffers, runs axis first."""
+    return dict(
+        times=times,
+        x=_runs_first(np.moveaxis(_x_view(post), 0, 1), batched),
+        P=_runs_first(np.moveaxis(_P_view(post), 0, 1), batched),
+        x_prior=_runs_first(np.moveaxis(_x_view(prior), 0, 1), batched),
+        P_prior=_runs_first(np.moveaxis(_P_view(prior), 0, 1), batched),
+        innovations=_runs_first(innov.T[:, :, None], batched),
+        innovation_cov=_runs_first(innov_var.T[:, :, None, None], batched),
+    )
 
 
 def _steps_and_times(n_steps: int, times: Any) -> np.ndarray:

@@ -120,7 +120,8 @@ import numpy as np
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
 from .ekf import (_PXX, _PXY, _PYX, _PYY, _X, _Y, _N_ROWS, _P_view, _beacon, _initial_state, _noise_parameters,
-                  _pack, _predict_step, _runs, _steps_and_times, _update_step, _x_view)
+                  _pack, _predict_step, _result_fields, _runs, _runs_first, _steps_and_times, _update_step,
+                  _x_view)
 
 __all__ = [
     "range_factor_moments",
@@ -401,21 +402,9 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     for name in ("fading_numerator", "fading_denominator"):     # undefined without a range
         diag[:, _EXTRAS.index(name)][unused] = np.nan
 
-    def runs_first(a: np.ndarray) -> np.ndarray:
-        return a if batched else a[0]
-
-    extras = {name: runs_first(diag[:, i].T) for i, name in enumerate(_EXTRAS)}
-    extras["updated"] = runs_first(~unused.T)
-    result = FadingResult(
-        times=times,
-        x=runs_first(np.moveaxis(_x_view(post), 0, 1)),
-        P=runs_first(np.moveaxis(_P_view(post), 0, 1)),
-        x_prior=runs_first(np.moveaxis(_x_view(prior), 0, 1)),
-        P_prior=runs_first(np.moveaxis(_P_view(prior), 0, 1)),
-        innovations=runs_first(innov.T[:, :, None]),
-        innovation_cov=runs_first(innov_var.T[:, :, None, None]),
-        extras=extras,
-    )
+    extras = {name: _runs_first(diag[:, i].T, batched) for i, name in enumerate(_EXTRAS)}
+    extras["updated"] = _runs_first(~unused.T, batched)
+    result = FadingResult(**_result_fields(times, post, prior, innov, innov_var, batched), extras=extras)
     return result, post[-1].copy(), mem, started
 
 
