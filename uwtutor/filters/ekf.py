@@ -183,6 +183,24 @@ def _initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
     return x0, P0
 
 
+def _sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
+                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
+    (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
+    ``_runs``, the size of each input's runs axis (None where it has none)."""
+    x0, P0 = _initial_state(x0, P0)
+    u = as_finite("u", u, ndim=(2, 3))
+    if u.shape[-1] != 2:
+        raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
+    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
+    K = u.shape[-2]
+    if z.shape[-1] != K:
+        raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")
+    run_sizes = dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+                     u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None)
+    return x0, P0, u, z, _steps_and_times(K, times), run_sizes
+
+
 def _runs(**batched: int | None) -> int | None:
     """The common number of runs among the arguments that have a runs axis (None if none has)."""
     sizes = {name: m for name, m in batched.items() if m is not None}
@@ -345,19 +363,10 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
     >>> bool(np.sqrt(np.mean(np.sum((res.x[:, -1] - truth[-1]) ** 2, axis=-1))) < 5.0)
     True
     """
-    x0, P0 = _initial_state(x0, P0)
-    u = as_finite("u", u, ndim=(2, 3))
-    if u.shape[-1] != 2:
-        raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
-    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
-    K = u.shape[-2]
-    if z.shape[-1] != K:
-        raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")
+    x0, P0, u, z, times, run_sizes = _sequence_inputs(x0, P0, u, z, times)
     _, R_val, q4 = _noise_parameters(Q, R)
     b = _beacon(beacon)
-    times = _steps_and_times(K, times)
-    M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
-              u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None)
+    M = _runs(**run_sizes)
     batched = M is not None
     M = M or 1
     s0 = _pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))

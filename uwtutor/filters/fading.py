@@ -120,8 +120,8 @@ import numpy as np
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
 from .ekf import (_PXX, _PXY, _PYX, _PYY, _X, _Y, _N_ROWS, _P_view, _beacon, _initial_state, _noise_parameters,
-                  _pack, _predict_step, _result_fields, _runs, _runs_first, _steps_and_times, _update_step,
-                  _x_view)
+                  _pack, _predict_step, _result_fields, _runs, _runs_first, _sequence_inputs, _steps_and_times,
+                  _update_step, _x_view)
 
 __all__ = [
     "range_factor_moments",
@@ -499,19 +499,9 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     >>> bool(np.sqrt(np.mean(err**2)) < 15.0), bool(np.all(res.fading_factor >= 1.0))
     (True, True)
     """
-    x0, P0 = _initial_state(x0, P0)
-    u = as_finite("u", u, ndim=(2, 3))
-    if u.shape[-1] != 2:
-        raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
-    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
-    K = u.shape[-2]
-    if z.shape[-1] != K:
-        raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")
+    x0, P0, u, z, times, run_sizes = _sequence_inputs(x0, P0, u, z, times)
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
-    times = _steps_and_times(K, times)
-    M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
-              u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None,
-              mu_gamma_or_sigma_gamma=m_par)
+    M = _runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
     batched = M is not None
     M = M or 1
     s0 = _pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
