@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_float_array, as_int, as_range_array, as_rng
-from .motion import (Track, _as_point, _as_scalar, _as_times, _readonly, circle_track, displacement_noise,
+from .._validate import as_finite, as_float_array, as_int, as_range_array, as_rng
+from ..motion import (Track, _as_point, _as_scalar, _as_times, _readonly, circle_track, displacement_noise,
                      s_turn_track, straight_track, turning_track)
-from .ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
+from ..ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
 
 __all__ = [
     "Scenario",
