@@ -187,9 +187,9 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]])
-    array([[-1., -0.],
-           [-0.,  1.]])
+    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]]) + 0.0     # + 0.0 turns -0.0 into 0.0
+    array([[-1.,  0.],
+           [ 0.,  1.]])
     """
     p = _as_points("position", position)
     b = _as_points("beacons", beacons)
