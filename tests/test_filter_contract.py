@@ -222,3 +222,20 @@ def test_fading_p_prior_includes_the_fading_factor_under_run_filter():
     assert (functional.fading_factor > 1.0).any()
     np.testing.assert_allclose(looped.P_prior, functional.P_prior, rtol=1e-12, atol=1e-9)
     assert isinstance(looped, FadingResult) and len(looped.extras) == 7
+
+
+def test_ls_fading_result_is_a_filter_result_and_run_monte_carlo_scores_its_nis():
+    from uwtutor.filters import LSFadingResult, ls_fading_ekf
+    from uwtutor.montecarlo import run_monte_carlo
+    from uwtutor.scenarios import paper_d
+
+    sc = paper_d.make(np.random.default_rng(5), n_runs=20)
+    study = run_monte_carlo(lambda **kw: ls_fading_ekf(**kw), sc.true_positions, ranges=sc.ranges,
+                            dr_displacements=sc.dr_displacements, Q=np.eye(2) * 0.81, R=0.49, P0=np.eye(2) * 2500.0,
+                            sigma_gamma=1 / 1500, times=sc.times)
+    res = study.result
+    assert isinstance(res, LSFadingResult) and isinstance(res, FilterResult)
+    after = np.arange(sc.ranges.shape[1])[None, :] > res.start_epoch[:, None]
+    assert np.isfinite(study.nis[after & res.extras["updated"]]).all()
+    assert np.isnan(study.nis[~after]).all()
+    np.testing.assert_array_equal(res.fading_factor, res.extras["fading_factor"])

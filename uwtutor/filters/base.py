@@ -208,21 +208,23 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
 
     m = _measurement_size(z, batched)
     extra_names = tuple(getattr(filt, "extra_outputs", ()))
-    records: dict[str, list[np.ndarray]] = {name: [] for name in
-                                            ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names}
     y_shape = (np.shape(filt.x)[0], m) if batched else (m,)
+    names = ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names
+    history: dict[str, np.ndarray] = {}          # step-major buffers (K, ...), allocated at the first step
     for k in range(n_steps):
         filt.predict(None if u is None else (u[:, k] if batched and not u_shared else u[k]))
         filt.update(z[:, k] if batched else z[k])
-        for name in ("x", "P", "x_prior", "P_prior"):
-            records[name].append(np.array(getattr(filt, name), dtype=float, copy=True))
-        records["y"].append(np.asarray(filt.y, dtype=float).reshape(y_shape))
-        records["S"].append(np.asarray(filt.S, dtype=float).reshape(y_shape + (m,)))
-        for name in extra_names:
-            records[name].append(np.array(getattr(filt, name), copy=True))
-
-    axis = 1 if batched else 0
-    stacked = {name: np.stack(values, axis=axis) for name, values in records.items()}
+        values = {name: getattr(filt, name) for name in names}
+        values["y"] = np.reshape(values["y"], y_shape)
+        values["S"] = np.reshape(values["S"], y_shape + (m,))
+        if k == 0:
+            for name, value in values.items():
+                value = np.asarray(value, dtype=None if name in extra_names else float)
+                history[name] = np.empty((n_steps,) + value.shape, dtype=value.dtype)
+        for name, value in values.items():
+            history[name][k] = value
+    # seen runs-first (M, K, ...) when batched: a view of the step-major buffers, not a second copy
+    stacked = {name: np.moveaxis(h, 0, 1) if batched else h for name, h in history.items()}
     result_type = getattr(filt, "result_type", FilterResult)
     return result_type(
         times=times,

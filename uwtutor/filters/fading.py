@@ -732,8 +732,8 @@ class FadingEKF:
 
 # --- LS-EKF and LS-ISFEKF --------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class LSFadingResult:
+@dataclass(frozen=True, kw_only=True)
+class LSFadingResult(FilterResult):
     r"""Paper D's two-stage estimate: grid-search pre-location until accepted, then a filter (``ls_fading_ekf``).
 
     Shapes: ``M`` runs (always a runs axis), ``K`` epochs.
@@ -747,10 +747,14 @@ class LSFadingResult:
         filter's after it.
     P : ndarray, shape (M, K, 2, 2)
         The filter's covariance (NaN up to the start epoch: the grid search gives none).
-    fading_factor : ndarray, shape (M, K)
-        :math:`\lambda_k` (NaN up to the start epoch).
-    weakening_factor : ndarray, shape (M, K)
-        :math:`\beta_k` (NaN up to the start epoch).
+    x_prior, P_prior : ndarray
+        The filter's predictions (the pre-location and NaN up to the start epoch).
+    innovations, innovation_cov : ndarray, shape (M, K, 1) and (M, K, 1, 1)
+        The filter's innovations (NaN up to the start epoch and where no range was used), so that NIS
+        statistics (e.g. ``run_monte_carlo``) cover the filtered epochs.
+    extras : dict
+        ``"fading_factor"`` :math:`\lambda_k`, ``"weakening_factor"`` :math:`\beta_k` (NaN up to the start
+        epoch) and ``"updated"`` (True where the filter used a range), shape (M, K).
     start_epoch : ndarray of int, shape (M,)
         The epoch at which the pre-location was accepted and the filter started from it; ``K`` for a run whose
         pre-location was never accepted (then ``x`` is the pre-location throughout).
@@ -766,16 +770,21 @@ class LSFadingResult:
         (steps past the last epoch are padding without ranges).
     """
 
-    times: np.ndarray
-    x: np.ndarray
-    P: np.ndarray
-    fading_factor: np.ndarray
-    weakening_factor: np.ndarray
     start_epoch: np.ndarray
     mu_gamma: np.ndarray
     prelocation: Any
     acceptance: Any
     filter_result: FadingResult
+
+    @property
+    def fading_factor(self) -> np.ndarray:
+        r""":math:`\lambda_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
+        return self.extras["fading_factor"]
+
+    @property
+    def weakening_factor(self) -> np.ndarray:
+        r""":math:`\beta_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
+        return self.extras["weakening_factor"]
 
     @property
     def accepted(self) -> np.ndarray:
@@ -920,9 +929,17 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     k = np.arange(K)[None, :]
     after = k > start[:, None]
     j = np.clip(k - start[:, None] - 1, 0, K - 1)
-    x = np.where(after[..., None], filt.x[rows[:, None], j], pos)
-    P = np.where(after[..., None, None], filt.P[rows[:, None], j], np.nan)
-    lam = np.where(after, filt.fading_factor[rows[:, None], j], np.nan)
-    beta_k = np.where(after, filt.weakening_factor[rows[:, None], j], np.nan)
-    return LSFadingResult(times=times, x=x, P=P, fading_factor=lam, weakening_factor=beta_k, start_epoch=start,
-                          mu_gamma=mu, prelocation=prelocation, acceptance=acceptance, filter_result=filt)
+    def at_epochs(a: np.ndarray, before: Any) -> np.ndarray:
+        """A filter-time array (M, K, ...) in epoch time, ``before`` up to each run's start epoch."""
+        mask = after.reshape(after.shape + (1,) * (a.ndim - 2))
+        return np.where(mask, a[rows[:, None], j], before)
+
+    extras = {"fading_factor": at_epochs(filt.fading_factor, np.nan),
+              "weakening_factor": at_epochs(filt.weakening_factor, np.nan),
+              "updated": at_epochs(filt.extras["updated"], False)}
+    return LSFadingResult(times=times, x=at_epochs(filt.x, pos), P=at_epochs(filt.P, np.nan),
+                          x_prior=at_epochs(filt.x_prior, pos), P_prior=at_epochs(filt.P_prior, np.nan),
+                          innovations=at_epochs(filt.innovations, np.nan),
+                          innovation_cov=at_epochs(filt.innovation_cov, np.nan), extras=extras,
+                          start_epoch=start, mu_gamma=mu, prelocation=prelocation, acceptance=acceptance,
+                          filter_result=filt)
