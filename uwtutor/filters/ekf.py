@@ -236,8 +236,10 @@ class RangeOnlyEKF:
         Current estimate, shape (2,) or (M, 2) (assignable).
     P : ndarray
         Current covariance, shape (2, 2) or (M, 2, 2) (assignable).
-    x_prior, P_prior : ndarray
-        The prediction of the current step and its covariance (copies).
+    x_prior : ndarray
+        The prediction of the current step (a copy).
+    P_prior : ndarray
+        Its covariance (a copy).
     y : ndarray
         Innovation of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray

@@ -122,12 +122,18 @@ class ExtendedKalmanFilter:
 
     Attributes
     ----------
-    x, P : ndarray
-        Current estimate ``(n,)``/``(M, n)`` and covariance ``(n, n)``/``(M, n, n)``.
-    x_prior, P_prior : ndarray
-        The prediction of the current step (equal to ``x``, ``P`` before the first ``predict``).
-    y, S : ndarray
-        Innovation ``(m,)``/``(M, m)`` and its covariance of the last update (NaN where no measurement was used).
+    x : ndarray
+        Current estimate, ``(n,)`` or ``(M, n)``.
+    P : ndarray
+        Its covariance, ``(n, n)`` or ``(M, n, n)``.
+    x_prior : ndarray
+        The prediction of the current step (equal to ``x`` before the first ``predict``).
+    P_prior : ndarray
+        Its covariance (equal to ``P`` before the first ``predict``).
+    y : ndarray
+        Innovation of the last update, ``(m,)`` or ``(M, m)`` (NaN where no measurement was used).
+    S : ndarray
+        Its covariance, ``(m, m)`` or ``(M, m, m)`` (NaN where no measurement was used).
     accepted : ndarray of bool
         Whether the last update used a measurement, ``()`` or ``(M,)``.
     k : int
@@ -356,7 +362,7 @@ class ExtendedKalmanFilter:
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
-        :func:`~uwtutor.filters.run_filter`); the filter is left at the last step.
+        :func:`~uwtutor.filters.base.run_filter`); the filter is left at the last step.
 
         ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
         measurements; ``u`` has shape (K, p) or (M, K, p), or is None.

@@ -555,11 +555,22 @@ class FadingEKF:
         Innovation :math:`\tilde z_k` of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray
         Its variance :math:`R_\delta`, shape (1, 1) or (M, 1, 1).
-    x_prior, P_prior : ndarray
-        The prediction of the last step, its covariance with the fading factor applied.
-    fading_factor, weakening_factor, innovation_power, fading_numerator, fading_denominator, \
+    x_prior : ndarray
+        The prediction of the last step.
+    P_prior : ndarray
+        Its covariance, with the fading factor applied.
+    fading_factor : ndarray
+        :math:`\lambda_k` of the last update, shape () or (M,).
+    weakening_factor : ndarray
+        :math:`\beta_k` of the last update, shape () or (M,).
+    innovation_power : ndarray
+        :math:`V_k` of the last update, shape () or (M,).
+    fading_numerator : ndarray
+        :math:`\mathcal M_k` of the last update, shape () or (M,).
+    fading_denominator : ndarray
+        :math:`\mathcal N_k` of the last update, shape () or (M,).
     multiplicative_variance : ndarray
-        The diagnostics of the last update (see :class:`FadingResult`), shape () or (M,).
+        :math:`\sigma_\gamma^2 T_k` of the last update, shape () or (M,) (see :class:`FadingResult`).
     updated : ndarray of bool
         Whether the last update used a range, shape () or (M,).
     extra_outputs : tuple of str
@@ -747,11 +758,14 @@ class LSFadingResult(FilterResult):
         filter's after it.
     P : ndarray, shape (M, K, 2, 2)
         The filter's covariance (NaN up to the start epoch: the grid search gives none).
-    x_prior, P_prior : ndarray
-        The filter's predictions (the pre-location and NaN up to the start epoch).
-    innovations, innovation_cov : ndarray, shape (M, K, 1) and (M, K, 1, 1)
-        The filter's innovations (NaN up to the start epoch and where no range was used), so that NIS
-        statistics (e.g. ``run_monte_carlo``) cover the filtered epochs.
+    x_prior : ndarray
+        The filter's predictions (the pre-location up to the start epoch).
+    P_prior : ndarray
+        Their covariances (NaN up to the start epoch).
+    innovations : ndarray, shape (M, K, 1)
+        The filter's innovations (NaN up to the start epoch and where no range was used).
+    innovation_cov : ndarray, shape (M, K, 1, 1)
+        Their covariances, so that NIS statistics (e.g. ``run_monte_carlo``) cover the filtered epochs.
     extras : dict
         ``"fading_factor"`` :math:`\lambda_k`, ``"weakening_factor"`` :math:`\beta_k` (NaN up to the start
         epoch) and ``"updated"`` (True where the filter used a range), shape (M, K).

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from .._validate import as_finite
 
@@ -32,8 +31,12 @@ class GateContext:
     ----------
     k : int
         Index of the step.
-    z, z_pred, y : ndarray, shape (M, m)
-        Measurement, predicted measurement and innovation (NaN rows: no measurement for that run).
+    z : ndarray, shape (M, m)
+        Measurement (NaN rows: no measurement for that run).
+    z_pred : ndarray, shape (M, m)
+        Predicted measurement.
+    y : ndarray, shape (M, m)
+        Innovation (NaN rows: no measurement for that run).
     S : ndarray, shape (M, m, m)
         Innovation covariance.
     H : ndarray, shape (M, m, n)
@@ -115,6 +118,8 @@ class ChiSquareGate(Gate):
 
     def threshold(self, m: int) -> float:
         """The NIS threshold for a measurement of size ``m``."""
+        from scipy import stats      # imported when needed: scipy.stats is heavy and most filters never gate
+
         return float(stats.chi2.ppf(self.probability, m))
 
     def accept(self, ctx: GateContext) -> np.ndarray:

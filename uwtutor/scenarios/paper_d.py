@@ -42,12 +42,16 @@ class PaperD:
         Additive range noise variance [m²].
     rho : float
         Forgetting factor of the innovation power.
-    true_speed, speed_sigma : float
-        Mean and standard deviation of the effective sound speed [m/s].
+    true_speed : float
+        Mean of the effective sound speed [m/s].
+    speed_sigma : float
+        Its standard deviation from ping to ping [m/s].
     assumed_speed : float
         The speed the vehicle converts travel times with [m/s].
-    ping_interval, duration : float
-        Ping period and the time span of the pings [s].
+    ping_interval : float
+        Ping period [s].
+    duration : float
+        Time span of the pings [s].
     n_runs : int
         Number of Monte Carlo runs of the paper's figures.
     """
