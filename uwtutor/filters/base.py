@@ -32,6 +32,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
 
 __all__ = ["Filter", "FilterResult", "run_filter"]
@@ -102,13 +103,8 @@ class FilterResult:
 
         Under a consistent filter it follows a chi-square distribution with ``m`` degrees of freedom.
         """
-        y = self.innovations
-        S = self.innovation_cov
-        out = np.full(y.shape[:-1], np.nan)
-        ok = np.isfinite(y).all(axis=-1)
-        if ok.any():
-            sol = np.linalg.solve(S[ok], y[ok][..., None])[..., 0]
-            out[ok] = np.einsum("...i,...i->...", y[ok], sol)
+        out = quadratic_form(self.innovations, self.innovation_cov, "innovation_cov")
+        out[~np.isfinite(self.innovations).all(axis=-1)] = np.nan
         return out
 
     def nees(self, truth: Any) -> np.ndarray:
@@ -122,8 +118,7 @@ class FilterResult:
             err = np.broadcast_to(truth, self.x.shape) - self.x
         except ValueError:
             raise ValueError(f"truth must broadcast to the estimates' shape {self.x.shape}; got {truth.shape}") from None
-        sol = np.linalg.solve(self.P, err[..., None])[..., 0]
-        return np.einsum("...i,...i->...", err, sol)
+        return quadratic_form(err, self.P, "P")
 
     def as_dict(self) -> dict[str, np.ndarray]:
         """The arrays of this result by name (extras included), e.g. for saving with :func:`numpy.savez`."""

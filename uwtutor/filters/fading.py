@@ -117,6 +117,7 @@ from typing import Any
 
 import numpy as np
 
+from ..acoustics import range_factor
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
@@ -187,7 +188,8 @@ def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 150
     sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
     if sc < 0:
         raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
-    return c / ce, c * sc / ce**2
+    mu, sigma = range_factor(c, ce, sc)
+    return float(mu), float(sigma)
 
 
 def _positive_scalar(name: str, value: Any) -> float:

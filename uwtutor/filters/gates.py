@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import quadratic_form
 from .._validate import as_finite
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "normalized_innovation_squared"]
@@ -70,9 +71,7 @@ def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     >>> normalized_innovation_squared(np.array([[2.0]]), np.array([[[4.0]]]))
     array([1.])
     """
-    if y.shape[-1] == 1:
-        return y[..., 0] ** 2 / S[..., 0, 0]
-    return np.einsum("...i,...i->...", y, np.linalg.solve(S, y[..., None])[..., 0])
+    return quadratic_form(y, S, "S")
 
 
 class Gate:

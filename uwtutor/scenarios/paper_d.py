@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..acoustics import range_factor
 from . import Scenario, approach_with_turn_scenario
 
 __all__ = ["PaperD", "PARAMETERS", "make"]
@@ -69,7 +70,7 @@ class PaperD:
     @property
     def mu_gamma_true(self) -> float:
         r"""The mean range factor :math:`c_a / c` to first order (0.98)."""
-        return round(self.assumed_speed / self.true_speed, 12)
+        return round(float(range_factor(self.assumed_speed, self.true_speed)[0]), 12)
 
     def as_dict(self) -> dict[str, Any]:
         """The parameters by name."""
