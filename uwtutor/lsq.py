@@ -17,21 +17,22 @@ dead-reckoned (DR) displacements, and each says how far it can be trusted:
 ``virtual_beacon_lsq``             paper E's virtual-beacon (VMLBL) fix from pairwise-differenced spheres
 =================================  ==================================================================================
 
-**Linearized range least squares** (Liu et al., paper A). A range to beacon :math:`b_i` (a real beacon, or a
-*virtual* one: the beacon moved by the vehicle's DR displacement since epoch :math:`i`) with a constant bias
-:math:`\upsilon` is :math:`r_i = \lVert p - b_i \rVert + \upsilon + \eta_i`. About a provisional position
-:math:`p_0`, with :math:`\rho_i = \lVert p_0 - b_i \rVert` and the unit line of sight
-:math:`h_i = (p_0 - b_i)^\mathsf{T}/\rho_i`,
+**Linearized range least squares** (Liu et al., paper A). A range to beacon :math:`b^\mathrm{v}_i` (a real
+beacon, or a *virtual* one: the beacon moved by the vehicle's DR displacement since epoch :math:`i`) with a constant
+bias :math:`\upsilon` is :math:`r_i = \lVert p - b^\mathrm{v}_i \rVert + \upsilon + \eta_i`, :math:`i = 1..K`. About
+a provisional position :math:`p_0`, with the predicted range :math:`\hat r_i = \lVert p_0 - b^\mathrm{v}_i \rVert`
+(paper A: :math:`\rho_k`) and the unit line of sight :math:`h_i = (p_0 - b^\mathrm{v}_i)^\mathsf{T}/\hat r_i`,
 
 .. math::
 
-    r_i - \rho_i \approx h_i\,\delta p + \upsilon + \eta_i, \qquad
-    y = A\beta + \eta, \quad A = \begin{bmatrix} h_1 & 1 \\ \vdots & \vdots \\ h_N & 1 \end{bmatrix},
-    \quad \beta = \begin{bmatrix} \delta p \\ \upsilon \end{bmatrix},
+    r_i - \hat r_i \approx h_i\,\delta p + \upsilon + \eta_i, \qquad
+    y = A\zeta + \eta, \quad A = \begin{bmatrix} h_1 & 1 \\ \vdots & \vdots \\ h_K & 1 \end{bmatrix},
+    \quad \zeta = \begin{bmatrix} \delta p \\ \upsilon \end{bmatrix},
 
-so :math:`\hat\beta = (A^\mathsf{T}A)^{-1}A^\mathsf{T}y`, :math:`\hat p = p_0 + \delta\hat p`, and for white noise of
-variance :math:`\sigma^2` :math:`\operatorname{Cov}\hat\beta = \sigma^2 (A^\mathsf{T}A)^{-1}`: the mean squared error
-of the three unknowns is :math:`\alpha\sigma^2`, with the **precision factor**
+so :math:`\hat\zeta = (A^\mathsf{T}A)^{-1}A^\mathsf{T}y` (paper A: :math:`\hat\beta`), :math:`\hat p = p_0 +
+\delta\hat p`, and for white noise of variance :math:`\sigma_r^2` :math:`\operatorname{Cov}\hat\zeta = \sigma_r^2
+(A^\mathsf{T}A)^{-1}`: the mean squared error of the three unknowns is :math:`\alpha\sigma_r^2`, with the
+**precision factor**
 :math:`\alpha = \operatorname{tr}(A^\mathsf{T}A)^{-1} = \sum_i 1/\lambda_i(A^\mathsf{T}A)` (paper A, eqs. 10-11).
 Paper A trusts the fix, and starts its filter, once :math:`\alpha < 2`. The same covariance is the Cramér-Rao bound of
 position and bias (chapter 2), so :math:`\alpha\sigma^2` is the trace of that bound.
@@ -497,11 +498,11 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
                    max_noise_gain: float = 100.0) -> LSQFix:
     r"""Paper A's pre-positioning: a least-squares fix of the *current* position from a whole DR track of ranges.
 
-    The vehicle measured :math:`r_1, \dots, r_N` at epochs where dead reckoning put it at :math:`P_1, \dots, P_N`
-    (only the differences matter). Its position at epoch :math:`i` is :math:`p - (P_N - P_i)`, so the range of
-    epoch :math:`i` is a range from the current position :math:`p` to the **virtual beacon**
-    :math:`b_i = b + (P_N - P_i)` (paper A "back-propagates the provisional position to every past epoch with the
-    DR displacements"; the two views are the same equations). The fix is then ``linearized_lsq`` on those virtual
+    The vehicle measured :math:`r_1, \dots, r_K` at epochs where dead reckoning put it at :math:`p^\mathrm{DR}_1,
+    \dots, p^\mathrm{DR}_K` (only the differences matter). Its position at epoch :math:`i` is :math:`p + d_i`,
+    :math:`d_i = p^\mathrm{DR}_i - p^\mathrm{DR}_K`, so the range of epoch :math:`i` is a range from the current
+    position :math:`p` to the **virtual beacon** :math:`b^\mathrm{v}_i = b - d_i` (paper A "back-propagates the
+    provisional position to every past epoch with the DR displacements"; the two views are the same equations). The fix is then ``linearized_lsq`` on those virtual
     beacons, with paper A's bias column by default.
 
     Parameters
@@ -1032,19 +1033,22 @@ class VirtualBeaconFix:
     position : ndarray, shape (2,) or (M, 2)
         Horizontal position at the last epoch [m]; NaN where the problem is singular.
     virtual_beacons : ndarray, shape (N, 2) or (M, N, 2)
-        :math:`VB_i = AB_i + (P_N - P_i)` [m].
+        :math:`b^\mathrm{v}_i = a_i + (p^\mathrm{DR}_N - p^\mathrm{DR}_i)` (paper E: :math:`VB_i = AB_i + (P_N -
+        P_i)`) [m].
     design : ndarray, shape (N, 2) or (M, N, 2)
-        :math:`A`, rows :math:`VB_{i+1} - VB_i` (cyclically: the last row is :math:`VB_1 - VB_N`).
+        :math:`A`, rows :math:`b^\mathrm{v}_{i+1} - b^\mathrm{v}_i` (cyclically: the last row is
+        :math:`b^\mathrm{v}_1 - b^\mathrm{v}_N`).
     rhs : ndarray, shape (N,) or (M, N)
-        :math:`B` [m²].
+        :math:`g` (paper E: :math:`B`) [m²].
     condition_number : ndarray
         :math:`\kappa(A)`, shape () or (M,): large when the virtual beacons are nearly collinear.
     noise_gain : ndarray
         RMS horizontal position error per metre of white range noise, shape () or (M,):
-        :math:`\sqrt{\operatorname{tr}(G G^\mathsf{T})}`, :math:`G = A^+ \partial B/\partial r`. It grows like
+        :math:`\sqrt{\operatorname{tr}(J J^\mathsf{T})}`, :math:`J = A^+ \partial g/\partial r`. It grows like
         range / baseline.
     residuals : ndarray, shape (N,) or (M, N)
-        Range residuals at the fix, :math:`r_i - \lVert (\hat x, \hat y, h) - (VB_i, z_i)\rVert` [m].
+        Range residuals at the fix,
+        :math:`r_i - \lVert (\hat x, \hat y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert` [m].
     well_conditioned : ndarray
         Boolean, shape () or (M,): condition number and noise gain below their limits.
     """
@@ -1064,21 +1068,25 @@ def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *,
                        max_noise_gain: float = 100.0) -> VirtualBeaconFix:
     r"""Paper E's virtual moving long baseline: a closed-form fix from N ranges to a moving beacon.
 
-    The mother ship (the beacon) was at :math:`AB_i` at epoch :math:`i` and the submersible's dead reckoning at
-    :math:`P_i`. Shifting each ship position by the submersible's DR displacement from epoch :math:`i` to now makes
-    a **virtual beacon** :math:`VB_i = AB_i + (P_N - P_i)` (paper E, eq. 14: :math:`AB_i + \sum_{n=i}^{3} v_n
-    dt`) whose range from the *current* position is :math:`r_i`. With the depth :math:`h` known (pressure sensor)
-    and the virtual beacons at depths :math:`z_i`, the spheres :math:`\lVert (x, y, h) - (VB_i, z_i)\rVert = r_i`,
+    The mother ship (the beacon) was at :math:`a_i` (paper E: :math:`AB_i`) at epoch :math:`i` and the
+    submersible's dead reckoning at :math:`p^\mathrm{DR}_i` (:math:`P_i`). Shifting each ship position by the
+    submersible's DR displacement from epoch :math:`i` to now makes a **virtual beacon**
+    :math:`b^\mathrm{v}_i = a_i + (p^\mathrm{DR}_N - p^\mathrm{DR}_i)` (paper E, eq. 14: :math:`VB_i = AB_i +
+    \sum_{n=i}^{3} v_n dt`) whose range from the *current* position is :math:`r_i`. With the depth :math:`z` known
+    (pressure sensor) and the ship's transducer at depths :math:`z^\mathrm{a}_i`, the spheres
+    :math:`\lVert (x, y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert = r_i`,
     differenced pairwise around the cycle (1-2, 2-3, ..., N-1; paper E, eq. 16), are linear in :math:`(x, y)`:
 
     .. math::
 
-        (x_{j} - x_i)\,x + (y_{j} - y_i)\,y = \frac{r_i^2 - r_{j}^2 + d_{j}^2 - d_i^2}{2} - h\,(z_{j} - z_i),
-        \quad j = i + 1 \bmod N, \quad d_i^2 = x_i^2 + y_i^2 + z_i^2,
+        (x_{j} - x_i)\,x + (y_{j} - y_i)\,y = \frac{r_i^2 - r_{j}^2 + \ell_{j}^2 - \ell_i^2}{2}
+        - z\,(z^\mathrm{a}_{j} - z^\mathrm{a}_i), \quad j = i + 1 \bmod N,
+        \quad \ell_i^2 = x_i^2 + y_i^2 + (z^\mathrm{a}_i)^2,
 
-    :math:`A X = B`, solved by least squares :math:`X = A^+ B` (eq. 17). The cyclic rows sum to zero, so only
-    :math:`N - 1` of them are independent (the last adds no information); the answer is still the least-squares
-    one. When all :math:`z_i` are equal (a surface ship) the depth cancels exactly.
+    :math:`A p = g` (paper E: :math:`A X = B`), solved by least squares :math:`\hat p = A^+ g` (eq. 17). The
+    cyclic rows sum to zero, so only :math:`N - 1` of them are independent (the last adds no information); the
+    answer is still the least-squares one. When all :math:`z^\mathrm{a}_i` are equal (a surface ship) the depth
+    cancels exactly.
 
     Conditioning: the rows of :math:`A` are the baselines between virtual beacons, so :math:`A` is singular when
     they are collinear, and the fix's sensitivity to the ranges (``noise_gain``) grows like range / baseline: a
