@@ -17,21 +17,22 @@ dead-reckoned (DR) displacements, and each says how far it can be trusted:
 ``virtual_beacon_lsq``             paper E's virtual-beacon (VMLBL) fix from pairwise-differenced spheres
 =================================  ==================================================================================
 
-**Linearized range least squares** (Liu et al., paper A). A range to beacon :math:`b_i` (a real beacon, or a
-*virtual* one: the beacon moved by the vehicle's DR displacement since epoch :math:`i`) with a constant bias
-:math:`\upsilon` is :math:`r_i = \lVert p - b_i \rVert + \upsilon + \eta_i`. About a provisional position
-:math:`p_0`, with :math:`\rho_i = \lVert p_0 - b_i \rVert` and the unit line of sight
-:math:`h_i = (p_0 - b_i)^\mathsf{T}/\rho_i`,
+**Linearized range least squares** (Liu et al., paper A). A range to beacon :math:`b^\mathrm{v}_i` (a real
+beacon, or a *virtual* one: the beacon moved by the vehicle's DR displacement since epoch :math:`i`) with a constant
+bias :math:`\upsilon` is :math:`r_i = \lVert p - b^\mathrm{v}_i \rVert + \upsilon + \eta_i`, :math:`i = 1..K`. About
+a provisional position :math:`p_0`, with the predicted range :math:`\hat r_i = \lVert p_0 - b^\mathrm{v}_i \rVert`
+(paper A: :math:`\rho_k`) and the unit line of sight :math:`h_i = (p_0 - b^\mathrm{v}_i)^\mathsf{T}/\hat r_i`,
 
 .. math::
 
-    r_i - \rho_i \approx h_i\,\delta p + \upsilon + \eta_i, \qquad
-    y = A\beta + \eta, \quad A = \begin{bmatrix} h_1 & 1 \\ \vdots & \vdots \\ h_N & 1 \end{bmatrix},
-    \quad \beta = \begin{bmatrix} \delta p \\ \upsilon \end{bmatrix},
+    r_i - \hat r_i \approx h_i\,\delta p + \upsilon + \eta_i, \qquad
+    y = A\zeta + \eta, \quad A = \begin{bmatrix} h_1 & 1 \\ \vdots & \vdots \\ h_K & 1 \end{bmatrix},
+    \quad \zeta = \begin{bmatrix} \delta p \\ \upsilon \end{bmatrix},
 
-so :math:`\hat\beta = (A^\mathsf{T}A)^{-1}A^\mathsf{T}y`, :math:`\hat p = p_0 + \delta\hat p`, and for white noise of
-variance :math:`\sigma^2` :math:`\operatorname{Cov}\hat\beta = \sigma^2 (A^\mathsf{T}A)^{-1}`: the mean squared error
-of the three unknowns is :math:`\alpha\sigma^2`, with the **precision factor**
+so :math:`\hat\zeta = (A^\mathsf{T}A)^{-1}A^\mathsf{T}y` (paper A: :math:`\hat\beta`), :math:`\hat p = p_0 +
+\delta\hat p`, and for white noise of variance :math:`\sigma_r^2` :math:`\operatorname{Cov}\hat\zeta = \sigma_r^2
+(A^\mathsf{T}A)^{-1}`: the mean squared error of the three unknowns is :math:`\alpha\sigma_r^2`, with the
+**precision factor**
 :math:`\alpha = \operatorname{tr}(A^\mathsf{T}A)^{-1} = \sum_i 1/\lambda_i(A^\mathsf{T}A)` (paper A, eqs. 10-11).
 Paper A trusts the fix, and starts its filter, once :math:`\alpha < 2`. The same covariance is the Cramér-Rao bound of
 position and bias (chapter 2), so :math:`\alpha\sigma^2` is the trace of that bound.

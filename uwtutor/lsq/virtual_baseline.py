@@ -22,19 +22,22 @@ class VirtualBeaconFix:
     position : ndarray, shape (2,) or (M, 2)
         Horizontal position at the last epoch [m]; NaN where the problem is singular.
     virtual_beacons : ndarray, shape (N, 2) or (M, N, 2)
-        :math:`VB_i = AB_i + (P_N - P_i)` [m].
+        :math:`b^\mathrm{v}_i = a_i + (p^\mathrm{DR}_N - p^\mathrm{DR}_i)` (paper E: :math:`VB_i = AB_i + (P_N -
+        P_i)`) [m].
     design : ndarray, shape (N, 2) or (M, N, 2)
-        :math:`A`, rows :math:`VB_{i+1} - VB_i` (cyclically: the last row is :math:`VB_1 - VB_N`).
+        :math:`A`, rows :math:`b^\mathrm{v}_{i+1} - b^\mathrm{v}_i` (cyclically: the last row is
+        :math:`b^\mathrm{v}_1 - b^\mathrm{v}_N`).
     rhs : ndarray, shape (N,) or (M, N)
-        :math:`B` [m²].
+        :math:`g` (paper E: :math:`B`) [m²].
     condition_number : ndarray
         :math:`\kappa(A)`, shape () or (M,): large when the virtual beacons are nearly collinear.
     noise_gain : ndarray
         RMS horizontal position error per metre of white range noise, shape () or (M,):
-        :math:`\sqrt{\operatorname{tr}(G G^\mathsf{T})}`, :math:`G = A^+ \partial B/\partial r`. It grows like
+        :math:`\sqrt{\operatorname{tr}(J J^\mathsf{T})}`, :math:`J = A^+ \partial g/\partial r`. It grows like
         range / baseline.
     residuals : ndarray, shape (N,) or (M, N)
-        Range residuals at the fix, :math:`r_i - \lVert (\hat x, \hat y, h) - (VB_i, z_i)\rVert` [m].
+        Range residuals at the fix,
+        :math:`r_i - \lVert (\hat x, \hat y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert` [m].
     well_conditioned : ndarray
         Boolean, shape () or (M,): condition number and noise gain below their limits.
     """
@@ -54,21 +57,25 @@ def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *,
                        max_noise_gain: float = 100.0) -> VirtualBeaconFix:
     r"""Paper E's virtual moving long baseline: a closed-form fix from N ranges to a moving beacon.
 
-    The mother ship (the beacon) was at :math:`AB_i` at epoch :math:`i` and the submersible's dead reckoning at
-    :math:`P_i`. Shifting each ship position by the submersible's DR displacement from epoch :math:`i` to now makes
-    a **virtual beacon** :math:`VB_i = AB_i + (P_N - P_i)` (paper E, eq. 14: :math:`AB_i + \sum_{n=i}^{3} v_n
-    dt`) whose range from the *current* position is :math:`r_i`. With the depth :math:`h` known (pressure sensor)
-    and the virtual beacons at depths :math:`z_i`, the spheres :math:`\lVert (x, y, h) - (VB_i, z_i)\rVert = r_i`,
+    The mother ship (the beacon) was at :math:`a_i` (paper E: :math:`AB_i`) at epoch :math:`i` and the
+    submersible's dead reckoning at :math:`p^\mathrm{DR}_i` (:math:`P_i`). Shifting each ship position by the
+    submersible's DR displacement from epoch :math:`i` to now makes a **virtual beacon**
+    :math:`b^\mathrm{v}_i = a_i + (p^\mathrm{DR}_N - p^\mathrm{DR}_i)` (paper E, eq. 14: :math:`VB_i = AB_i +
+    \sum_{n=i}^{3} v_n dt`) whose range from the *current* position is :math:`r_i`. With the depth :math:`z` known
+    (pressure sensor) and the ship's transducer at depths :math:`z^\mathrm{a}_i`, the spheres
+    :math:`\lVert (x, y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert = r_i`,
     differenced pairwise around the cycle (1-2, 2-3, ..., N-1; paper E, eq. 16), are linear in :math:`(x, y)`:
 
     .. math::
 
-        (x_{j} - x_i)\,x + (y_{j} - y_i)\,y = \frac{r_i^2 - r_{j}^2 + d_{j}^2 - d_i^2}{2} - h\,(z_{j} - z_i),
-        \quad j = i + 1 \bmod N, \quad d_i^2 = x_i^2 + y_i^2 + z_i^2,
+        (x_{j} - x_i)\,x + (y_{j} - y_i)\,y = \frac{r_i^2 - r_{j}^2 + \ell_{j}^2 - \ell_i^2}{2}
+        - z\,(z^\mathrm{a}_{j} - z^\mathrm{a}_i), \quad j = i + 1 \bmod N,
+        \quad \ell_i^2 = x_i^2 + y_i^2 + (z^\mathrm{a}_i)^2,
 
-    :math:`A X = B`, solved by least squares :math:`X = A^+ B` (eq. 17). The cyclic rows sum to zero, so only
-    :math:`N - 1` of them are independent (the last adds no information); the answer is still the least-squares
-    one. When all :math:`z_i` are equal (a surface ship) the depth cancels exactly.
+    :math:`A p = g` (paper E: :math:`A X = B`), solved by least squares :math:`\hat p = A^+ g` (eq. 17). The
+    cyclic rows sum to zero, so only :math:`N - 1` of them are independent (the last adds no information); the
+    answer is still the least-squares one. When all :math:`z^\mathrm{a}_i` are equal (a surface ship) the depth
+    cancels exactly.
 
     Conditioning: the rows of :math:`A` are the baselines between virtual beacons, so :math:`A` is singular when
     they are collinear, and the fix's sensitivity to the ranges (``noise_gain``) grows like range / baseline: a
