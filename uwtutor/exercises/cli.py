@@ -31,7 +31,7 @@ _EXERCISES_DESCRIPTION = """\
 Write fresh student versions of the exercise notebooks into DIR (created if needed).
 
 Each exercise has an answer cell (write your code below "# YOUR CODE HERE" and delete the
-"raise NotImplementedError()" line) and a check cell that tells you what is wrong and why.
+"raise NotImplementedError(...)" line) and a check cell that tells you what is wrong and why.
 
 A notebook that already exists in DIR is never overwritten (it holds your work): it is skipped
 and reported. To get a fresh copy, rename or delete yours and run the command again, write to

@@ -12,7 +12,7 @@ In the student version the region between (and including) the markers of a code 
 the ``BEGIN`` marker::
 
     # YOUR CODE HERE
-    raise NotImplementedError()
+    raise NotImplementedError("not answered yet: write your code in place of this line, then run the cell again")
 
 so that running the student notebook stops at the first unanswered exercise; in a Markdown cell it becomes
 ``YOUR ANSWER HERE``. Regions between ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` are removed (a cell
@@ -41,11 +41,14 @@ __all__ = [
     "WriteReport",
     "ExerciseSourceError",
     "CODE_STUB",
+    "STUB_MESSAGE",
     "TEXT_STUB",
 ]
 
-#: The lines that replace a solution region in a code cell (nbgrader's default stub).
-CODE_STUB = ("# YOUR CODE HERE", "raise NotImplementedError()")
+#: The message of the stub's ``NotImplementedError``: what the student is to do.
+STUB_MESSAGE = "not answered yet: write your code in place of this line, then run the cell again"
+#: The lines that replace a solution region in a code cell (nbgrader's stub, with a message that says what to do).
+CODE_STUB = ("# YOUR CODE HERE", f"raise NotImplementedError({STUB_MESSAGE!r})")
 #: The line that replaces a solution region in a Markdown cell.
 TEXT_STUB = "YOUR ANSWER HERE"
 
@@ -119,7 +122,7 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
     -------
     nbformat.NotebookNode
         A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
-        and ``raise NotImplementedError()`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
+        and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
         TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
         execution counts cleared; notebook metadata reduced to ``kernelspec`` and the language's name, cell metadata
         to ``tags``.
