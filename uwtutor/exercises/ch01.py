@@ -350,15 +350,15 @@ def _outlier_cases() -> list[Case]:
         Case((base.copy(), threshold), label="clean ranges, nothing to flag",
              hint="With no outlier nothing should be flagged: compare `abs(r[i] - median) > threshold`, with the "
                   "median of the neighbours only."),
-        Case((np.array([100.0, 200.0]), 60.0), label="two ranges, each the other's only neighbour",
-             hint="Leave the range itself out of its window: with it in, both windows are [100, 200], whose median "
-                  "150 is within 60 m of each range, so neither is flagged; each range's only neighbour is the "
-                  "other, 100 m away."),
         Case((planted({8: 40.0}), threshold), label="one isolated outlier",
              hint="Compare each range with the median of its neighbours (`np.median`), which a single outlier cannot "
                   "drag away, and leave the range itself out of its window."),
         Case((planted({5: -12.0}), threshold), label="a range that is too short",
              hint="A jump can go either way: compare the absolute difference, `abs(...)`."),
+        Case((np.array([100.0, 200.0]), 60.0), label="two ranges, each the other's only neighbour",
+             hint="Leave the range itself out of its window: with it in, both windows are [100, 200], whose median "
+                  "150 is within 60 m of each range, so neither is flagged; each range's only neighbour is the "
+                  "other, 100 m away."),
         Case((planted({0: 30.0}), threshold), label="an outlier in the first range", hint=ends_hint),
         Case((planted({n - 1: 25.0}), threshold), label="an outlier in the last range", hint=ends_hint),
         Case((planted({10: 35.0, 11: 33.0}), threshold), label="a patch of two outliers in a row",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import html
 import re
+import textwrap
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -70,6 +71,16 @@ def _inline_html(text: str) -> str:
 def _html_lines(text: str) -> str:
     """Escape ``text`` for HTML and render its inline markup (see ``_inline_html``), keeping its line breaks."""
     return _inline_html(text)
+
+
+def _wrapped(text: str, width: int = 100) -> str:
+    """``text`` with each line wrapped at ``width`` characters, continuation lines indented like the line."""
+    out = []
+    for line in text.split("\n"):
+        indent = line[:len(line) - len(line.lstrip())] or ("  " if line.startswith(("✔", "✘")) else "")
+        out.append(textwrap.fill(line, width=width, subsequent_indent=indent, break_long_words=False,
+                                 break_on_hyphens=False) if line.strip() else line)
+    return "\n".join(out)
 
 
 @dataclass(frozen=True)
@@ -165,8 +176,9 @@ class Feedback:
         Raises
         ------
         AssertionError
-            When the answer is not correct; the error text is the feedback text.
+            When the answer is not correct; the error text is the feedback text, wrapped at 100 characters.
         """
+        __tracebackhide__ = True  # IPython and pytest leave this frame out of the traceback a student sees
         if not self.correct:
-            raise AssertionError(str(self))
+            raise AssertionError(_wrapped(str(self)))
         return self
