@@ -204,8 +204,22 @@ def test_feedback_is_written_and_names_the_failure(graded, lab):
             assert html.is_file(), f"no feedback for {student}"
         wrong = (course / "feedback" / "wrong" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
         assert MISTAKES[lab][2] in wrong, "the feedback shows the failing test's message"
+        assert "output_error" in wrong
         solution = (course / "feedback" / "solution" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
-        assert "AssertionError" not in solution and "NotImplementedError" not in solution
+        assert "output_error" not in solution, "the solution's feedback shows an error"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_unanswered_lab_fails_only_where_answers_are_missing(graded, lab):
+    """In the graded blank version, given cells run (or stop at NotImplementedError); tests fail by assertion."""
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        nb = nbformat.read(course / "autograded" / "blank" / lab / path.name, as_version=4)
+        for index, cell in enumerate(nb.cells):
+            errors = [o.ename for o in cell.get("outputs", []) if o.output_type == "error"]
+            meta = cell.metadata.get("nbgrader", {})
+            allowed = {"NotImplementedError", "AssertionError"} if meta.get("grade") else {"NotImplementedError"}
+            assert set(errors) <= allowed, f"cell {index} ({meta.get('grade_id')}) raised {errors}"
 
 
 @pytest.mark.parametrize("lab", LABS)
