@@ -63,7 +63,7 @@ class TestFeedback:
         assert "*" not in html.replace("<code>P_k * 2</code>", "")
         assert not hasattr(fb, "_repr_markdown_"), "one rich display (HTML), so no front end shows raw Markdown"
 
-    def test_assert_correct_wraps_long_messages_and_hides_its_frame(self):
+    def test_assert_correct_wraps_long_messages(self):
         fb = Feedback(False, "Not yet.", hint="word " * 60)
         with pytest.raises(AssertionError) as info:
             fb.assert_correct()

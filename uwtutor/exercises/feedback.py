@@ -178,7 +178,7 @@ class Feedback:
         AssertionError
             When the answer is not correct; the error text is the feedback text, wrapped at 100 characters.
         """
-        __tracebackhide__ = True  # IPython and pytest leave this frame out of the traceback a student sees
+        __tracebackhide__ = True  # pytest leaves this frame out of its tracebacks
         if not self.correct:
             raise AssertionError(_wrapped(str(self)))
         return self
