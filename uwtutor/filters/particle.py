@@ -77,7 +77,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_positive, as_rng
-from ..grey import gm11_forecast
+from ..grey import gm11_next
 from ..models.depth import DEFAULT_PROCESS_STD, DEFAULT_SENSOR_STD, DepthSpeedPitch
 from ..models.noise import per_run_generators, standard_normal_per_run
 from ..resampling import Resampler, systematic_resample
@@ -117,7 +117,7 @@ def _as_batch(particles: Any) -> tuple[np.ndarray, bool]:
 
 def _rows(values: np.ndarray) -> np.ndarray:
     """``(M, N, k) -> (M, k, N)``: each component of every run contiguous (a view when it already is)."""
-    return np.swapaxes(values, -1, -2)
+    return values.swapaxes(-1, -2)
 
 
 def _gaussian_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
@@ -129,7 +129,7 @@ def _gaussian_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
     :math:`W^T = L^{-1}`, :math:`L L^T = R`. A run with every entry missing gets 0 (its weights do not change).
     """
     missing = np.isnan(z)
-    if not missing.any():                          # rows (M, m, N): contiguous per component
+    if not np.count_nonzero(missing):              # rows (M, m, N): contiguous per component
         d = hx_rows - z[..., None]
         if diagonal:
             d *= whiten[..., None]
@@ -704,7 +704,8 @@ class BootstrapParticleFilter:
     def _propagate(self, model: ParticleModel, rows: np.ndarray, u: Any, runs: np.ndarray,
                    name: str = "model") -> np.ndarray:
         """Move ``rows`` (R, n, count) of the runs ``runs`` with ``model``; returns new rows (R, n, count)."""
-        new = model.propagate(_rows(rows), self._per_run_input(u, runs), tuple(self.rngs[r] for r in runs))
+        rngs = self.rngs if len(runs) == len(self.rngs) else tuple(self.rngs[r] for r in runs)
+        new = model.propagate(_rows(rows), self._per_run_input(u, runs), rngs)
         want = rows.shape[:1] + rows.shape[2:] + rows.shape[1:2]
         if np.shape(new) != want:
             raise ValueError(f"{name}.propagate must return particles of shape {want}; got {np.shape(new)}")
@@ -716,7 +717,7 @@ class BootstrapParticleFilter:
 
         ``u`` is the input of this step: ``(p,)``, or ``(M, p)`` with one row per run; ``None`` for none.
         """
-        self._rows_p = self._propagate(self.model, self._rows_p, u, np.arange(self.n_runs))
+        self._rows_p = self._propagate(self.model, self._rows_p, u, range(self._rows_p.shape[0]))
         self._set_prior()
 
     def update(self, z: Any) -> None:
@@ -730,7 +731,7 @@ class BootstrapParticleFilter:
         if z.size != M * m or (self._batched and z.shape not in batch_shapes):
             raise ValueError(f"z must have shape {want}: {m} measurement value(s)"
                              f"{' per run' if self._batched else ''}; got shape {z.shape}")
-        if np.isinf(z).any():
+        if np.count_nonzero(np.isinf(z)):
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
         self._update(z.reshape(M, m))
 
@@ -749,7 +750,7 @@ class BootstrapParticleFilter:
         reuse = self._prior_moments
         self._prior_moments = False
         self._resampled = np.zeros(M, dtype=bool)
-        if not missing.any():
+        if not np.count_nonzero(missing):
             none = None
         else:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
@@ -771,12 +772,15 @@ class BootstrapParticleFilter:
 
         # reweight in log space: w_i <- w_i p(z | x_i)
         logw = self._log_weights(view, z)
-        if not self._uniform.all():
+        if np.shape(logw) != self._w.shape:
+            raise ValueError(f"model.log_likelihood must return one value per particle and run, shape "
+                             f"{self._w.shape}; got {np.shape(logw)}")
+        if np.count_nonzero(self._uniform) != M:
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
         top = np.maximum.reduce(logw, axis=1)
         lost = ~np.isfinite(top) if none is None else ~np.isfinite(top) & ~none
-        if lost.any():
+        if np.count_nonzero(lost):
             which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
             raise ParticleDegeneracyError(
                 f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
@@ -791,16 +795,17 @@ class BootstrapParticleFilter:
         self._w = w
         self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
-        ess = 1.0 / float(w[0] @ w[0]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
-        ess = np.broadcast_to(ess, (M,)).copy()
-        active = np.ones(M, dtype=bool) if none is None else ~none
+        ess = np.array([1.0 / float(w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
-        N = self.n_particles
-        due = active & ((self.ess_threshold >= 1.0) | (ess < self.ess_threshold * N))
-        if due.any():
-            self._resample(np.flatnonzero(due))
+        if self.ess_threshold >= 1.0:
+            due = range(M) if none is None else np.flatnonzero(~none)
+        else:
+            low = ess < self.ess_threshold * w.shape[1]
+            due = np.flatnonzero(low if none is None else low & ~none)
+        if len(due):
+            self._resample(due)
 
     def _resample(self, runs: Any = None) -> None:
         """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
@@ -823,13 +828,67 @@ class BootstrapParticleFilter:
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
 
-        This is :func:`uwtutor.filters.base.run_filter` (``z`` of shape (K, m), or (K,) when m = 1, with the runs
-        axis first for a batch: (M, K, m); NaN entries missing; ``u`` one input per step or ``None``). The
-        ``extras`` of the :class:`~uwtutor.filters.base.FilterResult` hold ``"ess"`` and ``"resampled"`` and
-        every further attribute a subclass names in ``extra_outputs`` (time axis first after any runs axis).
-        The filter is left at the last step.
+        The same result, field for field, as :func:`uwtutor.filters.base.run_filter` ``(self, z, u, times)``
+        (``tests/test_filter_contract_pf.py``), with the inputs checked once for the whole sequence instead of at
+        every step: ``z`` of shape (K, m), or (K,) when m = 1, with the runs axis first for a batch (M, K, m);
+        NaN entries missing; ``u`` one input per step, (K, p), or (M, K, p) for a batch, or ``None``. The
+        ``extras`` hold ``"ess"`` and ``"resampled"`` and every further attribute a subclass names in
+        ``extra_outputs`` (time axis first after any runs axis). The filter is left at the last step.
         """
-        return run_filter(self, z, u, times)
+        M, m = self.n_runs, self.model.n_measurements
+        zs = as_float_array("z", z)
+        batched = self._batched
+        if zs.ndim == 1 + batched and m == 1:
+            zs = zs[..., None]
+        want = f"({M}, K, {m})" if batched else f"(K, {m})"
+        if zs.ndim != 2 + batched or zs.shape[-1] != m or zs.shape[-2] < 1 or (batched and zs.shape[0] != M):
+            raise ValueError(f"z must have shape {want} with K >= 1: one measurement per step"
+                             f"{' and run' if batched else ''}; got {zs.shape}")
+        if np.count_nonzero(np.isinf(zs)):
+            raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
+        K = zs.shape[-2]
+        u_steps = None
+        if u is not None:
+            us = as_float_array("u", u)
+            shared = not batched or us.ndim == 2
+            axis = 0 if shared else 1
+            if us.ndim <= axis or us.shape[axis] != K:
+                raise ValueError(f"u must give one input per step ({K} steps along axis {axis}); got shape "
+                                 f"{us.shape}")
+            u_steps = us if shared else np.moveaxis(us, 1, 0)
+        if times is None:
+            times = np.arange(K, dtype=float)
+        else:
+            times = as_float_array("times", times, ndim=1)
+            if not np.isfinite(times).all():
+                raise ValueError("times must be finite")
+            if len(times) != K:
+                raise ValueError(f"times must have one entry per step ({K}); got {len(times)}")
+        z_steps = zs.reshape(M, K, m).transpose(1, 0, 2)          # (K, M, m)
+        n = self._rows_p.shape[1]
+        x, xp = np.empty((K, M, n)), np.empty((K, M, n))
+        P, Pp = np.empty((K, M, n, n)), np.empty((K, M, n, n))
+        y, S = np.empty((K, M, m)), np.empty((K, M, m, m))
+        ess, resampled = np.empty((K, M)), np.empty((K, M), dtype=bool)
+        others = {name: [] for name in self.extra_outputs if name not in ("ess", "resampled")}
+        for k in range(K):
+            self.predict(None if u_steps is None else u_steps[k])
+            self._update(z_steps[k])
+            x[k], P[k], xp[k], Pp[k] = self._x, self._P, self._xp, self._Pp
+            y[k], S[k] = self._y, self._S
+            ess[k], resampled[k] = self._ess, self._resampled
+            for name, values in others.items():
+                values.append(np.array(getattr(self, name), copy=True))
+
+        def out(a: np.ndarray) -> np.ndarray:            # (K, M, ...) -> (M, K, ...) or (K, ...)
+            return np.ascontiguousarray(np.swapaxes(a, 0, 1)) if batched else a[:, 0]
+
+        extras = {"ess": out(ess), "resampled": out(resampled)}
+        axis = 1 if batched else 0
+        extras.update({name: np.stack(values, axis=axis) for name, values in others.items()})
+        extras = {name: extras[name] for name in self.extra_outputs}
+        return self.result_type(times=times, x=out(x), P=out(P), x_prior=out(xp), P_prior=out(Pp),
+                                innovations=out(y), innovation_cov=out(S), extras=extras)
 
 
 class MultipleModelParticleFilter(BootstrapParticleFilter):
@@ -1144,8 +1203,8 @@ class GreyParticleFilter(BootstrapParticleFilter):
         window = self._history[..., -self.grey_window:] + self.grey_offset[:, None]
         ok = np.minimum.reduce(window, axis=(1, 2)) > 0.0        # also False when a reading is missing (NaN)
         forecast = np.full(window.shape[:2], np.nan)
-        if ok.any():
-            forecast[ok] = gm11_forecast(window[ok], 1)[..., 0] - self.grey_offset
+        if np.count_nonzero(ok):
+            forecast[ok] = gm11_next(window[ok]) - self.grey_offset
         return forecast, ok
 
     def predict(self, u: Any = None) -> None:
@@ -1167,8 +1226,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
             if unequal.size:                  # the subset below must come from equally weighted particles
                 self._resample(unequal)
             n_std = N - self.n_grey
-            keep = np.stack([self.rngs[r].permutation(N)[:n_std] for r in runs])
-            subset = np.take_along_axis(self._rows_p[runs], keep[:, None, :], axis=2)
+            subset = np.stack([self._rows_p[r].take(self.rngs[r].permutation(N)[:n_std], axis=1) for r in runs])
             moved = self._propagate(self.model, subset, u, runs)
             grey_rows = np.empty((runs.size, n, self.n_grey))
             for i, r in enumerate(runs):
@@ -1197,7 +1255,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         if self.adapt_noise:
             window = hist[..., -self.noise_window:]
             full = np.isfinite(window).all(axis=2)                     # (M, sensors)
-            if full.any():
+            if np.count_nonzero(full):
                 sigma = mad_sigma(window[full] @ self._dwt_matrix)      # median |d| / 0.6745, (count,)
                 self._noise_std = self._noise_std.copy()
                 self._noise_std[full] = np.maximum(sigma, np.broadcast_to(self.min_noise_std, full.shape)[full])

@@ -185,7 +185,7 @@ class DepthSpeedPitch(MotionModel):
         ``(3, N)`` noise from its own generator. Returns a new (M, 3, N) array.
         """
         M = rows.shape[0]
-        rngs = per_run_generators(rng, M, spawn=False)
+        rngs = rng if type(rng) is tuple and len(rng) == M else per_run_generators(rng, M, spawn=False)
         noise = standard_normal_per_run(rngs, rows.shape[1:])      # rows u^z, u^v, u^phi of every run
         noise *= self.process_std[:, None]
         s = np.add(rows, noise, out=noise)                       # z + u^z, v_k = v + u^v, phi_k = phi + u^phi
