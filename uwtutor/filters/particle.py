@@ -71,6 +71,7 @@ and Navigation* 150(5), 344-349.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, Sequence
 
@@ -115,6 +116,10 @@ def _as_batch(particles: Any) -> tuple[np.ndarray, bool]:
     return (p[None], True) if p.ndim == 2 else (p, False)
 
 
+_any = functools.partial(np.logical_or.reduce, axis=None)      # a.any() / a.all() without numpy's Python wrappers
+_all = functools.partial(np.logical_and.reduce, axis=None)
+
+
 def _rows(values: np.ndarray) -> np.ndarray:
     """``(M, N, k) -> (M, k, N)``: each component of every run contiguous (a view when it already is)."""
     return values.swapaxes(-1, -2)
@@ -129,7 +134,7 @@ def _gaussian_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
     :math:`W^T = L^{-1}`, :math:`L L^T = R`. A run with every entry missing gets 0 (its weights do not change).
     """
     missing = np.isnan(z)
-    if not np.count_nonzero(missing):              # rows (M, m, N): contiguous per component
+    if not _any(missing):              # rows (M, m, N): contiguous per component
         d = hx_rows - z[..., None]
         if diagonal:
             d *= whiten[..., None]
@@ -706,10 +711,11 @@ class BootstrapParticleFilter:
         """Move ``rows`` (R, n, count) of the runs ``runs`` with ``model``; returns new rows (R, n, count)."""
         rngs = self.rngs if len(runs) == len(self.rngs) else tuple(self.rngs[r] for r in runs)
         new = model.propagate(_rows(rows), self._per_run_input(u, runs), rngs)
-        want = rows.shape[:1] + rows.shape[2:] + rows.shape[1:2]
-        if np.shape(new) != want:
+        want = (rows.shape[0], rows.shape[2], rows.shape[1])
+        if getattr(new, "shape", None) != want:
             raise ValueError(f"{name}.propagate must return particles of shape {want}; got {np.shape(new)}")
-        return np.ascontiguousarray(_rows(new))
+        out = new.swapaxes(-1, -2)
+        return out if out.flags.c_contiguous else np.ascontiguousarray(out)
 
     def predict(self, u: Any = None) -> None:
         """Draw every particle from the motion model (``model.propagate``); ``x``, ``P`` follow, and
@@ -731,7 +737,7 @@ class BootstrapParticleFilter:
         if z.size != M * m or (self._batched and z.shape not in batch_shapes):
             raise ValueError(f"z must have shape {want}: {m} measurement value(s)"
                              f"{' per run' if self._batched else ''}; got shape {z.shape}")
-        if np.count_nonzero(np.isinf(z)):
+        if _any(np.isinf(z)):
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
         self._update(z.reshape(M, m))
 
@@ -750,7 +756,7 @@ class BootstrapParticleFilter:
         reuse = self._prior_moments
         self._prior_moments = False
         self._resampled = np.zeros(M, dtype=bool)
-        if not np.count_nonzero(missing):
+        if not _any(missing):
             none = None
         else:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
@@ -775,12 +781,12 @@ class BootstrapParticleFilter:
         if np.shape(logw) != self._w.shape:
             raise ValueError(f"model.log_likelihood must return one value per particle and run, shape "
                              f"{self._w.shape}; got {np.shape(logw)}")
-        if np.count_nonzero(self._uniform) != M:
+        if not _all(self._uniform):
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
         top = np.maximum.reduce(logw, axis=1)
         lost = ~np.isfinite(top) if none is None else ~np.isfinite(top) & ~none
-        if np.count_nonzero(lost):
+        if _any(lost):
             which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
             raise ParticleDegeneracyError(
                 f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
@@ -815,15 +821,16 @@ class BootstrapParticleFilter:
         for r in runs:
             idx = self.resampler(self._w[r], self.rngs[r])
             self._take(r, idx)
-            w = np.empty(N)
-            w.fill(1.0 / N)
-            self._w[r] = w
+            self._w[r].fill(1.0 / N)
             self._uniform[r] = True
             self._resampled[r] = True
 
     def _take(self, run: int, idx: np.ndarray) -> None:
         """Keep the particles ``idx`` of run ``run`` (a subclass moves what else its particles carry)."""
-        self._rows_p[run] = self._rows_p[run].take(idx, axis=1)
+        if self._rows_p.shape[0] == 1:
+            self._rows_p = self._rows_p.take(idx, axis=2)
+        else:
+            self._rows_p[run] = self._rows_p[run].take(idx, axis=1)
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
@@ -844,7 +851,7 @@ class BootstrapParticleFilter:
         if zs.ndim != 2 + batched or zs.shape[-1] != m or zs.shape[-2] < 1 or (batched and zs.shape[0] != M):
             raise ValueError(f"z must have shape {want} with K >= 1: one measurement per step"
                              f"{' and run' if batched else ''}; got {zs.shape}")
-        if np.count_nonzero(np.isinf(zs)):
+        if _any(np.isinf(zs)):
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
         K = zs.shape[-2]
         u_steps = None
@@ -1203,7 +1210,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         window = self._history[..., -self.grey_window:] + self.grey_offset[:, None]
         ok = np.minimum.reduce(window, axis=(1, 2)) > 0.0        # also False when a reading is missing (NaN)
         forecast = np.full(window.shape[:2], np.nan)
-        if np.count_nonzero(ok):
+        if _any(ok):
             forecast[ok] = gm11_next(window[ok]) - self.grey_offset
         return forecast, ok
 
@@ -1255,7 +1262,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         if self.adapt_noise:
             window = hist[..., -self.noise_window:]
             full = np.isfinite(window).all(axis=2)                     # (M, sensors)
-            if np.count_nonzero(full):
+            if _any(full):
                 sigma = mad_sigma(window[full] @ self._dwt_matrix)      # median |d| / 0.6745, (count,)
                 self._noise_std = self._noise_std.copy()
                 self._noise_std[full] = np.maximum(sigma, np.broadcast_to(self.min_noise_std, full.shape)[full])
