@@ -647,7 +647,8 @@ class BootstrapParticleFilter:
 
     @property
     def weights(self) -> np.ndarray:
-        """Normalized particle weights, shape (N,) or (M, N); assigned weights are checked and normalized."""
+        """Normalized particle weights, shape (N,) or (M, N); assigned weights are checked and normalized, and
+        ``x``, ``P`` become their weighted moments."""
         return self._out(self._w)
 
     @weights.setter
@@ -660,6 +661,7 @@ class BootstrapParticleFilter:
         self._w = w / total
         self._uniform = np.zeros(self._w.shape[0], dtype=bool)
         self._prior_moments = False
+        self._set_estimate()                          # x and P follow the new weights
 
     x = property(lambda self: self._out(self._x), doc="Weighted mean of the particles, (n,) or (M, n).")
     P = property(lambda self: self._out(self._P), doc="Weighted covariance of the particles, (n, n) or (M, n, n).")
