@@ -747,7 +747,11 @@ class BootstrapParticleFilter:
 
     def _log_weights(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
         """Log-likelihood (M, N) of ``z`` (M, m) for the particles (M, N, n)."""
-        return self.model.log_likelihood(particles, z)
+        model = self.model
+        if type(model).log_likelihood is ParticleModel.log_likelihood:     # the Gaussian one, without wrappers
+            return _gaussian_log_likelihood(_rows(model.measure(particles)), z, model._R, model._whiten,
+                                            model._R_is_diag)
+        return model.log_likelihood(particles, z)
 
     def _measurement_cov(self) -> np.ndarray:
         """The measurement noise covariance of this update: (m, m) or (M, m, m)."""
@@ -782,24 +786,24 @@ class BootstrapParticleFilter:
 
         # reweight in log space: w_i <- w_i p(z | x_i)
         logw = self._log_weights(view, z)
-        if np.shape(logw) != self._w.shape:
+        if getattr(logw, "shape", None) != self._w.shape:
             raise ValueError(f"model.log_likelihood must return one value per particle and run, shape "
                              f"{self._w.shape}; got {np.shape(logw)}")
         if not _all(self._uniform):
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
-        top = np.maximum.reduce(logw, axis=1)
-        lost = ~np.isfinite(top) if none is None else ~np.isfinite(top) & ~none
+        top = np.maximum.reduce(logw, axis=1, keepdims=True)
+        lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
         if _any(lost):
             which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
             raise ParticleDegeneracyError(
                 f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
                 "track. Use more particles, a larger process noise, or check the measurement and R")
         if none is not None:
-            top = np.where(none, 0.0, top)
-        w = logw - top[:, None]                           # a new array: the model's output is left alone
+            top = np.where(none[:, None], 0.0, top)
+        w = logw - top                                    # a new array: the model's output is left alone
         np.exp(w, out=w)
-        w /= np.add.reduce(w, axis=1)[:, None]
+        w /= np.add.reduce(w, axis=1, keepdims=True)
         if none is not None:                              # nothing measured: weights as they were
             w[none] = self._w[none]
         self._w = w
