@@ -141,7 +141,7 @@ def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
         raise ValueError(f"coefficients must hold at least one coefficient along axis {axis}; got shape {d.shape}")
     if not np.isfinite(np.add.reduce(d, axis=None)):
         raise ValueError("coefficients must be finite (no NaN or infinite value)")
-    a = np.moveaxis(np.abs(d), axis, -1)
+    a = np.abs(d) if axis in (-1, d.ndim - 1) else np.moveaxis(np.abs(d), axis, -1)
     n = a.shape[-1]
     half = n // 2
     if n % 2:                                           # numpy.median's own steps, without its overhead

@@ -1216,7 +1216,10 @@ class GreyParticleFilter(BootstrapParticleFilter):
         """GM(1,1) one-step forecast (M, n) of every component from its last ``L`` measurements, and the mask
         (M,) of the runs where one could be made (a full, positive window)."""
         window = self._history[..., -self.grey_window:] + self.grey_offset[:, None]
-        ok = np.minimum.reduce(window, axis=(1, 2)) > 0.0        # also False when a reading is missing (NaN)
+        M = window.shape[0]
+        ok = np.minimum.reduce(window.reshape(M, -1), axis=1) > 0.0   # also False when a reading is missing (NaN)
+        if _all(ok):
+            return gm11_next(window) - self.grey_offset, ok
         forecast = np.full(window.shape[:2], np.nan)
         if _any(ok):
             forecast[ok] = gm11_next(window[ok]) - self.grey_offset
@@ -1230,28 +1233,33 @@ class GreyParticleFilter(BootstrapParticleFilter):
             forecast, grey = self._grey_prediction()
         else:
             forecast, grey = np.full((M, n), np.nan), np.zeros(M, dtype=bool)
-        plain = np.flatnonzero(~grey)
-        if plain.size == M:
-            self._rows_p = self._propagate(self.model, self._rows_p, u, plain)
-        elif plain.size:
-            self._rows_p[plain] = self._propagate(self.model, self._rows_p[plain], u, plain)
-        runs = np.flatnonzero(grey)
-        if runs.size:
-            unequal = runs[~self._uniform[runs]]
-            if unequal.size:                  # the subset below must come from equally weighted particles
+        every = _all(grey)
+        if not every:
+            plain = np.flatnonzero(~grey)
+            if plain.size == M:
+                self._rows_p = self._propagate(self.model, self._rows_p, u, range(M))
+            else:
+                self._rows_p[plain] = self._propagate(self.model, self._rows_p[plain], u, plain)
+        if every or _any(grey):
+            runs = range(M) if every else np.flatnonzero(grey)
+            unequal = [r for r in runs if not self._uniform[r]]
+            if unequal:                       # the subset below must come from equally weighted particles
                 self._resample(unequal)
             n_std = N - self.n_grey
-            subset = np.stack([self._rows_p[r].take(self.rngs[r].permutation(N)[:n_std], axis=1) for r in runs])
-            moved = self._propagate(self.model, subset, u, runs)
-            grey_rows = np.empty((runs.size, n, self.n_grey))
+            new = np.empty((len(runs), n, N))                    # component-major particles, as everywhere else
+            for i, r in enumerate(runs):
+                new[i, :, :n_std] = self._rows_p[r].take(self.rngs[r].permutation(N)[:n_std], axis=1)
+            new[:, :, :n_std] = self._propagate(self.model, new[:, :, :n_std], u, runs)
+            grey_rows = np.empty((len(runs), n, self.n_grey))
             for i, r in enumerate(runs):
                 self.rngs[r].standard_normal(out=grey_rows[i])
             grey_rows *= self.grey_std[:, None]
-            grey_rows += forecast[runs][:, :, None]
-            new = np.empty((runs.size, n, N))                    # component-major particles, as everywhere else
-            new[:, :, :n_std] = moved
+            grey_rows += (forecast if every else forecast[runs])[:, :, None]
             new[:, :, n_std:] = grey_rows
-            self._rows_p[runs] = new
+            if every:
+                self._rows_p = new
+            else:
+                self._rows_p[runs] = new
         self._grey_used = grey
         self._grey_forecast = forecast
         self._set_prior()
@@ -1269,19 +1277,31 @@ class GreyParticleFilter(BootstrapParticleFilter):
         hist[..., -1] = z
         if self.adapt_noise:
             window = hist[..., -self.noise_window:]
-            full = np.isfinite(window).all(axis=2)                     # (M, sensors)
-            if _any(full):
-                sigma = mad_sigma(window[full] @ self._dwt_matrix)      # median |d| / 0.6745, (count,)
+            full = ~np.isnan(np.add.reduce(window, axis=2))             # (M, sensors): a window without a gap
+            if _all(full):
+                sigma = mad_sigma(window @ self._dwt_matrix)            # median |d| / 0.6745, (M, sensors)
+                self._noise_std = np.maximum(sigma, self.min_noise_std)
+                runs = np.ones(full.shape[0], dtype=bool)
+            elif _any(full):
+                sigma = mad_sigma(window[full] @ self._dwt_matrix)      # (count,)
                 self._noise_std = self._noise_std.copy()
                 self._noise_std[full] = np.maximum(sigma, np.broadcast_to(self.min_noise_std, full.shape)[full])
-                runs = full.any(axis=1)
+                runs = np.logical_or.reduce(full, axis=1)
+            if _any(full):
                 sd = self._noise_std[runs]
                 m = sd.shape[1]
                 diag = np.arange(m)
                 R_new = np.zeros(sd.shape + (m,))
                 R_new[:, diag, diag] = sd * sd
-                self._R_runs = self._R_runs.copy()
-                self._R_runs[runs] = R_new
+                every = _all(runs)
+                self._R_runs = R_new if every else self._R_runs.copy()
+                if not every:
+                    self._R_runs[runs] = R_new
+                if self._R_diag and every:
+                    self._whiten_runs = 1.0 / sd
+                    self._estimated = runs
+                    super()._update(z)
+                    return
                 self._whiten_runs = self._whiten_runs.copy()
                 if self._R_diag:
                     self._whiten_runs[runs] = 1.0 / sd
