@@ -48,7 +48,7 @@ Two filters of paper C build on :class:`BootstrapParticleFilter` by changing how
   likelihood uses a measurement noise measured online by the wavelet MAD estimate (:mod:`uwtutor.wavelet`).
 
 The kinematics of paper C's models are those of :mod:`uwtutor.models.depth`, which its EKF
-(:class:`~uwtutor.filters.DepthEKF`) uses too.
+(:class:`~uwtutor.filters.depth_ekf.DepthEKF`) uses too.
 
 References
 ----------
@@ -233,7 +233,7 @@ class DepthSpeedPitchModel(ParticleModel):
     with independent Gaussian :math:`u^z_k, u^v_k, u^\varphi_k` (standard deviations ``process_std``); the speed
     and pitch noise of step ``k`` enter the depth equation too. The sensors measure the state directly:
     :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R)`. The kinematics are
-    :class:`uwtutor.models.DepthSpeedPitch` (``motion``), shared with :class:`~uwtutor.filters.DepthEKF`.
+    the motion model :class:`uwtutor.models.depth.DepthSpeedPitch` (``motion``), shared with :class:`~uwtutor.filters.depth_ekf.DepthEKF`.
 
     Parameters
     ----------
@@ -667,19 +667,19 @@ class BootstrapParticleFilter:
 
     x = property(lambda self: self._out(self._x), doc="Weighted mean of the particles, (n,) or (M, n).")
     P = property(lambda self: self._out(self._P), doc="Weighted covariance of the particles, (n, n) or (M, n, n).")
-    x_prior = property(lambda self: self._out(self._xp), doc="Moments of the predicted particles: mean.")
-    P_prior = property(lambda self: self._out(self._Pp), doc="Moments of the predicted particles: covariance.")
+    x_prior = property(lambda self: self._out(self._xp), doc="Weighted mean of the predicted particles of this step, (n,) or (M, n).")
+    P_prior = property(lambda self: self._out(self._Pp), doc="Weighted covariance of the predicted particles of this step.")
     y = property(lambda self: self._out(self._y), doc="Innovation of the last update, (m,) or (M, m).")
     S = property(lambda self: self._out(self._S), doc="Innovation covariance of the last update.")
 
     @property
     def ess(self) -> Any:
-        """Effective sample size after the last update: float, or (M,) for a batch."""
+        """Effective sample size after the last update (a float, or an (M,) array for a batch)."""
         return self._ess.copy() if self._batched else float(self._ess[0])
 
     @property
     def resampled(self) -> Any:
-        """Whether the last update resampled: bool, or (M,) for a batch."""
+        """Whether the last update resampled (a bool, or an (M,) array for a batch)."""
         return self._resampled.copy() if self._batched else bool(self._resampled[0])
 
     # --- the algorithm ----------------------------------------------------------------------------------------------
@@ -1209,7 +1209,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
 
     @property
     def grey_used(self) -> Any:
-        """Whether the last ``predict`` drew grey particles: bool, or (M,) for a batch."""
+        """Whether the last ``predict`` drew grey particles (a bool, or an (M,) array for a batch)."""
         return self._grey_used.copy() if self._batched else bool(self._grey_used[0])
 
     def _grey_prediction(self) -> tuple[np.ndarray, np.ndarray]:

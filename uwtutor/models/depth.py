@@ -20,7 +20,7 @@ which is exactly :math:`x_k = g(x_{k-1} + u_k)` with
 A particle filter draws :math:`u_k` and applies :math:`g` (:meth:`DepthSpeedPitch.sample`); an EKF linearizes
 :math:`g` at the estimate, and since the noise enters through the same map its prediction is
 :math:`P^-_k = G (P_{k-1} + Q) G^T` (:meth:`DepthSpeedPitch.F` and :meth:`DepthSpeedPitch.Q`, which returns
-:math:`G Q G^T`). The sensors measure the state itself (:class:`~uwtutor.models.DirectMeasurement`).
+:math:`G Q G^T`). The sensors measure the state itself (:class:`~uwtutor.models.linear.DirectMeasurement`).
 
 References
 ----------
@@ -47,13 +47,13 @@ __all__ = [
     "DepthSpeedPitch",
 ]
 
-#: Default standard deviations of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad]: illustrative values (paper
-#: C's printed process covariance is not a covariance matrix; its diagonal is in :mod:`uwtutor.scenarios.paper_c`).
+#: Default standard deviations of :math:`u^z, u^v, u^\varphi` per step, in m, m/s and rad; illustrative values
+#: (paper C's printed process covariance is not a covariance matrix; its diagonal is in :mod:`uwtutor.scenarios.paper_c`).
 DEFAULT_PROCESS_STD = np.array([0.01, 0.01, 0.0035])
 DEFAULT_PROCESS_STD.flags.writeable = False
 
-#: Default sensor noise standard deviations [m, m/s, rad]: paper C's :math:`R = \mathrm{diag}(0.2^2, 5^2, 0.5^2)`,
-#: printed without units, read as 0.2 m, 5 cm/s and 0.5 deg.
+#: Default sensor noise standard deviations in m, m/s and rad, from paper C's
+#: :math:`R = \mathrm{diag}(0.2^2, 5^2, 0.5^2)` (printed without units, read as 0.2 m, 5 cm/s and 0.5 deg).
 DEFAULT_SENSOR_STD = np.array([0.2, 0.05, np.radians(0.5)])
 DEFAULT_SENSOR_STD.flags.writeable = False
 
