@@ -714,7 +714,7 @@ class BootstrapParticleFilter:
                    name: str = "model") -> np.ndarray:
         """Move ``rows`` (R, n, count) of the runs ``runs`` with ``model``; returns new rows (R, n, count)."""
         rngs = self.rngs if len(runs) == len(self.rngs) else tuple(self.rngs[r] for r in runs)
-        new = model.propagate(_rows(rows), self._per_run_input(u, runs), rngs)
+        new = model.propagate(rows.swapaxes(-1, -2), None if u is None else self._per_run_input(u, runs), rngs)
         want = (rows.shape[0], rows.shape[2], rows.shape[1])
         if getattr(new, "shape", None) != want:
             raise ValueError(f"{name}.propagate must return particles of shape {want}; got {np.shape(new)}")

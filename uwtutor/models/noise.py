@@ -67,6 +67,8 @@ def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[in
     >>> a.shape, bool((a[1] == np.random.default_rng(2).standard_normal((2, 3))).all())
     ((2, 2, 3), True)
     """
+    if len(rngs) == 1:
+        return rngs[0].standard_normal(shape)[None]
     out = np.empty((len(rngs),) + tuple(shape))
     for m, r in enumerate(rngs):
         r.standard_normal(out=out[m])
