@@ -45,23 +45,23 @@ def _rngs(seed: int, n: int) -> list[np.random.Generator]:
     return list(np.random.default_rng(seed).spawn(n))
 
 
-def _pf(x0, rng):
-    return BootstrapParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, N, rng)
+def _pf(x0, rng, n=N):
+    return BootstrapParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, n, rng)
 
 
-def _pf_adaptive(x0, rng):
-    return BootstrapParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, N, rng,
+def _pf_adaptive(x0, rng, n=N):
+    return BootstrapParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, n, rng,
                                                  ess_threshold=0.5)
 
 
-def _mmpf(x0, rng):
+def _mmpf(x0, rng, n=N):
     modes = [PitchManeuverModel(pitch_target=p, time_constant=1.0, process_std=Q_STD, R=R) for p in (0.0, 0.3, -0.3)]
     Pi = np.full((3, 3), 0.01) + np.eye(3) * 0.97
-    return MultipleModelParticleFilter.from_gaussian(modes, x0, R, N, rng, transition=Pi)
+    return MultipleModelParticleFilter.from_gaussian(modes, x0, R, n, rng, transition=Pi)
 
 
-def _gpf(x0, rng):
-    return GreyParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, N, rng,
+def _gpf(x0, rng, n=N):
+    return GreyParticleFilter.from_gaussian(DepthSpeedPitchModel(process_std=Q_STD, R=R), x0, R, n, rng,
                                             grey_offset=[0.0, 0.0, 1.0])
 
 
@@ -341,3 +341,20 @@ def test_run_monte_carlo_scores_a_batched_particle_filter():
     # and it is consistent: its time-averaged mean NEES is near n = 2 (the chi-square mean)
     assert 1.5 < float(np.mean(study.mean_nees)) < 2.6
     assert 0.7 < float(np.nanmean(study.mean_nis)) < 1.4
+
+
+@pytest.mark.parametrize("name", ["PF", "PF (ESS < N/2)", "MMPF", "GPF"])
+def test_run_in_blocks_of_runs_equals_run_filter_and_leaves_the_same_state(name):
+    """``run`` takes a large batch block by block (blocks of >= 2 runs of about 10 000 particles): the same
+    result, field for field, as run_filter's whole-batch steps, and the same filter afterwards."""
+    M7, N7 = 7, 3000                       # blocks of 3 runs: [0, 3) and [3, 7) (never a block of one run)
+    z = _measurements(n_runs=M7, seed=13)[:, :40]
+
+    a, b = (FACTORIES[name](z[:, 0], _rngs(6, M7), N7) for _ in range(2))
+    assert [(s.start, s.stop) for s in a._blocks()] == [(0, 3), (3, 7)]
+    _assert_same_result(a.run(z), run_filter(b, z))
+    for f in (a, b):                       # one more step from the state each left behind
+        f.predict()
+        f.update(z[:, 5])
+    for attr in ("x", "P", "x_prior", "P_prior", "y", "S", "weights", "particles") + tuple(a.extra_outputs):
+        np.testing.assert_array_equal(getattr(a, attr), getattr(b, attr), err_msg=attr)

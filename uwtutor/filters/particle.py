@@ -71,6 +71,7 @@ and Navigation* 150(5), 344-349.
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from typing import Any, Sequence
@@ -115,6 +116,9 @@ def _as_batch(particles: Any) -> tuple[np.ndarray, bool]:
     p = np.asarray(particles, dtype=float)
     return (p[None], True) if p.ndim == 2 else (p, False)
 
+
+#: Particles per block of runs that ``run`` moves through all steps together (a block stays in cache).
+_BLOCK_PARTICLES = 10_000
 
 _any = functools.partial(np.logical_or.reduce, axis=None)      # a.any() / a.all() without numpy's Python wrappers
 _all = functools.partial(np.logical_and.reduce, axis=None)
@@ -840,6 +844,39 @@ class BootstrapParticleFilter:
         else:
             self._rows_p[run] = self._rows_p[run].take(idx, axis=1)
 
+    #: The per-run state, each array with the runs axis first (a subclass adds its own).
+    _run_state: tuple[str, ...] = ("_rows_p", "_w", "_uniform", "_x", "_P", "_xp", "_Pp", "_y", "_S", "_ess",
+                                   "_resampled")
+
+    def _blocks(self) -> list[slice]:
+        """Blocks of runs of about ``_BLOCK_PARTICLES`` particles that :meth:`run` takes one after the other
+        (never a block of one run: that run would take the one-run arithmetic of the whole-batch products)."""
+        M = self.n_runs
+        size = max(2, _BLOCK_PARTICLES // self.n_particles)
+        if not self._batched or M < 2 * size or not self._can_split():
+            return [slice(0, M)]
+        starts = list(range(0, M, size))
+        if M - starts[-1] < 2:
+            starts.pop()
+        return [slice(a, b) for a, b in zip(starts, starts[1:] + [M])]
+
+    def _can_split(self) -> bool:
+        return True
+
+    def _block(self, block: slice) -> "BootstrapParticleFilter":
+        """A filter over the runs ``block`` (copies of their state; the same generators)."""
+        part = copy.copy(self)
+        for name in self._run_state:
+            setattr(part, name, getattr(self, name)[block].copy())
+        part.rngs = self.rngs[block]
+        return part
+
+    def _join(self, parts: Sequence["BootstrapParticleFilter"]) -> None:
+        """Take the state of consecutive blocks of runs back (after :meth:`run`)."""
+        for name in self._run_state:
+            setattr(self, name, np.concatenate([getattr(p, name) for p in parts]))
+        self._prior_moments = all(p._prior_moments for p in parts)
+
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
 
@@ -880,27 +917,43 @@ class BootstrapParticleFilter:
             if len(times) != K:
                 raise ValueError(f"times must have one entry per step ({K}); got {len(times)}")
         z_steps = zs.reshape(M, K, m).transpose(1, 0, 2)          # (K, M, m)
+        per_run_u = u_steps is not None and batched and u_steps.ndim == 3
         n = self._rows_p.shape[1]
         x, xp = np.empty((K, M, n)), np.empty((K, M, n))
         P, Pp = np.empty((K, M, n, n)), np.empty((K, M, n, n))
         y, S = np.empty((K, M, m)), np.empty((K, M, m, m))
         ess, resampled = np.empty((K, M)), np.empty((K, M), dtype=bool)
-        others = {name: [] for name in self.extra_outputs if name not in ("ess", "resampled")}
-        for k in range(K):
-            self.predict(None if u_steps is None else u_steps[k])
-            self._update(z_steps[k])
-            x[k], P[k], xp[k], Pp[k] = self._x, self._P, self._xp, self._Pp
-            y[k], S[k] = self._y, self._S
-            ess[k], resampled[k] = self._ess, self._resampled
-            for name, values in others.items():
-                values.append(np.array(getattr(self, name), copy=True))
+        names = [name for name in self.extra_outputs if name not in ("ess", "resampled")]
+        others: dict[str, list[np.ndarray]] = {name: [] for name in names}      # one (K, ...) stack per block
+        blocks = self._blocks()
+        parts = []
+        for block in blocks:
+            # the runs are independent: a block of them goes through every step before the next block, so that
+            # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
+            f = self if len(blocks) == 1 else self._block(block)
+            values: dict[str, list[np.ndarray]] = {name: [] for name in names}
+            for k in range(K):
+                uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
+                f.predict(uk)
+                f._update(z_steps[k][block])
+                x[k, block], P[k, block], xp[k, block], Pp[k, block] = f._x, f._P, f._xp, f._Pp
+                y[k, block], S[k, block] = f._y, f._S
+                ess[k, block], resampled[k, block] = f._ess, f._resampled
+                for name in names:
+                    values[name].append(np.array(getattr(f, name), copy=True))
+            for name in names:
+                others[name].append(np.stack(values[name]))
+            parts.append(f)
+        if len(blocks) > 1:
+            self._join(parts)
 
         def out(a: np.ndarray) -> np.ndarray:            # (K, M, ...) -> (M, K, ...) or (K, ...)
             return np.ascontiguousarray(np.swapaxes(a, 0, 1)) if batched else a[:, 0]
 
         extras = {"ess": out(ess), "resampled": out(resampled)}
-        axis = 1 if batched else 0
-        extras.update({name: np.stack(values, axis=axis) for name, values in others.items()})
+        for name, stacks in others.items():
+            extras[name] = (np.ascontiguousarray(np.swapaxes(np.concatenate(stacks, axis=1), 0, 1)) if batched
+                            else stacks[0])
         extras = {name: extras[name] for name in self.extra_outputs}
         return self.result_type(times=times, x=out(x), P=out(P), x_prior=out(xp), P_prior=out(Pp),
                                 innovations=out(y), innovation_cov=out(S), extras=extras)
@@ -974,6 +1027,7 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "mode_probabilities")
+    _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
     def __init__(self, models: Sequence[ParticleModel], particles: Any, rng: Any, *,
                  transition: Any, modes: Any = None, mode_probabilities: Any = None, weights: Any = None,
@@ -1157,6 +1211,11 @@ class GreyParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "noise_std", "grey_used", "grey_forecast")
+    _run_state = BootstrapParticleFilter._run_state + ("_noise_std", "_R_runs", "_whiten_runs", "_estimated",
+                                                       "_history", "_grey_used", "_grey_forecast")
+
+    def _can_split(self) -> bool:
+        return self._R_diag              # whitening vectors of one shape in every block
 
     def __init__(self, model: ParticleModel, particles: Any, rng: Any, *,
                  grey_fraction: float = 0.1, grey_window: int = 30, grey_std: Any = None, grey_offset: Any = None,
