@@ -1,22 +1,22 @@
 r"""The extended Kalman filter for paper C's depth/speed/pitch model: the baseline of the grey particle filter.
 
-State :math:`x = [z, v, \varphi]^T` (depth [m], speed [m/s], pitch [rad], depth positive downwards so that a
+State :math:`x = [z, v, \phi]^T` (depth [m], speed [m/s], pitch [rad], depth positive downwards so that a
 positive pitch dives), sampling interval :math:`T`. Paper C's motion model (eq. (4)) adds the process noise
-:math:`u_k = [u^z_k, u^v_k, u^\varphi_k]^T \sim N(0, Q)` *inside* the kinematics:
+:math:`u_k = [u^z_k, u^v_k, u^\phi_k]^T \sim N(0, Q)` *inside* the kinematics:
 
 .. math::
 
-    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\varphi_{k-1} + u^\varphi_k)\, T + u^z_k, \qquad
-    v_k = v_{k-1} + u^v_k, \qquad \varphi_k = \varphi_{k-1} + u^\varphi_k,
+    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\phi_{k-1} + u^\phi_k)\, T + u^z_k, \qquad
+    v_k = v_{k-1} + u^v_k, \qquad \phi_k = \phi_{k-1} + u^\phi_k,
 
-which is exactly :math:`x_k = g(x_{k-1} + u_k)` with :math:`g(s) = [s_z + s_v \sin(s_\varphi) T, s_v,
-s_\varphi]^T`. The sensors measure the state, :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R_k)` (eq. (6)).
+which is exactly :math:`x_k = g(x_{k-1} + u_k)` with :math:`g(s) = [s_z + s_v \sin(s_\phi) T, s_v,
+s_\phi]^T`. The sensors measure the state, :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R_k)` (eq. (6)).
 Linearizing :math:`g` at the estimate with the Jacobian
 
 .. math::
 
     G_k = \frac{\partial g}{\partial s}\Big|_{\hat x_{k-1}} =
-    \begin{bmatrix} 1 & T \sin\hat\varphi_{k-1} & T \hat v_{k-1} \cos\hat\varphi_{k-1} \\
+    \begin{bmatrix} 1 & T \sin\hat\phi_{k-1} & T \hat v_{k-1} \cos\hat\phi_{k-1} \\
                     0 & 1 & 0 \\ 0 & 0 & 1 \end{bmatrix}
 
 gives the EKF (Bar-Shalom, Li and Kirubarajan 2001, sec. 10.3):
@@ -73,7 +73,7 @@ class DepthEKF:
     P0 : array_like, shape (3, 3) or (M, 3, 3)
         Initial covariance (positive definite).
     Q : array_like, shape (3, 3), optional
-        Covariance of :math:`[u^z, u^v, u^\varphi]` per step (positive semi-definite); by default
+        Covariance of :math:`[u^z, u^v, u^\phi]` per step (positive semi-definite); by default
         ``diag(DEFAULT_PROCESS_STD**2)`` of :mod:`uwtutor.models.depth`, the particle filters' default too.
     R : array_like, shape (3, 3) or (M, 3, 3), optional
         Sensor noise covariance (positive definite); assign ``R`` between steps to change it. By default

@@ -1,18 +1,18 @@
 r"""The bootstrap particle filter, vectorized over particles, and the models it runs on.
 
 A particle filter represents the posterior :math:`p(x_k \mid z_{1:k})` by ``N`` samples (particles)
-:math:`x^i_k` with weights :math:`w^i_k`. The bootstrap (SIR) filter of Gordon et al. (1993) proposes from the
+:math:`x^{(i)}_k` with weights :math:`w^{(i)}_k`. The bootstrap (SIR) filter of Gordon et al. (1993) proposes from the
 motion model and weights by the likelihood (Arulampalam et al. 2002, Algorithm 4):
 
 .. math::
 
-    x^i_k \sim p(x_k \mid x^i_{k-1}), \qquad
-    w^i_k \propto w^i_{k-1}\, p(z_k \mid x^i_k), \qquad \sum_i w^i_k = 1,
+    x^{(i)}_k \sim p(x_k \mid x^{(i)}_{k-1}), \qquad
+    w^{(i)}_k \propto w^{(i)}_{k-1}\, p(z_k \mid x^{(i)}_k), \qquad \sum_i w^{(i)}_k = 1,
 
-    \hat x_k = \sum_i w^i_k x^i_k, \qquad P_k = \sum_i w^i_k (x^i_k - \hat x_k)(x^i_k - \hat x_k)^T,
+    \hat x_k = \sum_i w^{(i)}_k x^{(i)}_k, \qquad P_k = \sum_i w^{(i)}_k (x^{(i)}_k - \hat x_k)(x^{(i)}_k - \hat x_k)^T,
 
-then resamples (draws ``N`` particles with probabilities :math:`w^i_k` and resets the weights to :math:`1/N`)
-every step, or only when the effective sample size :math:`N_\mathrm{eff} = 1/\sum_i (w^i_k)^2` falls below a
+then resamples (draws ``N`` particles with probabilities :math:`w^{(i)}_k` and resets the weights to :math:`1/N`)
+every step, or only when the effective sample size :math:`N_\mathrm{eff} = 1/\sum_i (w^{(i)}_k)^2` falls below a
 threshold.
 
 Models are separate from the algorithm (as in Stone Soup): a model is an object with
@@ -167,7 +167,7 @@ class ParticleModel:
 
     .. math::
 
-        \log p(z \mid x^i) = -\tfrac12 (z - h(x^i))^T R^{-1} (z - h(x^i)) + \text{const}
+        \log p(z \mid x^{(i)}) = -\tfrac12 (z - h(x^{(i)}))^T R^{-1} (z - h(x^{(i)})) + \text{const}
 
     NaN entries of ``z`` are missing sensor readings: the likelihood uses the other entries (the marginal of
     the Gaussian), and a measurement that is entirely NaN leaves the weights unchanged.
@@ -227,14 +227,14 @@ class ParticleModel:
 class DepthSpeedPitchModel(ParticleModel):
     r"""Depth, speed and pitch of an AUV with all three measured (paper C, Li et al.).
 
-    State :math:`x_k = [z_k, v_k, \varphi_k]^T` (depth [m], speed [m/s], pitch [rad]), sampling interval ``T``:
+    State :math:`x_k = [z_k, v_k, \phi_k]^T` (depth [m], speed [m/s], pitch [rad]), sampling interval ``T``:
 
     .. math::
 
-        z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\varphi_{k-1} + u^\varphi_k)\, T + u^z_k, \qquad
-        v_k = v_{k-1} + u^v_k, \qquad \varphi_k = \varphi_{k-1} + u^\varphi_k,
+        z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\phi_{k-1} + u^\phi_k)\, T + u^z_k, \qquad
+        v_k = v_{k-1} + u^v_k, \qquad \phi_k = \phi_{k-1} + u^\phi_k,
 
-    with independent Gaussian :math:`u^z_k, u^v_k, u^\varphi_k` (standard deviations ``process_std``); the speed
+    with independent Gaussian :math:`u^z_k, u^v_k, u^\phi_k` (standard deviations ``process_std``); the speed
     and pitch noise of step ``k`` enter the depth equation too. The sensors measure the state directly:
     :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R)`. The kinematics are
     the motion model :class:`uwtutor.models.depth.DepthSpeedPitch` (``motion``), shared with :class:`~uwtutor.filters.depth_ekf.DepthEKF`.
@@ -244,7 +244,7 @@ class DepthSpeedPitchModel(ParticleModel):
     T : float, optional
         Sampling interval [s]; 0.05 s in paper C.
     process_std : array_like, shape (3,), optional
-        Standard deviations of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad].
+        Standard deviations of :math:`u^z, u^v, u^\phi` per step [m, m/s, rad].
         The default :data:`uwtutor.models.depth.DEFAULT_PROCESS_STD` ``(0.01, 0.01, 0.0035)`` is illustrative:
         the paper's process covariance is not a valid covariance matrix (not positive semi-definite), so a
         diagonal one is used instead (paper C's diagonal: :mod:`uwtutor.scenarios.paper_c`).
@@ -329,24 +329,24 @@ class PitchManeuverModel(DepthSpeedPitchModel):
 
     .. math::
 
-        \bar\varphi_{k-1} = \varphi_{k-1} + (1 - e^{-T/\tau})\,(\varphi^* - \varphi_{k-1}),
+        \bar\phi_{k-1} = \phi_{k-1} + (1 - e^{-T/\tau})\,(\phi^* - \phi_{k-1}),
 
-    then :math:`z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\bar\varphi_{k-1} + u^\varphi_k)\, T + u^z_k`,
-    :math:`v_k = v_{k-1} + u^v_k`, :math:`\varphi_k = \bar\varphi_{k-1} + u^\varphi_k`. With the depth
+    then :math:`z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\bar\phi_{k-1} + u^\phi_k)\, T + u^z_k`,
+    :math:`v_k = v_{k-1} + u^v_k`, :math:`\phi_k = \bar\phi_{k-1} + u^\phi_k`. With the depth
     :math:`z` positive downwards, a positive pitch makes the vehicle go deeper (nose down). Three such models with
-    targets 0 (cruise), :math:`+\varphi_d` (dive) and :math:`-\varphi_c` (climb) make the mode set of the
+    targets 0 (cruise), :math:`+\phi_d` (dive) and :math:`-\phi_c` (climb) make the mode set of the
     multiple-model particle filter of the chapter on paper C.
 
     Parameters
     ----------
     pitch_target : float, optional
-        :math:`\varphi^*` [rad]; 0 by default (cruise at constant depth).
+        :math:`\phi^*` [rad]; 0 by default (cruise at constant depth).
     time_constant : float, optional
         :math:`\tau` [s] (> 0); 2 s by default.
     T : float, optional
         Sampling interval [s].
     process_std : array_like, shape (3,), optional
-        Standard deviations of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad].
+        Standard deviations of :math:`u^z, u^v, u^\phi` per step [m, m/s, rad].
     R : array_like, shape (3, 3), optional
         Sensor noise covariance (as in :class:`DepthSpeedPitchModel`).
 
@@ -422,7 +422,7 @@ class LinearGaussianModel(ParticleModel):
             raise ValueError(f"B must have {n} rows to match F; got shape {self.B.shape}")
 
     def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
-        """:math:`x^i_k = F x^i_{k-1} + B u_k + w^i_k` for every particle.
+        """:math:`x^{(i)}_k = F x^{(i)}_{k-1} + B u_k + w^{(i)}_k` for every particle.
 
         ``u`` is one input ``(p,)`` shared by every run, or ``(M, p)``, one per run.
         """
@@ -488,9 +488,9 @@ class BootstrapParticleFilter:
     P : ndarray, shape (n, n) or (M, n, n)
         Weighted covariance of the particles.
     y : ndarray, shape (m,) or (M, m)
-        Innovation :math:`z - \sum_i w_i h(x^i)` of the last update (NaN where nothing was measured).
+        Innovation :math:`z - \sum_i w_i h(x^{(i)})` of the last update (NaN where nothing was measured).
     S : ndarray, shape (m, m) or (M, m, m)
-        Its covariance: the weighted covariance of :math:`h(x^i)` plus ``R`` (NaN where nothing was measured).
+        Its covariance: the weighted covariance of :math:`h(x^{(i)})` plus ``R`` (NaN where nothing was measured).
     x_prior : ndarray
         The weighted mean of the predicted particles of the current step.
     P_prior : ndarray
@@ -963,15 +963,15 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     r"""Multiple-model (jump-Markov) bootstrap particle filter: every particle carries a motion mode.
 
     ``J`` motion models (the *modes*, e.g. cruise, dive and climb) share one measurement model. Particle ``i``
-    carries a mode :math:`r^i_k \in \{0, \dots, J-1\}` that switches as a Markov chain with transition matrix
+    carries a mode :math:`r^{(i)}_k \in \{0, \dots, J-1\}` that switches as a Markov chain with transition matrix
     :math:`\Pi_{jl} = \Pr(r_k = l \mid r_{k-1} = j)` before each step, and moves with its mode's model
     (McGinnity and Irwin 2000):
 
     .. math::
 
-        r^i_k \sim \Pi_{r^i_{k-1}, \cdot}, \qquad x^i_k \sim p(x_k \mid x^i_{k-1}, r^i_k), \qquad
-        w^i_k \propto w^i_{k-1}\, p(z_k \mid x^i_k), \qquad
-        \mu^j_k = \sum_{i:\, r^i_k = j} w^i_k .
+        r^{(i)}_k \sim \Pi_{r^{(i)}_{k-1}, \cdot}, \qquad x^{(i)}_k \sim p(x_k \mid x^{(i)}_{k-1}, r^{(i)}_k), \qquad
+        w^{(i)}_k \propto w^{(i)}_{k-1}\, p(z_k \mid x^{(i)}_k), \qquad
+        \mu^j_k = \sum_{i:\, r^{(i)}_k = j} w^{(i)}_k .
 
     The estimate is the weighted mean over all particles (the mixture of the modes' estimates by their
     probabilities :math:`\mu^j_k`); resampling copies the modes with the particles. Everything else (likelihood,
@@ -1148,7 +1148,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
     2. **Weighting** (eq. (17)-(19), (23)). The measurement noise of each sensor is estimated from its last
        ``noise_window`` measurements (the window ends at the current one) by the wavelet MAD estimate
        (:func:`uwtutor.wavelet.noise_sigma`, ``db6``), :math:`R_k = \mathrm{diag}(\hat\sigma^2_{z},
-       \hat\sigma^2_{v}, \hat\sigma^2_{\varphi})`, and the weights are the Gaussian likelihoods under
+       \hat\sigma^2_{v}, \hat\sigma^2_{\phi})`, and the weights are the Gaussian likelihoods under
        :math:`R_k`. Until a window is full (or when it holds a missing value) the sensor keeps its last estimate,
        initially the model's ``R``.
     3. **Estimate and resampling** (eq. (24)): weighted mean, then resampling at every step.

@@ -1,21 +1,21 @@
 r"""Paper C's depth, speed and pitch kinematics: one copy, used by its EKF and by its particle filters.
 
-State :math:`x = [z, v, \varphi]^T` (depth [m], positive downwards; speed [m/s]; pitch [rad], positive nose
+State :math:`x = [z, v, \phi]^T` (depth [m], positive downwards; speed [m/s]; pitch [rad], positive nose
 down, so that a positive pitch dives), sampling interval :math:`T`. Paper C's motion model (eq. (4)) adds the
-process noise :math:`u_k = [u^z_k, u^v_k, u^\varphi_k]^T \sim N(0, Q)` *inside* the kinematics:
+process noise :math:`u_k = [u^z_k, u^v_k, u^\phi_k]^T \sim N(0, Q)` *inside* the kinematics:
 
 .. math::
 
-    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\varphi_{k-1} + u^\varphi_k)\, T + u^z_k, \qquad
-    v_k = v_{k-1} + u^v_k, \qquad \varphi_k = \varphi_{k-1} + u^\varphi_k,
+    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\phi_{k-1} + u^\phi_k)\, T + u^z_k, \qquad
+    v_k = v_{k-1} + u^v_k, \qquad \phi_k = \phi_{k-1} + u^\phi_k,
 
 which is exactly :math:`x_k = g(x_{k-1} + u_k)` with
 
 .. math::
 
-    g(s) = \begin{bmatrix} s_z + s_v \sin(s_\varphi)\, T \\ s_v \\ s_\varphi \end{bmatrix}, \qquad
+    g(s) = \begin{bmatrix} s_z + s_v \sin(s_\phi)\, T \\ s_v \\ s_\phi \end{bmatrix}, \qquad
     G = \frac{\partial g}{\partial s} =
-    \begin{bmatrix} 1 & T \sin s_\varphi & T s_v \cos s_\varphi \\ 0 & 1 & 0 \\ 0 & 0 & 1 \end{bmatrix}.
+    \begin{bmatrix} 1 & T \sin s_\phi & T s_v \cos s_\phi \\ 0 & 1 & 0 \\ 0 & 0 & 1 \end{bmatrix}.
 
 A particle filter draws :math:`u_k` and applies :math:`g` (:meth:`DepthSpeedPitch.sample`); an EKF linearizes
 :math:`g` at the estimate, and since the noise enters through the same map its prediction is
@@ -47,7 +47,7 @@ __all__ = [
     "DepthSpeedPitch",
 ]
 
-#: Default standard deviations of :math:`u^z, u^v, u^\varphi` per step, in m, m/s and rad; illustrative values
+#: Default standard deviations of :math:`u^z, u^v, u^\phi` per step, in m, m/s and rad; illustrative values
 #: (paper C's printed process covariance is not a covariance matrix; its diagonal is in :mod:`uwtutor.scenarios.paper_c`).
 DEFAULT_PROCESS_STD = np.array([0.01, 0.01, 0.0035])
 DEFAULT_PROCESS_STD.flags.writeable = False
@@ -59,7 +59,7 @@ DEFAULT_SENSOR_STD.flags.writeable = False
 
 
 def depth_speed_pitch_kinematics(s: Any, T: float, axis: int = -1, *, out: np.ndarray | None = None) -> np.ndarray:
-    r"""Paper C's kinematics :math:`g(s) = [s_z + s_v \sin(s_\varphi) T,\ s_v,\ s_\varphi]` of states ``s``.
+    r"""Paper C's kinematics :math:`g(s) = [s_z + s_v \sin(s_\phi) T,\ s_v,\ s_\phi]` of states ``s``.
 
     Parameters
     ----------
@@ -144,7 +144,7 @@ class DepthSpeedPitch(MotionModel):
     T : float, optional
         Sampling interval [s]; 0.05 s in paper C.
     process_std : array_like, shape (3,), optional
-        Standard deviations :math:`\sigma` of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad];
+        Standard deviations :math:`\sigma` of :math:`u^z, u^v, u^\phi` per step [m, m/s, rad];
         :data:`DEFAULT_PROCESS_STD` by default.
 
     Examples

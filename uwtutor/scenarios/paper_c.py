@@ -190,7 +190,7 @@ def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitc
     The 60 s profile (times scale with ``duration``): level at 10 m and 1.5 m/s until 8 s; the pitch ramps to
     ``dive_pitch_deg`` over 3 s while the speed rises to 2.5 m/s; a dive; back to level at 24-27 s (speed 2 m/s);
     a pitch ramp to ``climb_pitch_deg`` at 35-38 s; a climb; level again from 53 s (speed back to 1.5 m/s). The
-    depth integrates the model's kinematics, :math:`z_k = z_{k-1} + v_k \\sin\\varphi_k\\, T`.
+    depth integrates the model's kinematics, :math:`z_k = z_{k-1} + v_k \\sin\\phi_k\\, T`.
 
     The sensors' noise is paper C's R (0.2 m, 5 cm/s, 0.5°) times ``noise_factors[i]`` between the
     ``noise_change_times`` (abrupt changes): by default nominal, three times larger from 18 to 30 s (a disturbed
