@@ -160,6 +160,66 @@ def bench_widgets(repeats: int) -> dict[str, Any]:
     return {"widgets_ms": out, "widgets_note": ""}
 
 
+def widget_factories() -> dict[str, str]:
+    """Every live widget of the book: label (``"ch01 sound_speed_widget"``) -> name in ``uwtutor.widgets``."""
+    from uwtutor import widgets
+
+    found = {}
+    for name in widgets.__all__:
+        obj = getattr(widgets, name)
+        if name.endswith("_widget") and callable(obj):
+            found[f"{obj.__module__.rsplit('.', 1)[-1]} {name}"] = name
+    return dict(sorted(found.items()))
+
+
+def bench_widget_latency(repeats: int) -> dict[str, Any]:
+    """End-to-end latency of every widget in a real JupyterLab: slider key press -> new figure painted, in ms.
+
+    A notebook with one cell per widget (``uwtutor.widgets.*_widget()``, the book's style on) runs in JupyterLab
+    (``jupyterlab_session``: a local server and Debian's Chromium, offline). For each widget the first slider is
+    moved by one step with the keyboard (right, then left, alternately), once to warm up and then ``repeats`` times;
+    the median and the worst of those are kept. Needs Chromium and Playwright; without them the result says why.
+    """
+    import statistics
+    import tempfile
+
+    import nbformat
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import jupyterlab_session as lab
+
+    factories = widget_factories()
+    setup = "from uwtutor import widgets\nfrom uwtutor.plotting import use_book_style\n\nuse_book_style()"
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(setup)]
+                                  + [nbformat.v4.new_code_cell(f"widgets.{name}()") for name in factories.values()])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    out: dict[str, dict[str, float]] = {}
+    with tempfile.TemporaryDirectory(prefix="uwtutor-bench-lab-") as tmp:
+        root, work = Path(tmp, "root"), Path(tmp, "work")
+        root.mkdir()
+        nbformat.write(nb, root / "widgets.ipynb")
+        try:
+            with lab.lab_session(root, work) as session:
+                page = lab.open_notebook(session, "widgets.ipynb")
+                lab.run_cell(page, 0)
+                for index, label in enumerate(factories, start=1):
+                    cell = lab.run_cell(page, index)
+                    cell.locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
+                    times = []
+                    for move in range(repeats + 1):
+                        ms = lab.slider_latency(page, index, key="ArrowRight" if move % 2 == 0 else "ArrowLeft")
+                        if move:
+                            times.append(ms)
+                    out[label] = {"median_ms": statistics.median(times), "max_ms": max(times)}
+                    print(f"  {label}: median {out[label]['median_ms']:.0f} ms, worst {out[label]['max_ms']:.0f} ms",
+                          flush=True)
+                if session.external:
+                    raise RuntimeError(f"JupyterLab requested addresses off this machine: {session.external}")
+        except lab.Unavailable as exc:
+            return {"widget_latency": {}, "widget_latency_note": f"not measured: {exc}"}
+    return {"widget_latency": out, "widget_latency_note": ""}
+
+
 def _memory_probe() -> None:
     """Run the 1000-run EKF study in this (fresh) process and print its memory use as JSON."""
     import resource
