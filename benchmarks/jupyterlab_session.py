@@ -4,8 +4,9 @@
 browser, its config, runtime, settings and workspaces directories under ``work``, so nothing of the user's is read
 or written; autosave off, so opened notebooks are never rewritten), and a Chromium (Playwright, ``/usr/bin/chromium``,
 never a downloaded browser) with a fresh profile in which every request that leaves 127.0.0.1 is aborted and recorded.
-The notebook helpers (``open_notebook``, ``cell``, ``run_cell``, ``set_cell_source``, ...) act as a person would:
-click, type, Shift+Enter.
+The notebook helpers (``open_notebook``, ``cells``, ``run_cell``, ``set_cell_source``, ``slider_latency``) act as
+a person would where it matters (typing into a cell, moving a slider with the keyboard) and run cells through
+JupyterLab's own "Run Selected Cell" command.
 """
 
 from __future__ import annotations
@@ -59,9 +60,11 @@ class LabSession:
     external: list[str] = field(default_factory=list)
     server_log: Path | None = None
 
-    def url(self, path: str) -> str:
-        """The URL of ``path`` (relative to the server's root) in the JupyterLab document view."""
-        return f"{self.base}/lab/tree/{path}?token={self.token}"
+    def url(self, path: str, workspace: str | None = None) -> str:
+        """The URL that opens ``path`` (relative to the server's root) in JupyterLab, in a fresh ``workspace``
+        if one is named (no tab of an earlier page is restored into it)."""
+        where = f"/lab/workspaces/{workspace}" if workspace else "/lab"
+        return f"{self.base}{where}/tree/{path}?reset&token={self.token}"
 
 
 def jupyter_exe() -> str:
@@ -157,10 +160,10 @@ def lab_session(root: Path, work: Path) -> Iterator[LabSession]:
 
 # --- acting on a notebook -------------------------------------------------------------------------------------
 
-def open_notebook(session: LabSession, path: str, timeout: float = 90_000) -> Any:
+def open_notebook(session: LabSession, path: str, workspace: str | None = None, timeout: float = 90_000) -> Any:
     """Open ``path`` in a new page; returns the page once the notebook's cells are shown and the kernel is idle."""
     page = session.context.new_page()
-    page.goto(session.url(path), wait_until="domcontentloaded", timeout=timeout)
+    page.goto(session.url(path, workspace), wait_until="domcontentloaded", timeout=timeout)
     page.wait_for_function("""() => { const w = window.jupyterapp && window.jupyterapp.shell.currentWidget;
                                       return w && w.context && w.context.isReady && w.content.widgets.length > 0; }""",
                            timeout=timeout)
@@ -170,9 +173,13 @@ def open_notebook(session: LabSession, path: str, timeout: float = 90_000) -> An
 
 
 def wait_kernel_idle(page: Any, timeout: float = 120_000) -> None:
-    """Wait until the notebook's kernel is started and idle (the toolbar's kernel status)."""
-    page.wait_for_selector(".jp-NotebookPanel-toolbar .jp-Notebook-ExecutionIndicator[data-status='idle']",
-                           timeout=timeout)
+    """Wait until the notebook's kernel is started, connected and idle (the session's own status: the toolbar's
+    indicator reads "idle" before the kernel exists, and a cell run then is dropped)."""
+    page.wait_for_function(
+        """() => { const ctx = window.jupyterapp.shell.currentWidget.sessionContext;
+                   const kernel = ctx.session && ctx.session.kernel;
+                   return !!kernel && kernel.connectionStatus === 'connected' && kernel.status === 'idle'
+                          && ctx.kernelDisplayStatus === 'idle'; }""", timeout=timeout)
 
 
 def cells(page: Any) -> Any:
@@ -193,25 +200,20 @@ def cell_index(page: Any, text: str) -> int:
     raise LookupError(f"no cell contains {text!r}")
 
 
-def select_cell(page: Any, index: int) -> Any:
-    """Make cell ``index`` the active one in command mode; returns its locator."""
-    cell = cells(page).nth(index)
-    cell.scroll_into_view_if_needed()
-    cell.locator(".jp-InputPrompt").click()
-    page.keyboard.press("Escape")
-    return cell
-
-
 def run_cell(page: Any, index: int, timeout: float = 120_000) -> Any:
-    """Run cell ``index`` (Shift+Enter) and wait until it has finished; returns its locator.
+    """Run cell ``index`` (JupyterLab's "Run Selected Cell", as Shift+Enter) and wait until it has finished;
+    returns its locator.
 
     The cell's execution count is cleared first (in the page's model), so that the new count the kernel gives it
-    marks the end of this run.
+    marks the end of this run. The command is run through the application's command registry rather than a key
+    press, which is lost when the notebook does not have the keyboard focus yet.
     """
-    page.evaluate("""(i) => { const cell = window.jupyterapp.shell.currentWidget.content.widgets[i];
-                              cell.model.executionCount = null; }""", index)
-    cell = select_cell(page, index)
-    page.keyboard.press("Shift+Enter")
+    cell = cells(page).nth(index)
+    cell.scroll_into_view_if_needed()
+    page.evaluate("""(i) => { const panel = window.jupyterapp.shell.currentWidget, nb = panel.content;
+                              nb.widgets[i].model.executionCount = null;
+                              nb.activeCellIndex = i; nb.mode = 'command';
+                              return window.jupyterapp.commands.execute('notebook:run-cell'); }""", index)
     page.wait_for_function(
         """(i) => { const cell = window.jupyterapp.shell.currentWidget.content.widgets[i];
                     return cell.model.executionCount !== null && !cell.node.querySelector('.jp-InputPrompt')
