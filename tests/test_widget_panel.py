@@ -48,6 +48,7 @@ def test_panel_redraws_the_same_figure_in_place():
     assert isinstance(image, w.Image) and image.format == "png" and isinstance(messages, w.Output)
     assert bytes(image.value).startswith(PNG_SIGNATURE)
     assert _pixels(bytes(image.value)).shape[:2] == (100, 150)            # 3 x 2 inches at 50 dpi
+    assert image.layout.width == "150px"                          # shown at its own size, not stretched
     assert calls == [None] and not plt.get_fignums()              # made once, and not left to pyplot to show again
 
     first = bytes(image.value)

@@ -58,7 +58,10 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any]) -> Any:
     values = lambda: {name: s.value for name, s in sliders.items()}  # noqa: E731
     fig = draw(None, **values())
     plt.close(fig)                      # off pyplot's list: the inline backend must not show it a second time
-    image = w.Image(value=figure_png(fig), format="png")
+    width_px = round(fig.get_figwidth() * fig.dpi)
+    # Shown at its own size (a flex box would stretch it to the cell's width, blurred), narrower on a narrow screen.
+    image = w.Image(value=figure_png(fig), format="png",
+                    layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))
     messages = w.Output()
     state = {"failed": False}
 
