@@ -170,7 +170,7 @@ def gpf_widget() -> Any:
         "noise_change": w.FloatSlider(value=3.0, min=0.25, max=5.0, step=0.25, description="noise change ×",
                                       continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_gpf_view(gpf_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_gpf_view(gpf_view(**p), fig))
 
 
 #: Zero-argument callables running each widget's computation at its default parameters (timed by ``make bench``).
