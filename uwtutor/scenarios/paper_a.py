@@ -21,7 +21,8 @@ choices, marked as such) with a ``make(rng, n_runs)``:
   \mathbf u_{s,k}` (:meth:`LakeTrial.relative`).
 
 Randomness: ``make`` splits its ``rng`` (``Generator.spawn``) into a stream for the geometry (the random turns,
-shared by all runs: one "typical track" like the paper's) and a stream for the runs (DR noise, range errors).
+shared by all runs: one "typical track" like the paper's), one for the DR noise and one for each part of the
+range error, so that changing one part's level leaves the other parts' draws as they were.
 
 References
 ----------
@@ -38,10 +39,10 @@ import numpy as np
 
 from .._validate import as_int, as_rng
 from ..motion import Track, _as_scalar, circle_track, turning_track
-from ..ranging import GaussianNoise, RangeErrorModel, SlowBias, SoundSpeedError
+from ..ranging import GaussianNoise, SlowBias, SoundSpeedError
 from . import Scenario, circling_scenario, make_scenario
 
-__all__ = ["PaperAParameters", "make", "random_turn_track", "variance_split", "LakeTrialParameters", "LakeTrial",
+__all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters", "LakeTrial",
            "make_lake_trial"]
 
 
@@ -178,30 +179,100 @@ class PaperAParameters:
         r""":math:`\sigma_\eta` [m]."""
         return float(np.sqrt(self.noise_variance))
 
-    def error_model(self) -> RangeErrorModel:
-        r"""The range error :math:`\eta_k + \gamma_k r_k + \mu_k + \rho` as a ``ranging`` error model.
+    def error_parts(self) -> tuple[GaussianNoise, SoundSpeedError, SlowBias]:
+        r"""The three parts of the range error as ``ranging`` error models: :math:`\eta_k`, :math:`\gamma_k r_k`,
+        :math:`\mu_k + \rho`.
 
-        :math:`\gamma_k r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`(1 + \bar\gamma)` times the true
-        mean, with a ping-to-ping speed scatter that gives :math:`\sigma_\gamma` to first order.
+        :math:`\gamma_k r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`(1 + \bar\gamma)` times the
+        true mean, with a ping-to-ping speed scatter that gives :math:`\sigma_\gamma` to first order.
         """
         c = 1500.0
         assumed = c * (1.0 + self.gamma)
-        return (GaussianNoise(self.noise_sigma)
-                + SoundSpeedError(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed)
-                + SlowBias(self.bias_mean, self.bias_sigma, self.bias_time_constant))
+        return (GaussianNoise(self.noise_sigma),
+                SoundSpeedError(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed),
+                SlowBias(self.bias_mean, self.bias_sigma, self.bias_time_constant))
 
     def make(self, rng: np.random.Generator, n_runs: Any = 1) -> Scenario:
         """Simulate ``n_runs`` runs (see :func:`make`)."""
         return make(rng, n_runs, self)
 
 
-def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | None = None) -> Scenario:
-    r"""Paper A's simulation: ``n_runs`` runs on one track, each with its own DR noise and range errors.
+def _as_params(params: Any) -> PaperAParameters:
+    p = PaperAParameters() if params is None else params
+    if not isinstance(p, PaperAParameters):
+        raise TypeError(f"params must be a PaperAParameters; got {type(p).__name__}")
+    return p
+
+
+def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
+                    params: PaperAParameters | None = None) -> tuple[Scenario, np.ndarray]:
+    r"""Paper A's simulation and its true slowly varying bias :math:`\upsilon_k = \bar\gamma r_k + \mu_k + \rho`.
+
+    The scenario is the one :func:`make` returns; the second array, shape ``(M, K)``, is the part of each range
+    error that the IEKF's bias state should follow (the white :math:`\eta_k` and the ping-to-ping part of
+    :math:`\gamma_k r_k` excluded), for bias errors and the NEES of the full state.
 
     Parameters
     ----------
     rng : numpy.random.Generator
-        Source of randomness (split into a geometry stream and a runs stream).
+        Source of randomness.
+    n_runs : int, default 1
+        Number of Monte Carlo runs.
+    params : PaperAParameters, optional
+        Default ``PaperAParameters()``.
+
+    Returns
+    -------
+    (Scenario, ndarray)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_a
+    >>> sc, bias = paper_a.make_with_truth(np.random.default_rng(1), n_runs=2)
+    >>> white = sc.range_errors - bias                      # what is left is the white noise, variance 5
+    >>> bool(abs(np.var(white) - 5.0) < 0.3)
+    True
+    """
+    p = _as_params(params)
+    rng = as_rng(rng)
+    m = as_int("n_runs", n_runs, minimum=1)
+    geometry_rng, dr_rng, error_rng = rng.spawn(3)
+    if p.track == "circle":
+        # the geometry and the DR noise of scenarios.circling_scenario; the errors are drawn below, by part
+        base = circling_scenario(dr_rng, m, radius=p.radius, speed=p.speed, interval=p.interval,
+                                 duration=p.interval * (p.n_obs - 1), noise_sigma=0.0, gamma=0.0, bias_mean=0.0,
+                                 bias_sigma=0.0, dr_sigma=p.dr_sigma)
+        shape = "on a circle"
+    else:
+        track = random_turn_track(geometry_rng, p.times, p.radius, p.speed, p.leg_time)
+        base = make_scenario(track, (0.0, 0.0), None, dr_rng, n_runs=m, dr_sigma=p.dr_sigma)
+        shape = f"turning towards it every {p.leg_time:g} s"
+    true_r = np.asarray(base.true_ranges)
+    white, scale, slow = p.error_parts()
+    streams = error_rng.spawn(3)
+    parts = [model.sample(true_r[0], base.times, g, n_runs=m) for model, g in zip((white, scale, slow), streams)]
+    bias = scale.mean_error(true_r) + parts[2]
+    errors = parts[0] + parts[1] + parts[2]
+    description = (f"Paper A: circling a buoy from {p.radius:g} m at {p.speed:g} m/s, {shape}, a range every "
+                   f"{p.interval:g} s; range error N(0, {p.noise_variance:g}) + N({p.gamma:g}, "
+                   f"{p.gamma_sigma:.3g}^2) r + slow bias (mean {p.bias_mean:g} m, std {p.bias_sigma:.3g} m, tau "
+                   f"{p.bias_time_constant:g} s); DR noise {p.dr_sigma:g} m per axis")
+    scenario = replace(base, ranges=true_r + errors, range_errors=errors, description=description)
+    return scenario, bias
+
+
+def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | None = None) -> Scenario:
+    r"""Paper A's simulation: ``n_runs`` runs on one track, each with its own DR noise and range errors.
+
+    The track is :func:`random_turn_track` (or, with ``params.track="circle"``, the circle of
+    ``scenarios.circling_scenario``), shared by all runs; the range error is the sum of the three
+    :meth:`PaperAParameters.error_parts`, each drawn from its own stream.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of randomness (split into geometry, DR and range-error streams).
     n_runs : int, default 1
         Number of Monte Carlo runs (paper A's Fig. 6: 300).
     params : PaperAParameters, optional
@@ -213,6 +284,10 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
         ``true_positions`` (M, K, 2) shared by the runs, ``dr_displacements`` (M, K, 2), ``ranges`` (M, K), the
         beacon at the origin.
 
+    See Also
+    --------
+    make_with_truth : the same scenario with its true slowly varying bias.
+
     Examples
     --------
     >>> import numpy as np
@@ -220,28 +295,11 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
     >>> sc = paper_a.make(np.random.default_rng(1), n_runs=4)
     >>> sc.ranges.shape, sc.dr_displacements.shape
     ((4, 3000), (4, 3000, 2))
-    >>> bias = sc.range_errors.mean()                         # about rho + gamma r = 50 + 15 m
+    >>> bias = sc.range_errors.mean()                         # about rho + gamma r = 50 + 14 m
     >>> bool(55.0 < bias < 75.0)
     True
     """
-    p = PaperAParameters() if params is None else params
-    if not isinstance(p, PaperAParameters):
-        raise TypeError(f"params must be a PaperAParameters; got {type(p).__name__}")
-    rng = as_rng(rng)
-    m = as_int("n_runs", n_runs, minimum=1)
-    geometry_rng, runs_rng = rng.spawn(2)
-    if p.track == "circle":
-        return circling_scenario(runs_rng, m, radius=p.radius, speed=p.speed, interval=p.interval,
-                                 duration=p.interval * (p.n_obs - 1), noise_sigma=p.noise_sigma, gamma=p.gamma,
-                                 bias_mean=p.bias_mean, bias_sigma=p.bias_sigma,
-                                 bias_time_constant=p.bias_time_constant, dr_sigma=p.dr_sigma)
-    track = random_turn_track(geometry_rng, p.times, p.radius, p.speed, p.leg_time)
-    description = (f"Paper A: circling a buoy from {p.radius:g} m at {p.speed:g} m/s, turning towards it every "
-                   f"{p.leg_time:g} s, a range every {p.interval:g} s; range error N(0, {p.noise_variance:g}) + "
-                   f"N({p.gamma:g}, {p.gamma_sigma:.3g}^2) r + slow bias (mean {p.bias_mean:g} m, std "
-                   f"{p.bias_sigma:.3g} m, tau {p.bias_time_constant:g} s); DR noise {p.dr_sigma:g} m per axis")
-    return make_scenario(track, (0.0, 0.0), p.error_model(), runs_rng, n_runs=m, dr_sigma=p.dr_sigma,
-                         description=description)
+    return make_with_truth(rng, n_runs, params)[0]
 
 
 def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParameters | None = None,
