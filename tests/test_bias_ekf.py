@@ -223,7 +223,7 @@ def test_bias_rate_state_follows_a_ramp_the_random_walk_cannot():
     x0 = np.column_stack([tp[:, 0], truth_bias[:, 0]])
     P0 = np.diag([100.0, 100.0, 100.0])
     walk = bias_ekf(x0, P0, sc.dr_displacements, z, paper_a_process_noise(0.2), 5.0)
-    motion = BiasRateDeadReckoning(bias_rate_process_noise(0.2, rate_sigma=1e-3, dt=5.0), dt=5.0)
+    motion = BiasRateDeadReckoning(bias_rate_process_noise(0.2, rate_sigma=3e-4, dt=5.0), dt=5.0)
     ramp = extended_kalman_filter(motion, RangeToBeacon((0.0, 0.0), 5.0, n=4, bias_index=2),
                                   np.column_stack([x0, np.zeros(60)]), np.diag([100.0, 100.0, 100.0, 1e-3]),
                                   sc.dr_displacements, z)
