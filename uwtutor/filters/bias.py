@@ -32,8 +32,8 @@ References
 ----------
 Liu J., Han S., Xu J., Yang G. "An improved EKF positioning algorithm for underwater acoustic beacon" (paper A),
 sec. 1.1 (eqs. 1-2) and sec. 1.2 (eqs. 3-11).
-Grewal M. S., Andrews A. P. (2014). *Kalman Filtering: Theory and Practice Using MATLAB*, 4th ed., Wiley
-(state augmentation for correlated noise; paper A's ref. [13]).
+Grewal M. S., Andrews A. P. (2015). *Kalman Filtering: Theory and Practice with MATLAB*, 4th ed., Wiley-IEEE
+Press (state augmentation for correlated noise; paper A's ref. [13]).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     --------
     BiasEKF : the same filter step by step.
     prepositioned_bias_ekf : paper A's least-squares start, then this filter.
-    uwtutor.filters.range_only_ekf : the plain EKF (no bias state).
+    uwtutor.filters.ekf.range_only_ekf : the plain EKF (no bias state).
 
     Examples
     --------

@@ -114,9 +114,11 @@ class PaperAParameters:
         Number of ranges (paper A's figures run to about 3000 observations).
     interval : float
         Ranging interval [s] (chosen: 5 s).
-    radius, speed : float
-        Starting range [m] (paper: 1-2 km; chosen 1500 m) and speed [m/s] (chosen 2 m/s).
-    track : {"turns", "circle"}
+    radius : float
+        Starting range [m] (paper: 1-2 km; chosen 1500 m).
+    speed : float
+        Platform speed [m/s] (chosen 2 m/s).
+    track : str
         ``"turns"``: :func:`random_turn_track` (the paper's description); ``"circle"``: the exact circle of
         ``scenarios.circling_scenario``.
     leg_time : float
@@ -130,9 +132,10 @@ class PaperAParameters:
         it, see :func:`variance_split`).
     bias_mean : float
         :math:`\rho` [m] (not given; chosen 50 m, which puts the plain EKF near the paper's 100 m).
-    bias_sigma, bias_time_constant : float
-        Stationary standard deviation [m] and correlation time [s] of :math:`\mu_k` (not given; chosen 5 m and
-        3000 s).
+    bias_sigma : float
+        Stationary standard deviation of :math:`\mu_k` [m] (not given; chosen 5 m).
+    bias_time_constant : float
+        Correlation time of :math:`\mu_k` [s] (not given; chosen 3000 s).
     dr_sigma : float
         DR noise per axis per epoch [m] (not given; chosen 1 m).
     """
@@ -368,19 +371,25 @@ class LakeTrialParameters:
         Mean distance between the boats [m].
     bearings_deg : tuple of 4 floats
         Bearing of the sender from the receiver in each group [deg, counter-clockwise from east].
-    group_duration, gap : float
-        Length of each group of pings and the silence between groups [s].
+    group_duration : float
+        Length of each group of pings [s].
+    gap : float
+        Silence between two groups [s].
     interval : float
         Ping interval within a group [s].
-    receiver_speed, sender_speed : float
-        Speeds [m/s]; both boats move: the receiver on a slow loop, the sender along the line of sight.
+    receiver_speed : float
+        Speed of the receiver on its slow loop [m/s].
+    sender_speed : float
+        Speed of the sender's drift along the line of sight [m/s].
     group_bias : tuple of 4 floats
         Mean range error of each group [m] (a sound-speed or timing offset that differs a little between groups;
         make it differ between the two directions to see a single bias state fail).
     group_noise : tuple of 4 floats
         White range noise of each group [m].
-    bias_sigma, bias_time_constant : float
-        Slowly varying part of the range error within the trial [m], [s].
+    bias_sigma : float
+        Standard deviation of the slowly varying part of the range error [m].
+    bias_time_constant : float
+        Its correlation time [s].
     gnss_sigma : float
         GNSS position noise per fix [m]; the displacements are differences of noisy fixes.
     """
@@ -422,10 +431,14 @@ class LakeTrial:
     ----------
     times : ndarray, shape (K,)
         Epoch times [s] (pings and the silent epochs between groups).
-    receiver, sender : ndarray, shape (K, 2)
-        True positions of the two boats [m].
-    receiver_gnss, sender_gnss : ndarray, shape (M, K, 2)
-        Their GNSS fixes (true + noise) [m].
+    receiver : ndarray, shape (K, 2)
+        True positions of the receiving boat [m].
+    sender : ndarray, shape (K, 2)
+        True positions of the sending boat (the moving beacon) [m].
+    receiver_gnss : ndarray, shape (M, K, 2)
+        The receiver's GNSS fixes (true + noise) [m].
+    sender_gnss : ndarray, shape (M, K, 2)
+        The sender's GNSS fixes [m].
     ranges : ndarray, shape (M, K)
         Measured ranges [m]; NaN between groups.
     range_errors : ndarray, shape (M, K)
