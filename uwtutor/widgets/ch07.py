@@ -12,7 +12,7 @@ import numpy as np
 from .._validate import as_finite, as_int, as_nonnegative, as_positive
 from ..filters import bias_ekf, prepositioned_bias_ekf
 from ..models import paper_a_process_noise
-from ..plotting import mark_beacon
+from ..plotting import mark_beacon, plain_log_ticks
 from ..scenarios import paper_a
 from ._panel import slider_panel
 
@@ -161,6 +161,7 @@ def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
     ax_r.semilogy(t, view.rmse, color="C0", lw=1.2, label="pre-positioning + IEKF")
     ax_r.set_xlabel("time [s]")
     ax_r.set_ylabel("RMSE [m]")
+    plain_log_ticks(ax_r)
     ax_r.legend(loc="upper right", fontsize=7)
     fig.tight_layout()
     return fig
