@@ -180,7 +180,7 @@ def bias_tracking_widget() -> Any:
         "max_alpha": w.FloatLogSlider(value=2.0, base=10, min=-0.5, max=1.0, step=0.1, description="α threshold",
                                       continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_bias_tracking_view(bias_tracking_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_bias_tracking_view(bias_tracking_view(**p), fig))
 
 
 #: Zero-argument callables running the chapter-7 widget's computation at its defaults (for ``make bench``).
