@@ -89,7 +89,7 @@ def straight_track(n: int = 40) -> np.ndarray:
 
 # -- exercise 7.1: Q ---------------------------------------------------------------------------------------------------
 def check_bias_noise(answer: Any) -> Feedback:
-    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, (\sigma_x^2 + \sigma_y^2)/2)`.
+    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`, :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`.
 
     Parameters
     ----------
@@ -106,14 +106,14 @@ def check_bias_noise(answer: Any) -> Feedback:
     expected = paper_a_process_noise(sx, sy)
     if answer is not None and np.shape(answer) == (2, 2):
         return Feedback(False, "Not yet: Q must be 3x3, one row and column per state [x, y, bias].",
-                        hint="Add the bias row: Q = diag(σx², σy², σ_υ²).")
+                        hint="Add the bias row: Q = diag(σx², σy², q_υ).")
     mistakes = [
         (np.diag([sx, sy, (sx + sy) / 2]), "Those are standard deviations on the diagonal; Q holds variances."),
-        (np.diag([sx**2, sy**2, ((sx + sy) / 2) ** 2]), "Paper A averages the *variances*: σ_υ² = (σx² + σy²)/2, "
+        (np.diag([sx**2, sy**2, ((sx + sy) / 2) ** 2]), "Paper A averages the *variances*: q_υ = (σx² + σy²)/2, "
                                                           "not the square of the mean standard deviation."),
-        (np.diag([sx**2, sy**2, sx**2 + sy**2]), "Halve it: σ_υ² is the mean of σx² and σy², not their sum."),
+        (np.diag([sx**2, sy**2, sx**2 + sy**2]), "Halve it: q_υ is the mean of σx² and σy², not their sum."),
         (np.diag([sx**2, sy**2, 0.0]), "A zero bias noise makes the bias a constant: paper A lets it wander by "
-                                       "σ_υ² = (σx² + σy²)/2 per epoch."),
+                                       "q_υ = (σx² + σy²)/2 per epoch."),
     ]
     return check_array(answer, expected, rtol=1e-9, atol=1e-12, name="Q", units="m²", common_mistakes=mistakes,
                        hint="Q = diag(σx², σy², (σx² + σy²)/2).",

@@ -13,8 +13,8 @@ walk,
     \mathbf H_k = \Big[\frac{(\hat{\mathbf p}^-_k - \mathbf b_k)^\mathsf T}{\lVert \hat{\mathbf p}^-_k -
     \mathbf b_k \rVert},\ 1\Big],
 
-with :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, \sigma_\upsilon^2)` and paper A's rule
-:math:`\sigma_\upsilon^2 = (\sigma_x^2 + \sigma_y^2)/2` (``uwtutor.models.bias.paper_a_process_noise``). The
+with :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)` and paper A's rule
+:math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` (``uwtutor.models.bias.paper_a_process_noise``). The
 beacon :math:`\mathbf b_k` is fixed or moves (one position per epoch). The filter is the generic engine
 (``uwtutor.filters.ExtendedKalmanFilter``) on the model pair ``DeadReckoning(Q)`` +
 ``RangeToBeacon(beacon, R, n=3, bias_index=2)``: this module only names it.

@@ -13,14 +13,14 @@ error, so that the filter estimates it instead of mistaking it for position:
     \mathbf H_k = \Big[\frac{x_k - b_{x,k}}{r_k},\ \frac{y_k - b_{y,k}}{r_k},\ 1\Big]
 
 (paper A, eq. 1, with the beacon :math:`\mathbf b_k` at the origin there). The bias is a random walk: between
-close epochs :math:`\upsilon_k = \upsilon_{k-1}` up to the noise :math:`\sigma_\upsilon^2`, which paper A sets to
-:math:`\sigma_\upsilon^2 = (\sigma_x^2 + \sigma_y^2)/2` (:func:`paper_a_process_noise`).
+close epochs :math:`\upsilon_k = \upsilon_{k-1}` up to the noise :math:`q_\upsilon` (paper A's :math:`\sigma_\upsilon^2`), which paper A sets to
+:math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` (:func:`paper_a_process_noise`).
 
 Paper A's model pair is ``uwtutor.models.DeadReckoning(Q)`` with a 3x3 ``Q`` (the bias is carried as a random
 walk) and ``uwtutor.models.RangeToBeacon(beacon, R, n=3, bias_index=2)``; the filter is the generic engine
 (``uwtutor.filters.bias_ekf``). This module adds paper A's rule for ``Q`` and, beyond the paper,
 :class:`BiasRateDeadReckoning`: a bias *rate* :math:`\dot\upsilon` in the state (a constant-velocity model for
-the bias), for biases that drift faster than a random walk with paper A's :math:`\sigma_\upsilon` can follow.
+the bias), for biases that drift faster than a random walk with paper A's :math:`q_\upsilon` can follow.
 
 References
 ----------
@@ -43,10 +43,10 @@ __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_
 
 
 def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> np.ndarray:
-    r"""Paper A's process noise :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, \sigma_\upsilon^2)`.
+    r"""Paper A's process noise :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`.
 
     :math:`\sigma_x, \sigma_y` are the DR errors per epoch; when ``sigma_bias`` is not given the bias noise follows
-    paper A's rule for close epochs, :math:`\sigma_\upsilon^2 = (\sigma_x^2 + \sigma_y^2)/2`: between two nearby
+    paper A's rule for close epochs, :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`: between two nearby
     epochs the bias changes about as much as the position error does (paper A, sec. 1.1). Give ``sigma_bias``
     explicitly when the epochs are far apart (the paper says to increase it then).
 

@@ -8,11 +8,12 @@ choices, marked as such) with a ``make(rng, n_runs)``:
 
   .. math::
 
-      \xi_k = \eta_k + \gamma_k r_k + \mu_k + \rho, \qquad \eta_k \sim N(0, \sigma_\eta^2),\
-      \gamma_k \sim N(\bar\gamma, \sigma_\gamma^2),
+      \xi_k = \eta_k + (\gamma_k - 1)\, r_k + \tilde\upsilon_k + \mu_\upsilon, \qquad \eta_k \sim N(0, \sigma_r^2),\
+      \gamma_k \sim N(\mu_\gamma, \sigma_\gamma^2),
 
-  with :math:`\mu_k` low-pass filtered white noise (an Ornstein-Uhlenbeck process, ``ranging.SlowBias``) of mean
-  :math:`\rho`. Paper A's :math:`\gamma` is a constant sound-speed error (:math:`\sigma_\gamma = 0`); its Fig. 6
+  with :math:`\tilde\upsilon_k + \mu_\upsilon` low-pass filtered white noise (an Ornstein-Uhlenbeck process,
+  ``ranging.SlowBias``) of mean :math:`\mu_\upsilon` (paper A's :math:`\mu_k + \rho`). Paper A's :math:`\gamma`, the
+  book's :math:`\mu_\gamma - 1`, is a constant sound-speed error (:math:`\sigma_\gamma = 0`); its Fig. 6
   also needs a random multiplicative part, :math:`\sigma_\gamma > 0` (:func:`variance_split`).
   ``track="circle"`` replaces the random turns by the exact circle of ``scenarios.circling_scenario``.
 * :class:`LakeTrialParameters` -- the structure of paper A's 2018 lake trial: a receiving boat and a sending boat,
@@ -124,18 +125,20 @@ class PaperAParameters:
     leg_time : float
         Time between random turns [s] (chosen).
     noise_variance : float
-        :math:`\sigma_\eta^2` [m²] (paper: "variance 5 m", read as 5 m²).
+        :math:`\sigma_r^2` [m²] (paper: "variance 5 m", read as 5 m²).
     gamma : float
-        Mean relative sound-speed error :math:`\bar\gamma` (paper: at most 1 %; taken at 1 %).
+        Paper A's relative sound-speed error :math:`\gamma = \mu_\gamma - 1` (paper: at most 1 %; taken at 1 %).
     gamma_sigma : float
         Ping-to-ping standard deviation :math:`\sigma_\gamma` of the relative error (0 in Figs. 3-5; Fig. 6 varies
         it, see :func:`variance_split`).
     bias_mean : float
-        :math:`\rho` [m] (not given; chosen 50 m, which puts the plain EKF near the paper's 100 m).
+        :math:`\mu_\upsilon` [m], paper A's :math:`\rho` (not given; chosen 50 m, which puts the plain EKF near the
+        paper's 100 m).
     bias_sigma : float
-        Stationary standard deviation of :math:`\mu_k` [m] (not given; chosen 5 m).
+        :math:`\sigma_\upsilon`, the stationary standard deviation of :math:`\tilde\upsilon_k` [m] (not given; chosen
+        5 m).
     bias_time_constant : float
-        Correlation time of :math:`\mu_k` [s] (not given; chosen 3000 s).
+        :math:`T_\upsilon`, its correlation time [s] (not given; chosen 3000 s).
     dr_sigma : float
         DR noise per axis per epoch [m] (not given; chosen 1 m).
     """
@@ -179,14 +182,14 @@ class PaperAParameters:
 
     @property
     def noise_sigma(self) -> float:
-        r""":math:`\sigma_\eta` [m]."""
+        r""":math:`\sigma_r` [m]."""
         return float(np.sqrt(self.noise_variance))
 
     def error_parts(self) -> tuple[GaussianNoise, SoundSpeedError, SlowBias]:
         r"""The three parts of the range error as ``ranging`` error models: :math:`\eta_k`, :math:`\gamma_k r_k`,
-        :math:`\mu_k + \rho`.
+        :math:`\tilde\upsilon_k + \mu_\upsilon`.
 
-        :math:`\gamma_k r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`(1 + \bar\gamma)` times the
+        :math:`(\gamma_k - 1) r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`\mu_\gamma` times the
         true mean, with a ping-to-ping speed scatter that gives :math:`\sigma_\gamma` to first order.
         """
         c = 1500.0
@@ -209,7 +212,7 @@ def _as_params(params: Any) -> PaperAParameters:
 
 def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
                     params: PaperAParameters | None = None) -> tuple[Scenario, np.ndarray]:
-    r"""Paper A's simulation and its true slowly varying bias :math:`\upsilon_k = \bar\gamma r_k + \mu_k + \rho`.
+    r"""Paper A's simulation and its true slowly varying bias, :math:`\upsilon_k = (\mu_\gamma - 1) r_k + \tilde\upsilon_k + \mu_\upsilon`.
 
     The scenario is the one :func:`make` returns; the second array, shape ``(M, K)``, is the part of each range
     error that the IEKF's bias state should follow (the white :math:`\eta_k` and the ping-to-ping part of
@@ -307,17 +310,17 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
 
 def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParameters | None = None,
                    mean_range: Any = None) -> PaperAParameters:
-    r"""Paper A's Fig. 6 set-up: a fixed total variance shared between :math:`\gamma_k r_k` and :math:`\mu_k`.
+    r"""Paper A's Fig. 6 set-up: a fixed total variance shared between :math:`(\gamma_k - 1) r_k` and :math:`\tilde\upsilon_k`.
 
     With the share :math:`s` of the random bias,
 
     .. math::
 
-        \sigma_\mu^2 = s\,\sigma_\mathrm{tot}^2, \qquad \sigma_\gamma^2 \bar r^2 = (1 - s)\,\sigma_\mathrm{tot}^2,
+        \sigma_\upsilon^2 = s\,\sigma_\mathrm{tot}^2, \qquad \sigma_\gamma^2 \bar r^2 = (1 - s)\,\sigma_\mathrm{tot}^2,
 
     :math:`\bar r` the mean range of the track, so that :math:`\operatorname{Var}(\gamma_k r_k) + \operatorname{Var}
-    (\mu_k) = \sigma_\mathrm{tot}^2` on average over the track. The mean parts :math:`\bar\gamma r_k` and
-    :math:`\rho` are left as in ``params``; :math:`\sigma_\mathrm{tot}` is not in the paper (chosen 20 m).
+    (\tilde\upsilon_k) = \sigma_\mathrm{tot}^2` on average over the track. The mean parts :math:`(\mu_\gamma - 1) r_k`
+    and :math:`\mu_\upsilon` are left as in ``params``; :math:`\sigma_\mathrm{tot}` is not in the paper (chosen 20 m).
 
     Parameters
     ----------
@@ -327,7 +330,7 @@ def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParam
         :math:`\sigma_\mathrm{tot}` [m].
     params : PaperAParameters, optional
         Base parameters (default: ``PaperAParameters(bias_mean=0.0)``, no constant bias besides
-        :math:`\bar\gamma r_k`).
+        :math:`(\mu_\gamma - 1) r_k`).
     mean_range : float, optional
         :math:`\bar r` [m]; default the starting range ``params.radius``.
 
@@ -488,7 +491,7 @@ def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
     The receiver drives a slow circle of radius 150 m; the sender stays at ``range_m`` from the receiver's centre
     at the group's bearing, drifting back and forth along the line of sight at ``sender_speed``, and moves to the
     new bearing during the gap before group 3. The range error of group :math:`g` is
-    :math:`b_g + \mu_k + \eta_k`, :math:`\eta_k \sim N(0, \sigma_g^2)`, :math:`\mu_k` a slow
+    :math:`b_g + \tilde\upsilon_k + \eta_k`, :math:`\eta_k \sim N(0, \sigma_g^2)`, :math:`\tilde\upsilon_k` a slow
     Ornstein-Uhlenbeck bias.
 
     Parameters
