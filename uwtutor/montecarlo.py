@@ -28,10 +28,11 @@ import numpy as np
 
 from . import metrics
 from ._validate import as_finite, as_float_array
-from ._validate import as_int
+from ._validate import as_int, as_positive
 from .filters.base import FilterResult
 
-__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study"]
+__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "compare",
+           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD"]
 
 
 @dataclass(frozen=True)
@@ -623,3 +624,392 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
         times=total["times"], components=comps if comps is not None else tuple(range(d)), confidence=conf,
         n_runs=n_runs, chunk_size=chunk_size, n_chunks=len(sizes), seed=seed, versions=_versions(),
     )
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# comparing methods on common scenarios and error conditions
+# ---------------------------------------------------------------------------------------------------------------------
+#: Final position error [m] above which :func:`compare` counts a run as diverged (see its docstring).
+DEFAULT_DIVERGENCE_THRESHOLD = 50.0
+
+
+def _scenario_condition_draw(scenario: Callable[..., Any], condition: Callable[..., Any],
+                             rng: np.random.Generator, n: int) -> tuple[Any, Any]:
+    """The draw of a (scenario, condition) pair: the scenario's runs, corrupted by the condition."""
+    return condition(rng, scenario(rng, n))
+
+
+def scenario_draw(scenario: Callable[[np.random.Generator, int], Any],
+                  condition: Callable[[np.random.Generator, Any], tuple[Any, Any]]) -> Callable[..., tuple[Any, Any]]:
+    """The ``draw(rng, n)`` of :func:`run_study` for a scenario under an error condition (see :func:`compare`).
+
+    ``scenario(rng, n)`` makes ``n`` runs of a geometry (true tracks, beacon, DR); ``condition(rng, runs)``
+    measures them under an error model and returns ``(inputs, truth)``. The result is a ``functools.partial``
+    of a module-level function, so it can be sent to a process pool when ``scenario`` and ``condition`` can.
+    """
+    import functools
+
+    for name, fn in (("scenario", scenario), ("condition", condition)):
+        if not callable(fn):
+            raise TypeError(f"{name} must be a function; got {fn!r}")
+    return functools.partial(_scenario_condition_draw, scenario, condition)
+
+
+_TEXT_COLUMNS = ("method", "scenario", "condition")
+_NUMBER_COLUMNS = ("n_runs", "n_steps", "final_rmse", "mean_rmse", "final_bound", "mean_bound", "efficiency",
+                   "final_efficiency", "mean_nees", "nees_fraction", "divergence_threshold", "divergence_fraction")
+_TIMING_COLUMNS = ("cost_per_step",)
+
+
+@dataclass(frozen=True)
+class ComparisonTable:
+    r"""The tidy table of :func:`compare`: one row per (method, scenario, condition), one array per column.
+
+    Every column except ``cost_per_step`` is reproducible: the same seed and chunk size give the same numbers
+    on any executor. ``cost_per_step`` is a wall-clock measurement (it changes from run to run and machine to
+    machine), kept apart in ``timing_columns``.
+
+    Attributes
+    ----------
+    method, scenario, condition : ndarray of str
+        The names of the row's method, scenario and error condition.
+    n_runs, n_steps : ndarray of int
+        Monte Carlo runs and steps ``K`` of the row's study.
+    final_rmse, mean_rmse : ndarray
+        :math:`\mathrm{RMSE}_K` and :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
+    final_bound, mean_bound : ndarray
+        The supplied RMSE bound :math:`B_k` (e.g. :math:`\sqrt{\operatorname{tr}}` of the posterior CRLB) at the
+        last step and averaged over the steps; NaN without a bound.
+    efficiency, final_efficiency : ndarray
+        ``mean_rmse / mean_bound`` and ``final_rmse / final_bound``: 1 for an efficient estimator, larger for a
+        worse one; NaN without a bound.
+    mean_nees : ndarray
+        The mean NEES averaged over the steps (the scored components' count for a consistent filter).
+    nees_fraction : ndarray
+        Fraction of the steps whose mean NEES lies inside its chi-square interval (about the confidence if the
+        filter is consistent).
+    divergence_threshold, divergence_fraction : ndarray
+        The final-error threshold [m] of the row and the fraction of runs above it (or NaN).
+    cost_per_step : ndarray
+        Wall-clock seconds per run and step of the method on one batch (not reproducible).
+    seed, chunk_size : int
+        Of every study of the table.
+    confidence : float
+        Probability of the NEES intervals.
+    versions : dict of str
+        Versions that computed the table.
+    """
+
+    method: np.ndarray
+    scenario: np.ndarray
+    condition: np.ndarray
+    n_runs: np.ndarray
+    n_steps: np.ndarray
+    final_rmse: np.ndarray
+    mean_rmse: np.ndarray
+    final_bound: np.ndarray
+    mean_bound: np.ndarray
+    efficiency: np.ndarray
+    final_efficiency: np.ndarray
+    mean_nees: np.ndarray
+    nees_fraction: np.ndarray
+    divergence_threshold: np.ndarray
+    divergence_fraction: np.ndarray
+    cost_per_step: np.ndarray
+    seed: int
+    chunk_size: int
+    confidence: float
+    versions: dict[str, str]
+
+    #: The columns, in order.
+    columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS
+    #: The columns that are the same on every machine and executor for the same seed and chunk size.
+    reproducible_columns = _TEXT_COLUMNS + _NUMBER_COLUMNS
+    #: The wall-clock columns (not reproducible).
+    timing_columns = _TIMING_COLUMNS
+
+    def __len__(self) -> int:
+        return len(self.method)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The table as a list of rows, each a dict column -> value (plain Python str, int and float)."""
+        out = []
+        for i in range(len(self)):
+            row: dict[str, Any] = {}
+            for c in self.columns:
+                v = getattr(self, c)[i]
+                row[c] = str(v) if c in _TEXT_COLUMNS else (int(v) if c in ("n_runs", "n_steps") else float(v))
+            out.append(row)
+        return out
+
+    def row(self, method: str, scenario: str, condition: str) -> dict[str, Any]:
+        """The row of one (method, scenario, condition)."""
+        hit = np.flatnonzero((self.method == method) & (self.scenario == scenario) & (self.condition == condition))
+        if hit.size == 0:
+            raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
+        return self.rows()[int(hit[0])]
+
+    def to_csv(self, path: Any, *, overwrite: bool = False) -> None:
+        """Write the table as CSV, its seed, chunk size, confidence and versions in ``#`` comment lines first.
+
+        Floats are written with ``repr`` (they read back exactly). An existing file is not replaced unless
+        ``overwrite=True``.
+        """
+        import csv
+        import json
+        from pathlib import Path
+
+        p = Path(path)
+        if p.exists() and not overwrite:
+            raise FileExistsError(f"{p} exists; pass overwrite=True to replace it")
+        meta = {"seed": self.seed, "chunk_size": self.chunk_size, "confidence": self.confidence,
+                "versions": self.versions}
+        with p.open("w", newline="", encoding="utf-8") as fh:
+            fh.write("# uwtutor.montecarlo.compare table\n")
+            fh.write(f"# {json.dumps(meta, sort_keys=True)}\n")
+            writer = csv.writer(fh, lineterminator="\n")
+            writer.writerow(self.columns)
+            for r in self.rows():
+                writer.writerow([repr(v) if isinstance(v, float) else v for v in r.values()])
+
+    @classmethod
+    def from_csv(cls, path: Any) -> "ComparisonTable":
+        """Read a table written by :meth:`to_csv`."""
+        import csv
+        import json
+        from pathlib import Path
+
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+        comments = [ln[1:].strip() for ln in lines if ln.startswith("#")]
+        meta = next((json.loads(c) for c in comments if c.startswith("{")), None)
+        if meta is None:
+            raise ValueError(f"{path} is not a table written by ComparisonTable.to_csv (no metadata line)")
+        records = list(csv.reader(ln for ln in lines if not ln.startswith("#")))
+        header, body = records[0], records[1:]
+        if tuple(header) != cls.columns:
+            raise ValueError(f"{path} has columns {header}; expected {list(cls.columns)}")
+        cols: dict[str, Any] = {}
+        for j, c in enumerate(header):
+            values = [r[j] for r in body]
+            if c in _TEXT_COLUMNS:
+                cols[c] = np.array(values, dtype=str)
+            elif c in ("n_runs", "n_steps"):
+                cols[c] = np.array([int(v) for v in values], dtype=int)
+            else:
+                cols[c] = np.array([float(v) for v in values])
+        return cls(**cols, seed=int(meta["seed"]), chunk_size=int(meta["chunk_size"]),
+                   confidence=float(meta["confidence"]), versions=dict(meta["versions"]))
+
+
+def _named_callables(name: str, value: Any) -> dict[str, Callable[..., Any]]:
+    if not isinstance(value, dict) or not value:
+        raise TypeError(f"{name} must be a non-empty dict name -> function; got {type(value).__name__}")
+    for key, fn in value.items():
+        if not isinstance(key, str):
+            raise TypeError(f"{name} must be keyed by names (str); got the key {key!r}")
+        if not callable(fn):
+            raise TypeError(f"{name}[{key!r}] must be a function; got {fn!r}")
+    return value
+
+
+def _lookup(mapping: Any, scenario: str, condition: str) -> Any:
+    """A per-row setting: keyed by (scenario, condition), else by scenario, else None."""
+    if mapping is None:
+        return None
+    if (scenario, condition) in mapping:
+        return mapping[(scenario, condition)]
+    return mapping.get(scenario)
+
+
+def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[str, Callable[..., Any]],
+            conditions: dict[str, Callable[..., Any]], n_runs: int, seed: int, executor: Any = None, *,
+            chunk_size: int = 1000, bounds: Any = None, divergence_threshold: Any = DEFAULT_DIVERGENCE_THRESHOLD,
+            components: Any = (0, 1), confidence: float = 0.95, only: Any = None,
+            measure_cost: bool = True, timing_runs: int | None = None) -> ComparisonTable:
+    r"""Every method on every scenario under every error condition: one :func:`run_study` per row of a table.
+
+    For each scenario, each condition and each method (in the dicts' order) the study draws ``n_runs`` runs
+    with ``draw = scenario_draw(scenario, condition)`` and filters them with the method, from the same
+    ``seed``: all the methods of a (scenario, condition) see **the same runs** (common random numbers), so
+    their differences are the methods', not the draws'. Each row reports
+
+    * accuracy: :math:`\mathrm{RMSE}_K` and the time average :math:`\frac1K \sum_k \mathrm{RMSE}_k` of the
+      position (the scored ``components``);
+    * efficiency against a supplied bound :math:`B_k` (e.g. ``rmse_bound(posterior_crlb(...))``, the
+      square root of the trace of the posterior CRLB): :math:`\bar{\mathrm{RMSE}} / \bar B` and
+      :math:`\mathrm{RMSE}_K / B_K`, 1 for an efficient estimator;
+    * consistency: the fraction of the steps whose mean NEES lies inside its chi-square interval;
+    * divergence: the fraction of runs whose final position error exceeds ``divergence_threshold``
+      (NaN estimates count as diverged). The default, 50 m, is an order of magnitude above what a filter
+      that has converged reaches with metre-level ranges and decimetre-level dead reckoning, and well below the
+      hundreds of metres of a mirror solution or a lost track at the book's ranges to the beacon: a run
+      above it has not merely been unlucky. Set it per scenario when the geometry calls for another scale.
+    * cost: wall-clock seconds per run and step of ``method(inputs)`` on one batch of ``timing_runs`` runs
+      drawn and filtered in this process after the study; not reproducible, and kept out of the other
+      columns (``ComparisonTable.timing_columns``).
+
+    Parameters
+    ----------
+    methods : dict of str to callable
+        ``name -> method``; a method is ``method(inputs) -> FilterResult``, batched over the runs.
+    scenarios : dict of str to callable
+        ``name -> scenario``; ``scenario(rng, n)`` makes ``n`` runs of a geometry (any object: tracks, beacon,
+        DR displacements...).
+    conditions : dict of str to callable
+        ``name -> condition``; ``condition(rng, runs)`` measures a scenario's runs under an error model and
+        returns ``(inputs, truth)``, as a ``draw`` of :func:`run_study` does.
+    n_runs : int
+        Monte Carlo runs per row.
+    seed : int
+        Root seed of every study.
+    executor : concurrent.futures.Executor-like, optional
+        Passed to :func:`run_study` (a process pool, a Dask cluster); ``None`` runs here.
+    chunk_size : int, default 1000
+        Runs per chunk.
+    bounds : dict, optional
+        RMSE bounds :math:`B_k`, shape ``(K,)`` [m], keyed by ``(scenario, condition)`` or by scenario.
+    divergence_threshold : float or dict, default ``DEFAULT_DIVERGENCE_THRESHOLD`` (50 m)
+        Final error [m] above which a run has diverged; or a dict keyed like ``bounds``.
+    components : sequence of int, default (0, 1)
+        The scored state components (the position comes first in every state of the library).
+    confidence : float, default 0.95
+        Probability of the NEES intervals.
+    only : dict of str to collection of str, optional
+        ``method name -> the scenario names it runs on`` (e.g. a cooperative filter needs a leader); the
+        other methods run on every scenario.
+    measure_cost : bool, default True
+        Measure ``cost_per_step`` (NaN otherwise).
+    timing_runs : int, optional
+        Runs in the timing batch; ``min(n_runs, chunk_size)`` by default.
+
+    Returns
+    -------
+    ComparisonTable
+
+    Examples
+    --------
+    The range-only EKF on a circle and on a straight line, with white range noise and with a 5 m range bias
+    (the functions are module-level in real code, so that a process pool can pickle them):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.montecarlo import compare
+    >>> K = 150
+    >>> def circle(rng, n):                       # n runs of a track: (n, K + 1, 2), x0 first
+    ...     t = np.linspace(0.0, np.pi, K + 1)
+    ...     return np.broadcast_to(300.0 * np.column_stack([np.cos(t), np.sin(t)]), (n, K + 1, 2))
+    >>> def line(rng, n):
+    ...     xy = np.column_stack([np.linspace(-300.0, 300.0, K + 1), np.full(K + 1, 150.0)])
+    ...     return np.broadcast_to(xy, (n, K + 1, 2))
+    >>> def measured(bias):
+    ...     def condition(rng, tracks):
+    ...         n, truth = len(tracks), tracks[:, 1:]
+    ...         z = np.linalg.norm(truth, axis=-1) + bias + rng.normal(0.0, 2.0, (n, K))
+    ...         x0 = tracks[:, 0] + rng.normal(0.0, 5.0, (n, 2))
+    ...         return dict(x0=x0, z=z, u=np.diff(tracks, axis=1)), truth
+    ...     return condition
+    >>> def ekf(inputs):
+    ...     return range_only_ekf(inputs["x0"], 25.0 * np.eye(2), inputs["u"], inputs["z"], 0.01 * np.eye(2), 4.0)
+    >>> table = compare({"EKF": ekf}, {"circle": circle, "line": line},
+    ...                 {"white": measured(0.0), "bias 5 m": measured(5.0)}, n_runs=400, seed=1, chunk_size=400,
+    ...                 measure_cost=False)
+    >>> len(table), table.columns[:4]
+    (4, ('method', 'scenario', 'condition', 'n_runs'))
+    >>> for r in table.rows():
+    ...     print(f"{r['scenario']:6s} {r['condition']:8s} final RMSE {r['final_rmse']:5.1f} m")
+    circle white    final RMSE   0.5 m
+    circle bias 5 m final RMSE   6.5 m
+    line   white    final RMSE   0.4 m
+    line   bias 5 m final RMSE   6.6 m
+    """
+    methods = _named_callables("methods", methods)
+    scenarios = _named_callables("scenarios", scenarios)
+    conditions = _named_callables("conditions", conditions)
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    chunk_size = as_int("chunk_size", chunk_size, minimum=1)
+    seed = as_int("seed", seed, minimum=0)
+    if timing_runs is not None:
+        timing_runs = as_int("timing_runs", timing_runs, minimum=1)
+    if only is not None:
+        if not isinstance(only, dict):
+            raise TypeError(f"only must be a dict method name -> scenario names; got {type(only).__name__}")
+        for m, names in only.items():
+            if m not in methods:
+                raise ValueError(f"only names the method {m!r}, which is not in methods ({list(methods)})")
+            unknown = set(names) - set(scenarios)
+            if unknown:
+                raise ValueError(f"only[{m!r}] names scenarios that are not in scenarios: {sorted(unknown)}")
+    for name, mapping in (("bounds", bounds), ("divergence_threshold", divergence_threshold)):
+        if isinstance(mapping, dict):
+            for key in mapping:
+                s = key[0] if isinstance(key, tuple) else key
+                c = key[1] if isinstance(key, tuple) and len(key) == 2 else None
+                if s not in scenarios or (isinstance(key, tuple) and (len(key) != 2 or c not in conditions)):
+                    raise ValueError(f"{name} has the key {key!r}; keys must be scenario names or (scenario, "
+                                     "condition) pairs of the given scenarios and conditions")
+        elif name == "bounds" and mapping is not None:
+            raise TypeError(f"bounds must be a dict keyed by scenario or (scenario, condition); got "
+                            f"{type(mapping).__name__}")
+
+    cols: dict[str, list[Any]] = {c: [] for c in ComparisonTable.columns}
+    versions: dict[str, str] = {}
+    for s_name, scenario in scenarios.items():
+        for c_name, condition in conditions.items():
+            draw = scenario_draw(scenario, condition)
+            bound = _lookup(bounds, s_name, c_name)
+            thr = divergence_threshold if not isinstance(divergence_threshold, dict) else \
+                _lookup(divergence_threshold, s_name, c_name)
+            thr = DEFAULT_DIVERGENCE_THRESHOLD if thr is None else float(as_positive("divergence_threshold", thr))
+            for m_name, method in methods.items():
+                if only is not None and m_name in only and s_name not in only[m_name]:
+                    continue
+                study = run_study(draw, method, n_runs, seed=seed, chunk_size=chunk_size, executor=executor,
+                                  components=components, confidence=confidence)
+                versions = study.versions
+                K = study.n_steps
+                if bound is not None:
+                    b = as_positive(f"bounds[{s_name!r}]", bound, ndim=1)
+                    if len(b) != K:
+                        raise ValueError(f"the bound of scenario {s_name!r}, condition {c_name!r} has {len(b)} "
+                                         f"steps; the studies have {K}")
+                    final_b, mean_b = float(b[-1]), float(b.mean())
+                else:
+                    final_b = mean_b = np.nan
+                final_rmse, mean_rmse = float(study.rmse[-1]), float(study.rmse.mean())
+                with np.errstate(invalid="ignore"):
+                    diverged = ~(study.final_errors <= thr)
+                cost = np.nan
+                if measure_cost:
+                    cost = _cost_per_step(draw, method, timing_runs or min(n_runs, chunk_size), seed, K)
+                for key, value in (("method", m_name), ("scenario", s_name), ("condition", c_name),
+                                   ("n_runs", n_runs), ("n_steps", K), ("final_rmse", final_rmse),
+                                   ("mean_rmse", mean_rmse), ("final_bound", final_b), ("mean_bound", mean_b),
+                                   ("efficiency", mean_rmse / mean_b), ("final_efficiency", final_rmse / final_b),
+                                   ("mean_nees", float(np.mean(study.mean_nees))),
+                                   ("nees_fraction", study.nees_fraction_within()),
+                                   ("divergence_threshold", thr), ("divergence_fraction", float(diverged.mean())),
+                                   ("cost_per_step", cost)):
+                    cols[key].append(value)
+    if not cols["method"]:
+        raise ValueError("no (method, scenario) pair to run: check only")
+    arrays: dict[str, Any] = {}
+    for c, values in cols.items():
+        if c in _TEXT_COLUMNS:
+            arrays[c] = np.array(values, dtype=str)
+        elif c in ("n_runs", "n_steps"):
+            arrays[c] = np.array(values, dtype=int)
+        else:
+            arrays[c] = np.array(values, dtype=float)
+    return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
+                           versions=versions)
+
+
+def _cost_per_step(draw: Callable[..., Any], method: Callable[..., Any], n: int, seed: int, K: int) -> float:
+    """Wall-clock seconds per run and step of ``method`` on one batch of ``n`` runs (drawn outside the timing)."""
+    import time
+
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2**32 - 1,)))   # not a study stream
+    inputs, _ = draw(rng, n)
+    start = time.perf_counter()
+    method(inputs)
+    return (time.perf_counter() - start) / (n * K)
