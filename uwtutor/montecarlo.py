@@ -369,8 +369,8 @@ class StudyResult:
 
     Attributes
     ----------
-    final_errors : ndarray, shape (n_runs,)
-        Error norm of every run at the last step, in run order (chunk by chunk).
+    final_errors : ndarray, shape (M,)
+        Error norm of every one of the M = ``n_runs`` runs at the last step, in run order (chunk by chunk).
     rmse : ndarray, shape (K,)
         :math:`\mathrm{RMSE}_k = \sqrt{\frac1M \sum_j \lVert \hat x_{j,k} - x_{j,k} \rVert^2}`.
     mean_nees : ndarray, shape (K,)
@@ -388,8 +388,12 @@ class StudyResult:
         The scored state components.
     confidence : float
         Probability of the intervals.
-    n_runs, chunk_size, n_chunks : int
-        The study's size and how it was cut.
+    n_runs : int
+        Number of Monte Carlo runs.
+    chunk_size : int
+        Runs per chunk.
+    n_chunks : int
+        Number of chunks.
     seed : int
         The root of the random streams: chunk ``i`` drew from ``SeedSequence(seed).spawn(n_chunks)[i]``.
     versions : dict of str
@@ -671,29 +675,44 @@ class ComparisonTable:
 
     Attributes
     ----------
-    method, scenario, condition : ndarray of str
-        The names of the row's method, scenario and error condition.
-    n_runs, n_steps : ndarray of int
-        Monte Carlo runs and steps ``K`` of the row's study.
-    final_rmse, mean_rmse : ndarray
-        :math:`\mathrm{RMSE}_K` and :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
-    final_bound, mean_bound : ndarray
-        The supplied RMSE bound :math:`B_k` (e.g. :math:`\sqrt{\operatorname{tr}}` of the posterior CRLB) at the
-        last step and averaged over the steps; NaN without a bound.
-    efficiency, final_efficiency : ndarray
-        ``mean_rmse / mean_bound`` and ``final_rmse / final_bound``: 1 for an efficient estimator, larger for a
-        worse one; NaN without a bound.
+    method : ndarray of str
+        The name of the row's method.
+    scenario : ndarray of str
+        The name of the row's scenario.
+    condition : ndarray of str
+        The name of the row's error condition.
+    n_runs : ndarray of int
+        Monte Carlo runs of the row's study.
+    n_steps : ndarray of int
+        Steps ``K`` of the row's study.
+    final_rmse : ndarray
+        :math:`\mathrm{RMSE}_K` [m].
+    mean_rmse : ndarray
+        :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
+    final_bound : ndarray
+        The supplied RMSE bound :math:`B_K` at the last step (e.g. :math:`\sqrt{\operatorname{tr}}` of the
+        posterior CRLB) [m]; NaN without a bound.
+    mean_bound : ndarray
+        :math:`\frac1K\sum_k B_k` [m]; NaN without a bound.
+    efficiency : ndarray
+        ``mean_rmse / mean_bound``: 1 for an efficient estimator, larger for a worse one; NaN without a bound.
+    final_efficiency : ndarray
+        ``final_rmse / final_bound``.
     mean_nees : ndarray
         The mean NEES averaged over the steps (the scored components' count for a consistent filter).
     nees_fraction : ndarray
         Fraction of the steps whose mean NEES lies inside its chi-square interval (about the confidence if the
         filter is consistent).
-    divergence_threshold, divergence_fraction : ndarray
-        The final-error threshold [m] of the row and the fraction of runs above it (or NaN).
+    divergence_threshold : ndarray
+        The final-error threshold of the row [m].
+    divergence_fraction : ndarray
+        The fraction of the row's runs whose final error is above it (or NaN).
     cost_per_step : ndarray
         Wall-clock seconds per run and step of the method on one batch (not reproducible).
-    seed, chunk_size : int
-        Of every study of the table.
+    seed : int
+        Root seed of every study of the table.
+    chunk_size : int
+        Runs per chunk of every study.
     confidence : float
         Probability of the NEES intervals.
     versions : dict of str

@@ -1156,7 +1156,7 @@ def _spd_inverse(J: np.ndarray) -> np.ndarray:
 def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, times: Any = None, *,
                    bias: bool = False, current: bool = False, full: bool = False,
                    mean_over_runs: bool = False) -> np.ndarray:
-    r"""The posterior Cramér–Rao bound of dead reckoning with process noise plus ranges to one beacon, epoch by epoch.
+    r"""The posterior Cramér–Rao bound of dead reckoning with process noise and ranges to one beacon, epoch by epoch.
 
     The state :math:`x_k = [p_k,\; \upsilon,\; U]` (position; with ``bias`` a range bias, paper A; with
     ``current`` a constant current, paper B) moves linearly and is ranged with additive Gaussian noise:
