@@ -1191,15 +1191,20 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
 
     .. rubric:: The expectation, evaluated on the true track
 
-    The expectation is over the true states, which are random: the process noise moves the vehicle off the
-    nominal track. Here it is evaluated at the given ``positions`` (by default), which is exact when
-    :math:`Q = 0` and otherwise a first-order approximation: the true positions scatter about the track by
-    :math:`\sqrt{\operatorname{tr} \sum Q}`, which turns the bearing, hence :math:`H_k`, by about that spread
-    over the range. At hundreds of metres from the beacon and metres of drift the difference is negligible;
-    near the beacon it is not, and the number is then a bound for the given track rather than the Bayesian
-    bound. To evaluate the expectation properly, pass the sampled true tracks of a Monte Carlo study
-    (``positions`` of shape ``(M, K, 2)``) with ``mean_over_runs=True``: :math:`\operatorname{E}[\cdot]` is
-    then their mean, the Monte Carlo evaluation of the original paper, which converges to the exact bound.
+    The expectation is over the true states, which are random: the initial error (:math:`P_0`) and the process
+    noise scatter the true positions about the nominal track, and each range's information
+    :math:`H_k^\mathsf{T} H_k / \sigma_k^2` points along a bearing that scatters with them. By default it is
+    evaluated at the given ``positions`` only: a first-order approximation, exact in the limit of a true track
+    known to within a negligible fraction of the range to the beacon, whose error grows with the bearing
+    scatter (spread of the true positions over the range). On a track that turns 150-250 m from the beacon
+    and then runs out to 400 m, 4 m of scatter changes the bound by 0.2 %; 15 m (2 m of DR noise per step, 60
+    steps) by 10-30 %, and
+    the exact bound is then *lower*: the scatter spreads each range's information over several directions,
+    most usefully where the nominal geometry leaves a direction unobserved (a radial leg). To evaluate the
+    expectation properly, pass the sampled true tracks of a Monte Carlo study (``positions`` of shape
+    ``(M, K, 2)``) with ``mean_over_runs=True``: :math:`\operatorname{E}[\cdot]` is then their mean, the
+    Monte Carlo evaluation of the original paper, which converges to the exact bound as :math:`M` grows. That
+    is the bound to set against an RMSE over runs whose true tracks differ.
 
     .. rubric:: Numerics
 
