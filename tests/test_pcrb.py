@@ -117,6 +117,11 @@ def test_runs_axis_and_mean_over_runs():
     assert per_run.shape == (M, K, 2, 2)
     for j in range(M):
         np.testing.assert_allclose(per_run[j], _reference_recursion(tracks[j], np.zeros(2), 2.0, Q, P0), rtol=1e-9)
+    # one prior per run
+    P0_runs = np.stack([P0 * (1 + j) for j in range(M)])
+    per_prior = posterior_crlb(p, [0.0, 0.0], 2.0, Q, P0_runs)
+    assert per_prior.shape == (M, K, 2, 2)
+    np.testing.assert_allclose(per_prior[3], _reference_recursion(p, np.zeros(2), 2.0, Q, P0_runs[3]), rtol=1e-9)
     # the expectation as a mean over the runs: the information of each epoch averaged
     mean = posterior_crlb(tracks, [0.0, 0.0], 2.0, Q, P0, mean_over_runs=True)
     assert mean.shape == (K, 2, 2)

@@ -74,18 +74,26 @@ def dask_executor():
         cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
 
 
-def test_serial_process_pool_and_dask_give_identical_numbers(process_pool, dask_executor):
-    kwargs = dict(seed=20261201, chunk_size=300)
-    serial = run_study(draw_circle, estimate_ekf, 1000, **kwargs)
-    pooled = run_study(draw_circle, estimate_ekf, 1000, executor=process_pool, **kwargs)
-    dasked = run_study(draw_circle, estimate_ekf, 1000, executor=dask_executor, **kwargs)
-    assert serial.n_chunks == 4 and serial.final_errors.shape == (1000,)
-    assert_same_study(serial, pooled)
-    assert_same_study(serial, dasked)
+STUDY = dict(seed=20261201, chunk_size=300)
+
+
+@pytest.fixture(scope="module")
+def serial_study():
+    study = run_study(draw_circle, estimate_ekf, 1000, **STUDY)
+    assert study.n_chunks == 4 and study.final_errors.shape == (1000,)
+    return study
+
+
+def test_serial_and_process_pool_give_identical_numbers(serial_study, process_pool):
+    assert_same_study(serial_study, run_study(draw_circle, estimate_ekf, 1000, executor=process_pool, **STUDY))
     # and a partial of a module-level function travels too
     short = functools.partial(draw_circle, K=40)
     assert_same_study(run_study(short, estimate_ekf, 200, seed=1, chunk_size=64),
                       run_study(short, estimate_ekf, 200, seed=1, chunk_size=64, executor=process_pool))
+
+
+def test_serial_and_dask_give_identical_numbers(serial_study, dask_executor):
+    assert_same_study(serial_study, run_study(draw_circle, estimate_ekf, 1000, executor=dask_executor, **STUDY))
 
 
 def test_another_seed_or_chunk_size_draws_other_runs():
