@@ -1302,7 +1302,7 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
     if b.ndim > 3 or (b.ndim >= 2 and b.shape[-2] != K):
         raise ValueError(f"beacon must have shape (2,), ({K}, 2) (one position per epoch) or (M, {K}, 2); got "
                          f"{b.shape}")
-    s_in = np.asarray(sigma, dtype=float) if not isinstance(sigma, np.ndarray) else sigma
+    s_in = as_float_array("sigma", sigma)
     P0_arr = as_covariance("P0", P0)
     if P0_arr.ndim not in (2, 3) or P0_arr.shape[-1] != n:
         labels = ", ".join(_state_labels(n, bias, current))
