@@ -32,7 +32,7 @@ REPO = Path(__file__).resolve().parents[1]
 SOURCES = REPO / "exercises"
 #: What the sdist is built from: the files setuptools reads (pyproject.toml, setup.py, MANIFEST.in, README.md)
 #: and the two trees that end up in the wheel.
-BUILD_INPUTS = ["pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "uwtutor", "exercises"]
+BUILD_INPUTS = ["pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "LICENSE", "uwtutor", "exercises"]
 IGNORED = shutil.ignore_patterns(".*", "__pycache__", "*.pyc", "*.egg-info", "gradebook.db")
 
 BUILD_SCRIPT = r"""
@@ -163,3 +163,14 @@ def test_commands_write_student_notebooks_without_solutions(installed, tmp_path,
         assert any("YOUR CODE HERE" in c.source for c in student.cells)
     again = _run([str(installed / command[0]), *command[1:], "exercises", str(dest)], cwd=tmp_path)
     assert "Skipped" in again.stdout                          # a second run never overwrites the student's work
+
+
+def test_wheel_carries_the_license(build):
+    import zipfile
+
+    wheel, _, _ = build
+    with zipfile.ZipFile(wheel) as zf:
+        names = zf.namelist()
+        licence = [n for n in names if n.endswith("LICENSE")]
+        assert licence, "the wheel has no LICENSE file"
+        assert "MIT License" in zf.read(licence[0]).decode("utf-8")

@@ -84,7 +84,7 @@ from ..models.depth import DEFAULT_PROCESS_STD, DEFAULT_SENSOR_STD, DepthSpeedPi
 from ..models.noise import per_run_generators, standard_normal_per_run
 from ..resampling import Resampler, systematic_resample
 from ..wavelet import as_wavelet, detail_matrix, mad_sigma
-from .base import FilterResult, run_filter
+from .base import FilterResult
 
 __all__ = [
     "ParticleModel",
@@ -122,6 +122,23 @@ _BLOCK_PARTICLES = 10_000
 
 _any = functools.partial(np.logical_or.reduce, axis=None)      # a.any() / a.all() without numpy's Python wrappers
 _all = functools.partial(np.logical_and.reduce, axis=None)
+
+
+def _takes_runs_axis(model: Any, name: str) -> bool:
+    """Whether ``model``'s method ``name`` takes a runs axis (M, N, n): the library's models do, and so does a
+    model class that sets ``handles_runs_axis = True``. A method a user overrode for one run -- particles (N, n),
+    a measurement (m,), one Generator, as before particle filters were batched -- is called run by run."""
+    if getattr(type(model), "handles_runs_axis", False):
+        return True
+    method = getattr(type(model), name, None)
+    return method is None or getattr(method, "__module__", "").startswith("uwtutor.")
+
+
+def _measure(model: Any, particles: np.ndarray) -> np.ndarray:
+    """``model.measure`` of particles (M, N, n), run by run for a single-run override."""
+    if _takes_runs_axis(model, "measure"):
+        return model.measure(particles)
+    return np.stack([np.asarray(model.measure(p), dtype=float) for p in particles])
 
 
 def _rows(values: np.ndarray) -> np.ndarray:
@@ -163,7 +180,10 @@ def _gaussian_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
 class ParticleModel:
     r"""Base class of particle-filter models: Gaussian measurement noise and its log-likelihood.
 
-    Subclasses implement ``propagate`` and ``measure`` and set ``n_states`` and ``R``.
+    Subclasses implement ``propagate`` and ``measure`` and set ``n_states`` and ``R``. The filters call them
+    with a runs axis, particles ``(M, N, n)``; a subclass whose methods are written for one run (particles
+    ``(N, n)``, a measurement ``(m,)``, one Generator) works too: the filters then call them run by run. Set
+    ``handles_runs_axis = True`` on a subclass whose overrides take the runs axis themselves (faster).
 
     .. math::
 
@@ -718,7 +738,13 @@ class BootstrapParticleFilter:
                    name: str = "model") -> np.ndarray:
         """Move ``rows`` (R, n, count) of the runs ``runs`` with ``model``; returns new rows (R, n, count)."""
         rngs = self.rngs if len(runs) == len(self.rngs) else tuple(self.rngs[r] for r in runs)
-        new = model.propagate(rows.swapaxes(-1, -2), None if u is None else self._per_run_input(u, runs), rngs)
+        u_runs = None if u is None else self._per_run_input(u, runs)
+        if _takes_runs_axis(model, "propagate"):
+            new = model.propagate(rows.swapaxes(-1, -2), u_runs, rngs)
+        else:                                   # a single-run override: (N, n), that run's input, its Generator
+            per_run = u_runs is not None and self._batched and np.ndim(u_runs) >= 2
+            new = np.stack([np.asarray(model.propagate(p, u_runs[i] if per_run else u_runs, rngs[i]), dtype=float)
+                            for i, p in enumerate(rows.swapaxes(-1, -2))])
         want = (rows.shape[0], rows.shape[2], rows.shape[1])
         if getattr(new, "shape", None) != want:
             raise ValueError(f"{name}.propagate must return particles of shape {want}; got {np.shape(new)}")
@@ -753,9 +779,11 @@ class BootstrapParticleFilter:
         """Log-likelihood (M, N) of ``z`` (M, m) for the particles (M, N, n)."""
         model = self.model
         if type(model).log_likelihood is ParticleModel.log_likelihood:     # the Gaussian one, without wrappers
-            return _gaussian_log_likelihood(_rows(model.measure(particles)), z, model._R, model._whiten,
+            return _gaussian_log_likelihood(_rows(_measure(model, particles)), z, model._R, model._whiten,
                                             model._R_is_diag)
-        return model.log_likelihood(particles, z)
+        if _takes_runs_axis(model, "log_likelihood"):
+            return model.log_likelihood(particles, z)
+        return np.stack([np.asarray(model.log_likelihood(p, zr), dtype=float) for p, zr in zip(particles, z)])
 
     def _measurement_cov(self) -> np.ndarray:
         """The measurement noise covariance of this update: (m, m) or (M, m, m)."""
@@ -779,7 +807,7 @@ class BootstrapParticleFilter:
 
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
         view = _rows(self._rows_p)
-        hx = self.model.measure(view)
+        hx = _measure(self.model, view)
         hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
         y = z - hx_mean
         S = hx_cov + self._measurement_cov()
@@ -1327,7 +1355,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         return self._R_runs
 
     def _log_weights(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
-        return _gaussian_log_likelihood(_rows(self.model.measure(particles)), z, self._R_runs,
+        return _gaussian_log_likelihood(_rows(_measure(self.model, particles)), z, self._R_runs,
                                         self._whiten_runs, self._R_diag)
 
     def _update(self, z: np.ndarray) -> None:
