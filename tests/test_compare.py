@@ -167,6 +167,20 @@ def test_csv_round_trip_and_no_overwrite(table, tmp_path):
         table.row("PF", "circle", "white")
 
 
+def test_markdown_table(table):
+    text = table.to_markdown(["method", "scenario", "condition", "final_rmse", "efficiency"], digits=2)
+    lines = text.splitlines()
+    assert lines[0] == "| method | scenario | condition | final_rmse | efficiency |"
+    assert lines[1] == "|:---|:---|:---|---:|---:|"
+    assert len(lines) == 2 + len(table)
+    first = table.rows()[0]
+    assert lines[2] == (f"| {first['method']} | {first['scenario']} | {first['condition']} | "
+                        f"{first['final_rmse']:.2g} | {first['efficiency']:.2g} |")
+    assert "cost_per_step" not in table.to_markdown()          # timings stay out of notebook outputs by default
+    with pytest.raises(ValueError, match="unknown column"):
+        table.to_markdown(["rmse"])
+
+
 @pytest.mark.parametrize("kwargs, error, match", [
     (dict(methods={}), TypeError, "methods must be a non-empty dict"),
     (dict(methods={"EKF": 1}), TypeError, r"methods\['EKF'\] must be a function"),

@@ -210,6 +210,27 @@ def test_components_score_the_position_of_a_bias_state():
         run_study(draw, estimate, 10, seed=4, components=(2,))
 
 
+def test_a_shared_truth_and_a_filter_without_innovations():
+    from types import SimpleNamespace
+
+    def draw(rng, n):                                       # every run has the same true track
+        inputs, _ = draw_circle(rng, n)
+        return inputs, _track()[1:]
+
+    def estimate(inputs):
+        res = estimate_ekf(inputs)
+        return SimpleNamespace(x=res.x, P=res.P, times=res.times)
+
+    study = run_study(draw, estimate, 60, seed=2, chunk_size=25)
+    assert study.mean_nis is None and study.nis_bounds is None
+    with pytest.raises(ValueError, match="no NIS"):
+        study.nis_fraction_within()
+    rng = np.random.default_rng(np.random.SeedSequence(2).spawn(3)[0])
+    inputs, truth = draw(rng, 25)
+    errors = np.linalg.norm(estimate(inputs).x - truth, axis=-1)
+    np.testing.assert_array_equal(study.final_errors[:25], errors[:, -1])
+
+
 def _not_a_pair(rng, n):
     return draw_circle(rng, n)[0]
 

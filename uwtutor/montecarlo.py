@@ -768,6 +768,24 @@ class ComparisonTable:
             raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
         return self.rows()[int(hit[0])]
 
+    def to_markdown(self, columns: Any = None, digits: int = 3) -> str:
+        """The table as a Markdown pipe table (for a notebook's ``IPython.display.Markdown``).
+
+        ``columns`` chooses and orders the columns (all the reproducible ones by default: a timing printed in a
+        notebook would change its output on every run); floats get ``digits`` significant digits.
+        """
+        cols = tuple(self.reproducible_columns if columns is None else columns)
+        unknown = [c for c in cols if c not in self.columns]
+        if unknown:
+            raise ValueError(f"unknown column(s) {unknown}; the columns are {list(self.columns)}")
+        digits = as_int("digits", digits, minimum=1)
+        lines = ["| " + " | ".join(cols) + " |",
+                 "|" + "|".join(":---" if c in _TEXT_COLUMNS else "---:" for c in cols) + "|"]
+        for r in self.rows():
+            cells = [f"{r[c]:.{digits}g}" if isinstance(r[c], float) else str(r[c]) for c in cols]
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
     def to_csv(self, path: Any, *, overwrite: bool = False) -> None:
         """Write the table as CSV, its seed, chunk size, confidence and versions in ``#`` comment lines first.
 
