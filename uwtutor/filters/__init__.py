@@ -1,6 +1,7 @@
 """Filters for single-beacon navigation, all following the protocol of :mod:`uwtutor.filters.base`."""
 
 from .base import Filter, FilterResult, run_filter
+from .cooperative import CooperativeEKF, cooperative_ekf
 from .depth_ekf import DepthEKF
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
@@ -25,5 +26,6 @@ __all__ = [
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
     "ParticleDegeneracyError",
     "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
+    "cooperative_ekf", "CooperativeEKF",
     "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",
 ]

@@ -1,6 +1,6 @@
 r"""Paper B's cooperative EKF: a follower's position and the unknown current from ranges to a moving leader.
 
-A thin filter family on the generic engine: ``CooperativeMotion`` and ``SquaredRangePair`` (or ``LeaderRange``) from
+A thin filter family on the generic engine: ``CooperativeMotion`` and ``SquaredRangePair`` (or ``leader_range``) from
 :mod:`uwtutor.models.cooperative` run by :class:`ExtendedKalmanFilter`. With :math:`\mathbf{G}` and
 :math:`\mathbf{L}` the noise maps of the models (paper B's :math:`\mathbf{W}` and :math:`\mathbf{V}`), a step from
 epoch :math:`k` to :math:`k + 1` is (paper B, eqs. 13-18, with the Joseph form of the covariance update)
@@ -32,17 +32,15 @@ straight line by less than the range noise (``relative_track_deviation``).
 
 from __future__ import annotations
 
-import sys
-import warnings
 from typing import Any
 
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_positive, as_range_array
-from ..models.cooperative import CooperativeMotion, LeaderRange, SquaredRangePair
-from ..observability import UnobservableWarning
-from .base import FilterResult
-from .generic import ExtendedKalmanFilter
+from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
+from ..errors import UnobservableWarning, warn
+from .base import FilterResult, run_filter
+from .engine import ExtendedKalmanFilter
 
 __all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "relative_track_deviation", "FORMULATIONS"]
 
@@ -131,24 +129,16 @@ def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | 
     return float(dev) if dev.ndim == 0 else dev
 
 
-def _user_stacklevel() -> int:
-    """The ``stacklevel`` that points a warning at the first caller outside ``uwtutor`` (the user's line)."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and str(frame.f_globals.get("__name__", "")).startswith("uwtutor"):
-        frame, level = frame.f_back, level + 1
-    return level
-
-
 def _warn_straight(deviation: Any, noise: float) -> None:
     dev = np.atleast_1d(deviation)
     flags = dev < noise
     if flags.any():
         runs = "the run" if dev.size == 1 else f"{int(flags.sum())} of {dev.size} runs"
-        warnings.warn(f"the state is not observable in {runs}: the follower's track relative to the leader departs "
-                      f"from a straight line by only {float(np.min(dev)):.3g} m RMS, less than the range noise "
-                      f"({noise:.3g} m), so the ranges cannot tell a rotation of the follower about the leader (with "
-                      "the current turning along) from the truth. Make the leader turn (zigzag or circle) instead "
-                      "of keeping a parallel course", UnobservableWarning, stacklevel=_user_stacklevel())
+        warn(f"the state is not observable in {runs}: the follower's track relative to the leader departs from a "
+             f"straight line by only {float(np.min(dev)):.3g} m RMS, less than the range noise ({noise:.3g} m), so "
+             "the ranges cannot tell a rotation of the follower about the leader (with the current turning along) "
+             "from the truth. Make the leader turn (zigzag or circle) instead of keeping a parallel course",
+             UnobservableWarning)
 
 
 def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
@@ -240,8 +230,8 @@ class CooperativeEKF:
         R10 = as_covariance("R", R, 10, allow_singular=True)
         if formulation == "single_range":
             var = R10[0, 0] + R10[2, 2] if range_variance is None else range_variance
-            measurement = LeaderRange(b, var)
-            self.range_noise = float(np.sqrt(measurement.variance))
+            measurement = leader_range(b, var)
+            self.range_noise = float(np.sqrt(measurement.R(None, 0)[0, 0]))
         else:
             measurement = SquaredRangePair(b, d, dt, R10, literal=formulation == "literal")
             self.range_noise = float(np.sqrt(R10[0, 0] + R10[2, 2]))
@@ -282,14 +272,18 @@ class CooperativeEKF:
         return self._engine.S
 
     @property
-    def k(self) -> int:
-        """Index of the next step."""
-        return self._engine.k
+    def accepted(self) -> np.ndarray:
+        """Whether the last update used a measurement, ``()`` or ``(M,)``."""
+        return self._engine.accepted
 
     @property
-    def extra_outputs(self) -> dict[str, np.ndarray]:
-        """Per-step outputs beyond the protocol's (those of the engine)."""
-        return getattr(self._engine, "extra_outputs", {})
+    def k(self) -> int:
+        """Index of the current step (-1 before the first ``predict``)."""
+        return self._engine.k
+
+    #: Per-step attributes recorded in a result's ``extras`` (the protocol's ``extra_outputs``).
+    extra_outputs = ("accepted",)
+    result_type = FilterResult
 
     def _measurement(self, z: Any) -> np.ndarray:
         z = np.asarray(z, dtype=float)
@@ -304,7 +298,7 @@ class CooperativeEKF:
     def predict(self, u: Any = None) -> None:
         """Predict over the next interval with ``u`` (default: the displacement of this step from ``u``)."""
         if u is None:
-            k = self._engine.k
+            k = self._engine.k + 1
             if k >= self.u.shape[-2]:
                 raise IndexError(f"no DR displacement for step {k}: u holds {self.u.shape[-2]} intervals")
             u = self.u[..., k, :]
@@ -317,9 +311,9 @@ class CooperativeEKF:
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Run every step: ``z`` the range pairs (``range_pairs(ranges)``), ``u`` the displacements (default: those
         given at construction)."""
-        z = self._measurement(z)
-        result = self._engine.run(z, self.u if u is None else u, times=times)
-        return result
+        # the engine's run on the measurements it filters (squared pairs or single ranges): the same steps as a loop
+        # of predict() / update(z[..., k, :]) on this object
+        return run_filter(self._engine, self._measurement(z), self.u if u is None else u, times)
 
 
 def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any, Q: Any, R: Any, times: Any = None,

@@ -23,7 +23,7 @@ U_x, U_y]` and the map :math:`\mathbf{L} = \partial h / \partial \mathbf{v}` (it
 ``SquaredRangePair``           :math:`h`, :math:`\mathbf{H}` and :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`, as a
                                function of the state *after* the move (``literal=False``), or with paper B's
                                Jacobians evaluated at the predicted state as printed (``literal=True``)
-``LeaderRange``                the single range :math:`r_{k+1} = \lVert \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_{k+1}
+``leader_range``               the single range :math:`r_{k+1} = \lVert \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_{k+1}
                                \rVert` with a scalar variance (the plain range-only EKF of chapter 4, moving beacon)
 =============================  =======================================================================================
 
@@ -61,8 +61,9 @@ import numpy as np
 
 from .._validate import as_covariance, as_finite, as_positive
 from .base import MeasurementModel, MotionModel
+from .range import RangeToBeacon
 
-__all__ = ["CooperativeMotion", "SquaredRangePair", "LeaderRange", "process_noise_map", "measurement_noise_map"]
+__all__ = ["CooperativeMotion", "SquaredRangePair", "leader_range", "process_noise_map", "measurement_noise_map"]
 
 
 def _interval(dt: Any) -> float:
@@ -220,6 +221,7 @@ class SquaredRangePair(MeasurementModel):
     """
 
     m = 2
+    n = 4
 
     def __init__(self, leader: Any, displacements: Any, dt: Any, R: Any, literal: bool = False) -> None:
         self.leader = _per_step("leader", leader, 1)
@@ -271,46 +273,37 @@ class SquaredRangePair(MeasurementModel):
         z = self.h(x, k)
         return z, self.H(x, k), np.ones(z.shape[:-1], dtype=bool)
 
+    @property
+    def n_runs(self) -> int | None:
+        """Number of runs of per-run leader or displacement paths (``None`` when shared by every run)."""
+        sizes = {a.shape[0] for a in (self.leader, self.displacements) if a.ndim == 3}
+        return sizes.pop() if len(sizes) == 1 else None
 
-class LeaderRange(MeasurementModel):
+
+def leader_range(leader: Any, variance: Any) -> RangeToBeacon:
     r"""The plain range to the leader at the end of each interval, :math:`r_{k+1} = \lVert \mathbf{p}_{k+1} -
-    \mathbf{p}^\mathrm{M}_{k+1} \rVert`, with :math:`\mathbf{H} = [\mathbf{e}^\mathsf{T}, 0, 0]`,
-    :math:`\mathbf{e}` the unit line of sight, and a scalar variance.
-
-    The range-only EKF of chapter 4 with a moving beacon and the current in the state. A prediction on the leader's
-    position has no line of sight: that run's update is skipped (``ok`` False).
+    \mathbf{p}^\mathrm{M}_{k+1} \rVert`, for the 4-state :math:`[x, y, U_x, U_y]`: the library's
+    :class:`~uwtutor.models.RangeToBeacon` on the leader's positions of epochs 1..K (step ``k`` ends at epoch
+    ``k + 1``), :math:`\mathbf{H} = [\mathbf{e}^\mathsf{T}, 0, 0]` with :math:`\mathbf{e}` the unit line of sight.
 
     Parameters
     ----------
     leader : array_like, shape (K + 1, 2) or (M, K + 1, 2)
-        The leader's broadcast positions at the ranging epochs [m] (step ``k`` uses epoch ``k + 1``).
+        The leader's broadcast positions at the ranging epochs [m].
     variance : float
         Variance of a range [m²], > 0: range noise plus the leader's position error along the line of sight.
+
+    Returns
+    -------
+    RangeToBeacon
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models.cooperative import leader_range
+    >>> model = leader_range(np.array([[0.0, 0.0], [10.0, 0.0]]), 25.0)
+    >>> model.h(np.array([[40.0, 40.0, 0.5, 0.5]]), 0)
+    array([[50.]])
     """
-
-    m = 1
-
-    def __init__(self, leader: Any, variance: Any) -> None:
-        self.leader = _per_step("leader", leader, 1)
-        self.variance = float(as_positive("variance", variance, ndim=0))
-
-    def _diff(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        d = x[..., :2] - self.leader[..., k + 1, :]
-        return d, np.hypot(d[..., 0], d[..., 1])
-
-    def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._diff(x, k)[1][..., None]
-
-    def H(self, x: np.ndarray, k: int) -> np.ndarray:
-        d, r = self._diff(x, k)
-        H = np.zeros(d.shape[:-1] + (1, 4))
-        H[..., 0, :2] = d / np.where(r > 0, r, 1.0)[..., None]
-        return H
-
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return np.array([[self.variance]])
-
-    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        d, r = self._diff(x, k)
-        ok = r > 1e-9
-        return r[..., None], self.H(x, k), ok
+    b = _per_step("leader", leader, 1)
+    return RangeToBeacon(b[..., 1:, :], R=variance, n=4)

@@ -82,8 +82,8 @@ class PaperBParameters:
     follower_heading: float = 0.0
     leader_pattern: str = "zigzag"
     leader_start: tuple[float, float] = (500.0, -300.0)
-    zigzag_angle: float = float(np.radians(60.0))
-    leg_duration: float = 300.0
+    zigzag_angle: float = float(np.radians(75.0))
+    leg_duration: float = 200.0
     circle_radius: float = 400.0
     range_sigma: float = 5.0
     leader_sigma: float = 5.0
