@@ -8,8 +8,8 @@ fall as followers are added (the reason OWTT replaced round-trip ranging in coop
 2012). It costs three things that two-way ranging does not have:
 
 ==============================  ==================================================================================
-``clock_error``                 the receiver's clock error :math:`\epsilon(t) = \epsilon_0 + \dot\epsilon\,t`
-``clock_range_error``           its range error :math:`c\,\epsilon(t)`: 1 ms is 1.5 m, a 1 ppm drift 1.5 m per
+``clock_error``                 the receiver's clock error :math:`\kappa(t) = \kappa_0 + \dot\kappa\,t`
+``clock_range_error``           its range error :math:`c\,\kappa(t)`: 1 ms is 1.5 m, a 1 ppm drift 1.5 m per
                                 thousand seconds
 ``wrap_travel_time``            the travel time a receiver reports when it knows the send time only to within a
                                 whole period (the transmission scheduled "at the top of a second")
@@ -59,24 +59,24 @@ def _scalar_or_array(arr: np.ndarray) -> float | np.ndarray:
 
 
 def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.ndarray:
-    r"""Error of a receiver's clock against the leader's: :math:`\epsilon(t) = \epsilon_0 + \dot\epsilon\,t`.
+    r"""Error of a receiver's clock against the leader's: :math:`\kappa(t) = \kappa_0 + \dot\kappa\,t`.
 
     Both clocks were synchronized (for example to GPS at the surface) at :math:`t = 0` with a residual offset
-    :math:`\epsilon_0`; after that the receiver's oscillator runs fast by :math:`\dot\epsilon` seconds per second.
+    :math:`\kappa_0`; after that the receiver's oscillator runs fast by :math:`\dot\kappa` seconds per second.
 
     Parameters
     ----------
     times : float or array_like
         Times since the synchronization [s], finite.
     offset : float, default 0
-        :math:`\epsilon_0` [s]; positive means the receiver's clock is ahead.
+        :math:`\kappa_0` [s]; positive means the receiver's clock is ahead.
     drift : float, default 0
-        :math:`\dot\epsilon` [s/s], e.g. ``1e-6`` for a 1 ppm oscillator.
+        :math:`\dot\kappa` [s/s], e.g. ``1e-6`` for a 1 ppm oscillator.
 
     Returns
     -------
     float or ndarray
-        :math:`\epsilon(t)` [s], the shape of ``times``.
+        :math:`\kappa(t)` [s], the shape of ``times``.
 
     Examples
     --------
@@ -91,10 +91,10 @@ def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.n
 
 
 def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_speed: Any = 1500.0) -> float | np.ndarray:
-    r"""The range error a clock error makes: :math:`e_k = c\,\epsilon(t^\mathrm{r}_k)`.
+    r"""The range error a clock error makes: :math:`e_k = c\,\kappa(t^\mathrm{r}_k)`.
 
-    A receiver whose clock is ahead by :math:`\epsilon` notes every arrival :math:`\epsilon` late, so every travel
-    time is :math:`\epsilon` too long and every range :math:`c\,\epsilon` too long: a bias common to all ranges of
+    A receiver whose clock is ahead by :math:`\kappa` notes every arrival :math:`\kappa` late, so every travel
+    time is :math:`\kappa` too long and every range :math:`c\,\kappa` too long: a bias common to all ranges of
     one epoch, growing with time when the clock drifts. 1 ms at 1500 m/s is 1.5 m.
 
     Parameters
@@ -102,7 +102,7 @@ def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_spe
     times : float or array_like
         Reception times since the synchronization [s].
     offset, drift : float
-        The clock's :math:`\epsilon_0` [s] and :math:`\dot\epsilon` [s/s] (see ``clock_error``).
+        The clock's :math:`\kappa_0` [s] and :math:`\dot\kappa` [s/s] (see ``clock_error``).
     sound_speed : float, default 1500
         Sound speed :math:`c` the receiver converts with [m/s], > 0.
 
@@ -247,7 +247,7 @@ class OWTTMeasurements:
     travel_times : ndarray
         True travel times :math:`\tau_k = t^\mathrm{r}_k - t^\mathrm{s}_k` [s].
     measured_travel_times : ndarray
-        What the follower measures: :math:`\tau_k + \epsilon(t^\mathrm{r}_k)`, wrapped modulo the period when one
+        What the follower measures: :math:`\tau_k + \kappa(t^\mathrm{r}_k)`, wrapped modulo the period when one
         was given [s].
     ranges : ndarray
         :math:`c_\mathrm{a}\,\tau^\mathrm{meas}_k` with the assumed sound speed [m] (wrapped travel times give
@@ -299,7 +299,7 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     For each message sent at :math:`t^\mathrm{s}_k`: the arrival :math:`t^\mathrm{r}_k` solves
     :math:`\lVert \mathbf{p}^\mathrm{S}(t^\mathrm{r}_k) - \mathbf{p}^\mathrm{M}(t^\mathrm{s}_k)\rVert =
     c\,(t^\mathrm{r}_k - t^\mathrm{s}_k)` (``uwtutor.ranging.reception_times``); the follower measures
-    :math:`\tau^\mathrm{meas}_k = \tau_k + \epsilon(t^\mathrm{r}_k)` (``clock_error``), wrapped modulo ``period``
+    :math:`\tau^\mathrm{meas}_k = \tau_k + \kappa(t^\mathrm{r}_k)` (``clock_error``), wrapped modulo ``period``
     when one is given (``wrap_travel_time``), and converts it with its assumed sound speed. Horizontal geometry: for
     vehicles at the same depth the horizontal and the slant range agree.
 
@@ -314,7 +314,7 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     assumed_sound_speed : float, optional
         The speed the follower converts with (default: the true one).
     clock_offset, clock_drift : float, default 0
-        The follower's clock error against the leader's, :math:`\epsilon_0` [s] and :math:`\dot\epsilon` [s/s].
+        The follower's clock error against the leader's, :math:`\kappa_0` [s] and :math:`\dot\kappa` [s/s].
     period : float, optional
         :math:`T_\mathrm{s}` [s]: report travel times modulo it (the whole-second ambiguity).
 

@@ -79,16 +79,15 @@ def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | 
 
     The filter knows the follower's DR track :math:`\mathbf{q}_k = \sum_{j < k} \mathbf{u}_j` and the leader's
     broadcast positions :math:`\mathbf{p}^\mathrm{M}_k`. The follower over ground is
-    :math:`\mathbf{p}_0 + \mathbf{q}_k + t_k\mathbf{U}`, so the ranges see the relative track
-    :math:`\mathbf{p}_0 + t_k\mathbf{U} + \mathbf{d}_k` with :math:`\mathbf{d}_k = \mathbf{q}_k -
-    \mathbf{p}^\mathrm{M}_k`. If :math:`\mathbf{d}_k = \boldsymbol\alpha + \boldsymbol\beta t_k` exactly, the
-    relative track is a straight line whatever :math:`\mathbf{p}_0` and :math:`\mathbf{U}`, and
-    :math:`r_k^2 = \lVert \mathbf{A} + \mathbf{B} t_k \rVert^2` fixes only :math:`\lVert\mathbf{A}\rVert`,
-    :math:`\mathbf{A}\cdot\mathbf{B}` and :math:`\lVert\mathbf{B}\rVert`: turning the relative position
-    :math:`\mathbf{A}` and the relative velocity :math:`\mathbf{B}` together (the follower about the leader, the
-    current with it) leaves every range unchanged. This function returns the RMS distance of :math:`\mathbf{d}_k`
-    from its least-squares line :math:`\boldsymbol\alpha + \boldsymbol\beta t_k`; the rotation is observable only
-    when it clearly exceeds the range noise.
+    :math:`\mathbf{p}_0 + \mathbf{q}_k + t_k\mathbf{U}`, so the ranges see the relative position
+    :math:`\mathbf{s}_k = \mathbf{p}_0 + t_k\mathbf{U} + \mathbf{q}_k - \mathbf{p}^\mathrm{M}_k`. If
+    :math:`\mathbf{q}_k - \mathbf{p}^\mathrm{M}_k` is exactly affine in :math:`t_k`, so is :math:`\mathbf{s}_k =
+    \mathbf{s}_0 + \dot{\mathbf{s}}\,t_k` whatever :math:`\mathbf{p}_0` and :math:`\mathbf{U}`, and
+    :math:`r_k^2 = \lVert \mathbf{s}_0 + \dot{\mathbf{s}}\,t_k \rVert^2` fixes only :math:`\lVert\mathbf{s}_0\rVert`,
+    :math:`\mathbf{s}_0\cdot\dot{\mathbf{s}}` and :math:`\lVert\dot{\mathbf{s}}\rVert`: turning the relative position
+    and the relative velocity together (the follower about the leader, the current with it) leaves every range
+    unchanged. This function returns the RMS distance of :math:`\mathbf{q}_k - \mathbf{p}^\mathrm{M}_k` from its
+    least-squares line in time; the rotation is observable only when it clearly exceeds the range noise.
 
     Parameters
     ----------

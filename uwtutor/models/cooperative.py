@@ -33,19 +33,19 @@ written as a function of it, the position at the start of the interval being
 
 .. math::
 
-    h(\mathbf{x}_{k+1}) = \begin{bmatrix} \lVert \mathbf{a} \rVert^2 \\ \lVert \mathbf{c} \rVert^2 \end{bmatrix},
-    \quad \mathbf{a} = \mathbf{p}_{k+1} - \mathbf{u}_k - \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_k,
-    \quad \mathbf{c} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_{k+1},
+    h(\mathbf{x}_{k+1}) = \begin{bmatrix} \lVert \mathbf{s}_k \rVert^2 \\ \lVert \mathbf{s}_{k+1} \rVert^2 \end{bmatrix},
+    \quad \mathbf{s}_k = \mathbf{p}_{k+1} - \mathbf{u}_k - \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_k,
+    \quad \mathbf{s}_{k+1} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_{k+1},
     \qquad
-    \mathbf{H} = \begin{bmatrix} 2\mathbf{a}^\mathsf{T} & -2\,\delta t\,\mathbf{a}^\mathsf{T} \\
-                                 2\mathbf{c}^\mathsf{T} & \mathbf{0} \end{bmatrix},
+    \mathbf{H} = \begin{bmatrix} 2\mathbf{s}_k^\mathsf{T} & -2\,\delta t\,\mathbf{s}_k^\mathsf{T} \\
+                                 2\mathbf{s}_{k+1}^\mathsf{T} & \mathbf{0} \end{bmatrix},
 
 the chain rule applied to paper B's :math:`\partial h / \partial \mathbf{x}_k` (eq. 11). Evaluated at the
-prediction, :math:`\mathbf{a}` and :math:`\mathbf{c}` are the vectors paper B's eqs. (11)-(12) contain when those
+prediction, :math:`\mathbf{s}_k` and :math:`\mathbf{s}_{k+1}` are the vectors paper B's eqs. (11)-(12) contain when those
 are evaluated at the previous estimate :math:`\hat{\mathbf{x}}_k`; :math:`\mathbf{L}` is paper B's :math:`\mathbf{V}`
-with these :math:`\mathbf{a}`, :math:`\mathbf{c}`. The literal reading substitutes the predicted state for
-:math:`\mathbf{x}_k` in eqs. (11)-(12): :math:`\mathbf{a}^\mathrm{lit} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_k`,
-:math:`\mathbf{c}^\mathrm{lit} = \mathbf{p}_{k+1} + \mathbf{u}_k + \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_{k+1}`
+with these :math:`\mathbf{s}_k`, :math:`\mathbf{s}_{k+1}`. The literal reading substitutes the predicted state for
+:math:`\mathbf{x}_k` in eqs. (11)-(12): :math:`\mathbf{s}_k^\mathrm{lit} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_k`,
+:math:`\mathbf{s}_{k+1}^\mathrm{lit} = \mathbf{p}_{k+1} + \mathbf{u}_k + \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_{k+1}`
 (the move counted twice) and a current column on the second row instead of the first.
 
 Shapes: a state batch is ``(M, 4)``; the leader's positions ``(K + 1, 2)`` or ``(M, K + 1, 2)`` and the
@@ -94,22 +94,23 @@ def process_noise_map(dt: Any) -> np.ndarray:
 
 def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
     r"""Paper B's measurement-noise map :math:`\mathbf{L}` (its :math:`\mathbf{V}`, eq. 12) for the vectors
-    :math:`\mathbf{a}` (follower minus leader at epoch :math:`k`) and :math:`\mathbf{c}` (at epoch :math:`k + 1`).
+    :math:`\mathbf{s}_k` (the follower relative to the leader at epoch :math:`k`) and :math:`\mathbf{s}_{k+1}` (at
+    epoch :math:`k + 1`).
 
     Columns follow :math:`\mathbf{v} = [x, y, x^\mathrm{M}_k, y^\mathrm{M}_k, x^\mathrm{M}_{k+1}, y^\mathrm{M}_{k+1},
     \Delta x, \Delta y, U_x, U_y]`:
 
     .. math::
 
-        \mathbf{L} = \begin{bmatrix} 2\mathbf{a}^\mathsf{T} & -2\mathbf{a}^\mathsf{T} & \mathbf{0} & \mathbf{0}
+        \mathbf{L} = \begin{bmatrix} 2\mathbf{s}_k^\mathsf{T} & -2\mathbf{s}_k^\mathsf{T} & \mathbf{0} & \mathbf{0}
                                       & \mathbf{0} \\
-                                      2\mathbf{c}^\mathsf{T} & \mathbf{0} & -2\mathbf{c}^\mathsf{T}
-                                      & 2\mathbf{c}^\mathsf{T} & 2\,\delta t\,\mathbf{c}^\mathsf{T} \end{bmatrix}.
+                                      2\mathbf{s}_{k+1}^\mathsf{T} & \mathbf{0} & -2\mathbf{s}_{k+1}^\mathsf{T}
+                                      & 2\mathbf{s}_{k+1}^\mathsf{T} & 2\,\delta t\,\mathbf{s}_{k+1}^\mathsf{T} \end{bmatrix}.
 
     Parameters
     ----------
     a, c : array_like, shape (2,) or (M, 2)
-        The two difference vectors [m].
+        :math:`\mathbf{s}_k` and :math:`\mathbf{s}_{k+1}` [m].
     dt : float
         :math:`\delta t` [s].
 

@@ -33,7 +33,8 @@ from .._validate import as_finite, as_int, as_rng
 from ..motion import (Track, _readonly, circle_track, dead_reckoning, straight_track, turning_track)
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
 
-__all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS"]
+__all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
+           "FilterTuning", "paper_tuning", "matched_tuning"]
 
 #: The leader patterns ``make`` knows.
 LEADER_PATTERNS = ("zigzag", "parallel", "circling")
@@ -150,6 +151,68 @@ class PaperBParameters:
 PAPER_B = PaperBParameters()
 
 
+@dataclass(frozen=True)
+class FilterTuning:
+    r"""The noise a cooperative EKF is told about: :math:`\mathbf{P}_1` (4x4), paper B's :math:`\mathbf{Q}` (6x6)
+    and :math:`\mathbf{R}` (10x10), and the range variance of the single-range variant [m²]."""
+
+    P1: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    range_variance: float
+
+    def as_kwargs(self) -> dict[str, Any]:
+        """``P0``, ``Q``, ``R`` and ``range_variance`` as keyword arguments of ``cooperative_ekf``."""
+        return dict(P0=self.P1, Q=self.Q, R=self.R, range_variance=self.range_variance)
+
+
+def paper_tuning(params: PaperBParameters | None = None) -> FilterTuning:
+    r"""Paper B's own :math:`\mathbf{P}_1`, :math:`\mathbf{Q}` and :math:`\mathbf{R}`; the single range gets
+    :math:`R_{11} + R_{33}` (the follower's and the leader's x variances, as they enter a range).
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios import paper_b
+    >>> paper_b.paper_tuning().range_variance
+    200.0
+    """
+    p = PAPER_B if params is None else params
+    return FilterTuning(p.P1, p.Q, p.R, float(p.R[0, 0] + p.R[2, 2]))
+
+
+def matched_tuning(params: PaperBParameters | None = None, *, position_noise: float = 1.0,
+                   current_noise: float = 1e-3) -> FilterTuning:
+    r"""A tuning that knows the simulation's noise (ours, for comparison with paper B's).
+
+    * :math:`\mathbf{Q}`: ``position_noise`` [m] and ``current_noise`` [m/s] per interval on :math:`x, y` and
+      :math:`U_x, U_y` (small random walks that keep the filter from trusting its first linearizations forever), and
+      the DR error of one interval on :math:`\Delta x, \Delta y`: :math:`\sqrt{N}\,\Delta t\,\max(\sigma_v,
+      v\,\sigma_\theta)` for :math:`N = \delta t / \Delta t` steps;
+    * :math:`\mathbf{R}`: twice the range noise variance on :math:`x, y` and twice the leader's on its coordinates
+      (each range enters two pairs, so its information would otherwise be counted twice), the same DR and current
+      terms;
+    * the single range: :math:`\sigma_r^2 + \sigma_\mathrm{M}^2`, once;
+    * :math:`\mathbf{P}_1 = \operatorname{diag}(d^2, d^2, 1, 1)` with :math:`d` the distance of paper B's initial
+      estimate from the true start, and 1 (m/s)² for a current of unknown direction.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_b
+    >>> tu = paper_b.matched_tuning()
+    >>> tu.range_variance, np.sqrt(tu.Q[2, 2]).round(3)
+    (50.0, np.float64(0.141))
+    """
+    p = PAPER_B if params is None else params
+    n = p.interval / p.dr_step
+    dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
+    q, cu = float(position_noise) ** 2, float(current_noise) ** 2
+    Q = np.diag([q, q, dr**2, dr**2, cu, cu])
+    R = np.diag([2 * p.range_sigma**2] * 2 + [2 * p.leader_sigma**2] * 4 + [dr**2, dr**2, cu, cu])
+    d = float(np.linalg.norm(np.asarray(p.initial_estimate[:2]) - np.asarray(p.follower_start)))
+    return FilterTuning(np.diag([d**2, d**2, 1.0, 1.0]), Q, R, float(p.range_sigma**2 + p.leader_sigma**2))
+
+
 @dataclass(frozen=True, eq=False)
 class CooperativeScenario:
     r"""``M`` simulated runs of paper B's cooperative localization over ``K + 1`` ranging epochs.
@@ -181,6 +244,11 @@ class CooperativeScenario:
     dr_displacements_at_send : ndarray, shape (M, K, 2)
         With ``owtt``: the DR displacements between send times (what a filter that ignores the travel time uses);
         otherwise the same as ``dr_displacements``.
+    true_positions_at_send : ndarray, shape (K + 1, 2)
+        With ``owtt``: the follower when each message left; otherwise ``true_positions``.
+    leader_positions_at_reception : ndarray, shape (K + 1, 2)
+        With ``owtt``: the leader when each message arrived (the wrong one to pair with the range); otherwise
+        ``leader_positions``.
     params : PaperBParameters
     description : str
     """
@@ -196,6 +264,8 @@ class CooperativeScenario:
     ranges: np.ndarray
     travel_times: np.ndarray
     dr_displacements_at_send: np.ndarray
+    true_positions_at_send: np.ndarray
+    leader_positions_at_reception: np.ndarray
     params: PaperBParameters
     description: str = field(default="")
 
@@ -221,9 +291,11 @@ class CooperativeScenario:
         estimates."""
         return np.concatenate([self.true_positions[1:], self.true_currents[1:]], axis=-1)
 
-    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
-        r"""Paper B's :math:`\hat{\mathbf{x}}_1` and :math:`\mathbf{P}_1` (shapes (4,) and (4, 4))."""
-        return self.params.x1, self.params.P1
+    def initial_estimate(self) -> np.ndarray:
+        r"""Paper B's :math:`\hat{\mathbf{x}}_1`, shape (4,), moved with this follower's start: the same initial
+        error for every follower of ``make_followers`` (for ``make`` it is ``params.x1``)."""
+        offset = self.params.x1[:2] - np.asarray(self.params.follower_start, dtype=float)
+        return np.concatenate([self.true_positions[0] + offset, self.params.x1[2:]])
 
 
 def _current_offset(t: np.ndarray, p: PaperBParameters) -> tuple[np.ndarray, np.ndarray]:
@@ -289,12 +361,14 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
             true_r = m.true_ranges
             clock = np.asarray(clock_range_error(times, p.clock_offset, p.clock_drift, p.sound_speed))
             dr_at = _interp_rows(t1, dr_grid, times)
+            at_send, leader_rx = m.follower_positions_at_send, m.leader_positions_at_reception
         else:
             times = t_send
             true_pos = ground.positions[send_idx]
             true_r = np.linalg.norm(true_pos - leader_true, axis=-1)
             clock = np.zeros(len(times))
             dr_at = dr_grid[:, send_idx]
+            at_send, leader_rx = true_pos, leader_true
         noise = p.range_sigma * rng_range.standard_normal((M, len(times)))
         ranges = true_r + clock + noise
         ranges = np.abs(ranges)            # a range cannot be negative (only matters for absurd noise levels)
@@ -317,7 +391,9 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
                                        leader_positions=np.array(leader_true), leader_broadcast=leader_bc,
                                        dr_displacements=u, dr_positions=dr_at, true_ranges=np.array(true_r),
                                        ranges=ranges, travel_times=travel, dr_displacements_at_send=u_send,
-                                       params=p, description=desc))
+                                       true_positions_at_send=np.array(at_send),
+                                       leader_positions_at_reception=np.array(leader_rx), params=p,
+                                       description=desc))
     return out
 
 
