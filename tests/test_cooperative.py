@@ -37,7 +37,7 @@ def _run(sc, i=None, **kw):
     return cooperative_ekf(x0, kw.pop("P0", P0), *args, P.interval, kw.pop("Q", P.Q), kw.pop("R", P.R), **kw)
 
 
-# -- the models ---------------------------------------------------------------------------------------------------------
+# -- the models --------------------------------------------------------------------------------------------------------
 def paper_h(xk, v, dt):
     """Paper B's eq. (3) as printed: the pair as a function of the state before the move and the noisy terms v."""
     x, y, xm0, ym0, xm1, ym1, dx, dy, ux, uy = v
@@ -68,7 +68,8 @@ def test_process_noise_map_is_the_jacobian_of_the_motion_in_the_noise():
     G = process_noise_map(dt)
     np.testing.assert_allclose(motion.Q(None, None, 0), G @ P.Q @ G.T)
     np.testing.assert_allclose(motion.f(x[None], u[None], 0)[0], moved(np.zeros(6)))
-    np.testing.assert_allclose(motion.F(None, None, 0), numerical_jacobian(lambda s: motion.f(s[None], u[None], 0)[0], x))
+    np.testing.assert_allclose(motion.F(None, None, 0),
+                               numerical_jacobian(lambda s: motion.f(s[None], u[None], 0)[0], x))
 
 
 def test_measurement_noise_map_is_paper_b_eq_12():
@@ -121,7 +122,7 @@ def test_single_range_model_uses_the_leader_at_the_end_of_the_interval():
                                atol=1e-12)
 
 
-# -- the filter ---------------------------------------------------------------------------------------------------------
+# -- the filter --------------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("pattern", ["zigzag", "circling"])
 def test_exact_ranges_and_dr_give_the_current_and_the_track(pattern):
     sc = paper_b.make(np.random.default_rng(0), 1, leader_pattern=pattern, **EXACT)
@@ -282,7 +283,7 @@ def test_bad_sequences_name_the_argument():
         filt.update(100.0)
 
 
-# -- the scenario -------------------------------------------------------------------------------------------------------
+# -- the scenario ------------------------------------------------------------------------------------------------------
 def test_scenario_holds_paper_b_values():
     assert (P.speed, P.duration, P.depth, P.dr_step, P.interval, P.current) == (2.0, 2500.0, 10.0, 1.0, 8.0,
                                                                                   (0.5, 0.5))

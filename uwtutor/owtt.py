@@ -1,4 +1,5 @@
-r"""One-way travel-time (OWTT) ranging: what synchronized clocks, whole-second schedules and moving vehicles do to a range.
+r"""One-way travel-time (OWTT) ranging: what synchronized clocks, whole-second schedules and moving vehicles do to a
+range.
 
 In OWTT ranging a leader (a vehicle, a ship, a buoy) transmits at a scheduled time :math:`t^\mathrm{s}_k` read on its
 clock; the message carries its position at that time. A receiver with a synchronized clock notes the arrival time

@@ -184,7 +184,7 @@ def check_largest_prediction_error(answer: Any) -> Feedback:
                         explanation="Dead reckoning drifts that far in about 18 minutes with paper B's current.")
 
 
-# -- exercise 8.3: the consistent Jacobian ------------------------------------------------------------------------------
+# -- exercise 8.3: the consistent Jacobian -----------------------------------------------------------------------------
 def pair_jacobian_reference(x_pred: Any, leader_k: Any, leader_k1: Any, u_k: Any, dt: Any) -> np.ndarray:
     r"""The reference for exercise 8.3: the Jacobian of :math:`[r_k^2, r_{k+1}^2]` at the predicted state, from
     ``uwtutor.models.cooperative.SquaredRangePair``.
@@ -258,7 +258,7 @@ def check_pair_jacobian(func: Any) -> Feedback:
                           explanation="This is paper B's eq. (11) at the previous estimate times ∂x_k/∂x_(k+1).")
 
 
-# -- exercise 8.4: which leader? ----------------------------------------------------------------------------------------
+# -- exercise 8.4: which leader? ---------------------------------------------------------------------------------------
 @functools.lru_cache(maxsize=1)
 def _study() -> dict[str, tuple[float, bool]]:
     out = {}
@@ -337,7 +337,8 @@ def check_unobservable_pattern(answer: Any) -> Feedback:
     if answer is None:
         return Feedback(False, "No answer yet: set `unobservable` to the name of a pattern.")
     if answer not in paper_b.LEADER_PATTERNS:
-        return Feedback(False, f"{answer!r} is not a leader pattern; choose one of {', '.join(paper_b.LEADER_PATTERNS)}.")
+        return Feedback(False, f"{answer!r} is not a leader pattern; choose one of "
+                               f"{', '.join(paper_b.LEADER_PATTERNS)}.")
     if answer in flagged:
         return Feedback(True, f"Correct: with a {answer} leader the relative track is straight (here a point), the "
                               "rank of the information stays at 2 and the filter emits an UnobservableWarning.")

@@ -19,7 +19,7 @@ U_x, U_y]` and the map :math:`\mathbf{L} = \partial h / \partial \mathbf{v}` (it
 :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`.
 
 =============================  =======================================================================================
-``CooperativeMotion``          :math:`f`, :math:`\mathbf{F}` (eq. 9) and :math:`\mathbf{G}\mathbf{Q}\mathbf{G}^\mathsf{T}`
+``CooperativeMotion``          :math:`f`, :math:`\mathbf{F}` (eq. 9), :math:`\mathbf{G}\mathbf{Q}\mathbf{G}^\mathsf{T}`
 ``SquaredRangePair``           :math:`h`, :math:`\mathbf{H}` and :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`, as a
                                function of the state *after* the move (``literal=False``), or with paper B's
                                Jacobians evaluated at the predicted state as printed (``literal=True``)
@@ -33,7 +33,8 @@ written as a function of it, the position at the start of the interval being
 
 .. math::
 
-    h(\mathbf{x}_{k+1}) = \begin{bmatrix} \lVert \mathbf{s}_k \rVert^2 \\ \lVert \mathbf{s}_{k+1} \rVert^2 \end{bmatrix},
+    h(\mathbf{x}_{k+1}) = \begin{bmatrix} \lVert \mathbf{s}_k \rVert^2 \\ \lVert \mathbf{s}_{k+1} \rVert^2
+    \end{bmatrix},
     \quad \mathbf{s}_k = \mathbf{p}_{k+1} - \mathbf{u}_k - \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_k,
     \quad \mathbf{s}_{k+1} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_{k+1},
     \qquad
@@ -41,11 +42,13 @@ written as a function of it, the position at the start of the interval being
                                  2\mathbf{s}_{k+1}^\mathsf{T} & \mathbf{0} \end{bmatrix},
 
 the chain rule applied to paper B's :math:`\partial h / \partial \mathbf{x}_k` (eq. 11). Evaluated at the
-prediction, :math:`\mathbf{s}_k` and :math:`\mathbf{s}_{k+1}` are the vectors paper B's eqs. (11)-(12) contain when those
+prediction, :math:`\mathbf{s}_k` and :math:`\mathbf{s}_{k+1}` are the vectors paper B's eqs. (11)-(12) contain when
+those
 are evaluated at the previous estimate :math:`\hat{\mathbf{x}}_k`; :math:`\mathbf{L}` is paper B's :math:`\mathbf{V}`
 with these :math:`\mathbf{s}_k`, :math:`\mathbf{s}_{k+1}`. The literal reading substitutes the predicted state for
 :math:`\mathbf{x}_k` in eqs. (11)-(12): :math:`\mathbf{s}_k^\mathrm{lit} = \mathbf{p}_{k+1} - \mathbf{p}^\mathrm{M}_k`,
-:math:`\mathbf{s}_{k+1}^\mathrm{lit} = \mathbf{p}_{k+1} + \mathbf{u}_k + \delta t\,\mathbf{U} - \mathbf{p}^\mathrm{M}_{k+1}`
+:math:`\mathbf{s}_{k+1}^\mathrm{lit} = \mathbf{p}_{k+1} + \mathbf{u}_k + \delta t\,\mathbf{U} -
+\mathbf{p}^\mathrm{M}_{k+1}`
 (the move counted twice) and a current column on the second row instead of the first.
 
 Shapes: a state batch is ``(M, 4)``; the leader's positions ``(K + 1, 2)`` or ``(M, K + 1, 2)`` and the
@@ -105,7 +108,8 @@ def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
         \mathbf{L} = \begin{bmatrix} 2\mathbf{s}_k^\mathsf{T} & -2\mathbf{s}_k^\mathsf{T} & \mathbf{0} & \mathbf{0}
                                       & \mathbf{0} \\
                                       2\mathbf{s}_{k+1}^\mathsf{T} & \mathbf{0} & -2\mathbf{s}_{k+1}^\mathsf{T}
-                                      & 2\mathbf{s}_{k+1}^\mathsf{T} & 2\,\delta t\,\mathbf{s}_{k+1}^\mathsf{T} \end{bmatrix}.
+                                      & 2\mathbf{s}_{k+1}^\mathsf{T} & 2\,\delta t\,\mathbf{s}_{k+1}^\mathsf{T}
+                       \end{bmatrix}.
 
     Parameters
     ----------
