@@ -217,9 +217,10 @@ def test_step_by_step_class_equals_the_functional_form_and_the_engine(formulatio
                           formulation=formulation)
     assert isinstance(filt, Filter)
     pairs = range_pairs(sc.ranges)
+    z = pairs[..., 1] if formulation == "single_range" else pairs
     for k in range(sc.n_steps):
         filt.predict()
-        filt.update(pairs[:, k])
+        filt.update(z[:, k])
         np.testing.assert_allclose(filt.x, res.x[:, k], rtol=1e-12, atol=1e-9)
         np.testing.assert_allclose(filt.P, res.P[:, k], rtol=1e-12, atol=1e-9)
         np.testing.assert_array_equal(filt.accepted, res.extras["accepted"][:, k])
@@ -338,3 +339,32 @@ def test_scenario_options_beyond_the_paper():
 def test_scenario_rejects_bad_parameters(kw, err):
     with pytest.raises(err):
         paper_b.make(np.random.default_rng(0), 1, **kw)
+
+
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+def test_protocol_run_equals_run_filter_and_bad_steps_name_the_argument(formulation):
+    from uwtutor.filters import run_filter
+
+    sc = paper_b.make(np.random.default_rng(12), 3, packet_loss=0.2)
+    pairs = range_pairs(sc.ranges)
+    z = pairs[..., 1] if formulation == "single_range" else pairs
+
+    def make():
+        return CooperativeEKF(P.x1, P0, sc.dr_displacements, sc.leader_broadcast, P.interval, P.Q, P.R,
+                              formulation=formulation)
+
+    a = make().run(z, sc.dr_displacements)
+    b = run_filter(make(), z, sc.dr_displacements)
+    for field in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+    assert set(a.extras) == set(make().extra_outputs) == {"accepted"}
+    with pytest.raises(ValueError, match=r"\bz\b"):
+        make().run(z[:2])
+    with pytest.raises(ValueError, match=r"\bu\b"):
+        make().run(z, sc.dr_displacements[:, :3])
+    filt = make()
+    with pytest.raises(ValueError, match=r"\bu\b"):
+        filt.predict(np.full((3, 2), np.nan))
+    filt.predict()
+    with pytest.raises(ValueError, match=r"\bz\b"):
+        filt.update(np.full(4, 1.0))

@@ -199,9 +199,10 @@ class CooperativeEKF:
 
     Notes
     -----
-    ``update(z)`` takes the two ranges :math:`[r_k, r_{k+1}]` of the step (shape (2,) or (M, 2), NaN = lost); the
-    pair formulations square them, so ``y`` and ``S`` are in m² and m⁴; ``"single_range"`` uses :math:`r_{k+1}`
-    (``y`` in m). ``predict()`` without an argument uses the displacement of the current step from ``u``.
+    ``update(z)`` takes the step's measurement, NaN where a message was lost: the two ranges :math:`[r_k, r_{k+1}]`
+    (shape (2,) or (M, 2)) for the pair formulations, which square them (``y`` and ``S`` in m² and m⁴), or the range
+    :math:`r_{k+1}` (a scalar or (M,)) for ``"single_range"`` (``y`` in m). ``predict()`` without an argument uses
+    the displacement of the current step from ``u``.
 
     Examples
     --------
@@ -285,13 +286,12 @@ class CooperativeEKF:
     result_type = FilterResult
 
     def _measurement(self, z: Any) -> np.ndarray:
-        z = np.asarray(z, dtype=float)
-        if z.shape[-1:] != (2,):
-            raise ValueError(f"z must be the two ranges [r_k, r_(k+1)] of the step, shape (2,) or (M, 2) (or a "
-                             f"sequence (..., K, 2) for run); got shape {z.shape}")
-        as_range_array("z", z, allow_nan=True)
+        z = as_range_array("z", z, allow_nan=True)
         if self.formulation == "single_range":
-            return z[..., 1]
+            return z
+        if z.shape[-1:] != (2,):
+            raise ValueError(f"z must be the two ranges [r_k, r_(k+1)] of the step, shape (2,) or (M, 2); got shape "
+                             f"{z.shape}")
         return np.square(z)
 
     def predict(self, u: Any = None) -> None:
@@ -304,15 +304,15 @@ class CooperativeEKF:
         self._engine.predict(u)
 
     def update(self, z: Any) -> None:
-        """Update with the ranges ``[r_k, r_(k+1)]`` at both ends of this step's interval (NaN = predict only)."""
+        """Update with this step's measurement (NaN = predict only): the ranges ``[r_k, r_(k+1)]`` at both ends of
+        the interval for the pair formulations, the range ``r_(k+1)`` for ``"single_range"``."""
         self._engine.update(self._measurement(z))
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
-        """Run every step: ``z`` the range pairs (``range_pairs(ranges)``), ``u`` the displacements (default: those
-        given at construction)."""
-        # the engine's run on the measurements it filters (squared pairs or single ranges): the same steps as a loop
-        # of predict() / update(z[..., k, :]) on this object
-        return run_filter(self._engine, self._measurement(z), self.u if u is None else u, times)
+        """Run every step (``run_filter``): ``z`` the measurements of the steps, ``(K, 2)``/``(M, K, 2)`` range pairs
+        (``range_pairs(ranges)``) or, for ``"single_range"``, ``(K,)``/``(M, K)`` ranges; ``u`` the displacements
+        (default: those given at construction)."""
+        return run_filter(self, z, self.u if u is None else u, times)
 
 
 def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any, Q: Any, R: Any, times: Any = None,
@@ -375,4 +375,4 @@ def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any,
                          f"got {pairs.shape[-2] + 1}")
     if times is None:
         times = float(as_positive("dt", dt, ndim=0)) * np.arange(1, pairs.shape[-2] + 1)
-    return filt.run(pairs, times=times)
+    return filt.run(pairs[..., 1] if formulation == "single_range" else pairs, times=times)
