@@ -368,3 +368,27 @@ def test_protocol_run_equals_run_filter_and_bad_steps_name_the_argument(formulat
     filt.predict()
     with pytest.raises(ValueError, match=r"\bz\b"):
         filt.update(np.full(4, 1.0))
+
+
+def test_tunings():
+    paper = paper_b.paper_tuning()
+    np.testing.assert_array_equal(paper.P1, P.P1)
+    np.testing.assert_array_equal(paper.Q, P.Q)
+    assert paper.range_variance == P.R[0, 0] + P.R[2, 2]
+    tu = paper_b.matched_tuning()
+    # one interval of DR: 8 steps of 1 s with 0.05 m/s of speed noise (2 m/s x 1 deg of heading noise is less)
+    assert tu.Q[2, 2] == pytest.approx(8 * 0.05**2)
+    # the pair's range variance is twice the single range's (each range enters two pairs)
+    assert tu.R[0, 0] + tu.R[2, 2] == pytest.approx(2 * tu.range_variance)
+    assert tu.range_variance == pytest.approx(P.range_sigma**2 + P.leader_sigma**2)
+    assert tu.P1[0, 0] == pytest.approx(np.hypot(10.0, 100.0) ** 2)
+    kw = tu.as_kwargs()
+    assert set(kw) == {"P0", "Q", "R", "range_variance"}
+
+
+def test_followers_start_with_the_same_initial_error():
+    a, b = paper_b.make_followers(np.random.default_rng(1), 2, [((0.0, 0.0), 0.0), ((0.0, -600.0), 0.3)])
+    np.testing.assert_allclose(a.initial_estimate(), P.x1)
+    np.testing.assert_allclose(b.initial_estimate()[:2] - b.true_positions[0], P.x1[:2])
+    with pytest.raises(ValueError, match="followers"):
+        paper_b.make_followers(np.random.default_rng(1), 2, [])

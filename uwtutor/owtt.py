@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import as_finite, as_float_array, as_nonnegative, as_positive
+from .acoustics import range_from_travel_time
 from .motion import _as_scalar, _as_times, _readonly
 from .ranging import _position_function, reception_times
 
@@ -351,7 +352,8 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     if T is not None:
         measured = np.asarray(wrap_travel_time(measured, T), dtype=float)
     return OWTTMeasurements(send_times=ts, reception_times=t_r, travel_times=tau, measured_travel_times=measured,
-                            ranges=c_a * measured, true_ranges=true_ranges, leader_positions=leader_at(ts),
+                            ranges=np.asarray(range_from_travel_time(measured, c_a), dtype=float),
+                            true_ranges=true_ranges, leader_positions=leader_at(ts),
                             leader_positions_at_reception=leader_at(t_r), follower_positions=follower_at(t_r),
                             follower_positions_at_send=follower_at(ts), sound_speed=c, assumed_sound_speed=c_a,
                             period=T)

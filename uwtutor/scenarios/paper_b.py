@@ -31,6 +31,7 @@ import numpy as np
 
 from .._validate import as_finite, as_int, as_rng
 from ..motion import (Track, _readonly, circle_track, dead_reckoning, straight_track, turning_track)
+from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
 
 __all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
@@ -372,10 +373,10 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
         noise = p.range_sigma * rng_range.standard_normal((M, len(times)))
         ranges = true_r + clock + noise
         ranges = np.abs(ranges)            # a range cannot be negative (only matters for absurd noise levels)
-        travel = ranges / p.sound_speed
+        travel = np.asarray(travel_time_from_range(ranges, p.sound_speed), dtype=float)
         if p.ambiguity_period is not None:
             travel = np.asarray(wrap_travel_time(travel, p.ambiguity_period), dtype=float)
-            ranges = travel * p.sound_speed
+            ranges = np.asarray(range_from_travel_time(travel, p.sound_speed), dtype=float)
         if p.packet_loss > 0:
             lost = rng_loss.random((M, len(times))) < p.packet_loss
             ranges = np.where(lost, np.nan, ranges)
