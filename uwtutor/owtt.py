@@ -265,8 +265,10 @@ class OWTTMeasurements:
         :math:`\mathbf{p}^\mathrm{S}(t^\mathrm{r}_k)`, where the range really ends [m].
     follower_positions_at_send : ndarray, shape (K, 2)
         :math:`\mathbf{p}^\mathrm{S}(t^\mathrm{s}_k)` (where a filter that ignores the travel time puts it) [m].
-    sound_speed, assumed_sound_speed : float
-        True and assumed :math:`c` [m/s].
+    sound_speed : float
+        True :math:`c` [m/s].
+    assumed_sound_speed : float
+        The :math:`c` the follower converts with [m/s].
     period : float or None
         :math:`T_\mathrm{s}` [s] when the travel times are wrapped.
     """

@@ -288,7 +288,7 @@ class SquaredRangePair(MeasurementModel):
 def leader_range(leader: Any, variance: Any) -> RangeToBeacon:
     r"""The plain range to the leader at the end of each interval, :math:`r_{k+1} = \lVert \mathbf{p}_{k+1} -
     \mathbf{p}^\mathrm{M}_{k+1} \rVert`, for the 4-state :math:`[x, y, U_x, U_y]`: the library's
-    :class:`~uwtutor.models.RangeToBeacon` on the leader's positions of epochs 1..K (step ``k`` ends at epoch
+    :class:`~uwtutor.models.range.RangeToBeacon` on the leader's positions of epochs 1..K (step ``k`` ends at epoch
     ``k + 1``), :math:`\mathbf{H} = [\mathbf{e}^\mathsf{T}, 0, 0]` with :math:`\mathbf{e}` the unit line of sight.
 
     Parameters

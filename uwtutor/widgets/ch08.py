@@ -38,8 +38,10 @@ class CooperativeView:
 
     Attributes
     ----------
-    pattern, tuning : str
-        Leader pattern and filter tuning.
+    pattern : str
+        Leader pattern.
+    tuning : str
+        Filter tuning.
     current : tuple of float
         True current [m/s].
     interval : float
@@ -50,12 +52,18 @@ class CooperativeView:
         Monte Carlo runs behind the error curves.
     times : ndarray, shape (K,)
         Times of the estimates [s].
-    truth, leader, dr : ndarray, shape (K + 1, 2)
-        The follower's true track, the leader's track and run 0's DR track [m].
+    truth : ndarray, shape (K + 1, 2)
+        The follower's true track [m].
+    leader : ndarray, shape (K + 1, 2)
+        The leader's track [m].
+    dr : ndarray, shape (K + 1, 2)
+        Run 0's DR track [m].
     estimate : ndarray, shape (K, 2)
         Run 0's estimated track [m].
-    current_estimate, current_sigma : ndarray, shape (K, 2)
-        Run 0's current estimate and its standard deviations [m/s].
+    current_estimate : ndarray, shape (K, 2)
+        Run 0's current estimate [m/s].
+    current_sigma : ndarray, shape (K, 2)
+        Its standard deviations [m/s].
     median_error : ndarray, shape (K,)
         Median position error over the runs at each epoch [m].
     late_median_error : float
