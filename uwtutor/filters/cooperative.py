@@ -3,7 +3,8 @@ r"""Paper B's cooperative EKF: a follower's position and the unknown current fro
 A thin filter family on the generic engine: ``CooperativeMotion`` and ``SquaredRangePair`` (or ``leader_range``) from
 :mod:`uwtutor.models.cooperative` run by :class:`~uwtutor.filters.engine.ExtendedKalmanFilter`. With
 :math:`\mathbf{G}` and :math:`\mathbf{L}` the noise maps of the models (paper B's :math:`\mathbf{W}` and
-:math:`\mathbf{V}`), a step from epoch :math:`k` to :math:`k + 1` is (paper B, eqs. 13-18, with the Joseph form of the covariance update)
+:math:`\mathbf{V}`), a step from epoch :math:`k` to :math:`k + 1` is (paper B, eqs. 13-18, with the Joseph form of
+the covariance update)
 
 .. math::
 
