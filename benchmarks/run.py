@@ -7,8 +7,9 @@ Measured in one run, on this machine:
    the time scaled to 1000 runs);
 2. the bootstrap particle filter on paper C's depth/speed/pitch model, N = 1000 particles, 2000 steps, in steps
    per second, and the same filter with filterpy's loop-based ``systematic_resample``;
-3. each widget's compute function at its default parameters (``uwtutor.widgets.COMPUTE_FUNCTIONS``), in ms;
-4. the peak memory of the 1000-run EKF study, in a fresh subprocess.
+3. the same PF batched over 100 Monte Carlo runs (N = 1000, 500 steps, one call) against 100 single-run calls;
+4. each widget's compute function at its default parameters (``uwtutor.widgets.COMPUTE_FUNCTIONS``), in ms;
+5. the peak memory of the 1000-run EKF study, in a fresh subprocess.
 
 ``--save`` writes ``benchmarks/results.json`` and regenerates the table of ``book/appendix_performance.md``
 between its marker comments, so that the committed page always shows the committed results (the book build
@@ -186,6 +187,36 @@ def bench_pf(repeats: int) -> dict[str, Any]:
             "pf_filterpy_resampler_steps_per_s": PF_STEPS / theirs, "pf_speedup_vs_filterpy_resampler": theirs / ours}
 
 
+PF_BATCH_RUNS, PF_BATCH_STEPS = 100, 500
+
+
+def bench_pf_batched(repeats: int) -> dict[str, Any]:
+    """Batched PFs: 100 runs x N = 1000 x 500 steps of the bootstrap PF on paper C's model in one call, and the
+    ratio to 100 single-run calls (same streams: run m of the batch is the single run on ``spawn(100)[m]``)."""
+    import numpy as np
+
+    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+
+    model = DepthSpeedPitchModel()
+    rng = np.random.default_rng(1)
+    z = np.stack([model.simulate([20.0, 1.5, 0.05], PF_BATCH_STEPS, rng)[1] for _ in range(PF_BATCH_RUNS)])
+
+    def batched() -> None:
+        BootstrapParticleFilter.from_gaussian(model, z[:, 0], model.R, PF_PARTICLES, np.random.default_rng(2),
+                                              n_runs=PF_BATCH_RUNS).run(z)
+
+    def singles() -> None:
+        rngs = np.random.default_rng(2).spawn(PF_BATCH_RUNS)
+        for m in range(PF_BATCH_RUNS):
+            BootstrapParticleFilter.from_gaussian(model, z[m, 0], model.R, PF_PARTICLES, rngs[m]).run(z[m])
+
+    n = max(1, min(2, repeats))
+    one_call = best_time(batched, n)
+    loop = best_time(singles, n)
+    return {"pf_batched": {"runs": PF_BATCH_RUNS, "particles": PF_PARTICLES, "steps": PF_BATCH_STEPS,
+                           "one_call_s": one_call, "single_calls_s": loop, "speedup": loop / one_call}}
+
+
 def bench_widgets(repeats: int) -> dict[str, Any]:
     """ms per update of each registered widget compute function (``widgets_ms``), or a note why there are none."""
     try:
@@ -256,6 +287,7 @@ def run_all(repeats: int) -> dict[str, Any]:
     results.update(bench_ekf(repeats))
     results.update(bench_generic_ekf(repeats))
     results.update(bench_pf(repeats))
+    results.update(bench_pf_batched(repeats))
     results.update(bench_widgets(repeats))
     results.update(bench_memory())
     return results
@@ -304,6 +336,11 @@ def render_table(results: dict[str, Any]) -> str:
     rows.append(("Same PF with filterpy's loop-based systematic_resample",
                  f"{results['pf_filterpy_resampler_steps_per_s']:,.0f} steps/s "
                  f"(ours {results['pf_speedup_vs_filterpy_resampler']:.1f}× faster)", "(reference)", "–"))
+    batch = results.get("pf_batched")
+    if batch:
+        rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
+                     f"call (same PF; {batch['runs']} single-run calls: {batch['single_calls_s']:.2f} s)",
+                     f"{batch['one_call_s']:.2f} s ({batch['speedup']:.2f}× the single calls)", "(reported)", "–"))
     widgets = results["widgets_ms"]
     if not widgets:
         rows.append(("Widget compute functions", results["widgets_note"], _target("widget_ms", t, " ms"), "–"))

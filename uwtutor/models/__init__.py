@@ -7,12 +7,13 @@ family is written once against these two interfaces; a new method is a new pair 
 from .base import MeasurementModel, MotionModel
 from .cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from .dead_reckoning import DeadReckoning
+from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
 from .range import RangeToBeacon, line_of_sight
 
 __all__ = [
     "MotionModel", "MeasurementModel",
-    "DeadReckoning", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
+    "DeadReckoning", "DepthSpeedPitch", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
     "RangeToBeacon", "line_of_sight",
     "CooperativeMotion", "SquaredRangePair", "leader_range",
 ]
