@@ -16,8 +16,10 @@ fall as followers are added (the reason OWTT replaced round-trip ranging in coop
                                 whole period (the transmission scheduled "at the top of a second")
 ``resolve_travel_time``         the whole periods put back from a predicted range; right only while the
                                 prediction is within :math:`c\,T_\mathrm{s}/2` (750 m for 1 s) of the truth
+``ambiguity_range``             the range one period spans, :math:`c\,T_\mathrm{s}` (1500 m for 1 s)
 ``simulate_owtt``               the whole chain for a leader and a follower on given tracks: send and reception
-                                times, the leader's position at send time, the follower's at reception
+                                times, the leader's position at send time, the follower's at reception (an
+                                ``OWTTMeasurements``)
 ==============================  ==================================================================================
 
 The third cost is geometric: the range joins the leader *at send time* to the follower *at reception time*, a
