@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quadratic_form"]
+__all__ = ["quadratic_form", "psd_violations"]
 
 
 def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
@@ -45,3 +45,32 @@ def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
                              "matrix") from None
         out[ok] = np.einsum("...i,...i->...", vec[ok], sol)
     return out
+
+
+def psd_violations(P: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    r"""Runs whose covariance, held runs-last ``(n, n, M)``, is visibly not positive semi-definite: a bool ``(M,)``.
+
+    The test (cheap enough for every filter step): every entry finite, every variance :math:`P_{ii} \ge 0` and
+    every 2x2 principal minor :math:`P_{ii}P_{jj} - P_{ij}^2 \ge -\mathrm{rtol}\, P_{ii}P_{jj}`. For ``n = 2`` it
+    is exactly "PSD to within rounding"; for larger ``n`` it is necessary (it catches a lost variance or a
+    correlation beyond +-1, the way round-off breaks a covariance), not sufficient.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor._linalg import psd_violations
+    >>> P = np.stack([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]], axis=-1)   # two runs, runs-last
+    >>> psd_violations(P)
+    array([False,  True])
+    """
+    n = P.shape[0]
+    diag = np.einsum("iim->im", P)
+    finite = np.isfinite(P).all(axis=(0, 1))
+    bad = ~finite | (diag < 0.0).any(axis=0)
+    if n > 1:
+        with np.errstate(over="ignore", invalid="ignore"):
+            rows, cols = np.triu_indices(n, 1)
+            prod = diag[rows] * diag[cols]
+            off = P[rows, cols]
+            bad |= (prod - off * off < -rtol * prod).any(axis=0)
+    return bad
