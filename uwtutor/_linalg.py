@@ -30,20 +30,26 @@ def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
             e0, e1 = vec[..., 0], vec[..., 1]
             det = a * d - b * b
             num = d * e0 * e0 - 2.0 * b * e0 * e1 + a * e1 * e1
-        if np.any((det <= 0) & np.isfinite(vec).all(axis=-1)):
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix with "
-                             "determinant <= 0")
+        # positive definite <=> C00 > 0 and det > 0 (Sylvester); a NaN or infinite matrix fails both tests
+        used = np.isfinite(vec).all(axis=-1)
+        if np.any(~((det > 0) & (cov[..., 0, 0] > 0) & np.isfinite(det)) & used):
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix that is not "
+                             "(determinant or variance <= 0, or not finite)")
         with np.errstate(divide="ignore", invalid="ignore"):
             return num / det
     out = np.full(vec.shape[:-1], np.nan)
     ok = np.isfinite(vec).all(axis=-1)
     if ok.any():
+        c = cov[ok]
+        if not np.isfinite(c).all():
+            raise ValueError(f"{name} must be finite wherever it is used")
         try:
-            sol = np.linalg.solve(cov[ok], vec[ok][..., None])[..., 0]
+            L = np.linalg.cholesky(c)                 # fails unless positive definite
         except np.linalg.LinAlgError:
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a singular "
-                             "matrix") from None
-        out[ok] = np.einsum("...i,...i->...", vec[ok], sol)
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix that is "
+                             "not") from None
+        w = np.linalg.solve(L, vec[ok][..., None])[..., 0]     # v^T C^-1 v = |L^-1 v|^2
+        out[ok] = np.einsum("...i,...i->...", w, w)
     return out
 
 
