@@ -74,6 +74,13 @@ def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[n
     return x, t
 
 
+def _without_covariance(vec: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """NaN where the covariance is entirely NaN (no covariance there, e.g. before a filter starts): the score is
+    NaN there, as where the vector itself is NaN."""
+    none = np.isnan(cov).all(axis=(-1, -2))
+    return np.where(none[..., None], np.nan, vec) if none.any() else vec
+
+
 def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
     """The covariances that score a finite vector must be finite, symmetric and positive definite (tolerances
     of :func:`uwtutor._validate.as_covariance`); the others (no measurement, NaN estimate) are not read."""
@@ -82,8 +89,8 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
     Pu = P[used]
     bad = ~np.isfinite(Pu)
     if bad.any():
-        raise ValueError(f"{name} must be finite wherever it is used; got {Pu[bad].flat[0]} (a NaN covariance "
-                         "is allowed only where the vector it scores is NaN)")
+        raise ValueError(f"{name} must be finite wherever it is used; got {Pu[bad].flat[0]} (a covariance may be "
+                         "NaN only as a whole, meaning 'none', or where the vector it scores is NaN)")
     scale = np.maximum(1.0, np.abs(Pu).max(axis=(-1, -2)))[:, None, None]
     if (np.abs(Pu - np.swapaxes(Pu, -1, -2)) > SYMMETRY_RTOL * scale).any():
         raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
@@ -244,7 +251,7 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
     if P.shape != x.shape + (x.shape[-1],):
         raise ValueError(f"covariances must have shape {x.shape + (x.shape[-1],)} to match the estimates; "
                          f"got {P.shape}")
-    e = t - x
+    e = _without_covariance(t - x, P)
     _check_used_covariances("covariances", P, np.isfinite(e).all(axis=-1))
     return _quadratic_form(e, P, "covariances")
 
@@ -279,6 +286,7 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     if S.shape != y.shape + (y.shape[-1],):
         raise ValueError(f"innovation_cov must have shape {y.shape + (y.shape[-1],)} to match the innovations; "
                          f"got {S.shape}")
+    y = _without_covariance(y, S)
     _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
     out = _quadratic_form(y, S, "innovation_cov")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
