@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn
-from ._validate import as_finite, as_nonnegative, as_positive, as_range_array
+from ._validate import as_flag, as_finite, as_nonnegative, as_positive, as_range_array
 
 __all__ = [
     "MACKENZIE_VALIDITY",
@@ -147,6 +147,7 @@ def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = F
     >>> range_from_travel_time(2.0, 1500.0, two_way=True)
     1500.0
     """
+    two_way = as_flag("two_way", two_way)
     tau = as_nonnegative("travel_time", travel_time)
     c = as_positive("sound_speed", sound_speed)
     r = c * tau
@@ -172,6 +173,7 @@ def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = F
     float or ndarray
         Travel time [s]; a float for scalar inputs. ``range_from_travel_time`` is the inverse.
     """
+    two_way = as_flag("two_way", two_way)
     r = as_range_array("slant_range", slant_range)
     c = as_positive("sound_speed", sound_speed)
     tau = r / c

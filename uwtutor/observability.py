@@ -67,8 +67,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_float_array, as_in_range, as_information,
-                        as_int, as_positive)
+from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
+                        as_information, as_int, as_positive)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.range import line_of_sight
 
@@ -368,6 +368,7 @@ def fisher_information(beacons: Any, position: Any, sigma: Any, unknown_bias: bo
     array([[0.375, 0.   ],
            [0.   , 0.375]])
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     h = _static_rows(beacons, position, bool(unknown_bias))
     s = _sigma_per_row(sigma, h.shape[:-1])
     w = h / s[..., None]
@@ -511,6 +512,7 @@ def position_crlb(beacons: Any, position: Any, sigma: Any, unknown_bias: bool = 
     >>> float(rmse_bound(position_crlb(b, [0.0, 0.0], sigma=1.0)))  # doctest: +ELLIPSIS
     1.6329931...
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, sigma, unknown_bias)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
     _refuse_negative_bounds(bounds)
@@ -588,6 +590,7 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     float or ndarray, shape (...)
         The GDOP (dimensionless).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, 1.0, unknown_bias)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
     n = J.shape[-1]
@@ -637,6 +640,7 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     >>> round(precision_factor(beacons, [0.0, 0.0]), 12)
     1.25
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
 
     b = _as_points("beacons", beacons, min_ndim=2)
@@ -735,6 +739,8 @@ def track_jacobian(positions: Any, beacon: Any, *, times: Any = None, unknown_bi
     ndarray, shape (K, n)
         :math:`H`, ``n`` = 2, 3, 4 or 5.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
     p, b, t = _track_inputs(positions, beacon, times, bool(unknown_current))
     ref = _as_reference(reference, len(p))
     return _track_rows(p, b, t, bool(unknown_bias), bool(unknown_current), ref)
@@ -775,6 +781,9 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     ndarray, shape (n, n) or (K, n, n)
         Information matrices, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
+    cumulative = as_flag("cumulative", cumulative)
     p, b, t = _track_inputs(positions, beacon, times, bool(unknown_current))
     k = len(p)
     s = _sigma_per_row(sigma, (k,))
@@ -830,6 +839,8 @@ def track_crlb(positions: Any, beacon: Any, sigma: Any, *, times: Any = None, un
     ndarray, shape (K, n, n)
         Covariance bounds, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
     J = track_fisher_information(positions, beacon, sigma, times=times, unknown_bias=unknown_bias,
                                  unknown_current=unknown_current, cumulative=True)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
@@ -881,6 +892,9 @@ def observability_rank(positions: Any, beacon: Any, *, times: Any = None, unknow
     int or ndarray of int, shape (K,)
         The rank(s), between 0 and ``n``.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
+    cumulative = as_flag("cumulative", cumulative)
     J = track_fisher_information(positions, beacon, 1.0, times=times, unknown_bias=unknown_bias,
                                  unknown_current=unknown_current, cumulative=bool(cumulative))
     ranks = _information_rank(J, _as_rtol(rtol))

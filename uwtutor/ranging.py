@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn as _warn
-from ._validate import as_finite, as_int, as_positive, as_range_array, as_rng
+from ._validate import as_finite, as_flag, as_int, as_positive, as_range_array, as_rng
 from .acoustics import range_factor
 from .motion import _as_n_runs, _as_scalar, _as_times, _with_runs
 
@@ -365,7 +365,7 @@ class Outliers(RangeErrorModel):
         object.__setattr__(self, "onset_times", tuple(float(x) for x in onsets))
         object.__setattr__(self, "count", as_int("count", self.count, minimum=1))
         object.__setattr__(self, "amplitude", _as_scalar("amplitude", self.amplitude, "nonnegative"))
-        object.__setattr__(self, "two_sided", bool(self.two_sided))
+        object.__setattr__(self, "two_sided", as_flag("two_sided", self.two_sided))
         if self.probability is not None:
             p = _as_scalar("probability", self.probability)
             if not 0.0 <= p <= 1.0:

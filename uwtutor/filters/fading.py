@@ -118,7 +118,7 @@ from typing import Any
 import numpy as np
 
 from ..acoustics import range_factor
-from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
+from .._validate import as_covariance, as_flag, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields,
@@ -316,8 +316,7 @@ def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: 
         beta_v = float(as_finite("beta", beta, ndim=0))
         if beta_v < 0:
             raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
-    if not isinstance(fading, (bool, np.bool_)):
-        raise TypeError(f"fading must be True or False; got {fading!r}")
+    fading = as_flag("fading", fading)
     M = common_runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
     sigma2 = sigma * sigma
     return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M

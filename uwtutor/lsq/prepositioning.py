@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_positive
+from .._validate import as_flag, as_finite, as_int, as_positive
 from ..errors import IllConditionedWarning
 #: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
 MAX_ITERATIONS = 1000
@@ -141,6 +141,7 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     >>> np.round(fix.position, 6), round(float(fix.bias), 6), round(float(fix.alpha), 3)
     (array([ 30., -40.]), 5.0, 1.251)
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     r, b = as_ranges_and_beacons(ranges, beacons)
     p0 = as_finite("provisional", provisional, ndim=(1, 2))
     if p0.shape[-1] != 2:
@@ -237,6 +238,7 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     IllConditionedWarning
         As ``linearized_lsq``: typically in the first epochs, before the bearing to the beacon has changed.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     P = as_finite("dr_positions", dr_positions, ndim=(2, 3))
     if P.shape[-1] != 2:
         raise ValueError(f"dr_positions must have shape (N, 2) or (M, N, 2); got {P.shape}")
@@ -297,6 +299,7 @@ def nonlinear_lsq(ranges: Any, beacons: Any, initial: Any, *, unknown_bias: bool
     >>> np.round(nonlinear_lsq(r, beacons, initial=[0.0, 0.0]).position, 6)
     array([ 30., -40.])
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     from scipy.optimize import least_squares
 
     r, b = as_ranges_and_beacons(ranges, beacons)
