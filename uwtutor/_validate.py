@@ -66,6 +66,7 @@ __all__ = [
     "SYMMETRY_RTOL",
     "PSD_RTOL",
     "MAX_COVARIANCE",
+    "MAX_COORDINATE",
 ]
 
 #: Relative tolerance of the symmetry test of a covariance: ``|P - P^T| <= SYMMETRY_RTOL * max(1, max|P|)``.
@@ -234,7 +235,12 @@ def as_in_range(name: str, value: Any, low: float, high: float, *, closed: tuple
     return arr
 
 
-def as_range_array(name: str, value: Any, *, allow_nan: bool = False, **shape_kw: Any) -> np.ndarray:
+#: Largest coordinate or range a filter accepts [m]: squares and products of such values stay finite in float64.
+MAX_COORDINATE = 1e150
+
+
+def as_range_array(name: str, value: Any, *, allow_nan: bool = False, max_abs: float | None = None,
+                   **shape_kw: Any) -> np.ndarray:
     """Measured ranges: finite and >= 0. With ``allow_nan`` a NaN marks a missing measurement (predict only).
 
     ``None`` is never a missing range (it is refused by name): write NaN.
@@ -246,6 +252,12 @@ def as_range_array(name: str, value: Any, *, allow_nan: bool = False, **shape_kw
         where = _first_bad_index(bad) if arr.ndim else "the value"
         missing = "; use NaN for a missing range" if allow_nan else ""
         raise ValueError(f"{name} must be finite and >= 0{missing}; got {arr[bad].flat[0]} at {where}")
+    if max_abs is not None:
+        big = arr > max_abs
+        if big.any():
+            raise ValueError(f"{name} must be at most {max_abs:.3g} (beyond it the computation overflows float64); "
+                             f"got {arr[big].flat[0]:.3g} at {_first_bad_index(big) if arr.ndim else 'the value'}. "
+                             "Change its units")
     return arr
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_int, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_int, as_range_array
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 
 ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
@@ -170,14 +170,14 @@ def noise_parameters(Q: Any, R: Any) -> tuple[np.ndarray, float, np.ndarray]:
 
 
 def fixed_beacon(beacon: Any) -> tuple[float, float]:
-    b = as_finite("beacon", beacon, shape=(2,))
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
     return float(b[0]), float(b[1])
 
 
 def beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.ndarray, int | None]:
     """A fixed beacon ``(bx, by)``, or a moving one as a step-major path (K, 2, M) / (K, 2, 1); with the size of
     its runs axis (None if it has none)."""
-    b = as_finite("beacon", beacon, ndim=(1, 2, 3))
+    b = as_finite("beacon", beacon, ndim=(1, 2, 3), max_abs=MAX_COORDINATE, nonempty=True)
     if b.shape[-1] != 2 or (b.ndim > 1 and b.shape[-2] != n_steps):
         raise ValueError(f"beacon must be a position [x, y], or one position per step: shape (2,), "
                          f"({n_steps}, 2) or (M, {n_steps}, 2); got {b.shape}")
@@ -189,7 +189,7 @@ def beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.nda
 
 
 def initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
-    x0 = as_finite("x0", x0, ndim=(1, 2))
+    x0 = as_finite("x0", x0, ndim=(1, 2), max_abs=MAX_COORDINATE, nonempty=True)
     if x0.shape[-1] != 2:
         raise ValueError(f"x0 must be a horizontal position [x, y], shape (2,) or (M, 2); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, 2)
@@ -204,10 +204,12 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
     ``common_runs``, the size of each input's runs axis (None where it has none)."""
     x0, P0 = initial_state(x0, P0)
-    u = as_finite("u", u, ndim=(2, 3))
+    u = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    if u.ndim == 3 and u.shape[0] == 0:
+        raise ValueError(f"u has no runs (shape {u.shape}): give at least one run, or drop the runs axis")
     if u.shape[-1] != 2:
         raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
-    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
+    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
     K = u.shape[-2]
     if z.shape[-1] != K:
         raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")

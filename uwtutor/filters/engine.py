@@ -188,7 +188,7 @@ class ExtendedKalmanFilter:
                              f"state has size {n}: build both for the same state")
         self.motion, self.measurement, self.gate = motion, measurement, gate
         self.n, self.m = n, measurement.m
-        x0 = as_finite("x0", x0, ndim=(1, 2))
+        x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
         if x0.shape[-1] != n:
             raise ValueError(f"x0 must have {n} entries per run (the models' state size); got shape {x0.shape}")
         P0 = as_covariance("P0", P0, n)
@@ -430,7 +430,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     """
     _check_model("motion", motion, MotionModel)
     _check_model("measurement", measurement, MeasurementModel)
-    x0 = as_finite("x0", x0, ndim=(1, 2))
+    x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
     P0 = as_covariance("P0", P0, motion.n)
     z = as_float_array("z", z)
     if u is not None:
