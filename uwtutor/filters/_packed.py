@@ -89,6 +89,36 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon:
     y = np.subtract(z, r, out=y_out)                 # innovation r - h(x-)
     np.add(xp, kx * y, out=out[ROW_X])
     np.add(yp, ky * y, out=out[ROW_Y])
+    # Covariance: the Joseph form P = A P- A^T + R K K^T (A = I - K H), first as the factorization
+    # B - d K^T with B = A P- and d = B H^T - R K (algebraically equal, 25 array operations). It keeps P
+    # positive semi-definite while R / S is not tiny; every result is tested (variances >= 0, det >= 0, finite)
+    # and where the test fails -- an update whose dynamic range float64 cannot carry, such as P0 = 1e12 I with
+    # R = 1e-6 -- the whole step is recomputed in the line-of-sight frame (``_los_update``), which is PSD to
+    # rounding by construction.
+    bxx = pxx - kx * ax                              # B = A P- = P- - K a^T
+    bxy = pxy - kx * ay
+    byx = pxy - ky * ax
+    byy = pyy - ky * ay
+    vx = bxx * hx + bxy * hy - R * kx                # d = B H^T - R K
+    vy = byx * hx + byy * hy - R * ky
+    nxx = np.subtract(bxx, vx * kx, out=out[ROW_PXX])   # P = B - d K^T (upper triangle; P is symmetric)
+    nxy = np.subtract(bxy, vx * ky, out=out[ROW_PXY])
+    nyy = np.subtract(byy, vy * ky, out=out[ROW_PYY])
+    out[ROW_PYX] = nxy
+    det = nxx * nyy
+    det -= nxy * nxy
+    if not (det.min() >= 0.0 and nxx.min() >= 0.0 and nyy.min() >= 0.0):   # also False for a NaN
+        _los_update(s, hx, hy, ax, ay, a_los, g, use, R, out)
+        # a+ >= 0 and b+^2 <= a+ c+ hold there by construction; what remains to refuse is a prediction that was
+        # not PSD (a < 0), a value that overflowed, or round-off of the rotation beyond the stated tolerance
+        check_psd(out, R)
+    return use
+
+
+def _los_update(s: np.ndarray, hx: np.ndarray, hy: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_los: np.ndarray,
+                g: np.ndarray, use: np.ndarray, R: Any, out: np.ndarray) -> None:
+    """The covariance update in the frame of the line of sight, PSD to rounding whatever the conditioning."""
+    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]
     # Covariance update in the frame of the line of sight (u = H^T along it, v = (-hy, hx) across it), where it
     # is exact algebra with no cancellation: with a = u^T P- u (= H P- H^T), b = u^T P- v, c = v^T P- v and
     # w = R / S where the range is used (1 where it is not),
@@ -123,11 +153,6 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon:
     out[ROW_PYX] = out[ROW_PXY]
     if use.min() == 0.0:                             # unused ranges: P stays the prediction's, bit for bit
         np.copyto(out[ROW_PXX:], s[ROW_PXX:], where=use == 0.0)
-    # a+ >= 0 and b+^2 <= a+ c+ hold by construction; what remains to refuse is a prediction that was not PSD
-    # (a < 0) or a value that overflowed
-    if not (a_los.min() >= 0.0 and np.isfinite(out[ROW_PXX:].sum())):
-        check_psd(out, R)
-    return use
 
 
 def check_psd(s: np.ndarray, R: Any) -> None:
