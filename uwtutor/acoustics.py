@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn
-from ._validate import as_flag, as_finite, as_nonnegative, as_positive, as_range_array
+from ._validate import as_flag, as_finite, as_in_range, as_nonnegative, as_positive, as_range_array
 
 __all__ = [
     "MACKENZIE_VALIDITY",
@@ -310,9 +310,10 @@ def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) ->
     >>> round(mu, 6), round(sigma * 1500.0, 6)
     (0.98, 0.98)
     """
-    ca = as_positive("assumed_speed", assumed_speed)
-    ct = as_positive("true_speed", true_speed)
-    sc = as_nonnegative("speed_sigma", speed_sigma)
+    # a sound speed is a few km/s; 1e5 m/s bounds every medium and keeps ct^2 finite
+    ca = as_in_range("assumed_speed", as_positive("assumed_speed", assumed_speed), 0.0, 1e5)
+    ct = as_in_range("true_speed", as_positive("true_speed", true_speed), 0.0, 1e5)
+    sc = as_in_range("speed_sigma", as_nonnegative("speed_sigma", speed_sigma), 0.0, 1e5)
     mu = ca / ct
     sigma = ca * sc / ct**2
     return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))

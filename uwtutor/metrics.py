@@ -356,13 +356,17 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     >>> round(lo, 3), round(hi, 3)
     (1.484, 2.591)
     """
-    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
-        raise ValueError(f"dof must be a positive integer (state or measurement size); got {dof!r}")
-    conf = float(as_finite("confidence", confidence))
+    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or not 1 <= dof <= 10**6:
+        raise ValueError(f"dof must be a positive integer (state or measurement size, at most 1e6); got {dof!r}")
+    conf = float(as_finite("confidence", confidence, ndim=0))
     if not 0.0 < conf < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
-    m = np.asarray(n_runs)
-    if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1):
+    try:
+        m = np.asarray(n_runs)
+    except ValueError:
+        raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got a ragged list") \
+            from None
+    if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1) or np.any(m > 10**12):
         raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got {n_runs!r}")
     alpha = 1.0 - conf
     with np.errstate(invalid="ignore", divide="ignore"):
