@@ -431,6 +431,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     _check_model("motion", motion, MotionModel)
     _check_model("measurement", measurement, MeasurementModel)
     x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
+    if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
+        raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, motion.n)
     z = as_float_array("z", z)
     if u is not None:
