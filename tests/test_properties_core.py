@@ -28,7 +28,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from uwtutor import _validate as v
-from uwtutor import acoustics, metrics, observability as ob
+from uwtutor import acoustics, metrics, motion, observability as ob, ranging
 from uwtutor.errors import IllConditionedError
 from uwtutor.exercises.checks import check_array, check_function, check_number
 from uwtutor.exercises.feedback import Feedback
@@ -126,6 +126,13 @@ CALLS = [
     ("acoustics.travel_time_from_range", acoustics.travel_time_from_range,
      dict(slant_range=1500.0, sound_speed=1500.0, two_way=True)),
     ("acoustics.range_factor", acoustics.range_factor, dict(assumed_speed=1500.0, true_speed=1470.0)),
+    ("ranging.horizontal_range", ranging.horizontal_range, dict(positions=_TRACK, beacon=(0.0, 0.0))),
+    ("ranging.slant_range", ranging.slant_range, dict(positions=_TRACK, beacon=(0.0, 0.0), depth_difference=50.0)),
+    ("motion.straight_track", motion.straight_track, dict(times=np.arange(5.0), start=(0.0, 0.0), speed=2.0,
+                                                          heading=0.3)),
+    ("motion.circle_track", motion.circle_track, dict(times=np.arange(5.0), radius=300.0, speed=2.0)),
+    ("metrics.average_over_runs", metrics.average_over_runs, dict(values=np.ones((3, 5)))),
+    ("metrics.fraction_within", metrics.fraction_within, dict(values=np.ones(5), lower=0.0, upper=2.0)),
 ]
 
 # Where a hostile value is a legitimate input, the function's answer must still be finite (checked), so these

@@ -384,8 +384,14 @@ def fraction_within(values: Any, lower: Any, upper: Any) -> float:
     With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
     """
     v = as_float_array("values", values)
-    lo = np.broadcast_to(as_float_array("lower", lower), v.shape)
-    hi = np.broadcast_to(as_float_array("upper", upper), v.shape)
+    bounds = []
+    for name, value in (("lower", lower), ("upper", upper)):
+        b = as_float_array(name, value)
+        if b.shape not in ((), v.shape, v.shape[-1:]):     # a scalar, one per value, or one per step
+            raise ValueError(f"{name} must be a number or have the shape of values {v.shape} (or "
+                             f"{v.shape[-1:]}); got {b.shape}")
+        bounds.append(np.broadcast_to(b, v.shape))
+    lo, hi = bounds
     ok = ~np.isnan(v) & ~np.isnan(lo) & ~np.isnan(hi)
     if not ok.any():
         raise ValueError("values must contain at least one entry that is not NaN (with finite bounds)")
