@@ -70,8 +70,9 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_covariance, as_finite, as_float_array, as_positive
-from .errors import UnobservableWarning
+from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
+                        as_information, as_int, as_positive)
+from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.range import line_of_sight
 
 __all__ = [
@@ -112,10 +113,7 @@ _NULL_ENTRY_TOL = 1e-8
 
 def _warn(message: str) -> None:
     """Emit an ``UnobservableWarning`` attributed to the first caller outside this module (the user's line)."""
-    frame, level = sys._getframe(1), 2
-    while frame is not None and frame.f_globals.get("__name__") == __name__:
-        frame, level = frame.f_back, level + 1
-    warnings.warn(message, UnobservableWarning, stacklevel=level)
+    warn(message, UnobservableWarning)
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -314,7 +312,8 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
 # Fisher information and the Cramér-Rao bound
 # ---------------------------------------------------------------------------------------------------------------------
 def _sigma_per_row(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
-    s = as_positive("sigma", sigma)
+    # 1 / sigma^2 must stay a float64 (1e-300 .. 1e300) for the information to mean anything
+    s = as_in_range("sigma", as_positive("sigma", sigma), 1e-150, 1e150)
     try:
         return np.broadcast_to(s, shape)
     except ValueError:
@@ -373,6 +372,7 @@ def fisher_information(beacons: Any, position: Any, sigma: Any, unknown_bias: bo
     array([[0.375, 0.   ],
            [0.   , 0.375]])
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     h = _static_rows(beacons, position, bool(unknown_bias))
     s = _sigma_per_row(sigma, h.shape[:-1])
     w = h / s[..., None]
@@ -465,13 +465,7 @@ def cramer_rao_bound(information: Any, *, rtol: float = DEFAULT_RTOL) -> np.ndar
     ndarray, shape (..., n, n)
         The bounds (covariances).
     """
-    J = as_finite("information", information)
-    if J.ndim < 2 or J.shape[-1] != J.shape[-2] or J.shape[-1] == 0:
-        raise ValueError(f"information must be a square matrix (or a stack of them), shape (..., n, n); got "
-                         f"{J.shape}")
-    scale = max(1.0, float(np.max(np.abs(J)))) if J.size else 1.0
-    if not np.allclose(J, np.swapaxes(J, -1, -2), rtol=1e-9, atol=1e-12 * scale):
-        raise ValueError("information must be symmetric; use (J + J.T) / 2 if it is only off by rounding")
+    J = as_information("information", information)     # finite, square, symmetric, PSD (indefinite: refused)
     rtol = _as_rtol(rtol)
     bounds, _, singular = _bound_batch(J, rtol)
     n = J.shape[-1]
@@ -522,12 +516,22 @@ def position_crlb(beacons: Any, position: Any, sigma: Any, unknown_bias: bool = 
     >>> float(rmse_bound(position_crlb(b, [0.0, 0.0], sigma=1.0)))  # doctest: +ELLIPSIS
     1.6329931...
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, sigma, unknown_bias)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
+    _refuse_negative_bounds(bounds)
     n = J.shape[-1]
     _warn_singular(singular, int(np.prod(J.shape[:-2], dtype=int)), n,
                    _state_labels(n, unknown_bias=bool(unknown_bias)))
     return bounds
+
+
+def _refuse_negative_bounds(bounds: np.ndarray) -> None:
+    """A bound is a covariance: a negative variance means float64 could not carry the computation."""
+    diag = np.diagonal(bounds, axis1=-2, axis2=-1)
+    if (diag < 0).any() or np.isnan(diag).any():
+        raise IllConditionedError("the information matrix is too ill-conditioned for float64 (its inverse has "
+                                  "negative or NaN variances): rescale sigma or the positions (e.g. kilometres)")
 
 
 def rmse_bound(covariance: Any) -> float | np.ndarray:
@@ -546,9 +550,23 @@ def rmse_bound(covariance: Any) -> float | np.ndarray:
     C = as_float_array("covariance", covariance)
     if C.ndim < 2 or C.shape[-1] != C.shape[-2] or C.shape[-1] < 2:
         raise ValueError(f"covariance must be square with at least 2 states, shape (..., n, n); got {C.shape}")
-    if np.isnan(C[..., 0, 0]).any() or np.isnan(C[..., 1, 1]).any():
+    cxx, cxy, cyx, cyy = C[..., 0, 0], C[..., 0, 1], C[..., 1, 0], C[..., 1, 1]
+    if np.isnan(cxx).any() or np.isnan(cyy).any():
         raise ValueError("covariance has NaN position variances")
-    out = np.sqrt(C[..., 0, 0] + C[..., 1, 1])
+    if (cxx < 0).any() or (cyy < 0).any():
+        raise ValueError("covariance must be a covariance: its position variances must be >= 0 (an infinite "
+                         "bound is +inf); got a negative one")
+    finite = np.isfinite(cxx) & np.isfinite(cyy) & np.isfinite(cxy) & np.isfinite(cyx)
+    with np.errstate(invalid="ignore"):
+        scale = np.maximum(1.0, np.maximum(np.abs(cxx), np.abs(cyy)))
+        asym = np.abs(cxy - cyx) > SYMMETRY_RTOL * scale
+        indefinite = cxy * cyx > cxx * cyy * (1.0 + 1e-9) + PSD_RTOL * scale
+    if (finite & asym).any():
+        raise ValueError("covariance must be symmetric; use (C + C.T) / 2 if it is only off by rounding")
+    if (finite & indefinite).any():
+        raise ValueError("covariance must be positive semi-definite: its position block has a correlation beyond "
+                         "+-1 (Cxy^2 > Cxx Cyy)")
+    out = np.sqrt(cxx + cyy)
     return float(out) if out.ndim == 0 else out
 
 
@@ -576,6 +594,7 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     float or ndarray, shape (...)
         The GDOP (dimensionless).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, 1.0, unknown_bias)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
     n = J.shape[-1]
@@ -625,6 +644,7 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     >>> round(precision_factor(beacons, [0.0, 0.0]), 12)
     1.25
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
 
     b = _as_points("beacons", beacons, min_ndim=2)
@@ -723,6 +743,8 @@ def track_jacobian(positions: Any, beacon: Any, *, times: Any = None, unknown_bi
     ndarray, shape (K, n)
         :math:`H`, ``n`` = 2, 3, 4 or 5.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
     p, b, t = _track_inputs(positions, beacon, times, bool(unknown_current))
     ref = _as_reference(reference, len(p))
     return _track_rows(p, b, t, bool(unknown_bias), bool(unknown_current), ref)
@@ -763,6 +785,9 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     ndarray, shape (n, n) or (K, n, n)
         Information matrices, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
+    cumulative = as_flag("cumulative", cumulative)
     p, b, t = _track_inputs(positions, beacon, times, bool(unknown_current))
     k = len(p)
     s = _sigma_per_row(sigma, (k,))
@@ -818,6 +843,8 @@ def track_crlb(positions: Any, beacon: Any, sigma: Any, *, times: Any = None, un
     ndarray, shape (K, n, n)
         Covariance bounds, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
     J = track_fisher_information(positions, beacon, sigma, times=times, unknown_bias=unknown_bias,
                                  unknown_current=unknown_current, cumulative=True)
     bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
@@ -869,6 +896,9 @@ def observability_rank(positions: Any, beacon: Any, *, times: Any = None, unknow
     int or ndarray of int, shape (K,)
         The rank(s), between 0 and ``n``.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
+    unknown_current = as_flag("unknown_current", unknown_current)
+    cumulative = as_flag("cumulative", cumulative)
     J = track_fisher_information(positions, beacon, 1.0, times=times, unknown_bias=unknown_bias,
                                  unknown_current=unknown_current, cumulative=bool(cumulative))
     ranks = _information_rank(J, _as_rtol(rtol))
@@ -1066,14 +1096,12 @@ def error_ellipse(covariance: Any, center: Any = (0.0, 0.0), scale: float = 1.0,
     ndarray, shape (n_points, 2)
         The ellipse [m].
     """
-    C = as_finite("covariance", covariance, shape=(2, 2))
+    C = as_covariance("covariance", as_finite("covariance", covariance, shape=(2, 2)), 2, allow_singular=True)
     c = as_finite("center", center, shape=(2,))
-    s = float(as_positive("scale", scale))
-    if not isinstance(n_points, (int, np.integer)) or n_points < 3:
-        raise ValueError(f"n_points must be an integer >= 3; got {n_points!r}")
-    lam, vec = np.linalg.eigh((C + C.T) / 2)
-    if lam.min() < -1e-9 * max(lam.max(), 1e-300):
-        raise ValueError("covariance must be positive semi-definite")
+    s = float(as_positive("scale", scale, ndim=0))
+    n_points = as_int("n_points", n_points, minimum=3, maximum=10**6)
+    lam, vec = np.linalg.eigh(C)            # C is symmetric (checked): eigh reads its lower triangle
+    # eigenvalues within as_covariance's stated tolerance below 0 are round-off: their axis has length 0
     theta = np.linspace(0.0, 2 * np.pi, int(n_points))
     circle = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
     return c + s * (circle * np.sqrt(np.clip(lam, 0.0, None))) @ vec.T
