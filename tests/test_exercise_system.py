@@ -857,3 +857,15 @@ def test_nbgrader_generates_the_exercise_assignment(tmp_path):
     for name in released:
         text = (tmp_path / "release" / "exercises" / name).read_text(encoding="utf-8")
         assert "BEGIN SOLUTION" not in text and "HIDDEN TESTS" not in text and "YOUR CODE HERE" in text
+
+
+def test_an_empty_dir_argument_is_refused_not_taken_for_the_current_directory(tmp_path, monkeypatch, capsys):
+    from uwtutor.exercises.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    for command in ("exercises", "labs"):
+        with pytest.raises(SystemExit) as exit_info:
+            main([command, ""])
+        assert exit_info.value.code == 2
+        assert "DIR is empty" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -124,3 +124,19 @@ def test_percentile_range():
     study = run_monte_carlo(known_filter(), np.zeros((3, 3)), offset=1.0)
     with pytest.raises(ValueError, match="q must be a percentage"):
         study.final_error_percentile(120)
+
+
+def test_a_truth_that_only_broadcasts_is_refused():
+    """A (K, 1) truth against (K, 2) estimates is a mistake, not something to broadcast."""
+    import numpy as np
+    import pytest
+
+    from uwtutor.filters import range_only_ekf
+    from uwtutor.montecarlo import run_monte_carlo
+
+    K = 20
+    u = np.tile([1.0, 0.0], (K, 1))
+    z = np.linalg.norm(np.array([100.0, 50.0]) + np.cumsum(u, axis=0), axis=1)
+    with pytest.raises(ValueError, match="truth must have shape"):
+        run_monte_carlo(range_only_ekf, np.zeros((K, 1)), x0=np.full((3, 2), 100.0), P0=np.eye(2), u=u, z=z,
+                        Q=np.eye(2) * 0.1, R=1.0)

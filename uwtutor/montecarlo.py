@@ -235,11 +235,10 @@ def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, co
                              f"got {components!r}")
         comps = tuple(int(i) for i in idx)
     t = as_finite("truth", truth, ndim=(2, 3))
-    try:
-        t = np.broadcast_to(t, x.shape)
-    except ValueError:
+    if t.shape not in (x.shape, x.shape[1:]):       # broadcast over runs only: (K, 1) against (K, 2) is an error
         raise ValueError(f"truth must have shape (K, n) or (M, K, n) matching the filter's estimates {x.shape}; "
-                         f"got {t.shape}") from None
+                         f"got {t.shape}")
+    t = np.broadcast_to(t, x.shape)
     sel = list(comps)
     xs, ts = x[..., sel], t[..., sel]
     Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
@@ -317,11 +316,10 @@ def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_se
     elif t.shape[-1] != len(sel):
         raise ValueError(f"truth (from draw) must hold the {n_state} state components or the {len(sel)} scored "
                          f"ones on its last axis; got shape {t.shape}")
-    try:
-        t = np.broadcast_to(t, x.shape[:-1] + (len(sel),))
-    except ValueError:
+    if t.shape[:-1] not in ((x.shape[1],), x.shape[:-1]):     # broadcast over runs only
         raise ValueError(f"truth (from draw) must have shape (K, d) or ({n}, K, d) with K = {x.shape[1]}; got "
-                         f"{np.shape(truth)}") from None
+                         f"{np.shape(truth)}")
+    t = np.broadcast_to(t, x.shape[:-1] + (len(sel),))
     xs = x[..., sel]
     Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
     errors = metrics.estimation_errors(xs, t)

@@ -66,6 +66,13 @@ examples:
   uwtutor labs ./labs --source path/to/uwtutor/exercises/labs"""
 
 
+
+def _dir_argument(text: str) -> Path:
+    """The DIR argument: a folder name (an empty one would silently mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("DIR is empty: give the folder to write into, e.g. my-work")
+    return Path(text)
+
 def _version() -> str:
     try:
         from uwtutor import __version__
@@ -90,7 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
         "exercises", help="write fresh student copies of the exercise notebooks into a directory",
         description=_EXERCISES_DESCRIPTION, epilog=_EXERCISES_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    exercises.add_argument("dir", metavar="DIR", type=Path,
+    exercises.add_argument("dir", metavar="DIR", type=_dir_argument,
                            help="where to write the notebooks (created if it does not exist)")
     exercises.add_argument("--source", metavar="SRC", type=Path, default=None,
                            help="the directory of the exercise sources (with solutions); default: the exercises/ "
@@ -100,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     labs = commands.add_parser(
         "labs", help="write fresh student copies of the course labs into a directory (one folder per lab)",
         description=_LABS_DESCRIPTION, epilog=_LABS_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    labs.add_argument("dir", metavar="DIR", type=Path,
+    labs.add_argument("dir", metavar="DIR", type=_dir_argument,
                       help="where to write the labs, DIR/NAME/NAME.ipynb (created if it does not exist)")
     labs.add_argument("--source", metavar="SRC", type=Path, default=None,
                       help="the directory of the lab folders (with solutions); default: exercises/labs/ of the "
@@ -126,15 +133,12 @@ def _exercises(args: argparse.Namespace) -> int:
         _error(str(exc))
         return 2
     dest: Path = args.dir
-    if dest.exists() and not dest.is_dir():
-        _error(f"{dest} exists and is not a directory; choose a directory for the notebooks")
-        return 2
     try:
         report = write_student_versions(source_dir, dest, overwrite=args.force)
     except ExerciseSourceError as exc:
         _error(f"a source notebook is malformed: {exc}")
         return 1
-    except ValueError as exc:
+    except (ValueError, NotADirectoryError) as exc:     # a bad DIR: the user's argument, exit status 2
         _error(str(exc))
         return 2
     except OSError as exc:
@@ -156,9 +160,6 @@ def _labs(args: argparse.Namespace) -> int:
         _error(str(exc), "labs")
         return 2
     dest: Path = args.dir
-    if dest.exists() and not dest.is_dir():
-        _error(f"{dest} exists and is not a directory; choose a directory for the labs", "labs")
-        return 2
     try:
         report = write_lab_versions(labs_dir, dest, overwrite=args.force, names=args.lab)
     except ExerciseSourceError as exc:
@@ -167,7 +168,7 @@ def _labs(args: argparse.Namespace) -> int:
     except FileNotFoundError as exc:
         _error(str(exc), "labs")
         return 2
-    except ValueError as exc:
+    except (ValueError, NotADirectoryError) as exc:     # a bad DIR: the user's argument, exit status 2
         _error(str(exc), "labs")
         return 2
     except OSError as exc:
