@@ -261,7 +261,7 @@ def good_args(M=2, K=5):
     (dict(R=0.0), "R must be positive definite"),
     (dict(R=-1.0), "R must be positive definite"),
     (dict(R=np.eye(2)), "R must be 1x1"),
-    (dict(beacon=(0.0, 0.0, 0.0)), "beacon must have shape"),
+    (dict(beacon=(0.0, 0.0, 0.0)), "beacon must be a position"),
     (dict(u=np.ones((2, 0, 2)), z=np.ones((2, 0))), "number of steps K must be >= 1"),
 ])
 def test_bad_input_names_the_argument(change, message):

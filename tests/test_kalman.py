@@ -45,7 +45,7 @@ def test_control_input_moves_the_prediction():
                       B=np.eye(2))
     kf.predict([3.0, -4.0])
     np.testing.assert_array_equal(kf.x, [3.0, -4.0])
-    with pytest.raises(ValueError, match="no control-input matrix B"):
+    with pytest.raises(ValueError, match="no input matrix B"):
         make_cv().predict([1.0, 2.0])
 
 
@@ -95,8 +95,8 @@ def test_result_fields_and_consistency_statistics():
 def test_run_filter_validates_its_inputs():
     with pytest.raises(ValueError, match="times must have one entry per step"):
         run_filter(make_cv(), [1.0, 2.0, 3.0], times=[0.0, 1.0])
-    with pytest.raises(ValueError, match="us must give one input per step"):
-        run_filter(make_cv(), [1.0, 2.0, 3.0], us=np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="u must give one input per step"):
+        run_filter(make_cv(), [1.0, 2.0, 3.0], u=np.zeros((2, 1)))
     with pytest.raises(ValueError, match="truth must broadcast"):
         make_cv().run([1.0, 2.0]).nees(np.zeros((5, 2)))
 

@@ -220,11 +220,11 @@ def test_run_helper_equals_the_generic_driver():
     np.testing.assert_array_equal(a.extras["ess"], b.extras["ess"])
     np.testing.assert_array_equal(a.extras["resampled"], b.extras["resampled"])
     assert not a.extras["resampled"][10] and np.isnan(a.innovations[10]).all()
-    with pytest.raises(ValueError, match=r"zs must have shape \(K, 3\)"):
+    with pytest.raises(ValueError, match=r"z must have shape \(K, 3\)"):
         BootstrapParticleFilter.from_gaussian(model, meas[0], model.R, 10, np.random.default_rng(1)).run(meas[:, :2])
-    with pytest.raises(ValueError, match="us must give one input per step"):
+    with pytest.raises(ValueError, match="u must give one input per step"):
         BootstrapParticleFilter.from_gaussian(model, meas[0], model.R, 10, np.random.default_rng(1)).run(
-            meas, us=[None])
+            meas, u=[None])
 
 
 @pytest.mark.parametrize("R", [np.diag([0.5, 2.0, 0.1]), [[2.0, 0.3, 0.1], [0.3, 1.0, -0.2], [0.1, -0.2, 0.5]]])

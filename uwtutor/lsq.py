@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import as_finite, as_float_array, as_int, as_positive
+from .errors import IllConditionedWarning
 
 __all__ = [
     "IllConditionedWarning",
@@ -89,13 +90,6 @@ SINGULAR_RTOL = 1e-7
 _GRID_CHUNK_ELEMENTS = 4_000_000
 
 
-class IllConditionedWarning(UserWarning):
-    """A least-squares problem is ill-conditioned or singular: its fix is unreliable (or NaN when singular).
-
-    The message gives the condition number and the noise gain (precision factor) so that the caller can judge;
-    silence it with ``warnings.catch_warnings`` when ill-conditioning is expected (e.g. the first epochs of a
-    pre-positioning loop).
-    """
 
 
 # ---------------------------------------------------------------------------------------------------------------

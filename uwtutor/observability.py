@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import as_finite, as_float_array, as_positive
+from .errors import UnobservableWarning
 
 __all__ = [
     "DEFAULT_RTOL",
@@ -102,12 +103,6 @@ DEFAULT_RTOL = 1e-6
 _NULL_ENTRY_TOL = 1e-8
 
 
-class UnobservableWarning(UserWarning):
-    """The geometry does not determine every unknown: an information matrix is singular, or a fix is ambiguous.
-
-    The functions that emit it still return their result (a bound that is infinite along the unobservable
-    directions, NaN candidates for a fix that does not exist), so a notebook can show the degenerate case.
-    """
 
 
 def _warn(message: str) -> None:

@@ -2,8 +2,10 @@
 
 from .base import Filter, FilterResult, run_filter
 from .depth_ekf import DepthEKF
+from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
+from .gates import ChiSquareGate, Gate, GateContext
 from .kalman import KalmanFilter
 from .particle import (
     BootstrapParticleFilter,
@@ -18,6 +20,7 @@ from .particle import (
 
 __all__ = [
     "Filter", "FilterResult", "run_filter", "KalmanFilter",
+    "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
     "ParticleDegeneracyError",

@@ -1,24 +1,28 @@
-"""The filter protocol that every filter of ``uwtutor`` follows.
+"""The filter protocol that every filter of ``uwtutor`` follows, and the one loop that runs them.
 
-A filter holds its estimate in two attributes,
+A filter holds its estimate in attributes that mean the same thing in every filter,
 
 * ``x`` -- the state estimate, shape ``(n,)`` for one run or ``(M, n)`` for ``M`` Monte Carlo runs at once;
-* ``P`` -- its covariance, shape ``(n, n)`` or ``(M, n, n)``;
+* ``P`` -- its covariance, shape ``(n, n)`` or ``(M, n, n)`` (for a particle filter: the weighted moments of
+  its particles);
+* ``x_prior``, ``P_prior`` -- the prediction the last update started from, as the filter finally used it (a
+  fading filter's ``P_prior`` includes its fading factor);
+* ``y``, ``S`` -- the innovation of the last update and its covariance, ``(m,)`` and ``(m, m)`` (runs axis first
+  when batched), NaN where there was nothing to update with;
+* ``extra_outputs`` -- the names of further per-step attributes the filter records (fading factors, outlier
+  flags, effective sample sizes...);
 
 and moves it with two methods,
 
-* ``predict(u=None)`` -- propagate the estimate one step with the motion model and the control input ``u``
+* ``predict(u=None)`` -- propagate the estimate one step with the motion model and the input ``u``
   (for single-beacon navigation: the dead-reckoned displacement since the last step);
 * ``update(z)`` -- correct it with the measurement ``z``. A NaN measurement means "no measurement at this step":
-  the filter then keeps its prediction. After ``update`` the filter exposes the innovation ``y`` and its
-  covariance ``S`` (NaN when there was nothing to update with).
+  the filter then keeps its prediction.
 
-:func:`run_filter` drives any such filter over a sequence of inputs and measurements and collects a
-:class:`FilterResult`. Chapters call ``run_filter`` (or a filter's own ``run`` helper); the predict/update steps
-stay visible for teaching.
-
-Filters with extra outputs (fading factors, outlier flags, particle weights...) subclass :class:`FilterResult`
-and list the attribute names in their ``extra_outputs`` class attribute so that :func:`run_filter` records them.
+``run(z, u=None, times=None)`` runs it over a whole sequence and returns a :class:`FilterResult` (or a
+subclass), the same, field for field, as :func:`run_filter` ``(filt, z, u, times)``, the library's one step loop.
+A filter may run its sequence faster than that loop (the packed range-only EKF does), but its result must equal
+the loop's: ``tests/test_filter_contract.py`` holds every filter to this.
 """
 
 from __future__ import annotations
@@ -35,15 +39,23 @@ __all__ = ["Filter", "FilterResult", "run_filter"]
 
 @runtime_checkable
 class Filter(Protocol):
-    """Structural type of a uwtutor filter (see the module docstring)."""
+    """Structural type of a uwtutor filter (see the module docstring for what each member means)."""
 
     x: np.ndarray
     P: np.ndarray
+    x_prior: np.ndarray
+    P_prior: np.ndarray
+    y: np.ndarray
+    S: np.ndarray
+    extra_outputs: tuple[str, ...]
 
     def predict(self, u: Any = None) -> None:  # pragma: no cover - protocol
         ...
 
     def update(self, z: Any) -> None:  # pragma: no cover - protocol
+        ...
+
+    def run(self, z: Any, u: Any = None, times: Any = None) -> "FilterResult":  # pragma: no cover - protocol
         ...
 
 
@@ -126,26 +138,43 @@ def _measurement_size(z: np.ndarray, batched: bool) -> int:
     return 1 if per_step == 0 else z.shape[-1]
 
 
-def run_filter(filt: Filter, zs: Any, us: Any = None, times: Any = None) -> FilterResult:
-    """Run ``filt`` over a measurement sequence: at each step ``predict(us[k])`` then ``update(zs[k])``.
+def _sequence_times(n_steps: int, times: Any) -> np.ndarray:
+    """Validated time stamps ``(K,)`` of a run of ``n_steps`` steps (``0..K-1`` when ``times`` is None)."""
+    as_int("the number of steps K", n_steps, minimum=1)
+    if times is None:
+        return np.arange(n_steps, dtype=float)
+    times = as_float_array("times", times, ndim=1)
+    if not np.isfinite(times).all():
+        raise ValueError("times must be finite")
+    if len(times) != n_steps:
+        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
+    return times
+
+
+def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    """Run ``filt`` over a measurement sequence: at each step ``predict(u[k])`` then ``update(z[k])``.
+
+    This is the library's one step loop: every filter's ``run`` gives the same result as this function.
 
     Parameters
     ----------
     filt : Filter
         Any object following the protocol; it is advanced in place and left at the last step.
-    zs : array_like, shape (K,) or (K, m)
+    z : array_like, shape (K,) or (K, m)
         Measurements, one row per step; with a batched filter (``filt.x`` of shape ``(M, n)``) the runs axis
         comes first: ``(M, K)`` or ``(M, K, m)``. NaN rows mean "no measurement": predict only.
-    us : array_like, optional
-        Control inputs, one per step (the step axis after any runs axis), passed to ``predict``.
-        ``None`` predicts without input.
+    u : array_like, optional
+        Inputs, one per step, passed to ``predict``: ``(K, p)``, or ``(M, K, p)`` for a batched filter
+        (``(K, p)`` is then shared by every run); ``None`` predicts without input.
     times : array_like, shape (K,), optional
         Time stamps for the result; defaults to the step indices ``0..K-1``.
 
     Returns
     -------
     FilterResult
-        The estimates after each step; per-step extras named in ``filt.extra_outputs`` are recorded too.
+        Of the type the filter names in its ``result_type`` attribute (``FilterResult`` by default), with the
+        estimates after each step, the priors as the filter used them, and the per-step attributes named in
+        ``filt.extra_outputs`` in ``extras``.
 
     Examples
     --------
@@ -155,52 +184,49 @@ def run_filter(filt: Filter, zs: Any, us: Any = None, times: Any = None) -> Filt
     >>> result = run_filter(kf, [101.0, 99.5, 100.7, np.nan, 100.2])
     >>> result.x.shape, result.innovations.shape
     ((5, 2), (5, 1))
+    >>> bool(np.isnan(result.innovations[3, 0]))      # the missing measurement: predict only
+    True
     """
     batched = np.ndim(filt.x) == 2
-    zs = as_float_array("zs", zs)
+    z = as_float_array("z", z)
     step_axis = 1 if batched else 0
-    if zs.ndim <= step_axis:
-        raise ValueError(f"zs must have a step axis at position {step_axis}; got shape {zs.shape}")
-    n_steps = zs.shape[step_axis]
-    if us is not None:
-        us = as_float_array("us", us)
-        if us.ndim <= step_axis or us.shape[step_axis] != n_steps:
-            raise ValueError(f"us must give one input per step ({n_steps} steps along axis {step_axis}); "
-                             f"got shape {us.shape}")
-    if times is None:
-        times = np.arange(n_steps, dtype=float)
-    else:
-        times = as_float_array("times", times, ndim=1)
-        if len(times) != n_steps:
-            raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    as_int("number of steps", n_steps, minimum=1)
+    if z.ndim <= step_axis:
+        raise ValueError(f"z must have a step axis at position {step_axis}; got shape {z.shape}")
+    if batched and z.shape[0] != np.shape(filt.x)[0]:
+        raise ValueError(f"z must have one row of measurements per run ({np.shape(filt.x)[0]} runs); "
+                         f"got shape {z.shape}")
+    n_steps = z.shape[step_axis]
+    u_shared = False                      # a batched filter may take one input sequence (K, p) for every run
+    if u is not None:
+        u = as_float_array("u", u)
+        u_shared = batched and u.ndim == 2
+        u_axis = 0 if u_shared else step_axis
+        if u.ndim <= u_axis or u.shape[u_axis] != n_steps:
+            raise ValueError(f"u must give one input per step ({n_steps} steps along axis {u_axis}); "
+                             f"got shape {u.shape}")
+    times = _sequence_times(n_steps, times)
 
-    m = _measurement_size(zs, batched)
+    m = _measurement_size(z, batched)
     extra_names = tuple(getattr(filt, "extra_outputs", ()))
-    xs, Ps, xps, Pps, ys, Ss = [], [], [], [], [], []
-    extras: dict[str, list[np.ndarray]] = {name: [] for name in extra_names}
+    records: dict[str, list[np.ndarray]] = {name: [] for name in
+                                            ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names}
+    y_shape = (np.shape(filt.x)[0], m) if batched else (m,)
     for k in range(n_steps):
-        filt.predict(None if us is None else (us[:, k] if batched else us[k]))
-        xps.append(np.array(filt.x, copy=True))
-        Pps.append(np.array(filt.P, copy=True))
-        filt.update(zs[:, k] if batched else zs[k])
-        xs.append(np.array(filt.x, copy=True))
-        Ps.append(np.array(filt.P, copy=True))
-        y = np.asarray(filt.y, dtype=float)
-        S = np.asarray(filt.S, dtype=float)
-        ys.append(y.reshape(y.shape[:1] + (m,) if batched else (m,)))
-        Ss.append(S.reshape(S.shape[:1] + (m, m) if batched else (m, m)))
+        filt.predict(None if u is None else (u[:, k] if batched and not u_shared else u[k]))
+        filt.update(z[:, k] if batched else z[k])
+        for name in ("x", "P", "x_prior", "P_prior"):
+            records[name].append(np.array(getattr(filt, name), dtype=float, copy=True))
+        records["y"].append(np.asarray(filt.y, dtype=float).reshape(y_shape))
+        records["S"].append(np.asarray(filt.S, dtype=float).reshape(y_shape + (m,)))
         for name in extra_names:
-            extras[name].append(np.array(getattr(filt, name), copy=True))
+            records[name].append(np.array(getattr(filt, name), copy=True))
 
     axis = 1 if batched else 0
-    return FilterResult(
+    stacked = {name: np.stack(values, axis=axis) for name, values in records.items()}
+    result_type = getattr(filt, "result_type", FilterResult)
+    return result_type(
         times=times,
-        x=np.stack(xs, axis=axis),
-        P=np.stack(Ps, axis=axis),
-        x_prior=np.stack(xps, axis=axis),
-        P_prior=np.stack(Pps, axis=axis),
-        innovations=np.stack(ys, axis=axis),
-        innovation_cov=np.stack(Ss, axis=axis),
-        extras={name: np.stack(vals, axis=axis) for name, vals in extras.items()},
+        x=stacked["x"], P=stacked["P"], x_prior=stacked["x_prior"], P_prior=stacked["P_prior"],
+        innovations=stacked["y"], innovation_cov=stacked["S"],
+        extras={name: stacked[name] for name in extra_names},
     )

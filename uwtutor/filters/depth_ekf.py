@@ -101,6 +101,8 @@ class DepthEKF:
     True
     """
 
+    extra_outputs: tuple[str, ...] = ()
+
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, T: float = 0.05) -> None:
         self.T = float(as_positive("T", T))
         self.Q = as_covariance("Q", Q, _N, allow_singular=True)
@@ -115,6 +117,7 @@ class DepthEKF:
             raise ValueError(f"P0 of shape {P0.shape} needs x0 of shape ({P0.shape[0]}, 3); got {x.shape}")
         self.P = np.broadcast_to(P0, x.shape[:-1] + (_N, _N)).copy()
         self.R = R
+        self.x_prior, self.P_prior = self.x, self.P
         self.y = np.full(x.shape, np.nan)
         self.S = np.full(x.shape + (_N,), np.nan)
 
@@ -143,8 +146,8 @@ class DepthEKF:
         G[..., 0, 2] = self.T * v * c
         new = x.copy()
         new[..., 0] = x[..., 0] + v * s * self.T
-        self.x = new
-        self.P = G @ (self.P + self.Q) @ np.swapaxes(G, -1, -2)
+        self.x = self.x_prior = new
+        self.P = self.P_prior = G @ (self.P + self.Q) @ np.swapaxes(G, -1, -2)
 
     def update(self, z: Any) -> None:
         """Correct with the measurement ``z`` (shape (3,) or (M, 3)); NaN entries are missing sensors.
@@ -207,13 +210,15 @@ class DepthEKF:
         else:
             self.x, self.P, self.y, self.S = x_new[0], P_new[0], y_out[0], S_out[0]
 
-    def run(self, zs: Any, times: Any = None, Rs: Any = None) -> FilterResult:
+    def run(self, z: Any, u: Any = None, times: Any = None, *, Rs: Any = None) -> FilterResult:
         """Predict then update at every step; optionally with a new ``R`` at each step.
 
         Parameters
         ----------
-        zs : array_like, shape (K, 3) or (M, K, 3)
+        z : array_like, shape (K, 3) or (M, K, 3)
             Measurements (NaN: missing).
+        u : None
+            The model takes no input (the argument is there for the protocol's one ``run`` signature).
         times : array_like, shape (K,), optional
             Time stamps of the result (default ``0..K-1``).
         Rs : array_like, shape (K, 3, 3) or (M, K, 3, 3), optional
@@ -226,13 +231,16 @@ class DepthEKF:
             Estimates, covariances, predictions, innovations and their covariances, with the runs axis first when
             batched.
         """
+        if u is not None:
+            raise ValueError("DepthEKF takes no control input: call run(z) without u")
         if Rs is None:
-            return run_filter(self, zs, None, times)
+            return run_filter(self, z, None, times)
+        zs = z
         batched = self.x.ndim == 2
-        zs = as_float_array("zs", zs)
+        zs = as_float_array("z", zs)
         if zs.ndim != self.x.ndim + 1 or zs.shape[-1] != _N or (batched and zs.shape[0] != self.x.shape[0]):
             want = f"({self.x.shape[0]}, K, 3)" if batched else "(K, 3)"
-            raise ValueError(f"zs must have shape {want}: one [depth, speed, pitch] per step; got {zs.shape}")
+            raise ValueError(f"z must have shape {want}: one [depth, speed, pitch] per step; got {zs.shape}")
         K = zs.shape[-2]
         Rs = as_float_array("Rs", Rs)
         shapes = [(K, _N, _N)] + ([(self.x.shape[0], K, _N, _N)] if batched else [])

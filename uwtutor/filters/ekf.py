@@ -56,13 +56,13 @@ chapter 11.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_int, as_range_array
 from .base import FilterResult
+from ..errors import BeaconSingularityWarning, warn
 
 __all__ = ["range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning"]
 
@@ -71,8 +71,6 @@ _X, _Y, _PXX, _PXY, _PYX, _PYY = range(6)
 _N_ROWS = 6
 
 
-class BeaconSingularityWarning(UserWarning):
-    """A predicted position fell exactly on the beacon, where the range Jacobian is undefined; update skipped."""
 
 
 # --- packing ----------------------------------------------------------------------------------------------------
@@ -119,15 +117,15 @@ def _update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon
     """
     xp, yp = s[_X], s[_Y]
     pxx, pxy, pyy = s[_PXX], s[_PXY], s[_PYY]
-    dx = xp - beacon[0] if beacon[0] else xp
-    dy = yp - beacon[1] if beacon[1] else yp
+    bx, by = beacon                                  # floats, or arrays (M,)/(1,) for a moving beacon
+    dx = xp - bx if (np.ndim(bx) or bx) else xp
+    dy = yp - by if (np.ndim(by) or by) else yp
     r = np.sqrt(dx * dx + dy * dy)                   # predicted range h(x-)
     if r.min() == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
         on_beacon = r == 0.0
         if (use[on_beacon] != 0.0).any():
-            warnings.warn("the predicted position is exactly on the beacon, where the range Jacobian is "
-                          "undefined: the range update is skipped for that step (predict only)",
-                          BeaconSingularityWarning, stacklevel=3)
+            warn("the predicted position is exactly on the beacon, where the range Jacobian is "
+                 "undefined: the range update is skipped for that step (predict only)", BeaconSingularityWarning)
         use = np.where(on_beacon, 0.0, use)
         r = np.where(on_beacon, 1.0, r)              # then H = 0 and the gain below is exactly 0
     hx = dx / r                                      # H = [hx, hy], the unit line of sight
@@ -173,6 +171,20 @@ def _beacon(beacon: Any) -> tuple[float, float]:
     return float(b[0]), float(b[1])
 
 
+def _beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.ndarray, int | None]:
+    """A fixed beacon ``(bx, by)``, or a moving one as a step-major path (K, 2, M) / (K, 2, 1); with the size of
+    its runs axis (None if it has none)."""
+    b = as_finite("beacon", beacon, ndim=(1, 2, 3))
+    if b.shape[-1] != 2 or (b.ndim > 1 and b.shape[-2] != n_steps):
+        raise ValueError(f"beacon must be a position [x, y], or one position per step: shape (2,), "
+                         f"({n_steps}, 2) or (M, {n_steps}, 2); got {b.shape}")
+    if b.ndim == 1:
+        return (float(b[0]), float(b[1])), None
+    if b.ndim == 2:
+        return np.ascontiguousarray(b[:, :, None]), None
+    return np.ascontiguousarray(np.moveaxis(b, 0, -1)), b.shape[0]
+
+
 def _initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
     x0 = as_finite("x0", x0, ndim=(1, 2))
     if x0.shape[-1] != 2:
@@ -213,8 +225,10 @@ def _runs(**batched: int | None) -> int | None:
 # --- the engine shared by range_only_ekf and RangeOnlyEKF.run ----------------------------------------------------
 
 def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: float,
-         beacon: tuple[float, float], times: np.ndarray, batched: bool) -> tuple[FilterResult, np.ndarray]:
-    """Run K steps from the packed states ``s0`` (6, M). ``u`` is (M, K, 2) or (K, 2); ``z`` (M, K) or (K,).
+         beacon: tuple[float, float] | np.ndarray, times: np.ndarray,
+         batched: bool) -> tuple[FilterResult, np.ndarray]:
+    """Run K steps from the packed states ``s0`` (6, M). ``u`` is (M, K, 2) or (K, 2); ``z`` (M, K) or (K,);
+    ``beacon`` a fixed ``(bx, by)`` or a path of shape (K, 2, M) or (K, 2, 1), one position per step.
 
     Returns the result (shapes with or without the runs axis, as ``batched`` says) and the last packed state.
     """
@@ -237,7 +251,8 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: float,
     for k in range(K):
         _predict_step(s, u_steps[k], q4, prior[k])
         use_k = use[k]
-        applied = _update_step(prior[k], z_fill[k], use_k, R, beacon, post[k], innov[k], innov_var[k])
+        b_k = beacon if isinstance(beacon, tuple) else (beacon[k, 0], beacon[k, 1])
+        applied = _update_step(prior[k], z_fill[k], use_k, R, b_k, post[k], innov[k], innov_var[k])
         if applied is not use_k:                    # a prediction fell on the beacon
             use[k] = applied
         s = post[k]
@@ -301,8 +316,9 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
         Process (DR) noise covariance per step, positive semi-definite [m^2].
     R : float or array_like, shape (1, 1)
         Range noise variance, > 0 [m^2].
-    beacon : array_like, shape (2,), optional
-        Horizontal beacon position [m]; the origin by default.
+    beacon : array_like, shape (2,), (K, 2) or (M, K, 2), optional
+        Horizontal beacon position [m], the origin by default; or one position per epoch for a beacon that
+        moves (a ship, a leader vehicle), shared by every run or one path per run.
     times : array_like, shape (K,), optional
         Epoch times for the result (default ``0..K-1``).
 
@@ -365,7 +381,7 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
     """
     x0, P0, u, z, times, run_sizes = _sequence_inputs(x0, P0, u, z, times)
     _, R_val, q4 = _noise_parameters(Q, R)
-    b = _beacon(beacon)
+    b, run_sizes["beacon"] = _beacon_path(beacon, len(times))
     M = _runs(**run_sizes)
     batched = M is not None
     M = M or 1
@@ -400,10 +416,14 @@ class RangeOnlyEKF:
         Current estimate, shape (2,) or (M, 2) (assignable).
     P : ndarray
         Current covariance, shape (2, 2) or (M, 2, 2) (assignable).
+    x_prior, P_prior : ndarray
+        The prediction of the current step and its covariance (copies).
     y : ndarray
         Innovation of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray
         Its variance, shape (1, 1) or (M, 1, 1) (NaN where no range was used).
+    updated : ndarray of bool
+        Whether the last update used a range, shape () or (M,).
     Q, R, beacon
         The model parameters.
 
@@ -420,6 +440,9 @@ class RangeOnlyEKF:
     (True, (1,), (1, 1))
     """
 
+    extra_outputs = ("updated",)
+    result_type = FilterResult
+
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0)) -> None:
         x0, P0 = _initial_state(x0, P0)
         self.Q, self.R, self._q4 = _noise_parameters(Q, R)
@@ -428,7 +451,12 @@ class RangeOnlyEKF:
         self._batched = M is not None
         self._M = M or 1
         self._s = _pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
+        self._prior = self._s
         self._set_innovation(np.full(self._M, np.nan), np.full(self._M, np.nan))
+        self._set_updated(np.zeros(self._M, dtype=bool))
+
+    def _set_updated(self, used: np.ndarray) -> None:
+        self.updated = used.copy() if self._batched else np.array(used[0])
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
@@ -458,6 +486,16 @@ class RangeOnlyEKF:
             self._bad_shape("P", P.shape, "(2, 2)")
         self._s = _pack(_x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)))
 
+    @property
+    def x_prior(self) -> np.ndarray:
+        """The prediction of the current step, shape (2,) or (M, 2) (a copy)."""
+        return self._out(_x_view(self._prior)).copy()
+
+    @property
+    def P_prior(self) -> np.ndarray:
+        """Its covariance ``P + Q``, shape (2, 2) or (M, 2, 2) (a copy)."""
+        return self._out(_P_view(self._prior)).copy()
+
     def _bad_shape(self, name: str, shape: tuple[int, ...], single: str) -> np.ndarray:
         raise ValueError(f"{name} must have shape {single} or (M, ...) with M = {self._M}; got {shape}")
 
@@ -480,7 +518,7 @@ class RangeOnlyEKF:
                 self._bad_shape("u", u_arr.shape, "(2,)")
         out = np.empty_like(self._s)
         _predict_step(self._s, u_col, self._q4, out)
-        self._s = out
+        self._s = self._prior = out
 
     def update(self, z: Any) -> None:
         """Correct the estimate with the range ``z`` (scalar, or shape (M,) when batched; NaN: no update)."""
@@ -500,6 +538,7 @@ class RangeOnlyEKF:
         y[unused] = np.nan
         S[unused] = np.nan
         self._set_innovation(y, S)
+        self._set_updated(~unused)
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step; return the history.
@@ -520,6 +559,9 @@ class RangeOnlyEKF:
         times = _steps_and_times(K, times)
         result, self._s = _run(self._s, u, z, self._q4, self.R, (float(self.beacon[0]), float(self.beacon[1])),
                                times, self._batched)
+        self._prior = _pack(np.array(result.x_prior[..., -1, :], ndmin=2),
+                            np.array(result.P_prior[..., -1, :, :], ndmin=3))
+        self._set_updated(np.array(result.extras["updated"][..., -1], ndmin=1))
         last_y = result.innovations[..., -1, 0] if self._batched else result.innovations[-1:, 0]
         last_S = result.innovation_cov[..., -1, 0, 0] if self._batched else result.innovation_cov[-1:, 0, 0]
         self._set_innovation(np.array(last_y, ndmin=1), np.array(last_S, ndmin=1))

@@ -555,10 +555,13 @@ class FadingEKF:
         Innovation :math:`\tilde z_k` of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray
         Its variance :math:`R_\delta`, shape (1, 1) or (M, 1, 1).
-    fading_factor : ndarray
-        :math:`\lambda_k` of the last update, shape () or (M,).
-    weakening_factor : ndarray
-        :math:`\beta_k` of the last update, shape () or (M,).
+    x_prior, P_prior : ndarray
+        The prediction of the last step, its covariance with the fading factor applied.
+    fading_factor, weakening_factor, innovation_power, fading_numerator, fading_denominator, \
+    multiplicative_variance : ndarray
+        The diagnostics of the last update (see :class:`FadingResult`), shape () or (M,).
+    updated : ndarray of bool
+        Whether the last update used a range, shape () or (M,).
     extra_outputs : tuple of str
         The attributes :func:`uwtutor.filters.base.run_filter` records per step.
 
@@ -574,7 +577,8 @@ class FadingEKF:
     (True, (1,))
     """
 
-    extra_outputs = ("fading_factor", "weakening_factor")
+    extra_outputs = _EXTRAS + ("updated",)
+    result_type = FadingResult
 
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
                  rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
@@ -590,8 +594,11 @@ class FadingEKF:
         self._started = np.zeros(self._M, dtype=bool)
         self._pending: np.ndarray | None = None        # the DR displacement of a prediction awaiting its range
         self._shown = self._s                           # what x and P show (the prediction after predict)
+        self._prior = self._s                           # the prediction as the last update used it
         nan = np.full(self._M, np.nan)
-        self._set_outputs(nan, nan, np.ones(self._M), nan)
+        diag = np.full((len(_EXTRAS), self._M), np.nan)
+        diag[0] = 1.0
+        self._set_outputs(nan, nan, diag, np.zeros(self._M, dtype=bool))
 
     # -- parameters --
     @property
@@ -623,11 +630,23 @@ class FadingEKF:
         """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2)."""
         return self._out(_P_view(self._shown)).copy()
 
-    def _set_outputs(self, y: np.ndarray, S: np.ndarray, lam: np.ndarray, beta: np.ndarray) -> None:
+    @property
+    def x_prior(self) -> np.ndarray:
+        """The prediction of the current step, shape (2,) or (M, 2)."""
+        return self._out(_x_view(self._prior)).copy()
+
+    @property
+    def P_prior(self) -> np.ndarray:
+        r"""Its covariance as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until the update has
+        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2)."""
+        return self._out(_P_view(self._prior)).copy()
+
+    def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
         self.y = y[:, None] if self._batched else y[:1].copy()
         self.S = S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy()
-        self.fading_factor = lam.copy() if self._batched else np.array(lam[0])
-        self.weakening_factor = beta.copy() if self._batched else np.array(beta[0])
+        for name, values in zip(_EXTRAS, diag):
+            setattr(self, name, values.copy() if self._batched else np.array(values[0]))
+        self.updated = updated.copy() if self._batched else np.array(updated[0])
 
     def _u_column(self, u: Any) -> np.ndarray:
         if u is None:
@@ -650,8 +669,11 @@ class FadingEKF:
         unused = applied == 0.0
         y[unused] = np.nan
         S[unused] = np.nan
+        for name in ("fading_numerator", "fading_denominator"):     # undefined without a range
+            diag[_EXTRAS.index(name)][unused] = np.nan
         self._s = self._shown = post
-        self._set_outputs(y, S, diag[0], diag[1])
+        self._prior = prior
+        self._set_outputs(y, S, diag, ~unused)
 
     # -- the protocol --
     def predict(self, u: Any = None) -> None:
@@ -662,7 +684,7 @@ class FadingEKF:
         self._pending = u_col
         shown = np.empty_like(self._s)
         _predict_step(self._s, u_col, self._p.q4, shown)
-        self._shown = shown
+        self._shown = self._prior = shown
 
     def update(self, z: Any) -> None:
         """Fading factor, then correction with the range ``z`` (scalar, or (M,) when batched; NaN: no range)."""
@@ -697,12 +719,14 @@ class FadingEKF:
         times = _steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last
+        self._prior = _pack(np.array(result.x_prior[..., -1, :], ndmin=2),
+                            np.array(result.P_prior[..., -1, :, :], ndmin=3))
         self._mem = mem
         self._started = started
         ys = np.array(result.innovations[..., -1, 0], ndmin=1)
         Ss = np.array(result.innovation_cov[..., -1, 0, 0], ndmin=1)
-        self._set_outputs(ys, Ss, np.array(result.fading_factor[..., -1], ndmin=1),
-                          np.array(result.weakening_factor[..., -1], ndmin=1))
+        diag = np.array([np.array(result.extras[name][..., -1], ndmin=1) for name in _EXTRAS])
+        self._set_outputs(ys, Ss, diag, np.array(result.extras["updated"][..., -1], ndmin=1))
         return result
 
 

@@ -416,6 +416,8 @@ class BootstrapParticleFilter:
         Innovation :math:`z - \sum_i w_i h(x^i)` of the last update (NaN where nothing was measured).
     S : ndarray, shape (m, m)
         Its covariance: the weighted covariance of :math:`h(x^i)` plus ``R`` (NaN where nothing was measured).
+    x_prior, P_prior : ndarray
+        The weighted moments of the predicted particles of the current step.
     ess : float
         Effective sample size after the last update (before resampling).
     resampled : bool
@@ -459,6 +461,7 @@ class BootstrapParticleFilter:
         self.resampled = False
         self._prior_moments = False
         self._set_estimate()
+        self.x_prior, self.P_prior = self.x, self.P
 
     @classmethod
     def from_gaussian(cls, model: ParticleModel, x0: Any, P0: Any, n_particles: int, rng: np.random.Generator,
@@ -526,13 +529,15 @@ class BootstrapParticleFilter:
         self.x, self.P = self._weighted_moments(self._particles)
 
     def predict(self, u: Any = None) -> None:
-        """Draw every particle from the motion model (``model.propagate``); ``x``, ``P`` follow."""
+        """Draw every particle from the motion model (``model.propagate``); ``x``, ``P`` follow, and
+        ``x_prior``, ``P_prior`` keep the moments of the predicted particles."""
         new = self.model.propagate(self._particles, u, self.rng)
         if new.shape != self._particles.shape:
             raise ValueError(f"model.propagate must return particles of shape {self._particles.shape}; "
                              f"got {new.shape}")
         self._particles = new
         self._set_estimate()
+        self.x_prior, self.P_prior = self.x, self.P
         self._prior_moments = True
 
     def update(self, z: Any) -> None:
@@ -599,26 +604,26 @@ class BootstrapParticleFilter:
         self._uniform = True
         self.resampled = True
 
-    def run(self, zs: Any, us: Any = None, times: Any = None) -> FilterResult:
-        """Predict with ``us[k]`` then update with ``zs[k]`` at every step; return the history.
+    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+        """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
 
-        Same result as :func:`uwtutor.filters.base.run_filter` (``zs`` of shape (K, m), or (K,) when m = 1,
-        NaN entries missing; ``us`` one input per step or ``None``), checked once for the whole sequence rather
+        Same result as :func:`uwtutor.filters.base.run_filter` (``z`` of shape (K, m), or (K,) when m = 1,
+        NaN entries missing; ``u`` one input per step or ``None``), checked once for the whole sequence rather
         than step by step. The ``extras`` of the :class:`~uwtutor.filters.base.FilterResult` hold ``"ess"``
         (K,) and ``"resampled"`` (K,), and every further attribute a subclass names in ``extra_outputs``
         (time axis first). The filter is left at the last step.
         """
         m = self.model.n_measurements
-        zs = as_float_array("zs", zs)
+        zs, us = as_float_array("z", z), u
         if zs.ndim == 1 and m == 1:
             zs = zs[:, None]
         if zs.ndim != 2 or zs.shape[1] != m or zs.shape[0] < 1:
-            raise ValueError(f"zs must have shape (K, {m}) with K >= 1: one measurement per step; got {zs.shape}")
+            raise ValueError(f"z must have shape (K, {m}) with K >= 1: one measurement per step; got {zs.shape}")
         if np.isinf(zs).any():
-            raise ValueError("zs must be finite, or NaN for a missing measurement; got an infinite value")
+            raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
         K = zs.shape[0]
         if us is not None and len(us) != K:
-            raise ValueError(f"us must give one input per step ({K} steps); got {len(us)}")
+            raise ValueError(f"u must give one input per step ({K} steps); got {len(us)}")
         if times is None:
             times = np.arange(K, dtype=float)
         else:

@@ -1,0 +1,289 @@
+"""The generic batched EKF: filterpy step by step (2-, 3- and 4-state models, fixed and moving beacon),
+batched == single, NaN = predict only, the gate hook, and bad input."""
+
+import warnings
+
+import numpy as np
+import pytest
+from filterpy.kalman import ExtendedKalmanFilter as FilterpyEKF
+
+from uwtutor.errors import BeaconSingularityWarning, UwtutorWarning
+from uwtutor.filters import (ChiSquareGate, ExtendedKalmanFilter, Filter, FilterResult, Gate, KalmanFilter,
+                             extended_kalman_filter, range_only_ekf)
+from uwtutor.models import (DeadReckoning, DirectMeasurement, LinearMeasurement, LinearMotion, MeasurementModel,
+                            RangeToBeacon)
+
+TOL = dict(rtol=1e-9, atol=1e-9)
+DT = 8.0
+
+
+def current_motion(q_pos=1.0, q_cur=1e-4):
+    """State [x, y, Ux, Uy]: the DR displacement plus dt times an unknown constant current."""
+    F = np.eye(4)
+    F[0, 2] = F[1, 3] = DT
+    B = np.vstack([np.eye(2), np.zeros((2, 2))])
+    return LinearMotion(F, np.diag([q_pos, q_pos, q_cur, q_cur]), B)
+
+
+def study(n, M=5, K=80, seed=3, moving=False, missing=0.2):
+    """Inputs for an n-state model (2: position; 3: + range bias; 4: + current) around a fixed or moving beacon."""
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(0.0, 2.5 * np.pi, K + 1)
+    track = 400.0 * np.column_stack([np.cos(theta), np.sin(theta)]) + [100.0, -50.0]
+    u = np.diff(track, axis=0)
+    beacon = (np.column_stack([np.linspace(0.0, 600.0, K), 200.0 * np.sin(np.linspace(0, 3, K))])
+              if moving else np.array([0.0, 0.0]))
+    bpath = beacon if moving else np.broadcast_to(beacon, (K, 2))
+    z = np.linalg.norm(track[1:] - bpath, axis=-1) + rng.normal(0.0, 3.0, (M, K)) + (5.0 if n == 3 else 0.0)
+    z[rng.random((M, K)) < missing] = np.nan
+    x0 = np.zeros((M, n))
+    x0[:, :2] = track[0] + rng.normal(0.0, 30.0, (M, 2))
+    P0 = np.diag([900.0, 900.0] + [25.0] * (n - 2))
+    if n == 2:
+        motion = DeadReckoning(np.eye(2) * 0.5)
+    elif n == 3:
+        motion = DeadReckoning(np.diag([0.5, 0.5, 0.01]))
+    else:
+        motion = current_motion()
+    meas = RangeToBeacon(beacon, R=9.0, n=n, bias_index=2 if n == 3 else None)
+    return motion, meas, x0, P0, u, z
+
+
+def filterpy_run(motion, meas, x0, P0, u, z):
+    """filterpy's ExtendedKalmanFilter stepped in a Python loop over one run, with our models' matrices."""
+    n = motion.n
+    f = FilterpyEKF(dim_x=n, dim_z=1, dim_u=2)
+    f.x = np.array(x0, float).reshape(n, 1)
+    f.P = np.array(P0, float)
+    f.F = np.asarray(motion.F(f.x.T, None, 0), float)
+    f.B = np.vstack([np.eye(2), np.zeros((n - 2, 2))])
+    f.Q = np.asarray(motion.Q(f.x.T, None, 0), float)
+    f.R = np.asarray(meas.R(None, 0), float)
+    out = {key: [] for key in ("x", "P", "x_prior", "P_prior")}
+    for k, (uk, zk) in enumerate(zip(u, z)):
+        f.predict(u=np.asarray(uk).reshape(2, 1))
+        out["x_prior"].append(f.x[:, 0].copy())
+        out["P_prior"].append(f.P.copy())
+        if np.isfinite(zk):
+            f.update(np.array([[zk]]), HJacobian=lambda x, k=k: meas.H(x.T, k)[0],
+                     Hx=lambda x, k=k: meas.h(x.T, k)[0].reshape(1, 1))
+        out["x"].append(f.x[:, 0].copy())
+        out["P"].append(f.P.copy())
+    return {key: np.array(v) for key, v in out.items()}
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+@pytest.mark.parametrize("moving", [False, True], ids=["fixed-beacon", "moving-beacon"])
+def test_equals_filterpy_step_by_step(n, moving):
+    motion, meas, x0, P0, u, z = study(n, moving=moving)
+    res = extended_kalman_filter(motion, meas, x0, P0, u, z)
+    for m in range(x0.shape[0]):
+        ref = filterpy_run(motion, meas, x0[m], P0, u, z[m])
+        for key in ("x", "P", "x_prior", "P_prior"):
+            np.testing.assert_allclose(getattr(res, key)[m], ref[key], **TOL, err_msg=f"{key}, run {m}")
+
+
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_batched_equals_single_runs(n):
+    motion, meas, x0, P0, u, z = study(n, moving=True)
+    batched = extended_kalman_filter(motion, meas, x0, P0, u, z)
+    for m in range(x0.shape[0]):
+        single = extended_kalman_filter(motion, meas, x0[m], P0, u, z[m])
+        for key in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+            np.testing.assert_allclose(getattr(batched, key)[m], getattr(single, key), **TOL)
+        np.testing.assert_array_equal(batched.extras["accepted"][m], single.extras["accepted"])
+
+
+def test_nan_measurement_is_predict_only():
+    motion, meas, x0, P0, u, z = study(2, missing=0.3)
+    res = extended_kalman_filter(motion, meas, x0, P0, u, z)
+    missing = np.isnan(z)
+    assert missing.any()
+    np.testing.assert_array_equal(res.x[missing], res.x_prior[missing])
+    np.testing.assert_array_equal(res.P[missing], res.P_prior[missing])
+    assert np.isnan(res.innovations[missing]).all() and np.isnan(res.innovation_cov[missing]).all()
+    np.testing.assert_array_equal(res.extras["accepted"], ~missing)
+    assert np.isfinite(res.innovations[~missing]).all()
+
+
+def test_functional_equals_object_and_the_protocol_holds():
+    motion, meas, x0, P0, u, z = study(3)
+    res = extended_kalman_filter(motion, meas, x0, P0, u, z, times=np.arange(z.shape[1]) * 10.0)
+    filt = ExtendedKalmanFilter(motion, meas, x0, P0)
+    assert isinstance(filt, Filter)
+    by_hand = {key: [] for key in ("x", "P", "x_prior", "P_prior", "y", "S")}
+    for k in range(z.shape[1]):
+        filt.predict(u[k])
+        filt.update(z[:, k])
+        for key in by_hand:
+            by_hand[key].append(np.array(getattr(filt, key)))
+    assert isinstance(res, FilterResult)
+    np.testing.assert_array_equal(res.times, np.arange(z.shape[1]) * 10.0)
+    for key, field in (("x", "x"), ("P", "P"), ("x_prior", "x_prior"), ("P_prior", "P_prior"),
+                       ("y", "innovations"), ("S", "innovation_cov")):
+        np.testing.assert_array_equal(getattr(res, field), np.stack(by_hand[key], axis=1))
+
+
+def test_linear_model_pair_equals_kalman_filter():
+    rng = np.random.default_rng(5)
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = np.diag([0.01, 0.04])
+    H = np.array([[1.0, 0.0]])
+    z = np.cumsum(rng.normal(0.0, 1.0, (4, 60)), axis=1)
+    z[:, ::9] = np.nan
+    kf = KalmanFilter(F=F, H=H, Q=Q, R=2.0, x0=np.zeros((4, 2)), P0=np.eye(2) * 10.0).run(z)
+    gen = extended_kalman_filter(LinearMotion(F, Q), LinearMeasurement(H, 2.0), np.zeros(2), np.eye(2) * 10.0,
+                                 None, z)
+    for key in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        np.testing.assert_allclose(getattr(gen, key), getattr(kf, key), **TOL)
+
+
+def test_equals_the_packed_range_only_ekf_with_a_moving_beacon():
+    motion, meas, x0, P0, u, z = study(2, moving=True)
+    gen = extended_kalman_filter(motion, meas, x0, P0, u, z)
+    fast = range_only_ekf(x0, P0, u, z, Q=motion.Q(None, None, 0), R=9.0, beacon=meas.beacon)
+    for key in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        np.testing.assert_allclose(getattr(fast, key), getattr(gen, key), **TOL)
+
+
+def test_multidimensional_measurement_direct_position_fixes():
+    rng = np.random.default_rng(2)
+    truth = np.cumsum(np.full((40, 2), 1.0), axis=0)
+    z = truth + rng.normal(0.0, 2.0, (40, 2))
+    z[7] = np.nan
+    res = extended_kalman_filter(DeadReckoning(np.eye(2) * 0.1), DirectMeasurement(2, [0, 1], np.eye(2) * 4.0),
+                                 [0.0, 0.0], np.eye(2) * 100.0, np.full((40, 2), 1.0), z)
+    kf = KalmanFilter(F=np.eye(2), H=np.eye(2), Q=np.eye(2) * 0.1, R=np.eye(2) * 4.0, x0=[0.0, 0.0],
+                      P0=np.eye(2) * 100.0, B=np.eye(2)).run(z, u=np.full((40, 2), 1.0))
+    np.testing.assert_allclose(res.x, kf.x, **TOL)
+    assert not res.extras["accepted"][7]
+
+
+def test_joseph_form_keeps_P_symmetric_psd_with_accurate_ranges_and_huge_P0():
+    motion = DeadReckoning(np.eye(2) * 1e-8)
+    meas = RangeToBeacon((0.0, 0.0), R=1e-6)
+    theta = np.linspace(0, 20 * np.pi, 2001)
+    track = 500.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    z = np.linalg.norm(track[1:], axis=1)
+    res = extended_kalman_filter(motion, meas, track[0] + 1.0, np.eye(2) * 1e12, np.diff(track, axis=0), z)
+    np.testing.assert_array_equal(res.P, np.swapaxes(res.P, -1, -2))
+    assert np.linalg.eigvalsh(res.P).min() > -1e-9 * np.abs(res.P).max()
+
+
+class RejectAbove(Gate):
+    """Reject innovations larger than a fixed size and remember what was rejected (for the test)."""
+
+    def __init__(self, limit):
+        self.limit = limit
+        self.seen = []
+
+    def accept(self, ctx):
+        return np.abs(ctx.y[:, 0]) <= self.limit
+
+    def after_update(self, x, P, accepted, k):
+        self.seen.append(accepted.copy())
+        return x, P
+
+
+def test_gate_rejects_outliers_like_missing_ranges():
+    motion, meas, x0, P0, u, z = study(2, missing=0.0, M=3)
+    plain = extended_kalman_filter(motion, meas, x0, P0, u, z)
+    z_bad = z.copy()
+    z_bad[:, 40:45] += 300.0
+    gate = RejectAbove(100.0)
+    gated = extended_kalman_filter(motion, meas, x0, P0, u, z_bad, gate=gate)
+    z_nan = z.copy()
+    z_nan[:, 40:45] = np.nan
+    as_missing = extended_kalman_filter(motion, meas, x0, P0, u, z_nan)
+    assert not gated.extras["accepted"][:, 40:45].any()
+    np.testing.assert_allclose(gated.x, as_missing.x, **TOL)
+    np.testing.assert_array_equal(np.array(gate.seen).T, gated.extras["accepted"])
+    # with no outliers a generous gate changes nothing
+    quiet = extended_kalman_filter(motion, meas, x0, P0, u, z, gate=ChiSquareGate(1 - 1e-12))
+    np.testing.assert_array_equal(quiet.x, plain.x)
+
+
+def test_gate_after_update_can_replace_the_estimate():
+    class Freeze(Gate):
+        def accept(self, ctx):
+            return np.zeros(ctx.y.shape[0], dtype=bool)
+
+        def after_update(self, x, P, accepted, k):
+            return np.full_like(x, 7.0), P
+
+    motion, meas, x0, P0, u, z = study(2, M=2)
+    res = extended_kalman_filter(motion, meas, x0, P0, u, z, gate=Freeze())
+    assert (res.x == 7.0).all() and not res.extras["accepted"].any()
+
+
+def test_prediction_on_the_beacon_skips_the_update_and_warns_at_the_caller():
+    filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), [1.0, 0.0],
+                                np.eye(2))
+    filt.predict([-1.0, 0.0])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        filt.update(3.0)
+    assert caught and issubclass(caught[0].category, BeaconSingularityWarning)
+    assert issubclass(caught[0].category, UwtutorWarning)
+    assert caught[0].filename == __file__
+    assert np.isnan(filt.y).all() and not filt.accepted
+    np.testing.assert_array_equal(filt.x, [0.0, 0.0])
+
+
+def test_bad_input_names_the_argument():
+    motion, meas = DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0)
+    with pytest.raises(TypeError, match="motion must be"):
+        ExtendedKalmanFilter("not a model", meas, [0.0, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="state of size 3"):
+        ExtendedKalmanFilter(motion, RangeToBeacon((0.0, 0.0), R=1.0, n=3), [0.0, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="x0 must have 2 entries"):
+        ExtendedKalmanFilter(motion, meas, [0.0, 0.0, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="P0 must be positive definite"):
+        ExtendedKalmanFilter(motion, meas, [0.0, 0.0], -np.eye(2))
+    with pytest.raises(ValueError, match="x0 and P0 disagree"):
+        ExtendedKalmanFilter(motion, meas, np.zeros((3, 2)), np.tile(np.eye(2), (4, 1, 1)))
+    filt = ExtendedKalmanFilter(motion, meas, [10.0, 0.0], np.eye(2))
+    with pytest.raises(ValueError, match="u must be the input of one step"):
+        filt.predict(np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="z must be finite, or NaN"):
+        filt.update(np.inf)
+    with pytest.raises(ValueError, match="z must be one measurement per run"):
+        filt.update([1.0, 2.0])
+    with pytest.raises(TypeError, match="gate must be"):
+        ExtendedKalmanFilter(motion, meas, [10.0, 0.0], np.eye(2), gate=lambda ctx: True)
+    with pytest.raises(ValueError, match="disagree on the number of runs"):
+        extended_kalman_filter(motion, meas, np.zeros((3, 2)), np.eye(2), None, np.ones((4, 10)))
+    with pytest.raises(IndexError, match="beacon path has 2 positions"):
+        extended_kalman_filter(motion, RangeToBeacon(np.zeros((2, 2)), R=1.0), [10.0, 0.0], np.eye(2), None,
+                               np.ones(3))
+    with pytest.raises(ValueError, match="R must be positive definite"):
+        RangeToBeacon((0.0, 0.0), R=0.0)
+    with pytest.raises(ValueError, match="bias_index must index the state"):
+        RangeToBeacon((0.0, 0.0), R=1.0, n=3, bias_index=3)
+
+
+def test_runs_axis_may_come_from_any_input():
+    motion, meas, x0, P0, u, z = study(2, M=4)
+    per_run_beacon = np.broadcast_to(np.array([5.0, -3.0]), (4, z.shape[1], 2))
+    res = extended_kalman_filter(motion, RangeToBeacon(per_run_beacon, R=9.0), x0[0], P0, u, z[0])
+    assert res.x.shape == (4, z.shape[1], 2)
+    ref = extended_kalman_filter(motion, RangeToBeacon((5.0, -3.0), R=9.0), x0[0], P0, u, z[0])
+    np.testing.assert_allclose(res.x[2], ref.x, **TOL)
+
+
+def test_a_model_returning_wrong_shapes_is_reported():
+    class Broken(MeasurementModel):
+        m, n = 1, 2
+
+        def h(self, x, k):
+            return x[:, :1]
+
+        def H(self, x, k):
+            return np.ones((1, 2))
+
+        def R(self, x, k):
+            return np.eye(1)
+
+    filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2)), Broken(), np.zeros((3, 2)), np.eye(2))
+    with pytest.raises(ValueError, match="H must have shape"):
+        filt.update(np.ones(3))

@@ -1,0 +1,391 @@
+r"""The generic extended Kalman filter: any motion model, any measurement model, many runs at once.
+
+Given a motion model (:math:`f`, :math:`F`, :math:`Q`) and a measurement model (:math:`h`, :math:`H`, :math:`R`)
+from :mod:`uwtutor.models`, each step of the filter is
+
+.. math::
+
+    \hat x^-_k = f(\hat x_{k-1}, u_k), \qquad P^-_k = F_k P_{k-1} F_k^T + Q_k,
+    \qquad F_k = \partial f / \partial x \,|_{\hat x_{k-1}},
+
+    y_k = z_k - h_k(\hat x^-_k), \qquad S_k = H_k P^-_k H_k^T + R_k, \qquad K_k = P^-_k H_k^T S_k^{-1},
+    \qquad H_k = \partial h_k / \partial x \,|_{\hat x^-_k},
+
+    \hat x_k = \hat x^-_k + K_k y_k, \qquad
+    P_k = (I - K_k H_k) P^-_k (I - K_k H_k)^T + K_k R_k K_k^T,
+
+the covariance update in Joseph form, computed as written (not as an algebraically equal shortcut) and then
+symmetrized, so that :math:`P_k` stays symmetric positive semi-definite under rounding
+(Bar-Shalom, Li and Kirubarajan 2001, sec. 5.2).
+
+Every array carries a leading axis of ``M`` Monte Carlo runs and every product is a stacked ``@``: one call
+filters a whole study. A NaN measurement means "no measurement": that run's step is predict only (its gain is
+zero, its innovation NaN). A *gate* (:mod:`uwtutor.filters.gates`) may reject measurements the same way, run by
+run, and then adjust the estimate of the rejected runs.
+
+Two forms:
+
+* :class:`ExtendedKalmanFilter` -- the object form of the filter protocol (``predict``, ``update``, ``run``);
+* :func:`extended_kalman_filter` -- the functional form, a whole sequence in one call; it returns the same result as the object's
+  ``run`` (it *is* that call).
+
+The specialised filters of the library (the range-only EKF, paper A's bias EKF, paper B's cooperative EKF, the
+robust range filter of paper E) are model pairs on this engine, or fast paths that must equal it
+(``tests/test_filter_contract.py``).
+
+References
+----------
+Bar-Shalom, Y., Li, X. R. and Kirubarajan, T. (2001). *Estimation with Applications to Tracking and Navigation*.
+Wiley. Sections 5.2 and 10.3.
+
+Labbe, R. *FilterPy* (``filterpy.kalman.ExtendedKalmanFilter``), the reference this engine is tested against.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._validate import as_covariance, as_finite, as_float_array
+from ..errors import BeaconSingularityWarning, warn
+from ..models.base import MeasurementModel, MotionModel
+from .base import FilterResult, run_filter
+from .gates import Gate, GateContext
+
+__all__ = ["ExtendedKalmanFilter", "extended_kalman_filter"]
+
+
+def _check_model(name: str, model: Any, kind: type) -> None:
+    if not isinstance(model, kind):
+        raise TypeError(f"{name} must be a {kind.__module__}.{kind.__name__} (see uwtutor.models); "
+                        f"got {type(model).__name__}")
+
+
+def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np.ndarray:
+    """A model's matrix as ``(M,) + shape`` (broadcast when shared by every run)."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == shape:
+        return arr
+    if arr.shape == (M,) + shape:
+        return arr
+    raise ValueError(f"the model's {name} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
+
+
+class ExtendedKalmanFilter:
+    r"""The generic batched extended Kalman filter (equations in the module docstring).
+
+    Parameters
+    ----------
+    motion : uwtutor.models.MotionModel
+        How the state moves: :math:`f`, :math:`F`, :math:`Q`.
+    measurement : uwtutor.models.MeasurementModel
+        What is measured: :math:`h`, :math:`H`, :math:`R`.
+    x0 : array_like, shape (n,) or (M, n)
+        Initial state; a leading axis runs ``M`` filters at once.
+    P0 : array_like, shape (n, n) or (M, n, n)
+        Initial covariance (positive definite).
+    gate : uwtutor.filters.Gate, optional
+        Accepts or rejects each innovation before it is used (outlier rejection); ``None`` uses every
+        finite measurement.
+
+    Attributes
+    ----------
+    x, P : ndarray
+        Current estimate ``(n,)``/``(M, n)`` and covariance ``(n, n)``/``(M, n, n)``.
+    x_prior, P_prior : ndarray
+        The prediction of the current step (equal to ``x``, ``P`` before the first ``predict``).
+    y, S : ndarray
+        Innovation ``(m,)``/``(M, m)`` and its covariance of the last update (NaN where no measurement was used).
+    accepted : ndarray of bool
+        Whether the last update used a measurement, ``()`` or ``(M,)``.
+    k : int
+        Index of the current step (``-1`` before the first ``predict``); the models read it for per-epoch
+        parameters such as a moving beacon.
+
+    Examples
+    --------
+    A vehicle circling a beacon, 3 runs, its position observed by the range to the beacon:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import ExtendedKalmanFilter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> theta = np.linspace(0.0, 2 * np.pi, 101)
+    >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> rng = np.random.default_rng(0)
+    >>> z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 2.0, (3, 100))
+    >>> filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2) * 0.25), RangeToBeacon((0.0, 0.0), R=4.0),
+    ...                             x0=np.tile(track[0] + [20.0, -15.0], (3, 1)), P0=np.eye(2) * 900.0)
+    >>> result = filt.run(z, u=np.diff(track, axis=0))
+    >>> result.x.shape, result.P.shape, result.extras["accepted"].shape
+    ((3, 100, 2), (3, 100, 2, 2), (3, 100))
+    >>> bool(np.all(np.linalg.norm(result.x[:, -1] - track[-1], axis=-1) < 10.0))
+    True
+    """
+
+    extra_outputs = ("accepted",)
+    result_type = FilterResult
+
+    def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: Any, P0: Any,
+                 gate: Gate | None = None) -> None:
+        _check_model("motion", motion, MotionModel)
+        _check_model("measurement", measurement, MeasurementModel)
+        if gate is not None and not isinstance(gate, Gate):
+            raise TypeError(f"gate must be a uwtutor.filters.Gate (or None); got {type(gate).__name__}")
+        n = motion.n
+        if measurement.n != n:
+            raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's "
+                             f"state has size {n}: build both for the same state")
+        self.motion, self.measurement, self.gate = motion, measurement, gate
+        self.n, self.m = n, measurement.m
+        x0 = as_finite("x0", x0, ndim=(1, 2))
+        if x0.shape[-1] != n:
+            raise ValueError(f"x0 must have {n} entries per run (the models' state size); got shape {x0.shape}")
+        P0 = as_covariance("P0", P0, n)
+        if P0.ndim not in (2, 3):
+            raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
+        sizes = {name: a.shape[0] for name, a, d in (("x0", x0, 2), ("P0", P0, 3)) if a.ndim == d}
+        if len(set(sizes.values())) > 1:
+            raise ValueError(f"x0 and P0 disagree on the number of runs M: {sizes}")
+        self._batched = bool(sizes)
+        self._M = next(iter(sizes.values()), 1)
+        self._x = np.array(np.broadcast_to(x0, (self._M, n)))
+        self._P = np.array(np.broadcast_to(P0, (self._M, n, n)))
+        self._x_prior = self._x.copy()
+        self._P_prior = self._P.copy()
+        self._y = np.full((self._M, self.m), np.nan)
+        self._S = np.full((self._M, self.m, self.m), np.nan)
+        self._accepted = np.zeros(self._M, dtype=bool)
+        self._eye = np.eye(n)
+        self.k = -1
+
+    # -- state access (views of the filter's arrays; assignment is validated) --
+    def _out(self, a: np.ndarray) -> np.ndarray:
+        return a if self._batched else a[0]
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs ``M`` (1 for an unbatched filter)."""
+        return self._M
+
+    @property
+    def x(self) -> np.ndarray:
+        """Current estimate, ``(n,)`` or ``(M, n)``."""
+        return self._out(self._x)
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        x = as_finite("x", value)
+        if x.shape not in ((self.n,), (self._M, self.n)):
+            raise ValueError(f"x must have shape ({self.n},) or ({self._M}, {self.n}); got {x.shape}")
+        self._x = np.array(np.broadcast_to(x, (self._M, self.n)))
+
+    @property
+    def P(self) -> np.ndarray:
+        """Current covariance, ``(n, n)`` or ``(M, n, n)``."""
+        return self._out(self._P)
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        P = as_covariance("P", value, self.n)
+        if P.shape not in ((self.n, self.n), (self._M, self.n, self.n)):
+            raise ValueError(f"P must have shape ({self.n}, {self.n}) or ({self._M}, {self.n}, {self.n}); "
+                             f"got {P.shape}")
+        self._P = np.array(np.broadcast_to(P, (self._M, self.n, self.n)))
+
+    @property
+    def x_prior(self) -> np.ndarray:
+        """The prediction of the current step, ``(n,)`` or ``(M, n)``."""
+        return self._out(self._x_prior)
+
+    @property
+    def P_prior(self) -> np.ndarray:
+        """The covariance of that prediction, ``(n, n)`` or ``(M, n, n)``."""
+        return self._out(self._P_prior)
+
+    @property
+    def y(self) -> np.ndarray:
+        """Innovation of the last update, ``(m,)`` or ``(M, m)`` (NaN: no measurement used)."""
+        return self._out(self._y)
+
+    @property
+    def S(self) -> np.ndarray:
+        """Its covariance, ``(m, m)`` or ``(M, m, m)`` (NaN: no measurement used)."""
+        return self._out(self._S)
+
+    @property
+    def accepted(self) -> np.ndarray:
+        """Whether the last update used a measurement, ``()`` or ``(M,)``."""
+        return self._out(self._accepted)
+
+    # -- the protocol --
+    def _step_input(self, u: Any) -> np.ndarray | None:
+        if u is None:
+            return None
+        u = as_finite("u", u)
+        if u.ndim == 0 or u.ndim > 2 or (u.ndim == 2 and (not self._batched or u.shape[0] != self._M)):
+            want = f"(p,) or ({self._M}, p)" if self._batched else "(p,)"
+            raise ValueError(f"u must be the input of one step, shape {want}; got {u.shape}")
+        return u
+
+    def predict(self, u: Any = None) -> None:
+        """Predict one step: ``x- = f(x, u)``, ``P- = F P F^T + Q`` (``u`` of shape (p,) or (M, p), or None)."""
+        u = self._step_input(u)
+        self.k += 1
+        k = self.k
+        M, n = self._M, self.n
+        x, P = self._x, self._P
+        F = _batched_matrix("F", self.motion.F(x, u, k), M, (n, n))
+        Q = _batched_matrix("Q", self.motion.Q(x, u, k), M, (n, n))
+        x_new = np.asarray(self.motion.f(x, u, k), dtype=float)
+        if x_new.shape != (M, n):
+            raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
+        P_new = F @ P @ np.swapaxes(F, -1, -2) + Q
+        self._x = self._x_prior = x_new
+        self._P = self._P_prior = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+
+    def _measurement(self, z: Any) -> np.ndarray:
+        z = as_float_array("z", z)
+        m, M = self.m, self._M
+        if z.size == m and (z.ndim <= 1 or not self._batched):
+            z = np.broadcast_to(z.reshape(1, m), (M, m))
+        elif self._batched and z.shape in ((M, m),) + (((M,),) if m == 1 else ()):
+            z = z.reshape(M, m)
+        else:
+            want = f"({M}, {m})" + (f" or ({M},)" if m == 1 else "") if self._batched else f"({m},)"
+            raise ValueError(f"z must be one measurement per run, shape {want}; got {z.shape}")
+        if np.isinf(z).any():
+            raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
+        return z
+
+    def update(self, z: Any) -> None:
+        """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update."""
+        z = self._measurement(z)
+        k = max(self.k, 0)
+        M, n, m = self._M, self.n, self.m
+        x, P = self._x, self._P
+        z_pred, H, defined = self.measurement.linearize(x, k)
+        z_pred = np.asarray(z_pred, dtype=float).reshape(M, m)
+        H = np.asarray(H, dtype=float)
+        if H.shape != (M, m, n):
+            raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
+        R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
+        has = np.isfinite(z).all(axis=-1)
+        if not defined.all():
+            if (has & ~defined).any():
+                warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
+                     "the update is skipped for that step (predict only)", BeaconSingularityWarning)
+            has = has & defined
+        HT = np.swapaxes(H, -1, -2)
+        PHT = P @ HT
+        S = H @ PHT + R
+        y = self.measurement.residual(z, z_pred)
+        use = has
+        if self.gate is not None:
+            ctx = GateContext(k=k, z=z, z_pred=z_pred, y=np.where(has[:, None], y, np.nan),
+                              S=S, H=H, R=R, x_prior=x, P_prior=P)
+            verdict = np.asarray(self.gate.accept(ctx), dtype=bool)
+            if verdict.shape != (M,):
+                raise ValueError(f"the gate's accept must return a bool array of shape ({M},); got {verdict.shape}")
+            use = has & verdict
+        if m == 1:
+            gain = PHT / S                                           # (M, n, 1): S is (M, 1, 1)
+        else:
+            gain = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHT, -1, -2)), -1, -2)
+        gain = np.where(use[:, None, None], gain, 0.0)               # zero gain: the run keeps its prediction
+        y_used = np.where(use[:, None], y, 0.0)
+        x_post = x + (gain @ y_used[..., None])[..., 0]
+        A = self._eye - gain @ H
+        P_post = A @ P @ np.swapaxes(A, -1, -2) + gain @ R @ np.swapaxes(gain, -1, -2)
+        P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
+        if self.gate is not None:
+            x_post, P_post = self.gate.after_update(x_post, P_post, use.copy(), k)
+        self._x, self._P = x_post, P_post
+        self._y = np.where(use[:, None], y, np.nan)
+        self._S = np.where(use[:, None, None], S, np.nan)
+        self._accepted = use
+
+    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+        """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
+        :func:`~uwtutor.filters.run_filter`); the filter is left at the last step.
+
+        ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
+        measurements; ``u`` has shape (K, p) or (M, K, p), or is None.
+        """
+        return run_filter(self, z, u, times)
+
+
+def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: Any, P0: Any, u: Any, z: Any, *,
+        times: Any = None, gate: Gate | None = None) -> FilterResult:
+    r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
+
+    The functional form of :class:`ExtendedKalmanFilter`: the argument order of every functional filter of the
+    library, ``(x0, P0, u, z, ...)``, after the two models.
+
+    Parameters
+    ----------
+    motion, measurement : MotionModel, MeasurementModel
+        The model pair (see :mod:`uwtutor.models`).
+    x0 : array_like, shape (n,) or (M, n)
+        Initial state.
+    P0 : array_like, shape (n, n) or (M, n, n)
+        Initial covariance.
+    u : array_like, shape (K, p) or (M, K, p), or None
+        The input of each step (e.g. the DR displacement).
+    z : array_like, shape (K,), (K, m), (M, K) or (M, K, m)
+        The measurements, NaN where missing (predict only).
+    times : array_like, shape (K,), optional
+        Time stamps for the result.
+    gate : Gate, optional
+        Outlier test applied to each innovation.
+
+    Returns
+    -------
+    FilterResult
+        ``x`` (…, K, n), ``P`` (…, K, n, n), the priors, ``innovations`` (…, K, m), ``innovation_cov``
+        (…, K, m, m) and ``extras["accepted"]`` (…, K), True where a measurement was used.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> u = np.tile([1.0, 0.0], (50, 1))                       # 1 m east per step
+    >>> truth = np.array([50.0, 100.0]) + np.cumsum(u, axis=0)
+    >>> ship = truth + [0.0, -300.0] + np.column_stack([np.zeros(50), np.linspace(0, 50, 50)])
+    >>> z = np.linalg.norm(truth - ship, axis=1)               # exact ranges to a moving beacon
+    >>> res = extended_kalman_filter(DeadReckoning(np.eye(2) * 0.01), RangeToBeacon(ship, R=1.0), [60.0, 90.0],
+    ...           np.eye(2) * 100.0, u, z)
+    >>> bool(np.linalg.norm(res.x[-1] - truth[-1]) < np.linalg.norm([10.0, 10.0]))
+    True
+    """
+    _check_model("motion", motion, MotionModel)
+    _check_model("measurement", measurement, MeasurementModel)
+    x0 = as_finite("x0", x0, ndim=(1, 2))
+    P0 = as_covariance("P0", P0, motion.n)
+    z = as_float_array("z", z)
+    if u is not None:
+        u = as_finite("u", u)
+    # The runs axis may come from any input; the others are shared by every run.
+    single_z_ndim = 1 if measurement.m == 1 else 2
+    sizes = {
+        "x0": x0.shape[0] if x0.ndim == 2 else None,
+        "P0": P0.shape[0] if P0.ndim == 3 else None,
+        "z": z.shape[0] if z.ndim > single_z_ndim else None,
+        "u": u.shape[0] if u is not None and u.ndim == 3 else None,
+        "the measurement model": getattr(measurement, "n_runs", None),
+        "the motion model": getattr(motion, "n_runs", None),
+    }
+    given = {name: size for name, size in sizes.items() if size is not None}
+    if len(set(given.values())) > 1:
+        described = ", ".join(f"{name} has {size}" for name, size in given.items())
+        raise ValueError(f"the inputs with a leading runs axis disagree on the number of runs M: {described}")
+    if given:
+        M = next(iter(given.values()))
+        x0 = np.broadcast_to(x0, (M, motion.n))
+        if z.ndim == single_z_ndim:
+            z = np.broadcast_to(z, (M,) + z.shape)
+        if u is not None and u.ndim == 2:
+            u = np.broadcast_to(u, (M,) + u.shape)
+    filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate)
+    return filt.run(z, u, times)

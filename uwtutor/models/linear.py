@@ -1,0 +1,131 @@
+r"""Linear-Gaussian motion and measurement models: :math:`x_k = F x_{k-1} + B u_k + w_k`, :math:`z_k = H x_k + v_k`.
+
+On these models the extended Kalman filter *is* the Kalman filter, which is how the contract test checks every
+Gaussian filter of the library against :class:`~uwtutor.filters.KalmanFilter`. :class:`DirectMeasurement`
+(:math:`H` selects some state components) is the "measure the state itself" case, e.g. chapter 1's range
+sequence or paper E's cascade filter on position fixes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._validate import as_covariance, as_finite, as_int
+from .base import MeasurementModel, MotionModel
+
+__all__ = ["LinearMotion", "LinearMeasurement", "DirectMeasurement"]
+
+
+class LinearMotion(MotionModel):
+    r"""Linear motion :math:`x_k = F x_{k-1} + B u_k + w_k`, :math:`w_k \sim N(0, Q)`.
+
+    Parameters
+    ----------
+    F : array_like, shape (n, n)
+        State transition matrix.
+    Q : array_like, shape (n, n)
+        Process noise covariance (positive semi-definite).
+    B : array_like, shape (n, p), optional
+        Input matrix; ``None``: the model takes no input.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import LinearMotion
+    >>> cv = LinearMotion(F=[[1.0, 1.0], [0.0, 1.0]], Q=np.diag([0.0, 0.01]))
+    >>> cv.f(np.array([[10.0, 2.0]]), None, 0)
+    array([[12.,  2.]])
+    """
+
+    def __init__(self, F: Any, Q: Any, B: Any = None) -> None:
+        self._F = as_finite("F", F, ndim=2)
+        n = self._F.shape[0]
+        if self._F.shape != (n, n):
+            raise ValueError(f"F must be square, shape (n, n); got {self._F.shape}")
+        self.n = n
+        self._Q = as_covariance("Q", Q, n, allow_singular=True)
+        if self._Q.ndim != 2:
+            raise ValueError(f"Q must be one ({n}, {n}) matrix; got shape {self._Q.shape}")
+        self._B = None if B is None else as_finite("B", B, ndim=2)
+        if self._B is not None and self._B.shape[0] != n:
+            raise ValueError(f"B must have {n} rows to match F; got shape {self._B.shape}")
+
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        out = x @ self._F.T
+        if u is not None:
+            if self._B is None:
+                raise ValueError("u was given but this motion model has no input matrix B")
+            out = out + np.asarray(u, dtype=float) @ self._B.T
+        return out
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self._F
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self._Q
+
+
+class LinearMeasurement(MeasurementModel):
+    r"""Linear measurement :math:`z_k = H x_k + v_k`, :math:`v_k \sim N(0, R)`.
+
+    Parameters
+    ----------
+    H : array_like, shape (m, n)
+        Measurement matrix.
+    R : array_like, shape (m, m), or a scalar for m = 1
+        Measurement noise covariance (positive definite).
+
+    Examples
+    --------
+    >>> from uwtutor.models import LinearMeasurement
+    >>> LinearMeasurement(H=[[1.0, 0.0]], R=4.0).R(None, 0)
+    array([[4.]])
+    """
+
+    def __init__(self, H: Any, R: Any) -> None:
+        self._H = as_finite("H", H, ndim=2)
+        self.m, self.n = self._H.shape
+        self._R = as_covariance("R", R, self.m)
+        if self._R.ndim != 2:
+            raise ValueError(f"R must be one ({self.m}, {self.m}) matrix; got shape {self._R.shape}")
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return x @ self._H.T
+
+    def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        return np.broadcast_to(self._H, (x.shape[0],) + self._H.shape)
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._R
+
+
+class DirectMeasurement(LinearMeasurement):
+    r"""Measure some components of the state directly: :math:`z = x[\text{indices}] + v`.
+
+    Parameters
+    ----------
+    n : int
+        Size of the state.
+    indices : sequence of int
+        The measured components, in the order of the measurement vector.
+    R : array_like, shape (m, m), or a scalar for m = 1
+        Measurement noise covariance (positive definite), ``m = len(indices)``.
+
+    Examples
+    --------
+    >>> from uwtutor.models import DirectMeasurement
+    >>> DirectMeasurement(n=4, indices=[0, 1], R=[[4.0, 0.0], [0.0, 4.0]])._H
+    array([[1., 0., 0., 0.],
+           [0., 1., 0., 0.]])
+    """
+
+    def __init__(self, n: int, indices: Any, R: Any) -> None:
+        n = as_int("n", n, minimum=1)
+        idx = [as_int("indices", i, minimum=0) for i in np.atleast_1d(np.asarray(indices)).tolist()]
+        if not idx or max(idx) >= n or len(set(idx)) != len(idx):
+            raise ValueError(f"indices must be distinct state components in 0..{n - 1}; got {idx}")
+        H = np.zeros((len(idx), n))
+        H[np.arange(len(idx)), idx] = 1.0
+        super().__init__(H, R)
