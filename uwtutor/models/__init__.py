@@ -8,9 +8,11 @@ from .base import MeasurementModel, MotionModel
 from .dead_reckoning import DeadReckoning
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
 from .range import RangeToBeacon, line_of_sight
+from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [
     "MotionModel", "MeasurementModel",
     "DeadReckoning", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
     "RangeToBeacon", "line_of_sight",
+    "ConstantVelocity", "PositionMeasurement",
 ]
