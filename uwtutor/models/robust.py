@@ -105,10 +105,11 @@ class ConstantVelocity(MotionModel):
         self.q = float(as_nonnegative("q", q, ndim=0))
         steps = as_nonnegative("steps", steps, ndim=1)
         self.steps = steps
-        I = np.eye(self.d)
-        self._F = np.array([np.block([[I, s * I], [0 * I, I]]) for s in steps])
-        self._Q = np.array([self.q * np.block([[s**4 / 4 * I, s**3 / 2 * I], [s**3 / 2 * I, s**2 * I]])
-                            for s in steps])
+        d, K = self.d, len(steps)
+        self._F = np.tile(np.eye(2 * d), (K, 1, 1))
+        self._F[:, :d, d:] = steps[:, None, None] * np.eye(d)
+        blocks = np.stack([np.stack([steps**4 / 4, steps**3 / 2], -1), np.stack([steps**3 / 2, steps**2], -1)], -2)
+        self._Q = self.q * np.einsum("kij,ab->kiajb", blocks, np.eye(d)).reshape(K, 2 * d, 2 * d)
 
     def _step(self, k: int) -> int:
         if not 0 <= k < len(self.steps):
