@@ -13,10 +13,10 @@ call for a Monte Carlo study.
 ========================  =====================================================================================
 
 **Paper E's OR-VMLBL-KF** (sec. 1): the stored ranges :math:`\tilde r_k` to the mother ship are filtered by
-:func:`~uwtutor.filters.robust_range_kf` (OR: outlier rejection); at every epoch :math:`k` the filtered ranges of
+:func:`~uwtutor.filters.robust.robust_range_kf` (OR: outlier rejection); at every epoch :math:`k` the filtered ranges of
 epochs :math:`k - 3s, k - 2s, k - s, k`, the ship's GPS positions :math:`AB_i` and the submersible's DR positions
 :math:`P_i` there give a virtual-beacon fix (:func:`~uwtutor.lsq.virtual_beacon_lsq`; VMLBL); the fixes are
-filtered by :func:`~uwtutor.filters.cascade_kf` (KF). A fix's covariance is taken as
+filtered by :func:`~uwtutor.filters.robust.cascade_kf` (KF). A fix's covariance is taken as
 :math:`\tfrac12 (g\,\sigma_r)^2 I_2`, with :math:`g` its noise gain (RMS position error per metre of range noise)
 and :math:`\sigma_r^2` the range filter's mean variance over the four epochs.
 
@@ -157,13 +157,13 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     preprocess : bool, default True
         Filter the ranges first (OR); False computes the fixes from the raw ranges.
     range_options : dict, optional
-        Keyword arguments for :func:`~uwtutor.filters.robust_range_kf` (default: paper E's).
+        Keyword arguments for :func:`~uwtutor.filters.robust.robust_range_kf` (default: paper E's).
     fix_q : float, default 1e-4
         The cascade filter's acceleration variance [(m/s²)²].
     fix_test : {"chi2", "paper", "none"} or Gate, default "chi2"
         The cascade filter's outlier test.
     fix_options : dict, optional
-        Further keyword arguments for :func:`~uwtutor.filters.cascade_kf`.
+        Further keyword arguments for :func:`~uwtutor.filters.robust.cascade_kf`.
     smooth : bool, default False
         Also run the RTS smoother over the cascade filter.
 

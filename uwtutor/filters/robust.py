@@ -5,8 +5,8 @@ Paper E filters the range sequence to the mother ship with a Kalman filter and t
 a rejected range is replaced by an extrapolation. After the least-squares fixes it filters once more (the
 *cascade* filter) with the same test.
 
-Both filters are the generic engine (:class:`~uwtutor.filters.ExtendedKalmanFilter`) on a constant-velocity model
-(:mod:`uwtutor.models.robust`) with a gate (:mod:`uwtutor.filters.gates`):
+Both filters are the generic engine (``uwtutor.filters.ExtendedKalmanFilter``) on a constant-velocity model
+(:mod:`uwtutor.models.robust`) with a gate (``uwtutor.filters.gates``):
 
 ===============================  ==================================================================================
 ``SecondMomentGate(delta)``      paper E's test :math:`H_0`: :math:`z z^T \in [D(1-\delta), D(1+\delta)]`,

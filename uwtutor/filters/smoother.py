@@ -14,7 +14,7 @@ over the filter's own output (Rauch, Tung and Striebel 1965; Särkkä 2013, sec.
 from :math:`\hat x^s_{K-1} = \hat x_{K-1}`, :math:`P^s_{K-1} = P_{K-1}`. Here :math:`\hat x_k, P_k` are the
 filter's posteriors, :math:`\hat x^-_{k+1}, P^-_{k+1}` its predictions and :math:`F_{k+1}` the Jacobian of the
 motion model at :math:`\hat x_k` (the extended RTS smoother for a nonlinear model). The smoother reads the
-predictions *as the filter made them* from its :class:`~uwtutor.filters.FilterResult`, so a gate that changed
+predictions *as the filter made them* from its :class:`~uwtutor.filters.base.FilterResult`, so a gate that changed
 an estimate (a rejected measurement, a re-acquisition) is carried through consistently.
 
 On a linear-Gaussian model the smoothed estimates are the solution of the batch least-squares problem over the

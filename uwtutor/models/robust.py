@@ -17,7 +17,7 @@ acceleration of variance :math:`q` held over each step :math:`\Delta_k`. The fir
 
 :class:`ConstantVelocity` is the motion model (any step lengths); :class:`PositionMeasurement` is
 :math:`z = [I\ 0]x + v` with a covariance that may change from epoch to epoch (a least-squares fix comes with its
-own), which :class:`~uwtutor.models.DirectMeasurement` with its single :math:`R` does not allow.
+own), which ``uwtutor.models.DirectMeasurement`` with its single :math:`R` does not allow.
 
 References
 ----------
