@@ -56,9 +56,9 @@ def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.nda
 
     Returns
     -------
-    now : ndarray of int, shape (K_f,)
+    now : ndarray of int, shape (J,)
         The epoch of each fix, from ``(n - 1) s`` to ``K - 1``.
-    index : ndarray of int, shape (K_f, n_epochs)
+    index : ndarray of int, shape (J, n_epochs)
         The epochs each fix uses, oldest first.
 
     Examples
@@ -82,7 +82,7 @@ def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.nda
 class VMLBLResult:
     """Every stage of paper E's OR-VMLBL-KF (returned by :func:`or_vmlbl_kf`).
 
-    Shapes: ``K`` epochs, ``K_f`` fixes (the epochs from ``3 s`` on), a leading runs axis ``M`` when the inputs
+    Shapes: ``K`` epochs, ``J`` fixes (the epochs from ``3 s`` on), a leading runs axis ``M`` when the inputs
     had one.
 
     Attributes
@@ -93,11 +93,11 @@ class VMLBLResult:
         The range filter's run (None when ``preprocess=False``).
     used_ranges : ndarray, shape (K,) or (M, K)
         The ranges the fixes were computed from (filtered, or raw without preprocessing) [m].
-    now : ndarray of int, shape (K_f,)
+    now : ndarray of int, shape (J,)
         The epoch index of each fix.
     fix : lsq.VirtualBeaconFix
-        The least-squares fixes with their conditioning, shapes ``(K_f, ...)`` or ``(M, K_f, ...)``.
-    fix_cov : ndarray, shape (K_f, 2, 2) or (M, K_f, 2, 2)
+        The least-squares fixes with their conditioning, shapes ``(J, ...)`` or ``(M, J, ...)``.
+    fix_cov : ndarray, shape (J, 2, 2) or (M, J, 2, 2)
         The covariance given to the cascade filter [m²].
     track : FilterResult
         The cascade filter's run on the fixes (state ``[x, y, vx, vy]``).
@@ -116,17 +116,17 @@ class VMLBLResult:
 
     @property
     def fix_times(self) -> np.ndarray:
-        """Times of the fixes [s], shape ``(K_f,)``."""
+        """Times of the fixes [s], shape ``(J,)``."""
         return self.times[self.now]
 
     @property
     def fixes(self) -> np.ndarray:
-        """OR-VMLBL: the least-squares positions [m], ``(K_f, 2)`` or ``(M, K_f, 2)`` (NaN where singular)."""
+        """The least-squares positions of OR-VMLBL [m], ``(J, 2)`` or ``(M, J, 2)`` (NaN where singular)."""
         return self.fix.position
 
     @property
     def filtered(self) -> np.ndarray:
-        """OR-VMLBL-KF: the cascade filter's positions [m], same shape as ``fixes``."""
+        """The cascade filter's positions, OR-VMLBL-KF [m], same shape as ``fixes``."""
         return self.track.x[..., :2]
 
 

@@ -200,10 +200,12 @@ class RobustGate(Gate):
 
     Attributes
     ----------
-    rejected, reacquired : list of ndarray
-        Per step, bool ``(M,)``: the test rejected the measurement; the run was restarted.
-    cleared : list of (run, step) pairs
-        Rejected measurements reclassified as good by a re-acquisition.
+    rejected : list of ndarray
+        Per step, bool ``(M,)``: the test rejected the measurement.
+    reacquired : list of ndarray
+        Per step, bool ``(M,)``: the run was restarted.
+    cleared : list of tuple
+        The ``(run, step)`` pairs of rejected measurements reclassified as good by a re-acquisition.
     """
 
     def __init__(self, test: Gate | None, steps: Any, *, on_outlier: str = "predict",

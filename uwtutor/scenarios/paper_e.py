@@ -39,8 +39,10 @@ class PaperE:
 
     Attributes
     ----------
-    duration, interval : float
-        1200 s at 1 s.
+    duration : float
+        1200 s.
+    interval : float
+        A range every 1 s.
     ship_velocity : tuple of float
         Initial ship velocity [m/s], (2, 2).
     turn_rate_deg : float
@@ -49,20 +51,28 @@ class PaperE:
         Submersible velocity [m/s], (1, 1).
     range_noise_variance : float
         White range noise variance [m²], 2 (the paper's "variance 2").
-    q, r : float
-        Range filter's process and measurement noise variances, both 2.
+    q : float
+        Range filter's process noise (acceleration) variance, 2.
+    r : float
+        Range filter's measurement noise variance, 2 m².
     outlier_amplitude : float
         80 m.
-    outlier_onsets, outlier_counts, outlier_two_sided : tuple
-        (300, 700) s, (10, 20) epochs, (one-sided, two-sided).
+    outlier_onsets : tuple of float
+        Starts of the outlier patches, (300, 700) s.
+    outlier_counts : tuple of int
+        Their lengths, (10, 20) epochs.
+    outlier_two_sided : tuple of bool
+        (one-sided, two-sided).
     delta : float
         The tolerance of the paper's test, 0.03.
     budget_runs : int
         Monte Carlo runs of the error budget (Fig. 6), 50 000.
     half_period : float
         Time the ship turns each way [s], 600 (chosen: one right and one left turn in 1200 s).
-    ship_start, sub_start : tuple of float
-        Start positions [m] (chosen).
+    ship_start : tuple of float
+        Ship's start position [m] (chosen).
+    sub_start : tuple of float
+        Submersible's start position [m] (chosen).
     depth : float
         Submersible depth [m], 1000 (chosen).
     spacing : float

@@ -34,14 +34,18 @@ PATTERNS = ("paper", "isolated", "long patch")
 class OutlierView:
     r"""What the chapter-9 widget shows for one setting (returned by ``outlier_view``).
 
-    Shapes: ``K`` epochs, ``K_f`` fixes.
+    Shapes: ``K`` epochs, ``J`` fixes.
 
     Attributes
     ----------
-    amplitude, delta : float
-        Outlier size [m] and the test's :math:`\delta`.
-    pattern, test : str
-        The outlier pattern (one of ``PATTERNS``) and the range filter's test (``"paper"`` or ``"chi2"``).
+    amplitude : float
+        Outlier size [m].
+    pattern : str
+        The outlier pattern, one of ``PATTERNS``.
+    delta : float
+        The test's :math:`\delta`.
+    test : str
+        The range filter's test, ``"paper"`` or ``"chi2"``.
     spacing : int
         Epochs between the four epochs of a fix.
     reacquire : bool
@@ -50,16 +54,20 @@ class OutlierView:
         Epoch times [s].
     range_error : ndarray, shape (K,)
         Measured minus true slant range [m].
-    plain_error, robust_error : ndarray, shape (K,)
-        The standard KF's and the outlier-rejecting KF's range minus the true range [m].
+    plain_error : ndarray, shape (K,)
+        The standard KF's range minus the true range [m].
+    robust_error : ndarray, shape (K,)
+        The outlier-rejecting KF's range minus the true range [m].
     outlier : ndarray of bool, shape (K,)
         The injected outliers.
     flagged : ndarray of bool, shape (K,)
         The ranges the filter classed as outliers.
-    fix_times : ndarray, shape (K_f,)
+    fix_times : ndarray, shape (J,)
         Times of the fixes [s].
-    fix_error, track_error : ndarray, shape (K_f,)
-        Horizontal position error of OR-VMLBL (the fixes) and of OR-VMLBL-KF (the cascade filter) [m].
+    fix_error : ndarray, shape (J,)
+        Horizontal position error of OR-VMLBL (the fixes) [m].
+    track_error : ndarray, shape (J,)
+        Horizontal position error of OR-VMLBL-KF (the cascade filter) [m].
     summary : dict of float
         ``"flagged"`` (fraction of the outliers flagged), ``"good_flagged"`` (fraction of the good ranges flagged),
         ``"rms_fix"``, ``"rms_track"`` [m], ``"within_10_fix"``, ``"within_10_track"`` (fraction of fixes with an
