@@ -32,12 +32,13 @@ book: setup
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
 
 # One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
-# exercises, the strict book build and the browser test over it) and every book notebook re-run by
-# nbval in strict mode (text outputs compared with the committed ones, after tests/nbval_sanitize.cfg).
+# exercises, the strict book build and the browser test over it), every docstring example of the library
+# (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
+# committed ones, after tests/nbval_sanitize.cfg).
 NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg
 
 test: setup
-	$(PY) -m pytest $(NBVAL) tests book $(PYTEST_ARGS)
+	$(PY) -m pytest $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
 
 # JupyterLab on the chapters (book/) and on your own copies of the exercises (my-work/, made on first
 # use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.

@@ -125,5 +125,5 @@ def test_plain_log_ticks_and_covariance_ellipse():
     assert ell.shape == (50, 2)
     assert np.max(np.abs(ell[:, 0])) == pytest.approx(4.0, rel=1e-3)
     assert np.max(np.abs(ell[:, 1])) == pytest.approx(2.0, rel=1e-2)
-    with pytest.raises(ValueError, match="cov must have shape"):
+    with pytest.raises(ValueError, match="covariance must have shape"):
         ch03.covariance_ellipse(np.eye(3))

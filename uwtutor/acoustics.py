@@ -33,6 +33,7 @@ __all__ = [
     "travel_time_from_range",
     "effective_sound_speed",
     "sound_speed_error_range_bias",
+    "range_factor",
 ]
 
 #: Published validity range of the Mackenzie (1981) equation, as ``(min, max)`` pairs of temperature
@@ -267,6 +268,46 @@ def effective_sound_speed(profile_depths: Any, profile_speeds: Any, source_depth
     return _scalar_or_array(np.asarray(c_eff, dtype=float))
 
 
+def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) -> tuple[Any, Any]:
+    r"""The multiplicative range factor of a sound-speed error, and its spread: the library's one formula.
+
+    A travel time :math:`\tau = r / c` converted with the speed :math:`c_a` gives :math:`\gamma r` with
+    :math:`\gamma = c_a / c`. When the true speed varies from ping to ping, :math:`c \sim N(c_e, \sigma_c^2)`,
+    to first order in :math:`\sigma_c / c_e`
+
+    .. math::
+
+        \mu_\gamma = \frac{c_a}{c_e}, \qquad \sigma_\gamma = \frac{c_a}{c_e}\,\frac{\sigma_c}{c_e}.
+
+    Parameters
+    ----------
+    assumed_speed : float or array_like
+        The speed :math:`c_a` the navigator converts with [m/s], > 0.
+    true_speed : float or array_like
+        The (mean) true effective speed [m/s], > 0 (broadcasts with ``assumed_speed``).
+    speed_sigma : float or array_like, default 0
+        Standard deviation of the true speed from ping to ping [m/s], >= 0.
+
+    Returns
+    -------
+    mu_gamma, sigma_gamma : float or ndarray
+        :math:`\mu_\gamma` and :math:`\sigma_\gamma`.
+
+    Examples
+    --------
+    >>> from uwtutor.acoustics import range_factor
+    >>> mu, sigma = range_factor(1470.0, 1500.0, 1.0)
+    >>> round(mu, 6), round(sigma * 1500.0, 6)
+    (0.98, 0.98)
+    """
+    ca = as_positive("assumed_speed", assumed_speed)
+    ct = as_positive("true_speed", true_speed)
+    sc = as_nonnegative("speed_sigma", speed_sigma)
+    mu = ca / ct
+    sigma = ca * sc / ct**2
+    return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))
+
+
 def sound_speed_error_range_bias(true_range: Any, assumed_speed: Any, true_speed: Any) -> float | np.ndarray:
     r"""Range error made by converting a travel time with the wrong sound speed.
 
@@ -302,6 +343,5 @@ def sound_speed_error_range_bias(true_range: Any, assumed_speed: Any, true_speed
     -20.0
     """
     r = as_range_array("true_range", true_range)
-    ca = as_positive("assumed_speed", assumed_speed)
-    ct = as_positive("true_speed", true_speed)
-    return _scalar_or_array(np.asarray(r * (ca / ct - 1.0), dtype=float))
+    gamma, _ = range_factor(assumed_speed, true_speed)
+    return _scalar_or_array(np.asarray(r * (gamma - 1.0), dtype=float))

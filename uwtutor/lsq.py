@@ -62,6 +62,7 @@ import numpy as np
 
 from ._validate import as_finite, as_float_array, as_int, as_positive
 from .errors import IllConditionedWarning
+from .models.range import line_of_sight
 
 __all__ = [
     "IllConditionedWarning",
@@ -186,12 +187,11 @@ def condition_number(A: Any) -> float | np.ndarray:
 
 def _unit_los(positions: np.ndarray, beacons: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Unit line-of-sight rows (p - b)/|p - b| and distances; an error if a point sits on its beacon."""
-    d = positions - beacons
-    rho = np.hypot(d[..., 0], d[..., 1])
-    if np.any(rho == 0.0):
+    rho, los, defined = line_of_sight(positions, beacons)
+    if not defined.all():
         raise ValueError(f"{name} coincides with a beacon, where the range has no direction (its gradient is "
                          "undefined); move the linearization point off the beacon")
-    return d / rho[..., None], rho
+    return los, rho
 
 
 def precision_factor_history(positions: Any, beacon: Any = (0.0, 0.0), unknown_bias: bool = True) -> np.ndarray:

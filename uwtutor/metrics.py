@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from ._linalg import quadratic_form as _quadratic_form
 from ._validate import as_finite, as_float_array
 
 __all__ = [
@@ -174,35 +175,6 @@ def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
     if e.size == 0:
         raise ValueError("errors must contain at least one value that is not NaN")
     return e, np.arange(1, e.size + 1) / e.size
-
-
-def _quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
-    r""":math:`v^T C^{-1} v` over stacked vectors ``(..., n)`` and matrices ``(..., n, n)``; explicit for n <= 2."""
-    n = vec.shape[-1]
-    if n <= 2:
-        if n == 1:
-            det = cov[..., 0, 0]
-            num = vec[..., 0] ** 2
-        else:
-            a, b, d = cov[..., 0, 0], cov[..., 0, 1], cov[..., 1, 1]
-            e0, e1 = vec[..., 0], vec[..., 1]
-            det = a * d - b * b
-            num = d * e0 * e0 - 2.0 * b * e0 * e1 + a * e1 * e1
-        if np.any((det <= 0) & np.isfinite(vec).all(axis=-1)):
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix with "
-                             "determinant <= 0")
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return num / det
-    out = np.full(vec.shape[:-1], np.nan)
-    ok = np.isfinite(vec).all(axis=-1)
-    if ok.any():
-        try:
-            sol = np.linalg.solve(cov[ok], vec[ok][..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a singular "
-                             "matrix") from None
-        out[ok] = np.einsum("...i,...i->...", vec[ok], sol)
-    return out
 
 
 def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:

@@ -69,6 +69,7 @@ import numpy as np
 
 from ._validate import as_finite, as_float_array, as_positive
 from .errors import UnobservableWarning
+from .models.range import line_of_sight
 
 __all__ = [
     "DEFAULT_RTOL",
@@ -187,21 +188,18 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]])
-    array([[-1., -0.],
-           [-0.,  1.]])
+    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]]) + 0.0     # + 0.0 turns -0.0 into 0.0
+    array([[-1.,  0.],
+           [ 0.,  1.]])
     """
     p = _as_points("position", position)
     b = _as_points("beacons", beacons)
     p, b = _broadcast("position", p, "beacons", b)
-    d = p - b
-    dist = np.hypot(d[..., 0], d[..., 1])
-    on_beacon = dist == 0
-    if on_beacon.any():
-        _warn(f"the position coincides with a beacon at {int(on_beacon.sum())} place(s): the range is not "
+    _, los, defined = line_of_sight(p, b)
+    if not defined.all():
+        _warn(f"the position coincides with a beacon at {int((~defined).sum())} place(s): the range is not "
               "differentiable there, so that range is given no information (a zero Jacobian row)")
-    safe = np.where(on_beacon, 1.0, dist)
-    return np.where(on_beacon[..., None], 0.0, d / safe[..., None])
+    return los
 
 
 def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
@@ -583,9 +581,9 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     return float(out) if out.ndim == 0 else out
 
 
-def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True, *,
-                     rtol: float = DEFAULT_RTOL) -> float | np.ndarray:
-    r"""Paper A's precision factor :math:`\alpha = \operatorname{tr}\,(X^\mathsf{T} X)^{-1} = \sum_i 1/\lambda_i`.
+def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> float | np.ndarray:
+    r"""Paper A's precision factor :math:`\alpha = \operatorname{tr}\,(X^\mathsf{T} X)^{-1} = \sum_i 1/\lambda_i`
+    of a geometry: beacons (or a track's virtual beacons) and a vehicle position.
 
     Liu et al. (paper A) linearize the ranges about a provisional position and regress the range residuals on
     the rows :math:`X_i = [h_i, 1]` (line of sight and bias); the LS error covariance is
@@ -595,6 +593,10 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True, *,
     (and starts its filter) once :math:`\alpha < 2`. With ``unknown_bias=False`` it is the position-only GDOP
     squared.
 
+    This function builds the rows :math:`X_i` from the geometry and hands them to
+    :func:`uwtutor.lsq.precision_factor`, the library's one computation of :math:`\alpha` (and its one rule for a
+    singular geometry).
+
     Parameters
     ----------
     beacons : array_like, shape (N, 2) or (..., N, 2)
@@ -603,21 +605,36 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True, *,
         Vehicle position [m].
     unknown_bias : bool, default True
         Include the bias column (paper A's regressor).
-    rtol : float, default ``DEFAULT_RTOL``
-        Tolerance of the singularity test; degenerate geometry gives ``inf`` with an ``UnobservableWarning``.
 
     Returns
     -------
     float or ndarray, shape (...)
-        :math:`\alpha` (dimensionless).
+        :math:`\alpha` (dimensionless); ``inf`` where the geometry is degenerate, with an ``UnobservableWarning``.
+
+    Examples
+    --------
+    Four beacons at right angles, with the bias: :math:`X^\mathsf T X = \operatorname{diag}(2, 2, 4)`.
+
+    >>> import numpy as np
+    >>> from uwtutor.observability import precision_factor
+    >>> beacons = np.array([[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0], [0.0, -100.0]])
+    >>> round(precision_factor(beacons, [0.0, 0.0]), 12)
+    1.25
     """
-    J = fisher_information(beacons, position, 1.0, unknown_bias)
-    bounds, _, singular = _bound_batch(J, _as_rtol(rtol))
-    n = J.shape[-1]
-    _warn_singular(singular, int(np.prod(J.shape[:-2], dtype=int)), n,
-                   _state_labels(n, unknown_bias=bool(unknown_bias)))
-    out = np.trace(bounds, axis1=-2, axis2=-1)
-    return float(out) if out.ndim == 0 else out
+    from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
+
+    b = _as_points("beacons", beacons, min_ndim=2)
+    p = _as_points("position", position)
+    h = range_jacobian(p[..., None, :], b)
+    X = np.concatenate([h, np.ones(h.shape[:-1] + (1,))], axis=-1) if unknown_bias else h
+    alpha = np.asarray(lsq.precision_factor(X), dtype=float)
+    degenerate = ~np.isfinite(alpha)
+    if degenerate.any():
+        what = "position and bias" if unknown_bias else "the position"
+        where = "" if alpha.ndim == 0 else f" at {int(degenerate.sum())} of {alpha.size} geometries"
+        _warn(f"the ranges leave {what} unobservable{where}: the precision factor is infinite. "
+              "observability.position_crlb names the unobservable direction(s)")
+    return float(alpha) if alpha.ndim == 0 else alpha
 
 
 # ---------------------------------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ import re
 import matplotlib.pyplot as plt
 import numpy as np
 
-__all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "animation_html"]
+__all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {
@@ -55,6 +55,35 @@ def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) 
 # from outside (it is read offline, at sea), and its theme already bundles Font Awesome, whose ``fa fa-play``-style
 # classes the buttons use, so the link is dropped rather than vendored a second time.
 _CDN_STYLESHEET = re.compile(r"<link[^>]*href=\"https?://[^\"]*font-awesome[^\"]*\"[^>]*>\s*", re.IGNORECASE)
+
+
+def plain_log_ticks(ax: Any, axis: str = "y") -> None:
+    """Label a logarithmic axis with plain numbers (1, 2, 5, 10, 20...) instead of powers of ten.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from uwtutor.plotting import plain_log_ticks
+    >>> fig, ax = plt.subplots()
+    >>> _ = ax.semilogy([1, 2, 3], [3.0, 30.0, 300.0])
+    >>> plain_log_ticks(ax)
+    >>> ax.yaxis.get_major_formatter()(20.0, 0)
+    '20'
+    >>> plt.close(fig)
+    """
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    if axis not in ("x", "y"):
+        raise ValueError(f"axis must be 'x' or 'y'; got {axis!r}")
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    lo, hi = ax.get_ylim() if axis == "y" else ax.get_xlim()
+    decades = np.log10(hi / max(lo, 1e-300))
+    if decades < 1.0:                                  # less than a decade: a few round numbers
+        target.set_major_locator(MaxNLocator(nbins=4))
+    else:
+        target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0) if decades < 3.0 else (1.0,)))
+    target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    target.set_minor_formatter(NullFormatter())
 
 
 def animation_html(animation: Any, default_mode: str = "loop") -> Any:

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import as_finite, as_int, as_positive, as_range_array, as_rng
+from .acoustics import range_factor
 from .motion import _as_n_runs, _as_scalar, _as_times, _with_runs
 
 __all__ = [
@@ -239,7 +240,7 @@ class SoundSpeedError(RangeErrorModel):
     @property
     def scale_error(self) -> float:
         r""":math:`\gamma = c_a/c - 1`, the relative range error at the mean speed (-0.02 for paper D)."""
-        return self.assumed_speed / self.true_speed - 1.0
+        return range_factor(self.assumed_speed, self.true_speed)[0] - 1.0
 
     def mean_error(self, true_range: Any) -> float | np.ndarray:
         r"""First-order mean error :math:`(c_a - c)/c \cdot r` [m] at true range(s) ``true_range``."""
@@ -250,13 +251,14 @@ class SoundSpeedError(RangeErrorModel):
     def error_std(self, true_range: Any) -> float | np.ndarray:
         r"""First-order standard deviation :math:`(c_a/c)(\sigma_c/c) \cdot r` [m] at true range(s) ``true_range``."""
         r = as_range_array("true_range", true_range)
-        out = self.assumed_speed * self.speed_sigma / self.true_speed**2 * r
+        out = range_factor(self.assumed_speed, self.true_speed, self.speed_sigma)[1] * r
         return float(out) if out.ndim == 0 else out
 
     def _draw(self, true_ranges: np.ndarray, times: np.ndarray,
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         c_true = self.true_speed + self.speed_sigma * rng.standard_normal(true_ranges.shape)
-        return true_ranges * (self.assumed_speed / c_true - 1.0), np.zeros(true_ranges.shape, dtype=bool)
+        gamma, _ = range_factor(self.assumed_speed, c_true)
+        return true_ranges * (gamma - 1.0), np.zeros(true_ranges.shape, dtype=bool)
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
 
 __all__ = ["Filter", "FilterResult", "run_filter"]
@@ -102,13 +103,8 @@ class FilterResult:
 
         Under a consistent filter it follows a chi-square distribution with ``m`` degrees of freedom.
         """
-        y = self.innovations
-        S = self.innovation_cov
-        out = np.full(y.shape[:-1], np.nan)
-        ok = np.isfinite(y).all(axis=-1)
-        if ok.any():
-            sol = np.linalg.solve(S[ok], y[ok][..., None])[..., 0]
-            out[ok] = np.einsum("...i,...i->...", y[ok], sol)
+        out = quadratic_form(self.innovations, self.innovation_cov, "innovation_cov")
+        out[~np.isfinite(self.innovations).all(axis=-1)] = np.nan
         return out
 
     def nees(self, truth: Any) -> np.ndarray:
@@ -122,8 +118,7 @@ class FilterResult:
             err = np.broadcast_to(truth, self.x.shape) - self.x
         except ValueError:
             raise ValueError(f"truth must broadcast to the estimates' shape {self.x.shape}; got {truth.shape}") from None
-        sol = np.linalg.solve(self.P, err[..., None])[..., 0]
-        return np.einsum("...i,...i->...", err, sol)
+        return quadratic_form(err, self.P, "P")
 
     def as_dict(self) -> dict[str, np.ndarray]:
         """The arrays of this result by name (extras included), e.g. for saving with :func:`numpy.savez`."""
@@ -208,21 +203,23 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
 
     m = _measurement_size(z, batched)
     extra_names = tuple(getattr(filt, "extra_outputs", ()))
-    records: dict[str, list[np.ndarray]] = {name: [] for name in
-                                            ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names}
     y_shape = (np.shape(filt.x)[0], m) if batched else (m,)
+    names = ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names
+    history: dict[str, np.ndarray] = {}          # step-major buffers (K, ...), allocated at the first step
     for k in range(n_steps):
         filt.predict(None if u is None else (u[:, k] if batched and not u_shared else u[k]))
         filt.update(z[:, k] if batched else z[k])
-        for name in ("x", "P", "x_prior", "P_prior"):
-            records[name].append(np.array(getattr(filt, name), dtype=float, copy=True))
-        records["y"].append(np.asarray(filt.y, dtype=float).reshape(y_shape))
-        records["S"].append(np.asarray(filt.S, dtype=float).reshape(y_shape + (m,)))
-        for name in extra_names:
-            records[name].append(np.array(getattr(filt, name), copy=True))
-
-    axis = 1 if batched else 0
-    stacked = {name: np.stack(values, axis=axis) for name, values in records.items()}
+        values = {name: getattr(filt, name) for name in names}
+        values["y"] = np.reshape(values["y"], y_shape)
+        values["S"] = np.reshape(values["S"], y_shape + (m,))
+        if k == 0:
+            for name, value in values.items():
+                value = np.asarray(value, dtype=None if name in extra_names else float)
+                history[name] = np.empty((n_steps,) + value.shape, dtype=value.dtype)
+        for name, value in values.items():
+            history[name][k] = value
+    # seen runs-first (M, K, ...) when batched: a view of the step-major buffers, not a second copy
+    stacked = {name: np.moveaxis(h, 0, 1) if batched else h for name, h in history.items()}
     result_type = getattr(filt, "result_type", FilterResult)
     return result_type(
         times=times,

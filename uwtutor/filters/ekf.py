@@ -60,166 +60,14 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_int, as_range_array
+from .._validate import as_covariance, as_finite, as_range_array
+from ..errors import BeaconSingularityWarning
 from .base import FilterResult
-from ..errors import BeaconSingularityWarning, warn
+from ._packed import (N_ROWS, P_view, beacon_path, common_runs, fixed_beacon, initial_state, noise_parameters,
+                      pack, predict_step, result_fields, runs_first, sequence_inputs, steps_and_times,
+                      update_step, x_view)
 
 __all__ = ["range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning"]
-
-# Rows of the packed (6, M) filter state.
-_X, _Y, _PXX, _PXY, _PYX, _PYY = range(6)
-_N_ROWS = 6
-
-
-
-
-# --- packing ----------------------------------------------------------------------------------------------------
-
-def _pack(x: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """Pack estimates ``x`` (M, 2) and covariances ``P`` (M, 2, 2) into one ``(6, M)`` state array."""
-    s = np.empty((_N_ROWS, x.shape[0]))
-    s[_X:_Y + 1] = x.T
-    s[_PXX:] = P.reshape(-1, 4).T
-    s[_PYX] = s[_PXY] = 0.5 * (s[_PXY] + s[_PYX])   # exact symmetry from the start
-    return s
-
-
-def _x_view(s: np.ndarray) -> np.ndarray:
-    """Estimates ``(..., M, 2)`` as a view of packed states ``(..., 6, M)``."""
-    return np.moveaxis(s[..., _X:_Y + 1, :], -1, -2)
-
-
-def _P_view(s: np.ndarray) -> np.ndarray:
-    """Covariances ``(..., M, 2, 2)`` as a view of packed states ``(..., 6, M)``."""
-    block = s[..., _PXX:, :]
-    return np.moveaxis(block.reshape(block.shape[:-2] + (2, 2, block.shape[-1])), -1, -3)
-
-
-# --- the two steps (the only implementation of the filter's arithmetic) ------------------------------------------
-
-def _predict_step(s: np.ndarray, u: np.ndarray, q4: np.ndarray, out: np.ndarray) -> None:
-    """Prediction ``x + u``, ``P + Q`` of the packed states ``s`` (6, M), written into ``out`` (6, M).
-
-    ``u`` has shape (2, M) or (2, 1); ``q4`` is ``[Qxx, Qxy, Qxy, Qyy]`` as a (4, 1) column.
-    """
-    np.add(s[_X:_Y + 1], u, out=out[_X:_Y + 1])
-    np.add(s[_PXX:], q4, out=out[_PXX:])
-
-
-def _update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon: tuple[float, float],
-                 out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray) -> np.ndarray:
-    """Range update of the predicted packed states ``s`` (6, M); the posterior is written into ``out``.
-
-    ``z`` (M,) holds the ranges with missing ones replaced by any finite value and ``use`` (M,) is 1.0 where
-    the range is to be used and 0.0 where it is missing: a zero gain leaves those runs exactly at their
-    prediction. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
-    Returns the ``use`` array actually applied (runs whose prediction is on the beacon removed).
-    """
-    xp, yp = s[_X], s[_Y]
-    pxx, pxy, pyy = s[_PXX], s[_PXY], s[_PYY]
-    bx, by = beacon                                  # floats, or arrays (M,)/(1,) for a moving beacon
-    dx = xp - bx if (np.ndim(bx) or bx) else xp
-    dy = yp - by if (np.ndim(by) or by) else yp
-    r = np.sqrt(dx * dx + dy * dy)                   # predicted range h(x-)
-    if r.min() == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
-        on_beacon = r == 0.0
-        if (use[on_beacon] != 0.0).any():
-            warn("the predicted position is exactly on the beacon, where the range Jacobian is "
-                 "undefined: the range update is skipped for that step (predict only)", BeaconSingularityWarning)
-        use = np.where(on_beacon, 0.0, use)
-        r = np.where(on_beacon, 1.0, r)              # then H = 0 and the gain below is exactly 0
-    hx = dx / r                                      # H = [hx, hy], the unit line of sight
-    hy = dy / r
-    ax = pxx * hx + pxy * hy                         # a = P- H^T
-    ay = pxy * hx + pyy * hy
-    S = np.add(hx * ax + hy * ay, R, out=S_out)      # S = H P- H^T + R
-    g = use / S
-    kx = ax * g                                      # K = P- H^T / S (zero where no range is used)
-    ky = ay * g
-    y = np.subtract(z, r, out=y_out)                 # innovation r - h(x-)
-    np.add(xp, kx * y, out=out[_X])
-    np.add(yp, ky * y, out=out[_Y])
-    # Joseph form P = A P- A^T + R K K^T with A = I - K H, factored as B A^T + R K K^T = B - d K^T:
-    bxx = pxx - kx * ax                              # B = A P- = P- - K a^T
-    bxy = pxy - kx * ay
-    byx = pxy - ky * ax
-    byy = pyy - ky * ay
-    vx = bxx * hx + bxy * hy - R * kx                # d = B H^T - R K
-    vy = byx * hx + byy * hy - R * ky
-    np.subtract(bxx, vx * kx, out=out[_PXX])         # P = B - d K^T (upper triangle; P is symmetric)
-    np.subtract(bxy, vx * ky, out=out[_PXY])
-    np.subtract(byy, vy * ky, out=out[_PYY])
-    out[_PYX] = out[_PXY]
-    return use
-
-
-# --- validation -------------------------------------------------------------------------------------------------
-
-def _noise_parameters(Q: Any, R: Any) -> tuple[np.ndarray, float, np.ndarray]:
-    Q = as_covariance("Q", Q, 2, allow_singular=True)
-    if Q.shape != (2, 2):
-        raise ValueError(f"Q must be one 2x2 matrix shared by all runs; got shape {Q.shape}")
-    R_arr = as_covariance("R", R, 1)
-    if R_arr.shape != (1, 1):
-        raise ValueError(f"R must be the range variance, a scalar (or a 1x1 matrix); got shape {R_arr.shape}")
-    q4 = np.array([Q[0, 0], Q[0, 1], Q[0, 1], Q[1, 1]]).reshape(4, 1)
-    return Q, float(R_arr[0, 0]), q4
-
-
-def _beacon(beacon: Any) -> tuple[float, float]:
-    b = as_finite("beacon", beacon, shape=(2,))
-    return float(b[0]), float(b[1])
-
-
-def _beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.ndarray, int | None]:
-    """A fixed beacon ``(bx, by)``, or a moving one as a step-major path (K, 2, M) / (K, 2, 1); with the size of
-    its runs axis (None if it has none)."""
-    b = as_finite("beacon", beacon, ndim=(1, 2, 3))
-    if b.shape[-1] != 2 or (b.ndim > 1 and b.shape[-2] != n_steps):
-        raise ValueError(f"beacon must be a position [x, y], or one position per step: shape (2,), "
-                         f"({n_steps}, 2) or (M, {n_steps}, 2); got {b.shape}")
-    if b.ndim == 1:
-        return (float(b[0]), float(b[1])), None
-    if b.ndim == 2:
-        return np.ascontiguousarray(b[:, :, None]), None
-    return np.ascontiguousarray(np.moveaxis(b, 0, -1)), b.shape[0]
-
-
-def _initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
-    x0 = as_finite("x0", x0, ndim=(1, 2))
-    if x0.shape[-1] != 2:
-        raise ValueError(f"x0 must be a horizontal position [x, y], shape (2,) or (M, 2); got shape {x0.shape}")
-    P0 = as_covariance("P0", P0, 2)
-    if P0.ndim not in (2, 3):
-        raise ValueError(f"P0 must have shape (2, 2) or (M, 2, 2); got {P0.shape}")
-    return x0, P0
-
-
-def _sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
-                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
-    """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
-    (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
-    ``_runs``, the size of each input's runs axis (None where it has none)."""
-    x0, P0 = _initial_state(x0, P0)
-    u = as_finite("u", u, ndim=(2, 3))
-    if u.shape[-1] != 2:
-        raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
-    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
-    K = u.shape[-2]
-    if z.shape[-1] != K:
-        raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")
-    run_sizes = dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
-                     u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None)
-    return x0, P0, u, z, _steps_and_times(K, times), run_sizes
-
-
-def _runs(**batched: int | None) -> int | None:
-    """The common number of runs among the arguments that have a runs axis (None if none has)."""
-    sizes = {name: m for name, m in batched.items() if m is not None}
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{name} has {m}" for name, m in sizes.items())
-        raise ValueError(f"the arguments with a leading runs axis disagree on the number of runs M: {described}")
-    return next(iter(sizes.values()), None)
 
 
 # --- the engine shared by range_only_ekf and RangeOnlyEKF.run ----------------------------------------------------
@@ -243,16 +91,16 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: float,
     use = np.isfinite(z_fill).astype(float)                         # (K, M): 1.0 where a range is used
     z_fill[use == 0.0] = 0.0                                        # any finite value: the gain is 0 there
 
-    prior = np.empty((K, _N_ROWS, M))
-    post = np.empty((K, _N_ROWS, M))
+    prior = np.empty((K, N_ROWS, M))
+    post = np.empty((K, N_ROWS, M))
     innov = np.empty((K, M))
     innov_var = np.empty((K, M))
     s = s0
     for k in range(K):
-        _predict_step(s, u_steps[k], q4, prior[k])
+        predict_step(s, u_steps[k], q4, prior[k])
         use_k = use[k]
         b_k = beacon if isinstance(beacon, tuple) else (beacon[k, 0], beacon[k, 1])
-        applied = _update_step(prior[k], z_fill[k], use_k, R, b_k, post[k], innov[k], innov_var[k])
+        applied = update_step(prior[k], z_fill[k], use_k, R, b_k, post[k], innov[k], innov_var[k])
         if applied is not use_k:                    # a prediction fell on the beacon
             use[k] = applied
         s = post[k]
@@ -260,38 +108,10 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: float,
     innov[unused] = np.nan
     innov_var[unused] = np.nan
 
-    fields = _result_fields(times, post, prior, innov, innov_var, batched)
-    result = FilterResult(**fields, extras={"updated": _runs_first(~unused.T, batched)})
+    fields = result_fields(times, post, prior, innov, innov_var, batched)
+    result = FilterResult(**fields, extras={"updated": runs_first(~unused.T, batched)})
     return result, post[-1].copy()
 
-
-def _runs_first(a: np.ndarray, batched: bool) -> np.ndarray:
-    """A (M, K, ...) result array as returned to the caller: without the runs axis for an unbatched call."""
-    return a if batched else a[0]
-
-
-def _result_fields(times: np.ndarray, post: np.ndarray, prior: np.ndarray, innov: np.ndarray,
-                   innov_var: np.ndarray, batched: bool) -> dict[str, np.ndarray]:
-    """The common ``FilterResult`` fields of a run held in packed (K, rows, M) buffers, runs axis first."""
-    return dict(
-        times=times,
-        x=_runs_first(np.moveaxis(_x_view(post), 0, 1), batched),
-        P=_runs_first(np.moveaxis(_P_view(post), 0, 1), batched),
-        x_prior=_runs_first(np.moveaxis(_x_view(prior), 0, 1), batched),
-        P_prior=_runs_first(np.moveaxis(_P_view(prior), 0, 1), batched),
-        innovations=_runs_first(innov.T[:, :, None], batched),
-        innovation_cov=_runs_first(innov_var.T[:, :, None, None], batched),
-    )
-
-
-def _steps_and_times(n_steps: int, times: Any) -> np.ndarray:
-    as_int("the number of steps K", n_steps, minimum=1)
-    if times is None:
-        return np.arange(n_steps, dtype=float)
-    times = as_finite("times", times, ndim=1)
-    if len(times) != n_steps:
-        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    return times
 
 
 def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0),
@@ -379,13 +199,13 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
     >>> bool(np.sqrt(np.mean(np.sum((res.x[:, -1] - truth[-1]) ** 2, axis=-1))) < 5.0)
     True
     """
-    x0, P0, u, z, times, run_sizes = _sequence_inputs(x0, P0, u, z, times)
-    _, R_val, q4 = _noise_parameters(Q, R)
-    b, run_sizes["beacon"] = _beacon_path(beacon, len(times))
-    M = _runs(**run_sizes)
+    x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
+    _, R_val, q4 = noise_parameters(Q, R)
+    b, run_sizes["beacon"] = beacon_path(beacon, len(times))
+    M = common_runs(**run_sizes)
     batched = M is not None
     M = M or 1
-    s0 = _pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
+    s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
     result, _ = _run(s0, u, z, q4, R_val, b, times, batched)
     return result
 
@@ -416,8 +236,10 @@ class RangeOnlyEKF:
         Current estimate, shape (2,) or (M, 2) (assignable).
     P : ndarray
         Current covariance, shape (2, 2) or (M, 2, 2) (assignable).
-    x_prior, P_prior : ndarray
-        The prediction of the current step and its covariance (copies).
+    x_prior : ndarray
+        The prediction of the current step (a copy).
+    P_prior : ndarray
+        Its covariance (a copy).
     y : ndarray
         Innovation of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray
@@ -444,13 +266,13 @@ class RangeOnlyEKF:
     result_type = FilterResult
 
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0)) -> None:
-        x0, P0 = _initial_state(x0, P0)
-        self.Q, self.R, self._q4 = _noise_parameters(Q, R)
-        self.beacon = np.array(_beacon(beacon))
-        M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None)
+        x0, P0 = initial_state(x0, P0)
+        self.Q, self.R, self._q4 = noise_parameters(Q, R)
+        self.beacon = np.array(fixed_beacon(beacon))
+        M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None)
         self._batched = M is not None
         self._M = M or 1
-        self._s = _pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
+        self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
         self._prior = self._s
         self._set_innovation(np.full(self._M, np.nan), np.full(self._M, np.nan))
         self._set_updated(np.zeros(self._M, dtype=bool))
@@ -465,36 +287,36 @@ class RangeOnlyEKF:
     @property
     def x(self) -> np.ndarray:
         """Current position estimate, shape (2,) or (M, 2); a view of the filter's state until the next step."""
-        return self._out(_x_view(self._s))
+        return self._out(x_view(self._s))
 
     @x.setter
     def x(self, value: Any) -> None:
         x = as_finite("x", value)
         if x.shape not in ((2,), (self._M, 2)):
             self._bad_shape("x", x.shape, "(2,)")
-        _x_view(self._s)[...] = x
+        x_view(self._s)[...] = x
 
     @property
     def P(self) -> np.ndarray:
         """Current covariance, shape (2, 2) or (M, 2, 2); a view of the filter's state until the next step."""
-        return self._out(_P_view(self._s))
+        return self._out(P_view(self._s))
 
     @P.setter
     def P(self, value: Any) -> None:
         P = as_covariance("P", value, 2)
         if P.shape not in ((2, 2), (self._M, 2, 2)):
             self._bad_shape("P", P.shape, "(2, 2)")
-        self._s = _pack(_x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)))
+        self._s = pack(x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)))
 
     @property
     def x_prior(self) -> np.ndarray:
         """The prediction of the current step, shape (2,) or (M, 2) (a copy)."""
-        return self._out(_x_view(self._prior)).copy()
+        return self._out(x_view(self._prior)).copy()
 
     @property
     def P_prior(self) -> np.ndarray:
         """Its covariance ``P + Q``, shape (2, 2) or (M, 2, 2) (a copy)."""
-        return self._out(_P_view(self._prior)).copy()
+        return self._out(P_view(self._prior)).copy()
 
     def _bad_shape(self, name: str, shape: tuple[int, ...], single: str) -> np.ndarray:
         raise ValueError(f"{name} must have shape {single} or (M, ...) with M = {self._M}; got {shape}")
@@ -517,7 +339,7 @@ class RangeOnlyEKF:
             else:
                 self._bad_shape("u", u_arr.shape, "(2,)")
         out = np.empty_like(self._s)
-        _predict_step(self._s, u_col, self._q4, out)
+        predict_step(self._s, u_col, self._q4, out)
         self._s = self._prior = out
 
     def update(self, z: Any) -> None:
@@ -531,7 +353,7 @@ class RangeOnlyEKF:
         out = np.empty_like(self._s)
         y = np.empty(self._M)
         S = np.empty(self._M)
-        used = _update_step(self._s, np.where(has, z, 0.0), has.astype(float), self.R,
+        used = update_step(self._s, np.where(has, z, 0.0), has.astype(float), self.R,
                             (float(self.beacon[0]), float(self.beacon[1])), out, y, S)
         self._s = out
         unused = used == 0.0
@@ -556,10 +378,10 @@ class RangeOnlyEKF:
         u = as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             self._bad_shape("u", u.shape, f"({K}, 2)")
-        times = _steps_and_times(K, times)
+        times = steps_and_times(K, times)
         result, self._s = _run(self._s, u, z, self._q4, self.R, (float(self.beacon[0]), float(self.beacon[1])),
                                times, self._batched)
-        self._prior = _pack(np.array(result.x_prior[..., -1, :], ndmin=2),
+        self._prior = pack(np.array(result.x_prior[..., -1, :], ndmin=2),
                             np.array(result.P_prior[..., -1, :, :], ndmin=3))
         self._set_updated(np.array(result.extras["updated"][..., -1], ndmin=1))
         last_y = result.innovations[..., -1, 0] if self._batched else result.innovations[-1:, 0]

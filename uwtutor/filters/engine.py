@@ -18,8 +18,9 @@ the covariance update in Joseph form, computed as written (not as an algebraical
 symmetrized, so that :math:`P_k` stays symmetric positive semi-definite under rounding
 (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.2).
 
-Every array carries a leading axis of ``M`` Monte Carlo runs and every product is a stacked ``@``: one call
-filters a whole study. A NaN measurement means "no measurement": that run's step is predict only (its gain is
+Every array carries an axis of ``M`` Monte Carlo runs: one call filters a whole study. The covariances are held
+runs-last, ``(n, n, M)``, so that each matrix product is one ``einsum`` over contiguous rows of length ``M``
+(three times faster than ``@`` on stacks of small matrices); the attributes show them as ``(M, n, n)``. A NaN measurement means "no measurement": that run's step is predict only (its gain is
 zero, its innovation NaN). A *gate* (:mod:`uwtutor.filters.gates`) may reject measurements the same way, run by
 run, and then adjust the estimate of the rejected runs.
 
@@ -72,6 +73,36 @@ def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np
     raise ValueError(f"the model's {name} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
 
 
+# The covariances of all runs are held runs-last, (n, n, M): every product below is then an einsum over
+# contiguous length-M rows, about three times faster than ``@`` on (M, n, n) stacks of small matrices (numpy's
+# stacked matmul pays a per-matrix overhead; measured 27 vs 81 microseconds for M = 1000 3x3 products). The
+# public attributes show them runs-first, (M, n, n), as views.
+
+def _runs_last(a: np.ndarray) -> np.ndarray:
+    """A stack (M, i, j) as a contiguous (i, j, M) array."""
+    return np.ascontiguousarray(a.transpose(1, 2, 0))
+
+
+def _runs_first(a: np.ndarray) -> np.ndarray:
+    """A runs-last (i, j, M) array seen as the stack (M, i, j) (a view)."""
+    return a.transpose(2, 0, 1)
+
+
+def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Run by run ``a @ b`` of runs-last arrays (i, k, M) and (k, j, M) (or (k, j, 1))."""
+    return np.einsum("ikm,kjm->ijm", a, b)
+
+
+def _mm_t(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Run by run ``a @ b^T`` of runs-last arrays (i, k, M) and (j, k, M)."""
+    return np.einsum("ikm,jkm->ijm", a, b)
+
+
+def _transposed(a: np.ndarray) -> np.ndarray:
+    """The stacked transpose of ``a`` (..., i, j) as a contiguous array."""
+    return np.ascontiguousarray(np.swapaxes(a, -1, -2))
+
+
 class ExtendedKalmanFilter:
     r"""The generic batched extended Kalman filter (equations in the module docstring).
 
@@ -91,12 +122,18 @@ class ExtendedKalmanFilter:
 
     Attributes
     ----------
-    x, P : ndarray
-        Current estimate ``(n,)``/``(M, n)`` and covariance ``(n, n)``/``(M, n, n)``.
-    x_prior, P_prior : ndarray
-        The prediction of the current step (equal to ``x``, ``P`` before the first ``predict``).
-    y, S : ndarray
-        Innovation ``(m,)``/``(M, m)`` and its covariance of the last update (NaN where no measurement was used).
+    x : ndarray
+        Current estimate, ``(n,)`` or ``(M, n)``.
+    P : ndarray
+        Its covariance, ``(n, n)`` or ``(M, n, n)``.
+    x_prior : ndarray
+        The prediction of the current step (equal to ``x`` before the first ``predict``).
+    P_prior : ndarray
+        Its covariance (equal to ``P`` before the first ``predict``).
+    y : ndarray
+        Innovation of the last update, ``(m,)`` or ``(M, m)`` (NaN where no measurement was used).
+    S : ndarray
+        Its covariance, ``(m, m)`` or ``(M, m, m)`` (NaN where no measurement was used).
     accepted : ndarray of bool
         Whether the last update used a measurement, ``()`` or ``(M,)``.
     k : int
@@ -150,7 +187,7 @@ class ExtendedKalmanFilter:
         self._batched = bool(sizes)
         self._M = next(iter(sizes.values()), 1)
         self._x = np.array(np.broadcast_to(x0, (self._M, n)))
-        self._P = np.array(np.broadcast_to(P0, (self._M, n, n)))
+        self._P = _runs_last(np.broadcast_to(P0, (self._M, n, n)))      # (n, n, M): see _runs_last
         self._x_prior = self._x.copy()
         self._P_prior = self._P.copy()
         self._y = np.full((self._M, self.m), np.nan)
@@ -183,7 +220,7 @@ class ExtendedKalmanFilter:
     @property
     def P(self) -> np.ndarray:
         """Current covariance, ``(n, n)`` or ``(M, n, n)``."""
-        return self._out(self._P)
+        return self._out(_runs_first(self._P))
 
     @P.setter
     def P(self, value: Any) -> None:
@@ -191,7 +228,7 @@ class ExtendedKalmanFilter:
         if P.shape not in ((self.n, self.n), (self._M, self.n, self.n)):
             raise ValueError(f"P must have shape ({self.n}, {self.n}) or ({self._M}, {self.n}, {self.n}); "
                              f"got {P.shape}")
-        self._P = np.array(np.broadcast_to(P, (self._M, self.n, self.n)))
+        self._P = _runs_last(np.broadcast_to(P, (self._M, self.n, self.n)))
 
     @property
     def x_prior(self) -> np.ndarray:
@@ -201,7 +238,7 @@ class ExtendedKalmanFilter:
     @property
     def P_prior(self) -> np.ndarray:
         """The covariance of that prediction, ``(n, n)`` or ``(M, n, n)``."""
-        return self._out(self._P_prior)
+        return self._out(_runs_first(self._P_prior))
 
     @property
     def y(self) -> np.ndarray:
@@ -240,9 +277,18 @@ class ExtendedKalmanFilter:
         x_new = np.asarray(self.motion.f(x, u, k), dtype=float)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
-        P_new = F @ P @ np.swapaxes(F, -1, -2) + Q
+        if F.ndim == 2 and np.array_equal(F, self._eye):         # dead reckoning: F = I
+            P_new = P.copy()
+        elif F.ndim == 2:                                         # one F for every run: F P F^T by BLAS
+            P_new = np.einsum("ikm,jk->ijm", np.tensordot(F, P, axes=(1, 0)), F)
+        else:
+            Fc = _runs_last(F)
+            P_new = _mm_t(_mm(Fc, P), Fc)
+        P_new += Q[:, :, None] if Q.ndim == 2 else _runs_last(Q)
+        P_new += P_new.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
+        P_new *= 0.5
         self._x = self._x_prior = x_new
-        self._P = self._P_prior = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+        self._P = self._P_prior = P_new
 
     def _measurement(self, z: Any) -> np.ndarray:
         z = as_float_array("z", z)
@@ -270,36 +316,45 @@ class ExtendedKalmanFilter:
         if H.shape != (M, m, n):
             raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
         R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
+        Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
         has = np.isfinite(z).all(axis=-1)
         if not defined.all():
             if (has & ~defined).any():
                 warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
                      "the update is skipped for that step (predict only)", BeaconSingularityWarning)
             has = has & defined
-        HT = np.swapaxes(H, -1, -2)
-        PHT = P @ HT
-        S = H @ PHT + R
+        Hc = _runs_last(H)                                           # (m, n, M)
+        PHT = _mm_t(P, Hc)                                           # P H^T, (n, m, M)
+        S = _mm(Hc, PHT) + Rc                                        # H P H^T + R, (m, m, M)
         y = self.measurement.residual(z, z_pred)
         use = has
         if self.gate is not None:
             ctx = GateContext(k=k, z=z, z_pred=z_pred, y=np.where(has[:, None], y, np.nan),
-                              S=S, H=H, R=R, x_prior=x, P_prior=P)
+                              S=_runs_first(S), H=H, R=R, x_prior=x, P_prior=_runs_first(P))
             verdict = np.asarray(self.gate.accept(ctx), dtype=bool)
             if verdict.shape != (M,):
                 raise ValueError(f"the gate's accept must return a bool array of shape ({M},); got {verdict.shape}")
             use = has & verdict
-        if m == 1:
-            gain = PHT / S                                           # (M, n, 1): S is (M, 1, 1)
-        else:
-            gain = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHT, -1, -2)), -1, -2)
-        gain = np.where(use[:, None, None], gain, 0.0)               # zero gain: the run keeps its prediction
         y_used = np.where(use[:, None], y, 0.0)
-        x_post = x + (gain @ y_used[..., None])[..., 0]
-        A = self._eye - gain @ H
-        P_post = A @ P @ np.swapaxes(A, -1, -2) + gain @ R @ np.swapaxes(gain, -1, -2)
-        P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
+        if m == 1:
+            gain = PHT / S[0, 0]                                     # K = P H^T / S, (n, 1, M)
+        else:                                                        # K = P H^T S^-1 (S symmetric)
+            gain = _runs_last(_transposed(np.linalg.solve(_runs_first(S), _runs_first(PHT).swapaxes(-1, -2))))
+        gain *= use                                                  # zero gain: the run keeps its prediction
+        x_post = x + np.einsum("ijm,mj->mi", gain, y_used)
+        A = self._eye[:, :, None] - _mm(gain, Hc)                    # I - K H, (n, n, M)
+        # Joseph form as written: A P A^T + K R K^T, a sum of two positive semi-definite terms
+        P_post = _mm_t(_mm(A, P), A)
+        P_post += _mm_t(_mm(gain, Rc), gain)
+        P_post += P_post.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
+        P_post *= 0.5
+        S = _runs_first(S)
         if self.gate is not None:
-            x_post, P_post = self.gate.after_update(x_post, P_post, use.copy(), k)
+            x_post, P_first = self.gate.after_update(x_post, _runs_first(P_post), use.copy(), k)
+            x_post = np.asarray(x_post, dtype=float)
+            P_post = _runs_last(np.asarray(P_first, dtype=float))
+            if x_post.shape != (M, n) or P_post.shape != (n, n, M):
+                raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
         self._x, self._P = x_post, P_post
         self._y = np.where(use[:, None], y, np.nan)
         self._S = np.where(use[:, None, None], S, np.nan)
@@ -307,7 +362,7 @@ class ExtendedKalmanFilter:
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
-        :func:`~uwtutor.filters.run_filter`); the filter is left at the last step.
+        :func:`~uwtutor.filters.base.run_filter`); the filter is left at the last step.
 
         ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
         measurements; ``u`` has shape (K, p) or (M, K, p), or is None.

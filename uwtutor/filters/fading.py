@@ -117,11 +117,12 @@ from typing import Any
 
 import numpy as np
 
+from ..acoustics import range_factor
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
-from .ekf import (_PXX, _PXY, _PYX, _PYY, _X, _Y, _N_ROWS, _P_view, _beacon, _initial_state, _noise_parameters,
-                  _pack, _predict_step, _result_fields, _runs, _runs_first, _sequence_inputs, _steps_and_times,
-                  _update_step, _x_view)
+from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
+                      fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields,
+                      runs_first, sequence_inputs, steps_and_times, update_step, x_view)
 
 __all__ = [
     "range_factor_moments",
@@ -187,7 +188,8 @@ def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 150
     sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
     if sc < 0:
         raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
-    return c / ce, c * sc / ce**2
+    mu, sigma = range_factor(c, ce, sc)
+    return float(mu), float(sigma)
 
 
 def _positive_scalar(name: str, value: Any) -> float:
@@ -233,10 +235,10 @@ def _fading_step(s: np.ndarray, mem: np.ndarray, started: np.ndarray, u: np.ndar
     mx += ux
     my += uy
     # prediction without fading: x + u, P + Q (the EKF's step), then linearize at x-
-    _predict_step(s, u, p.q4, prior)
+    predict_step(s, u, p.q4, prior)
     bx, by = p.beacon
-    dx = prior[_X] - bx if bx else prior[_X]
-    dy = prior[_Y] - by if by else prior[_Y]
+    dx = prior[ROW_X] - bx if bx else prior[ROW_X]
+    dy = prior[ROW_Y] - by if by else prior[ROW_Y]
     r = np.sqrt(dx * dx + dy * dy)
     safe_r = np.where(r > 0.0, r, 1.0)
     cx = dx / safe_r                                 # C = (x- - b)^T / |x- - b|
@@ -256,21 +258,21 @@ def _fading_step(s: np.ndarray, mem: np.ndarray, started: np.ndarray, u: np.ndar
     started |= used
     mu2 = p.mu * p.mu
     cqc = cx * cx * p.Q[0, 0] + 2.0 * cx * cy * p.Q[0, 1] + cy * cy * p.Q[1, 1]
-    pxx, pxy, pyy = s[_PXX], s[_PXY], s[_PYY]       # the previous posterior P_{k-1}
+    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]       # the previous posterior P_{k-1}
     num = V - mult - mu2 * cqc - beta * p.R          # script M (eq. 26)
     den = mu2 * (cx * cx * pxx + 2.0 * cx * cy * pxy + cy * cy * pyy)   # script N (eq. 19)
     if p.fading:
         ratio = np.divide(num, den, out=np.zeros_like(num), where=den > 0.0)
         lam = np.where(used, np.maximum(ratio, 1.0), 1.0)
         grow = lam - 1.0                             # P- = lam P + Q = (P + Q) + (lam - 1) P
-        prior[_PXX] += grow * pxx
-        prior[_PXY] += grow * pxy
-        prior[_PYY] += grow * pyy
-        prior[_PYX] = prior[_PXY]
+        prior[ROW_PXX] += grow * pxx
+        prior[ROW_PXY] += grow * pxy
+        prior[ROW_PYY] += grow * pyy
+        prior[ROW_PYX] = prior[ROW_PXY]
     else:
         lam = np.ones_like(r)
     # the update: the EKF's, for the range z / mu with noise variance (sigma^2 T + R) / mu^2
-    applied = _update_step(prior, z / p.mu, use, (mult + p.R) / mu2, p.beacon, post, y_out, S_out)
+    applied = update_step(prior, z / p.mu, use, (mult + p.R) / mu2, p.beacon, post, y_out, S_out)
     y_out *= p.mu                                    # back to z - mu h(x-) and R_delta
     S_out *= mu2
     diag[0] = lam
@@ -298,8 +300,8 @@ def _per_run(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[An
 
 def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: Any, rho: Any, beta: Any,
                        fading: Any) -> tuple[_Params, int | None]:
-    Qm, R_val, q4 = _noise_parameters(Q, R)
-    b = _beacon(beacon)
+    Qm, R_val, q4 = noise_parameters(Q, R)
+    b = fixed_beacon(beacon)
     mu, m_mu = _per_run("mu_gamma", mu_gamma, minimum=0.0, strict=True)
     sigma, m_sigma = _per_run("sigma_gamma", sigma_gamma, minimum=0.0, strict=False)
     rho_v = float(as_finite("rho", rho, ndim=0))
@@ -316,7 +318,7 @@ def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: 
             raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
     if not isinstance(fading, (bool, np.bool_)):
         raise TypeError(f"fading must be True or False; got {fading!r}")
-    M = _runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
+    M = common_runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
     sigma2 = sigma * sigma
     return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M
 
@@ -382,8 +384,8 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     z_fill = np.array(np.broadcast_to(z, (M, K)).T, order="C")     # (K, M)
     use = np.isfinite(z_fill).astype(float)
     z_fill[use == 0.0] = 0.0
-    prior = np.empty((K, _N_ROWS, M))
-    post = np.empty((K, _N_ROWS, M))
+    prior = np.empty((K, N_ROWS, M))
+    post = np.empty((K, N_ROWS, M))
     innov = np.empty((K, M))
     innov_var = np.empty((K, M))
     diag = np.empty((K, len(_EXTRAS), M))
@@ -402,9 +404,9 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     for name in ("fading_numerator", "fading_denominator"):     # undefined without a range
         diag[:, _EXTRAS.index(name)][unused] = np.nan
 
-    extras = {name: _runs_first(diag[:, i].T, batched) for i, name in enumerate(_EXTRAS)}
-    extras["updated"] = _runs_first(~unused.T, batched)
-    result = FadingResult(**_result_fields(times, post, prior, innov, innov_var, batched), extras=extras)
+    extras = {name: runs_first(diag[:, i].T, batched) for i, name in enumerate(_EXTRAS)}
+    extras["updated"] = runs_first(~unused.T, batched)
+    result = FadingResult(**result_fields(times, post, prior, innov, innov_var, batched), extras=extras)
     return result, post[-1].copy(), mem, started
 
 
@@ -499,12 +501,12 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     >>> bool(np.sqrt(np.mean(err**2)) < 15.0), bool(np.all(res.fading_factor >= 1.0))
     (True, True)
     """
-    x0, P0, u, z, times, run_sizes = _sequence_inputs(x0, P0, u, z, times)
+    x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
-    M = _runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
+    M = common_runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
     batched = M is not None
     M = M or 1
-    s0 = _pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
+    s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
     mem0 = _memory(x0, _second_moment(x0, P0, second_moment0, M))
     result, _, _, _ = _run(s0, mem0, u, z, p, times, batched)
     return result
@@ -555,11 +557,22 @@ class FadingEKF:
         Innovation :math:`\tilde z_k` of the last update, shape (1,) or (M, 1) (NaN where no range was used).
     S : ndarray
         Its variance :math:`R_\delta`, shape (1, 1) or (M, 1, 1).
-    x_prior, P_prior : ndarray
-        The prediction of the last step, its covariance with the fading factor applied.
-    fading_factor, weakening_factor, innovation_power, fading_numerator, fading_denominator, \
+    x_prior : ndarray
+        The prediction of the last step.
+    P_prior : ndarray
+        Its covariance, with the fading factor applied.
+    fading_factor : ndarray
+        :math:`\lambda_k` of the last update, shape () or (M,).
+    weakening_factor : ndarray
+        :math:`\beta_k` of the last update, shape () or (M,).
+    innovation_power : ndarray
+        :math:`V_k` of the last update, shape () or (M,).
+    fading_numerator : ndarray
+        :math:`\mathcal M_k` of the last update, shape () or (M,).
+    fading_denominator : ndarray
+        :math:`\mathcal N_k` of the last update, shape () or (M,).
     multiplicative_variance : ndarray
-        The diagnostics of the last update (see :class:`FadingResult`), shape () or (M,).
+        :math:`\sigma_\gamma^2 T_k` of the last update, shape () or (M,) (see :class:`FadingResult`).
     updated : ndarray of bool
         Whether the last update used a range, shape () or (M,).
     extra_outputs : tuple of str
@@ -583,13 +596,13 @@ class FadingEKF:
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
                  rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
                  beacon: Any = (0.0, 0.0)) -> None:
-        x0, P0 = _initial_state(x0, P0)
+        x0, P0 = initial_state(x0, P0)
         self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
-        M = _runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+        M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
                   mu_gamma_or_sigma_gamma=m_par)
         self._batched = M is not None
         self._M = M or 1
-        self._s = _pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
+        self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
         self._mem = _memory(x0, _second_moment(x0, P0, second_moment0, self._M))
         self._started = np.zeros(self._M, dtype=bool)
         self._pending: np.ndarray | None = None        # the DR displacement of a prediction awaiting its range
@@ -623,23 +636,23 @@ class FadingEKF:
     @property
     def x(self) -> np.ndarray:
         """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2)."""
-        return self._out(_x_view(self._shown)).copy()
+        return self._out(x_view(self._shown)).copy()
 
     @property
     def P(self) -> np.ndarray:
         """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2)."""
-        return self._out(_P_view(self._shown)).copy()
+        return self._out(P_view(self._shown)).copy()
 
     @property
     def x_prior(self) -> np.ndarray:
         """The prediction of the current step, shape (2,) or (M, 2)."""
-        return self._out(_x_view(self._prior)).copy()
+        return self._out(x_view(self._prior)).copy()
 
     @property
     def P_prior(self) -> np.ndarray:
         r"""Its covariance as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until the update has
         computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2)."""
-        return self._out(_P_view(self._prior)).copy()
+        return self._out(P_view(self._prior)).copy()
 
     def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
         self.y = y[:, None] if self._batched else y[:1].copy()
@@ -683,7 +696,7 @@ class FadingEKF:
             self._step(self._pending, np.zeros(self._M), np.zeros(self._M))
         self._pending = u_col
         shown = np.empty_like(self._s)
-        _predict_step(self._s, u_col, self._p.q4, shown)
+        predict_step(self._s, u_col, self._p.q4, shown)
         self._shown = self._prior = shown
 
     def update(self, z: Any) -> None:
@@ -716,10 +729,10 @@ class FadingEKF:
         u = np.zeros((K, 2)) if u is None else as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2); got {u.shape}")
-        times = _steps_and_times(K, times)
+        times = steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last
-        self._prior = _pack(np.array(result.x_prior[..., -1, :], ndmin=2),
+        self._prior = pack(np.array(result.x_prior[..., -1, :], ndmin=2),
                             np.array(result.P_prior[..., -1, :, :], ndmin=3))
         self._mem = mem
         self._started = started
@@ -732,8 +745,8 @@ class FadingEKF:
 
 # --- LS-EKF and LS-ISFEKF --------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class LSFadingResult:
+@dataclass(frozen=True, kw_only=True)
+class LSFadingResult(FilterResult):
     r"""Paper D's two-stage estimate: grid-search pre-location until accepted, then a filter (``ls_fading_ekf``).
 
     Shapes: ``M`` runs (always a runs axis), ``K`` epochs.
@@ -747,10 +760,17 @@ class LSFadingResult:
         filter's after it.
     P : ndarray, shape (M, K, 2, 2)
         The filter's covariance (NaN up to the start epoch: the grid search gives none).
-    fading_factor : ndarray, shape (M, K)
-        :math:`\lambda_k` (NaN up to the start epoch).
-    weakening_factor : ndarray, shape (M, K)
-        :math:`\beta_k` (NaN up to the start epoch).
+    x_prior : ndarray
+        The filter's predictions (the pre-location up to the start epoch).
+    P_prior : ndarray
+        Their covariances (NaN up to the start epoch).
+    innovations : ndarray, shape (M, K, 1)
+        The filter's innovations (NaN up to the start epoch and where no range was used).
+    innovation_cov : ndarray, shape (M, K, 1, 1)
+        Their covariances, so that NIS statistics (e.g. ``run_monte_carlo``) cover the filtered epochs.
+    extras : dict
+        ``"fading_factor"`` :math:`\lambda_k`, ``"weakening_factor"`` :math:`\beta_k` (NaN up to the start
+        epoch) and ``"updated"`` (True where the filter used a range), shape (M, K).
     start_epoch : ndarray of int, shape (M,)
         The epoch at which the pre-location was accepted and the filter started from it; ``K`` for a run whose
         pre-location was never accepted (then ``x`` is the pre-location throughout).
@@ -766,16 +786,21 @@ class LSFadingResult:
         (steps past the last epoch are padding without ranges).
     """
 
-    times: np.ndarray
-    x: np.ndarray
-    P: np.ndarray
-    fading_factor: np.ndarray
-    weakening_factor: np.ndarray
     start_epoch: np.ndarray
     mu_gamma: np.ndarray
     prelocation: Any
     acceptance: Any
     filter_result: FadingResult
+
+    @property
+    def fading_factor(self) -> np.ndarray:
+        r""":math:`\lambda_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
+        return self.extras["fading_factor"]
+
+    @property
+    def weakening_factor(self) -> np.ndarray:
+        r""":math:`\beta_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
+        return self.extras["weakening_factor"]
 
     @property
     def accepted(self) -> np.ndarray:
@@ -878,7 +903,7 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     if u.shape != (M, K, 2):
         raise ValueError(f"dr_displacements must have shape (M, K, 2) = {(M, K, 2)} to match ranges; got {u.shape}")
     as_int("n_consecutive", n_consecutive, minimum=1)
-    times = _steps_and_times(K, times)
+    times = steps_and_times(K, times)
     P0 = as_covariance("P0", P0, 2)
     if P0.shape != (2, 2):
         raise ValueError(f"P0 must be one 2x2 matrix; got shape {P0.shape}")
@@ -920,9 +945,17 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     k = np.arange(K)[None, :]
     after = k > start[:, None]
     j = np.clip(k - start[:, None] - 1, 0, K - 1)
-    x = np.where(after[..., None], filt.x[rows[:, None], j], pos)
-    P = np.where(after[..., None, None], filt.P[rows[:, None], j], np.nan)
-    lam = np.where(after, filt.fading_factor[rows[:, None], j], np.nan)
-    beta_k = np.where(after, filt.weakening_factor[rows[:, None], j], np.nan)
-    return LSFadingResult(times=times, x=x, P=P, fading_factor=lam, weakening_factor=beta_k, start_epoch=start,
-                          mu_gamma=mu, prelocation=prelocation, acceptance=acceptance, filter_result=filt)
+    def at_epochs(a: np.ndarray, before: Any) -> np.ndarray:
+        """A filter-time array (M, K, ...) in epoch time, ``before`` up to each run's start epoch."""
+        mask = after.reshape(after.shape + (1,) * (a.ndim - 2))
+        return np.where(mask, a[rows[:, None], j], before)
+
+    extras = {"fading_factor": at_epochs(filt.fading_factor, np.nan),
+              "weakening_factor": at_epochs(filt.weakening_factor, np.nan),
+              "updated": at_epochs(filt.extras["updated"], False)}
+    return LSFadingResult(times=times, x=at_epochs(filt.x, pos), P=at_epochs(filt.P, np.nan),
+                          x_prior=at_epochs(filt.x_prior, pos), P_prior=at_epochs(filt.P_prior, np.nan),
+                          innovations=at_epochs(filt.innovations, np.nan),
+                          innovation_cov=at_epochs(filt.innovation_cov, np.nan), extras=extras,
+                          start_epoch=start, mu_gamma=mu, prelocation=prelocation, acceptance=acceptance,
+                          filter_result=filt)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
+from .._linalg import quadratic_form
 from .._validate import as_finite
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "normalized_innovation_squared"]
@@ -32,8 +32,12 @@ class GateContext:
     ----------
     k : int
         Index of the step.
-    z, z_pred, y : ndarray, shape (M, m)
-        Measurement, predicted measurement and innovation (NaN rows: no measurement for that run).
+    z : ndarray, shape (M, m)
+        Measurement (NaN rows: no measurement for that run).
+    z_pred : ndarray, shape (M, m)
+        Predicted measurement.
+    y : ndarray, shape (M, m)
+        Innovation (NaN rows: no measurement for that run).
     S : ndarray, shape (M, m, m)
         Innovation covariance.
     H : ndarray, shape (M, m, n)
@@ -67,9 +71,7 @@ def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     >>> normalized_innovation_squared(np.array([[2.0]]), np.array([[[4.0]]]))
     array([1.])
     """
-    if y.shape[-1] == 1:
-        return y[..., 0] ** 2 / S[..., 0, 0]
-    return np.einsum("...i,...i->...", y, np.linalg.solve(S, y[..., None])[..., 0])
+    return quadratic_form(y, S, "S")
 
 
 class Gate:
@@ -115,6 +117,8 @@ class ChiSquareGate(Gate):
 
     def threshold(self, m: int) -> float:
         """The NIS threshold for a measurement of size ``m``."""
+        from scipy import stats      # imported when needed: scipy.stats is heavy and most filters never gate
+
         return float(stats.chi2.ppf(self.probability, m))
 
     def accept(self, ctx: GateContext) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 It is the smallest filter that shows the protocol (``x``, ``P``, ``predict``, ``update``, a ``run`` helper that
 returns a :class:`~uwtutor.filters.base.FilterResult`) and chapter 1 uses it to smooth a sequence of ranges.
-It is the generic engine (:class:`~uwtutor.filters.ExtendedKalmanFilter`) on a linear model pair, so it is
+It is the generic engine (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) on a linear model pair, so it is
 batch-aware: give ``x0`` a leading axis of ``M`` Monte Carlo runs and every step runs them all.
 """
 
@@ -55,14 +55,28 @@ class KalmanFilter(ExtendedKalmanFilter):
 
     Attributes
     ----------
-    x, P : ndarray
-        Current estimate and covariance.
-    x_prior, P_prior : ndarray
+    x : ndarray
+        Current estimate, ``(n,)`` or ``(M, n)``.
+    P : ndarray
+        Its covariance.
+    x_prior : ndarray
         The prediction of the current step.
-    y, S : ndarray
-        Innovation and its covariance from the last ``update`` (NaN if it had no measurement).
-    F, H, Q, R, B : ndarray
-        The model matrices (``B`` is None without input).
+    P_prior : ndarray
+        Its covariance.
+    y : ndarray
+        Innovation of the last ``update`` (NaN if it had no measurement).
+    S : ndarray
+        Its covariance (NaN if it had no measurement).
+    F : ndarray
+        State transition matrix.
+    H : ndarray
+        Measurement matrix.
+    Q : ndarray
+        Process noise covariance.
+    R : ndarray
+        Measurement noise covariance.
+    B : ndarray or None
+        Control-input matrix (None without input).
 
     Examples
     --------

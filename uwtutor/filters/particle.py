@@ -416,8 +416,10 @@ class BootstrapParticleFilter:
         Innovation :math:`z - \sum_i w_i h(x^i)` of the last update (NaN where nothing was measured).
     S : ndarray, shape (m, m)
         Its covariance: the weighted covariance of :math:`h(x^i)` plus ``R`` (NaN where nothing was measured).
-    x_prior, P_prior : ndarray
-        The weighted moments of the predicted particles of the current step.
+    x_prior : ndarray
+        The weighted mean of the predicted particles of the current step.
+    P_prior : ndarray
+        Their weighted covariance.
     ess : float
         Effective sample size after the last update (before resampling).
     resampled : bool

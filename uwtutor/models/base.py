@@ -33,7 +33,7 @@ __all__ = ["MotionModel", "MeasurementModel"]
 class MotionModel:
     r"""How the state moves in one step: :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`.
 
-    Subclasses set :attr:`n` and implement :meth:`f`, :meth:`F` and :meth:`Q`.
+    Subclasses set ``n`` and implement :meth:`f`, :meth:`F` and :meth:`Q`.
 
     Attributes
     ----------
@@ -59,7 +59,7 @@ class MotionModel:
 class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.
 
-    Subclasses set :attr:`m` and :attr:`n` and implement :meth:`h`, :meth:`H` and :meth:`R`; a model whose
+    Subclasses set ``m`` and ``n`` and implement :meth:`h`, :meth:`H` and :meth:`R`; a model whose
     Jacobian is undefined somewhere (the range on the beacon) overrides :meth:`linearize` and reports it there.
 
     Attributes

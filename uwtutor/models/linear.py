@@ -1,7 +1,7 @@
 r"""Linear-Gaussian motion and measurement models: :math:`x_k = F x_{k-1} + B u_k + w_k`, :math:`z_k = H x_k + v_k`.
 
 On these models the extended Kalman filter *is* the Kalman filter, which is how the contract test checks every
-Gaussian filter of the library against :class:`~uwtutor.filters.KalmanFilter`. :class:`DirectMeasurement`
+Gaussian filter of the library against :class:`~uwtutor.filters.kalman.KalmanFilter`. :class:`DirectMeasurement`
 (:math:`H` selects some state components) is the "measure the state itself" case, e.g. chapter 1's range
 sequence or paper E's cascade filter on position fixes.
 """

@@ -13,10 +13,13 @@ leader AUV (paper B), the other boat of a lake trial (paper A) -- is given as on
 
 .. rubric:: On the beacon
 
-At :math:`p = b_k` the range is not differentiable and the line of sight is 0/0. This is the library's one
-policy for that geometry: the update of that run is skipped (predict only) and a
-:class:`~uwtutor.errors.BeaconSingularityWarning` is emitted. A measured range of zero from a prediction
-*near* the beacon is an ordinary update.
+At :math:`p = b_k` the range is not differentiable and the line of sight is 0/0. :func:`line_of_sight` is the
+library's one computation of it, and its one policy: there the range carries no information about the
+direction, so its Jacobian row is zero and a warning says so. A filter then skips that run's update (predict
+only; :class:`~uwtutor.errors.BeaconSingularityWarning`), a bound gives that range no information
+(:class:`~uwtutor.errors.UnobservableWarning`), and a least-squares fix refuses a linearization point placed on a
+beacon (an error: the point is the caller's choice). A measured range of zero from a prediction *near* the
+beacon is an ordinary update.
 """
 
 from __future__ import annotations
@@ -60,7 +63,7 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
            [0. , 0. ]]), array([ True, False]))
     """
     d = positions - beacon
-    r = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2)
+    r = np.hypot(d[..., 0], d[..., 1])
     defined = r > 0.0
     safe = np.where(defined, r, 1.0)
     los = d / safe[..., None]

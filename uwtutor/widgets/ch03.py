@@ -9,7 +9,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .. import lsq, scenarios
+from .. import lsq, observability, scenarios
 from .._validate import as_finite, as_int, as_positive
 from ..plotting import mark_beacon
 from ._panel import slider_panel
@@ -145,11 +145,9 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
 
 
 def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray:
-    """Points ``(n, 2)`` of the ellipse of a 2x2 covariance, ``scale`` standard deviations from its centre (0, 0)."""
-    cov = as_finite("cov", cov, shape=(2, 2))
-    vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
-    t = np.linspace(0.0, 2 * np.pi, n)
-    return (vecs @ (np.sqrt(np.maximum(vals, 0.0))[:, None] * np.vstack([np.cos(t), np.sin(t)]))).T * scale
+    """Points ``(n, 2)`` of the ellipse of a 2x2 covariance, ``scale`` standard deviations from its centre (0, 0)
+    (:func:`uwtutor.observability.error_ellipse`, under the name the chapter uses)."""
+    return observability.error_ellipse(cov, scale=scale, n_points=n)
 
 
 def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:

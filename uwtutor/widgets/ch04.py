@@ -12,7 +12,7 @@ from .. import scenarios
 from .._validate import as_finite, as_int, as_positive
 from ..filters import range_only_ekf
 from ..montecarlo import run_monte_carlo
-from ..plotting import mark_beacon
+from ..plotting import mark_beacon, plain_log_ticks
 from ._panel import slider_panel
 
 __all__ = [
@@ -136,23 +136,6 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
                    nees_bounds=study.nees_bounds, mean_nis=study.mean_nis, nis_bounds=study.nis_bounds,
                    nees_fraction_within=study.nees_fraction_within(),
                    nis_fraction_within=study.nis_fraction_within(), n_runs=M)
-
-
-def plain_log_ticks(ax: Any, axis: str = "y") -> None:
-    """Label a logarithmic axis with plain numbers (1, 2, 5, 10, 20...) instead of powers of ten."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
-
-    if axis not in ("x", "y"):
-        raise ValueError(f"axis must be 'x' or 'y'; got {axis!r}")
-    target = ax.yaxis if axis == "y" else ax.xaxis
-    lo, hi = ax.get_ylim() if axis == "y" else ax.get_xlim()
-    decades = np.log10(hi / max(lo, 1e-300))
-    if decades < 1.0:                                  # less than a decade: a few round numbers
-        target.set_major_locator(MaxNLocator(nbins=4))
-    else:
-        target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0) if decades < 3.0 else (1.0,)))
-    target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    target.set_minor_formatter(NullFormatter())
 
 
 def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:

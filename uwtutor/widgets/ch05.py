@@ -9,7 +9,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .. import scenarios
+from ..scenarios import paper_d
 from .._validate import as_finite, as_int
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf
@@ -25,18 +25,8 @@ __all__ = [
     "COMPUTE_FUNCTIONS",
 ]
 
-#: Paper D's simulation and filter parameters (sec. 4.1, eqs. 28-30), as the widget uses them. ``Q`` is the DR
-#: noise variance per axis per ping and ``R`` the additive range noise variance (m²), ``rho`` the forgetting
-#: factor, ``true_speed`` and ``speed_sigma`` the true effective sound speed and its standard deviation, and
-#: ``assumed_speed`` the speed the vehicle converts with (m/s).
-PAPER_D: dict[str, float] = {
-    "Q": 0.81,
-    "R": 0.49,
-    "rho": 0.95,
-    "true_speed": 1500.0,
-    "speed_sigma": 1.0,
-    "assumed_speed": 1470.0,
-}
+#: Paper D's parameters by name (from :mod:`uwtutor.scenarios.paper_d`, the one place they are written down).
+PAPER_D: dict[str, float] = {key: value for key, value in paper_d.PARAMETERS.as_dict().items() if key != "n_runs"}
 #: Start of the steady-state window of the summaries, in seconds (epochs at or after it count).
 STEADY_FROM = 1200.0
 
@@ -146,17 +136,18 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     M = as_int("n_runs", n_runs, minimum=1)
     seed = as_int("seed", seed, minimum=0)
     rng = np.random.default_rng(seed)
-    sc = scenarios.approach_with_turn_scenario(rng, n_runs=M)
+    sc = paper_d.make(rng, n_runs=M)
     angle = rng.uniform(0.0, 2.0 * np.pi, M)
     truth = sc.true_positions
     x0 = truth[:, 0] + d0 * np.column_stack([np.cos(angle), np.sin(angle)])
     P0 = np.eye(2) * d0**2
-    Q = np.eye(2) * PAPER_D["Q"]
-    c = PAPER_D["true_speed"]
-    fad = fading_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, PAPER_D["R"], mu_gamma=1.0 + dc / c,
-                     sigma_gamma=PAPER_D["speed_sigma"] / c, rho=rho, beta="range" if weakening else 1.0,
+    par = paper_d.PARAMETERS
+    Q = np.eye(2) * par.Q
+    c = par.true_speed
+    fad = fading_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, par.R, mu_gamma=1.0 + dc / c,
+                     sigma_gamma=par.speed_sigma / c, rho=rho, beta="range" if weakening else 1.0,
                      times=sc.times)
-    ekf = range_only_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, PAPER_D["R"], times=sc.times)
+    ekf = range_only_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, par.R, times=sc.times)
     err_f = np.linalg.norm(fad.x - truth, axis=-1)
     err_e = np.linalg.norm(ekf.x - truth, axis=-1)
     late = sc.times >= STEADY_FROM

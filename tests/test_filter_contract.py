@@ -1,0 +1,241 @@
+"""The filter protocol, held over every Kalman-family filter of the library (the particle filters and paper C's
+depth EKF have their own file, tests/test_filter_contract_pf.py).
+
+For each filter: it is a ``Filter``; ``run`` == ``run_filter`` == a hand loop of predict/update for every result
+field and extra; a NaN measurement is predict only; run m of a batched filter == a single-run filter; P stays
+symmetric positive semi-definite; bad input names the argument. Fast paths equal the generic engine.
+"""
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+import pytest
+
+from uwtutor.filters import (ExtendedKalmanFilter, FadingEKF, Filter, FilterResult, KalmanFilter, RangeOnlyEKF,
+                             extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
+from uwtutor.filters.fading import FadingResult
+from uwtutor.models import DeadReckoning, RangeToBeacon
+
+M, K = 4, 60
+
+
+@dataclass
+class Case:
+    """How to build one filter (``make(batched)``) and the sequence it runs on."""
+
+    name: str
+    make: Callable[[bool], Any]
+    z: np.ndarray            # (M, K) or (M, K, m)
+    u: np.ndarray | None     # (M, K, p) or None
+    result_type: type = FilterResult
+
+
+def _range_inputs(seed=0):
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(0.0, 2 * np.pi, K + 1)
+    track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    u = np.broadcast_to(np.diff(track, axis=0), (M, K, 2)).copy() + rng.normal(0.0, 0.3, (M, K, 2))
+    z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 2.0, (M, K))
+    z[rng.random((M, K)) < 0.2] = np.nan
+    x0 = track[0] + rng.normal(0.0, 20.0, (M, 2))
+    return x0, u, z
+
+
+X0, U, Z = _range_inputs()
+X0_BIAS = np.column_stack([X0, np.zeros(M)])
+Q2, Q3 = np.eye(2) * 0.1, np.diag([0.1, 0.1, 0.01])
+
+
+def _pick(a, batched, m=0):
+    return a if batched else a[m]
+
+
+def _kf_case():
+    rng = np.random.default_rng(4)
+    z = np.cumsum(rng.normal(0.0, 1.0, (M, K)), axis=1)[..., None]
+    z[rng.random((M, K)) < 0.2] = np.nan
+    return Case("KalmanFilter", lambda b: KalmanFilter(F=[[1.0, 1.0], [0.0, 1.0]], H=[[1.0, 0.0]],
+                                                       Q=np.diag([0.01, 0.04]), R=2.0,
+                                                       x0=np.zeros((M, 2)) if b else np.zeros(2),
+                                                       P0=np.eye(2) * 10.0), z, None)
+
+
+CASES = [
+    _kf_case(),
+    Case("RangeOnlyEKF", lambda b: RangeOnlyEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0), Z, U),
+    Case("ExtendedKalmanFilter-range", lambda b: ExtendedKalmanFilter(
+        DeadReckoning(Q2), RangeToBeacon((0.0, 0.0), R=4.0), _pick(X0, b), np.eye(2) * 400.0), Z, U),
+    Case("ExtendedKalmanFilter-bias", lambda b: ExtendedKalmanFilter(
+        DeadReckoning(Q3), RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2), _pick(X0_BIAS, b),
+        np.diag([400.0, 400.0, 25.0])), Z + 3.0, U),
+    Case("ExtendedKalmanFilter-moving-beacon", lambda b: ExtendedKalmanFilter(
+        DeadReckoning(Q2), RangeToBeacon(np.column_stack([np.linspace(0, 200, K), np.zeros(K)]), R=4.0),
+        _pick(X0, b), np.eye(2) * 400.0), Z, U),
+    Case("FadingEKF", lambda b: FadingEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98,
+                                          sigma_gamma=1 / 1500), Z, U, FadingResult),
+]
+IDS = [c.name for c in CASES]
+
+
+def _inputs(case, batched, m=0):
+    z = case.z if batched else case.z[m]
+    u = None if case.u is None else (case.u if batched else case.u[m])
+    return z, u
+
+
+def _assert_same(a: FilterResult, b: FilterResult, exact=True):
+    check = np.testing.assert_array_equal if exact else (
+        lambda x, y, err_msg="": np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-10, err_msg=err_msg))
+    for field in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        check(getattr(a, field), getattr(b, field), err_msg=field)
+    assert a.extras.keys() == b.extras.keys()
+    for name in a.extras:
+        check(a.extras[name], b.extras[name], err_msg=name)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_is_a_filter_with_the_declared_result_type(case):
+    filt = case.make(True)
+    assert isinstance(filt, Filter)
+    z, u = _inputs(case, True)
+    res = filt.run(z, u)
+    assert type(res) is case.result_type and type(res) is getattr(filt, "result_type", FilterResult)
+    assert set(res.extras) == set(filt.extra_outputs)
+
+
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_run_equals_run_filter_equals_a_hand_loop(case, batched):
+    z, u = _inputs(case, batched)
+    times = np.arange(K) * 2.0
+    by_run = case.make(batched).run(z, u, times)
+    by_loop = run_filter(case.make(batched), z, u, times)
+    _assert_same(by_run, by_loop)
+
+    filt = case.make(batched)
+    rec = {name: [] for name in ("x", "P", "x_prior", "P_prior", "y", "S") + tuple(filt.extra_outputs)}
+    for k in range(K):
+        filt.predict(None if u is None else u[..., k, :])
+        filt.update(z[:, k] if batched else z[k])
+        for name in rec:
+            rec[name].append(np.array(getattr(filt, name)))
+    axis = 1 if batched else 0
+    for name, field in (("x", "x"), ("P", "P"), ("x_prior", "x_prior"), ("P_prior", "P_prior")):
+        np.testing.assert_array_equal(getattr(by_run, field), np.stack(rec[name], axis), err_msg=name)
+    np.testing.assert_array_equal(by_run.innovations.reshape(-1), np.stack(rec["y"], axis).reshape(-1))
+    np.testing.assert_array_equal(by_run.innovation_cov.reshape(-1), np.stack(rec["S"], axis).reshape(-1))
+    for name in filt.extra_outputs:
+        np.testing.assert_array_equal(by_run.extras[name], np.stack(rec[name], axis), err_msg=name)
+    # the filter is left at the last step, as the loop leaves it
+    np.testing.assert_array_equal(case.make(batched).run(z, u).x[..., -1, :], filt.x)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_nan_measurement_is_predict_only(case):
+    z, u = _inputs(case, True)
+    res = case.make(True).run(z, u)
+    missing = ~np.isfinite(z).reshape(M, K, -1).all(axis=-1)
+    assert missing.any() and (~missing).any()
+    np.testing.assert_array_equal(res.x[missing], res.x_prior[missing])
+    assert np.isnan(res.innovations[missing]).all()
+    assert np.isfinite(res.innovations[~missing]).all()
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_batched_run_m_equals_single_run_m(case):
+    z, u = _inputs(case, True)
+    batched = case.make(True).run(z, u)
+    for m in (0, M - 1):
+        zs, us = _inputs(case, False, m)
+        single = case.make(False)
+        if isinstance(single, ExtendedKalmanFilter):      # start it from run m's initial state
+            single.x = np.array(case.make(True).x[m])
+        else:                                             # packed fast paths: build it for run m
+            single = _single_from_batched(case, m)
+        res = single.run(zs, us)
+        for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+            np.testing.assert_allclose(getattr(batched, field)[m], getattr(res, field), rtol=1e-10, atol=1e-10,
+                                       err_msg=field)
+        for name in batched.extras:
+            np.testing.assert_allclose(batched.extras[name][m], res.extras[name], rtol=1e-10, atol=1e-10)
+
+
+def _single_from_batched(case, m):
+    """The single-run filter of run ``m`` for filters whose state cannot be assigned (packed fast paths)."""
+    if case.name == "RangeOnlyEKF":
+        return RangeOnlyEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0)
+    if case.name == "FadingEKF":
+        return FadingEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    raise AssertionError(case.name)
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_covariances_stay_symmetric_psd(case):
+    z, u = _inputs(case, True)
+    res = case.make(True).run(z, u)
+    for P in (res.P, res.P_prior):
+        np.testing.assert_array_equal(P, np.swapaxes(P, -1, -2))
+        assert np.linalg.eigvalsh(P).min() >= -1e-9 * np.abs(P).max()
+
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_bad_input_names_the_argument(case):
+    z, u = _inputs(case, True)
+    with pytest.raises(ValueError, match=r"\bz\b"):
+        case.make(True).run(z[:2], u)
+    if u is not None:
+        with pytest.raises(ValueError, match=r"\bu\b"):
+            case.make(True).run(z, u[:, :3])
+        with pytest.raises(ValueError, match=r"\bu\b"):
+            case.make(True).predict(np.full(u.shape[:1] + (u.shape[-1],), np.nan))
+    filt = case.make(True)
+    filt.predict(None if u is None else u[:, 0])
+    with pytest.raises(ValueError, match=r"\bz\b"):
+        filt.update(np.full(M + 1, 1.0))
+
+
+# --- fast paths equal the generic engine ---------------------------------------------------------------------
+
+def test_packed_range_ekf_equals_the_generic_engine():
+    fast = range_only_ekf(X0, np.eye(2) * 400.0, U, Z, Q2, 4.0, beacon=(10.0, -5.0))
+    generic = extended_kalman_filter(DeadReckoning(Q2), RangeToBeacon((10.0, -5.0), R=4.0), X0, np.eye(2) * 400.0,
+                                     U, Z)
+    for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(generic, field), rtol=1e-10, atol=1e-9)
+    np.testing.assert_array_equal(fast.extras["updated"], generic.extras["accepted"])
+
+
+def test_fading_ekf_without_fading_or_multiplicative_noise_equals_the_generic_engine():
+    fast = fading_ekf(X0, np.eye(2) * 400.0, U, Z, Q2, 4.0, mu_gamma=1.0, sigma_gamma=0.0, fading=False,
+                      beacon=(10.0, -5.0))
+    generic = extended_kalman_filter(DeadReckoning(Q2), RangeToBeacon((10.0, -5.0), R=4.0), X0, np.eye(2) * 400.0,
+                                     U, Z)
+    for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(generic, field), rtol=1e-10, atol=1e-9)
+
+
+def test_fading_p_prior_includes_the_fading_factor_under_run_filter():
+    """run_filter records the prior the update used: with lambda > 1 it is lambda P + Q, as fading_ekf says."""
+    functional = fading_ekf(X0, np.eye(2) * 400.0, U, Z, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    looped = run_filter(FadingEKF(X0, np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500), Z, U)
+    assert (functional.fading_factor > 1.0).any()
+    np.testing.assert_allclose(looped.P_prior, functional.P_prior, rtol=1e-12, atol=1e-9)
+    assert isinstance(looped, FadingResult) and len(looped.extras) == 7
+
+
+def test_ls_fading_result_is_a_filter_result_and_run_monte_carlo_scores_its_nis():
+    from uwtutor.filters import LSFadingResult, ls_fading_ekf
+    from uwtutor.montecarlo import run_monte_carlo
+    from uwtutor.scenarios import paper_d
+
+    sc = paper_d.make(np.random.default_rng(5), n_runs=20)
+    study = run_monte_carlo(lambda **kw: ls_fading_ekf(**kw), sc.true_positions, ranges=sc.ranges,
+                            dr_displacements=sc.dr_displacements, Q=np.eye(2) * 0.81, R=0.49, P0=np.eye(2) * 2500.0,
+                            sigma_gamma=1 / 1500, times=sc.times)
+    res = study.result
+    assert isinstance(res, LSFadingResult) and isinstance(res, FilterResult)
+    after = np.arange(sc.ranges.shape[1])[None, :] > res.start_epoch[:, None]
+    assert np.isfinite(study.nis[after & res.extras["updated"]]).all()
+    assert np.isnan(study.nis[~after]).all()
+    np.testing.assert_array_equal(res.fading_factor, res.extras["fading_factor"])
