@@ -256,7 +256,7 @@ class RobustGate(Gate):
             self._zbuf[rows, slot] = z[rows]
             self._kbuf[rows, slot] = k
             self._count[rows] += 1
-            due = np.flatnonzero(self._count >= n)
+            due = rows[self._count[rows] >= n]              # only runs whose measurement was just rejected
             if due.size:
                 ok, x_fit, P_fit = self._refit(due, R, k, n, d, n_state)
                 good = due[ok]
@@ -289,6 +289,7 @@ class RobustGate(Gate):
         x_new = coef.reshape(len(runs), 2 * d)                               # [a (d), b (d)]
         C = np.linalg.inv(G)
         P_new = np.einsum("mij,ma,ab->miajb", C, var, np.eye(d)).reshape(len(runs), 2 * d, 2 * d)
+        P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
         return ok, x_new, P_new
 
 

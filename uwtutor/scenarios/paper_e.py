@@ -30,7 +30,7 @@ import numpy as np
 from .._validate import as_int
 from . import Scenario, ship_and_submersible_scenario
 
-__all__ = ["PaperE", "Dive", "make"]
+__all__ = ["PaperE", "PARAMETERS", "Dive", "make"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,10 @@ class PaperE:
     depth: float = 1000.0
     spacing: float = 100.0
     dr_sigma: float = 0.1
+
+
+#: Paper E's parameters (``PaperE()``).
+PARAMETERS = PaperE()
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,7 +196,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
     >>> dive.slant_ranges.shape, int(dive.outlier_mask[0].sum())
     ((2, 1201), 30)
     """
-    p = params if params is not None else PaperE()
+    p = params if params is not None else PARAMETERS
     if not isinstance(p, PaperE):
         raise TypeError(f"params must be a paper_e.PaperE; got {type(p).__name__}")
     if changes:
