@@ -240,3 +240,13 @@ def test_noise_model_of_the_scenario_is_the_papers():
     dive = paper_e.make(np.random.default_rng(0), 2)
     np.testing.assert_allclose(np.std(dive.scenario.range_errors[~np.asarray(dive.outlier_mask)]),
                                np.sqrt(2.0), rtol=0.05)
+
+
+def test_a_missing_range_inside_a_long_rejection_streak_is_predict_only():
+    t = np.arange(100.0)
+    z = 1500.0 + 0.5 * t + np.random.default_rng(6).normal(0.0, 1.0, 100)
+    z[40:80] += 80.0 * np.where(np.arange(40) % 2 == 0, 1.0, -1.0)   # 40 scattered outliers: fits keep failing
+    z[60] = np.nan
+    res = robust_range_kf(z, 1.0, q=0.01, reacquire=10)
+    np.testing.assert_array_equal(res.x[60], res.x_prior[60])
+    assert not res.extras["rejected"][60] and not res.extras["reacquired"].any()
