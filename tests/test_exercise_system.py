@@ -14,12 +14,12 @@ import pytest
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
 import uwtutor
-from uwtutor.exercises import Case, Feedback, ch01, check_array, check_function, check_number
+from uwtutor.exercises import Case, Feedback, ch01, ch04, check_array, check_function, check_number
 from uwtutor.exercises import generate
 from uwtutor.exercises.checks import DEFAULT_HINT
 from uwtutor.exercises.cli import main
-from uwtutor.exercises.generate import (ExerciseSourceError, list_exercise_sources, make_student_version,
-                                        write_student_versions)
+from uwtutor.exercises.generate import (STUB_MESSAGE, ExerciseSourceError, list_exercise_sources,
+                                        make_student_version, write_student_versions)
 
 REPO = Path(__file__).resolve().parents[1]
 SOURCE_DIR = REPO / "exercises"
@@ -49,9 +49,27 @@ class TestFeedback:
         html = fb._repr_html_()
         assert "&lt; b &amp;" in html and "<code>x</code>" in html and "use &lt;code&gt;" in html
         assert "✘" in html and "Hint" in html
-        md = fb._repr_markdown_()
-        assert md.startswith("**✘**") and "*Hint:* use <code>" in md
         assert "✔" in Feedback(True, "ok")._repr_html_()
+
+    def test_html_renders_the_inline_markup_instead_of_showing_it(self):
+        fb = Feedback(False, "That is eᵀ P e; the NEES weights the error with the *inverse* covariance.",
+                      hint="Compare with χ²_{Mn}(q)/M, **not** with `P_k * 2`; x_{i+1} − x_i and e^{−ak}.")
+        html = fb._repr_html_()
+        assert "<em>inverse</em>" in html and "*inverse*" not in html
+        assert "χ²<sub>Mn</sub>(q)/M" in html and "_{" not in html
+        assert "<strong>not</strong>" in html
+        assert "<code>P_k * 2</code>" in html  # code is left exactly as written
+        assert "x<sub>i+1</sub> − x<sub>i</sub>" in html and "e<sup>−ak</sup>" in html
+        assert "*" not in html.replace("<code>P_k * 2</code>", "")
+        assert not hasattr(fb, "_repr_markdown_"), "one rich display (HTML), so no front end shows raw Markdown"
+
+    def test_assert_correct_wraps_long_messages(self):
+        fb = Feedback(False, "Not yet.", hint="word " * 60)
+        with pytest.raises(AssertionError) as info:
+            fb.assert_correct()
+        lines = str(info.value).split("\n")
+        assert len(lines) > 2 and all(len(line) <= 100 for line in lines)
+        assert all(line.startswith("  ") for line in lines[1:])
 
     def test_frozen_and_validated(self):
         fb = Feedback(True, "ok")
@@ -377,7 +395,7 @@ MISTAKES = [
     (ch01.check_dr_drift, DRIFT / 1000, "1,000 times smaller", "unit conversion"),
     (ch01.check_dr_track, TRACK.T, "transpose?", "`.T`"),
     (ch01.check_dr_track, TRACK[:-1], "one row short", "np.arange"),
-    (ch01.check_dr_track, TRACK[:, ::-1], "columns in reverse order", "clockwise from north"),
+    (ch01.check_dr_track, TRACK[:, ::-1], "columns in reverse order", "counter-clockwise from east"),
     (ch01.check_dr_track, TRACK * [-1, 1], "elements off", "east coordinate grows"),
     (ch01.check_dr_track, np.column_stack((2 * np.arange(0, 3601, 600) * math.sin(1),
                                            2 * np.arange(0, 3601, 600) * math.cos(1))), "off", "radians"),
@@ -440,12 +458,13 @@ class TestChapter1:
     def test_outlier_detector_accepts_a_correct_solution(self):
         fb = ch01.check_outlier_detector(self.flag_outliers)
         assert fb, str(fb)
-        assert "passes all 10 test cases" in fb.message
+        assert "passes all 11 test cases" in fb.message
 
     def test_outlier_cases_flag_exactly_the_planted_outliers(self):
         planted = {"one isolated outlier": [8], "an outlier in the first range": [0],
                    "an outlier in the last range": [19], "a range that is too short": [5],
-                   "a patch of two outliers in a row": [10, 11], "a missing range (NaN) next to an outlier": [7]}
+                   "a patch of two outliers in a row": [10, 11], "a missing range (NaN) next to an outlier": [7],
+                   "two ranges, each the other's only neighbour": [0, 1]}
         cases = ch01._outlier_cases()
         labels = [c.label for c in cases]
         assert len(labels) == len(set(labels))
@@ -454,7 +473,7 @@ class TestChapter1:
             assert flagged == planted.get(case.label, []), case.label
 
     @pytest.mark.parametrize("variant, message_fragment, hint_fragment", [
-        ("mean", "case 2 of 10 (one isolated outlier) fails", "median"),
+        ("mean", "case 2 of 11 (one isolated outlier) fails", "median"),
         ("nan_median", "(a missing range (NaN) next to an outlier) fails", "np.isnan"),
         (">=", "(a jump of exactly the threshold is not flagged) fails", "strictly greater"),
         ("fixed_threshold", "(a larger threshold", "`threshold` argument"),
@@ -534,8 +553,9 @@ class TestGenerator:
         nb = make_student_version(src)
         assert nbformat.writes(src) == before  # the source is untouched
         sources = [c.source for c in nb.cells]
-        assert sources[1] == "x = None\n# YOUR CODE HERE\nraise NotImplementedError()"
-        assert sources[2] == "def f(a):\n    b = a + 1\n    # YOUR CODE HERE\n    raise NotImplementedError()"
+        stub = f"raise NotImplementedError({STUB_MESSAGE!r})"
+        assert sources[1] == f"x = None\n# YOUR CODE HERE\n{stub}"
+        assert sources[2] == f"def f(a):\n    b = a + 1\n    # YOUR CODE HERE\n    {stub}"
         assert sources[3] == "check(x)"
         assert sources[4] == "*Your answer:*\n\nYOUR ANSWER HERE"
         assert len(nb.cells) == 5  # the hidden-tests-only cell is gone
@@ -735,3 +755,102 @@ class TestCommand:
         assert forced.returncode == 0 and "YOUR CODE HERE" in (dest / NAME).read_text()
         usage = subprocess.run([str(exe), "exercises"], capture_output=True, text=True, timeout=120)
         assert usage.returncode == 2 and "usage:" in usage.stderr
+
+
+# -- the two checker bugs found by trying the notebooks ----------------------------------------------------------------
+def test_outlier_checker_rejects_a_window_that_holds_the_range_itself():
+    def window_with_itself(ranges, threshold):
+        r = np.asarray(ranges, dtype=float)
+        flags = np.zeros(len(r), dtype=bool)
+        for i in range(len(r)):
+            window = r[max(i - 3, 0):i + 4]  # the range itself is in its own window
+            window = window[~np.isnan(window)]
+            if np.isnan(r[i]) or window.size < 2:
+                continue
+            flags[i] = abs(r[i] - np.median(window)) > threshold
+        return flags
+
+    assert list(window_with_itself(np.array([100.0, 200.0]), 60.0)) == [False, False]  # the reported case
+    fb = ch01.check_outlier_detector(window_with_itself)
+    assert not fb
+    assert "each the other's only neighbour" in fb.message
+    assert "Leave the range itself out of its window" in fb.hint
+
+
+def test_ekf_update_checker_names_a_forgotten_covariance_update():
+    def forgot_P(x, P, z, R, beacon):
+        x, P, b = np.asarray(x, float), np.asarray(P, float), np.asarray(beacon, float)
+        predicted = np.linalg.norm(x - b)
+        H = (x - b) / predicted
+        S = H @ P @ H + R
+        K = P @ H / S
+        return x + K * (z - predicted), P  # P not updated
+
+    fb = ch04.check_ekf_update(forgot_P)
+    assert not fb
+    assert "updated covariance" in fb.message
+    assert "prior P unchanged" in fb.hint and "innovation is z − h(x)" not in fb.hint
+    assert fb.details["comparison"].details["diagnosed"]
+
+
+# -- nbgrader accepts the exercise sources ----------------------------------------------------------------------------
+def test_exercise_sources_carry_nbgrader_metadata():
+    from uwtutor.exercises.nbgrader_meta import nbgrader_problems, total_points
+
+    for path in list_exercise_sources():
+        nb = nbformat.read(path, as_version=4)
+        assert nbgrader_problems(nb) == [], path.name
+        auto, manual = total_points(nb)
+        assert auto > 0 and manual > 0, path.name
+        for cell in nb.cells:
+            tags = cell.metadata.get("tags", [])
+            if "answer" in tags or "check" in tags:
+                assert "nbgrader" in cell.metadata, f"{path.name}: a tagged cell without nbgrader metadata"
+
+
+def test_nbgrader_problems_finds_what_nbgrader_refuses():
+    from uwtutor.exercises.nbgrader_meta import add_nbgrader_metadata, nbgrader_problems
+
+    nb = nbformat.v4.new_notebook(cells=[
+        nbformat.v4.new_markdown_cell("## Exercise 9.1: x"),
+        nbformat.v4.new_code_cell("x = None\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION", metadata={"tags": ["answer"]}),
+        nbformat.v4.new_code_cell("### BEGIN HIDDEN TESTS\nassert x == 1\n### END HIDDEN TESTS", metadata={"tags": ["check"]}),
+        nbformat.v4.new_markdown_cell("### BEGIN SOLUTION\nbecause\n### END SOLUTION"),
+    ])
+    problems = nbgrader_problems(nb)
+    assert any("solution region but no nbgrader metadata" in p for p in problems)
+    assert any("hidden tests but no nbgrader metadata" in p for p in problems)
+    add_nbgrader_metadata(nb, prefix="ex")
+    assert nbgrader_problems(nb) == []
+    assert [c.metadata["nbgrader"]["grade_id"] for c in nb.cells[1:]] == ["ex_9_1_answer", "ex_9_1_check",
+                                                                         "ex_9_1_written"]
+    nb.cells[2].metadata["nbgrader"]["grade_id"] = "ex_9_1_answer"
+    nb.cells[2].metadata["nbgrader"]["locked"] = False
+    nb.cells[1].metadata["nbgrader"]["schema_version"] = 1
+    problems = "\n".join(nbgrader_problems(nb))
+    assert "already used by cell 1" in problems and "should be locked" in problems and "schema_version is 1" in problems
+
+
+def test_nbgrader_generates_the_exercise_assignment(tmp_path):
+    """nbgrader generate_assignment takes the exercise sources as they are (it refused them before the metadata)."""
+    pytest.importorskip("nbgrader", reason="nbgrader is in the test extra")
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    (tmp_path / "source" / "exercises").mkdir(parents=True)
+    for path in list_exercise_sources():
+        shutil.copy(path, tmp_path / "source" / "exercises")
+    (tmp_path / "nbgrader_config.py").write_text(
+        f"c = get_config()\nc.CourseDirectory.root = {str(tmp_path)!r}\n"
+        f"c.CourseDirectory.db_url = 'sqlite:///{tmp_path / 'gradebook.db'}'\n", encoding="utf-8")
+    env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
+    result = subprocess.run([sys.executable, "-m", "nbgrader", "generate_assignment", "exercises", "--create"],
+                            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    released = sorted(p.name for p in (tmp_path / "release" / "exercises").glob("*.ipynb"))
+    assert released == [p.name for p in list_exercise_sources()]
+    for name in released:
+        text = (tmp_path / "release" / "exercises" / name).read_text(encoding="utf-8")
+        assert "BEGIN SOLUTION" not in text and "HIDDEN TESTS" not in text and "YOUR CODE HERE" in text

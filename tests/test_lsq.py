@@ -319,12 +319,12 @@ def test_grid_prelocation_batch_equals_single_runs_and_ranges_equal_travel_times
         np.testing.assert_allclose(batch.start[m], single.start)
         np.testing.assert_allclose(batch.cost_map[m], single.cost_map, rtol=1e-12)
     # a small chunk size gives the same answer (runs are processed in chunks)
-    old = lsq._GRID_CHUNK_ELEMENTS
+    old = lsq.prelocation._GRID_CHUNK_ELEMENTS
     try:
-        lsq._GRID_CHUNK_ELEMENTS = 1
+        lsq.prelocation._GRID_CHUNK_ELEMENTS = 1
         chunked = lsq.grid_prelocation(ranges=sc.ranges, dr_displacements=sc.dr_displacements, **grid)
     finally:
-        lsq._GRID_CHUNK_ELEMENTS = old
+        lsq.prelocation._GRID_CHUNK_ELEMENTS = old
     np.testing.assert_array_equal(chunked.bearing, batch.bearing)
 
 

@@ -38,12 +38,14 @@ Two conditions come with the model:
 
 * **positivity** -- the accumulated series must grow, so every value must be > 0. A quantity that can be negative
   (the pitch of a vehicle) is shifted by a constant first, and the shift taken off the forecast;
-* **the level-ratio test** -- the ratios :math:`\sigma(k) = x^{(0)}(k-1) / x^{(0)}(k)` must lie in
+* **the level-ratio test** -- the ratios :math:`\ell(k) = x^{(0)}(k-1) / x^{(0)}(k)` must lie in
   :math:`(e^{-2/(n+1)}, e^{2/(n+1)})` for the series to suit GM(1,1) (:func:`level_ratio_test`).
 
-The fit is graded by the *posterior variance ratio* :math:`C = S_2 / S_1` (standard deviation of the residuals over
-that of the data; below 0.35 good, above 0.65 poor) and the *small-error probability*
-:math:`P = \Pr\{|\varepsilon(k) - \bar\varepsilon| < 0.6745\, S_1\}`.
+The fit is graded by the *posterior variance ratio* :math:`C_\mathrm{g} = S_\mathrm{e} / S_x` (standard deviation
+of the residuals :math:`e_\mathrm{g}(k)` over that of the data; below 0.35 good, above 0.65 poor) and the
+*small-error probability* :math:`p_\mathrm{g} = \Pr\{|e_\mathrm{g}(k) - \bar e_\mathrm{g}| < 0.6745\, S_x\}` (the
+grey literature's :math:`C` and :math:`P`; the book's notation page renames them so that :math:`P` is never a
+covariance).
 
 :func:`fit_gm11` fits one series and returns a :class:`GM11` with all of this; :func:`gm11_forecast` and
 :func:`rolling_gm11_forecast` are the vectorized forms that paper C's grey particle filter calls at every step.
@@ -152,7 +154,7 @@ class LevelRatioTest:
     Attributes
     ----------
     ratios : ndarray, shape (n - 1,)
-        :math:`\sigma(k) = x^{(0)}(k-1) / x^{(0)}(k)`, ``k = 2 .. n``.
+        :math:`\ell(k) = x^{(0)}(k-1) / x^{(0)}(k)`, ``k = 2 .. n``.
     lower : float
         :math:`e^{-2/(n+1)}`.
     upper : float
@@ -191,14 +193,14 @@ class GM11:
     fitted : ndarray, shape (n,)
         Restored values :math:`\hat x^{(0)}(k)`, ``k = 1 .. n`` (the first equals :math:`x^{(0)}(1)`).
     residuals : ndarray, shape (n,)
-        :math:`\varepsilon(k) = x^{(0)}(k) - \hat x^{(0)}(k)` (the first is 0).
+        :math:`e_\mathrm{g}(k) = x^{(0)}(k) - \hat x^{(0)}(k)` (the first is 0).
     relative_errors : ndarray, shape (n,)
-        :math:`|\varepsilon(k)| / x^{(0)}(k)`.
+        :math:`|e_\mathrm{g}(k)| / x^{(0)}(k)`.
     posterior_variance_ratio : float
-        :math:`C = S_2 / S_1`, population standard deviations of the residuals and of the series
+        :math:`C_\mathrm{g} = S_\mathrm{e} / S_x`, population standard deviations of the residuals and of the series
         (0 when the series is constant).
     small_error_probability : float
-        Share of residuals with :math:`|\varepsilon(k) - \bar\varepsilon| < 0.6745\, S_1`.
+        :math:`p_\mathrm{g}`, the share of residuals with :math:`|e_\mathrm{g}(k) - \bar e_\mathrm{g}| < 0.6745\, S_x`.
     level_ratio : LevelRatioTest
         The level-ratio test of the series.
     """

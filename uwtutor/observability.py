@@ -775,7 +775,7 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
 
 
 def _refer_current(J0: np.ndarray, tau: np.ndarray, unknown_bias: bool) -> np.ndarray:
-    """Refer information about [p_0, (bias), U] to [p_k, (bias), U], p_k = p_0 + tau_k U + known."""
+    """Refer information about [p_0, (bias), U] to [p_k, (bias), U], p_k = p_0 + (t_k - t_0) U + known."""
     n = J0.shape[-1]
     c = 3 if unknown_bias else 2
     T_inv = np.broadcast_to(np.eye(n), J0.shape).copy()

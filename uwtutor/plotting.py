@@ -71,17 +71,27 @@ def plain_log_ticks(ax: Any, axis: str = "y") -> None:
     '20'
     >>> plt.close(fig)
     """
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
     if axis not in ("x", "y"):
         raise ValueError(f"axis must be 'x' or 'y'; got {axis!r}")
     target = ax.yaxis if axis == "y" else ax.xaxis
     lo, hi = ax.get_ylim() if axis == "y" else ax.get_xlim()
     decades = np.log10(hi / max(lo, 1e-300))
-    if decades < 1.0:                                  # less than a decade: a few round numbers
-        target.set_major_locator(MaxNLocator(nbins=4))
+    lo_exp, hi_exp = int(np.floor(np.log10(max(lo, 1e-300)))), int(np.ceil(np.log10(hi)))
+
+    def multiples(mantissas: tuple[float, ...]) -> list[float]:
+        return [m * 10.0**e for e in range(lo_exp, hi_exp + 1) for m in mantissas if lo <= m * 10.0**e <= hi]
+
+    if decades < 1.7:                                  # up to a decade and a half: 1, 1.5, 2, 3, 5, 7 x 10^n
+        ticks = multiples((1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
+        if len(ticks) < 3:                             # a very narrow range: every integer multiple
+            ticks = multiples(tuple(float(m) for m in range(1, 10)))
+    elif decades < 3.0:
+        ticks = multiples((1.0, 2.0, 5.0))
     else:
-        target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0) if decades < 3.0 else (1.0,)))
+        ticks = multiples((1.0,))
+    target.set_major_locator(FixedLocator(ticks))
     target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     target.set_minor_formatter(NullFormatter())
 

@@ -191,26 +191,28 @@ class GaussianNoise(RangeErrorModel):
 class SoundSpeedError(RangeErrorModel):
     r"""Multiplicative range error from an uncertain sound speed (Zhu et al. (2019), paper D).
 
-    Each ping travels at a true effective speed :math:`c'_k \sim N(c, \sigma_c^2)` (drawn independently per
-    ping and run); the vehicle converts the travel time :math:`r'_k / c'_k` with its assumed speed
-    :math:`c_a`, so
+    Each ping travels at a true effective speed :math:`c_{\mathrm{e},k} \sim \mathcal{N}(\bar c_\mathrm{e},
+    \sigma_c^2)` (drawn independently per ping and run; ``true_speed`` is :math:`\bar c_\mathrm{e}`); the vehicle
+    converts the travel time :math:`r^\mathrm{true}_k / c_{\mathrm{e},k}` with its assumed speed :math:`c`, so
 
     .. math::
 
-        r_k = r'_k \frac{c_a}{c'_k}, \qquad e_k = r'_k\left(\frac{c_a}{c'_k} - 1\right).
+        r_k = \gamma_k r^\mathrm{true}_k, \quad \gamma_k = \frac{c}{c_{\mathrm{e},k}}, \qquad
+        e_k = r^\mathrm{true}_k (\gamma_k - 1).
 
-    To first order in :math:`\sigma_c / c` the error has
+    To first order in :math:`\sigma_c / \bar c_\mathrm{e}` the error has
 
     .. math::
 
-        \mathrm{E}[e_k] \approx \frac{c_a - c}{c}\, r'_k, \qquad
-        \mathrm{std}[e_k] \approx \frac{c_a}{c}\,\frac{\sigma_c}{c}\, r'_k,
+        \mathrm{E}[e_k] \approx \frac{c - \bar c_\mathrm{e}}{\bar c_\mathrm{e}}\, r^\mathrm{true}_k, \qquad
+        \mathrm{std}[e_k] \approx \frac{c}{\bar c_\mathrm{e}}\,\frac{\sigma_c}{\bar c_\mathrm{e}}\, r^\mathrm{true}_k,
 
     both growing with the range: multiplicative noise. Paper D writes the same model as
-    :math:`R_i = (1 + a_i) R'_i` with :math:`a_i \sim N(\Delta c/c', (\sigma_c/c')^2)`; the factor
-    :math:`c_a/c` in the standard deviation (0.98 for the paper's numbers) is the difference between putting
-    the randomness in the true speed (here) or in the assumed one (paper D). With ``speed_sigma=0`` the model is
-    the pure scale error :math:`\gamma r_k`, :math:`\gamma = c_a/c - 1`, of Liu et al., paper A.
+    :math:`R_i = (1 + a_i) R'_i` with :math:`a_i \sim N(\Delta c/c', (\sigma_c/c')^2)` (:math:`c'` is the book's
+    :math:`c_\mathrm{e}`); the factor :math:`c/\bar c_\mathrm{e}` in the standard deviation (0.98 for the paper's
+    numbers) is the difference between putting the randomness in the true speed (here) or in the assumed one
+    (paper D). With ``speed_sigma=0`` the model is the pure scale error :math:`(\mu_\gamma - 1)\, r^\mathrm{true}_k`
+    of Liu et al., paper A (its :math:`\gamma r_k`).
 
     Parameters
     ----------
@@ -265,27 +267,29 @@ class SoundSpeedError(RangeErrorModel):
 class SlowBias(RangeErrorModel):
     r"""Slowly varying range bias: a mean plus low-pass filtered white noise (Liu et al., paper A).
 
-    The zero-mean part is an Ornstein-Uhlenbeck process with time constant :math:`\tau` and stationary standard
-    deviation :math:`\sigma`, discretized exactly for the actual (possibly uneven) epoch steps:
+    The bias :math:`\upsilon_k` is a mean :math:`\mu_\upsilon` plus an Ornstein-Uhlenbeck process :math:`s_k` with
+    correlation time :math:`T_\upsilon` and stationary standard deviation :math:`\sigma_\upsilon`, discretized
+    exactly for the actual (possibly uneven) epoch steps:
 
     .. math::
 
-        e_k = \rho + b_k, \qquad b_k = \phi_k b_{k-1} + \sigma\sqrt{1 - \phi_k^2}\;\epsilon_k, \qquad
-        \phi_k = e^{-(t_k - t_{k-1})/\tau}, \qquad \epsilon_k \sim N(0, 1),
+        \upsilon_k = \mu_\upsilon + s_k, \qquad s_k = \phi_k s_{k-1} + \sigma_\upsilon\sqrt{1 - \phi_k^2}\;\epsilon_k,
+        \qquad \phi_k = e^{-(t_k - t_{k-1})/T_\upsilon}, \qquad \epsilon_k \sim N(0, 1),
 
-    started from its stationary distribution :math:`b_0 \sim N(0, \sigma^2)`. Hence
-    :math:`\mathrm{corr}(b_k, b_j) = e^{-|t_k - t_j|/\tau}` and :math:`\mathrm{std}(b_k) = \sigma` at every epoch.
-    Paper A's "slowly varying noise :math:`\mu_k` with mean :math:`\rho`"; its filter models it as a random walk,
-    which is the limit :math:`\tau \to \infty` over a short window.
+    started from its stationary distribution :math:`s_0 \sim N(0, \sigma_\upsilon^2)`. Hence
+    :math:`\mathrm{corr}(s_k, s_j) = e^{-|t_k - t_j|/T_\upsilon}` and :math:`\mathrm{std}(s_k) = \sigma_\upsilon` at
+    every epoch. Paper A's "slowly varying noise :math:`\mu_k` with mean :math:`\rho`" (:math:`\rho` is the book's
+    :math:`\mu_\upsilon`); its filter models it as a random walk, which is the limit :math:`T_\upsilon \to \infty`
+    over a short window.
 
     Parameters
     ----------
     mean : float
-        Constant part :math:`\rho` [m].
+        Constant part :math:`\mu_\upsilon` [m].
     sigma : float
-        Stationary standard deviation :math:`\sigma` [m], >= 0.
+        Stationary standard deviation :math:`\sigma_\upsilon` [m], >= 0.
     time_constant : float
-        Correlation time :math:`\tau` [s], > 0.
+        Correlation time :math:`T_\upsilon` [s], > 0.
 
     Notes
     -----
@@ -412,7 +416,7 @@ class Outliers(RangeErrorModel):
 
 def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, rng: np.random.Generator,
                    n_runs: Any = None) -> np.ndarray:
-    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = r'_k + e_k`.
+    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = r^\mathrm{true}_k + e_k`.
 
     Measured ranges are *not* clipped at zero: clipping would silently bias the errors. A negative measured
     range can only come from an error larger than the range itself (e.g. a two-sided outlier close to the

@@ -64,15 +64,15 @@ ASSUMED_SOUND_SPEED = 1470.0
 TRUE_SOUND_SPEED = 1500.0
 #: ... and the true range (m).
 TRUE_RANGE = 3000.0
-#: The vehicle's speed through the water in exercises 1.4 and 1.5 (m/s) ...
+#: The vehicle's speed through the water in exercise 1.4, parts (a) and (b) (m/s) ...
 DR_SPEED = 2.0
 #: ... the duration of the dead-reckoning run (s) ...
 DR_DURATION = 3600.0
 #: ... and the heading bias of its compass (degrees).
 HEADING_BIAS_DEG = 1.0
-#: The times (s) of the rows of the track of exercise 1.5.
+#: The times (s) of the rows of the track of exercise 1.4 (b).
 TRACK_TIMES = np.arange(0.0, DR_DURATION + 1.0, 600.0)
-#: In exercise 1.6, a range is compared with the median of its neighbours up to this many samples away on each side.
+#: In exercise 1.5, a range is compared with the median of its neighbours up to this many samples away on each side.
 OUTLIER_HALF_WIDTH = 3
 
 
@@ -191,10 +191,11 @@ def check_two_way_range(answer: Any) -> Feedback:
 
 # -- exercise 1.3: a sound-speed error is a multiplicative range error -------------------------------------------------
 def check_sound_speed_range_error(answer: Any) -> Feedback:
-    """Check the range error (m, estimated − true) from assuming 1470 m/s when the true speed is 1500 m/s, at 3000 m.
+    r"""Check the range error (m, estimated − true) from assuming 1470 m/s when the sound travels at 1500 m/s, at 3 km.
 
-    The travel time is set by the true speed, ``t = R / c_true``; the vehicle computes ``c_assumed * t``, so the
-    error is ``R * (c_assumed / c_true - 1)``.
+    In the book's notation (``book/notation.md``) the vehicle assumes :math:`c` and the sound travels at the
+    effective speed :math:`c_\mathrm{e}`: the travel time is :math:`\tau = R / c_\mathrm{e}`, the vehicle computes
+    :math:`\hat R = c\,\tau`, so the error is :math:`R\,(c / c_\mathrm{e} - 1)`.
 
     Parameters
     ----------
@@ -215,23 +216,23 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
     mistakes = {
         -expected: "The sign: the error is estimated − true. The vehicle assumes a speed that is too low, so it "
                    "underestimates the range and the error is negative.",
-        wrong_ratio: "You scaled with the assumed speed (Δc / c_assumed). The travel time is set by the true "
-                     "speed, t = R / c_true; the vehicle then computes c_assumed · t.",
-        -wrong_ratio: "You scaled with the assumed speed (Δc / c_assumed). The travel time is set by the true "
-                      "speed, t = R / c_true; the vehicle then computes c_assumed · t.",
+        wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
+                     "speed, τ = R / c_e; the vehicle then computes c · τ.",
+        -wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
+                      "speed, τ = R / c_e; the vehicle then computes c · τ.",
         estimated: "That is the range the vehicle computes; the task asks for its error, estimated − true.",
         c_a - c_t: "That is the sound-speed error in m/s; the task asks for the range error in metres.",
         2 * expected: "The error is on the one-way range: with a two-way time both the path and the time are "
                       "doubled, and halving gives back the one-way range with the same relative error.",
     }
     return check_number(answer, expected, rtol=1e-3, name="the range error", units="m", common_mistakes=mistakes,
-                        hint="Compute the travel time with the true speed, the range the vehicle estimates with "
-                             "its assumed speed, and subtract the true range.",
-                        explanation="A sound-speed error scales every range by c_assumed / c_true: a "
+                        hint="Compute the travel time with the effective speed c_e, the range the vehicle estimates "
+                             "with its assumed speed c, and subtract the true range.",
+                        explanation="A sound-speed error scales every range by c / c_e: a "
                                     "multiplicative error of −2 %, which grows with the range.")
 
 
-# -- exercises 1.4 and 1.5: dead-reckoning drift -----------------------------------------------------------------------
+# -- exercise 1.4 (a) and (b): dead-reckoning drift --------------------------------------------------------------------
 def check_dr_drift(answer: Any) -> Feedback:
     """Check the cross-track error (m) after 1 h at 2 m/s with a 1° heading bias.
 
@@ -272,16 +273,18 @@ def check_dr_drift(answer: Any) -> Feedback:
 
 
 def _true_track(times: np.ndarray, bias_deg: float) -> np.ndarray:
-    heading = np.radians(bias_deg)
+    """East and north of a vehicle heading theta = 90° - bias (counter-clockwise from east, as in the book)."""
+    heading = np.radians(90.0 - bias_deg)
     distance = DR_SPEED * times
-    return np.column_stack((distance * np.sin(heading), distance * np.cos(heading)))
+    return np.column_stack((distance * np.cos(heading), distance * np.sin(heading)))
 
 
 def check_dr_track(answer: Any) -> Feedback:
     """Check the true track (m) of the vehicle of exercise 1.4: a ``(7, 2)`` array of (east, north) positions.
 
-    The vehicle starts at the origin believing it heads due north (0°, clockwise from north) but actually heads
-    1° (east of north); the rows are the times 0, 600, ..., 3600 s.
+    The vehicle starts at the origin believing it heads due north (θ = 90°, headings counter-clockwise from east
+    as everywhere in the book) but actually heads θ = 89°, 1° east of north; the rows are the times
+    0, 600, ..., 3600 s, and a row is (east, north) = d (cos θ, sin θ) with d = v t.
 
     Parameters
     ----------
@@ -295,11 +298,13 @@ def check_dr_track(answer: Any) -> Feedback:
         bias with the wrong sign and times in minutes are recognised.
     """
     expected = _true_track(TRACK_TIMES, HEADING_BIAS_DEG)
-    in_radians = np.column_stack((DR_SPEED * TRACK_TIMES * math.sin(HEADING_BIAS_DEG),
-                                  DR_SPEED * TRACK_TIMES * math.cos(HEADING_BIAS_DEG)))
+    theta_deg = 90.0 - HEADING_BIAS_DEG
+    in_radians = np.column_stack((DR_SPEED * TRACK_TIMES * math.cos(theta_deg),
+                                  DR_SPEED * TRACK_TIMES * math.sin(theta_deg)))
     mistakes = [
-        (expected[:, ::-1], "Headings are measured clockwise from north: east = d·sin ψ, north = d·cos ψ, and the "
-                            "columns are east first, then north."),
+        (expected[:, ::-1], "East and north are swapped. Either the columns are in the wrong order (east first, "
+                            "then north: east = d·cos θ, north = d·sin θ), or you used θ = 1°: θ is counted "
+                            "counter-clockwise from east, so 1° east of north is θ = 90° − 1° = 89°."),
         (in_radians, "NumPy's trigonometric functions take radians: use `np.radians(1)`."),
         (_true_track(TRACK_TIMES, -HEADING_BIAS_DEG), "The vehicle actually heads 1° east of north, so its east "
                                                       "coordinate grows: it is positive."),
@@ -307,12 +312,12 @@ def check_dr_track(answer: Any) -> Feedback:
     ]
     return check_array(answer, expected, rtol=1e-4, atol=1e-6, name="the track", units="m",
                        common_mistakes=mistakes,
-                       hint="Each row is (east, north) = d(t)·(sin ψ, cos ψ) with d(t) = 2 m/s × t and ψ = 1° in "
+                       hint="Each row is (east, north) = d(t)·(cos θ, sin θ) with d(t) = 2 m/s × t and θ = 89° in "
                             "radians; `np.column_stack((east, north))` builds the array.",
-                       explanation="Its last row's east coordinate is the cross-track error of exercise 1.4.")
+                       explanation="Its last row's east coordinate is the cross-track error of part (a).")
 
 
-# -- exercise 1.6: outliers --------------------------------------------------------------------------------------------
+# -- exercise 1.5: outliers --------------------------------------------------------------------------------------------
 def _flag_outliers_reference(ranges: Any, threshold: float) -> np.ndarray:
     """The reference detector: True where a range differs from the median of its valid neighbours by > threshold."""
     r = np.asarray(ranges, dtype=float)
@@ -350,6 +355,10 @@ def _outlier_cases() -> list[Case]:
                   "drag away, and leave the range itself out of its window."),
         Case((planted({5: -12.0}), threshold), label="a range that is too short",
              hint="A jump can go either way: compare the absolute difference, `abs(...)`."),
+        Case((np.array([100.0, 200.0]), 60.0), label="two ranges, each the other's only neighbour",
+             hint="Leave the range itself out of its window: with it in, both windows are [100, 200], whose median "
+                  "150 is within 60 m of each range, so neither is flagged; each range's only neighbour is the "
+                  "other, 100 m away."),
         Case((planted({0: 30.0}), threshold), label="an outlier in the first range", hint=ends_hint),
         Case((planted({n - 1: 25.0}), threshold), label="an outlier in the last range", hint=ends_hint),
         Case((planted({10: 35.0, 11: 33.0}), threshold), label="a patch of two outliers in a row",

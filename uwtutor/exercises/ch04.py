@@ -162,8 +162,24 @@ def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedba
     fb = check_array(x_new, expected[0], rtol=1e-9, atol=1e-9, name="the updated position", units="m")
     if not fb:
         return fb
-    return check_array(P_new, expected[1], rtol=1e-8, atol=1e-9, name="the updated covariance", units="m²",
-                       common_mistakes=[])
+    fb = check_array(P_new, expected[1], rtol=1e-8, atol=1e-9, name="the updated covariance", units="m²",
+                     common_mistakes=[])
+    if fb or np.shape(P_new) != np.shape(expected[1]):
+        return fb
+    # The position is right, so the innovation and the gain are: only the covariance step is wrong.
+    P_arr = np.asarray(P_new, dtype=float)
+    excess = P_arr - expected[1]
+    if not np.allclose(P_arr, P_arr.T, rtol=1e-8, atol=1e-9):
+        hint = ("Your position is right but your covariance is not symmetric: use P⁺ = (I − K H) P with H as a "
+                "(1, 2) row and K as a (2, 1) column (an outer product), or the Joseph form.")
+    elif np.trace(excess) > 0 and np.all(np.linalg.eigvalsh((excess + excess.T) / 2) > -1e-9 * np.trace(P_arr)):
+        hint = ("Your position is right, so the innovation and the gain are; but your covariance is larger than the "
+                "updated one. Did you return the prior P unchanged? A range shrinks the uncertainty along the line "
+                "of sight: P⁺ = (I − K H) P.")
+    else:
+        hint = ("Your position is right, so the innovation and the gain are; the covariance step is off: "
+                "P⁺ = (I − K H) P, with K H the (2, 2) outer product of the (2, 1) gain and the (1, 2) Jacobian.")
+    return Feedback(False, fb.message, hint=hint, details={**fb.details, "diagnosed": True})
 
 
 def check_ekf_update(func: Any) -> Feedback:

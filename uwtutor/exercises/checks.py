@@ -134,7 +134,7 @@ def not_answered(what: str) -> Feedback:
     """
     return Feedback(False, f"No answer yet: replace `None` with {what}.",
                     hint="Write your code in the answer cell above (where it says `# YOUR CODE HERE`), delete the "
-                         "`raise NotImplementedError()` line, then run that cell and this one again.",
+                         "`raise NotImplementedError(...)` line, then run that cell and this one again.",
                     details={"answered": False})
 
 
@@ -756,7 +756,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         The function's name as the student knows it (default: ``func.__name__``).
     compare : callable, optional
         ``compare(got, expected) -> Feedback``; the default uses ``check_number`` for numbers, ``check_array`` for
-        arrays (boolean arrays compared as flags) and ``==`` otherwise.
+        arrays (boolean arrays compared as flags) and ``==`` otherwise. When the comparison recognises the cause of a
+        wrong value, it says so with ``details["diagnosed"] = True``: its hint then wins over the case's.
     rtol, atol : float
         Tolerances of the default comparison.
     hint : str, optional
@@ -808,7 +809,7 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
             got = func(*args, **kwargs)
         except NotImplementedError:
             return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
-                            hint="Replace the `raise NotImplementedError()` line in its body with your code, run that "
+                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run that "
                                  "cell, then this one.",
                             details={**base_details, "answered": False})
         except Exception as exc:  # the student's code failed: report it, never crash the checker
@@ -844,7 +845,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
             message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
                        f"\nExpected: {_fmt_value(expected)}\nGot: {_fmt_value(got)}")
             specific = verdict.hint if verdict.hint != DEFAULT_HINT else None
-            if "n_wrong" in verdict.details:  # wrong values: the case knows best why
+            if verdict.details.get("diagnosed") and specific:  # the comparison recognised the cause
+                best_hint = specific
+            elif "n_wrong" in verdict.details:  # wrong values: the case knows best why
                 best_hint = case.hint or specific or hint or DEFAULT_HINT
             else:  # wrong type or shape: the comparison knows best
                 best_hint = specific or case.hint or hint or DEFAULT_HINT

@@ -1,13 +1,15 @@
-"""The ``uwtutor`` command: fresh student copies of the exercise notebooks.
+"""The ``uwtutor`` command: fresh student copies of the exercise notebooks and of the course labs.
 
 Usage::
 
     uwtutor exercises DIR [--source SRC] [--force]
+    uwtutor labs DIR [--source SRC] [--lab NAME ...] [--force]
 
 writes the student version of every exercise notebook into ``DIR`` (created if needed). A notebook that already
 exists in ``DIR`` is never overwritten, so running the command again is safe: it only adds what is missing and says
 which files it skipped. ``--force`` overwrites them (the work in them is lost). ``--source`` names the directory of the
-solution sources when uwtutor is not installed from a clone of the repository.
+solution sources when uwtutor is not installed from a clone of the repository. ``uwtutor labs`` does the same for the
+labs, one folder per lab (``DIR/NAME/NAME.ipynb``); ``--lab NAME`` picks labs.
 
 Exit status: 0 on success (also when some files were skipped), 1 when a file cannot be read or written, 2 on a usage
 error (unknown option, missing sources, ``DIR`` is a file).
@@ -25,13 +27,14 @@ __all__ = ["main", "build_parser"]
 _DESCRIPTION = """\
 uwtutor: companion command of the textbook "Single-Beacon Underwater Acoustic Navigation".
 
-Use "uwtutor exercises DIR" to get your own copies of the exercise notebooks, then open them in JupyterLab."""
+Use "uwtutor exercises DIR" to get your own copies of the exercise notebooks, and "uwtutor labs DIR"
+for the course labs, then open them in JupyterLab."""
 
 _EXERCISES_DESCRIPTION = """\
 Write fresh student versions of the exercise notebooks into DIR (created if needed).
 
 Each exercise has an answer cell (write your code below "# YOUR CODE HERE" and delete the
-"raise NotImplementedError()" line) and a check cell that tells you what is wrong and why.
+"raise NotImplementedError(...)" line) and a check cell that tells you what is wrong and why.
 
 A notebook that already exists in DIR is never overwritten (it holds your work): it is skipped
 and reported. To get a fresh copy, rename or delete yours and run the command again, write to
@@ -43,6 +46,24 @@ examples:
   uwtutor exercises ./my-work            # later: adds only the notebooks you do not have yet
   uwtutor exercises ./my-work --force    # start again from fresh copies (your changes are lost)
   uwtutor exercises ./lab --source path/to/uwtutor/exercises"""
+
+
+_LABS_DESCRIPTION = """\
+Write fresh student versions of the course labs into DIR: one folder per lab, DIR/NAME/NAME.ipynb.
+
+A lab is a graded assignment of about 90 minutes. Answer cells are marked "# YOUR CODE HERE"
+(delete the "raise NotImplementedError(...)" line) or "YOUR ANSWER HERE" (a written answer);
+the test cell below each answer runs the visible checks. Your instructor may hand out the same
+labs through nbgrader instead; then use the copies they give you.
+
+A file that already exists in DIR is never overwritten (it holds your work): it is skipped and
+reported. To get a fresh copy, rename or delete yours and run the command again, or pass --force."""
+
+_LABS_EPILOG = """\
+examples:
+  uwtutor labs ./labs                          # every lab
+  uwtutor labs ./labs --lab ekf_consistency    # one lab
+  uwtutor labs ./labs --source path/to/uwtutor/exercises/labs"""
 
 
 def _version() -> str:
@@ -76,11 +97,23 @@ def build_parser() -> argparse.ArgumentParser:
                                 "directory of the repository uwtutor is installed from")
     exercises.add_argument("--force", action="store_true",
                            help="overwrite notebooks that already exist in DIR (your changes in them are lost)")
+    labs = commands.add_parser(
+        "labs", help="write fresh student copies of the course labs into a directory (one folder per lab)",
+        description=_LABS_DESCRIPTION, epilog=_LABS_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    labs.add_argument("dir", metavar="DIR", type=Path,
+                      help="where to write the labs, DIR/NAME/NAME.ipynb (created if it does not exist)")
+    labs.add_argument("--source", metavar="SRC", type=Path, default=None,
+                      help="the directory of the lab folders (with solutions); default: exercises/labs/ of the "
+                           "repository uwtutor is installed from")
+    labs.add_argument("--lab", metavar="NAME", action="append", default=None,
+                      help="only this lab (repeat for several); default: every lab")
+    labs.add_argument("--force", action="store_true",
+                      help="overwrite files that already exist in DIR (your changes in them are lost)")
     return parser
 
 
-def _error(message: str) -> None:
-    print(f"uwtutor exercises: error: {message}", file=sys.stderr)
+def _error(message: str, command: str = "exercises") -> None:
+    print(f"uwtutor {command}: error: {message}", file=sys.stderr)
 
 
 def _exercises(args: argparse.Namespace) -> int:
@@ -113,6 +146,39 @@ def _exercises(args: argparse.Namespace) -> int:
     return 0
 
 
+def _labs(args: argparse.Namespace) -> int:
+    from .generate import ExerciseSourceError, lab_source_dir, list_lab_sources, write_lab_versions
+
+    try:
+        labs_dir = args.source if args.source is not None else lab_source_dir()
+        list_lab_sources(labs_dir)
+    except FileNotFoundError as exc:
+        _error(str(exc), "labs")
+        return 2
+    dest: Path = args.dir
+    if dest.exists() and not dest.is_dir():
+        _error(f"{dest} exists and is not a directory; choose a directory for the labs", "labs")
+        return 2
+    try:
+        report = write_lab_versions(labs_dir, dest, overwrite=args.force, names=args.lab)
+    except ExerciseSourceError as exc:
+        _error(f"a lab notebook is malformed: {exc}", "labs")
+        return 1
+    except FileNotFoundError as exc:
+        _error(str(exc), "labs")
+        return 2
+    except ValueError as exc:
+        _error(str(exc), "labs")
+        return 2
+    except OSError as exc:
+        _error(f"could not write the labs: {exc}", "labs")
+        return 1
+    print(report.summary(force_hint=f"run 'uwtutor labs {dest} --force'"))
+    if report.written:
+        print(f"Next: open them in JupyterLab (jupyter lab {dest}) and work through each lab from the top.")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``uwtutor`` command.
 
@@ -135,6 +201,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    if args.command == "labs":
+        return _labs(args)
     return _exercises(args)
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import html
 import re
+import textwrap
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,10 +32,55 @@ CORRECT_MARK = "✔"
 WRONG_MARK = "✘"
 
 
+_CODE_SPAN = re.compile(r"`([^`]+)`")
+_STRONG = re.compile(r"(?<![\w*])\*\*(?=\S)(.+?)(?<=\S)\*\*(?![\w*])")
+_EMPHASIS = re.compile(r"(?<![\w*])\*(?=[^\s*])([^*\n]+?)(?<=[^\s*])\*(?![\w*])")
+_BRACED = re.compile(r"([_^])\{([^{}]+)\}")
+_SINGLE_SUB = re.compile(r"(?<![\w.])([^\W\d_])_([^\W_])(?!\w)")
+
+
+def _inline_html(text: str) -> str:
+    """Text with light inline markup, as HTML (escaped).
+
+    The messages of the checkers are plain text with a little markup, which is rendered here instead of shown
+    literally: ``code`` (between backticks) as code, ``**strong**`` and ``*emphasis*``, and the subscripts and
+    superscripts of formulas, ``x_{i+1}``, ``χ²_{Mn}``, ``e^{−ak}`` and a single-letter ``V_k``. Code spans are left
+    exactly as written; line breaks become ``<br>``.
+
+    Examples
+    --------
+    >>> _inline_html("the *inverse* of `P_k`, χ²_{Mn} and e^{−a} at V_k < 1")
+    'the <em>inverse</em> of <code>P_k</code>, χ²<sub>Mn</sub> and e<sup>−a</sup> at V<sub>k</sub> &lt; 1'
+    """
+    pieces = _CODE_SPAN.split(text)  # even indices: prose; odd: the insides of code spans
+    out = []
+    for index, piece in enumerate(pieces):
+        escaped = html.escape(piece, quote=False)
+        if index % 2:
+            out.append(f"<code>{escaped}</code>")
+            continue
+        escaped = _STRONG.sub(r"<strong>\1</strong>", escaped)
+        escaped = _EMPHASIS.sub(r"<em>\1</em>", escaped)
+        escaped = _BRACED.sub(lambda m: f"<{'sub' if m.group(1) == '_' else 'sup'}>{m.group(2)}"
+                                        f"</{'sub' if m.group(1) == '_' else 'sup'}>", escaped)
+        escaped = _SINGLE_SUB.sub(r"\1<sub>\2</sub>", escaped)
+        out.append(escaped)
+    return "".join(out).replace("\n", "<br>")
+
+
 def _html_lines(text: str) -> str:
-    """Escape ``text`` for HTML, keeping its line breaks and its code spans (between backticks) readable."""
-    escaped = html.escape(text).replace("\n", "<br>")
-    return re.sub(r"`([^`]+)`", r"<code>\1</code>", escaped)
+    """Escape ``text`` for HTML and render its inline markup (see ``_inline_html``), keeping its line breaks."""
+    return _inline_html(text)
+
+
+def _wrapped(text: str, width: int = 100) -> str:
+    """``text`` with each line wrapped at ``width`` characters, continuation lines indented like the line."""
+    out = []
+    for line in text.split("\n"):
+        indent = line[:len(line) - len(line.lstrip())] or ("  " if line.startswith(("✔", "✘")) else "")
+        out.append(textwrap.fill(line, width=width, subsequent_indent=indent, break_long_words=False,
+                                 break_on_hyphens=False) if line.strip() else line)
+    return "\n".join(out)
 
 
 @dataclass(frozen=True)
@@ -107,12 +153,6 @@ class Feedback:
     def _repr_pretty_(self, printer: Any, cycle: bool) -> None:  # IPython's plain-text display
         printer.text(str(self))
 
-    def _repr_markdown_(self) -> str:
-        text = f"**{self.mark}** " + self.message.replace("\n", "  \n")
-        if self.hint:
-            text += "\n\n*Hint:* " + self.hint.replace("\n", "  \n")
-        return text
-
     def _repr_html_(self) -> str:
         colour, background = ("#1a7f37", "#e8f5ec") if self.correct else ("#b3261e", "#fcebea")
         body = f"<strong style='color:{colour}'>{self.mark}</strong> {_html_lines(self.message)}"
@@ -136,8 +176,9 @@ class Feedback:
         Raises
         ------
         AssertionError
-            When the answer is not correct; the error text is the feedback text.
+            When the answer is not correct; the error text is the feedback text, wrapped at 100 characters.
         """
+        __tracebackhide__ = True  # pytest leaves this frame out of its tracebacks
         if not self.correct:
-            raise AssertionError(str(self))
+            raise AssertionError(_wrapped(str(self)))
         return self

@@ -12,7 +12,7 @@ In the student version the region between (and including) the markers of a code 
 the ``BEGIN`` marker::
 
     # YOUR CODE HERE
-    raise NotImplementedError()
+    raise NotImplementedError("not answered yet: write your code in place of this line, then run the cell again")
 
 so that running the student notebook stops at the first unanswered exercise; in a Markdown cell it becomes
 ``YOUR ANSWER HERE``. Regions between ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` are removed (a cell
@@ -38,14 +38,20 @@ __all__ = [
     "write_student_versions",
     "list_exercise_sources",
     "exercise_source_dir",
+    "lab_source_dir",
+    "list_lab_sources",
+    "write_lab_versions",
     "WriteReport",
     "ExerciseSourceError",
     "CODE_STUB",
+    "STUB_MESSAGE",
     "TEXT_STUB",
 ]
 
-#: The lines that replace a solution region in a code cell (nbgrader's default stub).
-CODE_STUB = ("# YOUR CODE HERE", "raise NotImplementedError()")
+#: The message of the stub's ``NotImplementedError``: what the student is to do.
+STUB_MESSAGE = "not answered yet: write your code in place of this line, then run the cell again"
+#: The lines that replace a solution region in a code cell (nbgrader's stub, with a message that says what to do).
+CODE_STUB = ("# YOUR CODE HERE", f"raise NotImplementedError({STUB_MESSAGE!r})")
 #: The line that replaces a solution region in a Markdown cell.
 TEXT_STUB = "YOUR ANSWER HERE"
 
@@ -119,7 +125,7 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
     -------
     nbformat.NotebookNode
         A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
-        and ``raise NotImplementedError()`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
+        and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
         TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
         execution counts cleared; notebook metadata reduced to ``kernelspec`` and the language's name, cell metadata
         to ``tags``.
@@ -248,19 +254,27 @@ class WriteReport:
 
         if self.written:
             lines.append(f"Wrote {plural(len(self.written))} to {self.dest_dir}:")
-            lines.extend(f"  {p.name}" + ("  (overwritten)" if p in self.overwritten else "") for p in self.written)
+            lines.extend(f"  {self._shown(p)}" + ("  (overwritten)" if p in self.overwritten else "")
+                         for p in self.written)
         else:
             lines.append(f"Wrote nothing to {self.dest_dir}.")
         if self.skipped:
             lines.append(f"Skipped {plural(len(self.skipped))} that already exist"
                          + ("s" if len(self.skipped) == 1 else "") + " (your work is never overwritten):")
-            lines.extend(f"  {p.name}" for p in self.skipped)
+            lines.extend(f"  {self._shown(p)}" for p in self.skipped)
             advice = ("To get a fresh copy of a skipped notebook, rename or delete your copy and run this again, or "
                       "write to another directory")
             if force_hint:
                 advice += f", or {force_hint} to overwrite it (your changes to it are lost)"
             lines.append(advice + ".")
         return "\n".join(lines)
+
+    def _shown(self, path: Path) -> str:
+        """A written or skipped file as the summary shows it: relative to ``dest_dir`` (``lab/lab.ipynb``)."""
+        try:
+            return path.relative_to(self.dest_dir).as_posix()
+        except ValueError:
+            return path.name
 
     def __str__(self) -> str:
         return self.summary(force_hint="pass overwrite=True")
@@ -345,6 +359,145 @@ def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: 
             _write_replace(target, text)
             written.append(target)
         elif _write_new(target, text):
+            written.append(target)
+        else:
+            skipped.append(target)
+    return WriteReport(dest_dir=dest, written=tuple(written), skipped=tuple(skipped), overwritten=tuple(overwritten))
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# labs: one folder per lab, each an nbgrader assignment
+# ---------------------------------------------------------------------------------------------------------------------
+def lab_source_dir(source_dir: str | os.PathLike[str] | None = None) -> Path:
+    """The directory that holds the lab folders: ``labs/`` inside the exercise sources.
+
+    Parameters
+    ----------
+    source_dir : str or path, optional
+        The exercise source directory (default: ``exercise_source_dir()``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``source_dir / "labs"``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the exercise sources cannot be found (see ``exercise_source_dir``).
+    """
+    return (exercise_source_dir() if source_dir is None else Path(source_dir)) / "labs"
+
+
+def list_lab_sources(labs_dir: str | os.PathLike[str] | None = None) -> dict[str, list[Path]]:
+    """The labs and their notebooks: every folder of ``labs_dir`` that holds at least one notebook.
+
+    Each lab folder is one nbgrader assignment (copy it to ``source/NAME/`` of an nbgrader course). Other folders
+    (for example the instructor notes) and hidden files are left out.
+
+    Parameters
+    ----------
+    labs_dir : str or path, optional
+        Where the lab folders are (default: ``lab_source_dir()``).
+
+    Returns
+    -------
+    dict
+        Lab name (its folder's name) -> its ``*.ipynb`` files, sorted; the labs sorted by name.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the directory does not exist or holds no lab.
+    """
+    directory = lab_source_dir() if labs_dir is None else Path(labs_dir)
+    if not directory.is_dir():
+        raise FileNotFoundError(f"the lab source directory {directory} does not exist")
+    labs = {}
+    for folder in sorted(p for p in directory.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
+        notebooks = sorted(p for p in folder.glob("*.ipynb") if not p.name.startswith("."))
+        if notebooks:
+            labs[folder.name] = notebooks
+    if not labs:
+        raise FileNotFoundError(f"no labs (folders holding *.ipynb) in {directory}")
+    return labs
+
+
+def write_lab_versions(labs_dir: str | os.PathLike[str] | None, dest_dir: str | os.PathLike[str], *,
+                       overwrite: bool = False, names: Iterable[str] | None = None) -> WriteReport:
+    """Write the student version of every lab into ``dest_dir/NAME/``, never clobbering existing files.
+
+    The student version of a lab notebook is made exactly as for the exercises (``make_student_version``); other
+    files of a lab folder (data, figures) are copied as they are, also never over existing ones. Every notebook is
+    converted before anything is written, so a malformed source writes nothing.
+
+    Parameters
+    ----------
+    labs_dir : str, path or None
+        The directory of the lab folders; ``None`` for ``lab_source_dir()``.
+    dest_dir : str or path
+        Where to write (created if needed); each lab goes into its own sub-directory.
+    overwrite : bool
+        Replace files that already exist (default: leave them alone and report them as skipped).
+    names : iterable of str, optional
+        Only these labs (folder names; default: all).
+
+    Returns
+    -------
+    WriteReport
+        The files written and skipped (paths inside ``dest_dir``).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there are no labs or a requested lab does not exist.
+    NotADirectoryError
+        If ``dest_dir`` exists and is not a directory.
+    ValueError
+        If ``dest_dir`` is the lab source directory, or a source's markers are malformed.
+    """
+    directory = lab_source_dir() if labs_dir is None else Path(labs_dir)
+    labs = list_lab_sources(directory)
+    if names is not None:
+        wanted = set(names)
+        missing = wanted - set(labs)
+        if missing:
+            raise FileNotFoundError(f"no lab named {', '.join(sorted(missing))}; available: {', '.join(labs)}")
+        labs = {name: nbs for name, nbs in labs.items() if name in wanted}
+    dest = Path(dest_dir)
+    if dest.exists() and not dest.is_dir():
+        raise NotADirectoryError(f"{dest} exists and is not a directory")
+    if dest.exists() and dest.resolve() == directory.resolve():
+        raise ValueError(f"refusing to write student versions into the lab source directory {dest}")
+    planned: list[tuple[Path, str | bytes]] = []
+    for name, notebooks in labs.items():
+        for nb_path in notebooks:
+            planned.append((Path(name) / nb_path.name, nbformat.writes(make_student_version(nb_path)) + "\n"))
+        for extra in sorted((directory / name).rglob("*")):
+            relative = extra.relative_to(directory / name)
+            if (extra.is_file() and extra.suffix != ".ipynb" and ".ipynb_checkpoints" not in relative.parts
+                    and "__pycache__" not in relative.parts and not relative.name.startswith(".")):
+                planned.append((Path(name) / relative, extra.read_bytes()))
+    written: list[Path] = []
+    skipped: list[Path] = []
+    overwritten: list[Path] = []
+    for relative, content in planned:
+        target = dest / relative
+        target.parent.mkdir(parents=True, exist_ok=True)
+        text = content if isinstance(content, str) else None
+        if overwrite:
+            if target.exists():
+                overwritten.append(target)
+            if text is not None:
+                _write_replace(target, text)
+            else:
+                target.write_bytes(content)  # type: ignore[arg-type]
+            written.append(target)
+        elif text is not None and _write_new(target, text):
+            written.append(target)
+        elif text is None and not target.exists():
+            with open(target, "xb") as handle:
+                handle.write(content)  # type: ignore[arg-type]
             written.append(target)
         else:
             skipped.append(target)

@@ -64,7 +64,7 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     """
     d = positions - beacon
     r = np.hypot(d[..., 0], d[..., 1])
-    defined = r > 0.0
+    defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
     safe = np.where(defined, r, 1.0)
     los = d / safe[..., None]
     return r, los, defined

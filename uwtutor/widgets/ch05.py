@@ -44,7 +44,7 @@ class FadingView:
     rho : float
         Forgetting factor.
     weakening : bool
-        True: paper D's :math:`\beta_k = \mathbf C_k \mathbf m_k` (ISFEKF); False: :math:`\beta = 1`.
+        True: paper D's :math:`\beta_k = \mathbf H_k \mathbf m_k` (ISFEKF); False: :math:`\beta = 1`.
     initial_error : float
         Distance of the initial estimate from the truth [m].
     n_runs : int
@@ -211,7 +211,7 @@ def fading_widget() -> Any:
                                     continuous_update=False, style=style),
         "rho": w.FloatSlider(value=0.95, min=0.3, max=1.0, step=0.05, description="ρ", continuous_update=False,
                              style=style),
-        "weakening": w.Checkbox(value=True, description="β = C m (paper D)", style=style),
+        "weakening": w.Checkbox(value=True, description="β = H m (paper D)", style=style),
         "initial_error": w.FloatLogSlider(value=150.0, base=10, min=1.0, max=3.0, step=0.1,
                                           description="initial error [m]", continuous_update=False, style=style),
     }

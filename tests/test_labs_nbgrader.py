@@ -1,0 +1,267 @@
+"""The labs are nbgrader assignments: nbgrader itself generates, autogrades and writes feedback on each of them.
+
+For every lab folder in ``exercises/labs/`` a temporary nbgrader course (its own sqlite gradebook) is made:
+``nbgrader generate_assignment``, then three submissions are autograded by ``nbgrader autograde``:
+
+- ``solution``: the instructor's source with the solution markers taken out: it must get every autograded point;
+- ``blank``: the released version, unanswered: it must get no point;
+- ``wrong``: the solution with one typical mistake (listed in ``MISTAKES``): some points, not all;
+
+and ``nbgrader generate_feedback`` writes the HTML feedback, which must name what failed. The labs run in full (they
+are written to take seconds), two courses at a time. Also tested: the metadata nbgrader reads, the released version,
+and ``uwtutor labs DIR`` (the student versions made without nbgrader).
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import re
+import shutil
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import nbformat
+import pytest
+
+nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the test extra: pip install -e '.[test]'")
+
+from uwtutor.exercises.cli import main  # noqa: E402
+from uwtutor.exercises.generate import CODE_STUB, list_lab_sources, write_lab_versions  # noqa: E402
+from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, total_points  # noqa: E402
+
+LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
+LABS = list_lab_sources(LABS_DIR)
+
+#: One typical mistake per lab: (grade_id of the answer cell, text of the solution, the wrong text), and the points
+#: the wrong submission is expected to get (the tests recompute everything, so a mistake costs every part it
+#: propagates into), and a phrase its feedback must contain.
+MISTAKES = {
+    "range_error_budget": (("B_answer", "c_e = effective_sound_speed(cast_depth, profile_speeds, z_vehicle, z_beacon)",
+                            "c_e = float(np.mean(profile_speeds))  # the cast's arithmetic mean"),
+                           2.0, "mean of the whole cast"),
+    "observable_track": (("A_answer", "return float(np.sqrt(bound[0, 0] + bound[1, 1])), float(np.sqrt(bound[2, 2]))",
+                          "return float(bound[0, 0] + bound[1, 1]), float(np.sqrt(bound[2, 2]))"),
+                         7.0, "Take the square root"),  # A, and B (its table uses final_bounds) fail
+    "ekf_consistency": (("A_answer", "nees_bounds = chi2_mean_bounds(2, n_runs)",
+                         "nees_bounds = chi2_mean_bounds(1, n_runs)"),
+                        9.0, "the bounds of a mean NEES bracket n = 2"),
+    "fading_sound_speed": (("A_answer", "mu_gamma, sigma_gamma = range_factor_moments(c_nav, c_e, sigma_c)",
+                            "mu_gamma, sigma_gamma = c_e / c_nav, c_nav * sigma_c / c_e**2"),
+                           6.0, "mu_gamma &gt; 1"),
+    "depth_pf_vs_ekf": (("B_answer",
+                         "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",
+                         "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),
+                        9.0, "must stay finite far out"),
+}
+
+_SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
+
+
+def test_every_lab_has_a_mistake_listed():
+    assert set(MISTAKES) == set(LABS), "add a typical wrong answer to MISTAKES for every lab"
+
+
+def _solution_version(nb: nbformat.NotebookNode) -> nbformat.NotebookNode:
+    """The source with its solution markers removed: what a student who gets everything right hands in."""
+    nb = copy.deepcopy(nb)
+    for cell in nb.cells:
+        cell.source = "\n".join(line for line in cell.source.split("\n") if not _SOLUTION_MARKER.match(line))
+    return nb
+
+
+def _with_mistake(nb: nbformat.NotebookNode, grade_id: str, right: str, wrong: str) -> nbformat.NotebookNode:
+    nb = _solution_version(nb)
+    cells = [c for c in nb.cells if c.metadata.get("nbgrader", {}).get("grade_id") == grade_id]
+    assert len(cells) == 1 and right in cells[0].source, f"{grade_id}: {right!r} not found (update MISTAKES)"
+    cells[0].source = cells[0].source.replace(right, wrong)
+    return nb
+
+
+def _nbgrader(course: Path, *args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
+    env.pop("JUPYTER_CONFIG_DIR", None)
+    result = subprocess.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
+                            text=True, timeout=900)
+    assert result.returncode == 0, f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    return result
+
+
+def _grade_lab(root: Path, lab: str) -> dict:
+    """Make a course for one lab, generate it, autograde three students, write their feedback; report the scores."""
+    course = root / lab
+    (course / "source").mkdir(parents=True)
+    stub = CODE_STUB[0] + "\n" + CODE_STUB[1]
+    (course / "nbgrader_config.py").write_text(
+        "c = get_config()\n"
+        "c.CourseDirectory.course_id = 'uwtutor-labs-test'\n"
+        f"c.CourseDirectory.root = {str(course)!r}\n"
+        f"c.CourseDirectory.db_url = 'sqlite:///{course / 'gradebook.db'}'\n"
+        f"c.ClearSolutions.code_stub = {{'python': {stub!r}}}\n"
+        "c.ExecutePreprocessor.timeout = 600\n", encoding="utf-8")
+    shutil.copytree(LABS_DIR / lab, course / "source" / lab)
+    _nbgrader(course, "generate_assignment", lab, "--create")
+    notebooks = LABS[lab]
+    (right_id, right, wrong), _, _ = MISTAKES[lab]
+    for path in notebooks:
+        source = nbformat.read(path, as_version=4)
+        released = nbformat.read(course / "release" / lab / path.name, as_version=4)
+        has_mistake = any(c.metadata.get("nbgrader", {}).get("grade_id") == right_id and right in c.source
+                          for c in source.cells)
+        submissions = {"solution": _solution_version(source), "blank": released,
+                       "wrong": _with_mistake(source, right_id, right, wrong) if has_mistake else _solution_version(source)}
+        for student, nb in submissions.items():
+            folder = course / "submitted" / student / lab
+            folder.mkdir(parents=True, exist_ok=True)
+            nbformat.write(nb, folder / path.name)
+    _nbgrader(course, "autograde", lab, "--create")
+    _nbgrader(course, "generate_feedback", lab)
+    scores: dict = {}
+    with nbgrader_api.Gradebook(f"sqlite:///{course / 'gradebook.db'}") as gradebook:
+        for student in ("solution", "blank", "wrong"):
+            auto = maximum = 0.0
+            manual_pending = 0
+            for path in notebooks:
+                submission = gradebook.find_submission_notebook(path.stem, lab, student)
+                for grade in submission.grades:
+                    if grade.cell.cell_type == "code":
+                        auto += grade.auto_score or 0.0
+                        maximum += grade.max_score
+                    elif grade.needs_manual_grade:
+                        manual_pending += 1
+            scores[student] = {"auto": auto, "max": maximum, "manual_pending": manual_pending}
+    return {"course": course, "scores": scores}
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    """Every lab graded by nbgrader, two labs at a time (one course each)."""
+    root = tmp_path_factory.mktemp("nbgrader-courses")
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        results = dict(zip(LABS, pool.map(lambda lab: _grade_lab(root, lab), LABS)))
+    return results
+
+
+# -- the sources ------------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("lab", LABS)
+def test_lab_metadata_is_what_nbgrader_needs(lab):
+    for path in LABS[lab]:
+        nb = nbformat.read(path, as_version=4)
+        assert nbgrader_problems(nb) == []
+        metas = [c.metadata["nbgrader"] for c in nb.cells if "nbgrader" in c.metadata]
+        assert all(m["schema_version"] == SCHEMA_VERSION for m in metas)
+        ids = [m["grade_id"] for m in metas]
+        assert len(ids) == len(set(ids))
+        auto, manual = total_points(nb)
+        assert auto >= 10 and manual >= 1, "a lab has autograded parts and a manually graded written answer"
+        sources = [c.source for c in nb.cells]
+        assert any("### BEGIN HIDDEN TESTS" in s for s in sources), "a lab has hidden tests"
+        assert any(c.cell_type == "markdown" and c.metadata.get("nbgrader", {}).get("solution")
+                   and c.metadata["nbgrader"].get("grade") for c in nb.cells), "a lab has a written answer"
+        assert "Learning goals" in nb.cells[0].source
+        assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), "commit sources without outputs"
+    assert (LABS_DIR / "instructor-notes" / f"{lab}.md").is_file(), "every lab has instructor notes beside it"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_labs_use_only_the_public_api(lab):
+    for path in LABS[lab]:
+        for cell in nbformat.read(path, as_version=4).cells:
+            if cell.cell_type == "code":
+                assert not re.search(r"uwtutor(\.\w+)*\._", cell.source), "a lab imports a private uwtutor name"
+                assert "np.random.seed" not in cell.source and "np.random.normal" not in cell.source
+
+
+# -- nbgrader's verdicts ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("lab", LABS)
+def test_solution_gets_every_autograded_point(graded, lab):
+    scores = graded[lab]["scores"]["solution"]
+    assert scores["max"] > 0 and scores["auto"] == scores["max"], scores
+    assert scores["manual_pending"] >= 1, "the written answer waits for the instructor"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_released_version_gets_no_point(graded, lab):
+    assert graded[lab]["scores"]["blank"]["auto"] == 0.0, graded[lab]["scores"]["blank"]
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_typical_wrong_answer_gets_some_points(graded, lab):
+    scores = graded[lab]["scores"]["wrong"]
+    expected = MISTAKES[lab][1]
+    assert 0 < scores["auto"] < scores["max"]
+    assert scores["auto"] == expected, f"{lab}: the wrong answer got {scores['auto']} of {scores['max']}, not {expected}"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_feedback_is_written_and_names_the_failure(graded, lab):
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        for student in ("solution", "blank", "wrong"):
+            html = course / "feedback" / student / lab / f"{path.stem}.html"
+            assert html.is_file(), f"no feedback for {student}"
+        wrong = (course / "feedback" / "wrong" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
+        assert MISTAKES[lab][2] in wrong, "the feedback shows the failing test's message"
+        assert "output_error" in wrong
+        solution = (course / "feedback" / "solution" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
+        assert "output_error" not in solution, "the solution's feedback shows an error"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_unanswered_lab_fails_only_where_answers_are_missing(graded, lab):
+    """In the graded blank version, given cells run (or stop at NotImplementedError); tests fail by assertion."""
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        nb = nbformat.read(course / "autograded" / "blank" / lab / path.name, as_version=4)
+        for index, cell in enumerate(nb.cells):
+            errors = [o.ename for o in cell.get("outputs", []) if o.output_type == "error"]
+            meta = cell.metadata.get("nbgrader", {})
+            allowed = {"NotImplementedError", "AssertionError"} if meta.get("grade") else {"NotImplementedError"}
+            assert set(errors) <= allowed, f"cell {index} ({meta.get('grade_id')}) raised {errors}"
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_released_version_has_no_solution_and_no_hidden_test(graded, lab):
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        released = nbformat.read(course / "release" / lab / path.name, as_version=4)
+        text = "\n".join(c.source for c in released.cells)
+        assert "BEGIN SOLUTION" not in text and "HIDDEN TESTS" not in text
+        assert CODE_STUB[1] in text and "YOUR ANSWER HERE" in text
+
+
+# -- uwtutor labs: the same sources without nbgrader ------------------------------------------------------------------
+def test_uwtutor_labs_writes_student_versions_and_never_clobbers(tmp_path, capsys):
+    dest = tmp_path / "labs"
+    assert main(["labs", str(dest)]) == 0
+    for lab, notebooks in LABS.items():
+        for path in notebooks:
+            student = nbformat.read(dest / lab / path.name, as_version=4)
+            text = "\n".join(c.source for c in student.cells)
+            assert "BEGIN SOLUTION" not in text and "HIDDEN TESTS" not in text
+            assert CODE_STUB[1] in text and "YOUR ANSWER HERE" in text
+            assert all("nbgrader" not in c.metadata for c in student.cells)
+            assert all(not c.get("outputs") for c in student.cells if c.cell_type == "code")
+    assert not (dest / "instructor-notes").exists(), "instructor notes are not a lab"
+    mine = dest / "ekf_consistency" / "ekf_consistency.ipynb"
+    mine.write_text(mine.read_text(encoding="utf-8").replace("Q_colleague", "Q_mine"), encoding="utf-8")
+    capsys.readouterr()
+    assert main(["labs", str(dest)]) == 0
+    out = capsys.readouterr().out
+    assert "Skipped 5 notebooks" in out and "ekf_consistency/ekf_consistency.ipynb" in out
+    assert "Q_mine" in mine.read_text(encoding="utf-8"), "a student's work is never overwritten"
+    assert main(["labs", str(dest), "--lab", "ekf_consistency", "--force"]) == 0
+    assert "Q_mine" not in mine.read_text(encoding="utf-8")
+
+
+def test_uwtutor_labs_errors(tmp_path, capsys):
+    assert main(["labs", str(tmp_path / "x"), "--lab", "no_such_lab"]) == 2
+    assert "no lab named no_such_lab" in capsys.readouterr().err
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    assert main(["labs", str(a_file)]) == 2
+    assert main(["labs", str(tmp_path / "y"), "--source", str(tmp_path / "nowhere")]) == 2
+    with pytest.raises(ValueError, match="source directory"):
+        write_lab_versions(LABS_DIR, LABS_DIR)
