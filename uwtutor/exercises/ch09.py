@@ -138,8 +138,8 @@ def check_equivalent_nis(answer: Any) -> Feedback:
 
 # -- exercise 9.2: virtual beacons --------------------------------------------------------------------------------------
 def check_virtual_beacons(answer: Any) -> Feedback:
-    r"""Check :math:`\mathbf b^\mathrm v_i = \mathbf a_i + (\mathbf P_4 - \mathbf P_i)` for ``SHIP`` and ``DR``
-    (exercise 9.2).
+    r"""Check :math:`\mathbf b^\mathrm v_i = \mathbf a_i - \mathbf d_i` with
+    :math:`\mathbf d_i = \mathbf p^\mathrm{DR}_i - \mathbf p^\mathrm{DR}_4`, for ``SHIP`` and ``DR`` (exercise 9.2).
 
     Parameters
     ----------
@@ -149,12 +149,13 @@ def check_virtual_beacons(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; the shift subtracted (P_i − P_4 instead of P_4 − P_i) and the shift from the first epoch are recognised.
+        The verdict; the shift with the wrong sign (a_i + d_i) and the shift from the first epoch are recognised.
     """
     expected = SHIP + (DR[-1] - DR)
     mistakes = [
         (SHIP - (DR[-1] - DR), "The ship must be moved *forward* by the submersible's displacement since epoch i "
-                               "(P_4 − P_i is added): the old range was taken from a point that many metres behind."),
+                               "(b_i = a_i − d_i, with d_i = p_i − p_4 from the DR): the old range was taken from "
+                               "a point that many metres behind."),
         (SHIP + (DR - DR[0]), "The shift is the displacement from epoch i to *now* (epoch 4), not from the first "
                               "epoch to epoch i."),
     ]
