@@ -40,10 +40,11 @@ NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.
 test: setup
 	$(PY) -m pytest $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
 
-# JupyterLab on the chapters (book/) and on your own copies of the exercises (my-work/, made on first
-# use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.
+# JupyterLab on the chapters (book/) and on your own copies of the exercises and labs (my-work/, made
+# on first use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.
 lab: setup
 	$(VENV)/bin/uwtutor exercises my-work
+	$(VENV)/bin/uwtutor labs my-work/labs
 	$(VENV)/bin/jupyter lab --ServerApp.root_dir=. $(if $(filter 0,$(shell id -u)),--allow-root)
 
 bench: setup

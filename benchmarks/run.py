@@ -4,11 +4,17 @@ Measured in one run, on this machine:
 
 1. the range-only EKF Monte Carlo study (1000 runs x 1500 steps, one batched call), best of a few repeats, and
    its speed-up over filterpy's ``ExtendedKalmanFilter`` stepped in a Python loop (a sample of runs is timed and
-   the time scaled to 1000 runs);
+   the time scaled to 1000 runs); and the generic batched EKF on paper A's 3-state model (position + range bias)
+   against filterpy's 3-state EKF in the same way;
 2. the bootstrap particle filter on paper C's depth/speed/pitch model, N = 1000 particles, 2000 steps, in steps
    per second, and the same filter with filterpy's loop-based ``systematic_resample``;
-3. each widget's compute function at its default parameters (``uwtutor.widgets.COMPUTE_FUNCTIONS``), in ms;
-4. the peak memory of the 1000-run EKF study, in a fresh subprocess.
+3. the same PF batched over 100 Monte Carlo runs (N = 1000, 500 steps, one call) against 100 single-run calls;
+4. each widget's compute function at its default parameters (``uwtutor.widgets.COMPUTE_FUNCTIONS``), in ms;
+5. each live widget's update as a person sees it: in JupyterLab (a local server and Debian's Chromium, offline;
+   ``jupyterlab_session.py``), from the key press that moves its first slider to the first frame painted with the
+   new figure, against the same widget built the way widgets updated before; and what the kernel alone spends on
+   that update (compute, draw, PNG), in this process; ``--no-browser`` leaves JupyterLab out;
+6. the peak memory of the 1000-run EKF study, in a fresh subprocess.
 
 ``--save`` writes ``benchmarks/results.json`` and regenerates the table of ``book/appendix_performance.md``
 between its marker comments, so that the committed page always shows the committed results (the book build
@@ -45,6 +51,7 @@ TARGETS = {
     "generic_ekf_speedup_vs_filterpy": (">=", 50.0),
     "pf_steps_per_s": (">=", 5000.0),
     "widget_ms": ("<=", 150.0),
+    "widget_latency_ms": ("<=", 150.0),
     "peak_memory_mb": ("<=", 500.0),
 }
 
@@ -186,6 +193,36 @@ def bench_pf(repeats: int) -> dict[str, Any]:
             "pf_filterpy_resampler_steps_per_s": PF_STEPS / theirs, "pf_speedup_vs_filterpy_resampler": theirs / ours}
 
 
+PF_BATCH_RUNS, PF_BATCH_STEPS = 100, 500
+
+
+def bench_pf_batched(repeats: int) -> dict[str, Any]:
+    """Batched PFs: 100 runs x N = 1000 x 500 steps of the bootstrap PF on paper C's model in one call, and the
+    ratio to 100 single-run calls (same streams: run m of the batch is the single run on ``spawn(100)[m]``)."""
+    import numpy as np
+
+    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+
+    model = DepthSpeedPitchModel()
+    rng = np.random.default_rng(1)
+    z = np.stack([model.simulate([20.0, 1.5, 0.05], PF_BATCH_STEPS, rng)[1] for _ in range(PF_BATCH_RUNS)])
+
+    def batched() -> None:
+        BootstrapParticleFilter.from_gaussian(model, z[:, 0], model.R, PF_PARTICLES, np.random.default_rng(2),
+                                              n_runs=PF_BATCH_RUNS).run(z)
+
+    def singles() -> None:
+        rngs = np.random.default_rng(2).spawn(PF_BATCH_RUNS)
+        for m in range(PF_BATCH_RUNS):
+            BootstrapParticleFilter.from_gaussian(model, z[m, 0], model.R, PF_PARTICLES, rngs[m]).run(z[m])
+
+    n = max(1, min(2, repeats))
+    one_call = best_time(batched, n)
+    loop = best_time(singles, n)
+    return {"pf_batched": {"runs": PF_BATCH_RUNS, "particles": PF_PARTICLES, "steps": PF_BATCH_STEPS,
+                           "one_call_s": one_call, "single_calls_s": loop, "speedup": loop / one_call}}
+
+
 def bench_widgets(repeats: int) -> dict[str, Any]:
     """ms per update of each registered widget compute function (``widgets_ms``), or a note why there are none."""
     try:
@@ -205,6 +242,176 @@ def bench_widgets(repeats: int) -> dict[str, Any]:
         fn()                                                    # warm-up (imports, caches)
         out[name] = best_time(fn, repeats) * 1000.0
     return {"widgets_ms": out, "widgets_note": ""}
+
+
+def widget_factories() -> dict[str, str]:
+    """Every live widget of the book: label (``"ch01 sound_speed_widget"``) -> name in ``uwtutor.widgets``."""
+    from uwtutor import widgets
+
+    found = {}
+    for name in widgets.__all__:
+        obj = getattr(widgets, name)
+        if name.endswith("_widget") and callable(obj):
+            found[f"{obj.__module__.rsplit('.', 1)[-1]} {name}"] = name
+    return dict(sorted(found.items()))
+
+
+def _first_slider_and_image(panel: Any) -> tuple[Any, Any]:
+    """The first slider of a ``slider_panel`` and its figure (an ``ipywidgets.Image``)."""
+    import ipywidgets as w
+
+    def walk(widget: Any) -> Any:
+        yield widget
+        for child in getattr(widget, "children", ()):
+            yield from walk(child)
+
+    every = list(walk(panel))
+    slider = next(x for x in every if isinstance(x, (w.FloatSlider, w.IntSlider, w.FloatLogSlider)))
+    image = next(x for x in every if isinstance(x, w.Image))
+    return slider, image
+
+
+def _step(slider: Any, up: bool) -> Any:
+    """The slider's value one step up or down (as one key press moves it), kept within its range."""
+    import ipywidgets as w
+
+    if isinstance(slider, w.FloatLogSlider):
+        import math
+
+        exponent = math.log(slider.value, slider.base) + (slider.step if up else -slider.step)
+        return slider.base ** min(max(exponent, slider.min), slider.max)
+    return min(max(slider.value + (slider.step if up else -slider.step), slider.min), slider.max)
+
+
+def bench_widget_updates(repeats: int) -> dict[str, Any]:
+    """What the kernel spends on one slider move of each widget (compute, draw, PNG), in ms, in this process.
+
+    Each widget is built as in a notebook (the book's style on); its first slider is moved one step up and down
+    alternately, and the time of the assignment is taken: the panel's observer runs inside it, so it covers the
+    computation, the redraw of the figure and its PNG, up to the new image being handed to the widget. The median of
+    ``repeats`` moves after one warm-up move.
+    """
+    import statistics
+
+    import matplotlib.pyplot as plt
+
+    from uwtutor import widgets
+    from uwtutor.plotting import use_book_style
+
+    use_book_style()
+    out = {}
+    for label, name in widget_factories().items():
+        panel = getattr(widgets, name)()
+        slider, image = _first_slider_and_image(panel)
+        times = []
+        for move in range(repeats + 1):
+            before = image.value
+            value = _step(slider, up=move % 2 == 0)
+            t0 = time.perf_counter()
+            slider.value = value
+            elapsed = time.perf_counter() - t0
+            if image.value == before:
+                raise RuntimeError(f"{label}: moving {slider.description!r} did not change the figure")
+            if move:
+                times.append(elapsed * 1000.0)
+        out[label] = statistics.median(times)
+        plt.close("all")
+    return {"widget_updates_ms": out}
+
+
+#: The notebook code of the benchmark's JupyterLab session: the book's style, and ``build(name, legacy)``, which makes
+#: a widget with the library's panel or, for reference, with the way widgets updated before (a new figure per update,
+#: shown by ``plt.show()`` inside an ``Output`` widget, through the inline backend).
+LATENCY_SETUP = """\
+import importlib
+
+import ipywidgets as w
+import matplotlib.pyplot as plt
+
+from uwtutor import widgets
+from uwtutor.plotting import use_book_style
+
+use_book_style()
+
+
+def legacy_panel(sliders, draw):
+    out = w.Output()
+
+    def refresh(_change=None):
+        with out:
+            out.clear_output(wait=True)
+            draw(None, **{name: s.value for name, s in sliders.items()})
+            plt.show()
+
+    for s in sliders.values():
+        s.observe(refresh, names="value")
+    refresh()
+    return w.VBox([w.HBox(list(sliders.values())[:3]), w.HBox(list(sliders.values())[3:]), out])
+
+
+def build(name, legacy):
+    module = importlib.import_module(getattr(widgets, name).__module__)
+    panel = module.slider_panel
+    module.slider_panel = legacy_panel if legacy else panel
+    try:
+        return getattr(widgets, name)()
+    finally:
+        module.slider_panel = panel
+"""
+
+
+def bench_widget_latency(repeats: int) -> dict[str, Any]:
+    """End-to-end latency of every widget in a real JupyterLab: slider key press -> new figure painted, in ms.
+
+    A notebook runs in JupyterLab (``jupyterlab_session``: a local server and Debian's Chromium, offline) with two
+    cells per widget: the widget as the library builds it and, for reference, as it was built before (see
+    ``LATENCY_SETUP``). In each, the first slider is moved one step with the keyboard (right, then left, ...), the
+    two cells taking turns so that both see the same load; one warm-up move, then ``repeats`` moves, of which the
+    median and the worst are kept. Needs Chromium and Playwright; without them the result says why.
+    """
+    import statistics
+    import tempfile
+
+    import nbformat
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import jupyterlab_session as lab
+
+    factories = widget_factories()
+    code = [LATENCY_SETUP]
+    for name in factories.values():
+        code += [f"build({name!r}, legacy=False)", f"build({name!r}, legacy=True)"]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in code])
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    out: dict[str, dict[str, float]] = {}
+    with tempfile.TemporaryDirectory(prefix="uwtutor-bench-lab-") as tmp:
+        root, work = Path(tmp, "root"), Path(tmp, "work")
+        root.mkdir()
+        nbformat.write(nb, root / "widgets.ipynb")
+        try:
+            with lab.lab_session(root, work) as session:
+                page = lab.open_notebook(session, "widgets.ipynb")
+                lab.run_cell(page, 0)
+                for k, label in enumerate(factories):
+                    ours, legacy = 1 + 2 * k, 2 + 2 * k
+                    for index in (ours, legacy):
+                        lab.run_cell(page, index).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
+                    times: dict[int, list[float]] = {ours: [], legacy: []}
+                    for move in range(repeats + 1):
+                        for index in (ours, legacy):
+                            ms = lab.slider_latency(page, index, key="ArrowRight" if move % 2 == 0 else "ArrowLeft")
+                            if move:
+                                times[index].append(ms)
+                    out[label] = {"median_ms": statistics.median(times[ours]), "max_ms": max(times[ours]),
+                                  "legacy_median_ms": statistics.median(times[legacy]),
+                                  "legacy_max_ms": max(times[legacy])}
+                    print(f"  {label}: median {out[label]['median_ms']:.0f} ms (before: "
+                          f"{out[label]['legacy_median_ms']:.0f} ms)", flush=True)
+                if session.external:
+                    raise RuntimeError(f"JupyterLab requested addresses off this machine: {session.external}")
+        except lab.Unavailable as exc:
+            return {"widget_latency": {}, "widget_latency_note": f"not measured in JupyterLab: {exc}"}
+    return {"widget_latency": out, "widget_latency_note": ""}
 
 
 def _memory_probe() -> None:
@@ -248,7 +455,7 @@ def machine_info() -> dict[str, Any]:
             "platform": platform.platform(terse=True), "date": _dt.date.today().isoformat()}
 
 
-def run_all(repeats: int) -> dict[str, Any]:
+def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results: dict[str, Any] = {"machine": machine_info(), "repeats": repeats,
                                "sizes": {"ekf_runs": EKF_RUNS, "ekf_steps": EKF_STEPS,
                                          "pf_particles": PF_PARTICLES, "pf_steps": PF_STEPS},
@@ -256,7 +463,14 @@ def run_all(repeats: int) -> dict[str, Any]:
     results.update(bench_ekf(repeats))
     results.update(bench_generic_ekf(repeats))
     results.update(bench_pf(repeats))
+    results.update(bench_pf_batched(repeats))
     results.update(bench_widgets(repeats))
+    results.update(bench_widget_updates(repeats))
+    if browser:
+        print("Timing every widget in JupyterLab (a minute or two)...", flush=True)
+        results.update(bench_widget_latency(repeats))
+    else:
+        results.update({"widget_latency": {}, "widget_latency_note": "not measured in JupyterLab (--no-browser)"})
     results.update(bench_memory())
     return results
 
@@ -304,6 +518,11 @@ def render_table(results: dict[str, Any]) -> str:
     rows.append(("Same PF with filterpy's loop-based systematic_resample",
                  f"{results['pf_filterpy_resampler_steps_per_s']:,.0f} steps/s "
                  f"(ours {results['pf_speedup_vs_filterpy_resampler']:.1f}× faster)", "(reference)", "–"))
+    batch = results.get("pf_batched")
+    if batch:
+        rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
+                     f"call (same PF; {batch['runs']} single-run calls: {batch['single_calls_s']:.2f} s)",
+                     f"{batch['one_call_s']:.2f} s ({batch['speedup']:.2f}× the single calls)", "(reported)", "–"))
     widgets = results["widgets_ms"]
     if not widgets:
         rows.append(("Widget compute functions", results["widgets_note"], _target("widget_ms", t, " ms"), "–"))
@@ -312,6 +531,19 @@ def render_table(results: dict[str, Any]) -> str:
             ms = widgets[name]
             rows.append((f"Widget “{name}”: compute at default parameters", f"{ms:.1f} ms",
                          _target("widget_ms", t, " ms"), _status("widget_ms", ms, t)))
+    latency = results.get("widget_latency", {})
+    for label, kernel_ms in sorted(results.get("widget_updates_ms", {}).items()):
+        if label in latency:
+            lat = latency[label]
+            rows.append((f"Widget “{label}”: slider → new figure in JupyterLab, median of {results['repeats']} "
+                         f"moves (worst {lat['max_ms']:.0f} ms; in the kernel {kernel_ms:.0f} ms; the way before "
+                         f"this panel: {lat['legacy_median_ms']:.0f} ms, worst {lat['legacy_max_ms']:.0f} ms)",
+                         f"{lat['median_ms']:.0f} ms", _target("widget_latency_ms", t, " ms"),
+                         _status("widget_latency_ms", lat["median_ms"], t)))
+        else:
+            rows.append((f"Widget “{label}”: slider → new figure, in the kernel only (compute, draw, PNG); "
+                         f"{results.get('widget_latency_note', '')}", f"{kernel_ms:.0f} ms",
+                         _target("widget_latency_ms", t, " ms"), _status("widget_latency_ms", kernel_ms, t)))
     mem = results["peak_memory_mb"]
     rows.append((f"Peak memory of the {sizes['ekf_runs']}-run EKF study (RSS of a fresh process; inputs "
                  f"{results['inputs_mb']:.0f} MB, study allocations {results['study_traced_peak_mb']:.0f} MB)",
@@ -321,7 +553,9 @@ def render_table(results: dict[str, Any]) -> str:
     lines.insert(1, "|:---|---:|---:|:---:|")
     lines += ["", f"Measured {m['date']} on {m['cpu_count']} CPU(s) ({m['cpu'] or 'unknown CPU'}), "
                   f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, filterpy {m['filterpy']}; "
-                  f"times are the best of {results['repeats']} repeats."]
+                  f"times are the best of {results['repeats']} repeats"
+                  + (f", widget updates the median of {results['repeats']} slider moves." if results.get(
+                      "widget_updates_ms") else ".")]
     return "\n".join(lines)
 
 
@@ -349,6 +583,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save", action="store_true",
                         help=f"write {RESULTS_FILE.relative_to(ROOT)} and the table of {PAGE_FILE.relative_to(ROOT)}")
     parser.add_argument("--repeats", type=int, default=5, help="timing repeats; the best is kept (default 5)")
+    parser.add_argument("--no-browser", action="store_true",
+                        help="skip the widget latency in JupyterLab (needs Debian's chromium and playwright)")
     parser.add_argument("--memory-probe", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.memory_probe:
@@ -357,7 +593,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeats < 1:
         parser.error("--repeats must be >= 1")
     print("Running the uwtutor benchmarks (about a minute)...", flush=True)
-    results = run_all(args.repeats)
+    results = run_all(args.repeats, browser=not args.no_browser)
     print()
     print(render_table(results))
     if args.save:

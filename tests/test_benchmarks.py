@@ -33,6 +33,7 @@ def test_page_table_matches_the_committed_results():
 
 def test_results_record_the_machine_and_the_targets():
     results = committed_results()
+    assert set(results["widget_updates_ms"]) == set(bench.widget_factories()), "a widget is missing from the results"
     assert {"cpu_count", "numpy", "date", "python"} <= set(results["machine"])
     assert results["targets"] == {k: list(v) for k, v in bench.TARGETS.items()}
     assert results["sizes"] == {"ekf_runs": 1000, "ekf_steps": 1500, "pf_particles": 1000, "pf_steps": 2000}
@@ -43,9 +44,21 @@ def test_table_marks_targets(tmp_path):
     results["ekf_study_s"] = 9.0
     results["pf_steps_per_s"] = 1e6
     results["widgets_ms"] = {"slow one": 400.0}
+    results["widget_updates_ms"] = {"ch09 quick_widget": 40.0, "ch09 slow_widget": 90.0}
+    results["widget_latency"] = {
+        "ch09 quick_widget": {"median_ms": 120.0, "max_ms": 130.0, "legacy_median_ms": 300.0, "legacy_max_ms": 310.0},
+        "ch09 slow_widget": {"median_ms": 180.0, "max_ms": 200.0, "legacy_median_ms": 400.0, "legacy_max_ms": 450.0},
+    }
     table = bench.render_table(results)
-    assert table.count("| MISS |") == 2                       # the EKF time and the slow widget
+    assert table.count("| MISS |") == 3                       # the EKF time, the slow compute, the slow widget
     assert "Widget “slow one”" in table
+    quick = next(row for row in table.splitlines() if "ch09 quick_widget" in row)
+    assert "| 120 ms |" in quick and "| PASS |" in quick and "in the kernel 40 ms" in quick and "300 ms" in quick
+    slow = next(row for row in table.splitlines() if "ch09 slow_widget" in row)
+    assert "| 180 ms |" in slow and "| MISS |" in slow
+    results["widget_latency"], results["widget_latency_note"] = {}, "not measured in JupyterLab (--no-browser)"
+    table = bench.render_table(results)
+    assert "| 40 ms |" in table and "in the kernel only" in table and "--no-browser" in table
     results["widgets_ms"], results["widgets_note"] = {}, "no uwtutor.widgets module: no widgets registered"
     assert "no widgets registered" in bench.render_table(results)
     page = tmp_path / "page.md"

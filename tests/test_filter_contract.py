@@ -12,8 +12,8 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 
-from uwtutor.filters import (ExtendedKalmanFilter, FadingEKF, Filter, FilterResult, KalmanFilter, RangeOnlyEKF,
-                             extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
+from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, FilterResult, KalmanFilter,
+                             RangeOnlyEKF, extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
 from uwtutor.filters.fading import FadingResult
 from uwtutor.models import DeadReckoning, RangeToBeacon
 
@@ -72,6 +72,7 @@ CASES = [
     Case("ExtendedKalmanFilter-moving-beacon", lambda b: ExtendedKalmanFilter(
         DeadReckoning(Q2), RangeToBeacon(np.column_stack([np.linspace(0, 200, K), np.zeros(K)]), R=4.0),
         _pick(X0, b), np.eye(2) * 400.0), Z, U),
+    Case("BiasEKF", lambda b: BiasEKF(_pick(X0_BIAS, b), np.diag([400.0, 400.0, 25.0]), Q3, 4.0), Z + 3.0, U),
     Case("FadingEKF", lambda b: FadingEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98,
                                           sigma_gamma=1 / 1500), Z, U, FadingResult),
 ]

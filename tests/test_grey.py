@@ -191,3 +191,16 @@ def test_bad_input():
         grey.rolling_gm11_forecast(np.linspace(-1.0, 1.0, 40), 30)            # forgot the offset
     with pytest.raises(ValueError, match="level-ratio|at least 4"):
         grey.level_ratio_test([1.0, 2.0])
+
+
+def test_gm11_next_is_the_one_step_forecast():
+    rng = np.random.default_rng(8)
+    series = 1.0 + rng.random((4, 3, 30))
+    np.testing.assert_array_equal(grey.gm11_next(series), grey.gm11_forecast(series, 1)[..., 0])
+    assert grey.gm11_next(CLASSIC) == pytest.approx(grey.fit_gm11(CLASSIC).forecast(1)[0], rel=1e-14)
+    with pytest.raises(ValueError, match="finite and > 0"):
+        grey.gm11_next([1.0, 2.0, np.nan, 3.0])
+    with pytest.raises(ValueError, match="finite and > 0"):
+        grey.gm11_next([1.0, 2.0, -1.0, 3.0])
+    with pytest.raises(ValueError, match="at least 4 values"):
+        grey.gm11_next([1.0, 2.0, 3.0])

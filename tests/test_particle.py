@@ -159,7 +159,7 @@ def test_time_varying_R_can_be_assigned():
 def test_degenerate_likelihood_raises():
     class Hopeless(LinearGaussianModel):
         def log_likelihood(self, particles, z):
-            return np.full(particles.shape[0], -np.inf)
+            return np.full(particles.shape[:-1], -np.inf)          # (M, N): every particle of every run
 
     model = Hopeless(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[1.0]])
     pf = BootstrapParticleFilter(model, np.zeros((10, 1)), np.random.default_rng(0))
@@ -185,7 +185,7 @@ def test_bad_input():
     with pytest.raises(ValueError, match="ess_threshold must be >= 0"):
         BootstrapParticleFilter(model, np.zeros((3, 3)), rng, ess_threshold=-0.5)
     pf = BootstrapParticleFilter(model, np.zeros((3, 3)), rng)
-    with pytest.raises(ValueError, match="z must hold 3 measurement value"):
+    with pytest.raises(ValueError, match=r"z must have shape \(3,\): 3 measurement value"):
         pf.update([1.0, 2.0])
     with pytest.raises(ValueError, match="z must be finite, or NaN"):
         pf.update([1.0, np.inf, 0.0])

@@ -184,7 +184,7 @@ def test_mmpf_bad_input():
                                     transition=np.eye(2))
     with pytest.raises(TypeError, match="non-empty list of ParticleModel"):
         MultipleModelParticleFilter([], np.zeros((5, 3)), rng, transition=np.eye(1))
-    with pytest.raises(ValueError, match="modes must be 5 integers in 0..1"):
+    with pytest.raises(ValueError, match=r"modes must be integers in 0..1 of shape \(5,\)"):
         MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=np.eye(2), modes=[0, 1, 2, 0, 1])
     with pytest.raises(ValueError, match="mode_probabilities must have a positive sum"):
         MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=np.eye(2), mode_probabilities=[0, 0])

@@ -119,3 +119,31 @@ def test_bad_input():
         wavelet.sliding_noise_sigma(np.full(100, np.inf))
     with pytest.raises(ValueError, match="got a scalar"):
         wavelet.sliding_noise_sigma(1.0)
+
+
+def test_mad_sigma_is_the_median_absolute_coefficient_over_0_6745():
+    rng = np.random.default_rng(3)
+    for shape in ((20,), (3, 20), (4, 2, 21)):
+        d = rng.normal(size=shape)
+        np.testing.assert_array_equal(wavelet.mad_sigma(d), np.median(np.abs(d), axis=-1) / wavelet.MAD_TO_SIGMA)
+    d = rng.normal(size=(7, 5))
+    np.testing.assert_array_equal(wavelet.mad_sigma(d, axis=0), np.median(np.abs(d), axis=0) / wavelet.MAD_TO_SIGMA)
+    # noise_sigma is mad_sigma of the valid detail coefficients
+    x = rng.normal(0.0, 0.3, (5, 50))
+    np.testing.assert_array_equal(wavelet.noise_sigma(x), wavelet.mad_sigma(wavelet.detail_coefficients(x)))
+    with pytest.raises(ValueError, match="coefficients must be finite"):
+        wavelet.mad_sigma([1.0, np.nan])
+    with pytest.raises(ValueError, match="at least one coefficient"):
+        wavelet.mad_sigma(np.zeros((3, 0)))
+
+
+@pytest.mark.parametrize("name", ["db6", "haar", "sym4", "db3"])
+def test_detail_matrix_is_the_valid_dwt_as_a_matrix(name):
+    x = np.random.default_rng(4).normal(size=(6, 40))
+    D = wavelet.detail_matrix(40, name)
+    np.testing.assert_allclose(x @ D, wavelet.detail_coefficients(x, name), rtol=0, atol=1e-12)
+    assert wavelet.as_wavelet(name).name == name
+    with pytest.raises(ValueError, match="n_samples must be >="):
+        wavelet.detail_matrix(wavelet.as_wavelet(name).dec_len - 1, name)
+    with pytest.raises(ValueError, match="wavelet must be the name"):
+        wavelet.as_wavelet("nope")

@@ -120,3 +120,49 @@ def test_compute_functions_registry():
     assert set(ch06.COMPUTE_FUNCTIONS) == {"ch06 grey particle filter"}
     for fn in ch06.COMPUTE_FUNCTIONS.values():
         assert fn() is not None
+
+
+def test_paper_c_scenario_module_holds_the_papers_content():
+    from uwtutor.scenarios import paper_c
+
+    p = paper_c.PaperCParameters()
+    assert (p.T, p.n_particles, p.n_grey, p.grey_window, p.noise_window, p.polynomial_order, p.wavelet) == (
+        0.05, 1000, 100, 30, 50, 5, "db6")
+    np.testing.assert_allclose(p.sensor_std, [0.2, 0.05, np.radians(0.5)])
+    np.testing.assert_allclose(p.process_std, [0.2, 0.01, np.radians(0.5)])
+    np.testing.assert_allclose(p.R, np.diag(p.sensor_std**2))
+    assert np.linalg.eigvalsh(p.Q_as_printed).min() < 0             # the printed Q is not a covariance
+    assert set(paper_c.PAPER_C) == {f for f in p.as_dict()}
+    # the widget module shows the same objects under the chapter's names
+    assert ch06.PAPER_C is paper_c.PAPER_C and ch06.run_depth_study is paper_c.run_depth_study
+    assert ch06.maneuvering_depth_profile is paper_c.maneuvering_depth_profile
+    assert ch06.DepthStudy is paper_c.DepthStudy and ch06.FILTER_NAMES == paper_c.FILTER_NAMES
+    # make(rng, n_runs) is the chapter's profile and sensor draws
+    sc = paper_c.make(np.random.default_rng(2013), 3)
+    profile = ch06.maneuvering_depth_profile()
+    np.testing.assert_array_equal(sc.truth, profile.truth)
+    np.testing.assert_array_equal(sc.measurements,
+                                  ch06.simulate_depth_sensors(profile, 3, np.random.default_rng(2013)))
+    assert sc.n_runs == 3 and sc.parameters.T == p.T and sc.profile.T == p.T
+    short = paper_c.make(np.random.default_rng(0), 2, duration=6.0, noise_factors=(1.0, 2.0),
+                         noise_change_times=(30.0,))
+    assert short.measurements.shape == (2, 120, 3)
+    with pytest.raises(TypeError, match="parameters must be a PaperCParameters"):
+        paper_c.make(np.random.default_rng(0), 1, parameters={"T": 0.1})
+
+
+def test_run_depth_study_batches_the_runs_like_single_runs():
+    """Run m of the study's batched filters is the single-run filter seeded seed + m."""
+    from uwtutor.filters import GreyParticleFilter
+    from uwtutor.scenarios import paper_c
+
+    sc = paper_c.make(np.random.default_rng(5), 2, duration=6.0)
+    study = paper_c.run_depth_study(sc.profile, sc.measurements, ("GPF",), n_particles=100, seed=3)
+    R = paper_c.PaperCParameters().R
+    from uwtutor.filters import DepthSpeedPitchModel
+
+    model = DepthSpeedPitchModel(T=0.05, process_std=paper_c.PAPER_C["process_std"], R=R)
+    for m in range(2):
+        one = GreyParticleFilter.from_gaussian(model, sc.measurements[m, 0], R, 100, np.random.default_rng(3 + m),
+                                               grey_offset=[0.0, 0.0, paper_c.PITCH_OFFSET]).run(sc.measurements[m])
+        np.testing.assert_allclose(study.estimates["GPF"][m], one.x, rtol=1e-9, atol=1e-12)

@@ -76,6 +76,7 @@ __all__ = [
     "level_ratio_test",
     "gm11_coefficients",
     "gm11_forecast",
+    "gm11_next",
     "rolling_gm11_forecast",
 ]
 
@@ -410,6 +411,41 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     a, b = _coefficients(x0, alpha)
     n = x0.shape[-1]
     return _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
+
+
+def gm11_next(series: Any) -> np.ndarray:
+    r"""The one-step GM(1,1) forecast :math:`\hat x^{(0)}(n+1)` of each series along the last axis, lean.
+
+    The same numbers as ``gm11_forecast(series, 1)[..., 0]`` (background weight 0.5), with one check only
+    (every value finite and > 0): the form a filter calls at every step on windows it has already assembled,
+    such as the grey particle filter's last ``L`` measurements of every sensor of every run.
+
+    Parameters
+    ----------
+    series : ndarray, shape (..., n)
+        Positive, finite series, ``n >= 4``.
+
+    Returns
+    -------
+    ndarray, shape (...)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.grey import gm11_next
+    >>> gm11_next(np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]])).round(3)
+    array([3.751, 5.   ])
+    """
+    x0 = np.asarray(series, dtype=float)
+    if x0.ndim == 0 or x0.shape[-1] < _MIN_LENGTH:
+        raise ValueError(f"series must hold at least {_MIN_LENGTH} values along its last axis for GM(1,1); "
+                         f"got shape {x0.shape}")
+    if not np.minimum.reduce(x0, axis=None) > 0.0:          # also False for NaN
+        raise ValueError("series must be finite and > 0 for GM(1,1) (shift it by a constant first); got a value "
+                         "<= 0 or NaN")
+    a, b = _coefficients(x0, 0.5)
+    n = x0.shape[-1]
+    return _restored(x0[..., 0], a, b, np.array([float(n)]))[..., 0]
 
 
 def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,

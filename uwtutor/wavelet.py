@@ -51,7 +51,10 @@ from ._validate import as_finite, as_float_array, as_int
 
 __all__ = [
     "MAD_TO_SIGMA",
+    "as_wavelet",
+    "mad_sigma",
     "detail_coefficients",
+    "detail_matrix",
     "noise_sigma",
     "sliding_noise_sigma",
 ]
@@ -60,7 +63,26 @@ __all__ = [
 MAD_TO_SIGMA = 0.6744897501960817
 
 
-def _wavelet(wavelet: Any) -> pywt.Wavelet:
+def as_wavelet(wavelet: Any) -> pywt.Wavelet:
+    """The PyWavelets discrete wavelet named by ``wavelet`` (or ``wavelet`` itself), with a clear error otherwise.
+
+    Parameters
+    ----------
+    wavelet : str or pywt.Wavelet
+        A discrete wavelet of PyWavelets, e.g. ``"db6"`` (paper C), ``"haar"`` or ``"sym4"``.
+
+    Returns
+    -------
+    pywt.Wavelet
+        Its ``dec_len`` is the filter length: the shortest window the wavelet can analyse.
+
+    Examples
+    --------
+    >>> from uwtutor.wavelet import as_wavelet
+    >>> w = as_wavelet("db6")
+    >>> w.dec_len, w.vanishing_moments_psi
+    (12, 6)
+    """
     if isinstance(wavelet, pywt.Wavelet):
         return wavelet
     try:
@@ -87,6 +109,80 @@ def _valid_details(x: np.ndarray, w: pywt.Wavelet) -> np.ndarray:
     g = np.asarray(w.dec_hi)
     windows = np.lib.stride_tricks.sliding_window_view(x, g.size, axis=-1)   # (..., N - L + 1, L)
     return windows @ g[::-1]
+
+
+def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
+    r"""The MAD estimate :math:`\hat\sigma = \operatorname{median}_i |d_i| / 0.6745` of detail coefficients.
+
+    The one place of the library where the median absolute detail coefficient becomes a noise level (paper C
+    eq. (17); Donoho and Johnstone 1994): :func:`noise_sigma`, :func:`sliding_noise_sigma` and the grey particle
+    filter all call it. The median is that of :func:`numpy.median`, from a partial sort (:func:`numpy.partition`).
+
+    Parameters
+    ----------
+    coefficients : array_like
+        Detail coefficients :math:`d_i` (finite), e.g. from :func:`detail_coefficients`.
+    axis : int, optional
+        The axis of the coefficients (the last by default).
+
+    Returns
+    -------
+    float or ndarray
+        :math:`\hat\sigma` for every slice along ``axis``.
+
+    Examples
+    --------
+    >>> from uwtutor.wavelet import mad_sigma
+    >>> round(float(mad_sigma([0.5, -1.0, 0.2, 2.0, -0.7])), 4)     # median |d| = 0.7
+    1.0378
+    """
+    d = as_float_array("coefficients", coefficients)
+    if d.ndim == 0 or d.shape[axis] == 0:
+        raise ValueError(f"coefficients must hold at least one coefficient along axis {axis}; got shape {d.shape}")
+    if not np.isfinite(np.add.reduce(d, axis=None)):
+        raise ValueError("coefficients must be finite (no NaN or infinite value)")
+    a = np.abs(d) if axis in (-1, d.ndim - 1) else np.moveaxis(np.abs(d), axis, -1)
+    n = a.shape[-1]
+    half = n // 2
+    if n % 2:                                           # numpy.median's own steps, without its overhead
+        median = np.partition(a, half, axis=-1)[..., half]
+    else:
+        middle = np.partition(a, (half - 1, half), axis=-1)[..., half - 1:half + 1]
+        median = np.add.reduce(middle, axis=-1) / 2.0
+    sigma = median / MAD_TO_SIGMA
+    return float(sigma) if np.ndim(sigma) == 0 else sigma
+
+
+def detail_matrix(n_samples: int, wavelet: Any = "db6") -> np.ndarray:
+    r"""The matrix :math:`D` with ``window @ D == detail_coefficients(window, wavelet)`` for windows of ``n_samples``.
+
+    The valid finest-scale DWT is linear in the window, so a filter that analyses a sliding window at every step
+    (the grey particle filter, for every sensor of every run) does it with one matrix product.
+
+    Parameters
+    ----------
+    n_samples : int
+        Window length, at least the wavelet's filter length (12 for ``db6``).
+    wavelet : str or pywt.Wavelet, optional
+        ``"db6"`` by default (paper C).
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_coefficients)
+        ``n_coefficients = (n_samples - L) // 2 + 1`` for filter length ``L``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.wavelet import detail_coefficients, detail_matrix
+    >>> x = np.random.default_rng(0).normal(size=50)
+    >>> D = detail_matrix(50)
+    >>> D.shape, bool(np.allclose(x @ D, detail_coefficients(x)))
+    ((50, 20), True)
+    """
+    w = as_wavelet(wavelet)
+    n = as_int("n_samples", n_samples, minimum=w.dec_len)
+    return _valid_details(np.eye(n), w)[:, w.dec_len % 2::2]
 
 
 def detail_coefficients(signal: Any, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
@@ -120,7 +216,7 @@ def detail_coefficients(signal: Any, wavelet: Any = "db6", mode: str = "valid") 
     >>> d.shape, bool(np.abs(d).max() < 1e-12)
     ((20,), True)
     """
-    w = _wavelet(wavelet)
+    w = as_wavelet(wavelet)
     mode = _mode(mode)
     x = as_finite("signal", signal)
     if x.ndim == 0 or x.shape[-1] < w.dec_len:
@@ -170,9 +266,7 @@ def noise_sigma(signal: Any, wavelet: Any = "db6", mode: str = "valid") -> float
     >>> round(float(noise_sigma(depth)), 2)
     0.2
     """
-    d = detail_coefficients(signal, wavelet, mode)
-    sigma = np.median(np.abs(d), axis=-1) / MAD_TO_SIGMA
-    return float(sigma) if np.ndim(sigma) == 0 else sigma
+    return mad_sigma(detail_coefficients(signal, wavelet, mode))
 
 
 def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
@@ -210,7 +304,7 @@ def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mod
     >>> bool(np.isnan(s[:49]).all()), round(float(np.mean(s[49:2000])), 2), round(float(np.mean(s[2049:])), 2)
     (True, 0.1, 0.2)
     """
-    w = _wavelet(wavelet)
+    w = as_wavelet(wavelet)
     mode = _mode(mode)
     x = as_float_array("signal", signal)
     if x.ndim == 0:
@@ -232,7 +326,7 @@ def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mod
     else:
         windows = np.lib.stride_tricks.sliding_window_view(filled, n, axis=-1)
         per_window = np.asarray(pywt.dwt(windows, w, mode=mode, axis=-1)[1])
-    sigma = np.median(np.abs(per_window), axis=-1) / MAD_TO_SIGMA          # (..., K - n + 1)
+    sigma = np.asarray(mad_sigma(per_window))                                 # (..., K - n + 1)
     if missing.any():
         counts = np.lib.stride_tricks.sliding_window_view(missing, n, axis=-1).any(axis=-1)
         sigma[counts] = np.nan

@@ -168,28 +168,31 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
 # finding the sources and writing the student versions
 # ---------------------------------------------------------------------------------------------------------------------
 def exercise_source_dir() -> Path:
-    """The repository's ``exercises/`` directory (uwtutor must be installed from a clone, e.g. ``pip install -e .``).
+    """The directory of the exercise sources: shipped in the installed package, or ``exercises/`` of a clone.
 
     Returns
     -------
     pathlib.Path
-        The directory that holds the exercise sources.
+        ``uwtutor/_data/exercises`` inside the installed package when it is there (a wheel install: the build copies
+        the repository's ``exercises/`` there), otherwise the repository's ``exercises/`` directory beside the
+        package (an editable install from a clone, ``pip install -e .``).
 
     Raises
     ------
     FileNotFoundError
-        If there is no ``exercises/`` directory beside the installed package (a wheel install): pass the source
-        directory explicitly instead (``--source`` on the command line).
+        If neither exists: pass the source directory explicitly instead (``--source`` on the command line).
     """
     import uwtutor
 
-    directory = Path(uwtutor.__file__).resolve().parents[1] / "exercises"
-    if not directory.is_dir():
-        raise FileNotFoundError(
-            f"the exercise sources were not found at {directory}. They ship with the repository, not with the "
-            "installed package: install uwtutor from a clone (pip install -e .), or pass the directory that holds "
-            "the source notebooks (--source DIR on the command line, source_dir=... in Python).")
-    return directory
+    package = Path(uwtutor.__file__).resolve().parent
+    for directory in (package / "_data" / "exercises", package.parent / "exercises"):
+        if directory.is_dir():
+            return directory
+    raise FileNotFoundError(
+        f"the exercise sources were found neither in the installed package ({package / '_data' / 'exercises'}) "
+        f"nor in a clone of the repository ({package.parent / 'exercises'}). Reinstall uwtutor (pip install "
+        "uwtutor, or pip install -e . in a clone), or pass the directory that holds the source notebooks "
+        "(--source DIR on the command line, source_dir=... in Python).")
 
 
 def list_exercise_sources(source_dir: str | os.PathLike[str] | None = None) -> list[Path]:

@@ -1,6 +1,7 @@
 """Filters for single-beacon navigation, all following the protocol of :mod:`uwtutor.filters.base`."""
 
 from .base import Filter, FilterResult, run_filter
+from .bias import BiasEKF, bias_ekf, prepositioned_bias_ekf
 from .depth_ekf import DepthEKF
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
@@ -29,4 +30,5 @@ __all__ = [
     "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
     "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",
     "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",
+    "bias_ekf", "BiasEKF", "prepositioned_bias_ekf",
 ]

@@ -1,22 +1,22 @@
 r"""The extended Kalman filter for paper C's depth/speed/pitch model: the baseline of the grey particle filter.
 
-State :math:`x = [z, v, \varphi]^T` (depth [m], speed [m/s], pitch [rad], depth positive downwards so that a
+State :math:`x = [z, v, \phi]^T` (depth [m], speed [m/s], pitch [rad], depth positive downwards so that a
 positive pitch dives), sampling interval :math:`T`. Paper C's motion model (eq. (4)) adds the process noise
-:math:`u_k = [u^z_k, u^v_k, u^\varphi_k]^T \sim N(0, Q)` *inside* the kinematics:
+:math:`u_k = [u^z_k, u^v_k, u^\phi_k]^T \sim N(0, Q)` *inside* the kinematics:
 
 .. math::
 
-    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\varphi_{k-1} + u^\varphi_k)\, T + u^z_k, \qquad
-    v_k = v_{k-1} + u^v_k, \qquad \varphi_k = \varphi_{k-1} + u^\varphi_k,
+    z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\phi_{k-1} + u^\phi_k)\, T + u^z_k, \qquad
+    v_k = v_{k-1} + u^v_k, \qquad \phi_k = \phi_{k-1} + u^\phi_k,
 
-which is exactly :math:`x_k = g(x_{k-1} + u_k)` with :math:`g(s) = [s_z + s_v \sin(s_\varphi) T, s_v,
-s_\varphi]^T`. The sensors measure the state, :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R_k)` (eq. (6)).
+which is exactly :math:`x_k = g(x_{k-1} + u_k)` with :math:`g(s) = [s_z + s_v \sin(s_\phi) T, s_v,
+s_\phi]^T`. The sensors measure the state, :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R_k)` (eq. (6)).
 Linearizing :math:`g` at the estimate with the Jacobian
 
 .. math::
 
     G_k = \frac{\partial g}{\partial s}\Big|_{\hat x_{k-1}} =
-    \begin{bmatrix} 1 & T \sin\hat\varphi_{k-1} & T \hat v_{k-1} \cos\hat\varphi_{k-1} \\
+    \begin{bmatrix} 1 & T \sin\hat\phi_{k-1} & T \hat v_{k-1} \cos\hat\phi_{k-1} \\
                     0 & 1 & 0 \\ 0 & 0 & 1 \end{bmatrix}
 
 gives the EKF (Bar-Shalom, Li and Kirubarajan 2001, sec. 10.3):
@@ -32,7 +32,8 @@ gives the EKF (Bar-Shalom, Li and Kirubarajan 2001, sec. 10.3):
 (Joseph form). The noise enters through the same Jacobian as the state, so :math:`G (P + Q) G^T` is the usual
 :math:`F P F^T + L Q L^T` with :math:`L = F = G`.
 
-The filter follows the protocol of :mod:`uwtutor.filters.base` and is batch-aware: give ``x0`` a leading axis of
+The kinematics :math:`g` and :math:`G` are those of :mod:`uwtutor.models.depth`, which paper C's particle filters
+use too. The filter follows the protocol of :mod:`uwtutor.filters.base` and is batch-aware: give ``x0`` a leading axis of
 ``M`` Monte Carlo runs and every step runs them all. ``R`` may change at any step (``run(..., Rs=...)``), which
 turns it into the "EKF with the wavelet noise estimate" of the chapter on paper C.
 
@@ -51,6 +52,8 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_float_array, as_positive
+from ..models.depth import (DEFAULT_PROCESS_STD, DEFAULT_SENSOR_STD, depth_speed_pitch_jacobian,
+                            depth_speed_pitch_kinematics)
 from .base import FilterResult, run_filter
 
 __all__ = ["DepthEKF"]
@@ -69,10 +72,12 @@ class DepthEKF:
         Initial estimate ``[depth, speed, pitch]`` [m, m/s, rad]; a leading axis runs ``M`` filters at once.
     P0 : array_like, shape (3, 3) or (M, 3, 3)
         Initial covariance (positive definite).
-    Q : array_like, shape (3, 3)
-        Covariance of :math:`[u^z, u^v, u^\varphi]` per step (positive semi-definite).
-    R : array_like, shape (3, 3) or (M, 3, 3)
-        Sensor noise covariance (positive definite); assign ``R`` between steps to change it.
+    Q : array_like, shape (3, 3), optional
+        Covariance of :math:`[u^z, u^v, u^\phi]` per step (positive semi-definite); by default
+        ``diag(DEFAULT_PROCESS_STD**2)`` of :mod:`uwtutor.models.depth`, the particle filters' default too.
+    R : array_like, shape (3, 3) or (M, 3, 3), optional
+        Sensor noise covariance (positive definite); assign ``R`` between steps to change it. By default
+        ``diag(DEFAULT_SENSOR_STD**2)`` (paper C's R read as 0.2 m, 5 cm/s, 0.5 deg).
     T : float, optional
         Sampling interval [s]; 0.05 s in paper C.
 
@@ -103,8 +108,12 @@ class DepthEKF:
 
     extra_outputs: tuple[str, ...] = ()
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, T: float = 0.05) -> None:
+    def __init__(self, x0: Any, P0: Any, Q: Any = None, R: Any = None, T: float = 0.05) -> None:
         self.T = float(as_positive("T", T))
+        if Q is None:
+            Q = np.diag(DEFAULT_PROCESS_STD**2)
+        if R is None:
+            R = np.diag(DEFAULT_SENSOR_STD**2)
         self.Q = as_covariance("Q", Q, _N, allow_singular=True)
         if self.Q.shape != (_N, _N):
             raise ValueError(f"Q must be one 3x3 matrix shared by all runs; got shape {self.Q.shape}")
@@ -120,6 +129,8 @@ class DepthEKF:
         self.x_prior, self.P_prior = self.x, self.P
         self.y = np.full(x.shape, np.nan)
         self.S = np.full(x.shape + (_N,), np.nan)
+        self._step = -1                       # index of the current step (advanced by predict)
+        self._R_schedule: np.ndarray | None = None
 
     @property
     def R(self) -> np.ndarray:
@@ -137,17 +148,10 @@ class DepthEKF:
         r""":math:`\hat x^- = g(\hat x)`, :math:`P^- = G (P + Q) G^T`; the model takes no input (``u`` is None)."""
         if u is not None:
             raise ValueError("DepthEKF takes no control input: call predict() without u")
-        x = self.x
-        v, phi = x[..., 1], x[..., 2]
-        s, c = np.sin(phi), np.cos(phi)
-        G = np.zeros(x.shape[:-1] + (_N, _N))
-        G[..., 0, 0] = G[..., 1, 1] = G[..., 2, 2] = 1.0
-        G[..., 0, 1] = self.T * s
-        G[..., 0, 2] = self.T * v * c
-        new = x.copy()
-        new[..., 0] = x[..., 0] + v * s * self.T
-        self.x = self.x_prior = new
+        G = depth_speed_pitch_jacobian(self.x, self.T)
+        self.x = self.x_prior = depth_speed_pitch_kinematics(self.x, self.T)
         self.P = self.P_prior = G @ (self.P + self.Q) @ np.swapaxes(G, -1, -2)
+        self._step += 1
 
     def update(self, z: Any) -> None:
         """Correct with the measurement ``z`` (shape (3,) or (M, 3)); NaN entries are missing sensors.
@@ -163,6 +167,8 @@ class DepthEKF:
                              f"got {z.shape}") from None
         if np.isinf(z).any():
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
+        if self._R_schedule is not None:      # run(..., Rs=...): this step's R
+            self.R = self._R_schedule[self._step]
         batched = self.x.ndim == 2
         x = self.x if batched else self.x[None]
         P = self.P if batched else self.P[None]
@@ -235,9 +241,8 @@ class DepthEKF:
             raise ValueError("DepthEKF takes no control input: call run(z) without u")
         if Rs is None:
             return run_filter(self, z, None, times)
-        zs = z
         batched = self.x.ndim == 2
-        zs = as_float_array("z", zs)
+        zs = as_float_array("z", z)
         if zs.ndim != self.x.ndim + 1 or zs.shape[-1] != _N or (batched and zs.shape[0] != self.x.shape[0]):
             want = f"({self.x.shape[0]}, K, 3)" if batched else "(K, 3)"
             raise ValueError(f"z must have shape {want}: one [depth, speed, pitch] per step; got {zs.shape}")
@@ -247,21 +252,12 @@ class DepthEKF:
         if Rs.shape not in shapes:
             raise ValueError(f"Rs must have shape {' or '.join(map(str, shapes))}: one covariance per step "
                              f"(and run); got {Rs.shape}")
-        Rs_steps = Rs if Rs.ndim == 3 else np.moveaxis(Rs, 1, 0)
-        z_steps = np.moveaxis(zs, -2, 0)
-        times = np.arange(K, dtype=float) if times is None else as_finite("times", times, shape=(K,))
-        xs, Ps, xps, Pps, ys, Ss = [], [], [], [], [], []
-        for k in range(K):
-            self.predict()
-            xps.append(self.x.copy())
-            Pps.append(self.P.copy())
-            self.R = Rs_steps[k]
-            self.update(z_steps[k])
-            xs.append(self.x.copy())
-            Ps.append(self.P.copy())
-            ys.append(self.y.copy())
-            Ss.append(self.S.copy())
-        axis = 1 if batched else 0
-        return FilterResult(times=times, x=np.stack(xs, axis), P=np.stack(Ps, axis), x_prior=np.stack(xps, axis),
-                            P_prior=np.stack(Pps, axis), innovations=np.stack(ys, axis),
-                            innovation_cov=np.stack(Ss, axis))
+        schedule = Rs if Rs.ndim == 3 else np.moveaxis(Rs, 1, 0)     # (K, [M,] 3, 3)
+        for k in range(K):                    # every one a valid covariance, checked before the first step
+            as_covariance(f"Rs[{k}]" if Rs.ndim == 3 else f"Rs[:, {k}]", schedule[k], _N)
+        self._R_schedule = schedule
+        self._step = -1
+        try:
+            return run_filter(self, z, None, times)
+        finally:
+            self._R_schedule = None

@@ -1,26 +1,38 @@
 r"""The bootstrap particle filter, vectorized over particles, and the models it runs on.
 
 A particle filter represents the posterior :math:`p(x_k \mid z_{1:k})` by ``N`` samples (particles)
-:math:`x^i_k` with weights :math:`w^i_k`. The bootstrap (SIR) filter of Gordon et al. (1993) proposes from the
+:math:`x^{(i)}_k` with weights :math:`w^{(i)}_k`. The bootstrap (SIR) filter of Gordon et al. (1993) proposes from the
 motion model and weights by the likelihood (Arulampalam et al. 2002, Algorithm 4):
 
 .. math::
 
-    x^i_k \sim p(x_k \mid x^i_{k-1}), \qquad
-    w^i_k \propto w^i_{k-1}\, p(z_k \mid x^i_k), \qquad \sum_i w^i_k = 1,
+    x^{(i)}_k \sim p(x_k \mid x^{(i)}_{k-1}), \qquad
+    w^{(i)}_k \propto w^{(i)}_{k-1}\, p(z_k \mid x^{(i)}_k), \qquad \sum_i w^{(i)}_k = 1,
 
-    \hat x_k = \sum_i w^i_k x^i_k, \qquad P_k = \sum_i w^i_k (x^i_k - \hat x_k)(x^i_k - \hat x_k)^T,
+    \hat x_k = \sum_i w^{(i)}_k x^{(i)}_k, \qquad P_k = \sum_i w^{(i)}_k (x^{(i)}_k - \hat x_k)(x^{(i)}_k - \hat x_k)^T,
 
-then resamples (draws ``N`` particles with probabilities :math:`w^i_k` and resets the weights to :math:`1/N`)
-every step, or only when the effective sample size :math:`N_\mathrm{eff} = 1/\sum_i (w^i_k)^2` falls below a
+then resamples (draws ``N`` particles with probabilities :math:`w^{(i)}_k` and resets the weights to :math:`1/N`)
+every step, or only when the effective sample size :math:`N_\mathrm{eff} = 1/\sum_i (w^{(i)}_k)^2` falls below a
 threshold.
 
 Models are separate from the algorithm (as in Stone Soup): a model is an object with
 
-* ``propagate(particles, u, rng)`` -- draw from the motion model, ``(N, n) -> (N, n)``;
-* ``measure(particles)`` -- the noise-free measurement :math:`h(x)`, ``(N, n) -> (N, m)``;
+* ``propagate(particles, u, rng)`` -- draw from the motion model, ``(M, N, n) -> (M, N, n)`` with one
+  Generator per run (a single run may also be given as ``(N, n)`` with one Generator);
+* ``measure(particles)`` -- the noise-free measurement :math:`h(x)`, ``(..., N, n) -> (..., N, m)``;
 * ``R`` -- the measurement noise covariance ``(m, m)``, and ``log_likelihood(particles, z)``
-  (:class:`ParticleModel` provides the Gaussian one).
+  (:class:`ParticleModel` provides the Gaussian one), ``(M, N, n), (M, m) -> (M, N)``.
+
+.. rubric:: Batches of runs
+
+Every filter here runs ``M`` independent Monte Carlo runs at once, the way the Kalman family does: particles
+``(M, N, n)``, weights ``(M, N)``, estimates ``x`` ``(M, n)`` and ``P`` ``(M, n, n)``, measurements ``(M, m)``
+per step (``from_gaussian(..., x0 of shape (M, n))`` or ``n_runs=M``). A single run keeps the shapes without the
+runs axis (``x`` ``(n,)``, particles ``(N, n)``) and is the ``M = 1`` case of the same code. Each run draws from
+its own ``numpy.random.Generator``: give a sequence of ``M`` Generators, or one Generator, which is then split
+with :meth:`numpy.random.Generator.spawn`. Run ``m`` of a batch is then, draw for draw, the single-run filter
+given the same ``m``-th Generator (``tests/test_filter_contract_pf.py`` checks it); a single run given one
+Generator uses it directly.
 
 Ready models: :class:`DepthSpeedPitchModel`, the depth/speed/pitch model of Li et al. (paper C, the grey particle
 filter); :class:`PitchManeuverModel`, the same with the pitch drawn towards a target (one maneuver: cruise, dive or
@@ -34,6 +46,9 @@ Two filters of paper C build on :class:`BootstrapParticleFilter` by changing how
 * :class:`GreyParticleFilter` (GPF, paper C) -- a share of the particles (1 in 10) is drawn around a GM(1,1)
   forecast of the last ``L`` measurements (:mod:`uwtutor.grey`) instead of from the motion model, and the
   likelihood uses a measurement noise measured online by the wavelet MAD estimate (:mod:`uwtutor.wavelet`).
+
+The kinematics of paper C's models are those of :mod:`uwtutor.models.depth`, which its EKF
+(:class:`~uwtutor.filters.depth_ekf.DepthEKF`) uses too.
 
 References
 ----------
@@ -57,16 +72,18 @@ and Navigation* 150(5), 344-349.
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from typing import Any, Sequence
 
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_positive, as_rng
-from ..grey import _coefficients as _gm11_coefficients
-from ..grey import _restored as _gm11_restored
+from ..grey import gm11_next
+from ..models.depth import DEFAULT_PROCESS_STD, DEFAULT_SENSOR_STD, DepthSpeedPitch
+from ..models.noise import per_run_generators, standard_normal_per_run
 from ..resampling import Resampler, systematic_resample
-from ..wavelet import MAD_TO_SIGMA, _valid_details, _wavelet
+from ..wavelet import as_wavelet, detail_matrix, mad_sigma
 from .base import FilterResult
 
 __all__ = [
@@ -94,14 +111,83 @@ def _sqrt_psd(name: str, Q: np.ndarray) -> np.ndarray:
         return vecs * np.sqrt(np.clip(vals, 0.0, None))
 
 
+def _as_batch(particles: Any) -> tuple[np.ndarray, bool]:
+    """Particles as ``(M, N, n)`` and whether they were one run ``(N, n)``."""
+    p = np.asarray(particles, dtype=float)
+    return (p[None], True) if p.ndim == 2 else (p, False)
+
+
+#: Particles per block of runs that ``run`` moves through all steps together (a block stays in cache).
+_BLOCK_PARTICLES = 10_000
+
+_any = functools.partial(np.logical_or.reduce, axis=None)      # a.any() / a.all() without numpy's Python wrappers
+_all = functools.partial(np.logical_and.reduce, axis=None)
+
+
+def _takes_runs_axis(model: Any, name: str) -> bool:
+    """Whether ``model``'s method ``name`` takes a runs axis (M, N, n): the library's models do, and so does a
+    model class that sets ``handles_runs_axis = True``. A method a user overrode for one run -- particles (N, n),
+    a measurement (m,), one Generator, as before particle filters were batched -- is called run by run."""
+    if getattr(type(model), "handles_runs_axis", False):
+        return True
+    method = getattr(type(model), name, None)
+    return method is None or getattr(method, "__module__", "").startswith("uwtutor.")
+
+
+def _measure(model: Any, particles: np.ndarray) -> np.ndarray:
+    """``model.measure`` of particles (M, N, n), run by run for a single-run override."""
+    if _takes_runs_axis(model, "measure"):
+        return model.measure(particles)
+    return np.stack([np.asarray(model.measure(p), dtype=float) for p in particles])
+
+
+def _rows(values: np.ndarray) -> np.ndarray:
+    """``(M, N, k) -> (M, k, N)``: each component of every run contiguous (a view when it already is)."""
+    return values.swapaxes(-1, -2)
+
+
+def _gaussian_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
+                             diagonal: bool) -> np.ndarray:
+    r""":math:`-\tfrac12 (z - h)^T R^{-1} (z - h)` for every particle of every run, ``(M, N)``.
+
+    ``hx_rows`` (M, m, N); ``z`` (M, m), NaN entries missing; ``R`` (m, m) or (M, m, m); ``whiten`` the
+    reciprocal standard deviations (m,) or (M, m) when ``diagonal``, else :math:`W` (m, m) or (M, m, m) with
+    :math:`W^T = L^{-1}`, :math:`L L^T = R`. A run with every entry missing gets 0 (its weights do not change).
+    """
+    missing = np.isnan(z)
+    if not _any(missing):              # rows (M, m, N): contiguous per component
+        d = hx_rows - z[..., None]
+        if diagonal:
+            d *= whiten[..., None]
+        else:
+            d = np.swapaxes(whiten, -1, -2) @ d
+    else:
+        M, m, N = hx_rows.shape
+        d = np.zeros((M, m, N))
+        Rb = np.broadcast_to(R, (M, m, m))
+        for run in range(M):
+            present = ~missing[run]
+            if not present.any():
+                continue
+            L = np.linalg.cholesky(Rb[run][np.ix_(present, present)])
+            d[run, :present.sum()] = np.linalg.solve(L, hx_rows[run][present] - z[run, present, None])
+    d *= d
+    out = np.add.reduce(d, axis=1)
+    out *= -0.5
+    return out
+
+
 class ParticleModel:
     r"""Base class of particle-filter models: Gaussian measurement noise and its log-likelihood.
 
-    Subclasses implement ``propagate`` and ``measure`` and set ``n_states`` and ``R``.
+    Subclasses implement ``propagate`` and ``measure`` and set ``n_states`` and ``R``. The filters call them
+    with a runs axis, particles ``(M, N, n)``; a subclass whose methods are written for one run (particles
+    ``(N, n)``, a measurement ``(m,)``, one Generator) works too: the filters then call them run by run. Set
+    ``handles_runs_axis = True`` on a subclass whose overrides take the runs axis themselves (faster).
 
     .. math::
 
-        \log p(z \mid x^i) = -\tfrac12 (z - h(x^i))^T R^{-1} (z - h(x^i)) + \text{const}
+        \log p(z \mid x^{(i)}) = -\tfrac12 (z - h(x^{(i)}))^T R^{-1} (z - h(x^{(i)})) + \text{const}
 
     NaN entries of ``z`` are missing sensor readings: the likelihood uses the other entries (the marginal of
     the Gaussian), and a measurement that is entirely NaN leaves the weights unchanged.
@@ -132,72 +218,56 @@ class ParticleModel:
         self._R = R
         self._R_is_diag = bool(np.all(R == np.diag(np.diag(R))))
         self._whiten = 1.0 / np.sqrt(np.diag(R)) if self._R_is_diag else np.linalg.inv(np.linalg.cholesky(R)).T
-        self._whiten_column = self._whiten[:, None] if self._R_is_diag else None
 
     @property
     def n_measurements(self) -> int:
         """Size ``m`` of a measurement."""
         return self._R.shape[0]
 
-    def _set_noise_std(self, std: np.ndarray) -> None:
-        """Set a diagonal ``R = diag(std**2)`` from positive, finite standard deviations (no further checks).
+    def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
+        """Draw every particle's next state from the motion model.
 
-        The fast path of :class:`GreyParticleFilter`, which sets a new ``R`` at every step.
+        ``particles`` (M, N, n) with ``rng`` a sequence of ``M`` Generators (run ``m`` draws from ``rng[m]``),
+        or one run (N, n) with one Generator; returns the same shape.
         """
-        self._R = np.diag(std * std)
-        self._R_is_diag = True
-        self._whiten = 1.0 / std
-        self._whiten_column = self._whiten[:, None]
-
-    def propagate(self, particles: np.ndarray, u: Any, rng: np.random.Generator) -> np.ndarray:
-        """Draw every particle's next state from the motion model (``(N, n) -> (N, n)``)."""
         raise NotImplementedError
 
     def measure(self, particles: np.ndarray) -> np.ndarray:
-        """The noise-free measurement :math:`h(x)` of every particle (``(N, n) -> (N, m)``)."""
+        """The noise-free measurement :math:`h(x)` of every particle (``(..., N, n) -> (..., N, m)``)."""
         raise NotImplementedError
 
     def log_likelihood(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Gaussian log-likelihood of the measurement ``z`` (m,) for every particle, up to a constant (N,)."""
-        missing = np.isnan(z)
-        if not missing.any():                     # work on rows (m, N): contiguous for column-major particles
-            d = self.measure(particles).T - z[:, None]
-            if self._R_is_diag:
-                d *= self._whiten_column
-            else:
-                d = self._whiten.T @ d
-        else:
-            present = ~missing
-            L = np.linalg.cholesky(self._R[np.ix_(present, present)])
-            d = np.linalg.solve(L, self.measure(particles).T[present] - z[present, None])
-        d *= d
-        out = np.add.reduce(d, axis=0)
-        out *= -0.5
-        return out
+        """Gaussian log-likelihood of ``z``, up to a constant: (N, n), (m,) -> (N,) or (M, N, n), (M, m) -> (M, N)."""
+        p, single = _as_batch(particles)
+        zz = np.asarray(z, dtype=float).reshape(p.shape[0], -1)
+        out = _gaussian_log_likelihood(_rows(self.measure(p)), zz, self._R, self._whiten, self._R_is_diag)
+        return out[0] if single else out
 
 
 class DepthSpeedPitchModel(ParticleModel):
     r"""Depth, speed and pitch of an AUV with all three measured (paper C, Li et al.).
 
-    State :math:`x_k = [z_k, v_k, \varphi_k]^T` (depth [m], speed [m/s], pitch [rad]), sampling interval ``T``:
+    State :math:`x_k = [z_k, v_k, \phi_k]^T` (depth [m], speed [m/s], pitch [rad]), sampling interval ``T``:
 
     .. math::
 
-        z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\varphi_{k-1} + u^\varphi_k)\, T + u^z_k, \qquad
-        v_k = v_{k-1} + u^v_k, \qquad \varphi_k = \varphi_{k-1} + u^\varphi_k,
+        z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\phi_{k-1} + u^\phi_k)\, T + u^z_k, \qquad
+        v_k = v_{k-1} + u^v_k, \qquad \phi_k = \phi_{k-1} + u^\phi_k,
 
-    with independent Gaussian :math:`u^z_k, u^v_k, u^\varphi_k` (standard deviations ``process_std``); the speed
+    with independent Gaussian :math:`u^z_k, u^v_k, u^\phi_k` (standard deviations ``process_std``); the speed
     and pitch noise of step ``k`` enter the depth equation too. The sensors measure the state directly:
-    :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R)`.
+    :math:`y_k = x_k + w_k`, :math:`w_k \sim N(0, R)`. The kinematics are
+    the motion model :class:`uwtutor.models.depth.DepthSpeedPitch` (``motion``), shared with :class:`~uwtutor.filters.depth_ekf.DepthEKF`.
 
     Parameters
     ----------
     T : float, optional
         Sampling interval [s]; 0.05 s in paper C.
     process_std : array_like, shape (3,), optional
-        Standard deviations of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad].
-        The default ``(0.01, 0.01, 0.0035)`` is illustrative: the paper's process covariance is not a valid
-        covariance matrix (not positive semi-definite), so a diagonal one is used instead.
+        Standard deviations of :math:`u^z, u^v, u^\phi` per step [m, m/s, rad].
+        The default :data:`uwtutor.models.depth.DEFAULT_PROCESS_STD` ``(0.01, 0.01, 0.0035)`` is illustrative:
+        the paper's process covariance is not a valid covariance matrix (not positive semi-definite), so a
+        diagonal one is used instead (paper C's diagonal: :mod:`uwtutor.scenarios.paper_c`).
     R : array_like, shape (3, 3), optional
         Sensor noise covariance. Paper C gives :math:`R = \mathrm{diag}(0.2^2, 5^2, 0.5^2)` without units; the
         default reads it as 0.2 m, 5 cm/s and 0.5 deg, i.e. ``diag(0.2**2, 0.05**2, radians(0.5)**2)``.
@@ -219,29 +289,23 @@ class DepthSpeedPitchModel(ParticleModel):
 
     n_states = 3
 
-    def __init__(self, T: float = 0.05, process_std: Any = (0.01, 0.01, 0.0035),
-                 R: Any = None) -> None:
-        self.T = float(as_positive("T", T))
-        self.process_std = as_nonnegative("process_std", process_std, shape=(3,))
-        self._std_column = self.process_std[:, None]
+    def __init__(self, T: float = 0.05, process_std: Any = None, R: Any = None) -> None:
+        self.motion = DepthSpeedPitch(T=T, process_std=DEFAULT_PROCESS_STD if process_std is None else process_std)
+        self.T = self.motion.T
+        self.process_std = self.motion.process_std
         if R is None:
-            R = np.diag([0.2**2, 0.05**2, np.radians(0.5) ** 2])
+            R = np.diag(DEFAULT_SENSOR_STD**2)
         super().__init__(R)
         if self.n_measurements != 3:
             raise ValueError(f"R must be 3x3 (depth, speed, pitch sensors); got {self.R.shape}")
 
-    def propagate(self, particles: np.ndarray, u: Any, rng: np.random.Generator) -> np.ndarray:
+    def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
         """One step of the motion model for every particle; ``u`` must be ``None`` (the model has no input)."""
         if u is not None:
             raise ValueError("DepthSpeedPitchModel takes no control input: call predict() without u")
-        noise = rng.standard_normal((3, particles.shape[0]))     # rows u^z, u^v, u^phi
-        noise *= self._std_column
-        rows = np.add(particles.T, noise, out=noise)             # z + u^z, v_k = v + u^v, phi_k = phi + u^phi
-        dz = np.sin(rows[2])
-        dz *= rows[1]
-        dz *= self.T
-        rows[0] += dz                                            # z_k = z + v_k sin(phi_k) T + u^z
-        return rows.T                                            # (N, 3), column-major like the input
+        p, single = _as_batch(particles)
+        out = _rows(self.motion.sample_rows(_rows(p), rng))        # (M, N, 3), each component contiguous
+        return out[0] if single else out
 
     def measure(self, particles: np.ndarray) -> np.ndarray:
         """All three states are measured: :math:`h(x) = x`."""
@@ -285,39 +349,47 @@ class PitchManeuverModel(DepthSpeedPitchModel):
 
     .. math::
 
-        \bar\varphi_{k-1} = \varphi_{k-1} + (1 - e^{-T/\tau})\,(\varphi^* - \varphi_{k-1}),
+        \bar\phi_{k-1} = \phi_{k-1} + (1 - e^{-T/\tau})\,(\phi^* - \phi_{k-1}),
 
-    then :math:`z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\bar\varphi_{k-1} + u^\varphi_k)\, T + u^z_k`,
-    :math:`v_k = v_{k-1} + u^v_k`, :math:`\varphi_k = \bar\varphi_{k-1} + u^\varphi_k`. With the depth
+    then :math:`z_k = z_{k-1} + (v_{k-1} + u^v_k) \sin(\bar\phi_{k-1} + u^\phi_k)\, T + u^z_k`,
+    :math:`v_k = v_{k-1} + u^v_k`, :math:`\phi_k = \bar\phi_{k-1} + u^\phi_k`. With the depth
     :math:`z` positive downwards, a positive pitch makes the vehicle go deeper (nose down). Three such models with
-    targets 0 (cruise), :math:`+\varphi_d` (dive) and :math:`-\varphi_c` (climb) make the mode set of the
+    targets 0 (cruise), :math:`+\phi_d` (dive) and :math:`-\phi_c` (climb) make the mode set of the
     multiple-model particle filter of the chapter on paper C.
 
     Parameters
     ----------
     pitch_target : float, optional
-        :math:`\varphi^*` [rad]; 0 by default (cruise at constant depth).
+        :math:`\phi^*` [rad]; 0 by default (cruise at constant depth).
     time_constant : float, optional
         :math:`\tau` [s] (> 0); 2 s by default.
     T : float, optional
         Sampling interval [s].
     process_std : array_like, shape (3,), optional
-        Standard deviations of :math:`u^z, u^v, u^\varphi` per step [m, m/s, rad].
+        Standard deviations of :math:`u^z, u^v, u^\phi` per step [m, m/s, rad].
     R : array_like, shape (3, 3), optional
         Sensor noise covariance (as in :class:`DepthSpeedPitchModel`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import PitchManeuverModel
+    >>> dive = PitchManeuverModel(pitch_target=0.3, time_constant=1.0, T=0.05, process_std=[0.0, 0.0, 0.0])
+    >>> dive.propagate(np.array([[10.0, 2.0, 0.0]]), None, np.random.default_rng(0)).round(5)
+    array([[10.00146,  2.     ,  0.01463]])
     """
 
     def __init__(self, pitch_target: float = 0.0, time_constant: float = 2.0, T: float = 0.05,
-                 process_std: Any = (0.01, 0.01, 0.0035), R: Any = None) -> None:
+                 process_std: Any = None, R: Any = None) -> None:
         super().__init__(T=T, process_std=process_std, R=R)
         self.pitch_target = float(as_finite("pitch_target", pitch_target))
         self.time_constant = float(as_positive("time_constant", time_constant))
         self._gain = -math.expm1(-self.T / self.time_constant)
 
-    def propagate(self, particles: np.ndarray, u: Any, rng: np.random.Generator) -> np.ndarray:
+    def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
         """Pull every particle's pitch towards the target, then one step of :class:`DepthSpeedPitchModel`."""
-        pulled = np.array(particles, dtype=float, order="F")
-        pitch = pulled[:, 2]
+        pulled = np.array(particles, dtype=float)
+        pitch = pulled[..., 2]
         pitch += self._gain * (self.pitch_target - pitch)
         return super().propagate(pulled, u, rng)
 
@@ -340,6 +412,15 @@ class LinearGaussianModel(ParticleModel):
         Measurement noise covariance (positive definite).
     B : array_like, shape (n, p), optional
         Control-input matrix (``None``: no input).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import LinearGaussianModel
+    >>> walk = LinearGaussianModel(F=[[1.0]], H=[[1.0]], Q=[[0.0]], R=[[1.0]], B=[[1.0]])
+    >>> walk.propagate(np.zeros((2, 1)), [0.5], np.random.default_rng(0))    # no noise: F x + B u
+    array([[0.5],
+           [0.5]])
     """
 
     def __init__(self, F: Any, H: Any, Q: Any, R: Any, B: Any = None) -> None:
@@ -360,14 +441,24 @@ class LinearGaussianModel(ParticleModel):
         if self.B is not None and self.B.shape[0] != n:
             raise ValueError(f"B must have {n} rows to match F; got shape {self.B.shape}")
 
-    def propagate(self, particles: np.ndarray, u: Any, rng: np.random.Generator) -> np.ndarray:
-        """:math:`x^i_k = F x^i_{k-1} + B u_k + w^i_k` for every particle."""
-        out = particles @ self.F.T + rng.standard_normal(particles.shape) @ self._Q_sqrt_T
+    def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
+        """:math:`x^{(i)}_k = F x^{(i)}_{k-1} + B u_k + w^{(i)}_k` for every particle.
+
+        ``u`` is one input ``(p,)`` shared by every run, or ``(M, p)``, one per run.
+        """
+        p, single = _as_batch(particles)
+        rngs = per_run_generators(rng, p.shape[0], spawn=False)
+        noise = standard_normal_per_run(rngs, p.shape[1:])
+        if p.shape[0] == 1:                                   # one run: plain 2-D products
+            out = (p[0] @ self.F.T + noise[0] @ self._Q_sqrt_T)[None]
+        else:
+            out = p @ self.F.T + noise @ self._Q_sqrt_T
         if u is not None:
             if self.B is None:
                 raise ValueError("u was given but this model has no control-input matrix B")
-            out += as_finite("u", u) @ self.B.T
-        return out
+            Bu = as_finite("u", u) @ self.B.T
+            out += Bu[:, None, :] if Bu.ndim == 2 else Bu
+        return out[0] if single else out
 
     def measure(self, particles: np.ndarray) -> np.ndarray:
         """:math:`h(x) = H x` for every particle."""
@@ -375,27 +466,31 @@ class LinearGaussianModel(ParticleModel):
 
 
 class BootstrapParticleFilter:
-    r"""Bootstrap (SIR) particle filter, vectorized over its ``N`` particles, with a pluggable resampler.
+    r"""Bootstrap (SIR) particle filter, vectorized over its ``N`` particles and over ``M`` runs, with a pluggable
+    resampler.
 
     Each step: ``predict(u)`` draws every particle from the motion model; ``update(z)`` multiplies the weights by
     the likelihood (in log space, so tiny likelihoods do not underflow), records the estimate, the effective
     sample size :math:`N_\mathrm{eff} = 1/\sum_i w_i^2` and the innovation, then resamples when
     :math:`N_\mathrm{eff} < \tau N` with :math:`\tau` = ``ess_threshold`` (always when ``ess_threshold >= 1``).
-    Equations in the module docstring (Arulampalam et al. 2002, Algorithms 2 and 4).
+    Equations in the module docstring (Arulampalam et al. 2002, Algorithms 2 and 4). Every run of a batch does
+    this on its own particles with its own random stream (module docstring, *Batches of runs*).
 
     Parameters
     ----------
     model : ParticleModel
         The motion and measurement model (``propagate``, ``measure``, ``log_likelihood``, ``R``).
-    particles : array_like, shape (N, n)
-        Initial particles.
-    rng : numpy.random.Generator
-        Source of all randomness (motion noise and resampling).
-    weights : array_like, shape (N,), optional
+    particles : array_like, shape (N, n) or (M, N, n)
+        Initial particles of one run, or of ``M`` runs.
+    rng : numpy.random.Generator or sequence of numpy.random.Generator
+        Source of all randomness (motion noise and resampling): one Generator, or one per run (a single
+        Generator is split with ``rng.spawn(M)`` for ``M > 1`` runs).
+    weights : array_like, shape (N,) or (M, N), optional
         Initial weights (normalized here); equal by default.
     resampler : callable, optional
-        ``resampler(weights, rng) -> indices``; :func:`uwtutor.resampling.systematic_resample` by default.
-        Any function of :mod:`uwtutor.resampling` fits, and so does a wrapper of a filterpy resampler
+        ``resampler(weights, rng) -> indices`` on the ``(N,)`` weights of one run;
+        :func:`uwtutor.resampling.systematic_resample` by default. Any function of :mod:`uwtutor.resampling`
+        fits, and so does a wrapper of a filterpy resampler
         (``lambda w, rng: filterpy.monte_carlo.systematic_resample(w)``).
     ess_threshold : float, optional
         Resample when :math:`N_\mathrm{eff} <` ``ess_threshold`` :math:`\cdot N`. 1.0 (the default, as in paper C)
@@ -404,26 +499,28 @@ class BootstrapParticleFilter:
 
     Attributes
     ----------
-    particles : ndarray, shape (N, n)
+    particles : ndarray, shape (N, n) or (M, N, n)
         Current particles.
-    weights : ndarray, shape (N,)
+    weights : ndarray, shape (N,) or (M, N)
         Their normalized weights.
-    x : ndarray, shape (n,)
+    x : ndarray, shape (n,) or (M, n)
         Weighted mean of the particles (after ``update``: the posterior mean, before any resampling).
-    P : ndarray, shape (n, n)
+    P : ndarray, shape (n, n) or (M, n, n)
         Weighted covariance of the particles.
-    y : ndarray, shape (m,)
-        Innovation :math:`z - \sum_i w_i h(x^i)` of the last update (NaN where nothing was measured).
-    S : ndarray, shape (m, m)
-        Its covariance: the weighted covariance of :math:`h(x^i)` plus ``R`` (NaN where nothing was measured).
+    y : ndarray, shape (m,) or (M, m)
+        Innovation :math:`z - \sum_i w_i h(x^{(i)})` of the last update (NaN where nothing was measured).
+    S : ndarray, shape (m, m) or (M, m, m)
+        Its covariance: the weighted covariance of :math:`h(x^{(i)})` plus ``R`` (NaN where nothing was measured).
     x_prior : ndarray
         The weighted mean of the predicted particles of the current step.
     P_prior : ndarray
         Their weighted covariance.
-    ess : float
+    ess : float or ndarray of shape (M,)
         Effective sample size after the last update (before resampling).
-    resampled : bool
+    resampled : bool or ndarray of shape (M,)
         Whether the last update resampled.
+    rngs : tuple of numpy.random.Generator
+        The generator of each run.
 
     Examples
     --------
@@ -438,18 +535,35 @@ class BootstrapParticleFilter:
     >>> kf = KalmanFilter(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[4.0]], x0=[0.0], P0=[[10.0]])
     >>> bool(np.max(np.abs(pf.run(zs).x - kf.run(zs).x)) < 0.1)
     True
+
+    Four runs at once, each with its own stream; run 2 is the single-run filter on the same stream:
+
+    >>> Z = np.stack([zs, zs + 1.0, zs - 1.0, zs])
+    >>> batch = BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], 500, np.random.default_rng(1), n_runs=4)
+    >>> res = batch.run(Z)
+    >>> res.x.shape, res.extras["ess"].shape
+    ((4, 30, 1), (4, 30))
+    >>> one = BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], 500, np.random.default_rng(1).spawn(4)[2])
+    >>> bool(np.allclose(one.run(Z[2]).x, res.x[2]))
+    True
     """
 
     #: Per-step outputs recorded by :func:`uwtutor.filters.base.run_filter` in ``FilterResult.extras``.
-    extra_outputs = ("ess", "resampled")
+    extra_outputs: tuple[str, ...] = ("ess", "resampled")
+    result_type = FilterResult
 
-    def __init__(self, model: ParticleModel, particles: Any, rng: np.random.Generator, *, weights: Any = None,
+    def __init__(self, model: ParticleModel, particles: Any, rng: Any, *, weights: Any = None,
                  resampler: Resampler = systematic_resample, ess_threshold: float = 1.0) -> None:
         self.model = model
-        self.rng = as_rng(rng)
         self._n_states = getattr(model, "n_states", None)
-        self._weights = np.empty(0)
-        self.particles = particles
+        p = as_finite("particles", particles, ndim=(2, 3))
+        self._batched = p.ndim == 3
+        self._w = np.empty((0, 0))
+        self.particles = p
+        M = self._rows_p.shape[0]
+        if isinstance(rng, np.random.Generator):
+            rng = as_rng(rng)
+        self.rngs = per_run_generators(rng, M)
         if weights is not None:
             self.weights = weights
         if not callable(resampler):
@@ -457,220 +571,435 @@ class BootstrapParticleFilter:
         self.resampler = resampler
         self.ess_threshold = float(as_nonnegative("ess_threshold", ess_threshold))
         m = model.n_measurements
-        self.y = np.full(m, np.nan)
-        self.S = np.full((m, m), np.nan)
-        self.ess = 1.0 / float(self._weights @ self._weights)
-        self.resampled = False
+        self._y = np.full((M, m), np.nan)
+        self._S = np.full((M, m, m), np.nan)
+        self._ess = 1.0 / np.einsum("ij,ij->i", self._w, self._w)
+        self._resampled = np.zeros(M, dtype=bool)
         self._prior_moments = False
         self._set_estimate()
-        self.x_prior, self.P_prior = self.x, self.P
+        self._xp, self._Pp = self._x, self._P
 
     @classmethod
-    def from_gaussian(cls, model: ParticleModel, x0: Any, P0: Any, n_particles: int, rng: np.random.Generator,
+    def from_gaussian(cls, model: Any, x0: Any, P0: Any, n_particles: int, rng: Any, *, n_runs: int | None = None,
                       **kwargs: Any) -> "BootstrapParticleFilter":
-        """A filter whose ``n_particles`` initial particles are drawn from :math:`N(x_0, P_0)`.
+        """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
 
-        Further keyword arguments (``weights``, ``resampler``, ``ess_threshold``) go to the constructor.
+        Parameters
+        ----------
+        model : ParticleModel (or the list of mode models of :class:`MultipleModelParticleFilter`)
+            Passed to the constructor.
+        x0 : array_like, shape (n,) or (M, n)
+            Mean of the initial particles; ``(M, n)`` makes ``M`` runs, one mean each.
+        P0 : array_like, shape (n, n) or (M, n, n)
+            Covariance of the initial particles (positive semi-definite), shared or one per run.
+        n_particles : int
+            ``N``.
+        rng : numpy.random.Generator or sequence of numpy.random.Generator
+            One Generator, or one per run (a single Generator is split with ``rng.spawn(M)`` for ``M > 1``).
+            Run ``m`` draws its initial particles from its own generator, then keeps it for the filter.
+        n_runs : int, optional
+            ``M``: a batched filter of ``M`` runs even for ``x0`` of shape ``(n,)`` (shared by every run).
+        **kwargs
+            Further constructor arguments (``weights``, ``resampler``, ``ess_threshold``, ...).
         """
-        x0 = as_finite("x0", x0, ndim=1)
-        P0 = as_covariance("P0", P0, x0.size, allow_singular=True)
+        x0 = as_finite("x0", x0, ndim=(1, 2))
+        n = x0.shape[-1]
+        if n_runs is None:
+            batched, M = x0.ndim == 2, (x0.shape[0] if x0.ndim == 2 else 1)
+        else:
+            batched, M = True, as_int("n_runs", n_runs, minimum=1)
+            if x0.ndim == 2 and x0.shape[0] != M:
+                raise ValueError(f"x0 must have shape ({n},) or ({M}, {n}) for n_runs={M}; got {x0.shape}")
+        P0 = as_covariance("P0", P0, n, allow_singular=True)
+        if P0.ndim == 3 and (not batched or P0.shape[0] != M):
+            raise ValueError(f"P0 of shape {P0.shape} needs {P0.shape[0]} runs (x0 of shape ({P0.shape[0]}, {n}) "
+                             f"or n_runs={P0.shape[0]}); got {M} run(s)")
         N = as_int("n_particles", n_particles, minimum=1)
-        rng = as_rng(rng)
-        particles = x0 + rng.standard_normal((N, x0.size)) @ _sqrt_psd("P0", P0).T
-        return cls(model, particles, rng, **kwargs)
+        rngs = per_run_generators(as_rng(rng) if isinstance(rng, np.random.Generator) else rng, M)
+        X0 = np.broadcast_to(x0, (M, n))
+        roots = [_sqrt_psd("P0", P0)] * M if P0.ndim == 2 else [_sqrt_psd("P0", Pm) for Pm in P0]
+        particles = np.empty((M, N, n))
+        for m in range(M):
+            particles[m] = X0[m] + rngs[m].standard_normal((N, n)) @ roots[m].T
+        if not batched:
+            return cls(model, particles[0], rngs[0], **kwargs)
+        return cls(model, particles, rngs, **kwargs)
+
+    # --- shapes: runs axis inside, removed for a single run outside ------------------------------------------------
+
+    def _out(self, a: np.ndarray) -> Any:
+        return a if self._batched else a[0]
 
     @property
-    def particles(self) -> np.ndarray:
-        """The particles, shape (N, n), stored column-major (each state component contiguous).
-
-        Assigning a new set with a different ``N`` resets the weights to ``1/N``.
-        """
-        return self._particles
-
-    @particles.setter
-    def particles(self, value: Any) -> None:
-        p = as_finite("particles", value, ndim=2)
-        n = self._n_states or p.shape[1]
-        if p.shape[1] != n or p.shape[0] < 1:
-            raise ValueError(f"particles must have shape (N, {n}) with N >= 1 for this model; got {p.shape}")
-        self._particles = np.asfortranarray(p)
-        self._prior_moments = False
-        if self._weights.shape != (p.shape[0],):
-            self._weights = np.full(p.shape[0], 1.0 / p.shape[0])
-            self._uniform = True
-
-    @property
-    def weights(self) -> np.ndarray:
-        """Normalized particle weights, shape (N,); assigned weights are checked and normalized."""
-        return self._weights
-
-    @weights.setter
-    def weights(self, value: Any) -> None:
-        N = self.n_particles
-        w = as_nonnegative("weights", value, shape=(N,))
-        total = w.sum()
-        if not total > 0:
-            raise ValueError("weights must have a positive sum (at least one particle with weight > 0)")
-        self._weights = w / total
-        self._uniform = False
-        self._prior_moments = False
+    def n_runs(self) -> int:
+        """Number of runs ``M`` (1 for a single-run filter)."""
+        return self._rows_p.shape[0]
 
     @property
     def n_particles(self) -> int:
-        """Number of particles ``N``."""
-        return self._particles.shape[0]
+        """Number of particles ``N`` per run."""
+        return self._rows_p.shape[2]
 
-    def _weighted_moments(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted mean (n,) and covariance (n, n) of ``values`` (N, n)."""
-        vt = values.T
-        mean = vt @ self._weights
-        d = vt - mean[:, None]
-        return mean, (d * self._weights) @ d.T
+    @property
+    def rng(self) -> Any:
+        """The Generator of a single-run filter (the tuple of per-run Generators of a batched one)."""
+        return self.rngs if self._batched else self.rngs[0]
+
+    @property
+    def particles(self) -> np.ndarray:
+        """The particles, shape (N, n) or (M, N, n), stored component-major (each state component contiguous).
+
+        Assigning a new set with a different ``N`` resets the weights to ``1/N``.
+        """
+        return self._out(_rows(self._rows_p))
+
+    @particles.setter
+    def particles(self, value: Any) -> None:
+        p = as_finite("particles", value, ndim=3 if self._batched else 2)
+        pb = p if self._batched else p[None]
+        n = self._n_states or pb.shape[2]
+        if pb.shape[2] != n or pb.shape[1] < 1 or pb.shape[0] < 1:
+            want = "(M, N, {n})" if self._batched else "(N, {n})"
+            raise ValueError(f"particles must have shape {want.format(n=n)} with N >= 1 for this model; "
+                             f"got {p.shape}")
+        if hasattr(self, "_rows_p") and pb.shape[0] != self._rows_p.shape[0]:
+            raise ValueError(f"particles must keep the {self._rows_p.shape[0]} runs of this filter; got {p.shape}")
+        self._rows_p = np.ascontiguousarray(_rows(pb))
+        self._prior_moments = False
+        if self._w.shape != pb.shape[:2]:
+            M, N = pb.shape[:2]
+            self._w = np.full((M, N), 1.0 / N)
+            self._uniform = np.ones(M, dtype=bool)
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Normalized particle weights, shape (N,) or (M, N); assigned weights are checked and normalized, and
+        ``x``, ``P`` become their weighted moments."""
+        return self._out(self._w)
+
+    @weights.setter
+    def weights(self, value: Any) -> None:
+        shape = self._w.shape if self._batched else self._w.shape[1:]
+        w = as_nonnegative("weights", value, shape=shape).reshape(self._w.shape)
+        total = w.sum(axis=1, keepdims=True)
+        if not (total > 0).all():
+            raise ValueError("weights must have a positive sum (at least one particle with weight > 0) in every run")
+        self._w = w / total
+        self._uniform = np.zeros(self._w.shape[0], dtype=bool)
+        self._prior_moments = False
+        self._set_estimate()                          # x and P follow the new weights
+
+    x = property(lambda self: self._out(self._x), doc="Weighted mean of the particles, (n,) or (M, n).")
+    P = property(lambda self: self._out(self._P), doc="Weighted covariance of the particles, (n, n) or (M, n, n).")
+    x_prior = property(lambda self: self._out(self._xp), doc="Weighted mean of the predicted particles of this step, (n,) or (M, n).")
+    P_prior = property(lambda self: self._out(self._Pp), doc="Weighted covariance of the predicted particles of this step.")
+    y = property(lambda self: self._out(self._y), doc="Innovation of the last update, (m,) or (M, m).")
+    S = property(lambda self: self._out(self._S), doc="Innovation covariance of the last update.")
+
+    @property
+    def ess(self) -> Any:
+        """Effective sample size after the last update (a float, or an (M,) array for a batch)."""
+        return self._ess.copy() if self._batched else float(self._ess[0])
+
+    @property
+    def resampled(self) -> Any:
+        """Whether the last update resampled (a bool, or an (M,) array for a batch)."""
+        return self._resampled.copy() if self._batched else bool(self._resampled[0])
+
+    # --- the algorithm ----------------------------------------------------------------------------------------------
+
+    def _moments(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean (M, k) and covariance (M, k, k) of ``rows`` (M, k, N) under the current weights."""
+        w = self._w
+        if rows.shape[0] == 1:                       # one run: plain 2-D products
+            r, ww = rows[0], w[0]
+            mean = r @ ww
+            d = r - mean[:, None]
+            return mean[None], ((d * ww) @ d.T)[None]
+        mean = np.matmul(rows, w[..., None])[..., 0]
+        d = rows - mean[..., None]
+        return mean, np.matmul(d * w[:, None, :], np.swapaxes(d, -1, -2))
 
     def _set_estimate(self) -> None:
-        self.x, self.P = self._weighted_moments(self._particles)
+        self._x, self._P = self._moments(self._rows_p)
+
+    def _set_prior(self) -> None:
+        self._set_estimate()
+        self._xp, self._Pp = self._x, self._P
+        self._prior_moments = True
+
+    def _per_run_input(self, u: Any, runs: np.ndarray) -> Any:
+        """The inputs of the selected runs: ``u`` shared (p,), or the rows of a per-run ``u`` (M, p)."""
+        if u is None or not self._batched or np.ndim(u) < 2:
+            return u
+        return np.asarray(u)[runs]
+
+    def _propagate(self, model: ParticleModel, rows: np.ndarray, u: Any, runs: np.ndarray,
+                   name: str = "model") -> np.ndarray:
+        """Move ``rows`` (R, n, count) of the runs ``runs`` with ``model``; returns new rows (R, n, count)."""
+        rngs = self.rngs if len(runs) == len(self.rngs) else tuple(self.rngs[r] for r in runs)
+        u_runs = None if u is None else self._per_run_input(u, runs)
+        if _takes_runs_axis(model, "propagate"):
+            new = model.propagate(rows.swapaxes(-1, -2), u_runs, rngs)
+        else:                                   # a single-run override: (N, n), that run's input, its Generator
+            per_run = u_runs is not None and self._batched and np.ndim(u_runs) >= 2
+            new = np.stack([np.asarray(model.propagate(p, u_runs[i] if per_run else u_runs, rngs[i]), dtype=float)
+                            for i, p in enumerate(rows.swapaxes(-1, -2))])
+        want = (rows.shape[0], rows.shape[2], rows.shape[1])
+        if getattr(new, "shape", None) != want:
+            raise ValueError(f"{name}.propagate must return particles of shape {want}; got {np.shape(new)}")
+        out = new.swapaxes(-1, -2)
+        return out if out.flags.c_contiguous else np.ascontiguousarray(out)
 
     def predict(self, u: Any = None) -> None:
         """Draw every particle from the motion model (``model.propagate``); ``x``, ``P`` follow, and
-        ``x_prior``, ``P_prior`` keep the moments of the predicted particles."""
-        new = self.model.propagate(self._particles, u, self.rng)
-        if new.shape != self._particles.shape:
-            raise ValueError(f"model.propagate must return particles of shape {self._particles.shape}; "
-                             f"got {new.shape}")
-        self._particles = new
-        self._set_estimate()
-        self.x_prior, self.P_prior = self.x, self.P
-        self._prior_moments = True
+        ``x_prior``, ``P_prior`` keep the moments of the predicted particles.
+
+        ``u`` is the input of this step: ``(p,)``, or ``(M, p)`` with one row per run; ``None`` for none.
+        """
+        self._rows_p = self._propagate(self.model, self._rows_p, u, range(self._rows_p.shape[0]))
+        self._set_prior()
 
     def update(self, z: Any) -> None:
-        """Weight the particles by the likelihood of ``z`` (shape (m,); NaN entries are missing), then resample
-        if the effective sample size calls for it."""
+        """Weight the particles by the likelihood of ``z`` (shape (m,), or (M, m) for a batch; NaN entries are
+        missing), then resample where the effective sample size calls for it."""
         m = self.model.n_measurements
-        z = as_float_array("z", z).reshape(-1)
-        if z.shape != (m,):
-            raise ValueError(f"z must hold {m} measurement value(s); got shape {z.shape}")
-        if np.isinf(z).any():
+        M = self.n_runs
+        z = as_float_array("z", z)
+        want = (M, m) if self._batched else (m,)
+        batch_shapes = ((M, m), (M,)) if m == 1 else ((M, m),)
+        if z.size != M * m or (self._batched and z.shape not in batch_shapes):
+            raise ValueError(f"z must have shape {want}: {m} measurement value(s)"
+                             f"{' per run' if self._batched else ''}; got shape {z.shape}")
+        if _any(np.isinf(z)):
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
-        self._update(z)
+        self._update(z.reshape(M, m))
+
+    def _log_weights(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Log-likelihood (M, N) of ``z`` (M, m) for the particles (M, N, n)."""
+        model = self.model
+        if type(model).log_likelihood is ParticleModel.log_likelihood:     # the Gaussian one, without wrappers
+            return _gaussian_log_likelihood(_rows(_measure(model, particles)), z, model._R, model._whiten,
+                                            model._R_is_diag)
+        if _takes_runs_axis(model, "log_likelihood"):
+            return model.log_likelihood(particles, z)
+        return np.stack([np.asarray(model.log_likelihood(p, zr), dtype=float) for p, zr in zip(particles, z)])
+
+    def _measurement_cov(self) -> np.ndarray:
+        """The measurement noise covariance of this update: (m, m) or (M, m, m)."""
+        return self.model.R
 
     def _update(self, z: np.ndarray) -> None:
-        """:meth:`update` for a measurement already checked: shape (m,), no infinite entry."""
-        m = z.shape[0]
+        """:meth:`update` for a measurement already checked: shape (M, m), no infinite entry."""
+        M, m = z.shape
         missing = np.isnan(z)
-        all_present = not missing.any()
         reuse = self._prior_moments
         self._prior_moments = False
-        self.resampled = False
-        if not all_present and missing.all():
-            self.y = np.full(m, np.nan)
-            self.S = np.full((m, m), np.nan)
-            return
+        self._resampled = np.zeros(M, dtype=bool)
+        if not _any(missing):
+            none = None
+        else:
+            none = missing.all(axis=1)                       # runs without any measurement: predict only
+            if none.all():
+                self._y = np.full((M, m), np.nan)
+                self._S = np.full((M, m, m), np.nan)
+                return
 
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
-        hx = self.model.measure(self._particles)
-        hx_mean, hx_cov = (self.x, self.P) if (reuse and hx is self._particles) else self._weighted_moments(hx)
-        self.y = z - hx_mean
-        self.S = hx_cov + self.model.R
-        if not all_present:
-            self.y[missing] = np.nan
-            self.S[missing, :] = np.nan
-            self.S[:, missing] = np.nan
+        view = _rows(self._rows_p)
+        hx = _measure(self.model, view)
+        hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
+        y = z - hx_mean
+        S = hx_cov + self._measurement_cov()
+        if none is not None:
+            y[missing] = np.nan
+            S[missing[:, :, None] | missing[:, None, :]] = np.nan
+        self._y, self._S = y, S
 
         # reweight in log space: w_i <- w_i p(z | x_i)
-        logw = self.model.log_likelihood(self._particles, z)
-        if not self._uniform:
+        logw = self._log_weights(view, z)
+        if getattr(logw, "shape", None) != self._w.shape:
+            raise ValueError(f"model.log_likelihood must return one value per particle and run, shape "
+                             f"{self._w.shape}; got {np.shape(logw)}")
+        if not _all(self._uniform):
             with np.errstate(divide="ignore"):
-                logw = logw + np.log(self._weights)
-        top = float(np.maximum.reduce(logw))
-        if not math.isfinite(top):
+                logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
+        top = np.maximum.reduce(logw, axis=1, keepdims=True)
+        lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
+        if _any(lost):
+            which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
             raise ParticleDegeneracyError(
-                "every particle has zero likelihood for this measurement: the particles have lost the track. "
-                "Use more particles, a larger process noise, or check the measurement and R")
-        w = logw - top                                  # a new array: the model's output is left alone
+                f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
+                "track. Use more particles, a larger process noise, or check the measurement and R")
+        if none is not None:
+            top = np.where(none[:, None], 0.0, top)
+        w = logw - top                                    # a new array: the model's output is left alone
         np.exp(w, out=w)
-        w /= np.add.reduce(w)
-        self._weights = w
-        self._uniform = False
+        w /= np.add.reduce(w, axis=1, keepdims=True)
+        if none is not None:                              # nothing measured: weights as they were
+            w[none] = self._w[none]
+        self._w = w
+        self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
-        self.ess = 1.0 / float(w @ w)
-        if self.ess_threshold >= 1.0 or self.ess < self.ess_threshold * self.n_particles:
-            self._resample()
+        ess = np.array([1.0 / float(w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
+        if none is not None:
+            ess[none] = self._ess[none]
+        self._ess = ess
+        if self.ess_threshold >= 1.0:
+            due = range(M) if none is None else np.flatnonzero(~none)
+        else:
+            low = ess < self.ess_threshold * w.shape[1]
+            due = np.flatnonzero(low if none is None else low & ~none)
+        if len(due):
+            self._resample(due)
 
-    def _resample(self) -> None:
-        """Draw ``N`` particles with the resampler and reset the weights to ``1/N``."""
-        idx = self.resampler(self._weights, self.rng)
-        self._particles = self._particles.T.take(idx, axis=1).T          # stays column-major
-        N = self._particles.shape[0]
-        self._weights = np.empty(N)
-        self._weights.fill(1.0 / N)
-        self._uniform = True
-        self.resampled = True
+    def _resample(self, runs: Any = None) -> None:
+        """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
+        to ``1/N``."""
+        runs = range(self.n_runs) if runs is None else runs
+        N = self.n_particles
+        for r in runs:
+            idx = self.resampler(self._w[r], self.rngs[r])
+            self._take(r, idx)
+            self._w[r].fill(1.0 / N)
+            self._uniform[r] = True
+            self._resampled[r] = True
+
+    def _take(self, run: int, idx: np.ndarray) -> None:
+        """Keep the particles ``idx`` of run ``run`` (a subclass moves what else its particles carry)."""
+        if self._rows_p.shape[0] == 1:
+            self._rows_p = self._rows_p.take(idx, axis=2)
+        else:
+            self._rows_p[run] = self._rows_p[run].take(idx, axis=1)
+
+    #: The per-run state, each array with the runs axis first (a subclass adds its own).
+    _run_state: tuple[str, ...] = ("_rows_p", "_w", "_uniform", "_x", "_P", "_xp", "_Pp", "_y", "_S", "_ess",
+                                   "_resampled")
+
+    def _blocks(self) -> list[slice]:
+        """Blocks of runs of about ``_BLOCK_PARTICLES`` particles that :meth:`run` takes one after the other
+        (never a block of one run: that run would take the one-run arithmetic of the whole-batch products)."""
+        M = self.n_runs
+        size = max(2, _BLOCK_PARTICLES // self.n_particles)
+        if not self._batched or M < 2 * size or not self._can_split():
+            return [slice(0, M)]
+        starts = list(range(0, M, size))
+        if M - starts[-1] < 2:
+            starts.pop()
+        return [slice(a, b) for a, b in zip(starts, starts[1:] + [M])]
+
+    def _can_split(self) -> bool:
+        return True
+
+    def _block(self, block: slice) -> "BootstrapParticleFilter":
+        """A filter over the runs ``block`` (copies of their state; the same generators)."""
+        part = copy.copy(self)
+        for name in self._run_state:
+            setattr(part, name, getattr(self, name)[block].copy())
+        part.rngs = self.rngs[block]
+        return part
+
+    def _join(self, parts: Sequence["BootstrapParticleFilter"]) -> None:
+        """Take the state of consecutive blocks of runs back (after :meth:`run`)."""
+        for name in self._run_state:
+            setattr(self, name, np.concatenate([getattr(p, name) for p in parts]))
+        self._prior_moments = all(p._prior_moments for p in parts)
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
 
-        Same result as :func:`uwtutor.filters.base.run_filter` (``z`` of shape (K, m), or (K,) when m = 1,
-        NaN entries missing; ``u`` one input per step or ``None``), checked once for the whole sequence rather
-        than step by step. The ``extras`` of the :class:`~uwtutor.filters.base.FilterResult` hold ``"ess"``
-        (K,) and ``"resampled"`` (K,), and every further attribute a subclass names in ``extra_outputs``
-        (time axis first). The filter is left at the last step.
+        The same result, field for field, as :func:`uwtutor.filters.base.run_filter` ``(self, z, u, times)``
+        (``tests/test_filter_contract_pf.py``), with the inputs checked once for the whole sequence instead of at
+        every step: ``z`` of shape (K, m), or (K,) when m = 1, with the runs axis first for a batch (M, K, m);
+        NaN entries missing; ``u`` one input per step, (K, p), or (M, K, p) for a batch, or ``None``. The
+        ``extras`` hold ``"ess"`` and ``"resampled"`` and every further attribute a subclass names in
+        ``extra_outputs`` (time axis first after any runs axis). The filter is left at the last step.
         """
-        m = self.model.n_measurements
-        zs, us = as_float_array("z", z), u
-        if zs.ndim == 1 and m == 1:
-            zs = zs[:, None]
-        if zs.ndim != 2 or zs.shape[1] != m or zs.shape[0] < 1:
-            raise ValueError(f"z must have shape (K, {m}) with K >= 1: one measurement per step; got {zs.shape}")
-        if np.isinf(zs).any():
+        M, m = self.n_runs, self.model.n_measurements
+        zs = as_float_array("z", z)
+        batched = self._batched
+        if zs.ndim == 1 + batched and m == 1:
+            zs = zs[..., None]
+        want = f"({M}, K, {m})" if batched else f"(K, {m})"
+        if zs.ndim != 2 + batched or zs.shape[-1] != m or zs.shape[-2] < 1 or (batched and zs.shape[0] != M):
+            raise ValueError(f"z must have shape {want} with K >= 1: one measurement per step"
+                             f"{' and run' if batched else ''}; got {zs.shape}")
+        if _any(np.isinf(zs)):
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
-        K = zs.shape[0]
-        if us is not None and len(us) != K:
-            raise ValueError(f"u must give one input per step ({K} steps); got {len(us)}")
+        K = zs.shape[-2]
+        u_steps = None
+        if u is not None:
+            us = as_float_array("u", u)
+            shared = not batched or us.ndim == 2
+            axis = 0 if shared else 1
+            if us.ndim <= axis or us.shape[axis] != K:
+                raise ValueError(f"u must give one input per step ({K} steps along axis {axis}); got shape "
+                                 f"{us.shape}")
+            u_steps = us if shared else np.moveaxis(us, 1, 0)
         if times is None:
             times = np.arange(K, dtype=float)
         else:
-            times = as_finite("times", times, ndim=1)
+            times = as_float_array("times", times, ndim=1)
+            if not np.isfinite(times).all():
+                raise ValueError("times must be finite")
             if len(times) != K:
                 raise ValueError(f"times must have one entry per step ({K}); got {len(times)}")
-        n = self._particles.shape[1]
-        x, xp = np.empty((K, n)), np.empty((K, n))
-        P, Pp = np.empty((K, n, n)), np.empty((K, n, n))
-        y, S = np.empty((K, m)), np.empty((K, m, m))
-        ess, resampled = np.empty(K), np.empty(K, dtype=bool)
-        others: dict[str, list[np.ndarray]] = {name: [] for name in self.extra_outputs
-                                               if name not in ("ess", "resampled")}
-        for k in range(K):
-            self.predict(None if us is None else us[k])
-            xp[k] = self.x
-            Pp[k] = self.P
-            self._update(zs[k])
-            x[k] = self.x
-            P[k] = self.P
-            y[k] = self.y
-            S[k] = self.S
-            ess[k] = self.ess
-            resampled[k] = self.resampled
-            for name, values in others.items():
-                values.append(np.array(getattr(self, name), copy=True))
-        extras = {"ess": ess, "resampled": resampled}
-        extras.update({name: np.stack(values) for name, values in others.items()})
-        return FilterResult(times=times, x=x, P=P, x_prior=xp, P_prior=Pp, innovations=y, innovation_cov=S,
-                            extras=extras)
+        z_steps = zs.reshape(M, K, m).transpose(1, 0, 2)          # (K, M, m)
+        per_run_u = u_steps is not None and batched and u_steps.ndim == 3
+        n = self._rows_p.shape[1]
+        x, xp = np.empty((K, M, n)), np.empty((K, M, n))
+        P, Pp = np.empty((K, M, n, n)), np.empty((K, M, n, n))
+        y, S = np.empty((K, M, m)), np.empty((K, M, m, m))
+        ess, resampled = np.empty((K, M)), np.empty((K, M), dtype=bool)
+        names = [name for name in self.extra_outputs if name not in ("ess", "resampled")]
+        others: dict[str, list[np.ndarray]] = {name: [] for name in names}      # one (K, ...) stack per block
+        blocks = self._blocks()
+        parts = []
+        for block in blocks:
+            # the runs are independent: a block of them goes through every step before the next block, so that
+            # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
+            f = self if len(blocks) == 1 else self._block(block)
+            values: dict[str, list[np.ndarray]] = {name: [] for name in names}
+            for k in range(K):
+                uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
+                f.predict(uk)
+                f._update(z_steps[k][block])
+                x[k, block], P[k, block], xp[k, block], Pp[k, block] = f._x, f._P, f._xp, f._Pp
+                y[k, block], S[k, block] = f._y, f._S
+                ess[k, block], resampled[k, block] = f._ess, f._resampled
+                for name in names:
+                    values[name].append(np.array(getattr(f, name), copy=True))
+            for name in names:
+                others[name].append(np.stack(values[name]))
+            parts.append(f)
+        if len(blocks) > 1:
+            self._join(parts)
+
+        def out(a: np.ndarray) -> np.ndarray:            # (K, M, ...) -> (M, K, ...) or (K, ...)
+            return np.ascontiguousarray(np.swapaxes(a, 0, 1)) if batched else a[:, 0]
+
+        extras = {"ess": out(ess), "resampled": out(resampled)}
+        for name, stacks in others.items():
+            extras[name] = (np.ascontiguousarray(np.swapaxes(np.concatenate(stacks, axis=1), 0, 1)) if batched
+                            else stacks[0])
+        extras = {name: extras[name] for name in self.extra_outputs}
+        return self.result_type(times=times, x=out(x), P=out(P), x_prior=out(xp), P_prior=out(Pp),
+                                innovations=out(y), innovation_cov=out(S), extras=extras)
 
 
 class MultipleModelParticleFilter(BootstrapParticleFilter):
     r"""Multiple-model (jump-Markov) bootstrap particle filter: every particle carries a motion mode.
 
     ``J`` motion models (the *modes*, e.g. cruise, dive and climb) share one measurement model. Particle ``i``
-    carries a mode :math:`r^i_k \in \{0, \dots, J-1\}` that switches as a Markov chain with transition matrix
+    carries a mode :math:`r^{(i)}_k \in \{0, \dots, J-1\}` that switches as a Markov chain with transition matrix
     :math:`\Pi_{jl} = \Pr(r_k = l \mid r_{k-1} = j)` before each step, and moves with its mode's model
     (McGinnity and Irwin 2000):
 
     .. math::
 
-        r^i_k \sim \Pi_{r^i_{k-1}, \cdot}, \qquad x^i_k \sim p(x_k \mid x^i_{k-1}, r^i_k), \qquad
-        w^i_k \propto w^i_{k-1}\, p(z_k \mid x^i_k), \qquad
-        \mu^j_k = \sum_{i:\, r^i_k = j} w^i_k .
+        r^{(i)}_k \sim \Pi_{r^{(i)}_{k-1}, \cdot}, \qquad x^{(i)}_k \sim p(x_k \mid x^{(i)}_{k-1}, r^{(i)}_k), \qquad
+        w^{(i)}_k \propto w^{(i)}_{k-1}\, p(z_k \mid x^{(i)}_k), \qquad
+        \mu^j_k = \sum_{i:\, r^{(i)}_k = j} w^{(i)}_k .
 
     The estimate is the weighted mean over all particles (the mixture of the modes' estimates by their
     probabilities :math:`\mu^j_k`); resampling copies the modes with the particles. Everything else (likelihood,
@@ -680,17 +1009,18 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     ----------
     models : sequence of ParticleModel
         The ``J`` mode models; same state size and same measurement noise ``R`` (the likelihood is shared).
-    particles : array_like, shape (N, n)
-        Initial particles.
-    rng : numpy.random.Generator
-        Source of all randomness (mode switches, motion noise, resampling).
+    particles : array_like, shape (N, n) or (M, N, n)
+        Initial particles (of ``M`` runs).
+    rng : numpy.random.Generator or sequence of numpy.random.Generator
+        Source of all randomness (mode switches, motion noise, resampling), one per run as in
+        :class:`BootstrapParticleFilter`.
     transition : array_like, shape (J, J)
         Mode transition matrix: entries >= 0, each row summing to 1.
-    modes : array_like of int, shape (N,), optional
+    modes : array_like of int, shape (N,) or (M, N), optional
         Initial mode of each particle; drawn from ``mode_probabilities`` when not given.
     mode_probabilities : array_like, shape (J,), optional
         Initial mode probabilities (equal by default); used only when ``modes`` is not given.
-    weights : array_like, shape (N,), optional
+    weights : array_like, shape (N,) or (M, N), optional
         Initial weights; equal by default.
     resampler : callable, optional
         ``resampler(weights, rng) -> indices`` (systematic by default).
@@ -699,9 +1029,9 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
 
     Attributes
     ----------
-    modes : ndarray of int, shape (N,)
+    modes : ndarray of int, shape (N,) or (M, N)
         Current mode of each particle.
-    mode_probabilities : ndarray, shape (J,)
+    mode_probabilities : ndarray, shape (J,) or (M, J)
         :math:`\mu^j` after the last step (after ``update``: the posterior, before any resampling).
     models : list of ParticleModel
         The mode models.
@@ -725,8 +1055,9 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "mode_probabilities")
+    _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
-    def __init__(self, models: Sequence[ParticleModel], particles: Any, rng: np.random.Generator, *,
+    def __init__(self, models: Sequence[ParticleModel], particles: Any, rng: Any, *,
                  transition: Any, modes: Any = None, mode_probabilities: Any = None, weights: Any = None,
                  resampler: Resampler = systematic_resample, ess_threshold: float = 1.0) -> None:
         models = list(models) if isinstance(models, (list, tuple)) else [models]
@@ -745,14 +1076,16 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
         self.models = models
         self.transition = Pi / rows[:, None]
         self._cum_transition = np.cumsum(self.transition, axis=1)
-        self._modes = np.empty(0, dtype=np.intp)
+        self._modes = np.empty((0, 0), dtype=np.intp)
         super().__init__(first, particles, rng, weights=weights, resampler=resampler, ess_threshold=ess_threshold)
-        N = self.n_particles
+        M, N = self._w.shape
         if modes is not None:
             m = np.asarray(modes)
-            if m.shape != (N,) or m.dtype.kind not in "iu" or (m < 0).any() or (m >= J).any():
-                raise ValueError(f"modes must be {N} integers in 0..{J - 1} (one per particle); got {modes!r}")
-            self._modes = m.astype(np.intp)
+            want = (M, N) if self._batched else (N,)
+            if m.shape != want or m.dtype.kind not in "iu" or (m < 0).any() or (m >= J).any():
+                raise ValueError(f"modes must be integers in 0..{J - 1} of shape {want} (one per particle); "
+                                 f"got {modes!r}")
+            self._modes = m.astype(np.intp).reshape(M, N)
         else:
             if mode_probabilities is None:
                 p = np.full(J, 1.0 / J)
@@ -761,61 +1094,64 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
                 if not p.sum() > 0:
                     raise ValueError("mode_probabilities must have a positive sum")
                 p = p / p.sum()
-            self._modes = np.minimum(np.searchsorted(np.cumsum(p), self.rng.random(N), side="right"), J - 1)
+            cum = np.cumsum(p)
+            self._modes = np.stack([np.minimum(np.searchsorted(cum, r.random(N), side="right"), J - 1)
+                                    for r in self.rngs])
         self._set_estimate()
 
     @property
     def modes(self) -> np.ndarray:
-        """Mode index of each particle, shape (N,)."""
-        return self._modes
+        """Mode index of each particle, shape (N,) or (M, N)."""
+        return self._out(self._modes)
 
     @property
     def n_modes(self) -> int:
         """Number of modes ``J``."""
         return len(self.models)
 
+    @property
+    def mode_probabilities(self) -> np.ndarray:
+        r""":math:`\mu^j` of each run: (J,) or (M, J)."""
+        return self._out(self._mu)
+
     def _set_estimate(self) -> None:
         super()._set_estimate()
-        if self._modes.shape == self._weights.shape:
-            self.mode_probabilities = np.bincount(self._modes, weights=self._weights, minlength=self.n_modes)
-        else:                                     # during construction, before the modes exist
-            self.mode_probabilities = np.full(self.n_modes, np.nan)
+        J = self.n_modes
+        if self._modes.shape != self._w.shape:                 # during construction, before the modes exist
+            self._mu = np.full((self._w.shape[0], J), np.nan)
+        elif self._w.shape[0] == 1:
+            self._mu = np.bincount(self._modes[0], weights=self._w[0], minlength=J)[None]
+        else:
+            M = self._w.shape[0]
+            flat = (self._modes + J * np.arange(M)[:, None]).ravel()
+            self._mu = np.bincount(flat, weights=self._w.ravel(), minlength=M * J).reshape(M, J)
 
     def predict(self, u: Any = None) -> None:
-        """Switch every particle's mode (Markov chain), then move it with its mode's model."""
-        N = self.n_particles
-        n = self._particles.shape[1]
-        draws = self.rng.random(N)
-        new_modes = np.minimum((draws[:, None] >= self._cum_transition[self._modes]).sum(axis=1), self.n_modes - 1)
-        # group the particles by mode (their order carries no meaning) so that each model moves one block
-        order = np.argsort(new_modes, kind="stable")
-        counts = np.bincount(new_modes, minlength=self.n_modes)
-        grouped = self._particles[order]
-        pieces, start = [], 0
-        for j, (model, count) in enumerate(zip(self.models, counts)):
-            if count:
-                moved = model.propagate(grouped[start:start + count], u, self.rng)
-                if moved.shape != (count, n):
-                    raise ValueError(f"models[{j}].propagate must return particles of shape {(count, n)}; "
-                                     f"got {moved.shape}")
-                pieces.append(moved)
-                start += count
-        self._particles = np.asfortranarray(np.concatenate(pieces))
-        self._modes = new_modes[order].astype(np.intp)
-        if not self._uniform:
-            self._weights = self._weights[order]
-        self._set_estimate()
-        self._prior_moments = True
+        """Switch every particle's mode (Markov chain), then move it with its mode's model (run by run)."""
+        J = self.n_modes
+        for r in range(self.n_runs):
+            draws = self.rngs[r].random(self.n_particles)
+            new_modes = np.minimum((draws[:, None] >= self._cum_transition[self._modes[r]]).sum(axis=1), J - 1)
+            # group the particles by mode (their order carries no meaning) so that each model moves one block
+            order = np.argsort(new_modes, kind="stable")
+            counts = np.bincount(new_modes, minlength=J)
+            grouped = self._rows_p[r].take(order, axis=1)
+            pieces, start = [], 0
+            for j, (model, count) in enumerate(zip(self.models, counts)):
+                if count:
+                    block = grouped[None, :, start:start + count]
+                    pieces.append(self._propagate(model, block, u, np.array([r]), name=f"models[{j}]")[0])
+                    start += count
+            self._rows_p[r] = np.concatenate(pieces, axis=1)
+            self._modes[r] = new_modes[order]
+            if not self._uniform[r]:
+                self._w[r] = self._w[r][order]
+        self._set_prior()
 
-    def _resample(self) -> None:
-        """Resample particles and their modes together; weights reset to ``1/N``."""
-        idx = self.resampler(self._weights, self.rng)
-        self._particles = self._particles.T.take(idx, axis=1).T
-        self._modes = self._modes.take(idx)
-        N = self._particles.shape[0]
-        self._weights = np.full(N, 1.0 / N)
-        self._uniform = True
-        self.resampled = True
+    def _take(self, run: int, idx: np.ndarray) -> None:
+        """Resampling copies the modes with the particles."""
+        super()._take(run, idx)
+        self._modes[run] = self._modes[run].take(idx)
 
 
 class GreyParticleFilter(BootstrapParticleFilter):
@@ -840,7 +1176,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
     2. **Weighting** (eq. (17)-(19), (23)). The measurement noise of each sensor is estimated from its last
        ``noise_window`` measurements (the window ends at the current one) by the wavelet MAD estimate
        (:func:`uwtutor.wavelet.noise_sigma`, ``db6``), :math:`R_k = \mathrm{diag}(\hat\sigma^2_{z},
-       \hat\sigma^2_{v}, \hat\sigma^2_{\varphi})`, and the weights are the Gaussian likelihoods under
+       \hat\sigma^2_{v}, \hat\sigma^2_{\phi})`, and the weights are the Gaussian likelihoods under
        :math:`R_k`. Until a window is full (or when it holds a missing value) the sensor keeps its last estimate,
        initially the model's ``R``.
     3. **Estimate and resampling** (eq. (24)): weighted mean, then resampling at every step.
@@ -849,11 +1185,11 @@ class GreyParticleFilter(BootstrapParticleFilter):
     ----------
     model : ParticleModel
         Motion and measurement model with :math:`h(x) = x` (``n_measurements == n_states``), e.g.
-        :class:`DepthSpeedPitchModel`. The filter works on a copy, whose ``R`` it replaces at every step.
-    particles : array_like, shape (N, n)
-        Initial particles.
-    rng : numpy.random.Generator
-        Source of all randomness.
+        :class:`DepthSpeedPitchModel`. The filter keeps its own per-run :math:`R_k` and leaves the model's alone.
+    particles : array_like, shape (N, n) or (M, N, n)
+        Initial particles (of ``M`` runs).
+    rng : numpy.random.Generator or sequence of numpy.random.Generator
+        Source of all randomness, one per run as in :class:`BootstrapParticleFilter`.
     grey_fraction : float, optional
         :math:`N_\mathrm{grey} / N`, in [0, 1); 0.1 (paper C's 1:9). 0 turns the grey sampling off.
     grey_window : int, optional
@@ -875,16 +1211,16 @@ class GreyParticleFilter(BootstrapParticleFilter):
         model's initial ones.
     resampler : callable, optional
         ``resampler(weights, rng) -> indices`` (systematic by default).
-    weights : array_like, shape (N,), optional
+    weights : array_like, shape (N,) or (M, N), optional
         Initial weights; equal by default.
 
     Attributes
     ----------
-    noise_std : ndarray, shape (n,)
+    noise_std : ndarray, shape (n,) or (M, n)
         Sensor noise standard deviations used by the last update.
-    grey_used : bool
+    grey_used : bool or ndarray of shape (M,)
         Whether the last ``predict`` drew grey particles.
-    grey_forecast : ndarray, shape (n,)
+    grey_forecast : ndarray, shape (n,) or (M, n)
         The last grey forecast (NaN when none was made).
     n_grey : int
         :math:`N_\mathrm{grey}`.
@@ -903,8 +1239,13 @@ class GreyParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "noise_std", "grey_used", "grey_forecast")
+    _run_state = BootstrapParticleFilter._run_state + ("_noise_std", "_R_runs", "_whiten_runs", "_estimated",
+                                                       "_history", "_grey_used", "_grey_forecast")
 
-    def __init__(self, model: ParticleModel, particles: Any, rng: np.random.Generator, *,
+    def _can_split(self) -> bool:
+        return self._R_diag              # whitening vectors of one shape in every block
+
+    def __init__(self, model: ParticleModel, particles: Any, rng: Any, *,
                  grey_fraction: float = 0.1, grey_window: int = 30, grey_std: Any = None, grey_offset: Any = None,
                  noise_window: int = 50, wavelet: str = "db6", adapt_noise: bool = True,
                  min_noise_std: Any = None, resampler: Resampler = systematic_resample,
@@ -913,10 +1254,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
             raise ValueError("GreyParticleFilter needs a model that measures its state directly (h(x) = x, "
                              f"n_measurements == n_states); got {model.n_measurements} measurements of "
                              f"{model.n_states} states")
-        model = copy.copy(model)
         super().__init__(model, particles, rng, weights=weights, resampler=resampler, ess_threshold=1.0)
         n = model.n_states
-        N = self.n_particles
+        M, N = self._w.shape
         frac = float(as_finite("grey_fraction", grey_fraction))
         if not 0.0 <= frac < 1.0:
             raise ValueError(f"grey_fraction must lie in [0, 1) (paper C: 0.1); got {frac}")
@@ -930,73 +1270,134 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self.grey_std = as_nonnegative("grey_std", grey_std, shape=(n,))
         self.grey_offset = (np.zeros(n) if grey_offset is None
                             else as_finite("grey_offset", grey_offset, shape=(n,)))
-        self._wavelet = _wavelet(wavelet)
+        self._wavelet = as_wavelet(wavelet)
         self.noise_window = as_int("noise_window", noise_window, minimum=self._wavelet.dec_len)
         # the valid finest-scale DWT of a window is linear in it: one (window, n_coefficients) matrix
-        identity = np.eye(self.noise_window)
-        self._dwt_matrix = _valid_details(identity, self._wavelet)[:, self._wavelet.dec_len % 2::2]
-        n_coef = self._dwt_matrix.shape[1]
-        self._median_slice = slice((n_coef - 1) // 2, n_coef // 2 + 1)
+        self._dwt_matrix = detail_matrix(self.noise_window, self._wavelet)
         self.adapt_noise = bool(adapt_noise)
-        self._R0 = model.R.copy()
-        sd0 = np.sqrt(np.diag(self._R0))
+        R0 = model.R.copy()
+        sd0 = np.sqrt(np.diag(R0))
         self.min_noise_std = (0.01 * sd0 if min_noise_std is None
                               else as_positive("min_noise_std", min_noise_std, shape=(n,)))
-        self.noise_std = sd0.copy()
-        self._history = np.full((n, max(self.grey_window, self.noise_window)), np.nan)
-        self.grey_used = False
-        self.grey_forecast = np.full(n, np.nan)
+        self._noise_std = np.tile(sd0, (M, 1))
+        # the R_k of each run: the model's R until the run's first wavelet estimate, diagonal after it
+        self._R_runs = np.tile(R0, (M, 1, 1))
+        self._R_diag = model._R_is_diag
+        self._whiten_runs = np.tile(model._whiten, (M,) + (1,) * model._whiten.ndim)
+        self._estimated = np.zeros(M, dtype=bool)
+        self._history = np.full((M, n, max(self.grey_window, self.noise_window)), np.nan)
+        self._grey_used = np.zeros(M, dtype=bool)
+        self._grey_forecast = np.full((M, n), np.nan)
 
-    def _grey_prediction(self) -> np.ndarray | None:
-        """GM(1,1) one-step forecast of every component from its last ``L`` measurements, or None."""
-        window = self._history[:, -self.grey_window:] + self.grey_offset[:, None]
-        if not np.minimum.reduce(window, axis=None) > 0.0:       # also False when a reading is missing (NaN)
-            return None
-        a, b = _gm11_coefficients(window, 0.5)
-        return _gm11_restored(window[:, 0], a, b, np.array([float(self.grey_window)]))[:, 0] - self.grey_offset
+    noise_std = property(lambda self: self._out(self._noise_std).copy(),
+                         doc="Sensor noise standard deviations used by the last update, (n,) or (M, n).")
+    grey_forecast = property(lambda self: self._out(self._grey_forecast).copy(),
+                             doc="The last grey forecast, (n,) or (M, n) (NaN when none was made).")
+
+    @property
+    def grey_used(self) -> Any:
+        """Whether the last ``predict`` drew grey particles (a bool, or an (M,) array for a batch)."""
+        return self._grey_used.copy() if self._batched else bool(self._grey_used[0])
+
+    def _grey_prediction(self) -> tuple[np.ndarray, np.ndarray]:
+        """GM(1,1) one-step forecast (M, n) of every component from its last ``L`` measurements, and the mask
+        (M,) of the runs where one could be made (a full, positive window)."""
+        window = self._history[..., -self.grey_window:] + self.grey_offset[:, None]
+        M = window.shape[0]
+        ok = np.minimum.reduce(window.reshape(M, -1), axis=1) > 0.0   # also False when a reading is missing (NaN)
+        if _all(ok):
+            return gm11_next(window) - self.grey_offset, ok
+        forecast = np.full(window.shape[:2], np.nan)
+        if _any(ok):
+            forecast[ok] = gm11_next(window[ok]) - self.grey_offset
+        return forecast, ok
 
     def predict(self, u: Any = None) -> None:
         """Draw ``N - N_grey`` particles from the motion model and ``N_grey`` around the grey forecast."""
-        forecast = self._grey_prediction() if self.n_grey > 0 else None
-        if forecast is None:
-            self.grey_used = False
-            self.grey_forecast = np.full(self._particles.shape[1], np.nan)
-            super().predict(u)
-            return
-        if not self._uniform:                  # the subset below must come from equally weighted particles
-            self._resample()
-        N = self.n_particles
-        n = self._particles.shape[1]
-        n_std = N - self.n_grey
-        keep = self.rng.permutation(N)[:n_std]
-        moved = self.model.propagate(self._particles.T.take(keep, axis=1).T, u, self.rng)
-        if moved.shape != (n_std, n):
-            raise ValueError(f"model.propagate must return particles of shape {(n_std, n)}; got {moved.shape}")
-        rows = np.empty((n, N))                                  # column-major particles, as everywhere else
-        rows[:, :n_std] = moved.T
-        grey = self.rng.standard_normal((n, self.n_grey))
-        grey *= self.grey_std[:, None]
-        grey += forecast[:, None]
-        rows[:, n_std:] = grey
-        self._particles = rows.T
-        self.grey_used = True
-        self.grey_forecast = forecast
-        self._set_estimate()
-        self._prior_moments = True
+        M, N = self._w.shape
+        n = self._rows_p.shape[1]
+        if self.n_grey > 0:
+            forecast, grey = self._grey_prediction()
+        else:
+            forecast, grey = np.full((M, n), np.nan), np.zeros(M, dtype=bool)
+        every = _all(grey)
+        if not every:
+            plain = np.flatnonzero(~grey)
+            if plain.size == M:
+                self._rows_p = self._propagate(self.model, self._rows_p, u, range(M))
+            else:
+                self._rows_p[plain] = self._propagate(self.model, self._rows_p[plain], u, plain)
+        if every or _any(grey):
+            runs = range(M) if every else np.flatnonzero(grey)
+            unequal = [r for r in runs if not self._uniform[r]]
+            if unequal:                       # the subset below must come from equally weighted particles
+                self._resample(unequal)
+            n_std = N - self.n_grey
+            new = np.empty((len(runs), n, N))                    # component-major particles, as everywhere else
+            for i, r in enumerate(runs):
+                new[i, :, :n_std] = self._rows_p[r].take(self.rngs[r].permutation(N)[:n_std], axis=1)
+            new[:, :, :n_std] = self._propagate(self.model, new[:, :, :n_std], u, runs)
+            grey_rows = np.empty((len(runs), n, self.n_grey))
+            for i, r in enumerate(runs):
+                self.rngs[r].standard_normal(out=grey_rows[i])
+            grey_rows *= self.grey_std[:, None]
+            grey_rows += (forecast if every else forecast[runs])[:, :, None]
+            new[:, :, n_std:] = grey_rows
+            if every:
+                self._rows_p = new
+            else:
+                self._rows_p[runs] = new
+        self._grey_used = grey
+        self._grey_forecast = forecast
+        self._set_prior()
+
+    def _measurement_cov(self) -> np.ndarray:
+        return self._R_runs
+
+    def _log_weights(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
+        return _gaussian_log_likelihood(_rows(_measure(self.model, particles)), z, self._R_runs,
+                                        self._whiten_runs, self._R_diag)
 
     def _update(self, z: np.ndarray) -> None:
         hist = self._history
-        hist[:, :-1] = hist[:, 1:]
-        hist[:, -1] = z
+        hist[..., :-1] = hist[..., 1:]
+        hist[..., -1] = z
         if self.adapt_noise:
-            window = hist[:, -self.noise_window:]
-            full = np.isfinite(window).all(axis=1)
-            if full.any():
-                d = np.abs(window[full] @ self._dwt_matrix)              # detail coefficients, (sensors, n)
-                d.sort(axis=1)
-                middle = d[:, self._median_slice]
-                sigma = np.add.reduce(middle, axis=1) / (middle.shape[1] * MAD_TO_SIGMA)   # median |d| / 0.6745
-                self.noise_std = self.noise_std.copy()
-                self.noise_std[full] = np.maximum(sigma, self.min_noise_std[full])
-                self.model._set_noise_std(self.noise_std)
+            window = hist[..., -self.noise_window:]
+            full = ~np.isnan(np.add.reduce(window, axis=2))             # (M, sensors): a window without a gap
+            if _all(full):
+                sigma = mad_sigma(window @ self._dwt_matrix)            # median |d| / 0.6745, (M, sensors)
+                self._noise_std = np.maximum(sigma, self.min_noise_std)
+                runs = np.ones(full.shape[0], dtype=bool)
+            elif _any(full):
+                sigma = mad_sigma(window[full] @ self._dwt_matrix)      # (count,)
+                self._noise_std = self._noise_std.copy()
+                self._noise_std[full] = np.maximum(sigma, np.broadcast_to(self.min_noise_std, full.shape)[full])
+                runs = np.logical_or.reduce(full, axis=1)
+            if _any(full):
+                sd = self._noise_std[runs]
+                m = sd.shape[1]
+                diag = np.arange(m)
+                R_new = np.zeros(sd.shape + (m,))
+                R_new[:, diag, diag] = sd * sd
+                every = _all(runs)
+                self._R_runs = R_new if every else self._R_runs.copy()
+                if not every:
+                    self._R_runs[runs] = R_new
+                if self._R_diag and every:
+                    self._whiten_runs = 1.0 / sd
+                    self._estimated = runs
+                    super()._update(z)
+                    return
+                self._whiten_runs = self._whiten_runs.copy()
+                if self._R_diag:
+                    self._whiten_runs[runs] = 1.0 / sd
+                else:                             # a non-diagonal initial R: whitening matrices until every run
+                    W = np.zeros_like(R_new)      # has its own (diagonal) estimate
+                    W[:, diag, diag] = 1.0 / sd
+                    self._whiten_runs[runs] = W
+                    if (self._estimated | runs).all():
+                        self._whiten_runs = np.diagonal(self._whiten_runs, axis1=1, axis2=2).copy()
+                        self._R_diag = True
+                self._estimated |= runs
         super()._update(z)

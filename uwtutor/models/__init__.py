@@ -5,14 +5,17 @@ family is written once against these two interfaces; a new method is a new pair 
 """
 
 from .base import MeasurementModel, MotionModel
+from .bias import BiasRateDeadReckoning, bias_rate_process_noise, paper_a_process_noise
 from .dead_reckoning import DeadReckoning
+from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
 from .range import RangeToBeacon, line_of_sight
 from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [
     "MotionModel", "MeasurementModel",
-    "DeadReckoning", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
+    "DeadReckoning", "DepthSpeedPitch", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
     "RangeToBeacon", "line_of_sight",
+    "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
     "ConstantVelocity", "PositionMeasurement",
 ]

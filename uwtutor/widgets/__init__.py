@@ -2,7 +2,8 @@
 
 The compute functions take plain parameters and return a small dataclass of arrays; they are tested without a UI and
 timed by the benchmark suite (``make bench``) through ``COMPUTE_FUNCTIONS``. The ``*_widget`` functions only wire
-sliders to compute and plot (``slider_panel``). In the static HTML book a widget cannot recompute, so each chapter
+sliders to compute and plot (``slider_panel``, which redraws one figure in place; ``make bench`` also times each
+widget's update in JupyterLab). In the static HTML book a widget cannot recompute, so each chapter
 follows a widget with a precomputed view drawn by the same plot function.
 
 One module per chapter (``ch01``, ``ch02``, ...). Each lists its public names in ``__all__``, which are re-exported

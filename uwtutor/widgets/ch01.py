@@ -129,7 +129,7 @@ def sound_speed_widget() -> Any:
         "depth": w.FloatSlider(value=1000.0, min=0.0, max=6000.0, step=100.0, description="D [m]",
                                continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_sound_speed_view(sound_speed_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_sound_speed_view(sound_speed_view(**p), fig))
 
 
 # --- Chapter 1: range error models ----------------------------------------------------------------------------------
@@ -214,7 +214,7 @@ def range_error_widget() -> Any:
         "outlier_amplitude": w.FloatSlider(value=80.0, min=0.0, max=200.0, step=5.0,
                                            description="outlier size [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_range_error_view(range_error_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_range_error_view(range_error_view(**p), fig))
 
 
 #: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).

@@ -250,7 +250,7 @@ def observability_widget() -> Any:
         "state": w.Dropdown(options=list(STATE_CHOICES), value="position", description="ellipses of",
                             style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_observability_view(observability_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_observability_view(observability_view(**p), fig))
 
 
 #: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).

@@ -196,7 +196,7 @@ def precision_widget() -> Any:
         "noise_sigma": w.FloatSlider(value=float(np.sqrt(5.0)), min=0.5, max=10.0, step=0.1,
                                      description="σ [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_precision_view(precision_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_precision_view(precision_view(**p), fig))
 
 
 # --- paper D's pre-location cost map ------------------------------------------------------------------------------
@@ -385,7 +385,7 @@ def prelocation_widget() -> Any:
         "epoch": w.IntSlider(value=60, min=5, max=150, step=1, description="epochs used",
                              continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_prelocation_view(prelocation_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_prelocation_view(prelocation_view(**p), fig))
 
 
 #: Zero-argument callables running each chapter-3 widget's computation at its defaults (for ``make bench``).

@@ -188,7 +188,7 @@ def ekf_widget() -> Any:
         "bias": w.FloatSlider(value=0.0, min=-30.0, max=30.0, step=1.0, description="range bias [m]",
                               continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_ekf_view(ekf_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_ekf_view(ekf_view(**p), fig))
 
 
 #: Zero-argument callables running the chapter-4 widget's computation at its defaults (for ``make bench``).

@@ -215,7 +215,7 @@ def fading_widget() -> Any:
         "initial_error": w.FloatLogSlider(value=150.0, base=10, min=1.0, max=3.0, step=0.1,
                                           description="initial error [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_fading_view(fading_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_fading_view(fading_view(**p), fig))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).

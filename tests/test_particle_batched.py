@@ -1,0 +1,144 @@
+"""Paper C's kinematics (uwtutor.models.depth) and the batch-specific behaviour of the particle filters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from uwtutor.filters import (BootstrapParticleFilter, DepthSpeedPitchModel, GreyParticleFilter, LinearGaussianModel,
+                             MultipleModelParticleFilter, PitchManeuverModel)
+from uwtutor.models import DepthSpeedPitch
+from uwtutor.models.depth import (DEFAULT_PROCESS_STD, depth_speed_pitch_jacobian, depth_speed_pitch_kinematics)
+from uwtutor.models.noise import per_run_generators, standard_normal_per_run
+
+
+def test_kinematics_and_jacobian():
+    rng = np.random.default_rng(0)
+    s = rng.normal([10.0, 1.5, 0.1], [1.0, 0.3, 0.2], (5, 3))
+    g = depth_speed_pitch_kinematics(s, 0.5)
+    np.testing.assert_allclose(g[:, 0], s[:, 0] + s[:, 1] * np.sin(s[:, 2]) * 0.5, rtol=1e-15)
+    np.testing.assert_array_equal(g[:, 1:], s[:, 1:])
+    # along another axis, and in place
+    rows = s.T.copy()
+    np.testing.assert_array_equal(depth_speed_pitch_kinematics(rows, 0.5, axis=0), g.T)
+    out = depth_speed_pitch_kinematics(rows, 0.5, axis=0, out=rows)
+    assert out is rows
+    np.testing.assert_array_equal(rows, g.T)
+    # the Jacobian against central differences
+    G = depth_speed_pitch_jacobian(s, 0.5)
+    h = 1e-6
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        num = (depth_speed_pitch_kinematics(s + e, 0.5) - depth_speed_pitch_kinematics(s - e, 0.5)) / (2 * h)
+        np.testing.assert_allclose(G[:, :, j], num, atol=1e-8)
+
+
+def test_motion_model_for_the_engine_and_the_particles():
+    motion = DepthSpeedPitch(T=0.05, process_std=[0.1, 0.02, 0.01])
+    x = np.array([[10.0, 1.5, 0.2], [20.0, 2.0, -0.1]])
+    G = motion.F(x, None, 0)
+    np.testing.assert_allclose(motion.Q(x, None, 0), G @ np.diag([0.1, 0.02, 0.01]) ** 2 @ np.swapaxes(G, 1, 2))
+    np.testing.assert_array_equal(motion.f(x, None, 0), depth_speed_pitch_kinematics(x, 0.05))
+    np.testing.assert_array_equal(DepthSpeedPitch().process_std, DEFAULT_PROCESS_STD)
+    with pytest.raises(ValueError, match="no control input"):
+        motion.f(x, [1.0], 0)
+    # the particle model draws exactly the motion model's sample
+    pm = DepthSpeedPitchModel(process_std=[0.1, 0.02, 0.01])
+    p = np.random.default_rng(1).normal(size=(50, 3))
+    np.testing.assert_array_equal(pm.propagate(p, None, np.random.default_rng(2)),
+                                  motion.sample(p, np.random.default_rng(2)))
+    # the sample is g(x + u) with u ~ N(0, diag(std^2)), drawn as (3, N) rows
+    u = np.random.default_rng(2).standard_normal((3, 50)).T * [0.1, 0.02, 0.01]
+    np.testing.assert_allclose(motion.sample(p, np.random.default_rng(2)),
+                               depth_speed_pitch_kinematics(p + u, 0.05), rtol=1e-15)
+
+
+def test_per_run_generators():
+    rngs = per_run_generators(np.random.default_rng(5), 3)
+    ref = np.random.default_rng(5).spawn(3)
+    assert [r.random() for r in rngs] == [r.random() for r in ref]
+    one = np.random.default_rng(5)
+    assert per_run_generators(one, 1)[0] is one
+    with pytest.raises(ValueError, match="sequence of 2 Generators"):
+        per_run_generators(one, 2, spawn=False)
+    with pytest.raises(ValueError, match="sequence of 3"):
+        per_run_generators([one, one], 3)
+    with pytest.raises(TypeError, match="rng must be a numpy.random.Generator"):
+        per_run_generators(5, 3)
+    a = standard_normal_per_run([np.random.default_rng(1), np.random.default_rng(2)], (4,))
+    np.testing.assert_array_equal(a[1], np.random.default_rng(2).standard_normal(4))
+
+
+def test_batched_shapes_weights_and_particles():
+    model = DepthSpeedPitchModel()
+    pf = BootstrapParticleFilter.from_gaussian(model, [10.0, 1.5, 0.1], model.R, 50, np.random.default_rng(0),
+                                               n_runs=4)
+    assert pf.particles.shape == (4, 50, 3) and pf.weights.shape == (4, 50) and pf.n_runs == 4
+    assert pf.x.shape == (4, 3) and pf.P.shape == (4, 3, 3) and len(pf.rngs) == 4 and pf.ess.shape == (4,)
+    w = np.ones((4, 50))
+    w[2, :25] = 0.0
+    pf.weights = w
+    np.testing.assert_allclose(pf.weights.sum(axis=1), 1.0)
+    np.testing.assert_allclose(pf.x[2], pf.particles[2, 25:].mean(axis=0))
+    with pytest.raises(ValueError, match=r"weights must have shape \(4, 50\)"):
+        pf.weights = np.ones(50)
+    with pytest.raises(ValueError, match="positive sum"):
+        pf.weights = np.where(np.arange(4)[:, None] == 1, 0.0, 1.0) * np.ones((4, 50))
+    pf.particles = np.zeros((4, 20, 3))
+    assert pf.n_particles == 20 and pf.weights.shape == (4, 20)
+    with pytest.raises(ValueError, match=r"particles must have shape \(M, N, 3\)"):
+        pf.particles = np.zeros((4, 20, 2))
+    # per-run x0 and P0
+    x0 = np.array([[10.0, 1.5, 0.1], [50.0, 1.0, 0.0]])
+    P0 = np.stack([model.R, model.R * 4])
+    pf = BootstrapParticleFilter.from_gaussian(model, x0, P0, 4000, np.random.default_rng(1))
+    np.testing.assert_allclose(pf.x, x0, atol=0.05)
+    np.testing.assert_allclose(np.diagonal(pf.P, axis1=1, axis2=2), np.diagonal(P0, axis1=1, axis2=2), rtol=0.1)
+    with pytest.raises(ValueError, match=r"x0 must have shape \(3,\) or \(5, 3\)"):
+        BootstrapParticleFilter.from_gaussian(model, x0, model.R, 10, np.random.default_rng(1), n_runs=5)
+    with pytest.raises(ValueError, match="P0 of shape"):
+        BootstrapParticleFilter.from_gaussian(model, x0[0], P0, 10, np.random.default_rng(1))
+
+
+def test_per_run_and_shared_inputs_of_a_linear_model():
+    model = LinearGaussianModel(F=[[1.0]], H=[[1.0]], Q=[[1e-12]], R=[[1.0]], B=[[1.0]])
+    pf = BootstrapParticleFilter.from_gaussian(model, [0.0], [[1e-12]], 10, np.random.default_rng(0), n_runs=3)
+    pf.predict(np.array([[1.0], [2.0], [3.0]]))              # one input per run
+    np.testing.assert_allclose(pf.x[:, 0], [1.0, 2.0, 3.0], atol=1e-4)
+    pf.predict(np.array([0.5]))                              # one input shared by every run
+    np.testing.assert_allclose(pf.x[:, 0], [1.5, 2.5, 3.5], atol=1e-4)
+    res = pf.run(np.full((3, 4), np.nan), u=np.ones((4, 1)))  # (K, p) shared, as run_filter allows; no updates
+    assert res.x.shape == (3, 4, 1)
+    np.testing.assert_allclose(res.x[:, :, 0], [[2.5, 3.5, 4.5, 5.5], [3.5, 4.5, 5.5, 6.5], [4.5, 5.5, 6.5, 7.5]],
+                               atol=1e-4)
+    with pytest.raises(ValueError, match="u must give one input per step"):
+        pf.run(np.zeros((3, 4)), u=np.ones((5, 1)))
+
+
+def test_batched_mmpf_and_gpf_extras():
+    R = DepthSpeedPitchModel().R
+    modes = [PitchManeuverModel(pitch_target=p) for p in (0.0, 0.3)]
+    mm = MultipleModelParticleFilter.from_gaussian(modes, [10.0, 1.5, 0.0], R, 100, np.random.default_rng(0),
+                                                   n_runs=2, transition=[[0.95, 0.05], [0.05, 0.95]],
+                                                   mode_probabilities=[0.25, 0.75])
+    assert mm.modes.shape == (2, 100) and mm.mode_probabilities.shape == (2, 2)
+    np.testing.assert_allclose(mm.mode_probabilities.sum(axis=1), 1.0)
+    assert 0.6 < mm.mode_probabilities[:, 1].mean() < 0.9
+    with pytest.raises(ValueError, match=r"shape \(2, 100\)"):
+        MultipleModelParticleFilter(modes, mm.particles, mm.rngs, transition=np.eye(2), modes=np.zeros(100, int))
+    model = DepthSpeedPitchModel()
+    truth, z = model.simulate([10.0, 1.5, 0.1], 120, np.random.default_rng(3))
+    Z = np.stack([z, z + 0.01])
+    Z[1, 70, 0] = np.nan                                     # run 1's depth window holds a gap for 50 steps
+    g = GreyParticleFilter.from_gaussian(model, Z[:, 0], model.R, 200, np.random.default_rng(1),
+                                         grey_offset=[0.0, 0.0, 1.0])
+    res = g.run(Z)
+    assert res.extras["grey_used"].shape == (2, 120) and res.extras["noise_std"].shape == (2, 120, 3)
+    used = res.extras["grey_used"]
+    assert not used[:, :30].any() and used[0, 30:].all()
+    assert not used[1, 71:101].any() and used[1, 101:].all()   # no grey forecast while the gap is in the window
+    sd = res.extras["noise_std"]
+    np.testing.assert_array_equal(sd[1, 71:120, 0], sd[1, 70, 0])   # depth estimate frozen while the gap is in it
+    assert (sd[1, 71:, 1] != sd[1, 70, 1]).any()                    # the other sensors go on
+    np.testing.assert_array_equal(model.R, DepthSpeedPitchModel().R)   # the user's model is left alone

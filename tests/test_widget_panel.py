@@ -1,0 +1,105 @@
+"""The shared widget panel: one figure, drawn again in place and sent as PNG bytes when a control moves."""
+
+import io
+
+import ipywidgets as w
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+from PIL import Image  # noqa: E402
+
+from uwtutor import widgets  # noqa: E402
+from uwtutor.widgets._panel import figure_png, slider_panel  # noqa: E402
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _line_panel(calls):
+    """A panel over y = a x whose draw function records the figure it was given."""
+    sliders = {"a": w.FloatSlider(value=1.0, min=-2.0, max=2.0, step=0.5, continuous_update=False),
+               "label": w.Dropdown(options=["one", "two"], value="one")}
+
+    def draw(fig, a, label):
+        calls.append(fig)
+        fig = fig or plt.figure(figsize=(3.0, 2.0), dpi=50)
+        ax = fig.subplots()
+        x = np.linspace(0.0, 1.0, 11)
+        ax.plot(x, a * x, label=label)
+        ax.set_ylim(-2.0, 2.0)
+        return fig
+
+    return sliders, slider_panel(sliders, draw)
+
+
+def _pixels(png):
+    return np.asarray(Image.open(io.BytesIO(png)))
+
+
+def test_panel_redraws_the_same_figure_in_place():
+    calls = []
+    sliders, panel = _line_panel(calls)
+    rows, area = panel.children[:2], panel.children[2]
+    image, messages = area.children
+    assert [c for row in rows for c in row.children] == list(sliders.values())
+    assert isinstance(image, w.Image) and image.format == "png" and isinstance(messages, w.Output)
+    assert bytes(image.value).startswith(PNG_SIGNATURE)
+    assert _pixels(bytes(image.value)).shape[:2] == (100, 150)            # 3 x 2 inches at 50 dpi
+    assert image.layout.width == "150px"                          # shown at its own size, not stretched
+    assert calls == [None] and not plt.get_fignums()              # made once, and not left to pyplot to show again
+
+    first = bytes(image.value)
+    sliders["a"].value = -1.5
+    second = bytes(image.value)
+    assert second != first and not np.array_equal(_pixels(first), _pixels(second))
+    sliders["label"].value = "two"
+    assert len(calls) == 3 and calls[1] is calls[2] is not None   # the same figure each time, cleared
+    assert len(calls[2].axes) == 1
+    sliders["a"].value = 1.0
+    sliders["label"].value = "one"
+    assert bytes(image.value) == first                            # the same view gives the same picture
+
+
+def test_a_failing_update_raises_outside_a_kernel():
+    sliders = {"n": w.IntSlider(value=1, min=0, max=3)}
+
+    def draw(fig, n):
+        if n == 0:
+            raise ValueError("n must be positive")
+        fig = fig or plt.figure(figsize=(2.0, 2.0), dpi=40)
+        fig.subplots().plot(range(n))
+        return fig
+
+    panel = slider_panel(sliders, draw)
+    with pytest.raises(ValueError, match="positive"):
+        sliders["n"].value = 0
+    sliders["n"].value = 2                                        # and the next good value draws again
+    assert bytes(panel.children[2].children[0].value).startswith(PNG_SIGNATURE)
+
+
+def test_figure_png_keeps_the_resolution_and_one_canvas():
+    fig = plt.figure(figsize=(2.0, 1.0), dpi=60)
+    fig.subplots().plot([0, 1], [1, 0])
+    png = figure_png(fig)
+    canvas = fig.canvas
+    assert _pixels(png).shape[:2] == (60, 120)
+    assert figure_png(fig) == png and fig.canvas is canvas
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("name", [n for n in widgets.__all__ if n.endswith("_widget")])
+def test_every_book_widget_updates_its_figure(name):
+    panel = getattr(widgets, name)()
+    slider = next(c for row in panel.children[:2] for c in row.children
+                  if isinstance(c, (w.FloatSlider, w.IntSlider, w.FloatLogSlider)))
+    image = panel.children[2].children[0]
+    before = bytes(image.value)
+    if isinstance(slider, w.FloatLogSlider):
+        slider.value = slider.base ** (np.log(slider.value) / np.log(slider.base) + slider.step)
+    else:
+        slider.value = min(slider.value + slider.step, slider.max) if slider.value < slider.max else slider.min
+    assert bytes(image.value).startswith(PNG_SIGNATURE) and bytes(image.value) != before
+    assert not plt.get_fignums()

@@ -1,0 +1,80 @@
+"""Chapter 7 widget: the bias-tracking view's compute function (tested without a UI), its plot and its panel."""
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+
+from uwtutor import widgets  # noqa: E402
+from uwtutor.filters import prepositioned_bias_ekf  # noqa: E402
+from uwtutor.models import paper_a_process_noise  # noqa: E402
+from uwtutor.scenarios import paper_a  # noqa: E402
+from uwtutor.widgets import ch07  # noqa: E402
+
+
+def test_registered_compute_function_runs_at_its_defaults():
+    assert widgets.COMPUTE_FUNCTIONS["ch07 bias tracking"] is ch07.bias_tracking_view
+    view = ch07.bias_tracking_view()
+    K = len(view.times)
+    assert K == 2000 and view.n_runs == 30
+    assert view.truth.shape == (K, 2) and view.estimate.shape == (K, 3)
+    for name in ("bias_sigma", "true_bias", "rmse", "rmse_unstarted"):
+        assert getattr(view, name).shape == (K,)
+    k0 = view.start_epochs
+    assert k0.shape == (30,) and (k0 > 100).all() and (k0 < 400).all()
+    assert np.isnan(view.estimate[:k0[0]]).all() and np.isfinite(view.estimate[k0[0]:]).all()
+    assert np.isnan(view.rmse[:k0.max()]).all() and np.isfinite(view.rmse[k0.max():]).all()
+    assert view.final_rmse < 30.0
+
+
+def test_view_matches_the_library_and_is_reproducible():
+    a = ch07.bias_tracking_view(n_runs=5, n_obs=800, seed=2, initial_error=100.0)
+    b = ch07.bias_tracking_view(n_runs=5, n_obs=800, seed=2, initial_error=100.0)
+    np.testing.assert_array_equal(a.estimate, b.estimate)
+    # recomputed here: the same draws, the same start, the same filter
+    rng = np.random.default_rng(2)
+    params = paper_a.PaperAParameters(n_obs=800)
+    sc, bias = paper_a.make_with_truth(rng, 5, params)
+    d = rng.normal(size=(5, 2))
+    start = sc.true_positions[0, 0] + 100.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    res = prepositioned_bias_ekf(sc.ranges, sc.dr_displacements, start, paper_a_process_noise(1.0), 5.0,
+                                 P0=np.eye(3))
+    np.testing.assert_allclose(a.estimate, res.x[0], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(a.true_bias, bias[0])
+    np.testing.assert_array_equal(a.start_epochs, np.argmax(res.extras["started"], axis=1))
+
+
+def test_a_fast_drift_and_a_strict_threshold_do_what_the_chapter_says():
+    base = ch07.bias_tracking_view(n_runs=10, n_obs=1500)
+    drift = ch07.bias_tracking_view(n_runs=10, n_obs=1500, drift_rate=0.03)
+    assert drift.final_rmse > 1.3 * base.final_rmse
+    late = ch07.bias_tracking_view(n_runs=10, n_obs=1500, max_alpha=0.5)
+    assert late.start_epochs.min() > base.start_epochs.max()
+    # with a good guess the paper's start from epoch 0 is fine; from 300 m off it is still far off at epoch 400
+    far = ch07.bias_tracking_view(n_runs=10, n_obs=1500, initial_error=300.0)
+    assert far.rmse_unstarted[400] > 2 * far.rmse[400]
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(drift_rate=np.nan), "drift_rate must be finite"),
+    (dict(initial_error=-1.0), "initial_error must be >= 0"),
+    (dict(max_alpha=0.0), "max_alpha must be > 0"),
+    (dict(n_runs=1), "n_runs must be >= 2"),
+    (dict(n_obs=100), "n_obs must be >= 600"),
+])
+def test_bad_parameters(kw, match):
+    with pytest.raises(ValueError, match=match):
+        ch07.bias_tracking_view(**kw)
+
+
+def test_plot_and_panel():
+    view = ch07.bias_tracking_view(n_runs=3, n_obs=600)
+    fig = ch07.plot_bias_tracking_view(view)
+    assert len(fig.axes) == 3
+    plt.close(fig)
+    panel = ch07.bias_tracking_widget()
+    assert type(panel).__name__ == "VBox"
+    plt.close("all")
