@@ -217,7 +217,7 @@ def outlier_widget() -> Any:
         "test": w.Dropdown(options=["paper", "chi2"], value="paper", description="test", style=style),
         "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_outlier_view(outlier_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_outlier_view(outlier_view(**p), fig))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
