@@ -15,7 +15,7 @@ NODE_STAMP := node_modules/.installed-stamp
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev,scale]"
 	touch $(STAMP)
 
 # MathJax, require.js and the widget manager for the offline HTML (copied into the build by

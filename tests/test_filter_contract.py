@@ -14,8 +14,11 @@ import pytest
 
 from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, FilterResult, KalmanFilter,
                              RangeOnlyEKF, extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
+from uwtutor.filters import CooperativeEKF
+from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
 from uwtutor.models import DeadReckoning, RangeToBeacon
+from uwtutor.scenarios import paper_b
 
 M, K = 4, 60
 
@@ -76,6 +79,22 @@ CASES = [
     Case("FadingEKF", lambda b: FadingEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98,
                                           sigma_gamma=1 / 1500), Z, U, FadingResult),
 ]
+_COOP = paper_b.make(np.random.default_rng(5), M, packet_loss=0.2, duration=8.0 * K)
+_COOP_P0 = np.diag([1e4, 1e4, 1.0, 1.0])
+
+
+def _coop(formulation):
+    """Paper B's cooperative EKF in one of its three formulations (the leader moves; 20 % of packets lost)."""
+    def make(b):
+        return CooperativeEKF(paper_b.PAPER_B.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
+                              _pick(_COOP.leader_broadcast, b), 8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R,
+                              formulation=formulation)
+    pairs = range_pairs(_COOP.ranges)
+    return Case(f"CooperativeEKF-{formulation}", make, pairs[..., 1] if formulation == "single_range" else pairs,
+                _COOP.dr_displacements)
+
+
+CASES += [_coop(f) for f in ("consistent", "literal", "single_range")]
 IDS = [c.name for c in CASES]
 
 
@@ -168,6 +187,9 @@ def _single_from_batched(case, m):
         return RangeOnlyEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0)
     if case.name == "FadingEKF":
         return FadingEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    if case.name.startswith("CooperativeEKF"):
+        return CooperativeEKF(paper_b.PAPER_B.x1, _COOP_P0, _COOP.dr_displacements[m], _COOP.leader_broadcast[m],
+                              8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R, formulation=case.name.split("-", 1)[1])
     raise AssertionError(case.name)
 
 

@@ -224,7 +224,7 @@ def test_run_helper_equals_the_generic_driver():
         BootstrapParticleFilter.from_gaussian(model, meas[0], model.R, 10, np.random.default_rng(1)).run(meas[:, :2])
     with pytest.raises(ValueError, match="u must give one input per step"):
         BootstrapParticleFilter.from_gaussian(model, meas[0], model.R, 10, np.random.default_rng(1)).run(
-            meas, u=[None])
+            meas, u=[[0.0]])   # one input for K steps (a None is refused by name: TypeError)
 
 
 @pytest.mark.parametrize("R", [np.diag([0.5, 2.0, 0.1]), [[2.0, 0.3, 0.1], [0.3, 1.0, -0.2], [0.1, -0.2, 0.5]]])

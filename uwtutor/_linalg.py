@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quadratic_form"]
+__all__ = ["quadratic_form", "psd_violations"]
 
 
 def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
@@ -30,18 +30,73 @@ def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
             e0, e1 = vec[..., 0], vec[..., 1]
             det = a * d - b * b
             num = d * e0 * e0 - 2.0 * b * e0 * e1 + a * e1 * e1
-        if np.any((det <= 0) & np.isfinite(vec).all(axis=-1)):
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix with "
-                             "determinant <= 0")
+        # positive definite <=> C00 > 0 and det > 0 (Sylvester); a NaN or infinite matrix fails both tests
+        used = np.isfinite(vec).all(axis=-1)
+        if np.any(~((det > 0) & (cov[..., 0, 0] > 0) & np.isfinite(det)) & used):
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix that is not "
+                             "(determinant or variance <= 0, or not finite)")
         with np.errstate(divide="ignore", invalid="ignore"):
             return num / det
     out = np.full(vec.shape[:-1], np.nan)
     ok = np.isfinite(vec).all(axis=-1)
     if ok.any():
+        c = cov[ok]
+        if not np.isfinite(c).all():
+            raise ValueError(f"{name} must be finite wherever it is used")
         try:
-            sol = np.linalg.solve(cov[ok], vec[ok][..., None])[..., 0]
+            L = np.linalg.cholesky(c)                 # fails unless positive definite
         except np.linalg.LinAlgError:
-            raise ValueError(f"{name} must be positive definite wherever it is used; found a singular "
-                             "matrix") from None
-        out[ok] = np.einsum("...i,...i->...", vec[ok], sol)
+            raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix that is "
+                             "not") from None
+        w = np.linalg.solve(L, vec[ok][..., None])[..., 0]     # v^T C^-1 v = |L^-1 v|^2
+        out[ok] = np.einsum("...i,...i->...", w, w)
     return out
+
+
+def psd_violations(P: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    r"""Runs whose covariance, held runs-last ``(n, n, M)``, is visibly not positive semi-definite: a bool ``(M,)``.
+
+    The test (cheap enough for every filter step): every entry finite, every variance :math:`P_{ii} \ge 0` and
+    every 2x2 principal minor :math:`P_{ii}P_{jj} - P_{ij}^2 \ge -\mathrm{rtol}\, P_{ii}P_{jj}`. For ``n = 2`` it
+    is exactly "PSD to within rounding"; for larger ``n`` it is necessary (it catches a lost variance or a
+    correlation beyond +-1, the way round-off breaks a covariance), not sufficient.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor._linalg import psd_violations
+    >>> P = np.stack([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]], axis=-1)   # two runs, runs-last
+    >>> psd_violations(P)
+    array([False,  True])
+    """
+    if _looks_psd(P, rtol):
+        return np.zeros(P.shape[-1], dtype=bool)
+    n = P.shape[0]
+    diag = np.einsum("iim->im", P)
+    finite = np.isfinite(P).all(axis=(0, 1))
+    bad = ~finite | (diag < 0.0).any(axis=0)
+    if n > 1:
+        with np.errstate(over="ignore", invalid="ignore"):
+            rows, cols = np.triu_indices(n, 1)
+            prod = diag[rows] * diag[cols]
+            off = P[rows, cols]
+            bad |= (prod - off * off < -rtol * prod).any(axis=0)
+    return bad
+
+
+_PAIRS: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _looks_psd(P: np.ndarray, rtol: float) -> bool:
+    """The fast all-runs form of :func:`psd_violations` (a handful of array operations): True if no run fails."""
+    n = P.shape[0]
+    diag = np.einsum("iim->im", P)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not (np.isfinite(P.sum()) and diag.min() >= 0.0):
+            return False
+        if n == 1:
+            return True
+        rows, cols = _PAIRS.get(n) or _PAIRS.setdefault(n, np.triu_indices(n, 1))
+        prod = diag[rows] * diag[cols]
+        off = P[rows, cols]
+        return bool((prod - off * off >= -rtol * prod).all())

@@ -3,10 +3,45 @@
 Each helper checks one argument and raises an error that names the argument, says what was wrong and what to do
 about it. Public functions call these at their boundary so that bad input never turns into a silent wrong answer
 deep inside a filter.
+
+The rules, in one place:
+
+* **dtype** -- numbers and arrays of numbers are accepted (Python and numpy ints and floats, lists of them,
+  objects with ``__array__``). Refused with a :class:`TypeError` naming the argument: strings (also numeric
+  strings such as ``"3.0"``), complex numbers, ``None`` (also inside a list: use NaN for a missing value where
+  that is allowed), bools (``True`` is not a number, and not an index), object arrays, dates.
+  A list of rows of unequal lengths (ragged) and integers too large for float64 (``10**400``) are refused with a
+  :class:`ValueError`.
+* **finiteness and domain** -- :func:`as_finite`, :func:`as_positive`, :func:`as_nonnegative`,
+  :func:`as_range_array`, :func:`as_in_range`; values whose products overflow float64 are refused by
+  :func:`as_finite` with ``max_abs``.
+* **shapes and batches** -- ``ndim``/``shape`` keywords, :func:`check_same_length`, :func:`check_same_shape`
+  (no silent broadcasting of ``(K, 1)`` against ``(K, 2)``), ``nonempty`` (a sequence of length 0, ``M = 0`` runs,
+  a 0x0 matrix are errors, not empty answers).
+* **covariances** -- :func:`as_covariance`: square, symmetric to ``SYMMETRY_RTOL`` (relative), eigenvalues
+  ``>= -PSD_RTOL * max|P|`` (semi-definite) or ``> 0`` (definite), entries ``<= MAX_COVARIANCE`` in magnitude
+  (beyond it their products overflow float64). :func:`as_information` for information matrices.
+* **flags, integers, seeds, objects** -- :func:`as_flag` (a real bool only: the string ``'False'`` is refused),
+  :func:`as_int` (bools refused), :func:`as_rng`, :func:`as_seed`, :func:`as_instance`.
+
+Examples
+--------
+>>> from uwtutor._validate import as_finite, as_flag
+>>> as_finite("sigma", [1, 2.5])
+array([1. , 2.5])
+>>> as_finite("sigma", "2.5")
+Traceback (most recent call last):
+    ...
+TypeError: sigma must be numeric (a number or an array of numbers); got the string '2.5' (convert it with float() if you mean the number)
+>>> as_flag("fading", "False")
+Traceback (most recent call last):
+    ...
+TypeError: fading must be True or False (a bool); got the string 'False'
 """
 
 from __future__ import annotations
 
+import numbers
 from typing import Any
 
 import numpy as np
@@ -16,12 +51,30 @@ __all__ = [
     "as_finite",
     "as_positive",
     "as_nonnegative",
+    "as_in_range",
     "as_range_array",
     "as_covariance",
+    "as_information",
     "as_rng",
+    "as_seed",
     "as_int",
+    "as_index",
+    "as_flag",
+    "as_instance",
     "check_same_length",
+    "check_same_shape",
+    "SYMMETRY_RTOL",
+    "PSD_RTOL",
+    "MAX_COVARIANCE",
+    "MAX_COORDINATE",
 ]
+
+#: Relative tolerance of the symmetry test of a covariance: ``|P - P^T| <= SYMMETRY_RTOL * max(1, max|P|)``.
+SYMMETRY_RTOL = 1e-9
+#: A semi-definite covariance may have eigenvalues down to ``-PSD_RTOL * max(1, max|P|)`` (round-off).
+PSD_RTOL = 1e-12
+#: Largest covariance entry accepted: its square (formed by every filter update) stays below float64's 1.8e308.
+MAX_COVARIANCE = 1e150
 
 
 def _first_bad_index(mask: np.ndarray) -> str:
@@ -30,16 +83,93 @@ def _first_bad_index(mask: np.ndarray) -> str:
     return f"index {int(idx[0])}" if idx.size == 1 else f"index {tuple(int(i) for i in idx)}"
 
 
-def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None = None,
-                   shape: tuple[int | None, ...] | None = None) -> np.ndarray:
-    """Convert ``value`` to a float array, checking its number of dimensions or its shape.
+def _describe(value: Any) -> str:
+    if isinstance(value, (str, bytes)):
+        text = value if len(value) <= 40 else value[:37] + "..."
+        return f"the string {text!r}"
+    return f"a {type(value).__name__}"
 
-    ``shape`` may use ``None`` for an axis of any length, e.g. ``(None, 2)`` for an array of 2-D points.
+
+def _flat_items(value: Any, limit: int = 100_000):
+    """Yield the leaves of nested lists/tuples (for naming the first bad element)."""
+    stack = [value]
+    seen = 0
+    while stack and seen < limit:
+        item = stack.pop()
+        if isinstance(item, (list, tuple)):
+            stack.extend(reversed(item))
+        else:
+            seen += 1
+            yield item
+
+
+def _bad_element(name: str, value: Any) -> None:
+    """Raise the error for the first leaf of ``value`` that is not a real number (if any)."""
+    for item in _flat_items(value):
+        if item is None:
+            raise TypeError(f"{name} contains None; use a number (or NaN, where a missing value is allowed)")
+        if isinstance(item, (bool, np.bool_)):
+            raise TypeError(f"{name} contains the bool {item!r}; pass a number (1.0 / 0.0) if you mean one")
+        if isinstance(item, (str, bytes)):
+            raise TypeError(f"{name} must hold numbers; it contains {_describe(item)} (convert it with float())")
+        if isinstance(item, (complex, np.complexfloating)):
+            raise TypeError(f"{name} must be real; it contains the complex number {item!r}")
+        if isinstance(item, np.ndarray):
+            continue
+        if not isinstance(item, numbers.Real):
+            raise TypeError(f"{name} must hold numbers; it contains {_describe(item)}")
+
+
+def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None = None,
+                   shape: tuple[int | None, ...] | None = None, nonempty: bool = False) -> np.ndarray:
+    """Convert ``value`` to a float array, checking its dtype, its number of dimensions or its shape.
+
+    ``shape`` may use ``None`` for an axis of any length, e.g. ``(None, 2)`` for an array of 2-D points; with
+    ``nonempty`` an array with no element (``K = 0`` steps, ``M = 0`` runs) is refused. The dtype rules are in
+    the module docstring (strings, complex, None, bools and objects are refused by name).
     """
+    if value is None:
+        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got None")
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got {_describe(value)} "
+                        "(convert it with float() if you mean the number)")
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a number; got the bool {value!r} (pass 1.0 or 0.0 if you mean a number)")
+    if isinstance(value, (complex, np.complexfloating)):
+        raise TypeError(f"{name} must be a real number; got the complex number {value!r}")
+    if isinstance(value, (dict, set, frozenset)):
+        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got a {type(value).__name__}")
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got {type(value).__name__}") from exc
+        raw = np.asarray(value)
+    except ValueError as exc:                     # ragged nested lists (numpy >= 1.24)
+        raise ValueError(f"{name} must be a rectangular array of numbers; its rows have different lengths "
+                         f"({exc})") from None
+    except Exception as exc:                      # an object whose __array__/__len__ fails
+        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got {_describe(value)} "
+                        f"that numpy cannot read ({type(exc).__name__})") from None
+    kind = raw.dtype.kind
+    if kind in "fiu":
+        arr = raw.astype(float, copy=False) if kind != "f" or raw.dtype != np.float64 else raw
+    elif kind == "b":
+        raise TypeError(f"{name} must hold numbers, not bools (got a bool array of shape {raw.shape}); "
+                        "use arr.astype(float) if you mean 1.0/0.0")
+    elif kind == "c":
+        raise TypeError(f"{name} must be real; got a complex array of shape {raw.shape} "
+                        "(pass np.real(...) if the imaginary part is meant to be zero)")
+    elif kind in "US":
+        raise TypeError(f"{name} must hold numbers; got strings (dtype {raw.dtype}); convert them with float()")
+    elif kind == "O":
+        _bad_element(name, value)
+        try:
+            arr = raw.astype(float)
+        except OverflowError:
+            raise ValueError(f"{name} holds an integer too large for float64 (the largest float is about "
+                             "1.8e308)") from None
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"{name} must be numeric (a number or an array of numbers); got {_describe(value)} whose "
+                            f"elements numpy cannot convert to float ({exc})") from None
+    else:
+        raise TypeError(f"{name} must be numeric (a number or an array of numbers); got an array of dtype {raw.dtype}")
     if ndim is not None:
         allowed = (ndim,) if isinstance(ndim, int) else ndim
         if arr.ndim not in allowed:
@@ -49,16 +179,27 @@ def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None 
         if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
             want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
             raise ValueError(f"{name} must have shape {want}; got {arr.shape}")
+    if nonempty and arr.size == 0:
+        raise ValueError(f"{name} is empty (shape {arr.shape}); it needs at least one element along every axis")
     return arr
 
 
-def as_finite(name: str, value: Any, **shape_kw: Any) -> np.ndarray:
-    """A float array with no NaN or infinity (see :func:`as_float_array` for the shape keywords)."""
+def as_finite(name: str, value: Any, *, max_abs: float | None = None, **shape_kw: Any) -> np.ndarray:
+    """A float array with no NaN or infinity (see :func:`as_float_array` for the shape keywords).
+
+    With ``max_abs``, magnitudes above it are refused too (values whose squares or products would overflow).
+    """
     arr = as_float_array(name, value, **shape_kw)
     bad = ~np.isfinite(arr)
     if bad.any():
         where = _first_bad_index(bad) if arr.ndim else "the value"
         raise ValueError(f"{name} must be finite; got {arr[bad].flat[0]} at {where}")
+    if max_abs is not None:
+        big = np.abs(arr) > max_abs
+        if big.any():
+            where = _first_bad_index(big) if arr.ndim else "the value"
+            raise ValueError(f"{name} must be at most {max_abs:.3g} in magnitude (beyond it the computation "
+                             f"overflows float64); got {arr[big].flat[0]:.3g} at {where}. Change its units")
     return arr
 
 
@@ -82,8 +223,28 @@ def as_nonnegative(name: str, value: Any, **shape_kw: Any) -> np.ndarray:
     return arr
 
 
-def as_range_array(name: str, value: Any, *, allow_nan: bool = False, **shape_kw: Any) -> np.ndarray:
-    """Measured ranges: finite and >= 0. With ``allow_nan`` a NaN marks a missing measurement (predict only)."""
+def as_in_range(name: str, value: Any, low: float, high: float, *, closed: tuple[bool, bool] = (True, True),
+                **shape_kw: Any) -> np.ndarray:
+    """A finite array within ``[low, high]`` (``closed`` says which ends are included), e.g. a probability."""
+    arr = as_finite(name, value, **shape_kw)
+    bad = (arr < low if closed[0] else arr <= low) | (arr > high if closed[1] else arr >= high)
+    if bad.any():
+        where = _first_bad_index(bad) if arr.ndim else "the value"
+        interval = ("[" if closed[0] else "(") + f"{low:g}, {high:g}" + ("]" if closed[1] else ")")
+        raise ValueError(f"{name} must lie in {interval}; got {arr[bad].flat[0]:g} at {where}")
+    return arr
+
+
+#: Largest coordinate or range a filter accepts [m]: squares and products of such values stay finite in float64.
+MAX_COORDINATE = 1e150
+
+
+def as_range_array(name: str, value: Any, *, allow_nan: bool = False, max_abs: float | None = None,
+                   **shape_kw: Any) -> np.ndarray:
+    """Measured ranges: finite and >= 0. With ``allow_nan`` a NaN marks a missing measurement (predict only).
+
+    ``None`` is never a missing range (it is refused by name): write NaN.
+    """
     arr = as_float_array(name, value, **shape_kw)
     bad = np.isinf(arr) if allow_nan else ~np.isfinite(arr)
     bad |= arr < 0
@@ -91,31 +252,74 @@ def as_range_array(name: str, value: Any, *, allow_nan: bool = False, **shape_kw
         where = _first_bad_index(bad) if arr.ndim else "the value"
         missing = "; use NaN for a missing range" if allow_nan else ""
         raise ValueError(f"{name} must be finite and >= 0{missing}; got {arr[bad].flat[0]} at {where}")
+    if max_abs is not None:
+        big = arr > max_abs
+        if big.any():
+            raise ValueError(f"{name} must be at most {max_abs:.3g} (beyond it the computation overflows float64); "
+                             f"got {arr[big].flat[0]:.3g} at {_first_bad_index(big) if arr.ndim else 'the value'}. "
+                             "Change its units")
     return arr
 
 
 def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular: bool = False) -> np.ndarray:
     """A symmetric positive-definite (or, with ``allow_singular``, semi-definite) ``(n, n)`` matrix.
 
-    A scalar is accepted for ``n == 1``. Stacks ``(..., n, n)`` are checked matrix by matrix.
+    A scalar is accepted for ``n == 1``. Stacks ``(..., n, n)`` are checked matrix by matrix (an empty stack or a
+    0x0 matrix is refused). Tolerances: symmetric to ``SYMMETRY_RTOL * max(1, max|P|)``; semi-definite means every
+    eigenvalue ``>= -PSD_RTOL * max(1, max|P|)``; entries at most ``MAX_COVARIANCE`` in magnitude.
     """
     P = as_finite(name, value)
     if P.ndim == 0:
         P = P.reshape(1, 1)
     if P.ndim < 2 or P.shape[-1] != P.shape[-2]:
         raise ValueError(f"{name} must be a square matrix; got shape {P.shape}")
+    if P.size == 0:
+        raise ValueError(f"{name} is empty (shape {P.shape}); a covariance needs at least one row (and one run)")
     if n is not None and P.shape[-1] != n:
         raise ValueError(f"{name} must be {n}x{n} to match the state; got {P.shape[-2]}x{P.shape[-1]}")
-    scale = max(1.0, float(np.max(np.abs(P))))
-    if not np.allclose(P, np.swapaxes(P, -1, -2), rtol=1e-9, atol=1e-12 * scale):
+    peak = float(np.max(np.abs(P)))
+    if peak > MAX_COVARIANCE:
+        raise ValueError(f"{name} has an entry of {peak:.3g}, above {MAX_COVARIANCE:.0e}: the filter's products of "
+                         "such variances overflow float64. An unknown start needs no more than a variance a few "
+                         "orders of magnitude above the area's size squared (e.g. 1e8 m^2)")
+    scale = max(1.0, peak)
+    if not np.allclose(P, np.swapaxes(P, -1, -2), rtol=SYMMETRY_RTOL, atol=1e-12 * scale):
         raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
     eig_min = np.linalg.eigvalsh(P).min()
-    tol = -1e-12 * scale if allow_singular else 0.0
+    tol = -PSD_RTOL * scale if allow_singular else 0.0
     if (eig_min < tol) if allow_singular else (eig_min <= tol):
         kind = "positive semi-definite" if allow_singular else "positive definite"
         raise ValueError(f"{name} must be {kind}; its smallest eigenvalue is {eig_min:.3g}. "
                          "Check the variances on its diagonal and that correlations lie within [-1, 1]")
     return P
+
+
+def as_information(name: str, value: Any, n: int | None = None) -> np.ndarray:
+    """A Fisher information matrix: finite, square, symmetric and positive semi-definite (it may be singular).
+
+    An indefinite matrix is not an information matrix (a sum of ``H^T R^-1 H`` terms never is): it is refused
+    instead of being reported as singular. The tolerances are those of :func:`as_covariance`, without its bound on
+    the entries.
+    """
+    J = as_finite(name, value)
+    if J.ndim < 2 or J.shape[-1] != J.shape[-2]:
+        raise ValueError(f"{name} must be a square matrix; got shape {J.shape}")
+    if J.size == 0:
+        raise ValueError(f"{name} is empty (shape {J.shape})")
+    if n is not None and J.shape[-1] != n:
+        raise ValueError(f"{name} must be {n}x{n}; got {J.shape[-2]}x{J.shape[-1]}")
+    scale = max(1.0, float(np.max(np.abs(J))))
+    if not np.allclose(J, np.swapaxes(J, -1, -2), rtol=SYMMETRY_RTOL, atol=1e-12 * scale):
+        raise ValueError(f"{name} must be symmetric (an information matrix is); use (J + J.T) / 2 if it is only "
+                         "off by rounding")
+    with np.errstate(over="ignore", invalid="ignore"):
+        eig = np.linalg.eigvalsh(J / scale)
+    if not np.all(np.isfinite(eig)):
+        raise ValueError(f"{name} cannot be decomposed in float64 (entries up to {scale:.3g}); rescale it")
+    if eig.min() < -1e-10:
+        raise ValueError(f"{name} must be positive semi-definite (an information matrix is a sum of H^T R^-1 H "
+                         f"terms); its smallest eigenvalue is {eig.min() * scale:.3g}. Check how it was built")
+    return J
 
 
 def as_rng(rng: Any) -> np.random.Generator:
@@ -126,13 +330,50 @@ def as_rng(rng: Any) -> np.random.Generator:
     return rng
 
 
-def as_int(name: str, value: Any, *, minimum: int | None = None) -> int:
-    """An integer (``numpy`` integers accepted), optionally at least ``minimum``."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an integer; got {value!r}")
+def as_seed(name: str, value: Any) -> int:
+    """A seed: a non-negative integer (``None``, which would draw OS entropy, is refused: results must repeat)."""
+    if value is None:
+        raise TypeError(f"{name} must be an integer seed such as 42; None would draw a different result every "
+                        "time")
+    return as_int(name, value, minimum=0)
+
+
+def as_int(name: str, value: Any, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """An integer (``numpy`` integers accepted; bools, floats and strings refused), optionally within bounds."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be an integer; got the bool {value!r}")
+    if not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer; got {value!r} ({type(value).__name__})"
+                        + (" -- convert it with int()" if isinstance(value, (float, str)) else ""))
     if minimum is not None and value < minimum:
         raise ValueError(f"{name} must be >= {minimum}; got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}; got {value}")
     return int(value)
+
+
+def as_index(name: str, value: Any, size: int) -> int:
+    """An index into an axis of length ``size`` (negative indices count from the end; bools refused)."""
+    i = as_int(name, value)
+    if not -size <= i < size:
+        raise ValueError(f"{name} must be an index in [{-size}, {size - 1}]; got {i}")
+    return i % size
+
+
+def as_flag(name: str, value: Any) -> bool:
+    """A real bool (``numpy.bool_`` accepted). The string ``'False'`` and the integer ``0`` are refused."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{name} must be True or False (a bool); got {_describe(value) if isinstance(value, str) else repr(value)}")
+
+
+def as_instance(name: str, value: Any, kind: type | tuple[type, ...], hint: str = "") -> Any:
+    """``value`` if it is an instance of ``kind``; a :class:`TypeError` naming the argument otherwise."""
+    if not isinstance(value, kind):
+        kinds = kind if isinstance(kind, tuple) else (kind,)
+        want = " or ".join(f"{k.__module__}.{k.__qualname__}" for k in kinds)
+        raise TypeError(f"{name} must be a {want}{(' (' + hint + ')') if hint else ''}; got {type(value).__name__}")
+    return value
 
 
 def check_same_length(**arrays: np.ndarray) -> int:
@@ -142,3 +383,12 @@ def check_same_length(**arrays: np.ndarray) -> int:
         described = ", ".join(f"{name} has {n}" for name, n in lengths.items())
         raise ValueError(f"arrays must have the same length along their first axis: {described}")
     return next(iter(lengths.values()))
+
+
+def check_same_shape(**arrays: np.ndarray) -> tuple[int, ...]:
+    """Check that the given arrays have exactly the same shape (no broadcasting of (K, 1) against (K, 2))."""
+    shapes = {name: np.shape(a) for name, a in arrays.items()}
+    if len(set(shapes.values())) > 1:
+        described = ", ".join(f"{name} has shape {s}" for name, s in shapes.items())
+        raise ValueError(f"the arrays must have the same shape (nothing is broadcast): {described}")
+    return next(iter(shapes.values()))

@@ -19,12 +19,12 @@ Zhu Z., Han S., Guo Z., Liu J. (2019). Single-beacon location under multiplicati
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_nonnegative, as_positive, as_range_array
+from .errors import UwtutorWarning, warn
+from ._validate import as_flag, as_finite, as_in_range, as_nonnegative, as_positive, as_range_array
 
 __all__ = [
     "MACKENZIE_VALIDITY",
@@ -39,6 +39,9 @@ __all__ = [
 #: Published validity range of the Mackenzie (1981) equation, as ``(min, max)`` pairs of temperature
 #: (degrees C), salinity (PSU) and depth (metres).
 MACKENZIE_VALIDITY = {"temperature": (2.0, 30.0), "salinity": (25.0, 40.0), "depth": (0.0, 8000.0)}
+#: Beyond these the polynomial is not an extrapolation of sea water any more (ice, steam, above the surface of a
+#: deep trench, ten times the ocean's salinity): refused instead of warned about.
+MACKENZIE_PHYSICAL = {"temperature": (-5.0, 100.0), "salinity": (0.0, 100.0), "depth": (-100.0, 12000.0)}
 
 
 def _scalar_or_array(arr: np.ndarray) -> float | np.ndarray:
@@ -100,11 +103,16 @@ def sound_speed(temperature: Any, salinity: Any, depth: Any) -> float | np.ndarr
         raise ValueError("temperature, salinity and depth must broadcast against each other; "
                          f"got shapes {T.shape}, {S.shape} and {D.shape}") from None
     for name, arr in (("temperature", T), ("salinity", S), ("depth", D)):
+        plo, phi = MACKENZIE_PHYSICAL[name]
+        if arr.size and (arr.min() < plo or arr.max() > phi):
+            raise ValueError(f"{name} must lie in [{plo:g}, {phi:g}] (sea water; the equation's own validity range "
+                             f"is [{MACKENZIE_VALIDITY[name][0]:g}, {MACKENZIE_VALIDITY[name][1]:g}]); got values in "
+                             f"[{arr.min():g}, {arr.max():g}]. Check the units (degrees C, PSU, metres)")
         lo, hi = MACKENZIE_VALIDITY[name]
         if arr.size and (arr.min() < lo or arr.max() > hi):
-            warnings.warn(f"{name} outside the validity range of the Mackenzie (1981) equation "
-                          f"[{lo:g}, {hi:g}]: got values in [{arr.min():g}, {arr.max():g}]; "
-                          "the sound speed returned is an extrapolation", UserWarning, stacklevel=2)
+            warn(f"{name} outside the validity range of the Mackenzie (1981) equation "
+                 f"[{lo:g}, {hi:g}]: got values in [{arr.min():g}, {arr.max():g}]; "
+                          "the sound speed returned is an extrapolation", UwtutorWarning)
     s35 = S - 35.0
     c = (1448.96 + 4.591 * T - 5.304e-2 * T**2 + 2.374e-4 * T**3
          + 1.340 * s35 + 1.630e-2 * D + 1.675e-7 * D**2
@@ -139,6 +147,7 @@ def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = F
     >>> range_from_travel_time(2.0, 1500.0, two_way=True)
     1500.0
     """
+    two_way = as_flag("two_way", two_way)
     tau = as_nonnegative("travel_time", travel_time)
     c = as_positive("sound_speed", sound_speed)
     r = c * tau
@@ -164,6 +173,7 @@ def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = F
     float or ndarray
         Travel time [s]; a float for scalar inputs. ``range_from_travel_time`` is the inverse.
     """
+    two_way = as_flag("two_way", two_way)
     r = as_range_array("slant_range", slant_range)
     c = as_positive("sound_speed", sound_speed)
     tau = r / c
@@ -300,9 +310,10 @@ def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) ->
     >>> round(mu, 6), round(sigma * 1500.0, 6)
     (0.98, 0.98)
     """
-    ca = as_positive("assumed_speed", assumed_speed)
-    ct = as_positive("true_speed", true_speed)
-    sc = as_nonnegative("speed_sigma", speed_sigma)
+    # a sound speed is a few km/s; 1e5 m/s bounds every medium and keeps ct^2 finite
+    ca = as_in_range("assumed_speed", as_positive("assumed_speed", assumed_speed), 0.0, 1e5)
+    ct = as_in_range("true_speed", as_positive("true_speed", true_speed), 0.0, 1e5)
+    sc = as_in_range("speed_sigma", as_nonnegative("speed_sigma", speed_sigma), 0.0, 1e5)
     mu = ca / ct
     sigma = ca * sc / ct**2
     return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))

@@ -27,6 +27,7 @@ __all__ = [
     "BeaconSingularityWarning",
     "UnobservableWarning",
     "IllConditionedWarning",
+    "IllConditionedError",
     "warn",
 ]
 
@@ -57,6 +58,14 @@ class IllConditionedWarning(GeometryWarning):
     The message gives the condition number and the noise gain (precision factor) so that the caller can judge;
     silence it with ``warnings.catch_warnings`` when ill-conditioning is expected (e.g. the first epochs of a
     pre-positioning loop).
+    """
+
+
+class IllConditionedError(ValueError, ArithmeticError):
+    """An input asks for more precision than float64 carries (e.g. a covariance update with a dynamic range above
+    ~1e16): the computation is refused instead of returning a covariance that is not positive semi-definite.
+
+    A :class:`ValueError`, since the fix is a change of input (the message says which).
     """
 
 

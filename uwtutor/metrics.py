@@ -33,7 +33,7 @@ import numpy as np
 from scipy import stats
 
 from ._linalg import quadratic_form as _quadratic_form
-from ._validate import as_finite, as_float_array
+from ._validate import SYMMETRY_RTOL, as_finite, as_float_array, as_int
 
 __all__ = [
     "estimation_errors",
@@ -53,14 +53,17 @@ def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[n
     x = as_float_array("estimates", estimates, ndim=(2, 3))
     if x.ndim == 2:
         x = x[None]
+    if x.size == 0:
+        raise ValueError(f"estimates is empty (shape {x.shape}): there is nothing to score")
     t = as_finite("truth", truth, ndim=(1, 2, 3))
-    if t.ndim == 1:          # (K,) for a scalar state
+    if t.ndim == 1 and x.shape[-1] == 1:          # (K,) for a scalar state
         t = t[:, None]
-    try:
-        t = np.broadcast_to(t, x.shape)
-    except ValueError:
-        raise ValueError(f"truth must have shape (K, n) or (M, K, n) matching the estimates {x.shape}; "
-                         f"got {np.shape(truth)}") from None
+    # only the runs axis is shared (one truth for every run); nothing else is broadcast: a (K, 1) truth against
+    # (K, 2) estimates is an error, not an error vector
+    if t.shape not in (x.shape, x.shape[1:]):
+        raise ValueError(f"truth must have shape {x.shape[1:]} (one truth for every run) or {x.shape} matching "
+                         f"the estimates; got {np.shape(truth)}")
+    t = np.broadcast_to(t, x.shape)
     if components is not None:
         idx = np.atleast_1d(np.asarray(components))
         if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or \
@@ -69,6 +72,42 @@ def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[n
                              f"got {components!r}")
         x, t = x[..., idx], t[..., idx]
     return x, t
+
+
+def _without_covariance(vec: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """NaN where the covariance is entirely NaN (no covariance there, e.g. before a filter starts): the score is
+    NaN there, as where the vector itself is NaN."""
+    none = np.isnan(cov).all(axis=(-1, -2))
+    return np.where(none[..., None], np.nan, vec) if none.any() else vec
+
+
+def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
+    """The covariances that score a finite vector must be finite, symmetric and positive definite (tolerances
+    of :func:`uwtutor._validate.as_covariance`); the others (no measurement, NaN estimate) are not read."""
+    if not used.any():
+        return
+    Pu = P[used]
+    bad = ~np.isfinite(Pu)
+    if bad.any():
+        raise ValueError(f"{name} must be finite wherever it is used; got {Pu[bad].flat[0]} (a covariance may be "
+                         "NaN only as a whole, meaning 'none', or where the vector it scores is NaN)")
+    scale = np.maximum(1.0, np.abs(Pu).max(axis=(-1, -2)))[:, None, None]
+    if (np.abs(Pu - np.swapaxes(Pu, -1, -2)) > SYMMETRY_RTOL * scale).any():
+        raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
+    n = P.shape[-1]
+    if n <= 2:
+        diag_ok = (np.diagonal(Pu, axis1=-2, axis2=-1) > 0).all()
+        det_ok = n == 1 or (Pu[:, 0, 0] * Pu[:, 1, 1] - Pu[:, 0, 1] * Pu[:, 1, 0] > 0).all()
+        ok = diag_ok and det_ok
+    else:
+        try:
+            np.linalg.cholesky(Pu)
+            ok = True
+        except np.linalg.LinAlgError:
+            ok = False
+    if not ok:
+        raise ValueError(f"{name} must be positive definite wherever it is used (a covariance); found one that "
+                         "is not (negative variances, or a correlation beyond +-1)")
 
 
 def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
@@ -212,7 +251,9 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
     if P.shape != x.shape + (x.shape[-1],):
         raise ValueError(f"covariances must have shape {x.shape + (x.shape[-1],)} to match the estimates; "
                          f"got {P.shape}")
-    return _quadratic_form(t - x, P, "covariances")
+    e = _without_covariance(t - x, P)
+    _check_used_covariances("covariances", P, np.isfinite(e).all(axis=-1))
+    return _quadratic_form(e, P, "covariances")
 
 
 def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
@@ -245,6 +286,8 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     if S.shape != y.shape + (y.shape[-1],):
         raise ValueError(f"innovation_cov must have shape {y.shape + (y.shape[-1],)} to match the innovations; "
                          f"got {S.shape}")
+    y = _without_covariance(y, S)
+    _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
     out = _quadratic_form(y, S, "innovation_cov")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
     return out
@@ -313,13 +356,17 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     >>> round(lo, 3), round(hi, 3)
     (1.484, 2.591)
     """
-    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
-        raise ValueError(f"dof must be a positive integer (state or measurement size); got {dof!r}")
-    conf = float(as_finite("confidence", confidence))
+    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or not 1 <= dof <= 10**6:
+        raise ValueError(f"dof must be a positive integer (state or measurement size, at most 1e6); got {dof!r}")
+    conf = float(as_finite("confidence", confidence, ndim=0))
     if not 0.0 < conf < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
-    m = np.asarray(n_runs)
-    if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1):
+    try:
+        m = np.asarray(n_runs)
+    except ValueError:
+        raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got a ragged list") \
+            from None
+    if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1) or np.any(m > 10**12):
         raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got {n_runs!r}")
     alpha = 1.0 - conf
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -337,8 +384,14 @@ def fraction_within(values: Any, lower: Any, upper: Any) -> float:
     With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
     """
     v = as_float_array("values", values)
-    lo = np.broadcast_to(as_float_array("lower", lower), v.shape)
-    hi = np.broadcast_to(as_float_array("upper", upper), v.shape)
+    bounds = []
+    for name, value in (("lower", lower), ("upper", upper)):
+        b = as_float_array(name, value)
+        if b.shape not in ((), v.shape, v.shape[-1:]):     # a scalar, one per value, or one per step
+            raise ValueError(f"{name} must be a number or have the shape of values {v.shape} (or "
+                             f"{v.shape[-1:]}); got {b.shape}")
+        bounds.append(np.broadcast_to(b, v.shape))
+    lo, hi = bounds
     ok = ~np.isnan(v) & ~np.isnan(lo) & ~np.isnan(hi)
     if not ok.any():
         raise ValueError("values must contain at least one entry that is not NaN (with finite bounds)")

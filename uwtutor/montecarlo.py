@@ -28,9 +28,11 @@ import numpy as np
 
 from . import metrics
 from ._validate import as_finite, as_float_array
+from ._validate import as_int, as_positive
 from .filters.base import FilterResult
 
-__all__ = ["MonteCarloResult", "run_monte_carlo"]
+__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "compare",
+           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD"]
 
 
 @dataclass(frozen=True)
@@ -264,3 +266,787 @@ def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, co
         final_errors=errors[:, -1], nees=nees, mean_nees=mean_nees, nees_bounds=nees_bounds, nis=nis,
         mean_nis=mean_nis, nis_bounds=nis_bounds, confidence=float(confidence),
     )
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# studies that scale out: chunk by chunk from one seed, on any executor
+# ---------------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _ChunkSums:
+    """What one chunk of a study contributes: sums over its runs (never the runs themselves) and its final errors."""
+
+    times: np.ndarray            # (K,)
+    sq_errors: np.ndarray        # (K,)  sum over the chunk's runs of ||x_hat - x||^2
+    nees: np.ndarray             # (K,)  sum of the NEES
+    nees_dof: int                # number of scored components
+    nis: np.ndarray | None       # (K,)  sum of the NIS over the runs with a measurement
+    nis_counts: np.ndarray | None  # (K,) how many runs had one
+    nis_dof: int
+    final_errors: np.ndarray     # (n,)
+
+
+def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_sequence: np.random.SeedSequence,
+                 n: int, components: tuple[int, ...] | None) -> _ChunkSums:
+    """Draw ``n`` runs from their own Generator, filter them, and reduce them to sums (runs in a worker)."""
+    rng = np.random.default_rng(seed_sequence)
+    drawn = draw(rng, n)
+    if not (isinstance(drawn, tuple) and len(drawn) == 2):
+        raise TypeError(f"draw(rng, n) must return a pair (inputs, truth); got {type(drawn).__name__}")
+    inputs, truth = drawn
+    result = estimate(inputs)
+    if not (hasattr(result, "x") and hasattr(result, "P")):
+        raise TypeError("estimate(inputs) must return a FilterResult (or an object with arrays x and P); got "
+                        f"{type(result).__name__}")
+    x = as_float_array("estimate(inputs).x", result.x, ndim=(2, 3))
+    P = as_float_array("estimate(inputs).P", result.P, ndim=(3, 4))
+    if x.ndim == 2:
+        x, P = x[None], P[None]
+    if x.shape[0] != n:
+        raise ValueError(f"estimate(inputs) must return the {n} runs that draw(rng, {n}) made (x of shape "
+                         f"({n}, K, n_state)); got x of shape {x.shape}")
+    n_state = x.shape[-1]
+    if P.shape != x.shape + (n_state,):
+        raise ValueError(f"estimate(inputs).P must have shape {x.shape + (n_state,)} to match its x; got {P.shape}")
+    comps = tuple(range(n_state)) if components is None else components
+    if max(comps) >= n_state:
+        raise ValueError(f"components {list(comps)} name state indices beyond the {n_state} of the filter's state")
+    sel = list(comps)
+    t = as_finite("truth (from draw)", truth, ndim=(2, 3))
+    if t.shape[-1] == n_state:
+        t = t[..., sel]
+    elif t.shape[-1] != len(sel):
+        raise ValueError(f"truth (from draw) must hold the {n_state} state components or the {len(sel)} scored "
+                         f"ones on its last axis; got shape {t.shape}")
+    try:
+        t = np.broadcast_to(t, x.shape[:-1] + (len(sel),))
+    except ValueError:
+        raise ValueError(f"truth (from draw) must have shape (K, d) or ({n}, K, d) with K = {x.shape[1]}; got "
+                         f"{np.shape(truth)}") from None
+    xs = x[..., sel]
+    Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
+    errors = metrics.estimation_errors(xs, t)
+    nees = metrics.nees(xs, Ps, t)
+    nis_sum = nis_counts = None
+    nis_dof = 0
+    y = getattr(result, "innovations", None)
+    S = getattr(result, "innovation_cov", None)
+    if y is not None and S is not None:
+        y = as_float_array("estimate(inputs).innovations", y)
+        S = as_float_array("estimate(inputs).innovation_cov", S)
+        if y.ndim == 2:
+            y, S = y[None], S[None]
+        nis = metrics.nis(y, S)
+        used = ~np.isnan(nis)
+        nis_sum = np.where(used, nis, 0.0).sum(axis=0)
+        nis_counts = used.sum(axis=0)
+        nis_dof = int(y.shape[-1])
+    times = np.asarray(getattr(result, "times", np.arange(x.shape[1], dtype=float)), dtype=float)
+    return _ChunkSums(times=times, sq_errors=(errors**2).sum(axis=0), nees=nees.sum(axis=0), nees_dof=len(sel),
+                      nis=nis_sum,
+                      nis_counts=nis_counts, nis_dof=nis_dof, final_errors=errors[:, -1].copy())
+
+
+def _versions() -> dict[str, str]:
+    import platform
+    from importlib import metadata
+
+    import scipy
+
+    try:
+        uw = metadata.version("uwtutor")
+    except metadata.PackageNotFoundError:                       # pragma: no cover - run from a source tree
+        uw = "unknown"
+    return {"uwtutor": uw, "numpy": np.__version__, "scipy": scipy.__version__,
+            "python": platform.python_version()}
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    r"""The scores of a chunked Monte Carlo study (see :func:`run_study`): sums reduced over the runs.
+
+    Unlike :class:`MonteCarloResult` it keeps no trajectory: only what the chunks were reduced to, so its size
+    is :math:`O(K + M)` whatever the number of runs :math:`M`.
+
+    Attributes
+    ----------
+    final_errors : ndarray, shape (M,)
+        Error norm of every one of the M = ``n_runs`` runs at the last step, in run order (chunk by chunk).
+    rmse : ndarray, shape (K,)
+        :math:`\mathrm{RMSE}_k = \sqrt{\frac1M \sum_j \lVert \hat x_{j,k} - x_{j,k} \rVert^2}`.
+    mean_nees : ndarray, shape (K,)
+        NEES averaged over the runs, :math:`\bar\epsilon_k`.
+    nees_bounds : tuple of float
+        Chi-square interval ``(lower, upper)`` of ``mean_nees`` at probability ``confidence``.
+    mean_nis : ndarray, shape (K,), or None
+        NIS averaged over the runs that had a measurement at each step; ``None`` if the filter reports no
+        innovations.
+    nis_bounds : tuple of ndarray, or None
+        Interval of ``mean_nis`` at each step (each step's own number of runs).
+    times : ndarray, shape (K,)
+        Time of each step, from the filter's result.
+    components : tuple of int
+        The scored state components.
+    confidence : float
+        Probability of the intervals.
+    n_runs : int
+        Number of Monte Carlo runs.
+    chunk_size : int
+        Runs per chunk.
+    n_chunks : int
+        Number of chunks.
+    seed : int
+        The root of the random streams: chunk ``i`` drew from ``SeedSequence(seed).spawn(n_chunks)[i]``.
+    versions : dict of str
+        Versions of uwtutor, NumPy, SciPy and Python that computed it.
+    """
+
+    final_errors: np.ndarray
+    rmse: np.ndarray
+    mean_nees: np.ndarray
+    nees_bounds: tuple[float, float]
+    mean_nis: np.ndarray | None
+    nis_bounds: tuple[np.ndarray, np.ndarray] | None
+    times: np.ndarray
+    components: tuple[int, ...]
+    confidence: float
+    n_runs: int
+    chunk_size: int
+    n_chunks: int
+    seed: int
+    versions: dict[str, str]
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps ``K``."""
+        return len(self.rmse)
+
+    def final_error_percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0-100) of the final error over the runs, e.g. ``q=95``."""
+        q = float(as_finite("q", q))
+        if not 0.0 <= q <= 100.0:
+            raise ValueError(f"q must be a percentage between 0 and 100; got {q}")
+        return float(np.nanpercentile(self.final_errors, q))
+
+    def nees_fraction_within(self) -> float:
+        """Fraction of the steps whose mean NEES lies inside ``nees_bounds`` (about ``confidence`` if consistent)."""
+        return metrics.fraction_within(self.mean_nees, *self.nees_bounds)
+
+    def nis_fraction_within(self) -> float:
+        """Fraction of the steps (with a measurement) whose mean NIS lies inside ``nis_bounds``."""
+        if self.mean_nis is None or self.nis_bounds is None:
+            raise ValueError("this study has no NIS: the filter reported no innovations")
+        return metrics.fraction_within(self.mean_nis, *self.nis_bounds)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The numbers and the metadata by name (e.g. for :func:`numpy.savez` or a results file)."""
+        return {f: getattr(self, f) for f in self.__dataclass_fields__}
+
+
+def _as_executor(executor: Any) -> Any:
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise TypeError("executor must have a submit(fn, *args) method returning a future (a concurrent.futures "
+                        "executor, or distributed.Client(...).get_executor()); got "
+                        f"{type(executor).__name__}")
+    return executor
+
+
+def _check_picklable(executor: Any, **functions: Any) -> None:
+    """A process pool pickles the functions it runs: say which one cannot be, and what to use instead."""
+    from concurrent.futures import ProcessPoolExecutor
+    import pickle
+
+    if not isinstance(executor, ProcessPoolExecutor):
+        return
+    for name, fn in functions.items():
+        try:
+            pickle.dumps(fn)
+        except Exception as exc:  # noqa: BLE001 - pickling raises several types
+            raise TypeError(f"{name} must be picklable to run on a process pool (a module-level function, or "
+                            f"functools.partial of one; not a lambda or a local function); pickling {fn!r} "
+                            f"failed: {exc}") from None
+
+
+def _chunk_sizes(n_runs: int, chunk_size: int) -> list[int]:
+    full, rest = divmod(n_runs, chunk_size)
+    return [chunk_size] * full + ([rest] if rest else [])
+
+
+def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estimate: Callable[[Any], FilterResult],
+              n_runs: int, *, seed: int, chunk_size: int = 1000, executor: Any = None, components: Any = None,
+              confidence: float = 0.95) -> StudyResult:
+    r"""A Monte Carlo study of any size, chunk by chunk from one seed, serially or on any executor.
+
+    The ``n_runs`` runs are cut into chunks of ``chunk_size`` (the last may be shorter). Chunk :math:`i` gets
+    its own generator, ``numpy.random.default_rng(SeedSequence(seed).spawn(n_chunks)[i])``, draws its runs
+    with ``draw(rng, n)``, filters them with ``estimate(inputs)`` and is reduced at once to sums over its runs:
+    for each step :math:`k`
+
+    .. math::
+
+        \sum_j \lVert \hat x_{j,k} - x_{j,k} \rVert^2, \qquad \sum_j \epsilon_{j,k}, \qquad
+        \sum_{j \in \mathcal M_k} \nu_{j,k}, \; |\mathcal M_k|,
+
+    (squared errors, NEES, NIS over the runs :math:`\mathcal M_k` with a measurement) plus its final errors.
+    The study adds the chunks' sums **in chunk order**, whatever order the chunks finished in, and returns
+    :math:`\mathrm{RMSE}_k = \sqrt{\frac1M\sum}`, the mean NEES and NIS and their chi-square intervals (see
+    :func:`run_monte_carlo` and :mod:`uwtutor.metrics`). Hence:
+
+    * **the same numbers on any executor**, bit for bit, for the same ``seed`` and ``chunk_size``: in this
+      process (``executor=None``), on a ``concurrent.futures.ProcessPoolExecutor`` or on a Dask cluster
+      (``distributed.Client(...).get_executor()``, the optional ``uwtutor[scale]``). Another ``chunk_size``
+      draws other runs (other streams): equally valid, not the same numbers;
+    * **memory bounded by one chunk** (times the number of chunks in flight on an executor), not by ``n_runs``:
+      no array of ``n_runs`` trajectories is ever built; the result holds :math:`O(K)` numbers and the
+      ``n_runs`` final errors.
+
+    A run whose estimate is NaN makes the RMSE and the mean NEES NaN: divergence is not hidden.
+
+    Parameters
+    ----------
+    draw : callable
+        ``draw(rng, n) -> (inputs, truth)``: ``n`` independent runs drawn with the generator ``rng`` only.
+        ``truth`` has shape ``(n, K, d)`` or ``(K, d)`` (shared), ``d`` the filter's state size or the number
+        of scored ``components``.
+    estimate : callable
+        ``estimate(inputs) -> FilterResult``: the batched filter, ``x`` of shape ``(n, K, n_state)``.
+    n_runs : int
+        Number of Monte Carlo runs, >= 1.
+    seed : int
+        Root seed (>= 0) of every random number of the study.
+    chunk_size : int, default 1000
+        Runs per chunk: the unit of work sent to a worker and the bound on memory.
+    executor : concurrent.futures.Executor-like, optional
+        Anything with ``submit(fn, *args)`` returning a future; ``None`` runs the chunks here, one by one. On a
+        process pool ``draw`` and ``estimate`` must be picklable: module-level functions or
+        ``functools.partial`` of them (a Dask cluster also takes lambdas, through cloudpickle).
+    components : sequence of int, optional
+        State components scored, e.g. ``(0, 1)`` for the position of a state that also carries a bias. All of
+        them by default.
+    confidence : float, default 0.95
+        Probability of the NEES and NIS intervals.
+
+    Returns
+    -------
+    StudyResult
+
+    See Also
+    --------
+    run_monte_carlo : one batch, keeping every trajectory (for plots of single runs).
+
+    Examples
+    --------
+    The circling vehicle of :func:`run_monte_carlo`, 3000 runs in chunks of 1000. ``draw`` and ``estimate``
+    are module-level functions in real code (so that a process pool can pickle them):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.montecarlo import run_study
+    >>> K, q, r = 200, 0.3, 2.0
+    >>> theta = np.linspace(0.0, np.pi, K + 1)
+    >>> track = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> def draw(rng, n):
+    ...     truth = track[1:] + np.cumsum(rng.normal(0.0, q, (n, K, 2)), axis=1)
+    ...     z = np.linalg.norm(truth, axis=-1) + rng.normal(0.0, r, (n, K))
+    ...     x0 = track[0] + rng.normal(0.0, 5.0, (n, 2))
+    ...     return dict(x0=x0, z=z), truth
+    >>> def estimate(inputs):
+    ...     return range_only_ekf(inputs["x0"], 25.0 * np.eye(2), np.diff(track, axis=0), inputs["z"],
+    ...                           q**2 * np.eye(2), r**2)
+    >>> study = run_study(draw, estimate, 3000, seed=2026, chunk_size=1000)
+    >>> study.final_errors.shape, study.rmse.shape, study.n_chunks
+    ((3000,), (200,), 3)
+    >>> lo, hi = study.nees_bounds
+    >>> bool(lo < study.mean_nees[-50:].mean() < hi)
+    True
+
+    The same seed and chunk size give the same numbers, bit for bit, on a process pool or a Dask cluster
+    (``run_study(..., executor=pool)``).
+    """
+    if not callable(draw):
+        raise TypeError(f"draw must be a function draw(rng, n) -> (inputs, truth); got {draw!r}")
+    if not callable(estimate):
+        raise TypeError(f"estimate must be a function estimate(inputs) -> FilterResult; got {estimate!r}")
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    chunk_size = as_int("chunk_size", chunk_size, minimum=1)
+    seed = as_int("seed", seed, minimum=0)
+    conf = float(as_finite("confidence", confidence))
+    if not 0.0 < conf < 1.0:
+        raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
+    comps = None
+    if components is not None:
+        idx = np.atleast_1d(np.asarray(components))
+        if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or idx.min() < 0 \
+                or len(set(idx.tolist())) != idx.size:
+            raise ValueError(f"components must be a non-empty list of distinct state indices >= 0; got "
+                             f"{components!r}")
+        comps = tuple(int(i) for i in idx)
+    executor = _as_executor(executor)
+    _check_picklable(executor, draw=draw, estimate=estimate)
+
+    sizes = _chunk_sizes(n_runs, chunk_size)
+    streams = np.random.SeedSequence(seed).spawn(len(sizes))
+    if executor is None:
+        partials = (_study_chunk(draw, estimate, s, n, comps) for s, n in zip(streams, sizes))
+    else:
+        futures = [executor.submit(_study_chunk, draw, estimate, s, n, comps) for s, n in zip(streams, sizes)]
+        partials = (f.result() for f in futures)          # in chunk order, whatever order they finish in
+
+    final_errors = np.empty(n_runs)
+    total: dict[str, Any] = {}
+    start = 0
+    for i, part in enumerate(partials):
+        if i == 0:
+            total = dict(times=part.times, sq=part.sq_errors.copy(), nees=part.nees.copy(),
+                         nis=None if part.nis is None else part.nis.copy(),
+                         nis_n=None if part.nis_counts is None else part.nis_counts.copy(), nis_dof=part.nis_dof,
+                         dof=part.nees_dof)
+        else:
+            if part.sq_errors.shape != total["sq"].shape:
+                raise ValueError(f"every chunk must have the same number of steps K; chunk 0 has "
+                                 f"{len(total['sq'])}, chunk {i} has {len(part.sq_errors)}")
+            total["sq"] += part.sq_errors
+            total["nees"] += part.nees
+            if (part.nis is None) != (total["nis"] is None):
+                raise ValueError(f"chunk {i} disagrees with chunk 0 on whether the filter reports innovations")
+            if part.nis is not None:
+                total["nis"] += part.nis
+                total["nis_n"] += part.nis_counts
+        final_errors[start:start + sizes[i]] = part.final_errors
+        start += sizes[i]
+        if executor is not None:
+            futures[i] = None                               # let the finished chunk go
+
+    d = total["dof"]
+    mean_nis = nis_bounds = None
+    if total["nis"] is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_nis = np.where(total["nis_n"] > 0, total["nis"] / np.maximum(total["nis_n"], 1), np.nan)
+        nis_bounds = metrics.chi2_mean_bounds(total["nis_dof"], total["nis_n"], conf)
+    return StudyResult(
+        final_errors=final_errors, rmse=np.sqrt(total["sq"] / n_runs), mean_nees=total["nees"] / n_runs,
+        nees_bounds=metrics.chi2_mean_bounds(d, n_runs, conf), mean_nis=mean_nis, nis_bounds=nis_bounds,
+        times=total["times"], components=comps if comps is not None else tuple(range(d)), confidence=conf,
+        n_runs=n_runs, chunk_size=chunk_size, n_chunks=len(sizes), seed=seed, versions=_versions(),
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# comparing methods on common scenarios and error conditions
+# ---------------------------------------------------------------------------------------------------------------------
+#: Final position error [m] above which :func:`compare` counts a run as diverged (see its docstring).
+DEFAULT_DIVERGENCE_THRESHOLD = 50.0
+
+
+def _scenario_condition_draw(scenario: Callable[..., Any], condition: Callable[..., Any],
+                             rng: np.random.Generator, n: int) -> tuple[Any, Any]:
+    """The draw of a (scenario, condition) pair: the scenario's runs, corrupted by the condition."""
+    return condition(rng, scenario(rng, n))
+
+
+def scenario_draw(scenario: Callable[[np.random.Generator, int], Any],
+                  condition: Callable[[np.random.Generator, Any], tuple[Any, Any]]) -> Callable[..., tuple[Any, Any]]:
+    """The ``draw(rng, n)`` of :func:`run_study` for a scenario under an error condition (see :func:`compare`).
+
+    ``scenario(rng, n)`` makes ``n`` runs of a geometry (true tracks, beacon, DR); ``condition(rng, runs)``
+    measures them under an error model and returns ``(inputs, truth)``. The result is a ``functools.partial``
+    of a module-level function, so it can be sent to a process pool when ``scenario`` and ``condition`` can.
+    """
+    import functools
+
+    for name, fn in (("scenario", scenario), ("condition", condition)):
+        if not callable(fn):
+            raise TypeError(f"{name} must be a function; got {fn!r}")
+    return functools.partial(_scenario_condition_draw, scenario, condition)
+
+
+_TEXT_COLUMNS = ("method", "scenario", "condition")
+_NUMBER_COLUMNS = ("n_runs", "n_steps", "final_rmse", "mean_rmse", "final_bound", "mean_bound", "efficiency",
+                   "final_efficiency", "mean_nees", "nees_fraction", "divergence_threshold", "divergence_fraction")
+_TIMING_COLUMNS = ("cost_per_step",)
+
+
+@dataclass(frozen=True)
+class ComparisonTable:
+    r"""The tidy table of :func:`compare`: one row per (method, scenario, condition), one array per column.
+
+    Every column except ``cost_per_step`` is reproducible: the same seed and chunk size give the same numbers
+    on any executor. ``cost_per_step`` is a wall-clock measurement (it changes from run to run and machine to
+    machine), kept apart in ``timing_columns``.
+
+    Attributes
+    ----------
+    method : ndarray of str
+        The name of the row's method.
+    scenario : ndarray of str
+        The name of the row's scenario.
+    condition : ndarray of str
+        The name of the row's error condition.
+    n_runs : ndarray of int
+        Monte Carlo runs of the row's study.
+    n_steps : ndarray of int
+        Steps ``K`` of the row's study.
+    final_rmse : ndarray
+        :math:`\mathrm{RMSE}_K` [m].
+    mean_rmse : ndarray
+        :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
+    final_bound : ndarray
+        The supplied RMSE bound :math:`B_K` at the last step (e.g. :math:`\sqrt{\operatorname{tr}}` of the
+        posterior CRLB) [m]; NaN without a bound.
+    mean_bound : ndarray
+        :math:`\frac1K\sum_k B_k` [m]; NaN without a bound.
+    efficiency : ndarray
+        ``mean_rmse / mean_bound``: 1 for an efficient estimator, larger for a worse one; NaN without a bound.
+    final_efficiency : ndarray
+        ``final_rmse / final_bound``.
+    mean_nees : ndarray
+        The mean NEES averaged over the steps (the scored components' count for a consistent filter).
+    nees_fraction : ndarray
+        Fraction of the steps whose mean NEES lies inside its chi-square interval (about the confidence if the
+        filter is consistent).
+    divergence_threshold : ndarray
+        The final-error threshold of the row [m].
+    divergence_fraction : ndarray
+        The fraction of the row's runs whose final error is above it (or NaN).
+    cost_per_step : ndarray
+        Wall-clock seconds per run and step of the method on one batch (not reproducible).
+    seed : int
+        Root seed of every study of the table.
+    chunk_size : int
+        Runs per chunk of every study.
+    confidence : float
+        Probability of the NEES intervals.
+    versions : dict of str
+        Versions that computed the table.
+    """
+
+    method: np.ndarray
+    scenario: np.ndarray
+    condition: np.ndarray
+    n_runs: np.ndarray
+    n_steps: np.ndarray
+    final_rmse: np.ndarray
+    mean_rmse: np.ndarray
+    final_bound: np.ndarray
+    mean_bound: np.ndarray
+    efficiency: np.ndarray
+    final_efficiency: np.ndarray
+    mean_nees: np.ndarray
+    nees_fraction: np.ndarray
+    divergence_threshold: np.ndarray
+    divergence_fraction: np.ndarray
+    cost_per_step: np.ndarray
+    seed: int
+    chunk_size: int
+    confidence: float
+    versions: dict[str, str]
+
+    #: The columns, in order.
+    columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS
+    #: The columns that are the same on every machine and executor for the same seed and chunk size.
+    reproducible_columns = _TEXT_COLUMNS + _NUMBER_COLUMNS
+    #: The wall-clock columns (not reproducible).
+    timing_columns = _TIMING_COLUMNS
+
+    def __len__(self) -> int:
+        return len(self.method)
+
+    def rows(self) -> list[dict[str, Any]]:
+        """The table as a list of rows, each a dict column -> value (plain Python str, int and float)."""
+        out = []
+        for i in range(len(self)):
+            row: dict[str, Any] = {}
+            for c in self.columns:
+                v = getattr(self, c)[i]
+                row[c] = str(v) if c in _TEXT_COLUMNS else (int(v) if c in ("n_runs", "n_steps") else float(v))
+            out.append(row)
+        return out
+
+    def row(self, method: str, scenario: str, condition: str) -> dict[str, Any]:
+        """The row of one (method, scenario, condition)."""
+        hit = np.flatnonzero((self.method == method) & (self.scenario == scenario) & (self.condition == condition))
+        if hit.size == 0:
+            raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
+        return self.rows()[int(hit[0])]
+
+    def to_markdown(self, columns: Any = None, digits: int = 3) -> str:
+        """The table as a Markdown pipe table (for a notebook's ``IPython.display.Markdown``).
+
+        ``columns`` chooses and orders the columns (all the reproducible ones by default: a timing printed in a
+        notebook would change its output on every run); floats get ``digits`` significant digits.
+        """
+        cols = tuple(self.reproducible_columns if columns is None else columns)
+        unknown = [c for c in cols if c not in self.columns]
+        if unknown:
+            raise ValueError(f"unknown column(s) {unknown}; the columns are {list(self.columns)}")
+        digits = as_int("digits", digits, minimum=1)
+        lines = ["| " + " | ".join(cols) + " |",
+                 "|" + "|".join(":---" if c in _TEXT_COLUMNS else "---:" for c in cols) + "|"]
+        for r in self.rows():
+            cells = [f"{r[c]:.{digits}g}" if isinstance(r[c], float) else str(r[c]) for c in cols]
+            lines.append("| " + " | ".join(cells) + " |")
+        return "\n".join(lines) + "\n"
+
+    def to_csv(self, path: Any, *, overwrite: bool = False) -> None:
+        """Write the table as CSV, its seed, chunk size, confidence and versions in ``#`` comment lines first.
+
+        Floats are written with ``repr`` (they read back exactly). An existing file is not replaced unless
+        ``overwrite=True``.
+        """
+        import csv
+        import json
+        from pathlib import Path
+
+        p = Path(path)
+        if p.exists() and not overwrite:
+            raise FileExistsError(f"{p} exists; pass overwrite=True to replace it")
+        meta = {"seed": self.seed, "chunk_size": self.chunk_size, "confidence": self.confidence,
+                "versions": self.versions}
+        with p.open("w", newline="", encoding="utf-8") as fh:
+            fh.write("# uwtutor.montecarlo.compare table\n")
+            fh.write(f"# {json.dumps(meta, sort_keys=True)}\n")
+            writer = csv.writer(fh, lineterminator="\n")
+            writer.writerow(self.columns)
+            for r in self.rows():
+                writer.writerow([repr(v) if isinstance(v, float) else v for v in r.values()])
+
+    @classmethod
+    def from_csv(cls, path: Any) -> "ComparisonTable":
+        """Read a table written by :meth:`to_csv`."""
+        import csv
+        import json
+        from pathlib import Path
+
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+        comments = [ln[1:].strip() for ln in lines if ln.startswith("#")]
+        meta = next((json.loads(c) for c in comments if c.startswith("{")), None)
+        if meta is None:
+            raise ValueError(f"{path} is not a table written by ComparisonTable.to_csv (no metadata line)")
+        records = list(csv.reader(ln for ln in lines if not ln.startswith("#")))
+        header, body = records[0], records[1:]
+        if tuple(header) != cls.columns:
+            raise ValueError(f"{path} has columns {header}; expected {list(cls.columns)}")
+        cols: dict[str, Any] = {}
+        for j, c in enumerate(header):
+            values = [r[j] for r in body]
+            if c in _TEXT_COLUMNS:
+                cols[c] = np.array(values, dtype=str)
+            elif c in ("n_runs", "n_steps"):
+                cols[c] = np.array([int(v) for v in values], dtype=int)
+            else:
+                cols[c] = np.array([float(v) for v in values])
+        return cls(**cols, seed=int(meta["seed"]), chunk_size=int(meta["chunk_size"]),
+                   confidence=float(meta["confidence"]), versions=dict(meta["versions"]))
+
+
+def _named_callables(name: str, value: Any) -> dict[str, Callable[..., Any]]:
+    if not isinstance(value, dict) or not value:
+        raise TypeError(f"{name} must be a non-empty dict name -> function; got {type(value).__name__}")
+    for key, fn in value.items():
+        if not isinstance(key, str):
+            raise TypeError(f"{name} must be keyed by names (str); got the key {key!r}")
+        if not callable(fn):
+            raise TypeError(f"{name}[{key!r}] must be a function; got {fn!r}")
+    return value
+
+
+def _lookup(mapping: Any, scenario: str, condition: str) -> Any:
+    """A per-row setting: keyed by (scenario, condition), else by scenario, else None."""
+    if mapping is None:
+        return None
+    if (scenario, condition) in mapping:
+        return mapping[(scenario, condition)]
+    return mapping.get(scenario)
+
+
+def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[str, Callable[..., Any]],
+            conditions: dict[str, Callable[..., Any]], n_runs: int, seed: int, executor: Any = None, *,
+            chunk_size: int = 1000, bounds: Any = None, divergence_threshold: Any = DEFAULT_DIVERGENCE_THRESHOLD,
+            components: Any = (0, 1), confidence: float = 0.95, only: Any = None,
+            measure_cost: bool = True, timing_runs: int | None = None) -> ComparisonTable:
+    r"""Every method on every scenario under every error condition: one :func:`run_study` per row of a table.
+
+    For each scenario, each condition and each method (in the dicts' order) the study draws ``n_runs`` runs
+    with ``draw = scenario_draw(scenario, condition)`` and filters them with the method, from the same
+    ``seed``: all the methods of a (scenario, condition) see **the same runs** (common random numbers), so
+    their differences are the methods', not the draws'. Each row reports
+
+    * accuracy: :math:`\mathrm{RMSE}_K` and the time average :math:`\frac1K \sum_k \mathrm{RMSE}_k` of the
+      position (the scored ``components``);
+    * efficiency against a supplied bound :math:`B_k` (e.g. ``rmse_bound(posterior_crlb(...))``, the
+      square root of the trace of the posterior CRLB): :math:`\bar{\mathrm{RMSE}} / \bar B` and
+      :math:`\mathrm{RMSE}_K / B_K`, 1 for an efficient estimator;
+    * consistency: the fraction of the steps whose mean NEES lies inside its chi-square interval;
+    * divergence: the fraction of runs whose final position error exceeds ``divergence_threshold``
+      (NaN estimates count as diverged). The default, 50 m, is an order of magnitude above what a filter
+      that has converged reaches with metre-level ranges and decimetre-level dead reckoning, and well below the
+      hundreds of metres of a mirror solution or a lost track at the book's ranges to the beacon: a run
+      above it has not merely been unlucky. Set it per scenario when the geometry calls for another scale.
+    * cost: wall-clock seconds per run and step of ``method(inputs)`` on one batch of ``timing_runs`` runs
+      drawn and filtered in this process after the study; not reproducible, and kept out of the other
+      columns (``ComparisonTable.timing_columns``).
+
+    Parameters
+    ----------
+    methods : dict of str to callable
+        ``name -> method``; a method is ``method(inputs) -> FilterResult``, batched over the runs.
+    scenarios : dict of str to callable
+        ``name -> scenario``; ``scenario(rng, n)`` makes ``n`` runs of a geometry (any object: tracks, beacon,
+        DR displacements...).
+    conditions : dict of str to callable
+        ``name -> condition``; ``condition(rng, runs)`` measures a scenario's runs under an error model and
+        returns ``(inputs, truth)``, as a ``draw`` of :func:`run_study` does.
+    n_runs : int
+        Monte Carlo runs per row.
+    seed : int
+        Root seed of every study.
+    executor : concurrent.futures.Executor-like, optional
+        Passed to :func:`run_study` (a process pool, a Dask cluster); ``None`` runs here.
+    chunk_size : int, default 1000
+        Runs per chunk.
+    bounds : dict, optional
+        RMSE bounds :math:`B_k`, shape ``(K,)`` [m], keyed by ``(scenario, condition)`` or by scenario.
+    divergence_threshold : float or dict, default ``DEFAULT_DIVERGENCE_THRESHOLD`` (50 m)
+        Final error [m] above which a run has diverged; or a dict keyed like ``bounds``.
+    components : sequence of int, default (0, 1)
+        The scored state components (the position comes first in every state of the library).
+    confidence : float, default 0.95
+        Probability of the NEES intervals.
+    only : dict of str to collection of str, optional
+        ``method name -> the scenario names it runs on`` (e.g. a cooperative filter needs a leader); the
+        other methods run on every scenario.
+    measure_cost : bool, default True
+        Measure ``cost_per_step`` (NaN otherwise).
+    timing_runs : int, optional
+        Runs in the timing batch; ``min(n_runs, chunk_size)`` by default.
+
+    Returns
+    -------
+    ComparisonTable
+
+    Examples
+    --------
+    The range-only EKF on a circle and on a straight line, with white range noise and with a 5 m range bias
+    (the functions are module-level in real code, so that a process pool can pickle them):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.montecarlo import compare
+    >>> K = 150
+    >>> def circle(rng, n):                       # n runs of a track: (n, K + 1, 2), x0 first
+    ...     t = np.linspace(0.0, np.pi, K + 1)
+    ...     return np.broadcast_to(300.0 * np.column_stack([np.cos(t), np.sin(t)]), (n, K + 1, 2))
+    >>> def line(rng, n):
+    ...     xy = np.column_stack([np.linspace(-300.0, 300.0, K + 1), np.full(K + 1, 150.0)])
+    ...     return np.broadcast_to(xy, (n, K + 1, 2))
+    >>> def measured(bias):
+    ...     def condition(rng, tracks):
+    ...         n, truth = len(tracks), tracks[:, 1:]
+    ...         z = np.linalg.norm(truth, axis=-1) + bias + rng.normal(0.0, 2.0, (n, K))
+    ...         x0 = tracks[:, 0] + rng.normal(0.0, 5.0, (n, 2))
+    ...         return dict(x0=x0, z=z, u=np.diff(tracks, axis=1)), truth
+    ...     return condition
+    >>> def ekf(inputs):
+    ...     return range_only_ekf(inputs["x0"], 25.0 * np.eye(2), inputs["u"], inputs["z"], 0.01 * np.eye(2), 4.0)
+    >>> table = compare({"EKF": ekf}, {"circle": circle, "line": line},
+    ...                 {"white": measured(0.0), "bias 5 m": measured(5.0)}, n_runs=400, seed=1, chunk_size=400,
+    ...                 measure_cost=False)
+    >>> len(table), table.columns[:4]
+    (4, ('method', 'scenario', 'condition', 'n_runs'))
+    >>> for r in table.rows():
+    ...     print(f"{r['scenario']:6s} {r['condition']:8s} final RMSE {r['final_rmse']:5.1f} m")
+    circle white    final RMSE   0.5 m
+    circle bias 5 m final RMSE   6.5 m
+    line   white    final RMSE   0.4 m
+    line   bias 5 m final RMSE   6.6 m
+    """
+    methods = _named_callables("methods", methods)
+    scenarios = _named_callables("scenarios", scenarios)
+    conditions = _named_callables("conditions", conditions)
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    chunk_size = as_int("chunk_size", chunk_size, minimum=1)
+    seed = as_int("seed", seed, minimum=0)
+    if timing_runs is not None:
+        timing_runs = as_int("timing_runs", timing_runs, minimum=1)
+    if only is not None:
+        if not isinstance(only, dict):
+            raise TypeError(f"only must be a dict method name -> scenario names; got {type(only).__name__}")
+        for m, names in only.items():
+            if m not in methods:
+                raise ValueError(f"only names the method {m!r}, which is not in methods ({list(methods)})")
+            unknown = set(names) - set(scenarios)
+            if unknown:
+                raise ValueError(f"only[{m!r}] names scenarios that are not in scenarios: {sorted(unknown)}")
+    for name, mapping in (("bounds", bounds), ("divergence_threshold", divergence_threshold)):
+        if isinstance(mapping, dict):
+            for key in mapping:
+                s = key[0] if isinstance(key, tuple) else key
+                c = key[1] if isinstance(key, tuple) and len(key) == 2 else None
+                if s not in scenarios or (isinstance(key, tuple) and (len(key) != 2 or c not in conditions)):
+                    raise ValueError(f"{name} has the key {key!r}; keys must be scenario names or (scenario, "
+                                     "condition) pairs of the given scenarios and conditions")
+        elif name == "bounds" and mapping is not None:
+            raise TypeError(f"bounds must be a dict keyed by scenario or (scenario, condition); got "
+                            f"{type(mapping).__name__}")
+
+    cols: dict[str, list[Any]] = {c: [] for c in ComparisonTable.columns}
+    versions: dict[str, str] = {}
+    for s_name, scenario in scenarios.items():
+        for c_name, condition in conditions.items():
+            draw = scenario_draw(scenario, condition)
+            bound = _lookup(bounds, s_name, c_name)
+            thr = divergence_threshold if not isinstance(divergence_threshold, dict) else \
+                _lookup(divergence_threshold, s_name, c_name)
+            thr = DEFAULT_DIVERGENCE_THRESHOLD if thr is None else float(as_positive("divergence_threshold", thr))
+            for m_name, method in methods.items():
+                if only is not None and m_name in only and s_name not in only[m_name]:
+                    continue
+                study = run_study(draw, method, n_runs, seed=seed, chunk_size=chunk_size, executor=executor,
+                                  components=components, confidence=confidence)
+                versions = study.versions
+                K = study.n_steps
+                if bound is not None:
+                    b = as_positive(f"bounds[{s_name!r}]", bound, ndim=1)
+                    if len(b) != K:
+                        raise ValueError(f"the bound of scenario {s_name!r}, condition {c_name!r} has {len(b)} "
+                                         f"steps; the studies have {K}")
+                    final_b, mean_b = float(b[-1]), float(b.mean())
+                else:
+                    final_b = mean_b = np.nan
+                final_rmse, mean_rmse = float(study.rmse[-1]), float(study.rmse.mean())
+                with np.errstate(invalid="ignore"):
+                    diverged = ~(study.final_errors <= thr)
+                cost = np.nan
+                if measure_cost:
+                    cost = _cost_per_step(draw, method, timing_runs or min(n_runs, chunk_size), seed, K)
+                for key, value in (("method", m_name), ("scenario", s_name), ("condition", c_name),
+                                   ("n_runs", n_runs), ("n_steps", K), ("final_rmse", final_rmse),
+                                   ("mean_rmse", mean_rmse), ("final_bound", final_b), ("mean_bound", mean_b),
+                                   ("efficiency", mean_rmse / mean_b), ("final_efficiency", final_rmse / final_b),
+                                   ("mean_nees", float(np.mean(study.mean_nees))),
+                                   ("nees_fraction", study.nees_fraction_within()),
+                                   ("divergence_threshold", thr), ("divergence_fraction", float(diverged.mean())),
+                                   ("cost_per_step", cost)):
+                    cols[key].append(value)
+    if not cols["method"]:
+        raise ValueError("no (method, scenario) pair to run: check only")
+    arrays: dict[str, Any] = {}
+    for c, values in cols.items():
+        if c in _TEXT_COLUMNS:
+            arrays[c] = np.array(values, dtype=str)
+        elif c in ("n_runs", "n_steps"):
+            arrays[c] = np.array(values, dtype=int)
+        else:
+            arrays[c] = np.array(values, dtype=float)
+    return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
+                           versions=versions)
+
+
+def _cost_per_step(draw: Callable[..., Any], method: Callable[..., Any], n: int, seed: int, K: int) -> float:
+    """Wall-clock seconds per run and step of ``method`` on one batch of ``n`` runs (drawn outside the timing)."""
+    import time
+
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(2**32 - 1,)))   # not a study stream
+    inputs, _ = draw(rng, n)
+    start = time.perf_counter()
+    method(inputs)
+    return (time.perf_counter() - start) / (n * K)

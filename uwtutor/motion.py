@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_int, as_nonnegative, as_positive, as_rng, check_same_length
+from ._validate import as_flag, as_finite, as_int, as_nonnegative, as_positive, as_rng, check_same_length
 
 __all__ = [
     "Track",
@@ -221,6 +221,7 @@ def circle_track(times: Any, radius: Any, speed: Any, center: Any = (0.0, 0.0), 
     -------
     Track
     """
+    clockwise = as_flag("clockwise", clockwise)
     t = _as_times("times", times)
     R = _as_scalar("radius", radius, "positive")
     v = _as_scalar("speed", speed, "nonnegative")

@@ -24,14 +24,14 @@ models without outliers). ``measure_ranges`` adds the errors to true ranges; ``h
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_int, as_positive, as_range_array, as_rng
+from .errors import UwtutorWarning, warn as _warn
+from ._validate import as_finite, as_flag, as_int, as_positive, as_range_array, as_rng
 from .acoustics import range_factor
 from .motion import _as_n_runs, _as_scalar, _as_times, _with_runs
 
@@ -365,7 +365,7 @@ class Outliers(RangeErrorModel):
         object.__setattr__(self, "onset_times", tuple(float(x) for x in onsets))
         object.__setattr__(self, "count", as_int("count", self.count, minimum=1))
         object.__setattr__(self, "amplitude", _as_scalar("amplitude", self.amplitude, "nonnegative"))
-        object.__setattr__(self, "two_sided", bool(self.two_sided))
+        object.__setattr__(self, "two_sided", as_flag("two_sided", self.two_sided))
         if self.probability is not None:
             p = _as_scalar("probability", self.probability)
             if not 0.0 <= p <= 1.0:
@@ -462,9 +462,9 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
 def _warn_negative(measured: np.ndarray) -> None:
     n_neg = int(np.count_nonzero(measured < 0))
     if n_neg:
-        warnings.warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
+        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
                       "unclipped, but filters reject negative ranges: mark them NaN or reduce the errors",
-                      UserWarning, stacklevel=3)
+                      UwtutorWarning)
 
 
 def _as_points(name: str, value: Any) -> np.ndarray:

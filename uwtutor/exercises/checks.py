@@ -31,7 +31,12 @@ import copy
 import inspect
 import math
 import numbers
+import contextlib
 import reprlib
+import signal
+import sys
+import threading
+import time
 import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -48,6 +53,8 @@ __all__ = ["Case", "check_number", "check_array", "check_function", "not_answere
 DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
 
 _NOT_YET = "Not yet: "
+#: Seconds a student's function may run on one test case (the reference takes milliseconds); see ``time_limit``.
+TIME_LIMIT = 5.0
 _PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
 
 
@@ -178,17 +185,25 @@ def _as_scalar(answer: Any, name: str, what: str) -> tuple[float | None, Feedbac
             if answer.imag != 0:
                 return None, Feedback(False, f"Your answer, {answer}, is a complex number; {name} should be real.",
                                       hint="A square root of a negative number? Check the signs under the root.")
-            answer = answer.real
+            return None, _complex_zero_imag(name)
         try:
             return float(answer), None
-        except (TypeError, ValueError, OverflowError):
+        except OverflowError:
+            return None, _too_large(answer, name)
+        except Exception:
             pass
     if isinstance(answer, (list, tuple, np.ndarray)) or hasattr(answer, "__array__"):
         try:
             arr = np.asarray(answer)
-        except (TypeError, ValueError):
+        except Exception:
             arr = np.asarray([None], dtype=object)
         kind = _type_name(answer)
+        if arr.dtype.kind == "c" and arr.size == 1:
+            value = complex(arr.reshape(()))
+            if value.imag != 0:
+                return None, Feedback(False, f"Your answer, {value}, is a complex number; {name} should be real.",
+                                      hint="A square root of a negative number? Check the signs under the root.")
+            return None, _complex_zero_imag(name)
         if arr.dtype.kind not in "iuf" or arr.size == 0:
             if arr.size == 0:
                 return None, Feedback(False, f"Your answer is an empty {kind}; {name} should be a number.",
@@ -206,9 +221,37 @@ def _as_scalar(answer: Any, name: str, what: str) -> tuple[float | None, Feedbac
                                    "(for example the last one, `values[-1]`).")
     try:
         return float(answer), None
-    except (TypeError, ValueError, OverflowError):
-        return None, Feedback(False, f"Your answer is a {type(answer).__name__}; {name} should be a number.",
-                              hint="Assign the number itself.")
+    except OverflowError:
+        return None, _too_large(answer, name)
+    except Exception as exc:        # any object: its __float__ may raise anything, and must not crash the check
+        return None, Feedback(False, f"Your answer is {_a_type(answer)}; {name} should be a number.",
+                              hint="Assign the number itself." + _conversion_failure(exc))
+
+
+def _a_type(value: Any) -> str:
+    kind = _type_name(value)
+    return ("an " if kind[:1].lower() in "aeiou" else "a ") + kind
+
+
+def _conversion_failure(exc: BaseException) -> str:
+    text = str(exc)
+    return f" (Turning it into a number failed with {type(exc).__name__}{': ' + text[:80] if text else ''}.)"
+
+
+def _too_large(answer: Any, name: str) -> Feedback:
+    digits = len(str(abs(int(answer)))) if isinstance(answer, (int, np.integer)) else None
+    size = f" ({digits} digits)" if digits else ""
+    return Feedback(False, f"Not yet: your value for {name} is an integer too large for a floating-point number{size}: "
+                           "the largest is about 1.8e308.",
+                    hint="An exponent gone wrong (`**` instead of `*`?) or an integer computation that grew without "
+                         "bound: print the intermediate results.")
+
+
+def _complex_zero_imag(name: str) -> Feedback:
+    return Feedback(False, f"Not yet: {name} holds complex numbers (their imaginary parts are zero, but the type is "
+                           "complex); it should be real.",
+                    hint="Something made the result complex (`np.sqrt` of a complex input, `np.fft`, `np.roots`...): "
+                         "keep the real part with `np.real(...)` once you are sure the imaginary part is zero.")
 
 
 def _non_finite(value: float, name: str) -> Feedback | None:
@@ -384,6 +427,10 @@ def _as_array(answer: Any, name: str, expected: np.ndarray) -> tuple[np.ndarray 
         return None, Feedback(False, f"{_NOT_YET}{name} cannot be turned into an array of numbers.",
                               hint="Its rows probably have different lengths: every row needs the same number of "
                                    "elements.")
+    except Exception as exc:        # an object whose __array__ / __len__ raises: feedback, never a crash
+        return None, Feedback(False, f"{_NOT_YET}{name} ({_a_type(answer)}) cannot be turned into an array of "
+                                     "numbers.",
+                              hint="Build the array itself, e.g. with `np.array(...)`." + _conversion_failure(exc))
     if arr.dtype.kind == "O" and arr.ndim == 0:
         return None, Feedback(False, f"Your answer is a {_type_name(answer)}; {name} should be an array of shape "
                                      f"{expected.shape}.",
@@ -396,12 +443,19 @@ def _as_array(answer: Any, name: str, expected: np.ndarray) -> tuple[np.ndarray 
                 return None, Feedback(False, f"{_NOT_YET}{name} contains {shown}{where}, "
                                              "which is not a number.",
                                       hint="Every element must be a number (use NaN for a missing value).")
-        arr = arr.astype(complex) if any(isinstance(v, complex) for v in arr.flat) else arr.astype(float)
+        try:
+            arr = arr.astype(complex) if any(isinstance(v, complex) for v in arr.flat) else arr.astype(float)
+        except OverflowError:
+            big = next((v for v in arr.flat if isinstance(v, int) and abs(v) > 1.7e308), None)
+            return None, _too_large(big if big is not None else 0, name)
+        except Exception as exc:
+            return None, Feedback(False, f"{_NOT_YET}{name} holds elements that cannot be turned into numbers.",
+                                  hint="Every element must be a number." + _conversion_failure(exc))
     if arr.dtype.kind == "c":
         if np.any(arr.imag != 0):
             return None, Feedback(False, f"Not yet: {name} contains complex numbers.",
                                   hint="A square root of a negative number? Check the signs under the root.")
-        arr = arr.real
+        return None, _complex_zero_imag(name)
     if arr.ndim == 0 and expected.ndim > 0:
         return None, Feedback(False, f"Not yet: {name} is a single value; expected an array of shape "
                                      f"{expected.shape}.",
@@ -733,10 +787,61 @@ def _default_compare(got: Any, expected: Any, rtol: float, atol: float) -> Feedb
     return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}, expected {_fmt_value(expected)}.")
 
 
+def _judge(got: Any, expected: Any, compare: Callable[[Any, Any], Feedback] | None, rtol: float, atol: float,
+           case: Case, names: list[str], args: tuple, kwargs: dict, allow_mutation: bool) -> Feedback | tuple:
+    """The verdict on one case: ``("mutated", name)``, ``("none",)`` or the comparison's Feedback."""
+    if not allow_mutation:
+        for key, original, passed in [*zip(names, case.args, args),
+                                      *((k, case.kwargs[k], kwargs[k]) for k in case.kwargs)]:
+            if not _same(original, passed):
+                return ("mutated", key)
+    if got is None and expected is not None:
+        return ("none",)
+    return compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol)
+
+
+class StudentTimeout(BaseException):
+    """Raised inside a student's function that ran past the time limit (a BaseException, so that the student's own
+    ``except Exception`` cannot swallow it)."""
+
+
+@contextlib.contextmanager
+def time_limit(seconds: float):
+    """Stop the code run inside this block with :class:`StudentTimeout` once ``seconds`` have passed.
+
+    In the main thread on a POSIX system (a Jupyter kernel) a real-time interval timer interrupts any Python code,
+    even a ``while True: pass``; elsewhere a trace function checks the clock at every line of Python code. Neither can
+    interrupt a single long call into compiled code: it is stopped when it returns.
+    """
+    deadline = time.monotonic() + seconds
+    if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
+        def _alarm(signum, frame):
+            raise StudentTimeout
+        previous = signal.signal(signal.SIGALRM, _alarm)
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+        try:
+            yield
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+        return
+    previous_trace = sys.gettrace()
+
+    def _trace(frame, event, arg):
+        if time.monotonic() > deadline:
+            raise StudentTimeout
+        return _trace
+    sys.settrace(_trace)
+    try:
+        yield
+    finally:
+        sys.settrace(previous_trace)
+
+
 def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
                    compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
                    hint: str | None = None, explanation: str | None = None,
-                   allow_mutation: bool = False) -> Feedback:
+                   allow_mutation: bool = False, time_limit_s: float = TIME_LIMIT) -> Feedback:
     """Run a student's function on test cases and report the first case where it disagrees with a reference.
 
     For each case the reference and the student's function are called on separate deep copies of the arguments.
@@ -766,6 +871,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         A sentence appended to the message when every case passes.
     allow_mutation : bool
         Whether the function may modify its input arrays in place (default: no).
+    time_limit_s : float
+        Seconds the student's function (and the reading of what it returned) may take on one case before it is
+        stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
 
     Returns
     -------
@@ -779,6 +887,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         If there are no cases (a bug in the checker).
     """
     case_list = [_as_case(c) for c in cases]
+    if not (isinstance(time_limit_s, (int, float)) and not isinstance(time_limit_s, bool) and 0 < time_limit_s < 1e6):
+        raise ValueError(f"time_limit_s must be a number of seconds in (0, 1e6); got {time_limit_s!r}")
     if not case_list:
         raise ValueError("check_function needs at least one test case")
     fname = name or getattr(func, "__name__", None) or "your function"
@@ -806,7 +916,21 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         args, kwargs = copy.deepcopy(case.args), copy.deepcopy(case.kwargs)
         base_details = {"case": i, "label": case.label, "inputs": inputs, "expected": expected}
         try:
-            got = func(*args, **kwargs)
+            with time_limit(time_limit_s):
+                got = func(*args, **kwargs)
+        except StudentTimeout:
+            return Feedback(False, f"{_NOT_YET}`{fname}` was still running after {time_limit_s:g} s on {where_case} "
+                                   "and was stopped.\nInputs: " + shown_inputs,
+                            hint="An endless loop? Check that every `while` loop changes what its condition tests, "
+                                 "and that a recursion reaches its base case.",
+                            details={**base_details, "timeout": time_limit_s})
+        except SystemExit as exc:
+            return Feedback(False, f"{_NOT_YET}`{fname}` called `sys.exit()` (or `exit()`/`quit()`) on {where_case}, "
+                                   f"which would stop the whole notebook (exit code {exc.code!r}).\nInputs: "
+                                   + shown_inputs,
+                            hint="Return a value instead of exiting; to signal a bad input, raise an exception "
+                                 "such as `ValueError`.",
+                            details={**base_details, "exception": exc})
         except NotImplementedError:
             return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
                             hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run that "
@@ -825,19 +949,30 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                 exc_hint = _exception_hint(exc)
             return Feedback(False, message, hint=exc_hint,
                             details={**base_details, "exception": exc})
-        if not allow_mutation:
-            for key, original, passed in [*zip(names, case.args, args),
-                                          *((k, case.kwargs[k], kwargs[k]) for k in case.kwargs)]:
-                if not _same(original, passed):
-                    return Feedback(False, f"{_NOT_YET}`{fname}` changed its input `{key}` in place on {where_case}.",
-                                    hint="Work on a copy (for example `x = np.array(x, dtype=float)` makes one), so "
-                                         "that the caller's data stay untouched.",
-                                    details={**base_details, "got": got})
-        if got is None and expected is not None:
+        try:
+            with time_limit(time_limit_s):       # the returned object's own methods (__float__, __eq__...) run here
+                verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation)
+        except StudentTimeout:
+            verdict = ("unreadable", f"reading what `{fname}` returned ({_a_type(got)}) took more than "
+                       f"{time_limit_s:g} s")
+        except Exception as exc:
+            verdict = ("unreadable", f"`{fname}` returned {_a_type(got)} that could not be compared with the "
+                       f"expected value ({type(exc).__name__}: {str(exc)[:80]})")
+        if isinstance(verdict, tuple) and verdict[0] == "unreadable":
+            return Feedback(False, f"{_NOT_YET}{where_case} fails: {verdict[1]}.\nInputs: {shown_inputs}"
+                                   f"\nExpected: {_fmt_value(expected)}",
+                            hint="Return a number or a NumPy array of numbers, as the task asks.",
+                            details={**base_details, "got": got})
+        if isinstance(verdict, tuple) and verdict[0] == "mutated":
+            key = verdict[1]
+            return Feedback(False, f"{_NOT_YET}`{fname}` changed its input `{key}` in place on {where_case}.",
+                            hint="Work on a copy (for example `x = np.array(x, dtype=float)` makes one), so "
+                                 "that the caller's data stay untouched.",
+                            details={**base_details, "got": got})
+        if isinstance(verdict, tuple) and verdict[0] == "none":
             return Feedback(False, f"{_NOT_YET}`{fname}` returned None on {where_case}.",
                             hint="Did you forget the `return` statement at the end of the function?",
                             details={**base_details, "got": got})
-        verdict = compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol)
         if not verdict:
             core = verdict.message.removeprefix(_NOT_YET).removeprefix("No answer yet: ")
             if core.startswith("Your answer is "):

@@ -23,6 +23,7 @@ name and the cells' tags. Since the markers are nbgrader's, an instructor can al
 from __future__ import annotations
 
 import copy
+import json
 import os
 import re
 import tempfile
@@ -105,12 +106,33 @@ def _strip_regions(source: str, *, cell_type: str, where: str) -> tuple[str, boo
 
 
 def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
+    """The notebook and its label; a file that is not a valid notebook is an ``ExerciseSourceError`` naming it."""
     if isinstance(source_nb, (str, os.PathLike)):
         path = Path(source_nb)
-        return nbformat.read(path, as_version=4), path.name
-    if isinstance(source_nb, dict):
-        return nbformat.from_dict(copy.deepcopy(source_nb)), "the notebook"
-    raise TypeError(f"source_nb must be a notebook (nbformat.NotebookNode) or a path; got {type(source_nb).__name__}")
+        label = path.name
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except UnicodeDecodeError:
+            raise ExerciseSourceError(f"{label} is not a notebook: it is not UTF-8 text") from None
+        except json.JSONDecodeError as exc:
+            raise ExerciseSourceError(f"{label} is not a notebook: its JSON is invalid ({exc.msg}, line {exc.lineno})") \
+                from None
+    elif isinstance(source_nb, dict):
+        data, label = copy.deepcopy(source_nb), "the notebook"
+    else:
+        raise TypeError(f"source_nb must be a notebook (nbformat.NotebookNode) or a path; got "
+                        f"{type(source_nb).__name__}")
+    if not isinstance(data, dict) or not isinstance(data.get("cells"), list):
+        kind = type(data).__name__ if not isinstance(data, dict) else "an object without a list of 'cells'"
+        raise ExerciseSourceError(f"{label} is not a notebook: its JSON is {'a ' + kind if not isinstance(data, dict) else kind}"
+                                  "; a notebook is an object with 'cells', 'metadata', 'nbformat'")
+    try:
+        nb = nbformat.reads(json.dumps(data), as_version=4)
+        nbformat.validate(nb)
+    except Exception as exc:      # nbformat's ValidationError, or a KeyError/TypeError on a malformed dict
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ExerciseSourceError(f"{label} is not a valid notebook (nbformat 4 schema): {first[:200]}") from None
+    return nb, label
 
 
 def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
@@ -215,7 +237,8 @@ def list_exercise_sources(source_dir: str | os.PathLike[str] | None = None) -> l
     """
     directory = exercise_source_dir() if source_dir is None else Path(source_dir)
     if not directory.is_dir():
-        raise FileNotFoundError(f"the exercise source directory {directory} does not exist")
+        what = "is a file, not a directory" if directory.is_file() else "does not exist"
+        raise FileNotFoundError(f"the exercise source directory {directory} {what}")
     sources = sorted(p for p in directory.glob("*.ipynb") if not p.name.startswith("."))
     if not sources:
         raise FileNotFoundError(f"no exercise notebooks (*.ipynb) in {directory}")
@@ -305,6 +328,30 @@ def _write_replace(path: Path, text: str) -> None:
         raise
 
 
+def _as_dest(dest_dir: Any) -> Path:
+    """The destination directory, or a one-line error: empty, too long a name, or not a path."""
+    if not isinstance(dest_dir, (str, os.PathLike)):
+        raise TypeError(f"dest_dir must be a directory path; got {type(dest_dir).__name__}")
+    text = os.fspath(dest_dir)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    if not text.strip():
+        raise ValueError("dest_dir is empty: give the folder to write into (e.g. my-work); an empty name would "
+                         "write into the current directory")
+    dest = Path(text)
+    for part in dest.parts:
+        if len(os.fsencode(part)) > 255:
+            raise ValueError(f"dest_dir has a folder name of {len(part)} characters ({part[:20]}...); file systems "
+                             "allow at most 255 bytes per name: choose a shorter one")
+    try:
+        exists, is_dir = dest.exists(), dest.is_dir()
+    except OSError as exc:
+        raise ValueError(f"dest_dir {text[:80]!r} cannot be used: {exc.strerror or exc}") from None
+    if exists and not is_dir:
+        raise NotADirectoryError(f"{dest} exists and is not a directory")
+    return dest
+
+
 def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: str | os.PathLike[str], *,
                            overwrite: bool = False, names: Iterable[str] | None = None) -> WriteReport:
     """Write the student version of every exercise source into ``dest_dir``, never clobbering existing files.
@@ -344,9 +391,7 @@ def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: 
             raise FileNotFoundError(f"no exercise source named {', '.join(sorted(missing))}; "
                                     f"available: {', '.join(p.name for p in sources)}")
         sources = [p for p in sources if p.name in wanted]
-    dest = Path(dest_dir)
-    if dest.exists() and not dest.is_dir():
-        raise NotADirectoryError(f"{dest} exists and is not a directory")
+    dest = _as_dest(dest_dir)
     if dest.exists() and dest.resolve() == sources[0].parent.resolve():
         raise ValueError(f"refusing to write student versions into the source directory {dest}")
     rendered = [(src.name, nbformat.writes(make_student_version(src)) + "\n") for src in sources]
@@ -415,7 +460,8 @@ def list_lab_sources(labs_dir: str | os.PathLike[str] | None = None) -> dict[str
     """
     directory = lab_source_dir() if labs_dir is None else Path(labs_dir)
     if not directory.is_dir():
-        raise FileNotFoundError(f"the lab source directory {directory} does not exist")
+        what = "is a file, not a directory" if directory.is_file() else "does not exist"
+        raise FileNotFoundError(f"the lab source directory {directory} {what}")
     labs = {}
     for folder in sorted(p for p in directory.iterdir() if p.is_dir() and not p.name.startswith((".", "_"))):
         notebooks = sorted(p for p in folder.glob("*.ipynb") if not p.name.startswith("."))
@@ -467,9 +513,7 @@ def write_lab_versions(labs_dir: str | os.PathLike[str] | None, dest_dir: str | 
         if missing:
             raise FileNotFoundError(f"no lab named {', '.join(sorted(missing))}; available: {', '.join(labs)}")
         labs = {name: nbs for name, nbs in labs.items() if name in wanted}
-    dest = Path(dest_dir)
-    if dest.exists() and not dest.is_dir():
-        raise NotADirectoryError(f"{dest} exists and is not a directory")
+    dest = _as_dest(dest_dir)
     if dest.exists() and dest.resolve() == directory.resolve():
         raise ValueError(f"refusing to write student versions into the lab source directory {dest}")
     planned: list[tuple[Path, str | bytes]] = []

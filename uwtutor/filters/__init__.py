@@ -2,6 +2,7 @@
 
 from .base import Filter, FilterResult, run_filter
 from .bias import BiasEKF, bias_ekf, prepositioned_bias_ekf
+from .cooperative import CooperativeEKF, cooperative_ekf
 from .depth_ekf import DepthEKF
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
@@ -28,6 +29,7 @@ __all__ = [
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
     "ParticleDegeneracyError",
     "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
+    "cooperative_ekf", "CooperativeEKF",
     "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",
     "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",
     "bias_ekf", "BiasEKF", "prepositioned_bias_ekf",

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_int, as_range_array
-from ..errors import BeaconSingularityWarning, warn
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_int, as_range_array
+from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 
 ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
 N_ROWS = 6
@@ -75,30 +75,110 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon:
             warn("the predicted position is exactly on the beacon, where the range Jacobian is "
                  "undefined: the range update is skipped for that step (predict only)", BeaconSingularityWarning)
         use = np.where(on_beacon, 0.0, use)
-        r = np.where(on_beacon, 1.0, r)              # then H = 0 and the gain below is exactly 0
+        dx = np.where(on_beacon, 1.0, dx)            # any unit direction: the gain below is exactly 0 there
+        r = np.where(on_beacon, 1.0, r)
     hx = dx / r                                      # H = [hx, hy], the unit line of sight
     hy = dy / r
     ax = pxx * hx + pxy * hy                         # a = P- H^T
     ay = pxy * hx + pyy * hy
-    S = np.add(hx * ax + hy * ay, R, out=S_out)      # S = H P- H^T + R
+    a_los = hx * ax + hy * ay                        # H P- H^T
+    S = np.add(a_los, R, out=S_out)                  # S = H P- H^T + R
     g = use / S
     kx = ax * g                                      # K = P- H^T / S (zero where no range is used)
     ky = ay * g
     y = np.subtract(z, r, out=y_out)                 # innovation r - h(x-)
     np.add(xp, kx * y, out=out[ROW_X])
     np.add(yp, ky * y, out=out[ROW_Y])
-    # Joseph form P = A P- A^T + R K K^T with A = I - K H, factored as B A^T + R K K^T = B - d K^T:
+    # Covariance: the Joseph form P = A P- A^T + R K K^T (A = I - K H), first as the factorization
+    # B - d K^T with B = A P- and d = B H^T - R K (algebraically equal, 25 array operations). It keeps P
+    # positive semi-definite while R / S is not tiny; every result is tested (variances >= 0, det >= 0, finite)
+    # and where the test fails -- an update whose dynamic range float64 cannot carry, such as P0 = 1e12 I with
+    # R = 1e-6 -- the whole step is recomputed in the line-of-sight frame (``_los_update``), which is PSD to
+    # rounding by construction.
     bxx = pxx - kx * ax                              # B = A P- = P- - K a^T
     bxy = pxy - kx * ay
     byx = pxy - ky * ax
     byy = pyy - ky * ay
     vx = bxx * hx + bxy * hy - R * kx                # d = B H^T - R K
     vy = byx * hx + byy * hy - R * ky
-    np.subtract(bxx, vx * kx, out=out[ROW_PXX])         # P = B - d K^T (upper triangle; P is symmetric)
-    np.subtract(bxy, vx * ky, out=out[ROW_PXY])
-    np.subtract(byy, vy * ky, out=out[ROW_PYY])
-    out[ROW_PYX] = out[ROW_PXY]
+    nxx = np.subtract(bxx, vx * kx, out=out[ROW_PXX])   # P = B - d K^T (upper triangle; P is symmetric)
+    nxy = np.subtract(bxy, vx * ky, out=out[ROW_PXY])
+    nyy = np.subtract(byy, vy * ky, out=out[ROW_PYY])
+    out[ROW_PYX] = nxy
+    det = nxx * nyy
+    det -= nxy * nxy
+    if not (det.min() >= 0.0 and nxx.min() >= 0.0 and nyy.min() >= 0.0):   # also False for a NaN
+        _los_update(s, hx, hy, ax, ay, a_los, g, use, R, out)
+        # a+ >= 0 and b+^2 <= a+ c+ hold there by construction; what remains to refuse is a prediction that was
+        # not PSD (a < 0), a value that overflowed, or round-off of the rotation beyond the stated tolerance
+        check_psd(out, R)
     return use
+
+
+def _los_update(s: np.ndarray, hx: np.ndarray, hy: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_los: np.ndarray,
+                g: np.ndarray, use: np.ndarray, R: Any, out: np.ndarray) -> None:
+    """The covariance update in the frame of the line of sight, PSD to rounding whatever the conditioning."""
+    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]
+    # Covariance update in the frame of the line of sight (u = H^T along it, v = (-hy, hx) across it), where it
+    # is exact algebra with no cancellation: with a = u^T P- u (= H P- H^T), b = u^T P- v, c = v^T P- v and
+    # w = R / S where the range is used (1 where it is not),
+    #     a+ = a w,   b+ = b w,   c+ = c - b^2 / S,
+    # the Joseph form's value (A P- A^T + K R K^T, A = I - K H). Exactly, b^2 w / a <= c+ <= c (the first is
+    # det(P+) >= 0, the second "a range never adds uncertainty"); c+ is held in that interval, so that rounding
+    # cannot make P+ indefinite (det P+ = a+ c+ - b+^2 >= 0). Rotated back,
+    # P+ = a+ u u^T + b+ (u v^T + v u^T) + c+ v v^T. The literal Joseph product and the factorization
+    # P- - K a^T both lose positive semi-definiteness once R << H P- H^T (P0 = 1e12 I with R = 1e-6).
+    b_los = hx * ay - hy * ax
+    hxx, hxy = hx * hx, hx * hy
+    hyy = hy * hy
+    cross = pxy * hxy
+    cross += cross
+    c_los = hyy * pxx + hxx * pyy                    # v^T P- v (computed directly: the trace minus a loses the
+    c_los -= cross                                   # small variance of an ill-conditioned P-)
+    w = R * g                                        # R / S where the range is used, 1 where it is not (no
+    w += 1.0 - use                                   # cancellation of 1 - a / S when R << a)
+    a_post = a_los * w
+    b_post = b_los * w
+    bb = b_los * b_los
+    c_post = c_los - bb * g
+    with np.errstate(invalid="ignore", divide="ignore"):
+        np.fmax(c_post, bb * w / a_los, out=c_post)  # fmax: 0/0 (a = b = 0) leaves c+ alone
+    # back from the line-of-sight frame: P+ = a+ u u^T + b+ (u v^T + v u^T) + c+ v v^T (each variance a sum of
+    # its two frames' terms: writing it as c+ I + (a+ - c+) u u^T would cancel when c+ >> a+)
+    t = b_post * hxy
+    t += t
+    np.add(a_post * hxx - t, c_post * hyy, out=out[ROW_PXX])
+    np.add((a_post - c_post) * hxy, b_post * (hxx - hyy), out=out[ROW_PXY])
+    np.add(a_post * hyy + t, c_post * hxx, out=out[ROW_PYY])
+    out[ROW_PYX] = out[ROW_PXY]
+    if use.min() == 0.0:                             # unused ranges: P stays the prediction's, bit for bit
+        np.copyto(out[ROW_PXX:], s[ROW_PXX:], where=use == 0.0)
+
+
+def check_psd(s: np.ndarray, R: Any) -> None:
+    """Refuse posteriors that float64 could not keep positive semi-definite.
+
+    The Joseph form keeps P symmetric PSD to within rounding as long as the update's dynamic range fits in
+    float64's 16 digits. When the variance along the line of sight drops from ``H P- H^T`` to about ``R`` with a
+    ratio beyond ~1e16 (e.g. ``P0 = 1e12 I`` with ``R = 1e-6``), the small eigenvalue is below the rounding of the
+    large entries and the computed P can be indefinite; the fading factor would then magnify it. Tolerance:
+    ``det P >= -1e-9 Pxx Pyy`` and non-negative variances.
+    """
+    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]
+    prod = pxx * pyy
+    det = prod - pxy * pxy
+    if det.min() >= -1e-9 * prod.max() and pxx.min() >= 0.0 and pyy.min() >= 0.0 and np.isfinite(det).all():
+        return
+    bad = ~((det >= -1e-9 * prod) & (pxx >= 0.0) & (pyy >= 0.0) & np.isfinite(det))
+    if not bad.any():
+        return
+    m = int(np.argmax(bad))
+    r_m = float(np.ravel(R)[m] if np.ndim(R) else R)
+    raise IllConditionedError(
+        f"the covariance lost positive semi-definiteness at a range update (run {m}: Pxx = {pxx[m]:.3g}, "
+        f"Pxy = {pxy[m]:.3g}, Pyy = {pyy[m]:.3g}, range variance R = {r_m:.3g}): the ratio of the predicted variance to "
+        "R exceeds what float64's 16 digits can carry. Start from a smaller P0 (an honest initial uncertainty, "
+        "e.g. 1e4 to 1e6 m^2) or use a larger R")
 
 
 # --- validation -------------------------------------------------------------------------------------------------
@@ -115,14 +195,14 @@ def noise_parameters(Q: Any, R: Any) -> tuple[np.ndarray, float, np.ndarray]:
 
 
 def fixed_beacon(beacon: Any) -> tuple[float, float]:
-    b = as_finite("beacon", beacon, shape=(2,))
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
     return float(b[0]), float(b[1])
 
 
 def beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.ndarray, int | None]:
     """A fixed beacon ``(bx, by)``, or a moving one as a step-major path (K, 2, M) / (K, 2, 1); with the size of
     its runs axis (None if it has none)."""
-    b = as_finite("beacon", beacon, ndim=(1, 2, 3))
+    b = as_finite("beacon", beacon, ndim=(1, 2, 3), max_abs=MAX_COORDINATE, nonempty=True)
     if b.shape[-1] != 2 or (b.ndim > 1 and b.shape[-2] != n_steps):
         raise ValueError(f"beacon must be a position [x, y], or one position per step: shape (2,), "
                          f"({n_steps}, 2) or (M, {n_steps}, 2); got {b.shape}")
@@ -134,7 +214,7 @@ def beacon_path(beacon: Any, n_steps: int) -> tuple[tuple[float, float] | np.nda
 
 
 def initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
-    x0 = as_finite("x0", x0, ndim=(1, 2))
+    x0 = as_finite("x0", x0, ndim=(1, 2), max_abs=MAX_COORDINATE, nonempty=True)
     if x0.shape[-1] != 2:
         raise ValueError(f"x0 must be a horizontal position [x, y], shape (2,) or (M, 2); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, 2)
@@ -149,10 +229,12 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
     ``common_runs``, the size of each input's runs axis (None where it has none)."""
     x0, P0 = initial_state(x0, P0)
-    u = as_finite("u", u, ndim=(2, 3))
+    u = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    if u.ndim == 3 and u.shape[0] == 0:
+        raise ValueError(f"u has no runs (shape {u.shape}): give at least one run, or drop the runs axis")
     if u.shape[-1] != 2:
         raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
-    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2))
+    z = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
     K = u.shape[-2]
     if z.shape[-1] != K:
         raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")

@@ -182,6 +182,11 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
     >>> bool(np.isnan(result.innovations[3, 0]))      # the missing measurement: predict only
     True
     """
+    missing = [name for name in ("x", "P", "predict", "update") if not hasattr(filt, name)]
+    if missing:
+        raise TypeError(f"filt must be a filter (an object with predict, update, x and P, e.g. "
+                        f"uwtutor.filters.ExtendedKalmanFilter); got {type(filt).__name__}, which has no "
+                        f"{', '.join(missing)}")
     batched = np.ndim(filt.x) == 2
     z = as_float_array("z", z)
     step_axis = 1 if batched else 0

@@ -60,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array
 from ..errors import BeaconSingularityWarning
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, beacon_path, common_runs, fixed_beacon, initial_state, noise_parameters,
@@ -331,7 +331,7 @@ class RangeOnlyEKF:
         if u is None:
             u_col = np.zeros((2, 1))
         else:
-            u_arr = as_finite("u", u)
+            u_arr = as_finite("u", u, max_abs=MAX_COORDINATE)
             if u_arr.shape == (2,):
                 u_col = u_arr[:, None]
             elif self._batched and u_arr.shape == (self._M, 2):
@@ -344,7 +344,7 @@ class RangeOnlyEKF:
 
     def update(self, z: Any) -> None:
         """Correct the estimate with the range ``z`` (scalar, or shape (M,) when batched; NaN: no update)."""
-        z = as_range_array("z", z, allow_nan=True)
+        z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
         if z.size == 1 and z.ndim <= 1:
             z = np.broadcast_to(z.reshape(()), (self._M,))
         elif z.shape != (self._M,) or not self._batched:
@@ -369,7 +369,7 @@ class RangeOnlyEKF:
         or (M, K, 2) (``None``: no displacement). The filter is left at the last step. Uses the same engine
         as :func:`range_only_ekf`, so the result is identical to calling it with this filter's state.
         """
-        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1))
+        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
         if z.ndim == 2 and z.shape[0] != self._M:
             self._bad_shape("z", z.shape, "(K,)")
         K = z.shape[-1]

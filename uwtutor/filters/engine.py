@@ -49,7 +49,8 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_covariance, as_finite, as_float_array
-from ..errors import BeaconSingularityWarning, warn
+from .._linalg import psd_violations
+from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
 from .base import FilterResult, run_filter
 from .gates import Gate, GateContext
@@ -101,6 +102,18 @@ def _mm_t(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _transposed(a: np.ndarray) -> np.ndarray:
     """The stacked transpose of ``a`` (..., i, j) as a contiguous array."""
     return np.ascontiguousarray(np.swapaxes(a, -1, -2))
+
+
+def _refuse_lost_psd(P: np.ndarray, R: np.ndarray, k: int) -> None:
+    """Raise where the Joseph update could not keep P (runs-last) positive semi-definite in float64."""
+    bad = psd_violations(P)
+    if bad.any():
+        m = int(np.argmax(bad))
+        raise IllConditionedError(
+            f"the covariance lost positive semi-definiteness at the update of step {k} (run {m}: diagonal "
+            f"{np.diag(P[:, :, m])}, R diagonal {np.diag(R[:, :, min(m, R.shape[-1] - 1)])}): the ratio of the "
+            "predicted variances to R exceeds what float64's 16 digits can carry. Start from a smaller P0 (an "
+            "honest initial uncertainty) or use a larger R")
 
 
 class ExtendedKalmanFilter:
@@ -175,7 +188,7 @@ class ExtendedKalmanFilter:
                              f"state has size {n}: build both for the same state")
         self.motion, self.measurement, self.gate = motion, measurement, gate
         self.n, self.m = n, measurement.m
-        x0 = as_finite("x0", x0, ndim=(1, 2))
+        x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
         if x0.shape[-1] != n:
             raise ValueError(f"x0 must have {n} entries per run (the models' state size); got shape {x0.shape}")
         P0 = as_covariance("P0", P0, n)
@@ -348,6 +361,7 @@ class ExtendedKalmanFilter:
         P_post += _mm_t(_mm(gain, Rc), gain)
         P_post += P_post.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
         P_post *= 0.5
+        _refuse_lost_psd(P_post, Rc, k)
         S = _runs_first(S)
         if self.gate is not None:
             x_post, P_first = self.gate.after_update(x_post, _runs_first(P_post), use.copy(), k)
@@ -416,7 +430,9 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     """
     _check_model("motion", motion, MotionModel)
     _check_model("measurement", measurement, MeasurementModel)
-    x0 = as_finite("x0", x0, ndim=(1, 2))
+    x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
+    if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
+        raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, motion.n)
     z = as_float_array("z", z)
     if u is not None:

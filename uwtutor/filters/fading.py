@@ -118,7 +118,7 @@ from typing import Any
 import numpy as np
 
 from ..acoustics import range_factor
-from .._validate import as_covariance, as_finite, as_float_array, as_int, as_range_array
+from .._validate import as_covariance, as_flag, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields,
@@ -288,7 +288,8 @@ def _fading_step(s: np.ndarray, mem: np.ndarray, started: np.ndarray, u: np.ndar
 
 def _per_run(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[Any, int | None]:
     """A scalar or one value per run (shape (M,)), finite and > (or >=) ``minimum``."""
-    arr = as_finite(name, value, ndim=(0, 1))
+    # the factor gamma ~ c / c_e is near 1: 1e3 is far beyond any sound-speed error and keeps mu^2 P finite
+    arr = as_finite(name, value, ndim=(0, 1), max_abs=1e3, nonempty=True)
     bad = arr <= minimum if strict else arr < minimum
     if np.any(bad):
         rel = ">" if strict else ">="
@@ -316,8 +317,7 @@ def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: 
         beta_v = float(as_finite("beta", beta, ndim=0))
         if beta_v < 0:
             raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
-    if not isinstance(fading, (bool, np.bool_)):
-        raise TypeError(f"fading must be True or False; got {fading!r}")
+    fading = as_flag("fading", fading)
     M = common_runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
     sigma2 = sigma * sigma
     return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M

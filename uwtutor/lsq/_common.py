@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import numpy as np
 
 from .._validate import as_finite, as_positive
-from ..errors import IllConditionedWarning
+from ..errors import IllConditionedWarning, warn
 from ..models.range import line_of_sight
 
 #: Singular-value ratio :math:`s_\mathrm{min}/s_\mathrm{max}` below which a design matrix counts as singular
@@ -69,15 +68,15 @@ def warn_conditioning(cond: np.ndarray, gain: np.ndarray, max_condition: float, 
     total = cond.size
     runs = "" if total == 1 else f" in {{n}} of its {total} stacked problems"
     if singular.any():
-        warnings.warn(f"{what} is singular{runs.format(n=int(singular.sum()))}: the design matrix does not "
+        warn(f"{what} is singular{runs.format(n=int(singular.sum()))}: the design matrix does not "
                       "determine every unknown (too few epochs, no change of bearing, or collinear beacons); the "
-                      "fix is NaN there", IllConditionedWarning, stacklevel=stacklevel)
+                      "fix is NaN there", IllConditionedWarning)
     if ill.any():
         worst = int(np.argmax(np.where(ill, gain, -np.inf)))
-        warnings.warn(f"{what} is ill-conditioned{runs.format(n=int(ill.sum()))}: condition number "
+        warn(f"{what} is ill-conditioned{runs.format(n=int(ill.sum()))}: condition number "
                       f"{cond[worst]:.3g} (limit {max_condition:g}), noise gain {gain[worst]:.3g} "
                       f"(limit {max_noise_gain:g}: a 1 m range error moves the fix by about that many metres); "
-                      "the fix is unreliable", IllConditionedWarning, stacklevel=stacklevel)
+                      "the fix is unreliable", IllConditionedWarning)
     return ~(singular | ill)
 
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite
+from .._validate import as_flag, as_finite
 from ._common import SINGULAR_RTOL, alpha_from_singular_values, as_design, scalar_or_array, unit_los
 
 
@@ -97,6 +97,7 @@ def precision_factor_history(positions: Any, beacon: Any = (0.0, 0.0), unknown_b
         :math:`\alpha_k`; ``inf`` while the rows do not yet determine every unknown (fewer epochs than unknowns, or
         no change of bearing yet).
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     p = as_finite("positions", positions, ndim=(2, 3))
     if p.shape[-1] != 2:
         raise ValueError(f"positions must have shape (K, 2) or (M, K, 2); got {p.shape}")

@@ -190,6 +190,10 @@ def _default_grids(c: float) -> tuple[np.ndarray, np.ndarray]:
     return bearings, c - speeds
 
 
+#: Largest number of residuals ``grid_prelocation`` evaluates in one call (about a minute on a laptop core).
+MAX_GRID_WORK = 2e10
+
+
 def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bearing_grid: Any = None,
                      speed_error_grid: Any = None, *, ranges: Any = None, assumed_speed: float = 1470.0,
                      beacon: Any = (0.0, 0.0)) -> Prelocation:
@@ -250,6 +254,11 @@ def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bea
         default_c if speed_error_grid is None else speed_error_grid, c, beacon)
     M, K = tau.shape
     B, C = theta.size, dc.size
+    work = M * K * B * C
+    if work > MAX_GRID_WORK:
+        raise ValueError(f"the grid search would evaluate {work:.2g} residuals ({M} runs x {K} epochs x {B} bearings "
+                         f"x {C} speed errors), more than {MAX_GRID_WORK:.0e} (minutes of work): coarsen "
+                         "bearing_grid or speed_error_grid, or split the runs into batches")
     c_e = c - dc
     inv_speed = 1.0 / c_e
     cos_sin = np.column_stack([np.cos(theta), np.sin(theta)])

@@ -8,8 +8,13 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_positive
+from .._validate import as_flag, as_finite, as_int, as_positive
 from ..errors import IllConditionedWarning
+#: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
+MAX_ITERATIONS = 1000
+#: The loop stops once no run's step exceeds this fraction of the problem's size (positions and ranges).
+CONVERGED_RTOL = 1e-12
+
 from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
                      warn_conditioning)
 
@@ -102,7 +107,8 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     unknown_bias : bool, default True
         Estimate a constant range bias (paper A's third unknown).
     iterations : int, default 1
-        Number of Gauss-Newton steps (>= 1).
+        Largest number of Gauss-Newton steps (1 to ``MAX_ITERATIONS`` = 1000); the loop stops earlier once no
+        run moves by more than ``1e-12`` of the problem's size (``LSQFix.iterations`` is the number taken).
     sigma : float or array_like, optional
         Range noise standard deviation [m] for the covariance; estimated from the residuals when omitted.
     max_condition : float, default 1e3
@@ -135,11 +141,12 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     >>> np.round(fix.position, 6), round(float(fix.bias), 6), round(float(fix.alpha), 3)
     (array([ 30., -40.]), 5.0, 1.251)
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     r, b = as_ranges_and_beacons(ranges, beacons)
     p0 = as_finite("provisional", provisional, ndim=(1, 2))
     if p0.shape[-1] != 2:
         raise ValueError(f"provisional must be a position [x, y], shape (2,) or (M, 2); got {p0.shape}")
-    steps = as_int("iterations", iterations, minimum=1)
+    steps = as_int("iterations", iterations, minimum=1, maximum=MAX_ITERATIONS)
     mc, mg = as_thresholds(max_condition, max_noise_gain)
     M = runs_of(ranges=r.shape[0] if r.ndim == 2 else None, beacons=b.shape[0] if b.ndim == 3 else None,
                  provisional=p0.shape[0] if p0.ndim == 2 else None)
@@ -151,7 +158,8 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     p = np.array(np.broadcast_to(p0, (Mb, 2)), dtype=float)
     n_unknowns = 3 if unknown_bias else 2
     bias = np.zeros(Mb)
-    for _ in range(steps):
+    taken = 0
+    for taken in range(1, steps + 1):
         h, rho = unit_los(p[:, None, :], b, "the provisional position (or an iterate)")
         h = np.nan_to_num(h)                     # a run made NaN by a singular step stays singular (and NaN)
         A = np.concatenate([h, np.ones((Mb, N, 1))], axis=-1) if unknown_bias else h
@@ -160,6 +168,10 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
         p = p + delta[:, :2]
         if unknown_bias:
             bias = bias + delta[:, 2]
+        # converged: no run moved by more than 1e-12 of its distance scale (a NaN run is singular: not waited on)
+        moved = np.abs(delta).max(axis=-1)
+        if not np.any(moved > CONVERGED_RTOL * (1.0 + np.abs(p).max(axis=-1) + rho.max(axis=-1))):
+            break
     gain = np.sqrt(alpha)
     well = warn_conditioning(cond, gain, mc, mg, "the linearized least-squares problem")
     with np.errstate(invalid="ignore"):
@@ -173,7 +185,7 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
 
     return LSQFix(estimate=out(estimate), position=out(p), bias=out(bias) if unknown_bias else None,
                   covariance=out(cov), sigma=out(s), alpha=out(alpha), condition_number=out(cond),
-                  noise_gain=out(gain), residuals=out(residuals), design=out(A), iterations=steps,
+                  noise_gain=out(gain), residuals=out(residuals), design=out(A), iterations=taken,
                   well_conditioned=out(well))
 
 
@@ -226,6 +238,7 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     IllConditionedWarning
         As ``linearized_lsq``: typically in the first epochs, before the bearing to the beacon has changed.
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     P = as_finite("dr_positions", dr_positions, ndim=(2, 3))
     if P.shape[-1] != 2:
         raise ValueError(f"dr_positions must have shape (N, 2) or (M, N, 2); got {P.shape}")
@@ -286,6 +299,7 @@ def nonlinear_lsq(ranges: Any, beacons: Any, initial: Any, *, unknown_bias: bool
     >>> np.round(nonlinear_lsq(r, beacons, initial=[0.0, 0.0]).position, 6)
     array([ 30., -40.])
     """
+    unknown_bias = as_flag("unknown_bias", unknown_bias)
     from scipy.optimize import least_squares
 
     r, b = as_ranges_and_beacons(ranges, beacons)

@@ -6,6 +6,7 @@ family is written once against these two interfaces; a new method is a new pair 
 
 from .base import MeasurementModel, MotionModel
 from .bias import BiasRateDeadReckoning, bias_rate_process_noise, paper_a_process_noise
+from .cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from .dead_reckoning import DeadReckoning
 from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
@@ -17,5 +18,6 @@ __all__ = [
     "DeadReckoning", "DepthSpeedPitch", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
     "RangeToBeacon", "line_of_sight",
     "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
+    "CooperativeMotion", "SquaredRangePair", "leader_range",
     "ConstantVelocity", "PositionMeasurement",
 ]

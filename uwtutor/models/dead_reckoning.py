@@ -58,6 +58,10 @@ class DeadReckoning(MotionModel):
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         if u is None:
             return x.copy()
+        u = np.asarray(u, dtype=float)
+        if u.shape[-1:] != (2,):      # [dx, dy]: a (.., 1) displacement would be broadcast onto both axes
+            raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got "
+                             f"shape {u.shape}")
         out = x.copy()
         out[..., :2] += u
         return out

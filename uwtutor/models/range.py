@@ -100,7 +100,7 @@ class RangeToBeacon(MeasurementModel):
     m = 1
 
     def __init__(self, beacon: Any, R: Any, *, n: int = 2, bias_index: int | None = None) -> None:
-        b = as_finite("beacon", beacon, ndim=(1, 2, 3))
+        b = as_finite("beacon", beacon, ndim=(1, 2, 3), nonempty=True, max_abs=1e150)
         if b.shape[-1] != 2:
             raise ValueError(f"beacon must hold horizontal positions [x, y]: shape (2,), (K, 2) or (M, K, 2); "
                              f"got {b.shape}")

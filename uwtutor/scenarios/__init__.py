@@ -19,12 +19,12 @@ noise level changes, a convenience when comparing filters under different settin
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from ..errors import UwtutorWarning, warn as _warn
 from .._validate import as_finite, as_float_array, as_int, as_range_array, as_rng
 from ..motion import (Track, _as_point, _as_scalar, _as_times, _readonly, circle_track, displacement_noise,
                      s_turn_track, straight_track, turning_track)
@@ -243,8 +243,8 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     ranges = true_ranges + errors
     n_neg = int(np.count_nonzero(ranges < 0))
     if n_neg:
-        warnings.warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
-                      "unclipped, but filters reject negative ranges", UserWarning, stacklevel=2)
+        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
+                      "unclipped, but filters reject negative ranges", UwtutorWarning)
     return Scenario(times=times,
                     true_positions=np.broadcast_to(track.positions, (m, k, 2)),
                     dr_displacements=dr,

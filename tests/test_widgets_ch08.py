@@ -1,0 +1,86 @@
+"""Chapter 8 widget: the cooperative view's compute function (tested without a UI), its plot and its panel."""
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+
+from uwtutor.filters import cooperative_ekf  # noqa: E402
+from uwtutor.scenarios import paper_b  # noqa: E402
+from uwtutor.widgets import ch08  # noqa: E402
+
+
+def test_registered_compute_function_runs_at_its_defaults():
+    assert ch08.COMPUTE_FUNCTIONS["ch08 cooperative EKF"] is ch08.cooperative_view
+    view = ch08.COMPUTE_FUNCTIONS["ch08 cooperative EKF"]()
+    K = len(view.times)
+    assert view.n_runs == 100 and K == 312
+    for name in ("estimate", "current_estimate", "current_sigma"):
+        assert getattr(view, name).shape == (K, 2)
+    for name in ("truth", "leader", "dr"):
+        assert getattr(view, name).shape == (K + 1, 2)
+    assert view.median_error.shape == (K,)
+    assert np.all(view.current_sigma > 0)
+    assert 0.0 <= view.lost_fraction <= 1.0
+    # the defaults: a zigzag leader, the matched filter, paper B's current
+    assert view.pattern == "zigzag" and not view.unobservable
+    np.testing.assert_allclose(view.current, (0.5, 0.5), atol=1e-4)
+    assert view.late_median_error < 30.0
+
+
+def test_view_comes_from_the_library():
+    view = ch08.cooperative_view(n_runs=5, seed=2, tuning="paper B")
+    sc = paper_b.make(np.random.default_rng(2), 5, paper_b.PaperBParameters(current=view.current))
+    tu = paper_b.paper_tuning()
+    res = cooperative_ekf(sc.params.x1, tu.P1, sc.dr_displacements, sc.leader_broadcast, sc.ranges, 8.0, tu.Q, tu.R)
+    np.testing.assert_allclose(view.estimate, res.x[0, :, :2])
+    np.testing.assert_allclose(view.current_sigma, np.sqrt(np.diagonal(res.P[0], axis1=-2, axis2=-1)[:, 2:]))
+    err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:], axis=-1)
+    np.testing.assert_allclose(view.median_error, np.median(err, axis=0))
+
+
+def test_parallel_leader_is_flagged_and_worse():
+    par = ch08.cooperative_view(pattern="parallel", n_runs=20)
+    zz = ch08.cooperative_view(pattern="zigzag", n_runs=20)
+    assert par.unobservable and not zz.unobservable
+    assert par.late_median_error > 10 * zz.late_median_error
+
+
+def test_interval_and_packet_loss_change_the_view():
+    slow = ch08.cooperative_view(interval=16.0, n_runs=5)
+    assert len(slow.times) == 156 and slow.times[1] - slow.times[0] == 16.0
+    lossy = ch08.cooperative_view(packet_loss=0.5, n_runs=5)
+    base = ch08.cooperative_view(n_runs=5)
+    assert not np.allclose(lossy.estimate, base.estimate)
+
+
+def test_view_is_reproducible():
+    a = ch08.cooperative_view(n_runs=4, seed=3)
+    b = ch08.cooperative_view(n_runs=4, seed=3)
+    np.testing.assert_array_equal(a.estimate, b.estimate)
+
+
+@pytest.mark.parametrize("kw, err", [
+    (dict(pattern="spiral"), ValueError),
+    (dict(tuning="mine"), ValueError),
+    (dict(current=3.0), ValueError),
+    (dict(interval=7.5), ValueError),
+    (dict(packet_loss=0.95), ValueError),
+    (dict(n_runs=0), ValueError),
+])
+def test_bad_parameters(kw, err):
+    with pytest.raises(err):
+        ch08.cooperative_view(**kw)
+
+
+def test_plot_and_panel():
+    view = ch08.cooperative_view(n_runs=5)
+    fig = ch08.plot_cooperative_view(view)
+    assert len(fig.axes) == 3
+    plt.close(fig)
+    panel = ch08.cooperative_widget()
+    assert type(panel).__name__ == "VBox"
+    plt.close("all")

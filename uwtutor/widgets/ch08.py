@@ -1,0 +1,214 @@
+r"""Chapter 8 widget: paper B's cooperative EKF for a leader pattern, a current, an update interval and a packet-loss
+rate, with paper B's tuning or the matched one."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .._validate import as_finite, as_int
+from ..errors import UnobservableWarning
+from ..filters.cooperative import cooperative_ekf
+from ..plotting import plot_track
+from ..scenarios import paper_b
+from ._panel import slider_panel
+
+__all__ = ["CooperativeView", "cooperative_view", "plot_cooperative_view", "cooperative_widget", "COMPUTE_FUNCTIONS",
+           "TUNINGS"]
+
+#: The filter tunings the widget offers.
+TUNINGS = ("paper B", "matched")
+#: A run has lost the track when its position error exceeds this after ``LOST_AFTER`` seconds [m].
+LOST_ERROR = 200.0
+#: ... [s].
+LOST_AFTER = 800.0
+#: The summaries use the epochs of the last this many seconds [s].
+LATE_WINDOW = 1000.0
+
+
+@dataclass(frozen=True)
+class CooperativeView:
+    r"""What the chapter-8 widget shows for one setting (returned by ``cooperative_view``).
+
+    Shapes: ``K`` filter steps (epochs 1..K), ``K + 1`` epochs.
+
+    Attributes
+    ----------
+    pattern : str
+        Leader pattern.
+    tuning : str
+        Filter tuning.
+    current : tuple of float
+        True current [m/s].
+    interval : float
+        :math:`\delta t` [s].
+    packet_loss : float
+        Probability that a message is lost.
+    n_runs : int
+        Monte Carlo runs behind the error curves.
+    times : ndarray, shape (K,)
+        Times of the estimates [s].
+    truth : ndarray, shape (K + 1, 2)
+        The follower's true track [m].
+    leader : ndarray, shape (K + 1, 2)
+        The leader's track [m].
+    dr : ndarray, shape (K + 1, 2)
+        Run 0's DR track [m].
+    estimate : ndarray, shape (K, 2)
+        Run 0's estimated track [m].
+    current_estimate : ndarray, shape (K, 2)
+        Run 0's current estimate [m/s].
+    current_sigma : ndarray, shape (K, 2)
+        Its standard deviations [m/s].
+    median_error : ndarray, shape (K,)
+        Median position error over the runs at each epoch [m].
+    late_median_error : float
+        Median position error over the runs and the last ``LATE_WINDOW`` seconds [m].
+    lost_fraction : float
+        Fraction of runs with an error above ``LOST_ERROR`` after ``LOST_AFTER`` seconds.
+    unobservable : bool
+        Whether the filter emitted an ``UnobservableWarning`` (the relative track is straight).
+    """
+
+    pattern: str
+    tuning: str
+    current: tuple[float, float]
+    interval: float
+    packet_loss: float
+    n_runs: int
+    times: np.ndarray
+    truth: np.ndarray
+    leader: np.ndarray
+    dr: np.ndarray
+    estimate: np.ndarray
+    current_estimate: np.ndarray
+    current_sigma: np.ndarray
+    median_error: np.ndarray
+    late_median_error: float
+    lost_fraction: float
+    unobservable: bool
+
+
+def cooperative_view(pattern: str = "zigzag", current: float = 0.7071, interval: float = 8.0,
+                     packet_loss: float = 0.0, tuning: str = "matched", n_runs: int = 100,
+                     seed: int = 0) -> CooperativeView:
+    r"""Run paper B's cooperative EKF (consistent pair) on ``n_runs`` runs of its scenario.
+
+    Parameters
+    ----------
+    pattern : {"zigzag", "parallel", "circling"}, default "zigzag"
+        The leader's track (``paper_b.LEADER_PATTERNS``).
+    current : float, default 0.7071
+        Speed of the current towards the north-east [m/s], between 0 and 2 (paper B: 0.5 m/s in each axis).
+    interval : float, default 8
+        Update interval :math:`\delta t` [s], a whole number of seconds between 1 and 60.
+    packet_loss : float, default 0
+        Probability that a message is lost, in [0, 0.9].
+    tuning : {"matched", "paper B"}, default "matched"
+        ``paper_b.matched_tuning`` or ``paper_b.paper_tuning``.
+    n_runs : int, default 100
+        Monte Carlo runs (>= 1).
+    seed : int, default 0
+        Seed of the scenario.
+
+    Returns
+    -------
+    CooperativeView
+    """
+    if pattern not in paper_b.LEADER_PATTERNS:
+        raise ValueError(f"pattern must be one of {paper_b.LEADER_PATTERNS}; got {pattern!r}")
+    if tuning not in TUNINGS:
+        raise ValueError(f"tuning must be one of {TUNINGS}; got {tuning!r}")
+    speed = float(as_finite("current", current, ndim=0))
+    if not 0.0 <= speed <= 2.0:
+        raise ValueError(f"current must lie between 0 and 2 m/s; got {speed:g}")
+    dt = float(as_finite("interval", interval, ndim=0))
+    if not (1.0 <= dt <= 60.0 and dt == round(dt)):
+        raise ValueError(f"interval must be a whole number of seconds between 1 and 60; got {dt:g}")
+    loss = float(as_finite("packet_loss", packet_loss, ndim=0))
+    if not 0.0 <= loss <= 0.9:
+        raise ValueError(f"packet_loss must lie between 0 and 0.9; got {loss:g}")
+    M = as_int("n_runs", n_runs, minimum=1)
+    seed = as_int("seed", seed, minimum=0)
+    U = (speed / np.sqrt(2.0), speed / np.sqrt(2.0))
+    params = paper_b.PaperBParameters(leader_pattern=pattern, current=U, interval=dt, packet_loss=loss)
+    sc = paper_b.make(np.random.default_rng(seed), M, params)
+    tune = paper_b.paper_tuning(params) if tuning == "paper B" else paper_b.matched_tuning(params)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnobservableWarning)
+        res = cooperative_ekf(params.x1, tune.P1, sc.dr_displacements, sc.leader_broadcast, sc.ranges, dt,
+                              tune.Q, tune.R, times=sc.times[1:])
+    unobservable = any(issubclass(w.category, UnobservableWarning) for w in caught)
+    err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:], axis=-1)
+    t = sc.times[1:]
+    late = t >= t[-1] - LATE_WINDOW
+    lost = np.max(err[:, t > LOST_AFTER], axis=1, initial=0.0) > LOST_ERROR
+    return CooperativeView(pattern=pattern, tuning=tuning, current=U, interval=dt, packet_loss=loss, n_runs=M,
+                           times=np.array(t), truth=np.array(sc.true_positions), leader=np.array(sc.leader_positions),
+                           dr=np.array(sc.dr_positions[0]), estimate=np.array(res.x[0, :, :2]),
+                           current_estimate=np.array(res.x[0, :, 2:]),
+                           current_sigma=np.sqrt(np.diagonal(res.P[0], axis1=-2, axis2=-1)[:, 2:]),
+                           median_error=np.median(err, axis=0), late_median_error=float(np.median(err[:, late])),
+                           lost_fraction=float(np.mean(lost)), unobservable=unobservable)
+
+
+def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
+    """Draw a ``CooperativeView``: the tracks of run 0, its current estimate with ±2σ, and the median position
+    error over the runs."""
+    fig = fig or plt.figure(figsize=(7.8, 3.2))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.3, 1.0))
+    ax_map = fig.add_subplot(grid[:, 0])
+    ax_cur = fig.add_subplot(grid[0, 1])
+    ax_err = fig.add_subplot(grid[1, 1], sharex=ax_cur)
+    plot_track(ax_map, view.leader, label="leader", color="C3", lw=0.8)
+    plot_track(ax_map, view.truth, label="follower", color="black", lw=1.2)
+    plot_track(ax_map, view.estimate, label="estimate (run 0)", color="C1", lw=1)
+    plot_track(ax_map, view.dr, label="DR only", color="C0", ls="--", lw=1)
+    ax_map.legend(fontsize=6, loc="upper left")
+    warn = ", UNOBSERVABLE" if view.unobservable else ""
+    ax_map.set_title(f"leader {view.pattern}, {view.tuning} tuning{warn}", fontsize=8)
+    t = view.times
+    for i, (name, color) in enumerate((("U_x", "C0"), ("U_y", "C3"))):
+        est, sig = view.current_estimate[:, i], view.current_sigma[:, i]
+        ax_cur.fill_between(t, est - 2 * sig, est + 2 * sig, color=color, alpha=0.2)
+        ax_cur.plot(t, est, color=color, lw=1, label=name)
+        ax_cur.axhline(view.current[i], color=color, ls=":", lw=1)
+    ax_cur.set_ylim(min(view.current) - 1.0, max(view.current) + 1.0)
+    ax_cur.set_ylabel("current [m/s]", fontsize=8)
+    ax_cur.legend(fontsize=6, ncol=2)
+    ax_err.semilogy(t, np.maximum(view.median_error, 1e-2), color="C1", lw=1)
+    ax_err.set_ylabel("median error [m]", fontsize=8)
+    ax_err.set_xlabel("time [s]")
+    ax_err.set_title(f"{view.n_runs} runs, {100 * view.lost_fraction:.0f} % lost; last {LATE_WINDOW:.0f} s: "
+                     f"{view.late_median_error:.1f} m", fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def cooperative_widget() -> Any:
+    """Leader pattern, current, update interval, packet loss and tuning over the view."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "pattern": w.Dropdown(options=list(paper_b.LEADER_PATTERNS), value="zigzag", description="leader",
+                              style=style),
+        "current": w.FloatSlider(value=0.7071, min=0.0, max=1.5, step=0.1, description="current [m/s]",
+                                 continuous_update=False, style=style),
+        "interval": w.IntSlider(value=8, min=2, max=32, step=2, description="δt [s]", continuous_update=False,
+                                style=style),
+        "packet_loss": w.FloatSlider(value=0.0, min=0.0, max=0.8, step=0.1, description="packet loss",
+                                     continuous_update=False, style=style),
+        "tuning": w.Dropdown(options=list(TUNINGS), value="matched", description="tuning", style=style),
+    }
+    return slider_panel(sliders, lambda **p: plot_cooperative_view(cooperative_view(**p)))
+
+
+#: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch08 cooperative EKF": cooperative_view,
+}
