@@ -9,6 +9,8 @@ from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
 from .gates import ChiSquareGate, Gate, GateContext
 from .kalman import KalmanFilter
+from .robust import RobustGate, SecondMomentGate, cascade_kf, robust_range_kf
+from .smoother import SmootherResult, rts_smoother
 from .particle import (
     BootstrapParticleFilter,
     DepthSpeedPitchModel,
@@ -28,6 +30,7 @@ __all__ = [
     "ParticleDegeneracyError",
     "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
     "cooperative_ekf", "CooperativeEKF",
+    "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",
     "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",
     "bias_ekf", "BiasEKF", "prepositioned_bias_ekf",
 ]

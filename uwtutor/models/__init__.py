@@ -11,6 +11,7 @@ from .dead_reckoning import DeadReckoning
 from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
 from .range import RangeToBeacon, line_of_sight
+from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [
     "MotionModel", "MeasurementModel",
@@ -18,4 +19,5 @@ __all__ = [
     "RangeToBeacon", "line_of_sight",
     "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
     "CooperativeMotion", "SquaredRangePair", "leader_range",
+    "ConstantVelocity", "PositionMeasurement",
 ]

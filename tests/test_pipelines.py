@@ -1,0 +1,94 @@
+"""Paper E's OR-VMLBL-KF pipeline and error budget: exact fixes without noise, stages, batching, Fig. 6."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from uwtutor import lsq
+from uwtutor.pipelines import epoch_windows, or_vmlbl_kf, vmlbl_error_budget
+from uwtutor.scenarios import paper_e
+
+NO_OUTLIERS = {"outlier_onsets": (), "outlier_counts": (), "outlier_two_sided": ()}
+
+
+def test_noise_free_virtual_beacon_fixes_are_exact():
+    dive = paper_e.make(np.random.default_rng(0), 1, range_noise_variance=0.0, dr_sigma=0.0, **NO_OUTLIERS)
+    truth = np.asarray(dive.true_positions[0])
+    out = or_vmlbl_kf(dive.true_slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth,
+                      preprocess=False)
+    np.testing.assert_allclose(out.fixes, truth[out.now], rtol=0, atol=1e-6)
+    # the DR positions need only be right up to a constant offset
+    shifted = or_vmlbl_kf(dive.true_slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0] + [500.0, -70.0],
+                          depth=dive.depth, preprocess=False)
+    np.testing.assert_allclose(shifted.fixes, truth[out.now], rtol=0, atol=1e-6)
+
+
+def test_epoch_windows():
+    now, index = epoch_windows(1201, 100)
+    assert now[0] == 300 and now[-1] == 1200 and index.shape == (901, 4)
+    assert index[0].tolist() == [0, 100, 200, 300]
+    np.testing.assert_array_equal(index[:, -1], now)
+    with pytest.raises(ValueError, match="needs 4 epochs 100 steps apart"):
+        epoch_windows(250, 100)
+
+
+def test_pipeline_stages_and_their_gains():
+    dive = paper_e.make(np.random.default_rng(58), 20)
+    out = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth, smooth=True)
+    raw = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth,
+                      preprocess=False)
+    truth = np.asarray(dive.true_positions)[:, out.now]
+
+    def rms(p):
+        return float(np.sqrt(np.nanmean(np.sum((p - truth) ** 2, axis=-1))))
+
+    # outlier rejection, then the cascade filter, then the smoother: each stage helps
+    assert rms(raw.fixes) > 2 * rms(out.fixes)
+    assert rms(out.fixes) > 2 * rms(out.filtered)
+    assert rms(out.filtered) > rms(out.smoothed.x[..., :2])
+    assert out.ranges.extras["outlier"][np.asarray(dive.outlier_mask)].mean() > 0.99
+    np.testing.assert_array_equal(out.fix_times, dive.times[out.now])
+    assert out.fix_cov.shape == (20, len(out.now), 2, 2)
+
+
+def test_pipeline_batched_run_equals_single_run():
+    dive = paper_e.make(np.random.default_rng(5), 3)
+    batch = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth, smooth=True)
+    single = or_vmlbl_kf(dive.slant_ranges[2], dive.ship_positions[2], dive.dr_positions[2], depth=dive.depth,
+                         smooth=True)
+    np.testing.assert_allclose(single.fixes, batch.fixes[2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(single.filtered, batch.filtered[2], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(single.smoothed.x, batch.smoothed.x[2], rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(single.track.extras["outlier"], batch.track.extras["outlier"][2])
+
+
+def test_pipeline_bad_input():
+    dive = paper_e.make(np.random.default_rng(5), 1)
+    with pytest.raises(ValueError, match="ship_positions must have one horizontal position per range"):
+        or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0][:-1], dive.dr_positions[0], depth=dive.depth)
+    with pytest.raises(ValueError, match="ranges must be finite and >= 0"):
+        or_vmlbl_kf(-dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth)
+
+
+def test_error_budget_is_linear_in_each_source_and_blind_to_the_depth():
+    dive = paper_e.make(np.random.default_rng(0))
+    levels = np.array([1.0, 2.0, 4.0])
+    b = vmlbl_error_budget(np.random.default_rng(1), dive.ship_positions[0], dive.true_positions[0],
+                           depth=dive.depth, levels=levels, n_runs=6000)
+    assert b.sources == ("virtual beacon", "range", "depth") and b.runs_per_level == 2000
+    vb, rng_, depth = b.rms
+    for row in (vb, rng_):                                      # linear: twice the error, twice the position error
+        np.testing.assert_allclose(row / levels, row[0], rtol=0.1)
+    assert b.slope[1] > b.slope[0] > 5.0
+    assert np.all(depth < 1e-6)                                 # a surface ship: the depth cancels
+    # the same geometry with the fix computed directly: the range slope is the noise gain's
+    now, index = epoch_windows(len(dive.times), 100)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lsq.IllConditionedWarning)
+        ship, truth = np.asarray(dive.ship_positions[0]), np.asarray(dive.true_positions[0])
+        r = np.hypot(np.linalg.norm(truth[index] - ship[index], axis=-1), dive.depth)
+        gain = lsq.virtual_beacon_lsq(r, ship[index], truth[index], depth=dive.depth).noise_gain
+    assert b.slope[1] == pytest.approx(np.sqrt(np.mean(gain**2)), rel=0.1)

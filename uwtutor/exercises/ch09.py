@@ -1,0 +1,256 @@
+r"""Checkers for the exercises of chapter 9, "The virtual moving long baseline" (paper E).
+
+Each checker takes the student's answer, computes the expected value from the exercise's data (the constants below)
+with ``uwtutor`` itself, and returns a ``Feedback`` that recognises the usual mistakes of that exercise:
+
+==================================================  ====================================================================
+checker                                             exercise
+==================================================  ====================================================================
+``check_gate_upper(y_max)``                         9.1: the largest innovation paper E's test accepts
+``check_equivalent_nis(nis)``                       9.1: the NIS threshold that gate amounts to
+``check_virtual_beacons(vb)``                       9.2: four virtual beacons from the ship's and the DR positions
+``check_good_rejected(n)``                          9.3: the good ranges lost to a lock-out
+``check_within_ten_percent(fraction)``              9.4: the trial's statistic, on a simulated dive
+==================================================  ====================================================================
+
+The exercises themselves are in the repository's ``exercises/ch09_virtual_baseline.ipynb``.
+
+References
+----------
+Paper E (VMLBL for the manned submersible *Jiaolong*), secs. 1.1-1.3 and 2.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from ..errors import IllConditionedWarning
+from ..filters.robust import moment_gate_interval, robust_range_kf
+from ..pipelines import or_vmlbl_kf
+from ..scenarios import paper_e
+from .checks import check_array, check_number
+from .feedback import Feedback
+
+__all__ = [
+    "check_gate_upper",
+    "check_equivalent_nis",
+    "check_virtual_beacons",
+    "check_good_rejected",
+    "check_within_ten_percent",
+    "lockout_dive",
+    "study",
+    "Z_PRED",
+    "S_INNOV",
+    "DELTA",
+    "SHIP",
+    "DR",
+    "LOCKOUT_SEED",
+    "STUDY_SEED",
+    "STUDY_SPACING",
+]
+
+# -- the data of the exercises -----------------------------------------------------------------------------------------
+#: Exercise 9.1: the predicted range (m), the innovation variance (m²) and paper E's tolerance.
+Z_PRED = 2000.0
+S_INNOV = 3.0
+DELTA = 0.03
+
+#: Exercise 9.2: the ship's positions at four epochs (m) ...
+SHIP = np.array([[0.0, 0.0], [250.0, 180.0], [420.0, 460.0], [380.0, 800.0]])
+#: ... and the submersible's DR positions at the same epochs (m).
+DR = np.array([[-900.0, -1100.0], [-830.0, -1030.0], [-760.0, -960.0], [-690.0, -890.0]])
+
+#: Exercise 9.3: the seed of the dive (``paper_e.make(default_rng(LOCKOUT_SEED))``, paper E's outliers).
+LOCKOUT_SEED = 1
+
+#: Exercise 9.4: the seed of the dive and the spacing of the fix's epochs (s).
+STUDY_SEED = 58
+STUDY_SPACING = 40
+
+
+# -- exercise 9.1: the gate ---------------------------------------------------------------------------------------------
+def check_gate_upper(answer: Any) -> Feedback:
+    r"""Check the largest innovation :math:`y_\mathrm{max} = \sqrt{(1+\delta)(S + \hat z^2)} - \hat z` (exercise 9.1).
+
+    The approximation :math:`\delta\hat z/2` is accepted (it is within 1 %).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's :math:`y_\mathrm{max}` [m].
+
+    Returns
+    -------
+    Feedback
+        The verdict; :math:`\delta \hat z` (no square root), the largest accepted *range* and the interval in m² are
+        recognised.
+    """
+    _, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
+    D = S_INNOV + Z_PRED**2
+    mistakes = {
+        DELTA * Z_PRED: "That is δ·ẑ. The test compares z², not z, with D(1 ± δ): a relative tolerance δ on the "
+                        "square is about δ/2 on the range itself.",
+        float(np.sqrt((1 + DELTA) * D)): "That is the largest range the test accepts; the innovation is that range "
+                                         "minus the prediction ẑ.",
+        DELTA * D: "That is the half-width of the interval for z² (in m²); take the square root of (1 + δ)D and "
+                   "subtract ẑ.",
+        float(np.sqrt(DELTA * D)): "√(δD) is not the gate: solve z² = (1 + δ)D for z, then y = z − ẑ.",
+    }
+    return check_number(answer, float(hi), rtol=0.01, name="the largest accepted innovation", units="m",
+                        common_mistakes=mistakes,
+                        hint="Accepted means (1 − δ)D ≤ z² ≤ (1 + δ)D with D = S + ẑ²; write z = ẑ + y.",
+                        explanation=f"About δẑ/2 = {DELTA * Z_PRED / 2:g} m: a gate of 1.5 % of the range, "
+                                    "whatever S is.")
+
+
+def check_equivalent_nis(answer: Any) -> Feedback:
+    r"""Check the NIS threshold :math:`y_\mathrm{max}^2 / S` of paper E's gate (exercise 9.1).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's threshold (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the gate in standard deviations (not squared), the chi-square quantile and
+        :math:`y_\mathrm{max}^2` without dividing by :math:`S` are recognised.
+    """
+    _, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
+    expected = float(hi**2 / S_INNOV)
+    mistakes = {
+        float(hi / np.sqrt(S_INNOV)): "That is the gate in standard deviations of the innovation, y_max/√S; the "
+                                      "NIS is its square.",
+        float(stats.chi2.ppf(0.99, 1)): "That is the chi-square gate's threshold at 99 %; the task asks what paper "
+                                        "E's test amounts to.",
+        float(hi**2): "That is y_max² in m²; the NIS divides by S.",
+    }
+    return check_number(answer, expected, rtol=0.03, name="the equivalent NIS threshold", common_mistakes=mistakes,
+                        hint="The NIS of a scalar innovation is y²/S.",
+                        explanation=f"The chi-square gate at 99 % stops at {stats.chi2.ppf(0.99, 1):.2f}: paper E's "
+                                    "test lets through innovations of many standard deviations.")
+
+
+# -- exercise 9.2: virtual beacons --------------------------------------------------------------------------------------
+def check_virtual_beacons(answer: Any) -> Feedback:
+    r"""Check :math:`\mathbf b^\mathrm v_i = \mathbf a_i - \mathbf d_i` with
+    :math:`\mathbf d_i = \mathbf p^\mathrm{DR}_i - \mathbf p^\mathrm{DR}_4`, for ``SHIP`` and ``DR`` (exercise 9.2).
+
+    Parameters
+    ----------
+    answer : array_like, shape (4, 2), or None
+        The student's virtual beacons [m], oldest first.
+
+    Returns
+    -------
+    Feedback
+        The verdict; the shift with the wrong sign (a_i + d_i) and the shift from the first epoch are recognised.
+    """
+    expected = SHIP + (DR[-1] - DR)
+    mistakes = [
+        (SHIP - (DR[-1] - DR), "The ship must be moved *forward* by the submersible's displacement since epoch i "
+                               "(b_i = a_i − d_i, with d_i = p_i − p_4 from the DR): the old range was taken from "
+                               "a point that many metres behind."),
+        (SHIP + (DR - DR[0]), "The shift is the displacement from epoch i to *now* (epoch 4), not from the first "
+                              "epoch to epoch i."),
+    ]
+    return check_array(answer, expected, rtol=0, atol=1e-6, name="the array of virtual beacons", units="m",
+                       common_mistakes=mistakes,
+                       hint="Paper E, eq. (14): VB_i = AB_i + (sum of the submersible's moves from epoch i to now).",
+                       explanation="The last virtual beacon is the ship itself; every old range is now a range from "
+                                   "the current position.")
+
+
+# -- exercise 9.3: the lock-out -----------------------------------------------------------------------------------------
+def lockout_dive() -> paper_e.Dive:
+    """The dive of exercise 9.3 (one run, paper E's parameters and outliers)."""
+    return paper_e.make(np.random.default_rng(LOCKOUT_SEED), 1)
+
+
+def check_good_rejected(answer: Any) -> Feedback:
+    """Check the number of good ranges the literal method (no re-acquisition) rejects on ``lockout_dive()``
+    (exercise 9.3).
+
+    Parameters
+    ----------
+    answer : int or None
+        The student's count.
+
+    Returns
+    -------
+    Feedback
+        The verdict; counting the outliers too, and counting with the default re-acquisition, are recognised.
+    """
+    dive = lockout_dive()
+    z = dive.slant_ranges[0]
+    good = ~np.asarray(dive.outlier_mask[0])
+    literal = robust_range_kf(z, 1.0, reacquire=None)
+    default = robust_range_kf(z, 1.0)
+    expected = int(np.sum(literal.extras["rejected"] & good))
+    mistakes = {
+        int(np.sum(literal.extras["rejected"])): "That counts every rejected range, the 30 outliers included; keep "
+                                                 "only the epochs where outlier_mask is False.",
+        int(np.sum(default.extras["rejected"] & good)): "That is with the default re-acquisition after 20 "
+                                                        "rejections; the task asks for reacquire=None.",
+        int(np.sum(default.extras["outlier"] & good)): "That is the default filter's final classification, after "
+                                                       "re-acquisition cleared its window; use reacquire=None.",
+    }
+    return check_number(answer, expected, rtol=0, atol=0.5, name="the number of good ranges rejected",
+                        common_mistakes=mistakes,
+                        hint="Use extras['rejected'] and the dive's outlier_mask (True on the outliers).",
+                        explanation="All of them come after the patch of 20 at 700 s: the prediction drifted out of "
+                                    "the ±δr/2 gate before the patch ended.")
+
+
+# -- exercise 9.4: the 10 % statistic -----------------------------------------------------------------------------------
+def study() -> dict[str, Any]:
+    """The dive and the OR-VMLBL-KF run of exercise 9.4: ``{"dive", "result", "truth", "slant"}`` (the true
+    positions and slant ranges at the fixes' epochs)."""
+    dive = paper_e.make(np.random.default_rng(STUDY_SEED), 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllConditionedWarning)
+        result = or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth,
+                             spacing=STUDY_SPACING)
+    return {"dive": dive, "result": result, "truth": np.asarray(dive.true_positions[0])[result.now],
+            "slant": np.asarray(dive.true_slant_ranges[0])[result.now]}
+
+
+def check_within_ten_percent(answer: Any) -> Feedback:
+    """Check the fraction of OR-VMLBL fixes of ``study()`` whose error is at most 10 % of the slant range
+    (exercise 9.4).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's fraction, between 0 and 1.
+
+    Returns
+    -------
+    Feedback
+        The verdict; a percentage instead of a fraction, the horizontal range instead of the slant range, the
+        cascade filter's fixes and an absolute 10 m are recognised.
+    """
+    s = study()
+    err = np.linalg.norm(s["result"].fixes - s["truth"], axis=-1)
+    track = np.linalg.norm(s["result"].filtered - s["truth"], axis=-1)
+    horizontal = np.linalg.norm(s["truth"] - np.asarray(s["dive"].ship_positions[0])[s["result"].now], axis=-1)
+    expected = float(np.mean(err <= 0.1 * s["slant"]))
+    mistakes = {
+        100 * expected: "That is a percentage; give the fraction (between 0 and 1).",
+        float(np.mean(err <= 0.1 * horizontal)): "That uses the horizontal distance to the ship; the ranges (and "
+                                                 "the usual USBL specification) are slant ranges.",
+        float(np.mean(track <= 0.1 * s["slant"])): "That is OR-VMLBL-KF (result.filtered); the task asks for the "
+                                                   "fixes themselves (result.fixes).",
+        float(np.mean(err <= 10.0)): "That counts errors under 10 m; '10 %' is relative to the range.",
+    }
+    return check_number(answer, expected, rtol=0, atol=1e-9, name="the fraction within 10 %",
+                        common_mistakes=mistakes,
+                        hint="Error = distance between result.fixes and the true positions; compare it with 0.1 × "
+                             "the true slant range at the same epochs.",
+                        explanation="With the epochs only 40 s apart the fixes are noisy; the cascade filter "
+                                    "brings the statistic close to 1.")

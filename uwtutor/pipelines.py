@@ -1,0 +1,374 @@
+r"""Pipelines: a method that chains library stages, measurements to track, in one call.
+
+Some methods of the book are not one filter but a chain: clean the measurements, compute least-squares fixes,
+filter the fixes (or start a filter from a fix). Each stage is an ordinary library call that a chapter can also
+run on its own; a pipeline only wires them, keeps every intermediate result, and so makes the whole method one
+call for a Monte Carlo study.
+
+========================  =====================================================================================
+``or_vmlbl_kf``           paper E: range filter with outlier rejection -> virtual-beacon least squares on the
+                          last four epochs -> cascade Kalman filter on the fixes (-> RTS smoother, optional)
+``epoch_windows``         the epochs of each fix: now and ``n - 1`` earlier ones, ``spacing`` steps apart
+``vmlbl_error_budget``    paper E's Fig. 6: Monte Carlo of the fix's error against each error source, batched
+========================  =====================================================================================
+
+**Paper E's OR-VMLBL-KF** (sec. 1): the stored ranges :math:`\tilde r_k` to the mother ship are filtered by
+:func:`~uwtutor.filters.robust.robust_range_kf` (OR: outlier rejection); at every epoch :math:`k` the filtered ranges of
+epochs :math:`k - 3s, k - 2s, k - s, k`, the ship's GPS positions :math:`AB_i` and the submersible's DR positions
+:math:`P_i` there give a virtual-beacon fix (:func:`~uwtutor.lsq.virtual_beacon_lsq`; VMLBL); the fixes are
+filtered by :func:`~uwtutor.filters.robust.cascade_kf` (KF). A fix's covariance is taken as
+:math:`\tfrac12 (g\,\sigma_r)^2 I_2`, with :math:`g` its noise gain (RMS position error per metre of range noise)
+and :math:`\sigma_r^2` the range filter's mean variance over the four epochs.
+
+References
+----------
+Paper E (VMLBL for the manned submersible *Jiaolong*), sec. 1, Fig. 1 and eqs. (12)-(17).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import lsq
+from ._validate import as_finite, as_float_array, as_int, as_nonnegative, as_rng
+from .filters.base import FilterResult
+from .filters.robust import cascade_kf, robust_range_kf
+from .filters.smoother import SmootherResult, rts_smoother
+from .models.robust import ConstantVelocity, step_lengths
+
+__all__ = ["VMLBLResult", "epoch_windows", "or_vmlbl_kf", "ErrorBudget", "vmlbl_error_budget", "ERROR_SOURCES"]
+
+
+def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.ndarray, np.ndarray]:
+    r"""The epochs of a sliding virtual-beacon fix: ``now`` and, for each, ``now - (n-1)s, ..., now - s, now``.
+
+    Parameters
+    ----------
+    n_steps : int
+        Number of epochs K of the run.
+    spacing : int
+        Steps between the epochs of one fix (s), >= 1.
+    n_epochs : int, default 4
+        Epochs per fix (paper E: 4), >= 3.
+
+    Returns
+    -------
+    now : ndarray of int, shape (J,)
+        The epoch of each fix, from ``(n - 1) s`` to ``K - 1``.
+    index : ndarray of int, shape (J, n_epochs)
+        The epochs each fix uses, oldest first.
+
+    Examples
+    --------
+    >>> from uwtutor.pipelines import epoch_windows
+    >>> now, index = epoch_windows(10, 3)
+    >>> now.tolist(), index[0].tolist(), index[-1].tolist()
+    ([9], [0, 3, 6, 9], [0, 3, 6, 9])
+    """
+    K = as_int("n_steps", n_steps, minimum=1)
+    s = as_int("spacing", spacing, minimum=1)
+    n = as_int("n_epochs", n_epochs, minimum=3)
+    first = (n - 1) * s
+    if first >= K:
+        raise ValueError(f"a fix needs {n} epochs {s} steps apart, i.e. {first + 1} epochs; the run has only {K}")
+    now = np.arange(first, K)
+    return now, now[:, None] - s * np.arange(n - 1, -1, -1)
+
+
+@dataclass(frozen=True)
+class VMLBLResult:
+    """Every stage of paper E's OR-VMLBL-KF (returned by :func:`or_vmlbl_kf`).
+
+    Shapes: ``K`` epochs, ``J`` fixes (the epochs from ``3 s`` on), a leading runs axis ``M`` when the inputs
+    had one.
+
+    Attributes
+    ----------
+    times : ndarray, shape (K,)
+        Epoch times [s].
+    ranges : FilterResult or None
+        The range filter's run (None when ``preprocess=False``).
+    used_ranges : ndarray, shape (K,) or (M, K)
+        The ranges the fixes were computed from (filtered, or raw without preprocessing) [m].
+    now : ndarray of int, shape (J,)
+        The epoch index of each fix.
+    fix : lsq.VirtualBeaconFix
+        The least-squares fixes with their conditioning, shapes ``(J, ...)`` or ``(M, J, ...)``.
+    fix_cov : ndarray, shape (J, 2, 2) or (M, J, 2, 2)
+        The covariance given to the cascade filter [m²].
+    track : FilterResult
+        The cascade filter's run on the fixes (state ``[x, y, vx, vy]``).
+    smoothed : SmootherResult or None
+        The RTS smoother over ``track`` (when ``smooth=True``).
+    """
+
+    times: np.ndarray
+    ranges: FilterResult | None
+    used_ranges: np.ndarray
+    now: np.ndarray
+    fix: lsq.VirtualBeaconFix
+    fix_cov: np.ndarray
+    track: FilterResult
+    smoothed: SmootherResult | None
+
+    @property
+    def fix_times(self) -> np.ndarray:
+        """Times of the fixes [s], shape ``(J,)``."""
+        return self.times[self.now]
+
+    @property
+    def fixes(self) -> np.ndarray:
+        """The least-squares positions of OR-VMLBL [m], ``(J, 2)`` or ``(M, J, 2)`` (NaN where singular)."""
+        return self.fix.position
+
+    @property
+    def filtered(self) -> np.ndarray:
+        """The cascade filter's positions, OR-VMLBL-KF [m], same shape as ``fixes``."""
+        return self.track.x[..., :2]
+
+
+def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: Any, dt: Any = 1.0,
+                times: Any = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
+                range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
+                fix_options: dict[str, Any] | None = None, smooth: bool = False) -> VMLBLResult:
+    r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.
+
+    Parameters
+    ----------
+    ranges : array_like, shape (K,) or (M, K)
+        Measured slant ranges to the ship [m] (NaN where missing).
+    ship_positions : array_like, shape (K, 2) or (M, K, 2)
+        The ship's horizontal positions :math:`AB_k` (GPS) [m].
+    dr_positions : array_like, shape (K, 2) or (M, K, 2)
+        The submersible's dead-reckoned positions :math:`P_k` [m] (only differences matter).
+    depth : float
+        The submersible's depth :math:`h` [m] (pressure sensor); the ship is at the surface.
+    dt : float, default 1
+        Time between epochs [s] (ignored when ``times`` is given).
+    times : array_like, shape (K,), optional
+        Epoch times [s].
+    spacing : int, default 100
+        Epochs between the four epochs of a fix (paper E does not give it; chapter 3 measures its effect).
+    n_epochs : int, default 4
+        Epochs per fix (paper E: 4).
+    preprocess : bool, default True
+        Filter the ranges first (OR); False computes the fixes from the raw ranges.
+    range_options : dict, optional
+        Keyword arguments for :func:`~uwtutor.filters.robust.robust_range_kf` (default: paper E's).
+    fix_q : float, default 1e-4
+        The cascade filter's acceleration variance [(m/s²)²].
+    fix_test : {"chi2", "paper", "none"} or Gate, default "chi2"
+        The cascade filter's outlier test.
+    fix_options : dict, optional
+        Further keyword arguments for :func:`~uwtutor.filters.robust.cascade_kf`.
+    smooth : bool, default False
+        Also run the RTS smoother over the cascade filter.
+
+    Returns
+    -------
+    VMLBLResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import or_vmlbl_kf
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(np.random.default_rng(3))
+    >>> out = or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth)
+    >>> truth = dive.true_positions[0][out.now]
+    >>> def rms(e): return float(np.sqrt(np.mean(np.sum(e ** 2, axis=-1))))
+    >>> rms(out.filtered - truth) < rms(out.fixes - truth)
+    True
+    """
+    r = as_float_array("ranges", ranges, ndim=(1, 2))
+    batched = r.ndim == 2
+    K = r.shape[-1]
+    ship = as_finite("ship_positions", ship_positions, ndim=(2, 3))
+    dr = as_finite("dr_positions", dr_positions, ndim=(2, 3))
+    for name, a in (("ship_positions", ship), ("dr_positions", dr)):
+        if a.shape[-2:] != (K, 2):
+            raise ValueError(f"{name} must have one horizontal position per range, shape ({K}, 2) or "
+                             f"(M, {K}, 2); got {a.shape}")
+    M = r.shape[0] if batched else 1
+    rb = np.broadcast_to(r, (M, K))
+    shipb = np.broadcast_to(ship, (M, K, 2))
+    drb = np.broadcast_to(dr, (M, K, 2))
+    h = float(as_finite("depth", depth, ndim=0))
+    steps = step_lengths(K, dt, times)
+    t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
+    if preprocess:
+        range_run = robust_range_kf(rb, dt, times=times, **(range_options or {}))
+        used = range_run.x[..., 0]
+        var = range_run.P[..., 0, 0]
+    else:
+        range_run = None
+        used = rb
+        var = np.full((M, K), 2.0 if range_options is None else float(range_options.get("r", 2.0)))
+    now, index = epoch_windows(K, spacing, n_epochs)
+    Kf, n = index.shape
+    fix = lsq.virtual_beacon_lsq(used[:, index].reshape(M * Kf, n), shipb[:, index].reshape(M * Kf, n, 2),
+                                 drb[:, index].reshape(M * Kf, n, 2), depth=h)
+    fix = lsq.VirtualBeaconFix(**{name: np.asarray(value).reshape((M, Kf) + np.shape(value)[1:])
+                                  for name, value in fix.__dict__.items()})
+    gain = np.asarray(fix.noise_gain)
+    sigma2 = np.mean(var[:, index], axis=-1)
+    v = 0.5 * gain**2 * sigma2
+    v = np.where(np.isfinite(v) & (v > 0), v, 1.0)               # unused where the fix is NaN
+    fix_cov = v[..., None, None] * np.eye(2)
+    fix_t = t[now]
+    track = cascade_kf(fix.position, times=fix_t, q=fix_q, r=fix_cov, test=fix_test, **(fix_options or {}))
+    smoothed = None
+    if smooth:
+        smoothed = rts_smoother(track, ConstantVelocity(2, fix_q, step_lengths(Kf, times=fix_t)))
+
+    def out(a: Any) -> Any:
+        return a if batched else a[0]
+
+    if not batched:
+        fix = lsq.VirtualBeaconFix(**{name: out(value) for name, value in fix.__dict__.items()})
+        if range_run is not None:
+            range_run = _first_run(range_run)
+        track = _first_run(track)
+        if smoothed is not None:
+            smoothed = SmootherResult(times=smoothed.times, x=smoothed.x[0], P=smoothed.P[0],
+                                      gain=smoothed.gain[0], filtered=track)
+    return VMLBLResult(times=t, ranges=range_run, used_ranges=out(used), now=now, fix=fix, fix_cov=out(fix_cov),
+                       track=track, smoothed=smoothed)
+
+
+def _first_run(res: FilterResult) -> FilterResult:
+    """Run 0 of a batched result, without the runs axis."""
+    return FilterResult(times=res.times, x=res.x[0], P=res.P[0], x_prior=res.x_prior[0], P_prior=res.P_prior[0],
+                        innovations=res.innovations[0], innovation_cov=res.innovation_cov[0],
+                        extras={name: a[0] for name, a in res.extras.items()})
+
+
+
+#: The error sources of paper E's Fig. 6, in its order.
+ERROR_SOURCES = ("virtual beacon", "range", "depth")
+
+
+@dataclass(frozen=True)
+class ErrorBudget:
+    """Paper E's Fig. 6 by Monte Carlo (returned by :func:`vmlbl_error_budget`).
+
+    Attributes
+    ----------
+    sources : tuple of str
+        The error sources, ``ERROR_SOURCES``.
+    levels : ndarray, shape (L,)
+        The error levels [m] (standard deviations; for the virtual beacons the 2-D RMS).
+    rms : ndarray, shape (3, L)
+        RMS horizontal position error of the fix per source and level [m].
+    median : ndarray, shape (3, L)
+        Median position error [m].
+    slope : ndarray, shape (3,)
+        Least-squares slope of ``rms`` against ``levels`` through the origin [m per m].
+    runs_per_level : int
+        Monte Carlo runs behind each point.
+    spacing : int
+        Epochs between the four epochs of each fix.
+    """
+
+    sources: tuple[str, ...]
+    levels: np.ndarray
+    rms: np.ndarray
+    median: np.ndarray
+    slope: np.ndarray
+    runs_per_level: int
+    spacing: int
+
+
+def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_positions: Any, *, depth: Any,
+                       spacing: Any = 100, levels: Any = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
+                       n_runs: Any = 50_000, n_epochs: Any = 4) -> ErrorBudget:
+    r"""Paper E's error budget (Fig. 6): the virtual-beacon fix's error against each error source alone.
+
+    Each Monte Carlo run picks an epoch of the track at random (uniformly among those with ``n_epochs`` epochs
+    ``spacing`` apart before them), builds the exact slant ranges, virtual beacons and depth there, and perturbs
+    one of them:
+
+    * **virtual beacon**: every virtual beacon moved by :math:`N(0, \sigma^2/2)` per axis (2-D RMS :math:`\sigma`),
+      which is what a ship GPS error or a submersible DR error does;
+    * **range**: every slant range off by :math:`N(0, \sigma^2)` (delay and sound-speed errors);
+    * **depth**: the depth given to the fix off by :math:`N(0, \sigma^2)` (pressure sensor).
+
+    ``n_runs`` runs per source are spread evenly over the ``levels``; all ``3 n_runs`` fixes are one batched call of
+    :func:`~uwtutor.lsq.virtual_beacon_lsq`.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of randomness.
+    ship_positions, true_positions : array_like, shape (K, 2)
+        The ship's and the submersible's true horizontal tracks [m].
+    depth : float
+        Submersible depth [m].
+    spacing : int, default 100
+        Epochs between the fix's epochs.
+    levels : array_like, shape (L,)
+        Error levels :math:`\sigma` [m], > 0.
+    n_runs : int, default 50 000
+        Monte Carlo runs per source (paper E: 50 000).
+    n_epochs : int, default 4
+        Epochs per fix.
+
+    Returns
+    -------
+    ErrorBudget
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import vmlbl_error_budget
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(np.random.default_rng(0))
+    >>> b = vmlbl_error_budget(np.random.default_rng(1), dive.ship_positions[0], dive.true_positions[0],
+    ...                        depth=dive.depth, levels=[1.0, 2.0], n_runs=2000)
+    >>> b.rms.shape, bool(b.slope[1] > b.slope[0] > 1.0), float(b.slope[2]) < 1e-6
+    ((3, 2), True, True)
+    """
+    rng = as_rng(rng)
+    ship = as_finite("ship_positions", ship_positions, ndim=2)
+    truth = as_finite("true_positions", true_positions, ndim=2)
+    if ship.shape != truth.shape or ship.shape[1] != 2:
+        raise ValueError(f"ship_positions and true_positions must both have shape (K, 2); got {ship.shape} and "
+                         f"{truth.shape}")
+    h = float(as_nonnegative("depth", depth, ndim=0))
+    lv = as_finite("levels", levels, ndim=1)
+    if lv.size == 0 or np.any(lv <= 0):
+        raise ValueError("levels must be a non-empty list of error levels > 0 [m]")
+    N = as_int("n_runs", n_runs, minimum=len(lv))
+    per = N // len(lv)
+    now, index = epoch_windows(len(ship), spacing, n_epochs)
+    n = index.shape[1]
+    S, L = len(ERROR_SOURCES), len(lv)
+    total = S * L * per
+    pick = index[rng.integers(0, len(now), total)]                     # (total, n) epochs of each run
+    ab = ship[pick]
+    p = truth[pick]
+    r = np.sqrt(np.sum((p[:, -1:, :] - (ab + (p[:, -1:, :] - p))) ** 2, axis=-1) + h**2)
+    sigma = np.tile(np.repeat(lv, per), S)                             # (total,)
+    source = np.repeat(np.arange(S), L * per)
+    noise = rng.standard_normal((total, n, 3))
+    ab = ab + np.where(source[:, None, None] == 0, sigma[:, None, None] / np.sqrt(2.0) * noise[..., :2], 0.0)
+    r = r + np.where(source[:, None] == 1, sigma[:, None] * noise[..., 2], 0.0)
+    fixes = np.empty((total, 2))
+    plain = source != 2
+    fixes[plain] = lsq.virtual_beacon_lsq(r[plain], ab[plain], p[plain], depth=h).position
+    # The fix takes one depth per call: a depth error is an offset of the pressure sensor, so each level is
+    # applied as +sigma to half of its runs and -sigma to the other half.
+    depth_runs = np.flatnonzero(~plain).reshape(L, 2, -1) if per % 2 == 0 else None
+    for j, level in enumerate(lv):
+        rows = depth_runs[j] if depth_runs is not None else [np.flatnonzero(~plain)[j * per:(j + 1) * per]]
+        for sign, chunk in zip((1.0, -1.0), rows):
+            fixes[chunk] = lsq.virtual_beacon_lsq(r[chunk], ab[chunk], p[chunk], depth=h + sign * level).position
+    err = np.linalg.norm(fixes - p[:, -1], axis=-1).reshape(S, L, per)
+    rms = np.sqrt(np.mean(err**2, axis=-1))
+    med = np.median(err, axis=-1)
+    slope = rms @ lv / (lv @ lv)
+    return ErrorBudget(sources=ERROR_SOURCES, levels=lv, rms=rms, median=med, slope=slope, runs_per_level=per,
+                       spacing=int(spacing))

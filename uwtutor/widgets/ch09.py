@@ -1,0 +1,226 @@
+r"""Chapter 9 widget: paper E's OR-VMLBL-KF on one dive, with the outliers, the test and the epoch spacing chosen.
+
+The compute function ``outlier_view`` draws one of paper E's simulated dives, adds outliers of the chosen
+amplitude and pattern, runs the whole method (``pipelines.or_vmlbl_kf``) and returns what the plot shows: the
+range errors with the flags of the range filter, and the position errors of the fixes before and after the
+cascade filter.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from .._validate import as_finite, as_int
+from ..errors import IllConditionedWarning
+from ..filters.robust import robust_range_kf
+from ..pipelines import or_vmlbl_kf
+from ..ranging import Outliers
+from ..scenarios import paper_e
+from ._panel import slider_panel
+
+__all__ = ["PATTERNS", "OutlierView", "outlier_view", "plot_outlier_view", "outlier_widget", "COMPUTE_FUNCTIONS"]
+
+#: The outlier patterns the widget offers: paper E's two patches, isolated outliers (2 % of the epochs, random
+#: sign), and one long one-sided patch of 40 epochs from 500 s.
+PATTERNS = ("paper", "isolated", "long patch")
+
+
+@dataclass(frozen=True)
+class OutlierView:
+    r"""What the chapter-9 widget shows for one setting (returned by ``outlier_view``).
+
+    Shapes: ``K`` epochs, ``J`` fixes.
+
+    Attributes
+    ----------
+    amplitude : float
+        Outlier size [m].
+    pattern : str
+        The outlier pattern, one of ``PATTERNS``.
+    delta : float
+        The test's :math:`\delta`.
+    test : str
+        The range filter's test, ``"paper"`` or ``"chi2"``.
+    spacing : int
+        Epochs between the four epochs of a fix.
+    reacquire : bool
+        Whether the range filter re-acquires after 20 consecutive rejections.
+    times : ndarray, shape (K,)
+        Epoch times [s].
+    range_error : ndarray, shape (K,)
+        Measured minus true slant range [m].
+    plain_error : ndarray, shape (K,)
+        The standard KF's range minus the true range [m].
+    robust_error : ndarray, shape (K,)
+        The outlier-rejecting KF's range minus the true range [m].
+    outlier : ndarray of bool, shape (K,)
+        The injected outliers.
+    flagged : ndarray of bool, shape (K,)
+        The ranges the filter classed as outliers.
+    fix_times : ndarray, shape (J,)
+        Times of the fixes [s].
+    fix_error : ndarray, shape (J,)
+        Horizontal position error of OR-VMLBL (the fixes) [m].
+    track_error : ndarray, shape (J,)
+        Horizontal position error of OR-VMLBL-KF (the cascade filter) [m].
+    summary : dict of float
+        ``"flagged"`` (fraction of the outliers flagged), ``"good_flagged"`` (fraction of the good ranges flagged),
+        ``"rms_fix"``, ``"rms_track"`` [m], ``"within_10_fix"``, ``"within_10_track"`` (fraction of fixes with an
+        error under 10 % of the slant range).
+    """
+
+    amplitude: float
+    pattern: str
+    delta: float
+    spacing: int
+    test: str
+    reacquire: bool
+    times: np.ndarray
+    range_error: np.ndarray
+    plain_error: np.ndarray
+    robust_error: np.ndarray
+    outlier: np.ndarray
+    flagged: np.ndarray
+    fix_times: np.ndarray
+    fix_error: np.ndarray
+    track_error: np.ndarray
+    summary: dict[str, float]
+
+
+def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float = 0.03, spacing: int = 100,
+                 test: str = "paper", reacquire: bool = True, seed: int = 0) -> OutlierView:
+    r"""Run paper E's OR-VMLBL-KF on one simulated dive with the chosen outliers.
+
+    Parameters
+    ----------
+    amplitude : float, default 80
+        Outlier size [m], 0 to 500.
+    pattern : str, default "paper"
+        One of ``PATTERNS``.
+    delta : float, default 0.03
+        Paper E's tolerance, in (0, 0.5].
+    spacing : int, default 100
+        Epochs (seconds) between the four epochs of a fix, 10 to 300.
+    test : {"paper", "chi2"}, default "paper"
+        The range filter's test (the chi-square gate at 99 %).
+    reacquire : bool, default True
+        Re-acquisition after 20 consecutive rejections.
+    seed : int, default 0
+        Seed of the dive and of the outliers.
+
+    Returns
+    -------
+    OutlierView
+    """
+    a = float(as_finite("amplitude", amplitude, ndim=0))
+    if not 0.0 <= a <= 500.0:
+        raise ValueError(f"amplitude must lie between 0 and 500 m; got {a:g}")
+    if pattern not in PATTERNS:
+        raise ValueError(f"pattern must be one of {PATTERNS}; got {pattern!r}")
+    d = float(as_finite("delta", delta, ndim=0))
+    if not 0.0 < d <= 0.5:
+        raise ValueError(f"delta must lie in (0, 0.5]; got {d:g}")
+    s = as_int("spacing", spacing, minimum=10)
+    if s > 300:
+        raise ValueError(f"spacing must be at most 300 s (a fix needs 3 spacings within the 1200 s dive); got {s}")
+    if test not in ("paper", "chi2"):
+        raise ValueError(f"test must be 'paper' or 'chi2'; got {test!r}")
+    if not isinstance(reacquire, (bool, np.bool_)):
+        raise TypeError(f"reacquire must be True or False; got {reacquire!r}")
+    seed = as_int("seed", seed, minimum=0)
+    rng = np.random.default_rng(seed)
+    dive = paper_e.make(rng, 1, outlier_onsets=(), outlier_counts=(), outlier_two_sided=())
+    times = np.asarray(dive.times)
+    truth_r = np.asarray(dive.true_slant_ranges[0])
+    if pattern == "paper":
+        model = Outliers((300.0,), 10, a) + Outliers((700.0,), 20, a, two_sided=True)
+    elif pattern == "isolated":
+        model = Outliers((), 1, a, two_sided=True, probability=0.02)
+    else:
+        model = Outliers((500.0,), 40, a)
+    e, mask = model.sample_with_mask(truth_r, times, rng)
+    ranges = np.asarray(dive.slant_ranges[0]) + e
+    options = {"delta": d, "test": test, "reacquire": 20 if reacquire else None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllConditionedWarning)
+        out = or_vmlbl_kf(ranges, dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth, spacing=s,
+                          range_options=options)
+    plain = robust_range_kf(ranges, 1.0, test="none")
+    truth = np.asarray(dive.true_positions[0])[out.now]
+    fix_err = np.linalg.norm(out.fixes - truth, axis=-1)
+    track_err = np.linalg.norm(out.filtered - truth, axis=-1)
+    flagged = np.asarray(out.ranges.extras["outlier"])
+    slant = truth_r[out.now]
+
+    def rms(x: np.ndarray) -> float:
+        return float(np.sqrt(np.nanmean(x**2)))
+
+    summary = {
+        "flagged": float(flagged[mask].mean()) if mask.any() else float("nan"),
+        "good_flagged": float(flagged[~mask].mean()),
+        "rms_fix": rms(fix_err), "rms_track": rms(track_err),
+        "within_10_fix": float(np.mean(fix_err <= 0.1 * slant)),
+        "within_10_track": float(np.mean(track_err <= 0.1 * slant)),
+    }
+    return OutlierView(amplitude=a, pattern=pattern, delta=d, spacing=s, test=test, reacquire=bool(reacquire),
+                       times=times, range_error=ranges - truth_r, plain_error=plain.x[:, 0] - truth_r,
+                       robust_error=out.ranges.x[:, 0] - truth_r, outlier=mask, flagged=flagged,
+                       fix_times=out.fix_times, fix_error=fix_err, track_error=track_err, summary=summary)
+
+
+def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
+    """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom)."""
+    fig = fig or plt.figure(figsize=(7.8, 5.0))
+    ax_r, ax_p = fig.subplots(2, 1, sharex=True)
+    t = view.times
+    ax_r.plot(t, view.range_error, ".", ms=2, color="0.6", label="measured")
+    ax_r.plot(t, view.plain_error, color="C0", lw=1, label="standard KF")
+    ax_r.plot(t, view.robust_error, color="C3", lw=1, label=f"KF with the {view.test} test")
+    ax_r.plot(t[view.flagged], view.range_error[view.flagged], "x", ms=3, color="k", label="flagged")
+    lim = max(10.0, 1.3 * view.amplitude)
+    ax_r.set_ylim(-lim, lim)
+    ax_r.set_ylabel("range error [m]")
+    s = view.summary
+    ax_r.set_title(f"{view.pattern} outliers of {view.amplitude:g} m, δ = {view.delta:g}: "
+                   f"{100 * s['flagged']:.0f} % flagged, {100 * s['good_flagged']:.1f} % of good ranges flagged",
+                   fontsize=8)
+    ax_r.legend(fontsize=6, ncol=4, loc="lower left")
+    ax_p.semilogy(view.fix_times, view.fix_error, color="0.5", lw=0.8, label="OR-VMLBL (fixes)")
+    ax_p.semilogy(view.fix_times, view.track_error, color="C3", lw=1.2, label="OR-VMLBL-KF")
+    ax_p.set_xlabel("time [s]")
+    ax_p.set_ylabel("position error [m]")
+    ax_p.set_title(f"epochs {view.spacing} s apart: RMS {s['rms_fix']:.1f} m → {s['rms_track']:.1f} m; within 10 %: "
+                   f"{100 * s['within_10_fix']:.1f} % → {100 * s['within_10_track']:.1f} %", fontsize=8)
+    ax_p.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def outlier_widget() -> Any:
+    """Outlier amplitude and pattern, the test and its δ, the epoch spacing and re-acquisition over the view."""
+    import ipywidgets as w
+
+    style = {"description_width": "initial"}
+    sliders = {
+        "amplitude": w.FloatSlider(value=80.0, min=0.0, max=200.0, step=10.0, description="outlier size [m]",
+                                   continuous_update=False, style=style),
+        "pattern": w.Dropdown(options=list(PATTERNS), value="paper", description="pattern", style=style),
+        "delta": w.FloatLogSlider(value=0.03, base=10, min=-3.0, max=-0.5, step=0.1, description="δ",
+                                  continuous_update=False, style=style),
+        "spacing": w.IntSlider(value=100, min=10, max=300, step=10, description="epoch spacing [s]",
+                               continuous_update=False, style=style),
+        "test": w.Dropdown(options=["paper", "chi2"], value="paper", description="test", style=style),
+        "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
+    }
+    return slider_panel(sliders, lambda fig, **p: plot_outlier_view(outlier_view(**p), fig))
+
+
+#: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch09 OR-VMLBL-KF": outlier_view,
+}
