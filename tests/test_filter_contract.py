@@ -94,7 +94,24 @@ def _coop(formulation):
                 _COOP.dr_displacements)
 
 
-CASES += [_coop(f) for f in ("consistent", "literal", "single_range")]
+def _robust_case():
+    """Paper E's range filter: the generic engine with its outlier gate (a patch of outliers, 10 % missing)."""
+    from uwtutor.filters import RobustGate, SecondMomentGate
+    from uwtutor.models import ConstantVelocity, PositionMeasurement
+    from uwtutor.models.robust import step_lengths
+
+    rng = np.random.default_rng(5)
+    z = 1500.0 + np.cumsum(rng.normal(0.0, 1.0, (M, K)), axis=1)
+    z[:, 20:26] += 80.0
+    z[rng.random((M, K)) < 0.1] = np.nan
+    steps = step_lengths(K, 1.0)
+    return Case("ExtendedKalmanFilter-robust-gate", lambda b: ExtendedKalmanFilter(
+        ConstantVelocity(1, 2.0, steps), PositionMeasurement(1, 2.0),
+        np.column_stack([np.full(M, 1500.0), np.zeros(M)]) if b else np.array([1500.0, 0.0]),
+        np.diag([2.0, 25.0]), gate=RobustGate(SecondMomentGate(0.03), steps, reacquire=5)), z[..., None], None)
+
+
+CASES += [_coop(f) for f in ("consistent", "literal", "single_range")] + [_robust_case()]
 IDS = [c.name for c in CASES]
 
 
@@ -159,7 +176,8 @@ def test_nan_measurement_is_predict_only(case):
     assert missing.any() and (~missing).any()
     np.testing.assert_array_equal(res.x[missing], res.x_prior[missing])
     assert np.isnan(res.innovations[missing]).all()
-    assert np.isfinite(res.innovations[~missing]).all()
+    used = res.extras.get("accepted", ~missing)          # a gate may reject some of the measurements present
+    assert not used[missing].any() and np.isfinite(res.innovations[used]).all()
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)

@@ -59,7 +59,7 @@ def as_thresholds(max_condition: Any, max_noise_gain: Any) -> tuple[float, float
 
 
 def warn_conditioning(cond: np.ndarray, gain: np.ndarray, max_condition: float, max_noise_gain: float,
-                       what: str, stacklevel: int = 3) -> np.ndarray:
+                       what: str) -> np.ndarray:
     """Warn about singular and ill-conditioned problems; return the per-run ``well_conditioned`` flags."""
     cond = np.atleast_1d(cond)
     gain = np.atleast_1d(gain)
