@@ -9,6 +9,7 @@ from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
 from .gates import ChiSquareGate, Gate, GateContext
 from .kalman import KalmanFilter
+from .staggered import StaggeredRun, filter_from_start_epochs
 from .robust import RobustGate, SecondMomentGate, cascade_kf, robust_range_kf
 from .smoother import SmootherResult, rts_smoother
 from .particle import (
@@ -25,6 +26,7 @@ from .particle import (
 __all__ = [
     "Filter", "FilterResult", "run_filter", "KalmanFilter",
     "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate",
+    "StaggeredRun", "filter_from_start_epochs",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
     "ParticleDegeneracyError",

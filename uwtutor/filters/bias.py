@@ -47,6 +47,7 @@ from .. import lsq
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
+from .staggered import filter_from_start_epochs
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 
 __all__ = ["bias_ekf", "BiasEKF", "prepositioned_bias_ekf"]
@@ -301,35 +302,21 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
                 fix_state[runs] = fix.estimate
                 fix_cov[runs] = fix.covariance
     P_start = fix_cov if P0 is None else np.broadcast_to(P0, (M, 3, 3))
-    runs_ok = np.flatnonzero(has_start)
-    rows = np.arange(M)
-    # shift every started run so that its filter starts at step 0 (epoch start + 1); pad the tail with no ranges
-    idx = start[:, None] + 1 + np.arange(K)[None, :]
-    inside = idx < K
-    idx_c = np.minimum(idx, K - 1)
-    z_shift = np.where(inside, z[rows[:, None], idx_c], np.nan)
-    u_shift = np.where(inside[..., None], u[rows[:, None], idx_c], 0.0)
     epochs = np.arange(K)[None, :]
-    after = epochs > start[:, None]
-    at = epochs == start[:, None]
-    j = np.clip(epochs - start[:, None] - 1, 0, K - 1)
     out = {name: np.full(shape, np.nan) for name, shape in
            (("x", (M, K, 3)), ("P", (M, K, 3, 3)), ("x_prior", (M, K, 3)), ("P_prior", (M, K, 3, 3)),
             ("innovations", (M, K, 1)), ("innovation_cov", (M, K, 1, 1)))}
     accepted = np.zeros((M, K), dtype=bool)
-    if runs_ok.size:
-        filt = bias_ekf(fix_state[runs_ok], P_start[runs_ok], u_shift[runs_ok], z_shift[runs_ok], Q, R)
-        jj = j[runs_ok]
-        rr = np.arange(runs_ok.size)[:, None]
-        aft = after[runs_ok]
+    if has_start.any():
+        # every started run's filter begins after its own start epoch, all in one call
+        staggered = filter_from_start_epochs(bias_ekf, start, fix_state, P_start, u, z, Q=Q, R=R, beacon=b)
+        filt = staggered.filter_result
         for name in out:
-            values = getattr(filt, name)[rr, jj]
-            extra = (None,) * (values.ndim - 2)
-            out[name][runs_ok] = np.where(aft[(...,) + extra], values, np.nan)
-        accepted[runs_ok] = aft & filt.extras["accepted"][rr, jj]
-        at_ok = at[runs_ok]
-        out["x"][runs_ok] = np.where(at_ok[..., None], fix_state[runs_ok][:, None, :], out["x"][runs_ok])
-        out["P"][runs_ok] = np.where(at_ok[..., None, None], P_start[runs_ok][:, None], out["P"][runs_ok])
+            out[name] = staggered.at_epochs(getattr(filt, name), np.nan)
+        accepted = staggered.at_epochs(filt.extras["accepted"], False)
+        at = epochs == start[:, None]                            # the start epoch itself shows the fix
+        out["x"] = np.where(at[..., None], fix_state[:, None, :], out["x"])
+        out["P"] = np.where(at[..., None, None], P_start[:, None], out["P"])
     t = np.arange(K, dtype=float) if times is None else as_finite("times", times, shape=(K,))
     return FilterResult(times=t, extras={"accepted": accepted, "started": epochs >= start[:, None],
                                          "alpha": alpha}, **out)

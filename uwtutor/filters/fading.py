@@ -120,6 +120,7 @@ import numpy as np
 from ..acoustics import range_factor
 from .._validate import as_covariance, as_flag, as_finite, as_float_array, as_int, as_range_array
 from .base import FilterResult
+from .staggered import filter_from_start_epochs
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields,
                       runs_first, sequence_inputs, steps_and_times, update_step, x_view)
@@ -782,8 +783,9 @@ class LSFadingResult(FilterResult):
     acceptance : object
         The acceptance test, a ``uwtutor.lsq.PrelocationAcceptance`` (from ``prelocation_acceptance``).
     filter_result : FadingResult
-        The filter's own run, in *filter time*: step ``j`` of run ``m`` is epoch ``start_epoch[m] + 1 + j``
-        (steps past the last epoch are padding without ranges).
+        The filter's own run over the accepted runs (in order), in *filter time*: step ``j`` of accepted run
+        ``m`` is epoch ``start_epoch[m] + 1 + j`` (steps past the last epoch are padding without ranges); see
+        :func:`uwtutor.filters.staggered.filter_from_start_epochs`.
     """
 
     start_epoch: np.ndarray
@@ -932,23 +934,12 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     else:
         mu = np.broadcast_to(_per_run("mu_gamma", mu_gamma, minimum=0.0, strict=True)[0], (M,)).astype(float)
 
-    # shift every run so that its filter starts at step 0 (epoch start + 1); pad the tail with no ranges
-    idx = start[:, None] + 1 + np.arange(K)[None, :]
-    inside = idx < K
-    idx_c = np.minimum(idx, K - 1)
-    z_shift = np.where(inside, z[rows[:, None], idx_c], np.nan)
-    u_shift = np.where(inside[..., None], u[rows[:, None], idx_c], 0.0)
-    filt = fading_ekf(x_start, P0, u_shift, z_shift, Q, R, mu_gamma=mu, sigma_gamma=sigma_gamma, rho=rho, beta=beta,
-                      fading=fading, beacon=beacon, times=np.arange(K, dtype=float))
-
-    # back to epochs: epoch k > start takes filter step k - start - 1
-    k = np.arange(K)[None, :]
-    after = k > start[:, None]
-    j = np.clip(k - start[:, None] - 1, 0, K - 1)
-    def at_epochs(a: np.ndarray, before: Any) -> np.ndarray:
-        """A filter-time array (M, K, ...) in epoch time, ``before`` up to each run's start epoch."""
-        mask = after.reshape(after.shape + (1,) * (a.ndim - 2))
-        return np.where(mask, a[rows[:, None], j], before)
+    # every accepted run's filter starts at its own epoch, all in one call
+    staggered = filter_from_start_epochs(fading_ekf, start, x_start, P0, u, z, per_run={"mu_gamma": mu}, Q=Q, R=R,
+                                         sigma_gamma=sigma_gamma, rho=rho, beta=beta, fading=fading, beacon=beacon,
+                                         times=np.arange(K, dtype=float))
+    filt = staggered.filter_result
+    at_epochs = staggered.at_epochs
 
     extras = {"fading_factor": at_epochs(filt.fading_factor, np.nan),
               "weakening_factor": at_epochs(filt.weakening_factor, np.nan),
