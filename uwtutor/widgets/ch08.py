@@ -205,7 +205,7 @@ def cooperative_widget() -> Any:
                                      continuous_update=False, style=style),
         "tuning": w.Dropdown(options=list(TUNINGS), value="matched", description="tuning", style=style),
     }
-    return slider_panel(sliders, lambda **p: plot_cooperative_view(cooperative_view(**p)))
+    return slider_panel(sliders, lambda fig, **p: plot_cooperative_view(cooperative_view(**p), fig))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
