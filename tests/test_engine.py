@@ -287,3 +287,24 @@ def test_a_model_returning_wrong_shapes_is_reported():
     filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2)), Broken(), np.zeros((3, 2)), np.eye(2))
     with pytest.raises(ValueError, match="H must have shape"):
         filt.update(np.ones(3))
+
+
+def test_multiplicative_range_model_equals_filterpy_with_the_range_dependent_noise():
+    from uwtutor.models import MultiplicativeRange
+
+    motion, _, x0, P0, u, z = study(2, M=2, missing=0.1)
+    meas = MultiplicativeRange((0.0, 0.0), R=0.49, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    res = extended_kalman_filter(motion, meas, x0, P0, u, 0.98 * z)
+    for m in range(2):
+        f = FilterpyEKF(dim_x=2, dim_z=1, dim_u=2)
+        f.x, f.P, f.F, f.B, f.Q = x0[m].reshape(2, 1).copy(), P0.copy(), np.eye(2), np.eye(2), motion.Q(None, None, 0)
+        for k, (uk, zk) in enumerate(zip(u, 0.98 * z[m])):
+            f.predict(u=uk.reshape(2, 1))
+            if np.isfinite(zk):
+                x_row = f.x.T
+                f.update(np.array([[zk]]), HJacobian=lambda x: meas.H(x.T, k)[0],
+                         Hx=lambda x: meas.h(x.T, k)[0].reshape(1, 1), R=meas.R(x_row, k)[0])
+            np.testing.assert_allclose(res.x[m, k], f.x[:, 0], **TOL)
+            np.testing.assert_allclose(res.P[m, k], f.P, **TOL)
+    with pytest.raises(ValueError, match="mu_gamma must be > 0"):
+        MultiplicativeRange((0.0, 0.0), R=0.49, mu_gamma=0.0, sigma_gamma=0.001)

@@ -10,13 +10,13 @@ from .cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from .dead_reckoning import DeadReckoning
 from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
-from .range import RangeToBeacon, line_of_sight
+from .range import MultiplicativeRange, RangeToBeacon, line_of_sight
 from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [
     "MotionModel", "MeasurementModel",
     "DeadReckoning", "DepthSpeedPitch", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
-    "RangeToBeacon", "line_of_sight",
+    "RangeToBeacon", "MultiplicativeRange", "line_of_sight",
     "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
     "CooperativeMotion", "SquaredRangePair", "leader_range",
     "ConstantVelocity", "PositionMeasurement",

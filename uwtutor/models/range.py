@@ -31,7 +31,7 @@ import numpy as np
 from .._validate import as_covariance, as_finite, as_int
 from .base import MeasurementModel
 
-__all__ = ["RangeToBeacon", "line_of_sight"]
+__all__ = ["RangeToBeacon", "MultiplicativeRange", "line_of_sight"]
 
 
 def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -154,3 +154,59 @@ class RangeToBeacon(MeasurementModel):
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
         return self._R
+
+
+class MultiplicativeRange(RangeToBeacon):
+    r"""A range scaled by a random factor, as a sound-speed error makes it (papers A and D):
+
+    .. math::
+
+        z_k = \gamma_k \lVert p - b_k \rVert + v_k, \qquad \gamma_k \sim N(\mu_\gamma, \sigma_\gamma^2), \quad
+        v_k \sim N(0, R),
+
+    linearized at the prediction as :math:`h = \mu_\gamma r`, :math:`H = \mu_\gamma\,(p - b)^T / r` and a noise
+    variance :math:`\sigma_\gamma^2 r^2 + R` evaluated at the predicted range :math:`r` (the multiplicative part
+    grows with the range). This is the plain EKF for multiplicative noise; paper D's fading filter
+    (:func:`uwtutor.filters.fading.fading_ekf`) evaluates :math:`E[r^2]` from moments it carries instead, and adds
+    the fading factor.
+
+    Parameters
+    ----------
+    beacon : array_like, shape (2,), (K, 2) or (M, K, 2)
+        Beacon position(s), as for :class:`RangeToBeacon`.
+    R : float
+        Additive range noise variance (> 0) [m^2].
+    mu_gamma : float
+        Mean of the range factor (> 0), e.g. :func:`uwtutor.acoustics.range_factor`'s.
+    sigma_gamma : float
+        Its standard deviation (>= 0).
+    n : int, optional
+        Size of the state (default 2).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import MultiplicativeRange
+    >>> model = MultiplicativeRange((0.0, 0.0), R=0.49, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    >>> x = np.array([[3000.0, 4000.0]])
+    >>> model.h(x, 0), model.R(x, 0)
+    (array([[4900.]]), array([[[11.60111111]]]))
+    """
+
+    def __init__(self, beacon: Any, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
+        super().__init__(beacon, R, n=n)
+        mu = float(as_finite("mu_gamma", mu_gamma, ndim=0))
+        sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0))
+        if not mu > 0.0:
+            raise ValueError(f"mu_gamma must be > 0 (the mean range factor, about 1); got {mu:g}")
+        if sigma < 0.0:
+            raise ValueError(f"sigma_gamma must be >= 0 (a standard deviation); got {sigma:g}")
+        self.mu_gamma, self.sigma_gamma = mu, sigma
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        z, H, defined = super().linearize(x, k)
+        return self.mu_gamma * z, self.mu_gamma * H, defined
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        r, _, _ = line_of_sight(x[..., :2], self.beacon_at(k))
+        return (self.sigma_gamma**2 * r**2 + self._R[0, 0])[:, None, None]
