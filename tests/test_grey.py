@@ -204,3 +204,19 @@ def test_gm11_next_is_the_one_step_forecast():
         grey.gm11_next([1.0, 2.0, -1.0, 3.0])
     with pytest.raises(ValueError, match="at least 4 values"):
         grey.gm11_next([1.0, 2.0, 3.0])
+
+
+def test_series_far_from_one_are_fitted_in_their_own_units():
+    """GM(1,1) on 1e-320 or 1e300 used to give NaN (underflow / overflow in the sums of squares)."""
+    import numpy as np
+
+    from uwtutor import grey
+
+    base = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    ref = grey.fit_gm11(base)
+    for scale in (1e-318, 1e-200, 1e200, 1e300):
+        fit = grey.fit_gm11(base * scale)
+        assert np.isfinite(fit.a) and np.isfinite(fit.b)
+        assert abs(fit.a - ref.a) <= 1e-9 * abs(ref.a) + 1e-12
+        forecast = grey.gm11_forecast(base * scale, 2)
+        np.testing.assert_allclose(forecast / scale, grey.gm11_forecast(base, 2), rtol=1e-6)

@@ -61,3 +61,13 @@ def test_widgets_build_and_plot_functions_draw():
     fig = widgets.plot_range_error_view(widgets.range_error_view())
     assert len(fig.axes) == 2
     plt.close("all")
+
+
+def test_range_error_view_refuses_an_unseeded_run():
+    """seed=None would draw OS entropy: every figure of the book must be reproducible."""
+    import pytest
+
+    from uwtutor import widgets
+
+    with pytest.raises(TypeError, match="seed must be an integer"):
+        widgets.range_error_view(seed=None)

@@ -119,6 +119,13 @@ def _coefficients(x0: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]
     (``a = -cov(z, y) / var(z)``, ``b = mean(y) + a mean(z)``): the same numbers as paper C's eq. (10) with its sums,
     without the cancellation of ``(n-1) sum z^2 - (sum z)^2`` for long or large series.
     """
+    # a is scale-free and b scales with the series: a series far from 1 (1e-320, 1e300) is fitted in units of its
+    # largest value, where the sums of squares below neither underflow nor overflow (ordinary series are left alone)
+    scale = np.maximum.reduce(x0, axis=-1, keepdims=True)
+    extreme = (scale < 1e-100) | (scale > 1e100)
+    if extreme.any():
+        a, b = _coefficients(np.where(extreme, x0 / scale, x0), alpha)
+        return a, np.where(extreme[..., 0], b * scale[..., 0], b)
     x1 = np.cumsum(x0, axis=-1)
     z = alpha * x1[..., 1:] + (1.0 - alpha) * x1[..., :-1]
     y = x0[..., 1:]
@@ -346,10 +353,11 @@ def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
     fitted[0] = x0[0]
     fitted[1:] = _restored(np.asarray(x0[0]), a_arr, b_arr, np.arange(1.0, n))
     residuals = x0 - fitted
-    s1 = float(np.std(x0))
-    s2 = float(np.std(residuals))
+    unit = float(np.max(x0))                 # C and P are scale-free: computed in units of the series' largest
+    s1 = float(np.std(x0 / unit))            # value, so that 1e300 or 1e-320 neither overflow nor underflow
+    s2 = float(np.std(residuals / unit))
     C = s2 / s1 if s1 > 0 else 0.0
-    P = float(np.mean(np.abs(residuals - residuals.mean()) < 0.6745 * s1)) if s1 > 0 else 1.0
+    P = (float(np.mean(np.abs(residuals / unit - (residuals / unit).mean()) < 0.6745 * s1)) if s1 > 0 else 1.0)
     return GM11(series=x0.copy(), a=a, b=b, background_weight=alpha, accumulated=x1, background=z,
                 fitted=fitted, residuals=residuals, relative_errors=np.abs(residuals) / x0,
                 posterior_variance_ratio=C, small_error_probability=P, level_ratio=level_ratio_test(x0))
