@@ -55,6 +55,10 @@ MISTAKES = {
                          "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",
                          "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),
                         9.0, "must stay finite far out"),
+    "cooperative_current": (("A_answer", "clock_bias = owtt.clock_range_error(scenarios[\"zigzag\"].times, offset=clock_offset, "
+                                         "drift=clock_drift, sound_speed=c)",
+                             "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),
+                            10.0, "the offset alone"),
 }
 
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
