@@ -59,6 +59,9 @@ MISTAKES = {
                                          "drift=clock_drift, sound_speed=c)",
                              "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),
                             10.0, "the offset alone"),
+    "bias_tracking_iekf": (("D_answer", "nees_bounds = chi2_mean_bounds(3, n_runs)",
+                            "nees_bounds = chi2_mean_bounds(2, n_runs)"),
+                           10.0, "its NEES has 3 degrees of freedom"),
 }
 
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
