@@ -55,6 +55,9 @@ MISTAKES = {
                          "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",
                          "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),
                         9.0, "must stay finite far out"),
+    "outlier_rejection_vmlbl": (("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)",
+                                 "epochs = k_fix - s * np.arange(4)  # newest first"),
+                                8.0, "List the epochs oldest first"),
 }
 
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
@@ -250,7 +253,7 @@ def test_uwtutor_labs_writes_student_versions_and_never_clobbers(tmp_path, capsy
     capsys.readouterr()
     assert main(["labs", str(dest)]) == 0
     out = capsys.readouterr().out
-    assert "Skipped 5 notebooks" in out and "ekf_consistency/ekf_consistency.ipynb" in out
+    assert "Skipped 6 notebooks" in out and "ekf_consistency/ekf_consistency.ipynb" in out
     assert "Q_mine" in mine.read_text(encoding="utf-8"), "a student's work is never overwritten"
     assert main(["labs", str(dest), "--lab", "ekf_consistency", "--force"]) == 0
     assert "Q_mine" not in mine.read_text(encoding="utf-8")
