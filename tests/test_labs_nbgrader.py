@@ -62,6 +62,9 @@ MISTAKES = {
     "bias_tracking_iekf": (("D_answer", "nees_bounds = chi2_mean_bounds(3, n_runs)",
                             "nees_bounds = chi2_mean_bounds(2, n_runs)"),
                            10.0, "its NEES has 3 degrees of freedom"),
+    "outlier_rejection_vmlbl": (("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)",
+                                 "epochs = k_fix - s * np.arange(4)  # newest first"),
+                                8.0, "List the epochs oldest first"),
 }
 
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
