@@ -54,7 +54,7 @@ class StaggeredRun:
         return np.arange(self.n_epochs)[None, :] > self.start[:, None]
 
     def at_epochs(self, values: np.ndarray, before: Any) -> np.ndarray:
-        """A filter-time array of :attr:`filter_result` (its runs axis first) in epoch time, ``(M, K, ...)``:
+        """A filter-time array of ``filter_result`` (its runs axis first) in epoch time, ``(M, K, ...)``:
         the filter's value after each run's start epoch and ``before`` (a scalar or an ``(M, K, ...)`` array) up
         to and including it, and in the runs that were not filtered."""
         M, K = self.start.shape[0], self.n_epochs
