@@ -83,11 +83,38 @@ def best_time(fn: Callable[[], Any], repeats: int) -> float:
     return best
 
 
+def filterpy_range_loop(x0: Any, P0: Any, Q: Any, R: float, u: Any, z: Any, bias: bool) -> None:
+    """The reference: filterpy's ``ExtendedKalmanFilter`` stepped in a Python loop over ``FILTERPY_SAMPLE_RUNS``
+    runs, ranges to a beacon at the origin (plus a bias state when ``bias``), F = I, the DR displacement as input."""
+    import numpy as np
+    from filterpy.kalman import ExtendedKalmanFilter
+
+    n = 3 if bias else 2
+
+    def hx(x: np.ndarray) -> np.ndarray:
+        return np.array([[np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2) + (x[2, 0] if bias else 0.0)]])
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        r = np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)
+        return np.array([[x[0, 0] / r, x[1, 0] / r] + ([1.0] if bias else [])])
+
+    for m in range(FILTERPY_SAMPLE_RUNS):
+        ekf = ExtendedKalmanFilter(dim_x=n, dim_z=1, dim_u=2)
+        ekf.x = np.asarray(x0[m], dtype=float).reshape(n, 1).copy()
+        ekf.P = np.array(P0, dtype=float)
+        ekf.F = np.eye(n)
+        ekf.B = np.vstack([np.eye(2), np.zeros((n - 2, 2))])
+        ekf.Q = Q
+        ekf.R = np.array([[R]])
+        for uk, zk in zip(u[m], z[m]):
+            ekf.predict(u=uk.reshape(2, 1))
+            if zk == zk:                                   # not NaN
+                ekf.update(np.array([[zk]]), jacobian, hx)
+
+
 # --- the measurements -----------------------------------------------------------------------------------------
 
 def bench_ekf(repeats: int) -> dict[str, Any]:
-    import numpy as np
-    from filterpy.kalman import ExtendedKalmanFilter
 
     from uwtutor.filters import range_only_ekf
 
@@ -95,26 +122,9 @@ def bench_ekf(repeats: int) -> dict[str, Any]:
     range_only_ekf(**{**inputs, "x0": inputs["x0"][:10], "u": inputs["u"][:10], "z": inputs["z"][:10]})  # warm-up
     batched = best_time(lambda: range_only_ekf(**inputs), repeats)
 
-    def hx(x: np.ndarray) -> np.ndarray:
-        return np.array([[np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)]])
-
-    def jacobian(x: np.ndarray) -> np.ndarray:
-        r = np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)
-        return np.array([[x[0, 0] / r, x[1, 0] / r]])
-
     def filterpy_sample() -> None:
-        for m in range(FILTERPY_SAMPLE_RUNS):
-            ekf = ExtendedKalmanFilter(dim_x=2, dim_z=1, dim_u=2)
-            ekf.x = inputs["x0"][m].reshape(2, 1).copy()
-            ekf.P = inputs["P0"].copy()
-            ekf.F = np.eye(2)
-            ekf.B = np.eye(2)
-            ekf.Q = inputs["Q"]
-            ekf.R = np.array([[inputs["R"]]])
-            for uk, zk in zip(inputs["u"][m], inputs["z"][m]):
-                ekf.predict(u=uk.reshape(2, 1))
-                if zk == zk:                                   # not NaN
-                    ekf.update(np.array([[zk]]), jacobian, hx)
+        filterpy_range_loop(inputs["x0"], inputs["P0"], inputs["Q"], inputs["R"], inputs["u"], inputs["z"],
+                            bias=False)
 
     sample = best_time(filterpy_sample, max(1, min(2, repeats)))
     filterpy_full = sample * EKF_RUNS / FILTERPY_SAMPLE_RUNS
@@ -126,7 +136,6 @@ def bench_generic_ekf(repeats: int) -> dict[str, Any]:
     """The generic batched EKF on paper A's 3-state model (position + range bias), against filterpy's 3-state
     ``ExtendedKalmanFilter`` stepped in a Python loop, on the same inputs and in the same run."""
     import numpy as np
-    from filterpy.kalman import ExtendedKalmanFilter
 
     from uwtutor.filters import extended_kalman_filter
     from uwtutor.models import DeadReckoning, RangeToBeacon
@@ -141,26 +150,8 @@ def bench_generic_ekf(repeats: int) -> dict[str, Any]:
     ours = best_time(lambda: extended_kalman_filter(motion, measurement, x0, P0, inputs["u"], inputs["z"]),
                      repeats)
 
-    def hx(x: np.ndarray) -> np.ndarray:
-        return np.array([[np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2) + x[2, 0]]])
-
-    def jacobian(x: np.ndarray) -> np.ndarray:
-        r = np.sqrt(x[0, 0] ** 2 + x[1, 0] ** 2)
-        return np.array([[x[0, 0] / r, x[1, 0] / r, 1.0]])
-
     def filterpy_sample() -> None:
-        for m in range(FILTERPY_SAMPLE_RUNS):
-            ekf = ExtendedKalmanFilter(dim_x=3, dim_z=1, dim_u=2)
-            ekf.x = x0[m].reshape(3, 1).copy()
-            ekf.P = P0.copy()
-            ekf.F = np.eye(3)
-            ekf.B = np.vstack([np.eye(2), np.zeros((1, 2))])
-            ekf.Q = Q
-            ekf.R = np.array([[inputs["R"]]])
-            for uk, zk in zip(inputs["u"][m], inputs["z"][m]):
-                ekf.predict(u=uk.reshape(2, 1))
-                if zk == zk:                                   # not NaN
-                    ekf.update(np.array([[zk]]), jacobian, hx)
+        filterpy_range_loop(x0, P0, Q, inputs["R"], inputs["u"], inputs["z"], bias=True)
 
     sample = best_time(filterpy_sample, max(1, min(2, repeats)))
     scaled = sample * EKF_RUNS / FILTERPY_SAMPLE_RUNS

@@ -35,8 +35,35 @@ __all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "C
            "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD"]
 
 
+class _StudyStatistics:
+    """The statistics read off a study's final errors and mean NEES/NIS (shared by the two study results)."""
+
+    final_errors: np.ndarray
+    mean_nees: np.ndarray
+    nees_bounds: tuple[np.ndarray, np.ndarray]
+    mean_nis: np.ndarray | None
+    nis_bounds: tuple[np.ndarray, np.ndarray] | None
+
+    def final_error_percentile(self, q: float) -> float:
+        """The ``q``-th percentile (0-100) of the final error over the runs, e.g. ``q=95``."""
+        q = float(as_finite("q", q))
+        if not 0.0 <= q <= 100.0:
+            raise ValueError(f"q must be a percentage between 0 and 100; got {q}")
+        return float(np.nanpercentile(self.final_errors, q))
+
+    def nees_fraction_within(self) -> float:
+        """Fraction of the steps whose mean NEES lies inside ``nees_bounds`` (about ``confidence`` if consistent)."""
+        return metrics.fraction_within(self.mean_nees, *self.nees_bounds)
+
+    def nis_fraction_within(self) -> float:
+        """Fraction of the steps (with a measurement) whose mean NIS lies inside ``nis_bounds``."""
+        if self.mean_nis is None or self.nis_bounds is None:
+            raise ValueError("this study has no NIS: the filter reported no innovations")
+        return metrics.fraction_within(self.mean_nis, *self.nis_bounds)
+
+
 @dataclass(frozen=True)
-class MonteCarloResult:
+class MonteCarloResult(_StudyStatistics):
     r"""The trajectories and the scores of a Monte Carlo study (see :func:`run_monte_carlo`).
 
     Shapes: ``M`` runs, ``K`` steps, ``n`` state components scored (all, or the chosen ``components``),
@@ -112,23 +139,6 @@ class MonteCarloResult:
     def final_error_cdf(self) -> tuple[np.ndarray, np.ndarray]:
         """Empirical CDF ``(values, probabilities)`` of the final error (see :func:`uwtutor.metrics.error_cdf`)."""
         return metrics.error_cdf(self.final_errors)
-
-    def final_error_percentile(self, q: float) -> float:
-        """The ``q``-th percentile (0-100) of the final error over the runs, e.g. ``q=95``."""
-        q = float(as_finite("q", q))
-        if not 0.0 <= q <= 100.0:
-            raise ValueError(f"q must be a percentage between 0 and 100; got {q}")
-        return float(np.nanpercentile(self.final_errors, q))
-
-    def nees_fraction_within(self) -> float:
-        """Fraction of the steps whose mean NEES lies inside ``nees_bounds`` (about ``confidence`` if consistent)."""
-        return metrics.fraction_within(self.mean_nees, *self.nees_bounds)
-
-    def nis_fraction_within(self) -> float:
-        """Fraction of the steps (with a measurement) whose mean NIS lies inside ``nis_bounds``."""
-        if self.mean_nis is None or self.nis_bounds is None:
-            raise ValueError("this study has no NIS: the filter reported no innovations")
-        return metrics.fraction_within(self.mean_nis, *self.nis_bounds)
 
     def summary(self) -> dict[str, float]:
         """Headline numbers: final RMSE, median and 95th-percentile final error, time-averaged mean NEES/NIS
@@ -359,7 +369,7 @@ def _versions() -> dict[str, str]:
 
 
 @dataclass(frozen=True)
-class StudyResult:
+class StudyResult(_StudyStatistics):
     r"""The scores of a chunked Monte Carlo study (see :func:`run_study`): sums reduced over the runs.
 
     Unlike :class:`MonteCarloResult` it keeps no trajectory: only what the chunks were reduced to, so its size
@@ -417,23 +427,6 @@ class StudyResult:
     def n_steps(self) -> int:
         """Number of steps ``K``."""
         return len(self.rmse)
-
-    def final_error_percentile(self, q: float) -> float:
-        """The ``q``-th percentile (0-100) of the final error over the runs, e.g. ``q=95``."""
-        q = float(as_finite("q", q))
-        if not 0.0 <= q <= 100.0:
-            raise ValueError(f"q must be a percentage between 0 and 100; got {q}")
-        return float(np.nanpercentile(self.final_errors, q))
-
-    def nees_fraction_within(self) -> float:
-        """Fraction of the steps whose mean NEES lies inside ``nees_bounds`` (about ``confidence`` if consistent)."""
-        return metrics.fraction_within(self.mean_nees, *self.nees_bounds)
-
-    def nis_fraction_within(self) -> float:
-        """Fraction of the steps (with a measurement) whose mean NIS lies inside ``nis_bounds``."""
-        if self.mean_nis is None or self.nis_bounds is None:
-            raise ValueError("this study has no NIS: the filter reported no innovations")
-        return metrics.fraction_within(self.mean_nis, *self.nis_bounds)
 
     def as_dict(self) -> dict[str, Any]:
         """The numbers and the metadata by name (e.g. for :func:`numpy.savez` or a results file)."""
