@@ -1,7 +1,8 @@
 # The two commands that do all the set-up on a fresh machine:
 #   make book   -- build the HTML book into _build/html
 #   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
-# and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks).
+# and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
+# make study (chapter 10's comparison table, written to book/data/).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -10,7 +11,7 @@ JB     := $(VENV)/bin/jupyter-book
 STAMP  := $(VENV)/.installed-stamp
 NODE_STAMP := node_modules/.installed-stamp
 
-.PHONY: setup book test lab bench notebooks clean
+.PHONY: setup book test lab bench study notebooks clean
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -49,6 +50,11 @@ lab: setup
 
 bench: setup
 	$(PY) benchmarks/run.py
+
+# Chapter 10's table (every method x scenario x error condition, 1000 runs each) into book/data/;
+# commit the three files it writes. About 8 minutes on 2 cores.
+study: setup
+	$(PY) studies/comparison.py --overwrite
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
 notebooks: setup

@@ -42,6 +42,7 @@ __all__ = [
     "error_cdf",
     "nees",
     "nis",
+    "positive_definite",
     "average_over_runs",
     "chi2_mean_bounds",
     "fraction_within",
@@ -94,20 +95,42 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
     scale = np.maximum(1.0, np.abs(Pu).max(axis=(-1, -2)))[:, None, None]
     if (np.abs(Pu - np.swapaxes(Pu, -1, -2)) > SYMMETRY_RTOL * scale).any():
         raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
-    n = P.shape[-1]
-    if n <= 2:
-        diag_ok = (np.diagonal(Pu, axis1=-2, axis2=-1) > 0).all()
-        det_ok = n == 1 or (Pu[:, 0, 0] * Pu[:, 1, 1] - Pu[:, 0, 1] * Pu[:, 1, 0] > 0).all()
-        ok = diag_ok and det_ok
-    else:
-        try:
-            np.linalg.cholesky(Pu)
-            ok = True
-        except np.linalg.LinAlgError:
-            ok = False
-    if not ok:
+    if not positive_definite(Pu).all():
         raise ValueError(f"{name} must be positive definite wherever it is used (a covariance); found one that "
                          "is not (negative variances, or a correlation beyond +-1)")
+
+
+def positive_definite(covariances: Any) -> np.ndarray:
+    """Which of the finite symmetric matrices ``(..., n, n)`` are positive definite (the test the scores apply).
+
+    For n <= 2 the diagonal and the determinant are tested directly; larger ones by a Cholesky factorization
+    each.
+
+    >>> import numpy as np
+    >>> positive_definite(np.array([np.eye(2), np.zeros((2, 2))])).tolist()
+    [True, False]
+    """
+    P = np.asarray(covariances, dtype=float)
+    n = P.shape[-1]
+    if n <= 2:
+        ok = (np.diagonal(P, axis1=-2, axis2=-1) > 0).all(axis=-1)
+        if n == 2:
+            ok &= P[..., 0, 0] * P[..., 1, 1] - P[..., 0, 1] * P[..., 1, 0] > 0
+        return ok
+    flat = P.reshape((-1, n, n))
+    try:
+        np.linalg.cholesky(flat)                    # all at once when all are (the usual case)
+        return np.ones(P.shape[:-2], dtype=bool)
+    except np.linalg.LinAlgError:
+        pass
+    out = np.empty(len(flat), dtype=bool)
+    for i, m in enumerate(flat):
+        try:
+            np.linalg.cholesky(m)
+            out[i] = True
+        except np.linalg.LinAlgError:
+            out[i] = False
+    return out.reshape(P.shape[:-2])
 
 
 def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:

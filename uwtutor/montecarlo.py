@@ -333,7 +333,12 @@ def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_se
     xs = x[..., sel]
     Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
     errors = metrics.estimation_errors(xs, t)
-    nees = metrics.nees(xs, Ps, t)
+    # A covariance that has collapsed (a particle cloud reduced to one particle: zero variance) is a result, not
+    # bad input: the filter claims a certainty it does not have, so that run's NEES at that step is infinite.
+    finite = np.isfinite(Ps).all(axis=(-1, -2))
+    collapsed = finite & ~metrics.positive_definite(np.where(finite[..., None, None], Ps, np.eye(Ps.shape[-1])))
+    nees = metrics.nees(xs, np.where(collapsed[..., None, None], np.nan, Ps), t)
+    nees[collapsed & np.isfinite(errors)] = np.inf
     nis_sum = nis_counts = None
     nis_dof = 0
     y = getattr(result, "innovations", None)
@@ -651,8 +656,9 @@ def scenario_draw(scenario: Callable[[np.random.Generator, int], Any],
 
 
 _TEXT_COLUMNS = ("method", "scenario", "condition")
-_NUMBER_COLUMNS = ("n_runs", "n_steps", "final_rmse", "mean_rmse", "final_bound", "mean_bound", "efficiency",
-                   "final_efficiency", "mean_nees", "nees_fraction", "divergence_threshold", "divergence_fraction")
+_NUMBER_COLUMNS = ("n_runs", "n_steps", "final_rmse", "median_final_error", "p95_final_error", "mean_rmse",
+                   "final_bound", "mean_bound", "efficiency", "final_efficiency", "mean_nees", "nees_fraction",
+                   "divergence_threshold", "divergence_fraction")
 _TIMING_COLUMNS = ("cost_per_step",)
 
 
@@ -678,6 +684,9 @@ class ComparisonTable:
         Steps ``K`` of the row's study.
     final_rmse : ndarray
         :math:`\mathrm{RMSE}_K` [m].
+    median_final_error, p95_final_error : ndarray
+        The median and the 95th percentile of the final error norm over the runs [m] (robust to the few runs
+        that diverge, which dominate the RMSE).
     mean_rmse : ndarray
         :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
     final_bound : ndarray
@@ -708,6 +717,11 @@ class ComparisonTable:
         Probability of the NEES intervals.
     versions : dict of str
         Versions that computed the table.
+    rmse_curves : ndarray, shape (rows, K), or None
+        :math:`\mathrm{RMSE}_k` of every row over the steps (when all rows have the same ``K``); saved with
+        :meth:`to_npz`, not in the CSV.
+    bound_curves : ndarray, shape (rows, K), or None
+        The supplied bound :math:`B_k` of every row (NaN rows without one).
     """
 
     method: np.ndarray
@@ -716,6 +730,8 @@ class ComparisonTable:
     n_runs: np.ndarray
     n_steps: np.ndarray
     final_rmse: np.ndarray
+    median_final_error: np.ndarray
+    p95_final_error: np.ndarray
     mean_rmse: np.ndarray
     final_bound: np.ndarray
     mean_bound: np.ndarray
@@ -730,6 +746,8 @@ class ComparisonTable:
     chunk_size: int
     confidence: float
     versions: dict[str, str]
+    rmse_curves: np.ndarray | None = None
+    bound_curves: np.ndarray | None = None
 
     #: The columns, in order.
     columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS
@@ -800,9 +818,32 @@ class ComparisonTable:
             for r in self.rows():
                 writer.writerow([repr(v) if isinstance(v, float) else v for v in r.values()])
 
+    def curves(self, method: str, scenario: str, condition: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(rmse, bound)`` over the steps of one row (``rmse_curves`` and ``bound_curves``)."""
+        if self.rmse_curves is None or self.bound_curves is None:
+            raise ValueError("this table holds no curves: read it with from_csv(path, curves=npz_path)")
+        hit = np.flatnonzero((self.method == method) & (self.scenario == scenario) & (self.condition == condition))
+        if hit.size == 0:
+            raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
+        return self.rmse_curves[hit[0]], self.bound_curves[hit[0]]
+
+    def to_npz(self, path: Any, *, overwrite: bool = False) -> None:
+        """Write ``rmse_curves`` and ``bound_curves`` with the rows' names (``numpy.savez_compressed``); an
+        existing file is not replaced unless ``overwrite=True``."""
+        from pathlib import Path
+
+        if self.rmse_curves is None or self.bound_curves is None:
+            raise ValueError("this table holds no curves (its rows have different numbers of steps)")
+        p = Path(path)
+        if p.exists() and not overwrite:
+            raise FileExistsError(f"{p} exists; pass overwrite=True to replace it")
+        with p.open("wb") as fh:
+            np.savez_compressed(fh, method=self.method, scenario=self.scenario, condition=self.condition,
+                                rmse_curves=self.rmse_curves, bound_curves=self.bound_curves)
+
     @classmethod
-    def from_csv(cls, path: Any) -> "ComparisonTable":
-        """Read a table written by :meth:`to_csv`."""
+    def from_csv(cls, path: Any, curves: Any = None) -> "ComparisonTable":
+        """Read a table written by :meth:`to_csv` (and its curves, written by :meth:`to_npz`, from ``curves``)."""
         import csv
         import json
         from pathlib import Path
@@ -825,8 +866,15 @@ class ComparisonTable:
                 cols[c] = np.array([int(v) for v in values], dtype=int)
             else:
                 cols[c] = np.array([float(v) for v in values])
+        extra: dict[str, Any] = {}
+        if curves is not None:
+            with np.load(curves) as data:
+                for name in _TEXT_COLUMNS:
+                    if not np.array_equal(data[name].astype(str), cols[name]):
+                        raise ValueError(f"{curves} does not hold the rows of {path} (its {name} column differs)")
+                extra = dict(rmse_curves=np.array(data["rmse_curves"]), bound_curves=np.array(data["bound_curves"]))
         return cls(**cols, seed=int(meta["seed"]), chunk_size=int(meta["chunk_size"]),
-                   confidence=float(meta["confidence"]), versions=dict(meta["versions"]))
+                   confidence=float(meta["confidence"]), versions=dict(meta["versions"]), **extra)
 
 
 def _named_callables(name: str, value: Any) -> dict[str, Callable[..., Any]]:
@@ -980,6 +1028,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                             f"{type(mapping).__name__}")
 
     cols: dict[str, list[Any]] = {c: [] for c in ComparisonTable.columns}
+    curves: list[tuple[np.ndarray, np.ndarray]] = []
     versions: dict[str, str] = {}
     for s_name, scenario in scenarios.items():
         for c_name, condition in conditions.items():
@@ -1004,6 +1053,8 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                 else:
                     final_b = mean_b = np.nan
                 final_rmse, mean_rmse = float(study.rmse[-1]), float(study.rmse.mean())
+                curves.append((study.rmse, np.full(K, np.nan) if bound is None else b))
+                lost = np.where(np.isnan(study.final_errors), np.inf, study.final_errors)   # NaN: diverged
                 with np.errstate(invalid="ignore"):
                     diverged = ~(study.final_errors <= thr)
                 cost = np.nan
@@ -1011,10 +1062,13 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                     cost = _cost_per_step(draw, method, timing_runs or min(n_runs, chunk_size), seed, K)
                 for key, value in (("method", m_name), ("scenario", s_name), ("condition", c_name),
                                    ("n_runs", n_runs), ("n_steps", K), ("final_rmse", final_rmse),
+                                   ("median_final_error", float(np.median(lost))),
+                                   ("p95_final_error", float(np.percentile(lost, 95.0))),
                                    ("mean_rmse", mean_rmse), ("final_bound", final_b), ("mean_bound", mean_b),
                                    ("efficiency", mean_rmse / mean_b), ("final_efficiency", final_rmse / final_b),
                                    ("mean_nees", float(np.mean(study.mean_nees))),
-                                   ("nees_fraction", study.nees_fraction_within()),
+                                   ("nees_fraction", np.nan if np.isnan(study.mean_nees).all()
+                                    else study.nees_fraction_within()),        # no covariance: no NEES
                                    ("divergence_threshold", thr), ("divergence_fraction", float(diverged.mean())),
                                    ("cost_per_step", cost)):
                     cols[key].append(value)
@@ -1028,8 +1082,11 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
             arrays[c] = np.array(values, dtype=int)
         else:
             arrays[c] = np.array(values, dtype=float)
+    same_k = len({len(r) for r, _ in curves}) == 1
     return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
-                           versions=versions)
+                           versions=versions,
+                           rmse_curves=np.array([r for r, _ in curves]) if same_k else None,
+                           bound_curves=np.array([b for _, b in curves]) if same_k else None)
 
 
 def _cost_per_step(draw: Callable[..., Any], method: Callable[..., Any], n: int, seed: int, K: int) -> float:

@@ -201,7 +201,9 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
     if preprocess:
         range_run = robust_range_kf(rb, dt, times=times, **(range_options or {}))
-        used = range_run.x[..., 0]
+        # Near the beacon the constant-velocity range filter can extrapolate below zero (the range rate flips
+        # sign at the closest approach); a range is a length, so the fix gets zero there.
+        used = np.maximum(range_run.x[..., 0], 0.0)
         var = range_run.P[..., 0, 0]
     else:
         range_run = None

@@ -21,6 +21,7 @@ from .particle import (
     ParticleDegeneracyError,
     ParticleModel,
     PitchManeuverModel,
+    RelativeRangeModel,
 )
 
 __all__ = [
@@ -29,7 +30,7 @@ __all__ = [
     "StaggeredRun", "filter_from_start_epochs",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
-    "ParticleDegeneracyError",
+    "ParticleDegeneracyError", "RelativeRangeModel",
     "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
     "cooperative_ekf", "CooperativeEKF",
     "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",

@@ -394,6 +394,61 @@ class PitchManeuverModel(DepthSpeedPitchModel):
         return super().propagate(pulled, u, rng)
 
 
+class RelativeRangeModel(ParticleModel):
+    r"""Range-only navigation to one beacon, in coordinates relative to the beacon: :math:`s_k = p_k - b_k`.
+
+    .. math::
+
+        s_k = s_{k-1} + u_k - (b_k - b_{k-1}) + w_k, \quad w_k \sim N(0, Q), \qquad
+        z_k = \lVert s_k \rVert + \eta_k, \quad \eta_k \sim N(0, R).
+
+    Relative to the beacon, a beacon that moves (a ship or a leader broadcasting its position) only changes the
+    input: give ``u`` minus the beacon's displacement, and add :math:`b_k` back to the estimates
+    (:func:`uwtutor.methods.particle_filter` does both). The likelihood is a ring of radius :math:`z_k` about the
+    beacon, so the particles can hold the two mirror solutions of a straight track at once, which no Gaussian
+    filter can.
+
+    Parameters
+    ----------
+    Q : array_like, shape (2, 2)
+        DR noise covariance per step [m²] (positive semi-definite).
+    R : float or array_like, shape (1, 1)
+        Range noise variance [m²].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import RelativeRangeModel
+    >>> model = RelativeRangeModel(np.eye(2), 4.0)
+    >>> model.measure(np.array([[3.0, 4.0]])).tolist()
+    [[5.0]]
+    """
+
+    n_states = 2
+    handles_runs_axis = True
+
+    def __init__(self, Q: Any, R: Any) -> None:
+        self.Q = as_covariance("Q", Q, 2, allow_singular=True)
+        self._Q_sqrt_T = _sqrt_psd("Q", self.Q).T
+        super().__init__(np.atleast_2d(np.asarray(R, dtype=float)))
+        if self.n_measurements != 1:
+            raise ValueError(f"R must be one range variance (a number or a 1x1 matrix); got shape {self.R.shape}")
+
+    def propagate(self, particles: np.ndarray, u: Any, rng: Any) -> np.ndarray:
+        r""":math:`s^{(i)}_k = s^{(i)}_{k-1} + u_k + w^{(i)}_k`; ``u`` is ``(2,)`` or ``(M, 2)`` (relative motion)."""
+        p, single = _as_batch(particles)
+        rngs = per_run_generators(rng, p.shape[0], spawn=False)
+        out = p + standard_normal_per_run(rngs, p.shape[1:]) @ self._Q_sqrt_T
+        if u is not None:
+            step = as_finite("u", u)
+            out += step[:, None, :] if step.ndim == 2 else step
+        return out[0] if single else out
+
+    def measure(self, particles: np.ndarray) -> np.ndarray:
+        r""":math:`h(s) = \lVert s \rVert` for every particle, ``(..., N, 2) -> (..., N, 1)``."""
+        return np.sqrt(np.einsum("...i,...i->...", particles, particles))[..., None]
+
+
 class LinearGaussianModel(ParticleModel):
     r"""Linear-Gaussian model :math:`x_k = F x_{k-1} + B u_k + w_k`, :math:`z_k = H x_k + v_k`.
 

@@ -1,0 +1,439 @@
+r"""Every navigation method of the book behind one signature: ``method(inputs) -> FilterResult``.
+
+A method takes the :class:`~uwtutor.scenarios.suite.SuiteInputs` of ``n`` runs -- what the vehicle has: an
+initial guess, DR displacements, ranges, the beacon's positions and the noise it was told about -- and returns a
+batched :class:`~uwtutor.filters.FilterResult` with the position first in its state, one estimate per ranging
+epoch. Each entry of :data:`REGISTRY` is a :class:`Method`: the function, the paper and chapter it comes from,
+and the scenarios it can run on (a method that needs a fixed beacon does not claim the moving-beacon scenario; the
+cooperative filter needs a leader). Nothing here is a new algorithm: each function sets a library filter up for
+the suite's inputs, with the settings of its chapter.
+
+Conventions shared by all of them:
+
+* a method that starts late (after a test on its least-squares start, papers A and D) navigates by dead
+  reckoning from the initial guess until it starts, with the DR covariance :math:`P_0 + kQ`: its estimate is
+  what the vehicle has at every epoch;
+* a method with no covariance of its own (the grid pre-location) reports NaN for ``P``: its NEES is NaN, not
+  invented;
+* a method that draws random numbers (the particle filter) draws them from ``inputs.method_seed``, which the
+  condition drew from the study's seeded stream: the same study gives the same numbers on any executor.
+
+:func:`run` is the path from names to a result: a scenario and a condition of :mod:`uwtutor.scenarios.suite`,
+drawn with a Generator, then one method.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from ._validate import as_int, as_rng
+from .errors import IllConditionedWarning
+from .filters import (BootstrapParticleFilter, FilterResult, RelativeRangeModel, bias_ekf, cooperative_ekf,
+                      fading_ekf, ls_fading_ekf, prepositioned_bias_ekf, range_only_ekf)
+from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
+
+__all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite",
+           "ls_prepositioning", "grid_prelocation", "ekf", "iekf", "prepositioned_iekf", "sfekf", "isfekf",
+           "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter"]
+
+
+def _inputs(inputs: Any) -> SuiteInputs:
+    if not isinstance(inputs, SuiteInputs):
+        raise TypeError("a method takes the SuiteInputs of a condition of uwtutor.scenarios.suite (the first item "
+                        f"of condition(rng, runs)); got {type(inputs).__name__}")
+    return inputs
+
+
+def _result(inputs: SuiteInputs, x: np.ndarray, P: np.ndarray, innovations: Any = None, innovation_cov: Any = None,
+            extras: dict[str, Any] | None = None) -> FilterResult:
+    n, K = inputs.n_runs, inputs.n_epochs
+    y = np.full((n, K, 1), np.nan) if innovations is None else innovations
+    S = np.full((n, K, 1, 1), np.nan) if innovation_cov is None else innovation_cov
+    return FilterResult(times=inputs.times, x=x, P=P, x_prior=x, P_prior=P, innovations=y, innovation_cov=S,
+                        extras=extras or {})
+
+
+def _dr_before(inputs: SuiteInputs, result: FilterResult, started: np.ndarray) -> FilterResult:
+    """``result`` where ``started`` (n, K), dead reckoning from the initial guess elsewhere."""
+    dr_x, dr_P = inputs.dr_track(), np.broadcast_to(inputs.dr_covariance(), (inputs.n_runs,) + (inputs.n_epochs, 2, 2))
+    n_state = result.x.shape[-1]
+    x = np.array(result.x[..., :2])
+    P = np.array(result.P[..., :2, :2])
+    x[~started] = dr_x[~started]
+    P[~started] = dr_P[~started]
+    if n_state > 2:       # keep the extra states (bias) where the filter ran; NaN before
+        x = np.concatenate([x, np.where(started[..., None], result.x[..., 2:], np.nan)], axis=-1)
+        full = np.full(result.P.shape, np.nan)
+        full[..., :2, :2] = P
+        full[started] = result.P[started]
+        P = full
+    y = np.where(started[..., None], result.innovations, np.nan)
+    S = np.where(started[..., None, None], result.innovation_cov, np.nan)
+    return _result(inputs, x, P, y, S, {"started": started})
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# the methods
+# ---------------------------------------------------------------------------------------------------------------------
+#: Precision factor below which :func:`ls_prepositioning` accepts a fix (paper A's test, chapter 7).
+LS_MAX_ALPHA = 2.0
+
+
+def ls_prepositioning(inputs: SuiteInputs) -> FilterResult:
+    r"""Paper A's pre-positioning as a navigator: at every epoch, a least-squares fix from all the ranges so far.
+
+    At epoch :math:`k` the ranges of epochs :math:`1..k` are ranges from the current position to virtual
+    beacons :math:`b_i - d_i` (:math:`d_i` the DR displacement from epoch :math:`i` to :math:`k`), solved by
+    ``uwtutor.lsq.linearized_lsq`` with the range bias as a third unknown (three Gauss-Newton iterations from
+    the current estimate carried by DR). A fix is accepted when its precision factor is below
+    ``LS_MAX_ALPHA`` (paper A's test); where it is refused, the estimate is dead reckoning from the last
+    accepted one (from the initial guess before the first). Covariance: the fix's
+    :math:`\sigma_r^2 (A^\mathsf T A)^{-1}`. The fix ignores the DR error accumulated over the track, which
+    grows with its length: that is the method's limit (chapter 7).
+    """
+    from . import lsq
+
+    s = _inputs(inputs)
+    n, K = s.n_runs, s.n_epochs
+    dr = s.dr_track()
+    x = np.array(dr)
+    P = np.array(np.broadcast_to(s.dr_covariance(), (n, K, 2, 2)))
+    fixed = np.zeros((n, K), dtype=bool)
+    sigma = np.sqrt(s.R)
+    z_all = np.where(np.isfinite(s.z), s.z, 0.0)
+    for k in range(K):
+        if k > 0:              # carry the previous estimate by DR
+            x[:, k] = x[:, k - 1] + s.u[:, k]
+            P[:, k] = P[:, k - 1] + s.Q
+        if k < 3:              # three unknowns
+            continue
+        d = dr[:, :k + 1] - dr[:, k:k + 1]                      # minus the DR displacement from epoch i to now
+        with warnings.catch_warnings():     # paper A's test on alpha decides, not the generic conditioning warning
+            warnings.simplefilter("ignore", IllConditionedWarning)
+            fix = lsq.linearized_lsq(z_all[:, :k + 1], s.beacon[:, :k + 1] - d, x[:, k], unknown_bias=True,
+                                     iterations=3, sigma=sigma)
+        pos = np.asarray(fix.position)
+        cov = np.asarray(fix.covariance)[..., :2, :2]
+        good = (np.isfinite(pos).all(axis=1) & np.isfinite(cov).all(axis=(1, 2))
+                & (np.asarray(fix.alpha) < LS_MAX_ALPHA))
+        x[good, k] = pos[good]
+        P[good, k] = cov[good]
+        fixed[good, k] = True
+    return _result(s, x, P, extras={"fixed": fixed})
+
+
+#: Sound-speed errors searched by :func:`grid_prelocation` and :func:`ls_isfekf` [m/s]: effective speeds from
+#: 1550 down to 1420 m/s every 10 m/s. Paper D searches down to 1300 m/s (26 speeds); sea water stays within
+#: 1420-1550 m/s, and the grid's cost grows with its size.
+SPEED_ERROR_GRID = 1470.0 - np.arange(1550.0, 1419.0, -10.0)
+
+
+def _prelocation(s: SuiteInputs) -> Any:
+    from . import lsq
+
+    return lsq.grid_prelocation(ranges=s.z, dr_displacements=s.u, speed_error_grid=SPEED_ERROR_GRID,
+                                assumed_speed=s.parameters.assumed_speed, beacon=s.fixed_beacon)
+
+
+def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
+    """Paper D's grid-search pre-location on its own: the best (start bearing, sound-speed error) cell at every
+    epoch, from all the ranges so far. It has no covariance: ``P`` is NaN."""
+    s = _inputs(inputs)
+    pre = _prelocation(s)
+    n, K = s.n_runs, s.n_epochs
+    return _result(s, np.asarray(pre.position), np.full((n, K, 2, 2), np.nan),
+                   extras={"range_scale": np.asarray(pre.range_scale)})
+
+
+def ekf(inputs: SuiteInputs) -> FilterResult:
+    """The range-only EKF of chapter 4 (Joseph form), told the suite's Q and R."""
+    s = _inputs(inputs)
+    return range_only_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, beacon=s.beacon, times=s.times)
+
+
+def _bias_noise(s: SuiteInputs) -> tuple[np.ndarray, np.ndarray]:
+    p = s.parameters
+    Q3 = np.diag([p.dr_sigma**2, p.dr_sigma**2, p.bias_step_variance])
+    P3 = np.diag([p.start_sigma**2, p.start_sigma**2, p.bias_mean**2 + p.bias_sigma**2])
+    return Q3, P3
+
+
+def iekf(inputs: SuiteInputs) -> FilterResult:
+    """Paper A's IEKF: the state carries the range bias, a random walk (chapter 7), from bias 0."""
+    s = _inputs(inputs)
+    Q3, P3 = _bias_noise(s)
+    x0 = np.concatenate([s.x0, np.zeros((s.n_runs, 1))], axis=1)
+    return bias_ekf(x0, P3, s.u, s.z, Q3, s.R, beacon=s.beacon, times=s.times)
+
+
+def prepositioned_iekf(inputs: SuiteInputs) -> FilterResult:
+    """Paper A's pre-positioning, then its IEKF (chapter 7): the filter starts once the precision factor of the
+    least-squares fix is below 2; dead reckoning from the initial guess until then."""
+    s = _inputs(inputs)
+    Q3, _ = _bias_noise(s)
+    res = prepositioned_bias_ekf(s.z, s.u, s.x0, Q3, s.R, beacon=s.fixed_beacon, times=s.times)
+    started = np.isfinite(res.x[..., 0]) & np.isfinite(res.P[..., 0, 0])
+    return _dr_before(s, res, started)
+
+
+def _fading(s: SuiteInputs, beta: Any) -> FilterResult:
+    return fading_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, mu_gamma=1.0, sigma_gamma=s.parameters.speed_factor_sigma,
+                      beta=beta, beacon=s.fixed_beacon, times=s.times)
+
+
+def sfekf(inputs: SuiteInputs) -> FilterResult:
+    """The suboptimal fading EKF (constant weakening factor 1) for multiplicative noise (chapter 5), told the
+    assumed sound speed is right (mean factor 1) with paper D's ping-to-ping scatter."""
+    return _fading(_inputs(inputs), 1.0)
+
+
+def isfekf(inputs: SuiteInputs) -> FilterResult:
+    """Paper D's ISFEKF: the fading EKF with the range-dependent weakening factor (chapter 5)."""
+    return _fading(_inputs(inputs), "range")
+
+
+def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
+    """Paper D's LS-ISFEKF: grid pre-location, accepted after a turn and 10 stable fixes, then the ISFEKF with its
+    speed estimate; dead reckoning from the initial guess until the start (chapter 5)."""
+    s = _inputs(inputs)
+    pre = _prelocation(s)
+    res = ls_fading_ekf(s.z, s.u, s.Q, s.R, np.eye(2) * 50.0**2, sigma_gamma=s.parameters.speed_factor_sigma,
+                        assumed_speed=s.parameters.assumed_speed, beacon=s.fixed_beacon, times=s.times,
+                        prelocation=pre)
+    started = np.arange(s.n_epochs)[None, :] > np.asarray(res.start_epoch)[:, None]
+    return _dr_before(s, res, started)
+
+
+def cooperative(inputs: SuiteInputs) -> FilterResult:
+    r"""Paper B's cooperative EKF (chapter 8): state :math:`[x, y, U_x, U_y]` with the current, updated with pairs
+    of consecutive ranges to the leader, which broadcasts its position; tuned to the suite's noise (the
+    "consistent" formulation, each range's information counted once)."""
+    s = _inputs(inputs)
+    p = s.parameters
+    dr, cu = p.dr_sigma, 1e-3
+    Q = np.diag([0.5**2, 0.5**2, dr**2, dr**2, cu**2, cu**2])
+    leader_sigma = 0.5             # the broadcast positions are exact here; the filter needs a positive variance
+    R = np.diag([2 * s.R] * 2 + [2 * leader_sigma**2] * 4 + [dr**2, dr**2, cu**2, cu**2])
+    x0 = np.concatenate([s.x0, np.zeros((s.n_runs, 2))], axis=1)
+    P0 = np.diag([p.start_sigma**2] * 2 + [p.current_sigma**2] * 2)
+    leader = np.concatenate([s.beacon0[:, None], s.beacon], axis=1)
+    ranges = np.concatenate([s.z0[:, None], s.z], axis=1)
+    return cooperative_ekf(x0, P0, s.u, leader, ranges, s.interval, Q, R, times=s.times)
+
+
+#: Acceleration variance of the cascade filter on the fixes [(m/s)²/s³]: the suite's vehicles turn sharply between
+#: fixes 10 s apart, where paper E's default (1e-4, for a submersible running straight at 1 s) locks the filter
+#: out after the first corner; with it the filter also re-acquires after 5 rejected fixes in a row.
+VMLBL_FIX_Q = 1e-2
+
+#: Epochs between the four epochs of a virtual-baseline fix in :func:`or_vmlbl` (200 s at the suite's pings).
+VMLBL_SPACING = 20
+
+
+def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
+    """Paper E's OR-VMLBL-KF (chapter 9): ranges cleaned by the robust range filter (its chi-square gate: the
+    paper's relative test is tuned to 1 s epochs), four-epoch virtual long-baseline fixes ``VMLBL_SPACING``
+    epochs apart, a gated constant-velocity filter on the fixes (``VMLBL_FIX_Q``); dead reckoning from the
+    initial guess until the first fix."""
+    from .pipelines import or_vmlbl_kf
+
+    s = _inputs(inputs)
+    dr = s.dr_track()
+    out = or_vmlbl_kf(s.z, s.beacon, dr, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
+                      range_options=dict(r=s.R, test="chi2"), fix_q=VMLBL_FIX_Q, fix_options=dict(reacquire=5))
+    n, K = s.n_runs, s.n_epochs
+    x = np.array(dr)
+    P = np.array(np.broadcast_to(s.dr_covariance(), (n, K, 2, 2)))
+    now = np.asarray(out.now)
+    x[:, now] = out.track.x[..., :2]
+    P[:, now] = out.track.P[..., :2, :2]
+    bad = ~np.isfinite(x).all(axis=-1)          # a fix the filter never had: dead reckoning instead
+    x[bad], P[bad] = dr[bad], np.broadcast_to(s.dr_covariance(), (n, K, 2, 2))[bad]
+    started = np.zeros((n, K), dtype=bool)
+    started[:, now] = True
+    return _result(s, x, P, extras={"started": started & ~bad})
+
+
+#: Particles per run of :func:`particle_filter`.
+N_PARTICLES = 500
+
+
+def particle_filter(inputs: SuiteInputs) -> FilterResult:
+    """A bootstrap particle filter on the 2-D range-only problem (chapter 6's filter on chapter 4's model):
+    ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, DR noise as proposal, resampling (systematic) when the
+    effective sample size falls below half. It can hold both mirror solutions of a straight track."""
+    s = _inputs(inputs)
+    rng = np.random.default_rng(s.method_seed)
+    b_prev = np.concatenate([s.beacon0[:, None], s.beacon[:, :-1]], axis=1)
+    relative_u = s.u - (s.beacon - b_prev)
+    pf = BootstrapParticleFilter.from_gaussian(RelativeRangeModel(s.Q, s.R), s.x0 - s.beacon0, s.P0, N_PARTICLES,
+                                               rng, n_runs=s.n_runs, ess_threshold=0.5)
+    res = pf.run(s.z[..., None], relative_u, times=s.times)
+    return FilterResult(times=res.times, x=res.x + s.beacon, P=res.P, x_prior=res.x_prior + s.beacon,
+                        P_prior=res.P_prior, innovations=res.innovations, innovation_cov=res.innovation_cov,
+                        extras=res.extras)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# the registry
+# ---------------------------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Method:
+    """A method of the book as the comparison runs it.
+
+    Attributes
+    ----------
+    name : str
+        Its name in tables and figures.
+    estimate : callable
+        ``estimate(inputs) -> FilterResult`` (a module-level function: a process pool can pickle it).
+    paper : str
+        The paper it comes from (``"A"``-``"E"``), or ``""`` for the textbook filters.
+    chapter : int
+        The chapter that builds it.
+    needs : str
+        ``"any"``, ``"fixed beacon"`` or ``"leader"`` (a beacon that moves and broadcasts its position).
+    summary : str
+        One line on what it is.
+    """
+
+    name: str
+    estimate: Callable[[SuiteInputs], FilterResult]
+    paper: str
+    chapter: int
+    needs: str
+    summary: str
+
+    def __call__(self, inputs: SuiteInputs) -> FilterResult:
+        return self.estimate(inputs)
+
+    def runs_on(self, scenario: str) -> bool:
+        """Whether the method claims the scenario of :data:`~uwtutor.scenarios.suite.SCENARIOS` named ``scenario``."""
+        moving = scenario == "moving beacon"
+        return {"any": True, "fixed beacon": not moving, "leader": moving}[self.needs]
+
+
+_METHODS = (
+    Method("LS pre-positioning", ls_prepositioning, "A", 7, "any",
+           "sliding-window least squares with a bias unknown"),
+    Method("grid pre-location", grid_prelocation, "D", 5, "fixed beacon",
+           "grid search over start bearing and sound speed"),
+    Method("EKF", ekf, "", 4, "any", "range-only extended Kalman filter"),
+    Method("IEKF", iekf, "A", 7, "any", "EKF with a range-bias state"),
+    Method("pre-positioned IEKF", prepositioned_iekf, "A", 7, "fixed beacon",
+           "IEKF started from a least-squares fix with precision factor < 2"),
+    Method("SFEKF", sfekf, "D", 5, "fixed beacon", "fading EKF for multiplicative noise, constant weakening"),
+    Method("ISFEKF", isfekf, "D", 5, "fixed beacon", "fading EKF with range-dependent weakening"),
+    Method("LS-ISFEKF", ls_isfekf, "D", 5, "fixed beacon", "grid pre-location, then the ISFEKF"),
+    Method("cooperative EKF", cooperative, "B", 8, "leader", "EKF on range pairs with a current state"),
+    Method("OR-VMLBL-KF", or_vmlbl, "E", 9, "any", "outlier-rejecting virtual long-baseline fixes, filtered"),
+    Method("particle filter", particle_filter, "", 6, "any", "bootstrap particle filter, 500 particles"),
+)
+
+#: Every method by name, in the chapter's order.
+REGISTRY: dict[str, Method] = {m.name: m for m in _METHODS}
+
+
+def names() -> list[str]:
+    """The registered method names, in order."""
+    return list(REGISTRY)
+
+
+def get(name: str) -> Method:
+    """The :class:`Method` called ``name`` (a ValueError listing the names otherwise)."""
+    if name not in REGISTRY:
+        raise ValueError(f"no method called {name!r}; the methods are {names()}")
+    return REGISTRY[name]
+
+
+def claims() -> dict[str, list[str]]:
+    """``method name -> the scenarios it runs on``: the ``only`` argument of :func:`uwtutor.montecarlo.compare`."""
+    return {m.name: [s for s in SCENARIOS if m.runs_on(s)] for m in _METHODS}
+
+
+def run(name: str, scenario: str, condition: str, rng: Any, n_runs: int = 1) -> tuple[FilterResult, np.ndarray]:
+    """Draw ``n_runs`` runs of a scenario under a condition with ``rng`` and run the method ``name`` on them.
+
+    Returns
+    -------
+    result : FilterResult
+        The method's estimates, ``x`` of shape ``(n_runs, K, n_state)``.
+    truth : ndarray, shape (n_runs, K, 2)
+        The true positions.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> res, truth = methods.run("EKF", "circle", "white", np.random.default_rng(7), n_runs=20)
+    >>> res.x.shape, truth.shape
+    ((20, 150, 2), (20, 150, 2))
+    >>> err = np.linalg.norm(res.x[:, -1] - truth[:, -1], axis=-1)
+    >>> bool(np.sqrt(np.mean(err**2)) < 20.0)
+    True
+    """
+    method = get(name)
+    if scenario not in SCENARIOS:
+        raise ValueError(f"scenario must be one of {list(SCENARIOS)}; got {scenario!r}")
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be one of {list(CONDITIONS)}; got {condition!r}")
+    if not method.runs_on(scenario):
+        raise ValueError(f"{name} needs a {method.needs}; it does not run on the scenario {scenario!r}")
+    rng = as_rng(rng)
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    inputs, truth = CONDITIONS[condition](rng, SCENARIOS[scenario](rng, n_runs))
+    return method(inputs), truth
+
+
+def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[str, str], np.ndarray]:
+    r"""The RMSE bound :math:`B_k = \sqrt{\operatorname{tr} J_k^{-1}}` (position block of the posterior CRLB) of
+    every (scenario, condition) of the suite, from :func:`uwtutor.scenarios.suite.crlb_inputs`."""
+    from .observability import posterior_crlb, rmse_bound
+    from .scenarios.suite import crlb_inputs
+
+    return {(s, c): rmse_bound(posterior_crlb(**crlb_inputs(s, c)))
+            for s in (SCENARIOS if scenarios is None else scenarios)
+            for c in (CONDITIONS if conditions is None else conditions)}
+
+
+def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any = None, scenarios: Any = None,
+                  conditions: Any = None, chunk_size: int = 1000, measure_cost: bool = True,
+                  timing_runs: int = 100) -> Any:
+    """Chapter 10's table: the registered methods on the suite's scenarios and conditions, against the bound.
+
+    :func:`uwtutor.montecarlo.compare` with every method on the scenarios it claims, the bounds of
+    :func:`suite_bounds`, and the default divergence threshold (50 m). ``methods``, ``scenarios`` and
+    ``conditions`` (lists of names) choose a part of the table: the rows computed are the same numbers as in the
+    whole table, for the same ``seed`` and ``chunk_size`` (each row's study depends on nothing else).
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> table = methods.compare_suite(200, seed=3, methods=["EKF", "IEKF"], scenarios=["circle"],
+    ...                               conditions=["bias"], measure_cost=False)
+    >>> [(r["method"], round(r["efficiency"], 1) > 0.9) for r in table.rows()]
+    [('EKF', True), ('IEKF', True)]
+    """
+    from .montecarlo import compare
+
+    chosen = names() if methods is None else list(methods)
+    for m in chosen:
+        get(m)
+    scen = list(SCENARIOS) if scenarios is None else list(scenarios)
+    cond = list(CONDITIONS) if conditions is None else list(conditions)
+    for name, pick, known in (("scenarios", scen, SCENARIOS), ("conditions", cond, CONDITIONS)):
+        unknown = [x for x in pick if x not in known]
+        if unknown:
+            raise ValueError(f"{name} must be names from {list(known)}; got {unknown}")
+    only = {m: [s for s in scen if get(m).runs_on(s)] for m in chosen}
+    keep = [m for m in chosen if only[m]]
+    if not keep:
+        raise ValueError(f"none of the methods {chosen} runs on the scenarios {scen}")
+    return compare({m: REGISTRY[m].estimate for m in keep}, {s: SCENARIOS[s] for s in scen},
+                   {c: CONDITIONS[c] for c in cond}, n_runs, seed, executor, chunk_size=chunk_size,
+                   bounds=suite_bounds(scen, cond), only={m: only[m] for m in keep},
+                   measure_cost=measure_cost, timing_runs=min(timing_runs, n_runs))
