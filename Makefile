@@ -2,7 +2,7 @@
 #   make book   -- build the HTML book into _build/html
 #   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
 # and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
-# make study (chapter 10's comparison table, written to book/data/).
+# make study (chapter 10's comparison table, written to uwtutor/data/).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -51,7 +51,7 @@ lab: setup
 bench: setup
 	$(PY) benchmarks/run.py
 
-# Chapter 10's table (every method x scenario x error condition, 1000 runs each) into book/data/;
+# Chapter 10's table (every method x scenario x error condition, 1000 runs each) into uwtutor/data/;
 # commit the three files it writes. About 8 minutes on 2 cores.
 study: setup
 	$(PY) studies/comparison.py --overwrite

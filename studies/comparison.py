@@ -1,6 +1,7 @@
 """Chapter 10's comparison: every registered method on every scenario and error condition of the common suite.
 
-Writes, into ``--out`` (``book/data`` by default):
+Writes, into ``--out`` (``uwtutor/data`` by default: package data, so that ``uwtutor.methods.load_comparison()``
+reads them from a source tree and from an installed wheel alike):
 
 * ``comparison.csv`` -- the table (``uwtutor.montecarlo.ComparisonTable.to_csv``: one row per method, scenario and
   condition, its seed, chunk size and versions in the header);
@@ -37,7 +38,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--chunk-size", type=int, default=CHUNK_SIZE, help="runs per chunk (default %(default)s)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="processes (default: one per CPU); 1 runs in this process")
-    parser.add_argument("--out", type=Path, default=Path("book/data"), help="output directory")
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "uwtutor" / "data",
+                        help="output directory (default: uwtutor/data)")
     parser.add_argument("--overwrite", action="store_true", help="replace existing result files")
     args = parser.parse_args(argv)
 

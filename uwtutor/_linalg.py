@@ -4,7 +4,34 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quadratic_form", "psd_violations"]
+__all__ = ["quadratic_form", "positive_definite", "psd_violations"]
+
+
+def positive_definite(cov: np.ndarray) -> np.ndarray:
+    """Which of the stacked matrices ``(..., n, n)`` are positive definite, by the test of :func:`quadratic_form`:
+    Sylvester's criterion (:math:`C_{00} > 0`, :math:`C_{00}C_{11} - C_{01}^2 > 0`) for n <= 2, a Cholesky
+    factorization for larger ones. A NaN or infinite matrix is not."""
+    cov = np.asarray(cov, dtype=float)
+    n = cov.shape[-1]
+    if n <= 2:
+        if n == 1:
+            det = cov[..., 0, 0]
+        else:
+            det = cov[..., 0, 0] * cov[..., 1, 1] - cov[..., 0, 1] * cov[..., 0, 1]
+        return (det > 0) & (cov[..., 0, 0] > 0) & np.isfinite(det)
+    flat = cov.reshape((-1, n, n))
+    ok = np.isfinite(flat).all(axis=(-1, -2))
+    try:
+        np.linalg.cholesky(np.where(ok[:, None, None], flat, np.eye(n)))      # all at once: the usual case
+        return ok.reshape(cov.shape[:-2])
+    except np.linalg.LinAlgError:
+        pass
+    for i in np.flatnonzero(ok):
+        try:
+            np.linalg.cholesky(flat[i])
+        except np.linalg.LinAlgError:
+            ok[i] = False
+    return ok.reshape(cov.shape[:-2])
 
 
 def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
@@ -30,9 +57,8 @@ def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
             e0, e1 = vec[..., 0], vec[..., 1]
             det = a * d - b * b
             num = d * e0 * e0 - 2.0 * b * e0 * e1 + a * e1 * e1
-        # positive definite <=> C00 > 0 and det > 0 (Sylvester); a NaN or infinite matrix fails both tests
         used = np.isfinite(vec).all(axis=-1)
-        if np.any(~((det > 0) & (cov[..., 0, 0] > 0) & np.isfinite(det)) & used):
+        if np.any(~positive_definite(cov) & used):
             raise ValueError(f"{name} must be positive definite wherever it is used; found a matrix that is not "
                              "(determinant or variance <= 0, or not finite)")
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -36,7 +36,7 @@ from .filters import (BootstrapParticleFilter, FilterResult, RelativeRangeModel,
                       fading_ekf, ls_fading_ekf, prepositioned_bias_ekf, range_only_ekf)
 from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
-__all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite",
+__all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",
            "ls_prepositioning", "grid_prelocation", "ekf", "iekf", "prepositioned_iekf", "sfekf", "isfekf",
            "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter"]
 
@@ -243,11 +243,19 @@ def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
 
     s = _inputs(inputs)
     dr = s.dr_track()
-    out = or_vmlbl_kf(s.z, s.beacon, dr, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
-                      range_options=dict(r=s.R, test="chi2"), fix_q=VMLBL_FIX_Q, fix_options=dict(reacquire=5))
     n, K = s.n_runs, s.n_epochs
     x = np.array(dr)
     P = np.array(np.broadcast_to(s.dr_covariance(), (n, K, 2, 2)))
+    try:
+        with warnings.catch_warnings():      # runs without any usable fix navigate by DR (below)
+            warnings.simplefilter("ignore", IllConditionedWarning)
+            out = or_vmlbl_kf(s.z, s.beacon, dr, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
+                              range_options=dict(r=s.R, test="chi2"), fix_q=VMLBL_FIX_Q,
+                              fix_options=dict(reacquire=5))
+    except ValueError as exc:
+        if "no run has a single usable" not in str(exc):
+            raise
+        return _result(s, x, P, extras={"started": np.zeros((n, K), dtype=bool)})   # no fix anywhere: DR
     now = np.asarray(out.now)
     x[:, now] = out.track.x[..., :2]
     P[:, now] = out.track.P[..., :2, :2]
@@ -437,3 +445,26 @@ def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any 
                    {c: CONDITIONS[c] for c in cond}, n_runs, seed, executor, chunk_size=chunk_size,
                    bounds=suite_bounds(scen, cond), only={m: only[m] for m in keep},
                    measure_cost=measure_cost, timing_runs=min(timing_runs, n_runs))
+
+
+def load_comparison() -> Any:
+    """The committed comparison of chapter 10 (``make study``: 1000 runs per row), with its curves.
+
+    Returns
+    -------
+    uwtutor.montecarlo.ComparisonTable
+        Read from the package's ``data/comparison.csv`` and ``data/comparison_curves.npz``.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> table = methods.load_comparison()
+    >>> int(table.n_runs[0]), table.rmse_curves.shape[1]
+    (1000, 150)
+    """
+    from pathlib import Path
+
+    from .montecarlo import ComparisonTable
+
+    data = Path(__file__).parent / "data"
+    return ComparisonTable.from_csv(data / "comparison.csv", curves=data / "comparison_curves.npz")

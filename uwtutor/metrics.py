@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from ._linalg import quadratic_form as _quadratic_form
+from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
 from ._validate import SYMMETRY_RTOL, as_finite, as_float_array, as_int
 
 __all__ = [
@@ -101,36 +101,14 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
 
 
 def positive_definite(covariances: Any) -> np.ndarray:
-    """Which of the finite symmetric matrices ``(..., n, n)`` are positive definite (the test the scores apply).
-
-    For n <= 2 the diagonal and the determinant are tested directly; larger ones by a Cholesky factorization
-    each.
+    """Which of the matrices ``(..., n, n)`` are positive definite, by the test the scores apply (Sylvester's
+    criterion for n <= 2, a Cholesky factorization for larger ones; a NaN or infinite matrix is not).
 
     >>> import numpy as np
     >>> positive_definite(np.array([np.eye(2), np.zeros((2, 2))])).tolist()
     [True, False]
     """
-    P = np.asarray(covariances, dtype=float)
-    n = P.shape[-1]
-    if n <= 2:
-        ok = (np.diagonal(P, axis1=-2, axis2=-1) > 0).all(axis=-1)
-        if n == 2:
-            ok &= P[..., 0, 0] * P[..., 1, 1] - P[..., 0, 1] * P[..., 1, 0] > 0
-        return ok
-    flat = P.reshape((-1, n, n))
-    try:
-        np.linalg.cholesky(flat)                    # all at once when all are (the usual case)
-        return np.ones(P.shape[:-2], dtype=bool)
-    except np.linalg.LinAlgError:
-        pass
-    out = np.empty(len(flat), dtype=bool)
-    for i, m in enumerate(flat):
-        try:
-            np.linalg.cholesky(m)
-            out[i] = True
-        except np.linalg.LinAlgError:
-            out[i] = False
-    return out.reshape(P.shape[:-2])
+    return _positive_definite(np.asarray(covariances, dtype=float))
 
 
 def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:

@@ -34,6 +34,7 @@ import numpy as np
 
 from . import lsq
 from ._validate import as_finite, as_float_array, as_int, as_nonnegative, as_rng
+from .errors import IllConditionedWarning, warn as _warn
 from .filters.base import FilterResult
 from .filters.robust import cascade_kf, robust_range_kf
 from .filters.smoother import SmootherResult, rts_smoother
@@ -221,10 +222,25 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     v = np.where(np.isfinite(v) & (v > 0), v, 1.0)               # unused where the fix is NaN
     fix_cov = v[..., None, None] * np.eye(2)
     fix_t = t[now]
-    track = cascade_kf(fix.position, times=fix_t, q=fix_q, r=fix_cov, test=fix_test, **(fix_options or {}))
+    usable = np.isfinite(fix.position).all(axis=-1).any(axis=-1)        # runs with at least one fix
+    if not usable.any():
+        raise ValueError("no run has a single usable virtual-beacon fix (the virtual beacons of every window are "
+                         "collinear or too close together: a straight track to a fixed beacon, or epochs too few "
+                         "apart); lengthen spacing, or turn")
+    if not usable.all():
+        _warn(IllConditionedWarning(f"{int((~usable).sum())} of {M} runs have no usable virtual-beacon fix at all "
+                                    "(collinear virtual beacons in every window); their track is NaN"))
+    track = cascade_kf(fix.position[usable], times=fix_t, q=fix_q, r=fix_cov[usable], test=fix_test,
+                       **(fix_options or {}))
     smoothed = None
     if smooth:
         smoothed = rts_smoother(track, ConstantVelocity(2, fix_q, step_lengths(Kf, times=fix_t)))
+    if not usable.all():
+        track = _with_runs(track, usable)
+        if smoothed is not None:
+            smoothed = SmootherResult(times=smoothed.times, x=_spread(smoothed.x, usable, np.nan),
+                                      P=_spread(smoothed.P, usable, np.nan), gain=_spread(smoothed.gain, usable, np.nan),
+                                      filtered=track)
 
     def out(a: Any) -> Any:
         return a if batched else a[0]
@@ -239,6 +255,24 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
                                       gain=smoothed.gain[0], filtered=track)
     return VMLBLResult(times=t, ranges=range_run, used_ranges=out(used), now=now, fix=fix, fix_cov=out(fix_cov),
                        track=track, smoothed=smoothed)
+
+
+def _spread(values: np.ndarray, rows: np.ndarray, fill: Any) -> np.ndarray:
+    """``values`` of the runs ``rows`` (a bool mask of M) into an array of all M runs, ``fill`` elsewhere."""
+    out = np.full((rows.size,) + values.shape[1:], fill, dtype=values.dtype if fill is False else float)
+    out[rows] = values
+    return out
+
+
+def _with_runs(res: FilterResult, rows: np.ndarray) -> FilterResult:
+    """A result of the runs ``rows`` only, spread back to all runs (NaN, or False for flags, in the others)."""
+    def fill(a: np.ndarray) -> np.ndarray:
+        return _spread(np.asarray(a), rows, False if np.asarray(a).dtype == bool else np.nan)
+
+    return FilterResult(times=res.times, x=fill(res.x), P=fill(res.P), x_prior=fill(res.x_prior),
+                        P_prior=fill(res.P_prior), innovations=fill(res.innovations),
+                        innovation_cov=fill(res.innovation_cov),
+                        extras={k: fill(v) for k, v in res.extras.items()})
 
 
 def _first_run(res: FilterResult) -> FilterResult:

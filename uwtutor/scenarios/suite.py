@@ -16,9 +16,15 @@ The numbers are those of :class:`SuiteParameters`: pings every 10 s for 25 minut
 :math:`\sigma_r` = 2 m, dead reckoning that errs by 1 m per axis per ping, an initial guess 100 m (per axis)
 off, in the ranges (0.3-3 km) of the papers' simulations.
 
-Randomness: a condition splits its ``rng`` into four child streams (``Generator.spawn``): the initial guess, the
-DR noise, the range errors and a seed for a method that draws random numbers, in that order. The scenarios themselves are deterministic (``rng`` unused): the runs
-differ by their errors only, so the posterior Cramér-Rao bound of a scenario is evaluated on its one true track.
+Randomness: the runs are drawn the way the filters and the bound assume the world is. The vehicle plans a track
+and dead-reckons along it (its DR displacements :math:`\mathbf u_k` are the planned ones); its true start lies
+:math:`\mathcal N(\mathbf 0, P_0)` from the planned start, where its initial guess is, and each ping its true
+motion departs from the DR displacement by :math:`\mathbf w_k \sim \mathcal N(\mathbf 0, Q)`, so that
+:math:`\mathbf p_k = \mathbf p_{k-1} + \mathbf u_k + \mathbf w_k` holds exactly. A scenario draws the true tracks
+with its ``rng`` (first the starts, then the steps); a condition then draws the range errors and a seed for a
+method that draws random numbers (a particle filter), from two child streams of its ``rng``. The true tracks
+scatter about the planned one, so the posterior Cramér-Rao bound is the average of the range information over
+sampled true tracks (:func:`crlb_inputs`), as Tichavský et al. define it.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ __all__ = [
     "SuiteParameters", "SUITE", "SuiteRuns", "SuiteInputs",
     "circle", "turn", "line", "lawnmower", "moving_beacon", "SCENARIOS",
     "white", "sound_speed", "bias", "outliers", "current", "CONDITIONS",
-    "crlb_inputs",
+    "crlb_inputs", "BOUND_TRACKS", "BOUND_SEED",
 ]
 
 
@@ -139,11 +145,11 @@ class SuiteRuns:
         The scenario's key in :data:`SCENARIOS`.
     times : ndarray, shape (K + 1,)
         Epoch times [s]; epoch 0 is the start.
+    planned : ndarray, shape (K + 1, 2)
+        The planned track [m]: what the vehicle's dead reckoning integrates, from its initial guess.
     positions : ndarray, shape (n, K + 1, 2)
-        True positions over ground [m] (a broadcast view: the same track in every run).
-    water_displacements : ndarray, shape (n, K + 1, 2)
-        True motion through the water from epoch ``k - 1`` to ``k`` (row 0 zeros): what a perfect DR measures.
-        It differs from the ground motion only under a current.
+        True positions through the water [m]: the planned track, shifted by each run's start error and wandering
+        from it by the DR error of every ping (a current, if the condition has one, carries them further).
     beacon : ndarray, shape (n, K + 1, 2)
         The beacon's position at each epoch [m] (it moves in ``moving_beacon``), known to the vehicle.
     moving : bool
@@ -154,8 +160,8 @@ class SuiteRuns:
 
     name: str
     times: np.ndarray
+    planned: np.ndarray
     positions: np.ndarray
-    water_displacements: np.ndarray
     beacon: np.ndarray
     moving: bool
     parameters: SuiteParameters = field(repr=False)
@@ -255,16 +261,17 @@ class SuiteInputs:
 # ---------------------------------------------------------------------------------------------------------------------
 # scenarios: the geometries (deterministic; rng unused, kept for the draw signature)
 # ---------------------------------------------------------------------------------------------------------------------
-def _runs(name: str, n: Any, track: Track, beacon: Any, description: str, p: SuiteParameters,
-          water: Track | None = None) -> SuiteRuns:
+def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: str,
+          p: SuiteParameters) -> SuiteRuns:
     n = as_int("n", n, minimum=1)
+    rng = as_rng(rng)
     K1 = len(track.times)
-    through_water = track if water is None else water
-    disp = np.zeros((K1, 2))
-    disp[1:] = np.diff(through_water.positions, axis=0)
+    start_error = rng.normal(0.0, p.start_sigma, (n, 1, 2))
+    steps = np.zeros((n, K1, 2))
+    steps[:, 1:] = rng.normal(0.0, p.dr_sigma, (n, K1 - 1, 2))
     b = np.broadcast_to(np.asarray(beacon, dtype=float), (K1, 2))
-    return SuiteRuns(name=name, times=track.times, positions=np.broadcast_to(track.positions, (n, K1, 2)),
-                     water_displacements=np.broadcast_to(disp, (n, K1, 2)),
+    return SuiteRuns(name=name, times=track.times, planned=track.positions,
+                     positions=track.positions + start_error + np.cumsum(steps, axis=1),
                      beacon=np.broadcast_to(b, (n, K1, 2)), moving=bool(np.ptp(b, axis=0).max() > 0),
                      parameters=p, description=description)
 
@@ -274,11 +281,11 @@ def circle(rng: np.random.Generator, n: int, params: SuiteParameters | None = No
 
     >>> import numpy as np
     >>> runs = circle(np.random.default_rng(0), 3)
-    >>> runs.positions.shape, runs.moving
-    ((3, 151, 2), False)
+    >>> runs.positions.shape, runs.planned.shape, runs.moving
+    ((3, 151, 2), (151, 2), False)
     """
     p = SUITE if params is None else params
-    return _runs("circle", n, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
+    return _runs("circle", rng, n, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
                  "circling the beacon at 1 km", p)
 
 
@@ -287,12 +294,12 @@ def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
 
     >>> import numpy as np
     >>> runs = turn(np.random.default_rng(0), 1)
-    >>> float(np.linalg.norm(runs.positions[0, 0]))      # starts 2.2 km from the beacon
+    >>> float(np.linalg.norm(runs.planned[0]))      # planned to start 2.2 km from the beacon
     2236.06797749979
     """
     p = SUITE if params is None else params
     track = turning_track(p.times, (-2000.0, -1000.0), p.speed, np.deg2rad([0.0, 60.0]), [p.times[-1] / 2])
-    return _runs("turn", n, track, (0.0, 0.0), "approach with one turn", p)
+    return _runs("turn", rng, n, track, (0.0, 0.0), "approach with one turn", p)
 
 
 def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
@@ -300,12 +307,12 @@ def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
 
     >>> import numpy as np
     >>> runs = line(np.random.default_rng(0), 1)
-    >>> runs.positions[0, [0, -1]].tolist()
+    >>> runs.planned[[0, -1]].tolist()
     [[-1500.0, 300.0], [1500.0, 300.0]]
     """
     p = SUITE if params is None else params
     track = straight_track(p.times, (-1500.0, 300.0), p.speed, 0.0)
-    return _runs("line", n, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
+    return _runs("line", rng, n, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
 
 
 def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
@@ -313,12 +320,12 @@ def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None =
 
     >>> import numpy as np
     >>> runs = lawnmower(np.random.default_rng(0), 1)
-    >>> runs.positions[0, 0].tolist()
+    >>> runs.planned[0].tolist()
     [-375.0, -600.0]
     """
     p = SUITE if params is None else params
     track = lawnmower_track(p.times, (-375.0, -600.0), p.speed, 750.0, 300.0)
-    return _runs("lawnmower", n, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
+    return _runs("lawnmower", rng, n, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
 
 
 def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
@@ -341,7 +348,7 @@ def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | No
     across = 600.0 * (4.0 * np.abs(phase - 0.5) - 1.0)
     along = -700.0 + 1.0 * p.times
     leader = track.positions + np.column_stack([along, across])
-    return _runs("moving beacon", n, track, leader, "straight run ranging to a zigzagging leader", p)
+    return _runs("moving beacon", rng, n, track, leader, "straight run ranging to a zigzagging leader", p)
 
 
 #: The scenarios by name, in the chapter's order.
@@ -353,54 +360,57 @@ SCENARIOS: dict[str, Callable[..., SuiteRuns]] = {
 # ---------------------------------------------------------------------------------------------------------------------
 # conditions: what the vehicle measures
 # ---------------------------------------------------------------------------------------------------------------------
-def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *,
-             water_current: Any = None) -> tuple[SuiteInputs, np.ndarray]:
+def _checked(runs: Any) -> SuiteRuns:
     if not isinstance(runs, SuiteRuns):
         raise TypeError(f"runs must come from a scenario of uwtutor.scenarios.suite (a SuiteRuns); got "
                         f"{type(runs).__name__}")
+    return runs
+
+
+def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *,
+             water_current: Any = None) -> tuple[SuiteInputs, np.ndarray]:
     rng = as_rng(rng)
-    start_rng, dr_rng, range_rng, method_rng = rng.spawn(4)
+    range_rng, method_rng = rng.spawn(2)
     p = runs.parameters
     n, K = runs.n_runs, runs.n_epochs
-    truth = runs.positions[:, 1:]
-    x0 = runs.positions[:, 0] + start_rng.normal(0.0, p.start_sigma, (n, 2))
-    u = np.array(runs.water_displacements[:, 1:])
-    if water_current is not None:          # the ground moves with the current; the DR measures through the water
-        u = np.diff(runs.positions, axis=1) - np.asarray(water_current, dtype=float) * np.diff(runs.times)[:, None]
-    u = u + dr_rng.normal(0.0, p.dr_sigma, (n, K, 2))
-    true_ranges = np.linalg.norm(runs.positions - runs.beacon, axis=-1)
+    truth = runs.positions
+    if water_current is not None:          # the water carries the vehicle; its DR (through the water) does not know
+        truth = truth + np.asarray(water_current, dtype=float) * (runs.times - runs.times[0])[:, None]
+    u = np.broadcast_to(np.diff(runs.planned, axis=0), (n, K, 2))
+    true_ranges = np.linalg.norm(truth - runs.beacon, axis=-1)
     errors, _ = error.sample_with_mask(true_ranges, runs.times, range_rng, n_runs=n)
     z = np.abs(true_ranges + errors)        # a range is a length: an absurd negative one is read as its size
     inputs = SuiteInputs(scenario=runs.name, condition=name, times=runs.times[1:], interval=float(p.interval),
-                         x0=x0, P0=p.P0, u=u, z=z[:, 1:], z0=z[:, 0], beacon=runs.beacon[:, 1:],
-                         beacon0=runs.beacon[:, 0], moving=runs.moving, Q=p.Q, R=p.R,
+                         x0=np.broadcast_to(runs.planned[0], (n, 2)), P0=p.P0, u=u, z=z[:, 1:], z0=z[:, 0],
+                         beacon=runs.beacon[:, 1:], beacon0=runs.beacon[:, 0], moving=runs.moving, Q=p.Q, R=p.R,
                          method_seed=int(method_rng.integers(2**63)), parameters=p)
-    return inputs, truth
+    return inputs, truth[:, 1:]
 
 
 def white(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """White Gaussian range noise :math:`\\sigma_r` only: the model every filter assumes."""
+    runs = _checked(runs)
     return _measure("white", rng, runs, GaussianNoise(runs.parameters.range_sigma))
 
 
 def sound_speed(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """A wrong sound speed (paper D): ranges scaled by :math:`\\gamma_k = c/c_{\\mathrm e,k}` (about 0.98), plus
     white noise."""
-    p = runs.parameters
+    p = _checked(runs).parameters
     error = SoundSpeedError(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
     return _measure("sound speed", rng, runs, error)
 
 
 def bias(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """A slowly varying range bias (paper A): 5 ± 5 m, 3000 s correlation, plus white noise."""
-    p = runs.parameters
+    p = _checked(runs).parameters
     error = SlowBias(p.bias_mean, p.bias_sigma, p.bias_time_constant) + GaussianNoise(p.range_sigma)
     return _measure("bias", rng, runs, error)
 
 
 def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """Outliers (paper E): isolated 80 m ones (3 % of the epochs) and a patch of 10 from 600 s, plus white noise."""
-    p = runs.parameters
+    p = _checked(runs).parameters
     error = (Outliers((p.outlier_patch_time,), p.outlier_patch_length, p.outlier_amplitude, two_sided=True,
                       probability=p.outlier_probability) + GaussianNoise(p.range_sigma))
     return _measure("outliers", rng, runs, error)
@@ -408,7 +418,7 @@ def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np
 
 def current(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """An unknown current (paper B): the vehicle drifts with it, its DR (through the water) does not see it."""
-    p = runs.parameters
+    p = _checked(runs).parameters
     return _measure("current", rng, runs, GaussianNoise(p.range_sigma), water_current=p.current_velocity)
 
 
@@ -418,26 +428,39 @@ CONDITIONS: dict[str, Callable[..., tuple[SuiteInputs, np.ndarray]]] = {
 }
 
 
-def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = None) -> dict[str, Any]:
+#: Sampled true tracks per (scenario, condition) over which :func:`crlb_inputs` averages the range information.
+BOUND_TRACKS = 2000
+#: The seed of those tracks (any fixed seed: the bound is an expectation, these tracks its Monte Carlo estimate).
+BOUND_SEED = 1998
+
+
+def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = None, *,
+                n_tracks: int = BOUND_TRACKS, seed: int = BOUND_SEED) -> dict[str, Any]:
     r"""The arguments of :func:`uwtutor.observability.posterior_crlb` for a (scenario, condition) of the suite.
 
+    The expectation :math:`\operatorname{E}[\mathbf H_k^\mathsf T R_k^{-1} \mathbf H_k]` is over the true
+    tracks, which scatter about the planned one by the start error and the DR error: it is evaluated as the
+    mean over ``n_tracks`` tracks drawn as the scenario draws them (``mean_over_runs=True``), the Monte Carlo
+    evaluation of Tichavský et al. Per condition:
+
     * white and outliers: the nominal model (:math:`\sigma_r`, :math:`Q`, :math:`P_0`). With outliers the bound
-      is that of the clean ranges -- the information the method would have if it knew which ranges were bad;
+      is that of the clean ranges -- the information a method would have if it knew which ranges were bad;
     * sound speed: the range variance grows by :math:`(\sigma_\gamma r_k)^2`, the ping-to-ping scatter of the
       factor; its mean (0.98) is treated as known, so the bound is lower than one that must also estimate it;
     * bias: a bias state that random-walks with the per-interval variance of the slow bias, prior
       :math:`\mu_\upsilon^2 + \sigma_\upsilon^2` (the filter does not know the mean);
-    * current: a constant current state with the prior :math:`\sigma_U^2 I`.
+    * current: a constant current state with the prior :math:`\sigma_U^2 I`, the tracks carried by the current.
 
     Returns
     -------
     dict
-        ``positions``, ``beacon``, ``sigma``, ``Q``, ``P0``, ``times`` and the ``bias``/``current`` flags.
+        ``positions`` (``n_tracks``, K, 2), ``beacon``, ``sigma``, ``Q``, ``P0``, ``times``, the
+        ``bias``/``current`` flags and ``mean_over_runs=True``.
 
     Examples
     --------
     >>> from uwtutor.observability import posterior_crlb, rmse_bound
-    >>> bound = rmse_bound(posterior_crlb(**crlb_inputs("circle", "white")))
+    >>> bound = rmse_bound(posterior_crlb(**crlb_inputs("circle", "white", n_tracks=200)))
     >>> bound.shape, bool(bound[-1] < bound[0] < 100.0 * 2**0.5)
     ((150,), True)
     """
@@ -446,13 +469,16 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {list(CONDITIONS)}; got {condition!r}")
     p = SUITE if params is None else params
-    runs = SCENARIOS[scenario](np.random.default_rng(0), 1, p)
-    pos, b = runs.positions[0, 1:], runs.beacon[0, 1:]
-    r = np.linalg.norm(pos - b, axis=-1)
-    sigma = np.full(len(r), p.range_sigma)
+    runs = SCENARIOS[scenario](np.random.default_rng(seed), as_int("n_tracks", n_tracks, minimum=1), p)
+    pos = runs.positions
+    if condition == "current":
+        pos = pos + np.asarray(p.current_velocity) * (runs.times - runs.times[0])[:, None]
+    pos, b = pos[:, 1:], runs.beacon[:, 1:]
+    sigma: Any = p.range_sigma
     Q, P0 = p.Q, p.P0
     flags = dict(bias=False, current=False)
     if condition == "sound speed":
+        r = np.linalg.norm(pos - b, axis=-1)
         sigma = np.sqrt(p.range_sigma**2 + (p.speed_factor_sigma * r) ** 2)
     elif condition == "bias":
         flags["bias"] = True
@@ -461,5 +487,4 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     elif condition == "current":
         flags["current"] = True
         P0 = np.diag([p.start_sigma**2] * 2 + [p.current_sigma**2] * 2)
-    return dict(positions=pos, beacon=b, sigma=sigma, Q=Q, P0=P0, times=runs.times, **flags)
-
+    return dict(positions=pos, beacon=b, sigma=sigma, Q=Q, P0=P0, times=runs.times, mean_over_runs=True, **flags)

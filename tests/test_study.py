@@ -1,0 +1,85 @@
+"""The committed results of ``make study`` (uwtutor/data/comparison*) are what the library computes today.
+
+A sample of the rows is re-run from the file's own seed, runs and chunk size and must match it; the whole table
+must cover every method on every scenario it claims under every condition, with the bounds of the suite.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uwtutor import methods
+from uwtutor.montecarlo import ComparisonTable
+from uwtutor.scenarios import suite
+
+DATA = Path(methods.__file__).parent / "data"
+
+
+@pytest.fixture(scope="module")
+def table() -> ComparisonTable:
+    return methods.load_comparison()
+
+
+@pytest.fixture(scope="module")
+def run_info() -> dict:
+    return json.loads((DATA / "comparison_run.json").read_text(encoding="utf-8"))
+
+
+def test_load_comparison_reads_the_committed_files(table):
+    again = ComparisonTable.from_csv(DATA / "comparison.csv", curves=DATA / "comparison_curves.npz")
+    np.testing.assert_array_equal(again.final_rmse, table.final_rmse)
+    np.testing.assert_array_equal(again.rmse_curves, table.rmse_curves)
+
+
+def test_the_table_covers_every_claimed_pair_under_every_condition(table, run_info):
+    expected = {(m, s, c) for m, scen in methods.claims().items() for s in scen for c in suite.CONDITIONS}
+    got = list(zip(table.method.tolist(), table.scenario.tolist(), table.condition.tolist()))
+    assert len(got) == len(set(got)) == len(expected) == run_info["rows"]
+    assert set(got) == expected
+    assert (table.n_runs == run_info["runs"]).all() and table.seed == run_info["seed"]
+    assert table.chunk_size == run_info["chunk_size"]
+    assert (table.n_steps == suite.SUITE.n_epochs).all()
+
+
+def test_the_bounds_in_the_table_are_the_suites(table):
+    bounds = methods.suite_bounds()
+    for i in range(len(table)):
+        b = bounds[(table.scenario[i], table.condition[i])]
+        np.testing.assert_allclose(table.bound_curves[i], b, rtol=1e-12)
+        assert table.final_bound[i] == pytest.approx(b[-1], rel=1e-12)
+        assert table.mean_bound[i] == pytest.approx(b.mean(), rel=1e-12)
+        assert table.rmse_curves[i, -1] == pytest.approx(table.final_rmse[i], rel=1e-12)
+
+
+SAMPLE = [
+    ("EKF", "circle", "white"),
+    ("IEKF", "line", "bias"),
+    ("cooperative EKF", "moving beacon", "current"),
+    ("OR-VMLBL-KF", "lawnmower", "outliers"),
+    ("LS-ISFEKF", "turn", "sound speed"),
+    ("particle filter", "moving beacon", "white"),
+]
+
+
+@pytest.mark.parametrize("method, scenario, condition", SAMPLE)
+def test_a_sample_of_the_rows_reproduces(table, method, scenario, condition):
+    stored = table.row(method, scenario, condition)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        again = methods.compare_suite(stored["n_runs"], table.seed, methods=[method], scenarios=[scenario],
+                                      conditions=[condition], chunk_size=table.chunk_size, measure_cost=False)
+    row = again.row(method, scenario, condition)
+    for column in ComparisonTable.reproducible_columns:
+        if isinstance(stored[column], str):
+            assert row[column] == stored[column]
+        elif np.isnan(stored[column]):
+            assert np.isnan(row[column]), column
+        else:
+            assert row[column] == pytest.approx(stored[column], rel=1e-9), column
+    rmse, _ = table.curves(method, scenario, condition)
+    np.testing.assert_allclose(again.rmse_curves[0], rmse, rtol=1e-9)

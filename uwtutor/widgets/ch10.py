@@ -1,0 +1,141 @@
+r"""Chapter 10 widget: the committed comparison, one scenario and error condition at a time, against the bound.
+
+The study behind it (``make study``: every method of :mod:`uwtutor.methods` on every scenario and condition of
+:mod:`uwtutor.scenarios.suite`, 1000 runs each) takes minutes; the widget only reads its table
+(:func:`uwtutor.methods.load_comparison`), so that choosing a scenario redraws at once. ``comparison_view`` picks
+the rows of one (scenario, condition); ``plot_comparison_view`` draws each method's RMSE over time with the
+posterior Cramér-Rao bound, and the median and 95th percentile of its final error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ._panel import slider_panel
+
+__all__ = ["ComparisonView", "comparison_view", "plot_comparison_view", "comparison_widget", "COMPUTE_FUNCTIONS"]
+
+_TABLE: dict[str, Any] = {}
+
+
+def _committed_table() -> Any:
+    if "table" not in _TABLE:                       # read once per kernel: every redraw uses the same table
+        from ..methods import load_comparison
+
+        _TABLE["table"] = load_comparison()
+    return _TABLE["table"]
+
+
+@dataclass(frozen=True)
+class ComparisonView:
+    """What the chapter-10 widget shows for one (scenario, condition): one entry per method that runs there.
+
+    Attributes
+    ----------
+    scenario, condition : str
+    times : ndarray, shape (K,)
+        Epoch times [s].
+    bound : ndarray, shape (K,)
+        :math:`B_k = \\sqrt{\\operatorname{tr} J_k^{-1}}`, the posterior CRLB on the RMS position error [m].
+    methods : tuple of str
+        The methods shown, in the registry's order.
+    rmse : ndarray, shape (n_methods, K)
+        Each method's RMSE over the runs at each epoch [m].
+    median_final, p95_final : ndarray, shape (n_methods,)
+        Median and 95th percentile of the final error [m].
+    divergence : ndarray, shape (n_methods,)
+        Fraction of runs whose final error exceeds the divergence threshold.
+    nees_fraction : ndarray, shape (n_methods,)
+        Fraction of the epochs whose mean NEES is inside its 95 % interval (NaN without a covariance).
+    n_runs : int
+    """
+
+    scenario: str
+    condition: str
+    times: np.ndarray
+    bound: np.ndarray
+    methods: tuple[str, ...]
+    rmse: np.ndarray
+    median_final: np.ndarray
+    p95_final: np.ndarray
+    divergence: np.ndarray
+    nees_fraction: np.ndarray
+    n_runs: int
+
+
+def comparison_view(scenario: str = "circle", condition: str = "white", table: Any = None) -> ComparisonView:
+    """The rows of ``table`` (the committed comparison by default) for one scenario and condition."""
+    t = _committed_table() if table is None else table
+    scenarios, conditions = list(dict.fromkeys(t.scenario.tolist())), list(dict.fromkeys(t.condition.tolist()))
+    if scenario not in scenarios:
+        raise ValueError(f"scenario must be one of {scenarios}; got {scenario!r}")
+    if condition not in conditions:
+        raise ValueError(f"condition must be one of {conditions}; got {condition!r}")
+    rows = np.flatnonzero((t.scenario == scenario) & (t.condition == condition))
+    if t.rmse_curves is None:
+        raise ValueError("the table holds no curves: read it with ComparisonTable.from_csv(path, curves=...)")
+    from ..scenarios.suite import SUITE
+
+    K = int(t.n_steps[rows[0]])
+    times = SUITE.interval * np.arange(1, K + 1, dtype=float)
+    return ComparisonView(scenario=scenario, condition=condition, times=times, bound=t.bound_curves[rows[0]],
+                          methods=tuple(t.method[rows].tolist()), rmse=t.rmse_curves[rows],
+                          median_final=t.median_final_error[rows], p95_final=t.p95_final_error[rows],
+                          divergence=t.divergence_fraction[rows], nees_fraction=t.nees_fraction[rows],
+                          n_runs=int(t.n_runs[rows[0]]))
+
+
+def plot_comparison_view(view: ComparisonView, fig: Any = None) -> Any:
+    """RMSE over time of every method with the bound (left); median and 95th percentile final errors (right)."""
+    fig = fig or plt.figure(figsize=(7.8, 3.6))
+    ax_t, ax_f = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.6, 1)})
+    n = len(view.methods)
+    colors = [plt.get_cmap("tab20")(i % 20) for i in range(n)]
+    for i, name in enumerate(view.methods):
+        ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=1.1, label=name)
+    ax_t.semilogy(view.times / 60.0, view.bound, color="k", lw=2.0, ls="--", label="bound (PCRB)")
+    ax_t.set_xlabel("time [min]")
+    ax_t.set_ylabel("RMS position error [m]")
+    ax_t.set_ylim(max(0.5, 0.5 * float(np.min(view.bound))), 5e3)
+    ax_t.set_title(f"{view.scenario}, {view.condition}: {view.n_runs} runs", fontsize=9)
+    y = np.arange(n)
+    ax_f.barh(y, view.p95_final, color=colors, alpha=0.35)
+    ax_f.barh(y, view.median_final, color=colors)
+    ax_f.axvline(view.bound[-1], color="k", ls="--", lw=1.5)
+    for i in range(n):
+        if view.divergence[i] > 0:
+            ax_f.text(1.05 * view.p95_final[i], i, f"{100 * view.divergence[i]:.0f} % lost", va="center",
+                      fontsize=6)
+    ax_f.set_xscale("log")
+    ax_f.set_xlim(1.0, 2e4)
+    ax_f.set_yticks(y, view.methods, fontsize=7)
+    ax_f.invert_yaxis()
+    ax_f.set_xlabel("final error [m]: median, 95 %")
+    ax_t.legend(fontsize=6, ncol=2, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def comparison_widget(table: Any = None) -> Any:
+    """Scenario and error condition over the view (the committed table, or ``table``)."""
+    import ipywidgets as w
+
+    t = _committed_table() if table is None else table
+    style = {"description_width": "initial"}
+    sliders = {
+        "scenario": w.Dropdown(options=list(dict.fromkeys(t.scenario.tolist())), value="circle",
+                               description="scenario", style=style),
+        "condition": w.Dropdown(options=list(dict.fromkeys(t.condition.tolist())), value="white",
+                                description="error condition", style=style),
+    }
+    return slider_panel(sliders, lambda fig, **p: plot_comparison_view(comparison_view(table=t, **p), fig))
+
+
+#: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
+COMPUTE_FUNCTIONS: dict[str, Callable[[], Any]] = {
+    "ch10 comparison": comparison_view,
+}
