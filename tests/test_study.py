@@ -83,3 +83,12 @@ def test_a_sample_of_the_rows_reproduces(table, method, scenario, condition):
             assert row[column] == pytest.approx(stored[column], rel=1e-9), column
     rmse, _ = table.curves(method, scenario, condition)
     np.testing.assert_allclose(again.rmse_curves[0], rmse, rtol=1e-9)
+
+
+def test_no_method_beats_the_bound_at_any_epoch(table):
+    # The PCRB bounds the mean squared error of every estimator; the RMSE of 1000 runs carries a few per cent of
+    # Monte Carlo error, and the closest any row comes is about 1.2 times the bound.
+    ratio = table.rmse_curves / table.bound_curves
+    assert np.isfinite(ratio).all()
+    worst = np.unravel_index(np.argmin(ratio), ratio.shape)
+    assert ratio.min() > 1.05, (table.method[worst[0]], table.scenario[worst[0]], table.condition[worst[0]])

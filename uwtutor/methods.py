@@ -2,7 +2,7 @@ r"""Every navigation method of the book behind one signature: ``method(inputs) -
 
 A method takes the :class:`~uwtutor.scenarios.suite.SuiteInputs` of ``n`` runs -- what the vehicle has: an
 initial guess, DR displacements, ranges, the beacon's positions and the noise it was told about -- and returns a
-batched :class:`~uwtutor.filters.FilterResult` with the position first in its state, one estimate per ranging
+batched :class:`~uwtutor.filters.base.FilterResult` with the position first in its state, one estimate per ranging
 epoch. Each entry of :data:`REGISTRY` is a :class:`Method`: the function, the paper and chapter it comes from,
 and the scenarios it can run on (a method that needs a fixed beacon does not claim the moving-beacon scenario; the
 cooperative filter needs a leader). Nothing here is a new algorithm: each function sets a library filter up for
@@ -327,7 +327,7 @@ class Method:
 
 _METHODS = (
     Method("LS pre-positioning", ls_prepositioning, "A", 7, "any",
-           "sliding-window least squares with a bias unknown"),
+           "least squares on all the ranges so far, a bias unknown"),
     Method("grid pre-location", grid_prelocation, "D", 5, "fixed beacon",
            "grid search over start bearing and sound speed"),
     Method("EKF", ekf, "", 4, "any", "range-only extended Kalman filter"),

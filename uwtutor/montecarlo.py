@@ -684,9 +684,11 @@ class ComparisonTable:
         Steps ``K`` of the row's study.
     final_rmse : ndarray
         :math:`\mathrm{RMSE}_K` [m].
-    median_final_error, p95_final_error : ndarray
-        The median and the 95th percentile of the final error norm over the runs [m] (robust to the few runs
-        that diverge, which dominate the RMSE).
+    median_final_error : ndarray
+        The median of the final error norm over the runs [m] (robust to the few runs that diverge, which dominate
+        the RMSE; a NaN estimate counts as an infinite error).
+    p95_final_error : ndarray
+        Its 95th percentile [m].
     mean_rmse : ndarray
         :math:`\frac1K\sum_k \mathrm{RMSE}_k` [m].
     final_bound : ndarray
@@ -717,11 +719,11 @@ class ComparisonTable:
         Probability of the NEES intervals.
     versions : dict of str
         Versions that computed the table.
-    rmse_curves : ndarray, shape (rows, K), or None
-        :math:`\mathrm{RMSE}_k` of every row over the steps (when all rows have the same ``K``); saved with
-        :meth:`to_npz`, not in the CSV.
-    bound_curves : ndarray, shape (rows, K), or None
-        The supplied bound :math:`B_k` of every row (NaN rows without one).
+    rmse_curves : ndarray or None
+        :math:`\mathrm{RMSE}_k` of every row over the steps, one row per table row and one column per step (when
+        all rows have the same ``K``); saved with :meth:`to_npz`, not in the CSV.
+    bound_curves : ndarray or None
+        The supplied bound :math:`B_k` of every row, the same shape (NaN in rows without one).
     """
 
     method: np.ndarray

@@ -64,15 +64,26 @@ class SuiteParameters:
         White range noise :math:`\sigma_r` [m] (2).
     start_sigma : float
         Error of the initial guess per axis [m] (100): :math:`P_0 = \sigma_0^2 I`.
-    true_speed, assumed_speed, speed_sigma : float
-        The sound-speed condition (paper D's numbers): true mean effective speed 1500 m/s, the vehicle converts
-        with 1470 m/s, ping-to-ping scatter 1 m/s.
-    bias_mean, bias_sigma, bias_time_constant : float
-        The slowly varying bias (paper A's model, :class:`uwtutor.ranging.SlowBias`): 5 m mean, 5 m standard
-        deviation, 3000 s correlation time.
-    outlier_amplitude, outlier_probability, outlier_patch_time, outlier_patch_length : float
-        Outliers (paper E's kind): isolated ones of 80 m at each epoch with probability 3 %, and a patch of 10
-        consecutive two-sided ones from 600 s.
+    true_speed : float
+        The sound-speed condition (paper D's numbers): the true mean effective speed, 1500 m/s.
+    assumed_speed : float
+        The speed the vehicle converts travel times with, 1470 m/s.
+    speed_sigma : float
+        Ping-to-ping scatter of the true speed, 1 m/s.
+    bias_mean : float
+        The slowly varying bias (paper A's model, :class:`uwtutor.ranging.SlowBias`): its mean, 5 m.
+    bias_sigma : float
+        Its standard deviation, 5 m.
+    bias_time_constant : float
+        Its correlation time, 3000 s.
+    outlier_amplitude : float
+        Outliers (paper E's kind): their size, 80 m, of random sign.
+    outlier_probability : float
+        Probability of an isolated outlier at each epoch, 3 %.
+    outlier_patch_time : float
+        Start of a patch of consecutive outliers, 600 s.
+    outlier_patch_length : int
+        Epochs in the patch, 10.
     current_velocity : tuple of float
         The unknown current of the current condition [m/s] (0.1 m/s towards the north-east; 150 m of drift in a run).
     current_sigma : float
@@ -184,8 +195,10 @@ class SuiteInputs:
 
     Attributes
     ----------
-    scenario, condition : str
-        Names of the geometry and the error condition.
+    scenario : str
+        Name of the geometry.
+    condition : str
+        Name of the error condition.
     times : ndarray, shape (K,)
         Times of the ranging epochs :math:`1..K` [s].
     interval : float
@@ -430,7 +443,8 @@ CONDITIONS: dict[str, Callable[..., tuple[SuiteInputs, np.ndarray]]] = {
 
 #: Sampled true tracks per (scenario, condition) over which :func:`crlb_inputs` averages the range information.
 BOUND_TRACKS = 2000
-#: The seed of those tracks (any fixed seed: the bound is an expectation, these tracks its Monte Carlo estimate).
+#: The seed of those tracks. Any fixed seed would do; the bound is an expectation, and these tracks its Monte
+#: Carlo estimate.
 BOUND_SEED = 1998
 
 

@@ -36,22 +36,28 @@ class ComparisonView:
 
     Attributes
     ----------
-    scenario, condition : str
+    scenario : str
+        The scenario's name.
+    condition : str
+        The error condition's name.
     times : ndarray, shape (K,)
         Epoch times [s].
     bound : ndarray, shape (K,)
         :math:`B_k = \\sqrt{\\operatorname{tr} J_k^{-1}}`, the posterior CRLB on the RMS position error [m].
     methods : tuple of str
         The methods shown, in the registry's order.
-    rmse : ndarray, shape (n_methods, K)
-        Each method's RMSE over the runs at each epoch [m].
-    median_final, p95_final : ndarray, shape (n_methods,)
-        Median and 95th percentile of the final error [m].
-    divergence : ndarray, shape (n_methods,)
-        Fraction of runs whose final error exceeds the divergence threshold.
-    nees_fraction : ndarray, shape (n_methods,)
-        Fraction of the epochs whose mean NEES is inside its 95 % interval (NaN without a covariance).
+    rmse : ndarray
+        Each method's RMSE over the runs at each epoch [m], one row per method.
+    median_final : ndarray
+        Median of the final error of each method [m].
+    p95_final : ndarray
+        95th percentile of the final error of each method [m].
+    divergence : ndarray
+        Fraction of each method's runs whose final error exceeds the divergence threshold.
+    nees_fraction : ndarray
+        Fraction of the epochs whose mean NEES is inside its 95 % interval, per method (NaN without a covariance).
     n_runs : int
+        Monte Carlo runs behind each number.
     """
 
     scenario: str
