@@ -269,7 +269,13 @@ def slider_latency(page: Any, index: int, slider: int = 0, key: str = "ArrowRigh
     sends the new value as a release of the mouse does) and return the milliseconds from the key press to the
     first frame painted with the new figure decoded in place (the kernel's compute and drawing, both round trips
     and the browser's decoding included)."""
-    handle = cells(page).nth(index).locator(".widget-slider .noUi-handle").nth(slider)
+    cell = cells(page).nth(index)
+    handles = cell.locator(".widget-slider .noUi-handle")
+    if handles.count():
+        handle = handles.nth(slider)
+    else:                   # a widget of choices only (chapter 10): the arrow keys step its first dropdown
+        handle = cell.locator(".widget-dropdown select").nth(slider)
+        key = {"ArrowRight": "ArrowDown", "ArrowLeft": "ArrowUp"}.get(key, key)
     handle.scroll_into_view_if_needed()
     handle.focus()
     page.evaluate(_ARM_LATENCY, index)

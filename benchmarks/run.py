@@ -248,7 +248,7 @@ def widget_factories() -> dict[str, str]:
 
 
 def _first_slider_and_image(panel: Any) -> tuple[Any, Any]:
-    """The first slider of a ``slider_panel`` and its figure (an ``ipywidgets.Image``)."""
+    """The first slider of a ``slider_panel`` (its first dropdown if it has no slider) and its figure."""
     import ipywidgets as w
 
     def walk(widget: Any) -> Any:
@@ -257,7 +257,8 @@ def _first_slider_and_image(panel: Any) -> tuple[Any, Any]:
             yield from walk(child)
 
     every = list(walk(panel))
-    slider = next(x for x in every if isinstance(x, (w.FloatSlider, w.IntSlider, w.FloatLogSlider)))
+    slider = next((x for x in every if isinstance(x, (w.FloatSlider, w.IntSlider, w.FloatLogSlider))),
+                  None) or next(x for x in every if isinstance(x, w.Dropdown))     # choices only: a dropdown
     image = next(x for x in every if isinstance(x, w.Image))
     return slider, image
 
@@ -266,6 +267,11 @@ def _step(slider: Any, up: bool) -> Any:
     """The slider's value one step up or down (as one key press moves it), kept within its range."""
     import ipywidgets as w
 
+    if isinstance(slider, w.Dropdown):               # the next (or previous) option, as an arrow key does
+        options = [value for _, value in slider.options] if isinstance(slider.options[0], tuple) \
+            else list(slider.options)
+        i = options.index(slider.value) + (1 if up else -1)
+        return options[min(max(i, 0), len(options) - 1)]
     if isinstance(slider, w.FloatLogSlider):
         import math
 

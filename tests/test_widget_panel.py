@@ -93,10 +93,18 @@ def test_figure_png_keeps_the_resolution_and_one_canvas():
 @pytest.mark.parametrize("name", [n for n in widgets.__all__ if n.endswith("_widget")])
 def test_every_book_widget_updates_its_figure(name):
     panel = getattr(widgets, name)()
-    slider = next(c for row in panel.children[:2] for c in row.children
-                  if isinstance(c, (w.FloatSlider, w.IntSlider, w.FloatLogSlider)))
+    controls = [c for row in panel.children[:2] for c in row.children]
+    sliders = [c for c in controls if isinstance(c, (w.FloatSlider, w.IntSlider, w.FloatLogSlider))]
     image = panel.children[2].children[0]
     before = bytes(image.value)
+    if not sliders:                               # a widget of choices only (chapter 10): the next option
+        choice = next(c for c in controls if isinstance(c, w.Dropdown))
+        options = list(choice.options)
+        choice.value = options[(options.index(choice.value) + 1) % len(options)]
+        assert bytes(image.value).startswith(PNG_SIGNATURE) and bytes(image.value) != before
+        assert not plt.get_fignums()
+        return
+    slider = sliders[0]
     if isinstance(slider, w.FloatLogSlider):
         slider.value = slider.base ** (np.log(slider.value) / np.log(slider.base) + slider.step)
     else:
