@@ -243,6 +243,7 @@ _ARM_LATENCY = """(i) => {
   window.__uwtutorLatencyMs = null;
   const onKey = (e) => { if (window.__uwtutorKeyTime === null) window.__uwtutorKeyTime = e.timeStamp; };
   document.addEventListener('keydown', onKey, {capture: true});
+  document.addEventListener('input', onKey, {capture: true});     // a dropdown's choice (select_option)
   window.__uwtutorLatency = new Promise((resolve) => {
     let done = false;
     const check = async () => {
@@ -254,6 +255,7 @@ _ARM_LATENCY = """(i) => {
       try { await img.decode(); } catch (e) { /* an image replaced meanwhile: the next frame shows the newest */ }
       requestAnimationFrame(() => requestAnimationFrame(() => {
         document.removeEventListener('keydown', onKey, {capture: true});
+        document.removeEventListener('input', onKey, {capture: true});
         window.__uwtutorLatencyMs = performance.now() - window.__uwtutorKeyTime;
         resolve(window.__uwtutorLatencyMs);
       }));
@@ -271,11 +273,16 @@ def slider_latency(page: Any, index: int, slider: int = 0, key: str = "ArrowRigh
     and the browser's decoding included)."""
     cell = cells(page).nth(index)
     handles = cell.locator(".widget-slider .noUi-handle")
-    if handles.count():
-        handle = handles.nth(slider)
-    else:                   # a widget of choices only (chapter 10): the arrow keys step its first dropdown
-        handle = cell.locator(".widget-dropdown select").nth(slider)
-        key = {"ArrowRight": "ArrowDown", "ArrowLeft": "ArrowUp"}.get(key, key)
+    if not handles.count():     # a widget of choices only (chapter 10): choose the next (previous) option
+        select = cell.locator(".widget-dropdown select").nth(slider)
+        select.scroll_into_view_if_needed()
+        options = select.locator("option").all_text_contents()
+        i = options.index(select.input_value()) + (1 if key == "ArrowRight" else -1)
+        page.evaluate(_ARM_LATENCY, index)
+        select.select_option(options[min(max(i, 0), len(options) - 1)])     # timed from its input event
+        page.wait_for_function("() => window.__uwtutorLatencyMs !== null", timeout=timeout)
+        return float(page.evaluate("() => window.__uwtutorLatencyMs"))
+    handle = handles.nth(slider)
     handle.scroll_into_view_if_needed()
     handle.focus()
     page.evaluate(_ARM_LATENCY, index)

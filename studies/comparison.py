@@ -63,7 +63,8 @@ def main(argv: list[str] | None = None) -> int:
     table.to_csv(paths[".csv"], overwrite=True)
     table.to_npz(paths["_curves.npz"], overwrite=True)
     run = {"runs": args.runs, "seed": args.seed, "chunk_size": args.chunk_size, "workers": args.workers,
-           "rows": len(table), "wall_seconds": round(wall, 1), "parent_cpu_seconds": round(time.process_time() - cpu0, 1),
+           "rows": len(table), "wall_seconds": round(wall, 1),
+           "parent_cpu_seconds": round(time.process_time() - cpu0, 1),
            "cpu": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
            "versions": table.versions}
     paths["_run.json"].write_text(json.dumps(run, indent=2, sort_keys=True) + "\n", encoding="utf-8")

@@ -126,7 +126,8 @@ def test_the_conditions_corrupt_what_they_say():
     assert 0.03 < hit.mean() < 0.03 + 10 / 150 + 0.01
     drift, carried = suite.current(np.random.default_rng(1), runs)
     elapsed = runs.times[1:, None] - runs.times[0]
-    np.testing.assert_allclose(carried - runs.positions[:, 1:], np.broadcast_to(np.asarray(p.current_velocity) * elapsed, carried.shape), atol=1e-9)
+    drift_expected = np.broadcast_to(np.asarray(p.current_velocity) * elapsed, carried.shape)
+    np.testing.assert_allclose(carried - runs.positions[:, 1:], drift_expected, atol=1e-9)
     np.testing.assert_array_equal(drift.u, white.u)           # the DR does not see the current
     drifted_r = np.linalg.norm(carried - runs.beacon[:, 1:], axis=-1)
     assert abs(np.std(drift.z - drifted_r) - p.range_sigma) < 0.05

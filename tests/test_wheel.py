@@ -174,3 +174,16 @@ def test_wheel_carries_the_license(build):
         licence = [n for n in names if n.endswith("LICENSE")]
         assert licence, "the wheel has no LICENSE file"
         assert "MIT License" in zf.read(licence[0]).decode("utf-8")
+
+
+def test_installed_wheel_reads_the_committed_comparison(installed, tmp_path):
+    # chapter 10's table travels with the library: methods.load_comparison() works from a wheel, outside the checkout
+    python = installed / "bin" / "python"
+    proc = _run([str(python), "-c", "from uwtutor import methods; t = methods.load_comparison(); "
+                                    "import uwtutor; print(uwtutor.__file__); print(len(t), t.rmse_curves.shape)"],
+                cwd=tmp_path)
+    module, shape = proc.stdout.strip().splitlines()
+    assert Path(module).is_relative_to(installed)
+    from uwtutor import methods
+    table = methods.load_comparison()
+    assert shape == f"{len(table)} {table.rmse_curves.shape}"

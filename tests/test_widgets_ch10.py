@@ -56,8 +56,19 @@ def test_plot_and_panel():
     panel = ch10.comparison_widget()
     assert len(panel.children) == 3
     controls = panel.children[0].children
-    assert [c.description for c in controls] == ["scenario", "error condition"]
+    assert [c.description for c in controls] == ["scenario", "error condition", "highlight"]
     before = panel.children[2].children[0].value
     controls[1].value = "current"                  # redraws the same figure in place
     assert panel.children[2].children[0].value != before
+    before = panel.children[2].children[0].value
+    controls[2].value = "cooperative EKF"          # not on the line: nothing highlighted, no error
+    assert panel.children[2].children[0].value == before
+    controls[0].value = "moving beacon"
+    assert panel.children[2].children[0].value != before
+    plt.close("all")
+
+
+def test_highlighting_a_method_that_is_not_there_is_refused_by_name():
+    with pytest.raises(ValueError, match="method must be"):
+        ch10.plot_comparison_view(ch10.comparison_view("line", "white"), method="cooperative EKF")
     plt.close("all")

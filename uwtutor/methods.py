@@ -37,8 +37,8 @@ from .filters import (BootstrapParticleFilter, FilterResult, RelativeRangeModel,
 from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
 __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",
-           "ls_prepositioning", "grid_prelocation", "ekf", "iekf", "prepositioned_iekf", "sfekf", "isfekf",
-           "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter"]
+           "ls_prepositioning", "grid_prelocation", "prelocate", "ekf", "iekf", "prepositioned_iekf", "sfekf",
+           "isfekf", "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter"]
 
 
 def _inputs(inputs: Any) -> SuiteInputs:
@@ -132,9 +132,12 @@ def ls_prepositioning(inputs: SuiteInputs) -> FilterResult:
 SPEED_ERROR_GRID = 1470.0 - np.arange(1550.0, 1419.0, -10.0)
 
 
-def _prelocation(s: SuiteInputs) -> Any:
+def prelocate(inputs: SuiteInputs) -> Any:
+    """Paper D's grid search (``uwtutor.lsq.grid_prelocation``) on the suite's inputs, on the grid
+    ``SPEED_ERROR_GRID``: what :func:`grid_prelocation` and :func:`ls_isfekf` start from."""
     from . import lsq
 
+    s = _inputs(inputs)
     return lsq.grid_prelocation(ranges=s.z, dr_displacements=s.u, speed_error_grid=SPEED_ERROR_GRID,
                                 assumed_speed=s.parameters.assumed_speed, beacon=s.fixed_beacon)
 
@@ -143,7 +146,7 @@ def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
     """Paper D's grid-search pre-location on its own: the best (start bearing, sound-speed error) cell at every
     epoch, from all the ranges so far. It has no covariance: ``P`` is NaN."""
     s = _inputs(inputs)
-    pre = _prelocation(s)
+    pre = prelocate(s)
     n, K = s.n_runs, s.n_epochs
     return _result(s, np.asarray(pre.position), np.full((n, K, 2, 2), np.nan),
                    extras={"range_scale": np.asarray(pre.range_scale)})
@@ -200,7 +203,7 @@ def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
     """Paper D's LS-ISFEKF: grid pre-location, accepted after a turn and 10 stable fixes, then the ISFEKF with its
     speed estimate; dead reckoning from the initial guess until the start (chapter 5)."""
     s = _inputs(inputs)
-    pre = _prelocation(s)
+    pre = prelocate(s)
     res = ls_fading_ekf(s.z, s.u, s.Q, s.R, np.eye(2) * 50.0**2, sigma_gamma=s.parameters.speed_factor_sigma,
                         assumed_speed=s.parameters.assumed_speed, beacon=s.fixed_beacon, times=s.times,
                         prelocation=pre)

@@ -138,7 +138,8 @@ class SuiteParameters:
 
     @property
     def speed_factor_sigma(self) -> float:
-        r""":math:`\sigma_\gamma \approx c\,\sigma_c / \bar c_\mathrm e^2`, the ping-to-ping scatter of the range factor."""
+        r""":math:`\sigma_\gamma \approx c\,\sigma_c / \bar c_\mathrm e^2`, the ping-to-ping scatter of the range
+        factor."""
         return float(self.assumed_speed * self.speed_sigma / self.true_speed**2)
 
 

@@ -95,14 +95,24 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
                           n_runs=int(t.n_runs[rows[0]]))
 
 
-def plot_comparison_view(view: ComparisonView, fig: Any = None) -> Any:
-    """RMSE over time of every method with the bound (left); median and 95th percentile final errors (right)."""
+def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "all") -> Any:
+    """RMSE over time of every method with the bound (left); median and 95th percentile final errors (right).
+
+    ``method`` (a name of ``view.methods``) draws that method in colour and the others in grey; ``"all"`` colours
+    every one.
+    """
+    if method != "all" and method not in view.methods:
+        raise ValueError(f"method must be 'all' or one of the methods of this scenario, {list(view.methods)}; "
+                         f"got {method!r}")
     fig = fig or plt.figure(figsize=(7.8, 3.6))
     ax_t, ax_f = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.6, 1)})
     n = len(view.methods)
-    colors = [plt.get_cmap("tab20")(i % 20) for i in range(n)]
+    colors = [plt.get_cmap("tab20")(i % 20) if method in ("all", name) else (0.75, 0.75, 0.75, 1.0)
+              for i, name in enumerate(view.methods)]
     for i, name in enumerate(view.methods):
-        ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=1.1, label=name)
+        chosen = method == name
+        ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=2.0 if chosen else 1.1, label=name,
+                      zorder=3 if chosen else 2)
     ax_t.semilogy(view.times / 60.0, view.bound, color="k", lw=2.0, ls="--", label="bound (PCRB)")
     ax_t.set_xlabel("time [min]")
     ax_t.set_ylabel("RMS position error [m]")
@@ -127,7 +137,8 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None) -> Any:
 
 
 def comparison_widget(table: Any = None) -> Any:
-    """Scenario and error condition over the view (the committed table, or ``table``)."""
+    """Scenario, error condition and a method to highlight over the view (the committed table, or ``table``); a
+    method that does not run on the chosen scenario highlights nothing."""
     import ipywidgets as w
 
     t = _committed_table() if table is None else table
@@ -137,8 +148,15 @@ def comparison_widget(table: Any = None) -> Any:
                                description="scenario", style=style),
         "condition": w.Dropdown(options=list(dict.fromkeys(t.condition.tolist())), value="white",
                                 description="error condition", style=style),
+        "method": w.Dropdown(options=["all"] + list(dict.fromkeys(t.method.tolist())), value="all",
+                             description="highlight", style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_comparison_view(comparison_view(table=t, **p), fig))
+
+    def draw(fig: Any, scenario: str, condition: str, method: str) -> Any:
+        view = comparison_view(scenario, condition, table=t)
+        return plot_comparison_view(view, fig, method=method if method in view.methods else "all")
+
+    return slider_panel(sliders, draw)
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
