@@ -107,6 +107,8 @@ def test_bound_mistakes_get_their_hint(bound):
         (white, "without the bias state"),
         (_planned_bound(True), "planned track only"),
         (_planned_bound(False), "two mistakes"),
+        (rmse_bound(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], inputs["sigma"], inputs["Q"],
+                                   inputs["P0"], bias=True))[-1], "one true track"),
         (np.mean(per_track), "*information*"),
         (bound[0], "last epoch"),
         (bound[-1] ** 2, "square root"),

@@ -90,11 +90,13 @@ def _variants() -> tuple[tuple[str, float], ...]:
     on_plan = rmse_bound(posterior_crlb(planned, beacon, bias=True, **plan_args))
     on_plan_no_bias = rmse_bound(posterior_crlb(planned, beacon, sigma=inputs["sigma"], Q=inputs["Q"][:2, :2],
                                                 P0=inputs["P0"][:2, :2]))
+    one_track = rmse_bound(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], bias=True, **plan_args))
     per_run = rmse_bound(posterior_crlb(**dict(inputs, mean_over_runs=False)))
     full = posterior_crlb(**dict(inputs, full=True))
     return (("final", float(bound[-1])), ("first", float(bound[0])), ("white", float(white[-1])),
             ("white_first", float(white[0])), ("planned", float(on_plan[-1])),
-            ("planned_no_bias", float(on_plan_no_bias[-1])), ("mean_of_runs", float(np.mean(per_run[:, -1]))),
+            ("planned_no_bias", float(on_plan_no_bias[-1])), ("one_track", float(one_track[-1])),
+            ("mean_of_runs", float(np.mean(per_run[:, -1]))),
             ("variance", float(bound[-1] ** 2)), ("with_bias_variance", float(np.sqrt(np.trace(full[-1])))),
             ("prior", float(np.sqrt(np.trace(inputs["P0"][:2, :2])))))
 
@@ -108,7 +110,8 @@ def bound_variants() -> dict[str, float]:
         ``"final"``: :math:`B_K` of ``BOUND_SCENARIO`` under ``BOUND_CONDITION``, the expectation over the true
         tracks of ``suite.crlb_inputs``; ``"first"``: :math:`B_1`; ``"white"``, ``"white_first"``: the same without
         the bias state; ``"planned"``: the recursion on the planned track only (no expectation), with the bias
-        state; ``"planned_no_bias"``: on the planned track without it; ``"mean_of_runs"``: the mean of the per-track
+        state; ``"planned_no_bias"``: on the planned track without it; ``"one_track"``: on the first sampled true
+        track only; ``"mean_of_runs"``: the mean of the per-track
         bounds (the bounds averaged instead of the information); ``"variance"``: :math:`B_K^2`;
         ``"with_bias_variance"``: :math:`\sqrt{\operatorname{tr}}` of the whole 3-state bound; ``"prior"``: the
         prior's RMS position error :math:`\sqrt{\operatorname{tr} P_0}`.
@@ -129,8 +132,8 @@ def check_final_bound(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the bound without the bias state, the recursion on the planned track (with and without the bias
-        state), the mean of the per-track bounds, the first epoch's bound, :math:`B_K^2` and the trace with the bias
-        variance are recognised.
+        state) or on one true track, the mean of the per-track bounds, the first epoch's bound, :math:`B_K^2` and the
+        trace with the bias variance are recognised.
     """
     v = bound_variants()
     mistakes = {
@@ -142,6 +145,8 @@ def check_final_bound(answer: Any) -> Feedback:
                       "mean_over_runs=True (posterior_crlb(**inputs) does it).",
         v["planned_no_bias"]: "That is the recursion on the planned track, without the bias state: two mistakes. Use "
                               "crlb_inputs(..., 'bias') and all its tracks: posterior_crlb(**inputs).",
+        v["one_track"]: "That is the recursion on one true track (positions[0]): the expectation runs over all "
+                        "of them. Pass every track with mean_over_runs=True (posterior_crlb(**inputs) does it).",
         v["mean_of_runs"]: "That averages the bounds of the tracks one by one (mean_over_runs=False). The PCRB "
                            "averages the *information* over the tracks, then inverts: keep mean_over_runs=True.",
         v["first"]: "That is the bound after the first range, B_1; the task asks for the last epoch, bound[-1].",
@@ -293,6 +298,15 @@ def check_lost_runs(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the fraction and the percentage instead of the count are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> row = methods.load_comparison().row("EKF", "line", "white")
+    >>> bool(check_lost_runs(round(row["divergence_fraction"] * row["n_runs"])))
+    True
+    >>> print(check_lost_runs(row["divergence_fraction"]).hint)
+    That is the fraction of the runs (divergence_fraction); the task asks how many runs: multiply by n_runs.
     """
     row = _table_row()
     count = row["divergence_fraction"] * row["n_runs"]
@@ -352,6 +366,12 @@ def check_method_choice(answer: Any) -> Feedback:
     ------
     RuntimeError
         If the table no longer makes one of the options the answer (the exercise must then be revised).
+
+    Examples
+    --------
+    >>> print(check_method_choice(4))
+    ✘ Not yet: the method for this situation should be one of the letters "A", "B", "C", "D"; got an int, 4.
+      Hint: Write the letter in quotes, e.g. `choice = "A"`.
     """
     rows = choice_rows()
     best = _winner(rows)
