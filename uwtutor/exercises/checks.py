@@ -1,6 +1,6 @@
 """Generic building blocks for answer checkers that say what is wrong and hint at why.
 
-Three checkers cover the exercises of the book:
+Four checkers cover the exercises of the book:
 
 - ``check_number`` for a single number: it recognises the exercise's known wrong answers (``common_mistakes``),
   then a wrong sign, a factor of 2 and a power of ten (a unit conversion), then says how far off the answer is;
@@ -8,7 +8,9 @@ Three checkers cover the exercises of the book:
   otherwise the worst element; with a boolean ``expected`` it compares flags and names the missed and the false ones;
 - ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
   reports the first failing case with its inputs, the expected result and the student's result; an exception raised
-  by the student's code is caught and reported with the line it came from.
+  by the student's code is caught and reported with the line it came from;
+- ``check_choice`` for a multiple-choice answer given as a letter: it accepts the letter in any case (or the option's
+  text), names the letters when the answer is none of them, and gives each wrong option its own hint.
 
 None of them ever raises because of the *answer*: ``None`` (not answered yet), a string, a list of the wrong length or a
 function that crashes all give a ``Feedback`` with ``correct=False`` and a helpful message. They do raise ``ValueError``
@@ -47,7 +49,7 @@ import numpy as np
 
 from .feedback import Feedback
 
-__all__ = ["Case", "check_number", "check_array", "check_function", "not_answered", "DEFAULT_HINT"]
+__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "DEFAULT_HINT"]
 
 #: The hint given when an answer is wrong and no more specific cause is recognised.
 DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
@@ -406,6 +408,102 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
                         hint=hint or DEFAULT_HINT, details=details)
     relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units)
     return Feedback(False, f"{subject} {relation}.", hint=special_hint or hint or DEFAULT_HINT, details=details)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# check_choice
+# ---------------------------------------------------------------------------------------------------------------------
+def _choice_key(answer: str, options: Mapping[str, str]) -> str | None:
+    """The option key that a text answer names: its letter (any case, with or without ``(``, ``)``, ``.``) or its
+    whole text; ``None`` if it names none."""
+    text = answer.strip()
+    letter = text.strip("()[]. ").upper()
+    for key in options:
+        if letter == key.upper():
+            return key
+    for key, option in options.items():
+        if text.casefold() == str(option).strip().casefold():
+            return key
+    return None
+
+
+def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name: str = "the answer",
+                 common_mistakes: Mapping[str, str] | None = None, hint: str | None = None,
+                 explanation: str | None = None) -> Feedback:
+    """Check a multiple-choice answer given as the letter of an option, and explain a wrong choice.
+
+    The letter may be written in either case, with surrounding spaces or as ``"(b)"``; the full text of an option is
+    accepted too. Anything else (a number, a truth value, a letter that is not an option) gets a message listing the
+    letters.
+
+    Parameters
+    ----------
+    answer : object
+        The student's answer; ``None`` (or ``...``) means "not answered yet".
+    expected : str
+        The key of the right option (computed by the checker).
+    options : mapping of str to str
+        The options, key (a letter such as ``"A"``) to the text the task shows.
+    name : str
+        What is being chosen, with its article, e.g. ``"the method for this situation"``.
+    common_mistakes : mapping of str to str, optional
+        Hints for wrong options, keyed like ``options``: why that choice is tempting and what it misses.
+    hint : str, optional
+        The hint for a wrong option without a specific one (default ``DEFAULT_HINT``).
+    explanation : str, optional
+        A sentence appended to the message of the right choice.
+
+    Returns
+    -------
+    Feedback
+        ``details`` holds ``answer`` (the key chosen) when the answer names an option.
+
+    Raises
+    ------
+    ValueError
+        If ``options`` is empty, a key is not a non-empty string, two keys differ only by case, or ``expected`` is not
+        a key (a bug in the checker, not in the answer).
+
+    Examples
+    --------
+    >>> options = {"A": "the EKF", "B": "the particle filter"}
+    >>> check_choice("b", "B", options, name="the method")
+    ✔ Correct: B, the particle filter.
+    >>> check_choice("C", "B", options, name="the method")
+    ✘ Not yet: the method should be one of the letters "A", "B"; got 'C'.
+      Hint: Write the letter in quotes, e.g. `choice = "A"`.
+    """
+    if not options:
+        raise ValueError("options must hold at least one option")
+    keys = list(options)
+    if not all(isinstance(k, str) and k.strip() for k in keys):
+        raise ValueError(f"the keys of options must be non-empty strings; got {keys!r}")
+    if len({k.upper() for k in keys}) != len(keys):
+        raise ValueError(f"the keys of options must differ in more than case; got {keys!r}")
+    if expected not in options:
+        raise ValueError(f"expected must be one of the keys of options {keys}; got {expected!r}")
+    letters = ", ".join(f'"{k}"' for k in keys)
+    if _is_unanswered(answer):
+        return not_answered(f"the letter of {name} (one of {letters})")
+    example = f'Write the letter in quotes, e.g. `choice = "{keys[0]}"`.'
+    if not isinstance(answer, str):
+        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {_a_type(answer)}, "
+                               f"{_fmt_value(answer)}.", hint=example)
+    key = _choice_key(answer, options)
+    if key is None:
+        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {answer!r}.",
+                        hint=example)
+    details = {"answer": key}
+    if key == expected:
+        message = f"Correct: {key}, {options[key]}."
+        if explanation:
+            message += " " + explanation
+        return Feedback(True, message, details=details)
+    specific = (common_mistakes or {}).get(key)
+    if specific is not None:
+        details["mistake"] = key
+    return Feedback(False, f"Not yet: {key}, {options[key]}, is not {name}.",
+                    hint=specific or hint or DEFAULT_HINT, details=details)
 
 
 # ---------------------------------------------------------------------------------------------------------------------

@@ -1,0 +1,225 @@
+"""Chapter 10 checkers: the right answers pass, the usual mistakes get the hint that explains them, bad input is
+named, and the student version holds no solution."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+
+from uwtutor import methods
+from uwtutor.exercises import Feedback, ch10, check_choice
+from uwtutor.exercises.generate import make_student_version
+from uwtutor.exercises.nbgrader_meta import nbgrader_problems
+from uwtutor.observability import posterior_crlb, rmse_bound
+from uwtutor.scenarios import suite
+
+SOURCE = Path(__file__).resolve().parents[1] / "exercises" / "ch10_comparison.ipynb"
+
+
+def _text(fb: Feedback) -> str:
+    return f"{fb.message}\n{fb.hint or ''}"
+
+
+# -- expected values computed here, independently of the checkers ------------------------------------------------------
+@pytest.fixture(scope="module")
+def bound():
+    return rmse_bound(posterior_crlb(**suite.crlb_inputs("line", "bias")))
+
+
+@pytest.fixture(scope="module")
+def table():
+    return methods.load_comparison()
+
+
+def _row(table, method, scenario, condition):
+    hit = (table.method == method) & (table.scenario == scenario) & (table.condition == condition)
+    (index,) = np.flatnonzero(hit)
+    return index
+
+
+def test_exercise_data_are_what_the_notebook_says(table):
+    assert (ch10.BOUND_SCENARIO, ch10.BOUND_CONDITION, ch10.START_METHOD) == ("line", "bias", "IEKF")
+    assert (ch10.TABLE_METHOD, ch10.TABLE_SCENARIO, ch10.TABLE_CONDITION) == ("EKF", "line", "white")
+    assert (ch10.CHOICE_SCENARIO, ch10.CHOICE_CONDITION, ch10.MAX_LOST) == ("turn", "sound speed", 0.05)
+    assert ch10.CHOICES == {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "particle filter"}
+    source = SOURCE.read_text()
+    for letter, method in ch10.CHOICES.items():
+        assert f"| {letter} | {method} |" in source
+        assert methods.get(method).runs_on("turn")
+    assert set(ch10.choice_rows()) >= set(ch10.CHOICES.values())
+
+
+def test_the_table_bound_is_the_recomputed_bound(bound, table):
+    i = _row(table, "IEKF", "line", "bias")
+    np.testing.assert_allclose(table.bound_curves[i], bound, rtol=1e-9)
+
+
+def test_right_answers_pass(bound, table):
+    i = _row(table, "IEKF", "line", "bias")
+    row = table.rows()[_row(table, "EKF", "line", "white")]
+    cell = [r for r in table.rows() if r["scenario"] == "turn" and r["condition"] == "sound speed"]
+    allowed = [r for r in cell if r["divergence_fraction"] <= 0.05]
+    best = min(allowed, key=lambda r: r["median_final_error"])["method"]
+    letter = next(k for k, m in ch10.CHOICES.items() if m == best)
+    n_lost = row["divergence_fraction"] * row["n_runs"]
+    for check, answer in [(ch10.check_final_bound, bound[-1]), (ch10.check_final_bound, np.float32(bound[-1])),
+                          (ch10.check_final_bound, [bound[-1]]),
+                          (ch10.check_first_ratio, table.rmse_curves[i, 0] / bound[0]),
+                          (ch10.check_final_efficiency, row["final_rmse"] / row["final_bound"]),
+                          (ch10.check_final_efficiency, row["final_efficiency"]),
+                          (ch10.check_median_over_bound, row["median_final_error"] / row["final_bound"]),
+                          (ch10.check_lost_runs, round(n_lost)), (ch10.check_lost_runs, n_lost),
+                          (ch10.check_lost_runs, np.int64(round(n_lost))),
+                          (ch10.check_method_choice, letter), (ch10.check_method_choice, letter.lower()),
+                          (ch10.check_method_choice, f" ({letter}) "), (ch10.check_method_choice, best.upper())]:
+        fb = check(answer)
+        assert fb.correct, (check.__name__, answer, fb.message, fb.hint)
+        fb.assert_correct()
+
+
+def test_the_choice_is_not_the_lowest_median(table):
+    """The exercise is only worth asking while the lowest median of the options loses too many runs."""
+    rows = ch10.choice_rows()
+    medians = {m: rows[m]["median_final_error"] for m in ch10.CHOICES.values()}
+    lowest = min(medians, key=medians.get)
+    assert rows[lowest]["divergence_fraction"] > ch10.MAX_LOST
+    fb = ch10.check_method_choice(next(k for k, m in ch10.CHOICES.items() if m == lowest))
+    assert not fb.correct and "1 in 20" in fb.hint and "lowest of the four" in fb.hint
+
+
+def _planned_bound(bias):
+    inputs = suite.crlb_inputs("line", "bias")
+    runs = suite.line(np.random.default_rng(0), 1)
+    kw = dict(sigma=inputs["sigma"], Q=inputs["Q"], P0=inputs["P0"]) if bias else \
+        dict(sigma=inputs["sigma"], Q=inputs["Q"][:2, :2], P0=inputs["P0"][:2, :2])
+    return rmse_bound(posterior_crlb(runs.planned[1:], runs.beacon[0, 1:], bias=bias, **kw))[-1]
+
+
+def test_bound_mistakes_get_their_hint(bound):
+    inputs = suite.crlb_inputs("line", "bias")
+    white = rmse_bound(posterior_crlb(**suite.crlb_inputs("line", "white")))[-1]
+    per_track = rmse_bound(posterior_crlb(**dict(inputs, mean_over_runs=False)))[:, -1]
+    full = posterior_crlb(**dict(inputs, full=True))[-1]
+    cases = [
+        (white, "without the bias state"),
+        (_planned_bound(True), "planned track only"),
+        (_planned_bound(False), "two mistakes"),
+        (rmse_bound(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], inputs["sigma"], inputs["Q"],
+                                   inputs["P0"], bias=True))[-1], "one true track"),
+        (np.mean(per_track), "*information*"),
+        (bound[0], "last epoch"),
+        (bound[-1] ** 2, "square root"),
+        (np.sqrt(np.trace(full)), "bias variance"),
+    ]
+    for answer, words in cases:
+        fb = ch10.check_final_bound(answer)
+        assert not fb.correct and words in _text(fb), (answer, _text(fb))
+    assert not ch10.check_final_bound(bound).correct and "150 numbers" in _text(ch10.check_final_bound(bound))
+
+
+def test_first_ratio_mistakes_get_their_hint(bound, table):
+    rmse = table.rmse_curves[_row(table, "IEKF", "line", "bias")]
+    white = rmse_bound(posterior_crlb(**suite.crlb_inputs("line", "white")))
+    for answer, words in [(rmse[-1] / bound[-1], "last epoch"), (bound[0] / rmse[0], "over the bound"),
+                          (rmse[0] / white[0], "white-noise bound"), (rmse[0] / bound[-1], "*final* bound"),
+                          (rmse[0] / np.sqrt(2 * suite.SUITE.start_sigma**2), "prior")]:
+        fb = ch10.check_first_ratio(answer)
+        assert not fb.correct and words in _text(fb), (answer, _text(fb))
+
+
+def test_table_mistakes_get_their_hint(table):
+    row = table.row("EKF", "line", "white")
+    efficiency = [(row["efficiency"], "`efficiency` column"), (row["final_bound"] / row["final_rmse"], "bound over"),
+                  (row["median_final_error"] / row["final_bound"], "task (b)"),
+                  (row["p95_final_error"] / row["final_bound"], "95th percentile")]
+    median = [(row["final_rmse"] / row["final_bound"], "task (a)"),
+              (row["final_bound"] / row["median_final_error"], "bound over the median"),
+              (row["median_final_error"] / row["mean_bound"], "mean_bound")]
+    lost = [(row["divergence_fraction"], "fraction"), (100 * row["divergence_fraction"], "percentage")]
+    for check, cases in [(ch10.check_final_efficiency, efficiency), (ch10.check_median_over_bound, median),
+                         (ch10.check_lost_runs, lost)]:
+        for answer, words in cases:
+            fb = check(answer)
+            assert not fb.correct and words in _text(fb), (check.__name__, answer, _text(fb))
+
+
+def test_wrong_choices_get_their_numbers():
+    rows = ch10.choice_rows()
+    n_wrong = 0
+    for letter, method in ch10.CHOICES.items():
+        fb = ch10.check_method_choice(letter)
+        if fb.correct:
+            continue
+        r = rows[method]
+        assert f"{100 * r['divergence_fraction']:.1f} %" in fb.hint and f"{r['median_final_error']:.1f} m" in fb.hint
+        assert ("within the limit" in fb.hint) == (r["divergence_fraction"] <= ch10.MAX_LOST)
+        assert fb.details["mistake"] == letter and fb.message.startswith(f"Not yet: {letter}, {method},")
+        n_wrong += 1
+    assert n_wrong == len(ch10.CHOICES) - 1
+
+
+@pytest.mark.parametrize("check", [ch10.check_final_bound, ch10.check_first_ratio, ch10.check_final_efficiency,
+                                   ch10.check_median_over_bound, ch10.check_lost_runs])
+def test_bad_numbers_are_named(check):
+    assert "No answer yet" in _text(check(None))
+    assert "NaN" in _text(check(float("nan")))
+    assert "infinite" in _text(check(np.inf))
+    assert "quotes" in _text(check("6.4"))
+    assert "truth value" in _text(check(True))
+    assert "function" in _text(check(rmse_bound))
+    for answer in (None, float("nan"), "6.4", True, [1.0, 2.0]):
+        assert not check(answer).correct
+
+
+def test_bad_choices_are_named():
+    assert "No answer yet" in _text(ch10.check_method_choice(None))
+    for answer, words in [(2, "an int"), ("E", "'E'"), (float("nan"), "a float"), (["B"], "a list"),
+                          (True, "a bool")]:
+        fb = ch10.check_method_choice(answer)
+        assert not fb.correct and '"A", "B", "C", "D"' in fb.message and words in fb.message, (answer, fb.message)
+        assert "in quotes" in fb.hint
+
+
+def test_check_choice_refuses_a_misconfigured_checker():
+    with pytest.raises(ValueError, match="expected"):
+        check_choice("A", "Z", {"A": "x", "B": "y"})
+    with pytest.raises(ValueError, match="at least one"):
+        check_choice("A", "A", {})
+    with pytest.raises(ValueError, match="case"):
+        check_choice("A", "A", {"A": "x", "a": "y"})
+    with pytest.raises(ValueError, match="non-empty strings"):
+        check_choice("A", "A", {"A": "x", "": "y"})
+
+
+def test_check_choice_gives_the_wrong_option_its_hint():
+    options = {"A": "the EKF", "B": "the particle filter", "C": "the IEKF"}
+    fb = check_choice("a", "B", options, name="the method", common_mistakes={"A": "It loses runs."}, hint="Generic.")
+    assert not fb.correct and fb.hint == "It loses runs." and fb.details == {"answer": "A", "mistake": "A"}
+    fb = check_choice("C", "B", options, name="the method", common_mistakes={"A": "It loses runs."}, hint="Generic.")
+    assert not fb.correct and fb.hint == "Generic." and "mistake" not in fb.details
+    assert check_choice("The Particle Filter", "B", options).correct
+    assert check_choice("b.", "B", options, explanation="Why.").message.endswith("Why.")
+
+
+def test_source_carries_nbgrader_metadata_and_the_student_version_has_no_solution():
+    source = nbformat.read(SOURCE, as_version=4)
+    assert nbgrader_problems(source) == []
+    assert all(not c.get("outputs") for c in source.cells if c.cell_type == "code")
+    kinds = [c.metadata["nbgrader"]["grade_id"].rsplit("_", 1)[-1].rstrip("0123456789")
+             for c in source.cells if "nbgrader" in c.metadata]
+    assert kinds.count("check") == 6 and kinds.count("answer") == 6 and kinds.count("written") == 2
+    student = make_student_version(SOURCE)
+    text = "\n".join(c.source for c in student.cells)
+    for marker in ("BEGIN SOLUTION", "END SOLUTION", "HIDDEN TESTS", "assert_correct"):
+        assert marker not in text
+    for solution in ("rmse_bound(posterior_crlb(**inputs))", "rmse[0] / bound[0]", 'ekf_line["final_rmse"]',
+                     "divergence_fraction\"] * ", "min(allowed", "mirror image", "line of sight $\\mathbf{e}_1$"):
+        assert solution not in text, solution
+    code = "\n".join(c.source for c in student.cells if c.cell_type == "code")
+    assert code.count("# YOUR CODE HERE") == 6 and code.count("raise NotImplementedError") == 6
+    assert text.count("YOUR ANSWER HERE") == 2
+    for name in ("b_final", "ratio_first", "efficiency_final", "median_ratio", "n_lost", "choice"):
+        assert f"{name} = None" in text

@@ -1,0 +1,407 @@
+r"""Checkers for the exercises of chapter 10, "Every method on common ground, against the posterior Cramér–Rao
+bound".
+
+Each checker takes the student's answer, computes the expected value with ``uwtutor`` itself (the suite's bound
+from :func:`uwtutor.scenarios.suite.crlb_inputs` and :func:`uwtutor.observability.posterior_crlb`, the committed
+table from :func:`uwtutor.methods.load_comparison`), and returns a ``Feedback`` that recognises the usual mistakes of
+that exercise:
+
+==================================================  ====================================================================
+checker                                             exercise
+==================================================  ====================================================================
+``check_final_bound(b_final)``                      10.1: the final bound :math:`B_K` of the line with a bias
+``check_first_ratio(ratio)``                        10.1: the IEKF's RMSE over the bound at the first epoch
+``check_final_efficiency(eff)``                     10.2: the EKF's final RMSE over the bound, on the line
+``check_median_over_bound(ratio)``                  10.2: its median final error over the bound
+``check_lost_runs(n)``                              10.2: the number of its runs that diverged
+``check_method_choice(letter)``                     10.3: which method for an approach with a wrong sound speed
+==================================================  ====================================================================
+
+The exercises themselves are in the repository's ``exercises/ch10_comparison.ipynb``.
+
+References
+----------
+P. Tichavský, C. H. Muravchik and A. Nehorai, "Posterior Cramér–Rao bounds for discrete-time nonlinear filtering",
+IEEE Trans. Signal Process. 46(5), 1386–1396, 1998.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from .. import methods
+from ..observability import posterior_crlb, rmse_bound
+from ..scenarios import suite
+from .checks import check_choice, check_number
+from .feedback import Feedback
+
+__all__ = [
+    "check_final_bound",
+    "check_first_ratio",
+    "check_final_efficiency",
+    "check_median_over_bound",
+    "check_lost_runs",
+    "check_method_choice",
+    "bound_variants",
+    "choice_rows",
+    "BOUND_SCENARIO",
+    "BOUND_CONDITION",
+    "START_METHOD",
+    "TABLE_METHOD",
+    "TABLE_SCENARIO",
+    "TABLE_CONDITION",
+    "CHOICE_SCENARIO",
+    "CHOICE_CONDITION",
+    "MAX_LOST",
+    "CHOICES",
+]
+
+# -- the data of the exercises -----------------------------------------------------------------------------------------
+#: Exercise 10.1: the (scenario, condition) whose bound is computed ...
+BOUND_SCENARIO, BOUND_CONDITION = "line", "bias"
+#: ... and the method (one with a bias state) whose RMSE is set against it at the first epoch.
+START_METHOD = "IEKF"
+
+#: Exercise 10.2: the row of the committed table that is read.
+TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION = "EKF", "line", "white"
+
+#: Exercise 10.3: the cell of the situation, the largest fraction of runs that may be lost, and the options.
+CHOICE_SCENARIO, CHOICE_CONDITION = "turn", "sound speed"
+MAX_LOST = 0.05
+CHOICES = {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "particle filter"}
+
+
+def _pct(fraction: float) -> str:
+    return f"{100 * fraction:.1f} %"
+
+
+# -- exercise 10.1: the bound ------------------------------------------------------------------------------------------
+@lru_cache(maxsize=1)
+def _variants() -> tuple[tuple[str, float], ...]:
+    inputs = suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)
+    bound = rmse_bound(posterior_crlb(**inputs))
+    white = rmse_bound(posterior_crlb(**suite.crlb_inputs(BOUND_SCENARIO, "white")))
+    runs = suite.SCENARIOS[BOUND_SCENARIO](np.random.default_rng(0), 1)
+    planned, beacon = runs.planned[1:], runs.beacon[0, 1:]
+    plan_args = dict(sigma=inputs["sigma"], Q=inputs["Q"], P0=inputs["P0"], times=inputs["times"])
+    on_plan = rmse_bound(posterior_crlb(planned, beacon, bias=True, **plan_args))
+    on_plan_no_bias = rmse_bound(posterior_crlb(planned, beacon, sigma=inputs["sigma"], Q=inputs["Q"][:2, :2],
+                                                P0=inputs["P0"][:2, :2]))
+    one_track = rmse_bound(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], bias=True, **plan_args))
+    per_run = rmse_bound(posterior_crlb(**dict(inputs, mean_over_runs=False)))
+    full = posterior_crlb(**dict(inputs, full=True))
+    return (("final", float(bound[-1])), ("first", float(bound[0])), ("white", float(white[-1])),
+            ("white_first", float(white[0])), ("planned", float(on_plan[-1])),
+            ("planned_no_bias", float(on_plan_no_bias[-1])), ("one_track", float(one_track[-1])),
+            ("mean_of_runs", float(np.mean(per_run[:, -1]))),
+            ("variance", float(bound[-1] ** 2)), ("with_bias_variance", float(np.sqrt(np.trace(full[-1])))),
+            ("prior", float(np.sqrt(np.trace(inputs["P0"][:2, :2])))))
+
+
+def bound_variants() -> dict[str, float]:
+    r"""The right final bound of exercise 10.1 and the values its usual mistakes give [m].
+
+    Returns
+    -------
+    dict of str to float
+        ``"final"``: :math:`B_K` of ``BOUND_SCENARIO`` under ``BOUND_CONDITION``, the expectation over the true
+        tracks of ``suite.crlb_inputs``; ``"first"``: :math:`B_1`; ``"white"``, ``"white_first"``: the same without
+        the bias state; ``"planned"``: the recursion on the planned track only (no expectation), with the bias
+        state; ``"planned_no_bias"``: on the planned track without it; ``"one_track"``: on the first sampled true
+        track only; ``"mean_of_runs"``: the mean of the per-track
+        bounds (the bounds averaged instead of the information); ``"variance"``: :math:`B_K^2`;
+        ``"with_bias_variance"``: :math:`\sqrt{\operatorname{tr}}` of the whole 3-state bound; ``"prior"``: the
+        prior's RMS position error :math:`\sqrt{\operatorname{tr} P_0}`.
+    """
+    return dict(_variants())
+
+
+def check_final_bound(answer: Any) -> Feedback:
+    r"""Check the final bound :math:`B_K = \sqrt{\operatorname{tr}\,[\mathbf J_K^{-1}]_{pp}}` of the line with a
+    slowly varying bias (exercise 10.1).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's :math:`B_K` [m].
+
+    Returns
+    -------
+    Feedback
+        The verdict; the bound without the bias state, the recursion on the planned track (with and without the bias
+        state) or on one true track, the mean of the per-track bounds, the first epoch's bound, :math:`B_K^2` and the
+        trace with the bias variance are recognised.
+    """
+    v = bound_variants()
+    mistakes = {
+        v["white"]: "That is the bound without the bias state (crlb_inputs(..., 'white')). Under the bias condition "
+                    "an estimator must also estimate the bias: crlb_inputs(..., 'bias') adds it to the state "
+                    "(bias=True, a 3 × 3 Q and P0).",
+        v["planned"]: "That is the recursion on the planned track only: the expectation E[HᵀR⁻¹H] must run over "
+                      "the true tracks, which scatter about the plan. Pass all of crlb_inputs' tracks with "
+                      "mean_over_runs=True (posterior_crlb(**inputs) does it).",
+        v["planned_no_bias"]: "That is the recursion on the planned track, without the bias state: two mistakes. Use "
+                              "crlb_inputs(..., 'bias') and all its tracks: posterior_crlb(**inputs).",
+        v["one_track"]: "That is the recursion on one true track (positions[0]): the expectation runs over all "
+                        "of them. Pass every track with mean_over_runs=True (posterior_crlb(**inputs) does it).",
+        v["mean_of_runs"]: "That averages the bounds of the tracks one by one (mean_over_runs=False). The PCRB "
+                           "averages the *information* over the tracks, then inverts: keep mean_over_runs=True.",
+        v["first"]: "That is the bound after the first range, B_1; the task asks for the last epoch, bound[-1].",
+        v["variance"]: "That is B_K², in m²: the bound on the RMSE is the square root of the trace of the position "
+                       "block (rmse_bound does it).",
+        v["with_bias_variance"]: "That includes the bias variance in the trace: B_K is the bound on the *position* "
+                                 "error, the x and y block only (rmse_bound keeps the first two states).",
+    }
+    return check_number(answer, v["final"], rtol=1e-3, name="the final bound B_K", units="m",
+                        common_mistakes=mistakes,
+                        hint=f"inputs = suite.crlb_inputs({BOUND_SCENARIO!r}, {BOUND_CONDITION!r}); "
+                             "bound = rmse_bound(posterior_crlb(**inputs)); B_K is bound[-1].",
+                        explanation=f"The bias state costs {v['final'] / v['white']:.2f} times the white-noise bound "
+                                    f"({v['white']:.2f} m); the committed table's final_bound of this cell is the "
+                                    "same number.")
+
+
+def _first_ratios() -> dict[str, float]:
+    table = methods.load_comparison()
+    row = _row_index(table, START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)
+    rmse = table.rmse_curves[row]
+    v = bound_variants()
+    return {"expected": float(rmse[0] / v["first"]), "final": float(rmse[-1] / v["final"]),
+            "inverted": float(v["first"] / rmse[0]), "white": float(rmse[0] / v["white_first"]),
+            "prior": float(rmse[0] / v["prior"]), "final_bound": float(rmse[0] / v["final"])}
+
+
+def check_first_ratio(answer: Any) -> Feedback:
+    r"""Check :math:`\mathrm{RMSE}_1 / B_1`, the IEKF's RMSE over the bound after the first range, on the line with a
+    bias (exercise 10.1).
+
+    :math:`\mathrm{RMSE}_1` is the first entry of the committed table's ``rmse_curves`` row of (``START_METHOD``,
+    ``BOUND_SCENARIO``, ``BOUND_CONDITION``).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's ratio (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the ratio at the last epoch, the inverted ratio, the white-noise bound, the final bound and the
+        prior's RMS in the denominator are recognised.
+    """
+    r = _first_ratios()
+    mistakes = {
+        r["final"]: "That is the ratio at the last epoch (rmse[-1] / bound[-1]); the task asks for the first, index 0.",
+        r["inverted"]: "That is B_1 / RMSE_1; the ratio asked for is the RMSE over the bound (≥ 1 for any method).",
+        r["white"]: "That divides by the white-noise bound; use the bound of the bias condition, your `bound[0]`.",
+        r["final_bound"]: "That divides the first RMSE by the *final* bound B_K; divide by B_1 = bound[0].",
+        r["prior"]: "That divides by the prior's RMS error √tr P0; divide by the bound after the first range, "
+                    "bound[0].",
+    }
+    return check_number(answer, r["expected"], rtol=2e-3, name="the ratio RMSE_1 / B_1", common_mistakes=mistakes,
+                        hint=f"row = the index of the ({START_METHOD}, {BOUND_SCENARIO}, {BOUND_CONDITION}) row of "
+                             "the table; table.rmse_curves[row][0] / bound[0].",
+                        explanation=f"At the last epoch the same ratio is {r['final']:.2f}: the bound is loose at "
+                                    "the start and tighter once the ranges have done their work.")
+
+
+# -- exercise 10.2: reading the table ----------------------------------------------------------------------------------
+def _row_index(table: Any, method: str, scenario: str, condition: str) -> int:
+    hit = np.flatnonzero((table.method == method) & (table.scenario == scenario) & (table.condition == condition))
+    if hit.size != 1:
+        raise RuntimeError(f"the committed table has {hit.size} rows for ({method}, {scenario}, {condition}); "
+                           "the exercise needs exactly one")
+    return int(hit[0])
+
+
+def _table_row() -> dict[str, Any]:
+    return methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+
+
+def check_final_efficiency(answer: Any) -> Feedback:
+    r"""Check the final efficiency :math:`\mathrm{RMSE}_K / B_K` of the EKF on the line under white noise, from the
+    committed table (exercise 10.2).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's ratio (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the run-averaged efficiency, the inverted ratio, the median and the 95th percentile over the
+        bound are recognised.
+    """
+    row = _table_row()
+    expected = row["final_rmse"] / row["final_bound"]
+    mistakes = {
+        row["efficiency"]: "That is the `efficiency` column, the RMSE averaged over the run over the bound averaged "
+                           "over the run; the task asks for the last epoch: final_rmse / final_bound.",
+        row["final_bound"] / row["final_rmse"]: "That is the bound over the RMSE; the efficiency ratio is the RMSE "
+                                                "over the bound (1 for an efficient estimator, larger otherwise).",
+        row["median_final_error"] / row["final_bound"]: "That is the median final error over the bound (task (b)); "
+                                                        "the efficiency uses the RMSE, final_rmse.",
+        row["p95_final_error"] / row["final_bound"]: "That is the 95th percentile over the bound; use final_rmse.",
+    }
+    return check_number(answer, expected, rtol=1e-3, name="the final efficiency", common_mistakes=mistakes,
+                        hint=f"row = table.row({TABLE_METHOD!r}, {TABLE_SCENARIO!r}, {TABLE_CONDITION!r}); "
+                             "row['final_rmse'] / row['final_bound'].",
+                        explanation="It is also the table's final_efficiency column.")
+
+
+def check_median_over_bound(answer: Any) -> Feedback:
+    r"""Check the median final error over the final bound, :math:`\operatorname{med}\lVert e_K \rVert / B_K`, of the
+    EKF on the line under white noise (exercise 10.2).
+
+    Parameters
+    ----------
+    answer : float or None
+        The student's ratio (dimensionless).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the final efficiency (RMSE over the bound), the inverted ratio and the median over the
+        run-averaged bound are recognised.
+    """
+    row = _table_row()
+    expected = row["median_final_error"] / row["final_bound"]
+    mistakes = {
+        row["final_rmse"] / row["final_bound"]: "That is the final RMSE over the bound (task (a)); this one uses the "
+                                                "median final error, median_final_error.",
+        row["final_bound"] / row["median_final_error"]: "That is the bound over the median; divide the median by the "
+                                                        "bound.",
+        row["median_final_error"] / row["mean_bound"]: "That divides by the bound averaged over the run (mean_bound); "
+                                                       "use the final bound, final_bound.",
+    }
+    return check_number(answer, expected, rtol=1e-3, name="the median final error over the bound",
+                        common_mistakes=mistakes,
+                        hint="row['median_final_error'] / row['final_bound'].",
+                        explanation=f"Against the final efficiency of {row['final_rmse'] / row['final_bound']:.2f}: "
+                                    "the typical run ends close to the bound.")
+
+
+def check_lost_runs(answer: Any) -> Feedback:
+    """Check the number of runs of the EKF on the line under white noise whose final error is above the divergence
+    threshold (50 m), from the committed table (exercise 10.2).
+
+    Parameters
+    ----------
+    answer : int or None
+        The student's count (of the row's ``n_runs`` runs).
+
+    Returns
+    -------
+    Feedback
+        The verdict; the fraction and the percentage instead of the count are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> row = methods.load_comparison().row("EKF", "line", "white")
+    >>> bool(check_lost_runs(round(row["divergence_fraction"] * row["n_runs"])))
+    True
+    >>> print(check_lost_runs(row["divergence_fraction"]).hint)
+    That is the fraction of the runs (divergence_fraction); the task asks how many runs: multiply by n_runs.
+    """
+    row = _table_row()
+    count = row["divergence_fraction"] * row["n_runs"]
+    expected = int(round(count))
+    if abs(count - expected) > 1e-6:
+        raise RuntimeError(f"the table's divergence fraction times its runs is not a whole number: {count!r}")
+    fraction = row["divergence_fraction"]
+    mistakes = {
+        fraction: "That is the fraction of the runs (divergence_fraction); the task asks how many runs: multiply by "
+                  "n_runs.",
+        100 * fraction: "That is the percentage of the runs; the task asks how many runs of the row's n_runs.",
+    }
+    return check_number(answer, expected, rtol=0, atol=1e-6, name="the number of runs lost",
+                        common_mistakes=mistakes,
+                        hint="row['divergence_fraction'] * row['n_runs']; a run is lost when its final error is above "
+                             "row['divergence_threshold'] (50 m).",
+                        explanation=f"{expected} of {row['n_runs']} runs: {_pct(fraction)}.")
+
+
+# -- exercise 10.3: which method when ----------------------------------------------------------------------------------
+def choice_rows() -> dict[str, dict[str, Any]]:
+    """The committed table's rows of the cell of exercise 10.3 (``CHOICE_SCENARIO``, ``CHOICE_CONDITION``), keyed by
+    method (every method that runs on the scenario)."""
+    table = methods.load_comparison()
+    hit = np.flatnonzero((table.scenario == CHOICE_SCENARIO) & (table.condition == CHOICE_CONDITION))
+    rows = table.rows()
+    return {rows[i]["method"]: rows[i] for i in hit}
+
+
+def _winner(rows: dict[str, dict[str, Any]]) -> str:
+    within = {m: r for m, r in rows.items() if r["divergence_fraction"] <= MAX_LOST}
+    if not within:
+        raise RuntimeError(f"no method loses at most {_pct(MAX_LOST)} of the runs in ({CHOICE_SCENARIO}, "
+                           f"{CHOICE_CONDITION}): the exercise needs a new cell")
+    return min(within, key=lambda m: within[m]["median_final_error"])
+
+
+def check_method_choice(answer: Any) -> Feedback:
+    """Check the method chosen for an approach with one turn and a wrong sound speed, when at most ``MAX_LOST`` of
+    the runs may be lost (exercise 10.3; a letter of ``CHOICES``).
+
+    The right choice is read off the committed table: the lowest median final error among the methods of the cell
+    that lose at most ``MAX_LOST`` of their runs (chapter 10's rule). It must be one of the options.
+
+    Parameters
+    ----------
+    answer : str or None
+        The student's letter, ``"A"`` to ``"D"``.
+
+    Returns
+    -------
+    Feedback
+        The verdict; each wrong option gets its own hint, with its numbers from the table: a method that loses too
+        many runs (however low its median) and one that is within the limit but ends farther off.
+
+    Raises
+    ------
+    RuntimeError
+        If the table no longer makes one of the options the answer (the exercise must then be revised).
+
+    Examples
+    --------
+    >>> print(check_method_choice(4))
+    ✘ Not yet: the method for this situation should be one of the letters "A", "B", "C", "D"; got an int, 4.
+      Hint: Write the letter in quotes, e.g. `choice = "A"`.
+    """
+    rows = choice_rows()
+    best = _winner(rows)
+    letters = {m: k for k, m in CHOICES.items()}
+    if best not in letters:
+        raise RuntimeError(f"the committed table's choice for ({CHOICE_SCENARIO}, {CHOICE_CONDITION}) is {best}, "
+                           f"which is not among the options {CHOICES}: revise the exercise")
+    medians = {k: rows[m]["median_final_error"] for k, m in CHOICES.items()}
+    lowest = min(medians, key=medians.get)
+    mistakes = {}
+    for key, method in CHOICES.items():
+        r = rows[method]
+        lost, median = r["divergence_fraction"], r["median_final_error"]
+        if lost > MAX_LOST:
+            lowest_note = ", the lowest of the four" if key == lowest else ""
+            mistakes[key] = (f"{key} ({method}) loses {_pct(lost)} of its runs in this cell, more than the 1 in 20 "
+                             f"you can afford, although its median final error is {median:.1f} m{lowest_note}: the "
+                             "median says nothing about the runs that are lost.")
+        elif method != best:
+            mistakes[key] = (f"{key} ({method}) loses {_pct(lost)} of its runs (within the limit), but ends at "
+                             f"{median:.1f} m in median, against {rows[best]['median_final_error']:.1f} m for "
+                             "another method within the limit.")
+    b = rows[best]
+    explanation = (f"{best} loses {_pct(b['divergence_fraction'])} of the runs and ends at "
+                   f"{b['median_final_error']:.1f} m in median.")
+    if CHOICES[lowest] != best:
+        explanation += (f" {CHOICES[lowest]} ends lower in median ({medians[lowest]:.1f} m) but loses "
+                        f"{_pct(rows[CHOICES[lowest]]['divergence_fraction'])} of them.")
+    return check_choice(answer, letters[best], CHOICES, name="the method for this situation",
+                        common_mistakes=mistakes,
+                        hint="Keep the methods whose divergence_fraction is at most 0.05, then take the lowest "
+                             "median_final_error.",
+                        explanation=explanation)
