@@ -98,7 +98,7 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
 def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "all") -> Any:
     """RMSE over time of every method with the bound (left); median and 95th percentile final errors (right).
 
-    ``method`` (a name of ``view.methods``) draws that method in colour and the others in grey; ``"all"`` colours
+    ``method`` (a name of ``view.methods``) draws that method in red and the others in grey; ``"all"`` colours
     every one.
     """
     if method != "all" and method not in view.methods:
@@ -107,8 +107,10 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
     fig = fig or plt.figure(figsize=(7.8, 3.6))
     ax_t, ax_f = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.6, 1)})
     n = len(view.methods)
-    colors = [plt.get_cmap("tab20")(i % 20) if method in ("all", name) else (0.75, 0.75, 0.75, 1.0)
-              for i, name in enumerate(view.methods)]
+    if method == "all":
+        colors = [plt.get_cmap("tab20")(i % 20) for i in range(n)]
+    else:                   # the chosen method in a strong colour, the others in grey behind it
+        colors = ["C3" if name == method else (0.75, 0.75, 0.75, 1.0) for name in view.methods]
     for i, name in enumerate(view.methods):
         chosen = method == name
         ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=2.0 if chosen else 1.1, label=name,
