@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from uwtutor import lsq
-from uwtutor.pipelines import epoch_windows, or_vmlbl_kf, vmlbl_error_budget
+from uwtutor.errors import IllConditionedWarning
+from uwtutor.pipelines import NoUsableFixError, epoch_windows, or_vmlbl_kf, vmlbl_error_budget
 from uwtutor.scenarios import paper_e
 
 NO_OUTLIERS = {"outlier_onsets": (), "outlier_counts": (), "outlier_two_sided": ()}
@@ -92,3 +93,48 @@ def test_error_budget_is_linear_in_each_source_and_blind_to_the_depth():
         r = np.hypot(np.linalg.norm(truth[index] - ship[index], axis=-1), dive.depth)
         gain = lsq.virtual_beacon_lsq(r, ship[index], truth[index], depth=dive.depth).noise_gain
     assert b.slope[1] == pytest.approx(np.sqrt(np.mean(gain**2)), rel=0.1)
+
+
+def _suite_ranges(scenario, n, seed):
+    from uwtutor.scenarios import suite
+
+    rng = np.random.default_rng(seed)
+    inputs, _ = suite.white(rng, suite.SCENARIOS[scenario](rng, n))
+    return inputs.z, inputs.beacon, inputs.dr_track(), inputs.times
+
+
+@pytest.mark.filterwarnings("ignore:the virtual-beacon least-squares problem is singular")
+def test_runs_without_any_fix_get_a_nan_track_and_a_warning():
+    # a straight DR track to a fixed beacon has collinear virtual beacons in every window: no fix at all
+    z_c, b_c, dr_c, t = _suite_ranges("circle", 3, 1)
+    z_l, b_l, dr_l, _ = _suite_ranges("line", 2, 1)
+    z, b, dr = (np.concatenate(pair) for pair in ((z_c, z_l), (b_c, b_l), (dr_c, dr_l)))
+    alone = or_vmlbl_kf(z_c, b_c, dr_c, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
+    with pytest.warns(IllConditionedWarning, match="2 of 5 runs have no usable virtual-beacon fix"):
+        mixed = or_vmlbl_kf(z, b, dr, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
+    assert np.isnan(mixed.track.x[3:]).all() and np.isfinite(mixed.track.x[:3]).all()
+    np.testing.assert_array_equal(mixed.track.x[:3], alone.track.x)     # the other runs are unaffected
+    assert not mixed.track.extras["accepted"][3:].any()
+
+
+@pytest.mark.filterwarnings("ignore:the virtual-beacon least-squares problem is singular")
+def test_no_fix_in_any_run_is_a_clear_error():
+    z, b, dr, t = _suite_ranges("line", 2, 1)
+    with pytest.raises(NoUsableFixError, match="no run has a single usable virtual-beacon fix"):
+        or_vmlbl_kf(z, b, dr, depth=0.0, times=t, spacing=20)
+    assert issubclass(NoUsableFixError, ValueError)
+
+
+def test_a_filtered_range_below_zero_near_the_beacon_is_read_as_zero():
+    # closing on the beacon at 5 m/s and stopping there: the constant-velocity range filter overshoots below zero
+    t = np.arange(1.0, 201.0)
+    z = np.abs(np.maximum(300.0 - 5.0 * t, 0.0) + np.random.default_rng(0).normal(0.0, 2.0, (3, t.size)))
+    angle = 2.0 * np.pi * t / t.size
+    ship = 50.0 * np.column_stack([np.cos(angle), np.sin(angle)])     # a ship that moves: the fixes exist
+    dr = np.column_stack([np.minimum(5.0 * t, 300.0) - 300.0, np.zeros_like(t)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IllConditionedWarning)        # the fixes themselves are not the point
+        out = or_vmlbl_kf(z, ship, dr, depth=0.0, times=t, spacing=10)
+    raw = out.ranges.x[..., 0]
+    assert (raw < 0).any()                      # the case the clipping is for
+    np.testing.assert_array_equal(out.used_ranges, np.maximum(raw, 0.0))

@@ -57,9 +57,16 @@ def _result(inputs: SuiteInputs, x: np.ndarray, P: np.ndarray, innovations: Any 
                         extras=extras or {})
 
 
+def _dead_reckoning(inputs: SuiteInputs) -> tuple[np.ndarray, np.ndarray]:
+    """Writable ``(x, P)`` of dead reckoning from the initial guess, ``(n, K, 2)`` and ``(n, K, 2, 2)``: what every
+    method reports where it has nothing better."""
+    n, K = inputs.n_runs, inputs.n_epochs
+    return np.array(inputs.dr_track()), np.array(np.broadcast_to(inputs.dr_covariance(), (n, K, 2, 2)))
+
+
 def _dr_before(inputs: SuiteInputs, result: FilterResult, started: np.ndarray) -> FilterResult:
     """``result`` where ``started`` (n, K), dead reckoning from the initial guess elsewhere."""
-    dr_x, dr_P = inputs.dr_track(), np.broadcast_to(inputs.dr_covariance(), (inputs.n_runs,) + (inputs.n_epochs, 2, 2))
+    dr_x, dr_P = _dead_reckoning(inputs)
     n_state = result.x.shape[-1]
     x = np.array(result.x[..., :2])
     P = np.array(result.P[..., :2, :2])
@@ -100,8 +107,7 @@ def ls_prepositioning(inputs: SuiteInputs) -> FilterResult:
     s = _inputs(inputs)
     n, K = s.n_runs, s.n_epochs
     dr = s.dr_track()
-    x = np.array(dr)
-    P = np.array(np.broadcast_to(s.dr_covariance(), (n, K, 2, 2)))
+    x, P = _dead_reckoning(s)
     fixed = np.zeros((n, K), dtype=bool)
     sigma = np.sqrt(s.R)
     z_all = np.where(np.isfinite(s.z), s.z, 0.0)
@@ -242,31 +248,25 @@ def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
     paper's relative test is tuned to 1 s epochs), four-epoch virtual long-baseline fixes ``VMLBL_SPACING``
     epochs apart, a gated constant-velocity filter on the fixes (``VMLBL_FIX_Q``); dead reckoning from the
     initial guess until the first fix."""
-    from .pipelines import or_vmlbl_kf
+    from .pipelines import NoUsableFixError, or_vmlbl_kf
 
     s = _inputs(inputs)
-    dr = s.dr_track()
-    n, K = s.n_runs, s.n_epochs
-    x = np.array(dr)
-    P = np.array(np.broadcast_to(s.dr_covariance(), (n, K, 2, 2)))
+    dr_x, dr_P = _dead_reckoning(s)
+    started = np.zeros((s.n_runs, s.n_epochs), dtype=bool)
     try:
         with warnings.catch_warnings():      # runs without any usable fix navigate by DR (below)
             warnings.simplefilter("ignore", IllConditionedWarning)
-            out = or_vmlbl_kf(s.z, s.beacon, dr, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
+            out = or_vmlbl_kf(s.z, s.beacon, dr_x, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
                               range_options=dict(r=s.R, test="chi2"), fix_q=VMLBL_FIX_Q,
                               fix_options=dict(reacquire=5))
-    except ValueError as exc:
-        if "no run has a single usable" not in str(exc):
-            raise
-        return _result(s, x, P, extras={"started": np.zeros((n, K), dtype=bool)})   # no fix anywhere: DR
+    except NoUsableFixError:                 # not one fix in any run (a straight track): dead reckoning throughout
+        return _result(s, dr_x, dr_P, extras={"started": started})
     now = np.asarray(out.now)
-    x[:, now] = out.track.x[..., :2]
-    P[:, now] = out.track.P[..., :2, :2]
-    bad = ~np.isfinite(x).all(axis=-1)          # a fix the filter never had: dead reckoning instead
-    x[bad], P[bad] = dr[bad], np.broadcast_to(s.dr_covariance(), (n, K, 2, 2))[bad]
-    started = np.zeros((n, K), dtype=bool)
-    started[:, now] = True
-    return _result(s, x, P, extras={"started": started & ~bad})
+    started[:, now] = np.isfinite(out.track.x[..., :2]).all(axis=-1)   # a run without fixes keeps its DR
+    x, P = dr_x, dr_P
+    x[started] = out.track.x[..., :2][started[:, now]]
+    P[started] = out.track.P[..., :2, :2][started[:, now]]
+    return _result(s, x, P, extras={"started": started})
 
 
 #: Particles per run of :func:`particle_filter`.

@@ -33,7 +33,7 @@ import numpy as np
 from scipy import stats
 
 from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
-from ._validate import SYMMETRY_RTOL, as_finite, as_float_array, as_int
+from ._validate import SYMMETRY_RTOL, as_finite, as_float_array
 
 __all__ = [
     "estimation_errors",

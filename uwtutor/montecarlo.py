@@ -761,23 +761,24 @@ class ComparisonTable:
     def __len__(self) -> int:
         return len(self.method)
 
+    def _row(self, i: int) -> dict[str, Any]:
+        return {c: (str(v) if c in _TEXT_COLUMNS else (int(v) if c in ("n_runs", "n_steps") else float(v)))
+                for c in self.columns for v in (getattr(self, c)[i],)}
+
     def rows(self) -> list[dict[str, Any]]:
         """The table as a list of rows, each a dict column -> value (plain Python str, int and float)."""
-        out = []
-        for i in range(len(self)):
-            row: dict[str, Any] = {}
-            for c in self.columns:
-                v = getattr(self, c)[i]
-                row[c] = str(v) if c in _TEXT_COLUMNS else (int(v) if c in ("n_runs", "n_steps") else float(v))
-            out.append(row)
-        return out
+        return [self._row(i) for i in range(len(self))]
 
-    def row(self, method: str, scenario: str, condition: str) -> dict[str, Any]:
-        """The row of one (method, scenario, condition)."""
+    def index(self, method: str, scenario: str, condition: str) -> int:
+        """The position of the row of one (method, scenario, condition); a KeyError if the table has none."""
         hit = np.flatnonzero((self.method == method) & (self.scenario == scenario) & (self.condition == condition))
         if hit.size == 0:
             raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
-        return self.rows()[int(hit[0])]
+        return int(hit[0])
+
+    def row(self, method: str, scenario: str, condition: str) -> dict[str, Any]:
+        """The row of one (method, scenario, condition)."""
+        return self._row(self.index(method, scenario, condition))
 
     def to_markdown(self, columns: Any = None, digits: int = 3) -> str:
         """The table as a Markdown pipe table (for a notebook's ``IPython.display.Markdown``).
@@ -824,10 +825,8 @@ class ComparisonTable:
         """``(rmse, bound)`` over the steps of one row (``rmse_curves`` and ``bound_curves``)."""
         if self.rmse_curves is None or self.bound_curves is None:
             raise ValueError("this table holds no curves: read it with from_csv(path, curves=npz_path)")
-        hit = np.flatnonzero((self.method == method) & (self.scenario == scenario) & (self.condition == condition))
-        if hit.size == 0:
-            raise KeyError(f"no row for method {method!r}, scenario {scenario!r}, condition {condition!r}")
-        return self.rmse_curves[hit[0]], self.bound_curves[hit[0]]
+        i = self.index(method, scenario, condition)
+        return self.rmse_curves[i], self.bound_curves[i]
 
     def to_npz(self, path: Any, *, overwrite: bool = False) -> None:
         """Write ``rmse_curves`` and ``bound_curves`` with the rows' names (``numpy.savez_compressed``); an

@@ -40,7 +40,13 @@ from .filters.robust import cascade_kf, robust_range_kf
 from .filters.smoother import SmootherResult, rts_smoother
 from .models.robust import ConstantVelocity, step_lengths
 
-__all__ = ["VMLBLResult", "epoch_windows", "or_vmlbl_kf", "ErrorBudget", "vmlbl_error_budget", "ERROR_SOURCES"]
+__all__ = ["VMLBLResult", "epoch_windows", "or_vmlbl_kf", "NoUsableFixError", "ErrorBudget", "vmlbl_error_budget",
+           "ERROR_SOURCES"]
+
+
+class NoUsableFixError(ValueError):
+    """No run of a batch has a single usable virtual-beacon fix (``or_vmlbl_kf``): every window's virtual beacons
+    are collinear or too close together."""
 
 
 def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.ndarray, np.ndarray]:
@@ -172,6 +178,12 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     -------
     VMLBLResult
 
+    Raises
+    ------
+    NoUsableFixError
+        When no run has a single usable fix (a ``ValueError``); runs without any among others get a NaN track and an
+        ``IllConditionedWarning``.
+
     Examples
     --------
     >>> import numpy as np
@@ -224,7 +236,7 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     fix_t = t[now]
     usable = np.isfinite(fix.position).all(axis=-1).any(axis=-1)        # runs with at least one fix
     if not usable.any():
-        raise ValueError("no run has a single usable virtual-beacon fix (the virtual beacons of every window are "
+        raise NoUsableFixError("no run has a single usable virtual-beacon fix (the virtual beacons of every window are "
                          "collinear or too close together: a straight track to a fixed beacon, or epochs too few "
                          "apart); lengthen spacing, or turn")
     if not usable.all():

@@ -166,7 +166,7 @@ def check_final_bound(answer: Any) -> Feedback:
 
 def _first_ratios() -> dict[str, float]:
     table = methods.load_comparison()
-    row = _row_index(table, START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)
+    row = table.index(START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)
     rmse = table.rmse_curves[row]
     v = bound_variants()
     return {"expected": float(rmse[0] / v["first"]), "final": float(rmse[-1] / v["final"]),
@@ -209,14 +209,6 @@ def check_first_ratio(answer: Any) -> Feedback:
 
 
 # -- exercise 10.2: reading the table ----------------------------------------------------------------------------------
-def _row_index(table: Any, method: str, scenario: str, condition: str) -> int:
-    hit = np.flatnonzero((table.method == method) & (table.scenario == scenario) & (table.condition == condition))
-    if hit.size != 1:
-        raise RuntimeError(f"the committed table has {hit.size} rows for ({method}, {scenario}, {condition}); "
-                           "the exercise needs exactly one")
-    return int(hit[0])
-
-
 def _table_row() -> dict[str, Any]:
     return methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
 
