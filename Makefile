@@ -35,11 +35,14 @@ book: setup
 # One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
 # exercises, the strict book build and the browser test over it), every docstring example of the library
 # (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
-# committed ones, after tests/nbval_sanitize.cfg).
+# committed ones, after tests/nbval_sanitize.cfg; its kernels play another CPU than the one that wrote
+# the outputs, tools/cpu_variants.py). On every core (pytest-xdist); --dist loadfile keeps each file,
+# and so each notebook's cells, in one worker. PYTEST_ARGS adds options (e.g. PYTEST_ARGS="-k ekf").
 NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg
+WORKERS ?= auto
 
 test: setup
-	$(PY) -m pytest $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(WORKERS) --dist loadfile $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
 
 # JupyterLab on the chapters (book/) and on your own copies of the exercises and labs (my-work/, made
 # on first use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.
@@ -57,6 +60,7 @@ study: setup
 	$(PY) studies/comparison.py --overwrite
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
+# The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.
 notebooks: setup
 	$(PY) tools/execute_notebooks.py book
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import shutil
 import subprocess
@@ -73,8 +74,30 @@ class BookBuild:
 
 
 @pytest.fixture(scope="session")
-def book_build() -> BookBuild:
-    """Run the strict Jupyter Book build once per session (cheap when the execution cache is warm)."""
+def book_build(tmp_path_factory, worker_id) -> BookBuild:
+    """Run the strict Jupyter Book build once per test session, whichever worker asks first.
+
+    Under pytest-xdist each worker has its own session fixtures; the build tests and the browser tests may
+    run in two workers, and two builds in one ``_build/`` would trample each other. The first worker to ask
+    builds under a file lock and records the result; the others wait for the lock and read it.
+    """
+    if worker_id == "master":  # no xdist: this process is the whole session
+        return _run_book_build()
+    from filelock import FileLock
+
+    shared = tmp_path_factory.getbasetemp().parent  # one folder for every worker of this run
+    record = shared / "book-build.json"
+    with FileLock(str(shared / "book-build.lock")):
+        if record.exists():
+            data = json.loads(record.read_text())
+            return BookBuild(data["returncode"], data["output"], data["seconds"])
+        build = _run_book_build()
+        record.write_text(json.dumps({"returncode": build.returncode, "output": build.output,
+                                      "seconds": build.seconds}))
+        return build
+
+
+def _run_book_build() -> BookBuild:
     BUILD_DIR.mkdir(exist_ok=True)
     start = time.perf_counter()
     try:
@@ -102,6 +125,40 @@ def book_build() -> BookBuild:
 def pytest_configure(config):
     if getattr(config.option, "nbval", False):
         _nbval_runs_cells_like_jupyter()
+        _nbval_kernels_play_another_cpu()
+
+
+def _nbval_kernels_play_another_cpu() -> None:
+    """Start nbval's kernels as another CPU than the one the committed outputs were made on.
+
+    ``make notebooks`` writes the outputs with the kernel environment ``cpu_variants.MAKE`` (OpenBLAS's
+    Haswell kernels, NumPy without AVX-512); nbval re-runs them with ``cpu_variants.CHECK`` (Sandybridge
+    kernels, NumPy's baseline loops, libm without FMA). An output that shows round-off digits, which differ
+    between CPUs, then fails here on any machine instead of on the next person's (``tools/cpu_variants.py``).
+    Only the kernels change: the tests in this process run on the machine's own choices.
+    """
+    import nbval.kernel
+
+    if getattr(nbval.kernel.start_new_kernel, "_plays_another_cpu", False):
+        return
+    variants = _load_cpu_variants()
+    original = nbval.kernel.start_new_kernel
+
+    def start_new_kernel(*args, **kwargs):
+        kwargs.setdefault("env", variants.kernel_env(variants.CHECK))
+        return original(*args, **kwargs)
+
+    start_new_kernel._plays_another_cpu = True
+    nbval.kernel.start_new_kernel = start_new_kernel
+
+
+def _load_cpu_variants():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("cpu_variants", REPO / "tools" / "cpu_variants.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _nbval_runs_cells_like_jupyter() -> None:
