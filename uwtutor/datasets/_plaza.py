@@ -118,7 +118,7 @@ def plaza(number: int, *, folder: str | os.PathLike[str] | None = None) -> Range
     * The odometry follows the truth best when each step moves along the previous heading and turns after it
       (the rule of :meth:`RangeDataset.dead_reckoning`): restarted from the truth every 2 s, it ends nearer the
       truth than moving along the mean heading of the step or turning first. The headings (GT's and DR's alike)
-      are stamped about 0.07 s ahead of GT's positions, so a logged heading change mostly acts on the next step.
+      are stamped 0.07-0.08 s ahead of GT's positions, so a logged heading change mostly acts on the next step.
     * Plaza 1's DR heading changes are, to round-off, the differences of its GT heading: that odometry carries
       no heading error, and its dead reckoning drifts only through the distances. Plaza 2's heading changes
       come from the robot and drift from the truth's by more than 100 degrees over the run.
