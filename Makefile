@@ -16,7 +16,7 @@ NODE_STAMP := node_modules/.installed-stamp
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev,scale]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev,scale,data]"
 	touch $(STAMP)
 
 # MathJax, require.js and the widget manager for the offline HTML (copied into the build by
