@@ -99,10 +99,10 @@ def _not_finite_error(model: Any, method: str, k: int, where: tuple[int, ...], w
 def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
     """A model's "defined" mask, per run (M,) or per component (M, m), as (M, m)."""
     d = np.asarray(defined, dtype=bool)
-    if d.shape == (M,):
-        return np.broadcast_to(d[:, None], (M, m))
     if d.shape == (M, m):
         return d
+    if d.shape == (M,):
+        return np.repeat(d[:, None], m, axis=1)
     raise ValueError(f"the measurement model's linearize must return a mask of shape ({M},) or ({M}, {m}); got "
                      f"{d.shape}")
 
@@ -110,10 +110,14 @@ def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
 def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """H (M, m, n) with the rows of the missing components zero, R (M, m, m) with their rows and columns those of
     the identity: the update with these is the update with the present components alone."""
+    m = present.shape[1]
     H = np.where(present[:, :, None], H, 0.0)
     both = present[:, :, None] & present[:, None, :]
-    R = np.where(both, R, np.eye(present.shape[1]))
+    R = np.where(both, R, _EYES.get(m) if m in _EYES else _EYES.setdefault(m, np.eye(m)))
     return H, R
+
+
+_EYES: dict[int, np.ndarray] = {}
 
 
 # The covariances of all runs are held runs-last, (n, n, M): every product below is then an einsum over
@@ -341,9 +345,10 @@ class ExtendedKalmanFilter:
         k = self.k
         M, n = self._M, self.n
         x, P = self._x, self._P
-        F = _batched_matrix("F", self.motion.F(x, u, k), M, (n, n))
-        Q = _batched_matrix("Q", self.motion.Q(x, u, k), M, (n, n))
-        x_new = np.asarray(self.motion.f(x, u, k), dtype=float)
+        x_new, F, Q = self.motion.linearize(x, u, k)
+        F = _batched_matrix("F", F, M, (n, n))
+        Q = _batched_matrix("Q", Q, M, (n, n))
+        x_new = np.asarray(x_new, dtype=float)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
         for method, value in (("f", x_new), ("F", F), ("Q", Q)):
@@ -467,8 +472,11 @@ class ExtendedKalmanFilter:
                            k: int) -> bool:
         """Refuse a non-finite prediction, Jacobian row or noise where a measurement is present (elsewhere it is
         never used); return whether every value is finite."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            if np.isfinite(z_pred.sum() + H.sum() + R.sum()):        # one test for the usual case
+                return True
         if np.isfinite(z_pred).all() and np.isfinite(H).all() and np.isfinite(R).all():
-            return True
+            return True                                               # finite, only their sum overflowed
         model = self.measurement
         own = type(model).linearize is not MeasurementModel.linearize
         what = " where a measurement is present"
@@ -515,7 +523,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     u : array_like, shape (K, p) or (M, K, p), or None
         The input of each step (e.g. the DR displacement).
     z : array_like, shape (K,), (K, m), (M, K) or (M, K, m)
-        The measurements, NaN where missing (predict only).
+        The measurements, NaN where missing (predict only); for a vector, a NaN component is missing (the update
+        uses the others). A scalar measurement may come as a column (K, 1) when ``u`` or ``times`` has K steps.
     times : array_like, shape (K,), optional
         Time stamps for the result.
     gate : Gate, optional
@@ -550,6 +559,11 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     z = as_float_array("z", z)
     if u is not None:
         u = as_finite("u", u)
+    # A scalar measurement given as a column (K, 1) -- e.g. the ranges to one beacon taken from a table of several --
+    # is one run of K steps, not K runs of one step, when u or times say the run has K steps.
+    steps_hint = u.shape[-2] if u is not None and u.ndim >= 2 else (None if times is None else np.size(times))
+    if measurement.m == 1 and z.ndim == 2 and z.shape[1] == 1 and z.shape[0] == steps_hint != 1:
+        z = z[:, 0]
     # The runs axis may come from any input; the others are shared by every run.
     single_z_ndim = 1 if measurement.m == 1 else 2
     sizes = {

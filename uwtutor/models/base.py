@@ -55,6 +55,13 @@ class MotionModel:
         """The process noise covariance of step ``k`` in state space: ``(n, n)`` or ``(M, n, n)``."""
         raise NotImplementedError
 
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``f``, ``F`` and ``Q`` of one step at once (what a filter's prediction needs); override it when the three
+        share work (a heading's sine and cosine), as :class:`~uwtutor.models.OdometryMotion` does."""
+        F = self.F(x, u, k)
+        Q = self.Q(x, u, k)
+        return self.f(x, u, k), F, Q
+
 
 class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.

@@ -403,6 +403,8 @@ class OdometryMotion(MotionModel):
                 if i is not None:
                     self._walk[i] = q
         self._has_walk = bool(self._walk.any())
+        self._walk_diag = np.diag(self._walk)
+        self._eye = np.eye(self.n)
         sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
                                               ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
         if steps_from_times is not None:
@@ -439,35 +441,27 @@ class OdometryMotion(MotionModel):
                              f"2); got shape {u.shape}")
         return u[..., 0], u[..., 1]
 
-    def _geometry(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """Distance, turn delta_k and move heading alpha_k (each (M,)) and dt of step k."""
+    def _parts(self, x: np.ndarray, u: Any, k: int) -> tuple[Any, Any, np.ndarray, np.ndarray, float]:
+        """Distance d_k, turn delta_k, cos and sin of the move heading alpha_k, and dt of step k."""
         d, dth = self._input(u)
-        h = self.layout.heading
         dt = self.dt(self._step(k))
-        if self.layout.gyro_bias is not None:
-            turn = dth - x[..., self.layout.gyro_bias] * dt
-        else:
-            turn = np.broadcast_to(dth, x.shape[:-1])
+        h, b = self.layout.heading, self.layout.gyro_bias
+        turn = dth - x[..., b] * dt if b is not None else dth
         alpha = x[..., h] + self._c * turn if self._c else x[..., h]
-        return np.broadcast_to(d, turn.shape), turn, alpha, dt
+        return d, turn, np.cos(alpha), np.sin(alpha), dt
 
-    # -- the model --
-    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        d, turn, alpha, _ = self._geometry(x, u, k)
-        out = np.array(x, dtype=float)
+    def _f(self, x: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
         h = self.layout.heading
-        out[..., 0] += d * np.cos(alpha)
-        out[..., 1] += d * np.sin(alpha)
+        out = np.array(x, dtype=float)
+        out[..., 0] += d * ca
+        out[..., 1] += d * sa
         out[..., h] = wrap_angle(x[..., h] + turn)
         return out
 
-    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        d, _, alpha, dt = self._geometry(x, u, k)
+    def _F(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray, dt: float) -> np.ndarray:
         h, b = self.layout.heading, self.layout.gyro_bias
-        F = np.zeros(x.shape[:-1] + (self.n, self.n))
-        idx = np.arange(self.n)
-        F[..., idx, idx] = 1.0
-        ds, dc = d * np.sin(alpha), d * np.cos(alpha)
+        F = np.repeat(self._eye[None], x.shape[0], axis=0) if x.ndim == 2 else self._eye.copy()
+        ds, dc = d * sa, d * ca
         F[..., 0, h] = -ds
         F[..., 1, h] = dc
         if b is not None:
@@ -476,26 +470,42 @@ class OdometryMotion(MotionModel):
             F[..., h, b] = -dt
         return F
 
-    def G(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        r"""The Jacobian :math:`\partial f / \partial u` with respect to the odometry, ``(M, n, 2)``."""
-        d, _, alpha, _ = self._geometry(x, u, k)
-        h = self.layout.heading
+    def _G(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
         G = np.zeros(x.shape[:-1] + (self.n, 2))
-        ca, sa = np.cos(alpha), np.sin(alpha)
         G[..., 0, 0], G[..., 1, 0] = ca, sa
         G[..., 0, 1], G[..., 1, 1] = -self._c * d * sa, self._c * d * ca
-        G[..., h, 1] = 1.0
+        G[..., self.layout.heading, 1] = 1.0
         return G
 
-    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        k = self._step(k)
-        G = self.G(x, u, k)
+    def _Q(self, G: np.ndarray, k: int, dt: float) -> np.ndarray:
         var = np.array([self._value(self.sigma_distance, k) ** 2, self._value(self.sigma_heading, k) ** 2])
-        Q = (G * var) @ np.swapaxes(G, -1, -2)
+        Q = (G * var) @ np.swapaxes(G, -1, -2)                   # G Sigma_u G^T
         if self._has_walk:
-            idx = np.arange(self.n)
-            Q[..., idx, idx] += self._walk * self.dt(k)
+            Q += self._walk_diag * dt
         return Q
+
+    # -- the model --
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, turn, ca, sa, _ = self._parts(x, u, k)
+        return self._f(x, d, turn, ca, sa)
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, _, ca, sa, dt = self._parts(x, u, k)
+        return self._F(x, d, ca, sa, dt)
+
+    def G(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        r"""The Jacobian :math:`G = \partial f / \partial u` with respect to the odometry, ``(M, n, 2)``."""
+        d, _, ca, sa, _ = self._parts(x, u, k)
+        return self._G(x, d, ca, sa)
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, _, ca, sa, dt = self._parts(x, u, k)
+        return self._Q(self._G(x, d, ca, sa), k, dt)
+
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d, turn, ca, sa, dt = self._parts(x, u, k)
+        return (self._f(x, d, turn, ca, sa), self._F(x, d, ca, sa, dt),
+                self._Q(self._G(x, d, ca, sa), k, dt))
 
     def integrate(self, x0: Any, u: Any) -> np.ndarray:
         r"""Dead reckoning: the states :math:`x_1, \dots, x_K` that the odometry alone gives from ``x0`` (no noise).
