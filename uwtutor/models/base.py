@@ -57,7 +57,7 @@ class MotionModel:
 
     def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``f``, ``F`` and ``Q`` of one step at once (what a filter's prediction needs); override it when the three
-        share work (a heading's sine and cosine), as :class:`~uwtutor.models.OdometryMotion` does."""
+        share work (a heading's sine and cosine), as :class:`~uwtutor.models.odometry.OdometryMotion` does."""
         F = self.F(x, u, k)
         Q = self.Q(x, u, k)
         return self.f(x, u, k), F, Q

@@ -66,7 +66,7 @@ once (``f`` ``(M, n)``, ``F`` and ``Q`` ``(M, n, n)``).
 
 .. rubric:: A filter over a dataset, in a few lines
 
-With ``data`` a :class:`~uwtutor.datasets.RangeDataset` (its ``odometry`` the per-step ``[distance, heading
+With ``data`` a ``uwtutor.datasets.RangeDataset`` (its ``odometry`` the per-step ``[distance, heading
 change]``, row ``k`` the motion from ``times[k-1]`` to ``times[k]``), a filter with a gyro bias and a range
 scale is::
 
@@ -132,7 +132,7 @@ class StateLayout:
 
     The position is always ``x[..., :2]`` (the library's convention); the other states are optional and each
     has one index. Build one with :meth:`odometry` (the state of :class:`OdometryMotion`) or :meth:`position`
-    (the dead-reckoning state of :class:`~uwtutor.models.DeadReckoning`), or give the indices yourself.
+    (the dead-reckoning state of :class:`~uwtutor.models.dead_reckoning.DeadReckoning`), or give the indices yourself.
 
     Parameters
     ----------

@@ -347,8 +347,8 @@ class BeaconRanges(MeasurementModel):
         \lVert p - b_j \rVert \text{ at the scale},\; \dots,\; 1 \text{ at } \upsilon_j \,\Big].
 
     A beacon that did not answer at an epoch is a NaN component of :math:`z_k`: the filters update with the
-    components that are present (:class:`~uwtutor.filters.ExtendedKalmanFilter`). The state layout -- which index
-    is the scale, which the bias -- comes from a :class:`~uwtutor.models.StateLayout` (``layout=``, e.g. the
+    components that are present (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`). The state layout -- which index
+    is the scale, which the bias -- comes from a :class:`~uwtutor.models.odometry.StateLayout` (``layout=``, e.g. the
     motion model's ``motion.layout``) or from the indices.
 
     Parameters
