@@ -388,3 +388,22 @@ def test_odometry_filter_warns_nothing_on_clean_data():
         warnings.simplefilter("error")
         res = extended_kalman_filter(motion, model, [20.0, 5.0, 0.0, 1.0], np.diag([1.0, 1.0, 0.01, 0.01]), u, z)
     assert res.extras["accepted"].all()
+
+
+def test_a_patch_of_outliers_shorter_than_the_patience_is_still_rejected():
+    track, x0, u, z = _circle(offset=(0.0, 0.0))
+    z[100:104] += 40.0
+    res = range_only_ekf(x0, np.eye(2), u, z, Q=np.eye(2) * 0.01, R=1.0, gate=ReacquiringGate(patience=5))
+    np.testing.assert_array_equal(np.flatnonzero(res.extras["rejected"]), [100, 101, 102, 103])
+    assert not res.extras["inflated"].any() and not res.extras["forced"].any()
+    assert np.linalg.norm(res.x[-1] - track[-1]) < 1.0
+
+
+def test_inflation_stops_at_max_variance():
+    track, x0, u, z = _circle(offset=(0.0, 0.0))
+    z[:] = np.nan
+    z[::2] = 1e6                                          # garbage, for ever
+    gate = ReacquiringGate(patience=2, factor=100.0, force=False, max_variance=1e6)
+    res = range_only_ekf(x0, np.eye(2), u, z, Q=np.eye(2) * 0.0, R=1.0, gate=gate)
+    assert res.extras["inflated"].sum() > 3 and not res.extras["updated"].any()
+    assert res.P[..., 0, 0].max() <= 1e6 and res.P[-1, 0, 0] == res.P[-1, 1, 1] == 1e6

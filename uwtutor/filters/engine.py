@@ -400,8 +400,10 @@ class ExtendedKalmanFilter:
         defined = _defined_mask(defined, M, m)
         if not defined.all():
             if (present & ~defined).any():
+                per_run = bool((defined == defined[:, :1]).all())
                 warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
-                     "the update is skipped for that step (predict only)", BeaconSingularityWarning)
+                     + ("the update is skipped for that step (predict only)" if per_run else
+                        "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
             present = present & defined
         finite = self._check_used_values(present, z_pred, H, R, k)
         has = present.any(axis=1)
