@@ -217,6 +217,9 @@ def range_variances(R: Any, n_steps: int | None = None) -> Any:
             raise ValueError(f"R must hold range variances > 0 (NaN at a step without a range); got {R_arr[k]:g} at "
                              f"step {k}")
         return R_arr
+    if n_steps is None and R_arr.ndim == 1 and R_arr.size > 1:
+        raise ValueError(f"R must be one range variance here; got shape {R_arr.shape} (one variance per step is "
+                         "taken by the functional forms range_only_ekf and bias_ekf)")
     R_arr = as_covariance("R", R, 1)
     if R_arr.shape != (1, 1):
         per = f", or one variance per step ({n_steps},)" if n_steps is not None else ""

@@ -51,9 +51,9 @@ class GateContext:
     y : ndarray, shape (M, m)
         Innovation (NaN where the component is missing).
     S : ndarray, shape (M, m, m)
-        Innovation covariance. Where some of a run's components are missing, their rows and columns are those of
-        the identity (so that :math:`y_0^T S^{-1} y_0`, with :math:`y_0` the innovation with zeros in place of
-        the NaNs, is the NIS of the components present).
+        Innovation covariance. The rows and columns of missing components are no covariances: in a run with some
+        components present they are those of the identity (so that :math:`y_0^T S^{-1} y_0`, with :math:`y_0` the
+        innovation with zeros in place of the NaNs, is the NIS of the components present).
     H : ndarray, shape (M, m, n)
         Measurement Jacobian at the prediction.
     R : ndarray, shape (m, m) or (M, m, m)
