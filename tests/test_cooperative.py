@@ -232,9 +232,20 @@ def test_step_by_step_class_equals_the_functional_form_and_the_engine(formulatio
     else:
         meas, z = SquaredRangePair(sc.leader_broadcast, sc.dr_displacements, P.interval, P.R,
                                    literal=formulation == "literal"), pairs**2
-    eng = extended_kalman_filter(motion, meas, np.tile(P.x1, (2, 1)), P0, sc.dr_displacements, z)
+    # the family's default: a pair with one range lost is predict only (the engine would use the other range)
+    z_step = z if formulation == "single_range" else np.where(np.isnan(z).any(-1, keepdims=True), np.nan, z)
+    eng = extended_kalman_filter(motion, meas, np.tile(P.x1, (2, 1)), P0, sc.dr_displacements, z_step)
     np.testing.assert_allclose(eng.x, res.x, rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(eng.innovations, res.innovations, rtol=1e-12, atol=1e-6)
+    # lost="range": the engine's rule, the range that arrived is used
+    partial = np.isnan(z).any(-1) & ~np.isnan(z).all(-1) if formulation != "single_range" else None
+    by_range = _run(sc, formulation=formulation, lost="range")
+    eng = extended_kalman_filter(motion, meas, np.tile(P.x1, (2, 1)), P0, sc.dr_displacements, z)
+    np.testing.assert_allclose(eng.x, by_range.x, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(eng.innovations, by_range.innovations, rtol=1e-12, atol=1e-6)
+    if partial is not None:
+        assert partial.any() and by_range.extras["accepted"][partial].all()
+        assert not res.extras["accepted"][partial].any()
 
 
 def test_covariances_stay_symmetric_positive_definite():

@@ -17,7 +17,8 @@ from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, F
 from uwtutor.filters import CooperativeEKF
 from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
-from uwtutor.models import DeadReckoning, RangeToBeacon
+from uwtutor.filters import ReacquiringGate
+from uwtutor.models import BeaconRanges, DeadReckoning, OdometryMotion, RangeToBeacon
 from uwtutor.scenarios import paper_b
 
 M, K = 4, 60
@@ -111,7 +112,44 @@ def _robust_case():
         np.diag([2.0, 25.0]), gate=RobustGate(SecondMomentGate(0.03), steps, reacquire=5)), z[..., None], None)
 
 
-CASES += [_coop(f) for f in ("consistent", "literal", "single_range")] + [_robust_case()]
+def _coop_lost_range():
+    """Paper B's filter with lost="range": a pair with one range lost updates with the other (the engine's rule)."""
+    def make(b):
+        return CooperativeEKF(paper_b.PAPER_B.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
+                              _pick(_COOP.leader_broadcast, b), 8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R,
+                              lost="range")
+    return Case("CooperativeEKF-consistent-lost-range", make, range_pairs(_COOP.ranges), _COOP.dr_displacements)
+
+
+def _odometry_inputs(seed=6):
+    """Wheel odometry [distance, heading change] with a gyro bias, four beacons, ranges 7 % long, 30 % of the
+    ranges missing one by one (so most epochs have some beacons and not others)."""
+    rng = np.random.default_rng(seed)
+    motion = OdometryMotion(0.02, 0.003, gyro_bias=True, scale=True, dt=0.5, gyro_bias_walk=1e-5)
+    u_true = np.column_stack([np.full(K, 0.5), 0.06 + 0.04 * np.sin(np.arange(K) / 8)])
+    truth = motion.integrate([20.0, 5.0, 0.0, 0.0, 1.07], u_true)
+    u = u_true + rng.normal(0.0, [0.02, 0.003], (M, K, 2)) + [0.0, 0.002]
+    z = 1.07 * np.linalg.norm(truth[:, None, :2] - _BEACONS, axis=-1) + rng.normal(0.0, 0.05, (M, K, 4))
+    z[rng.random(z.shape) < 0.3] = np.nan
+    z[:, ::9] = np.nan                                                         # some epochs with no range at all
+    x0 = np.array([20.0, 5.0, 0.0, 0.0, 1.0]) + rng.normal(0.0, [0.5, 0.5, 0.05, 0.0, 0.0], (M, 5))
+    return motion, x0, u, z
+
+
+_BEACONS = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]])
+_ODO_MOTION, _ODO_X0, _ODO_U, _ODO_Z = _odometry_inputs()
+_ODO_P0 = np.diag([1.0, 1.0, 0.01, 1e-4, 0.01])
+
+
+def _odometry_case(gate=None, name="ExtendedKalmanFilter-odometry-beacons"):
+    return Case(name, lambda b: ExtendedKalmanFilter(
+        _ODO_MOTION, BeaconRanges(_BEACONS, R=0.05**2, layout=_ODO_MOTION.layout), _pick(_ODO_X0, b), _ODO_P0,
+        gate=None if gate is None else gate()), _ODO_Z, _ODO_U)
+
+
+CASES += [_coop(f) for f in ("consistent", "literal", "single_range")] + [_robust_case(), _coop_lost_range()]
+CASES += [_odometry_case(), _odometry_case(lambda: ReacquiringGate(patience=1),
+                                           "ExtendedKalmanFilter-odometry-reacquiring-gate")]
 IDS = [c.name for c in CASES]
 
 
@@ -170,14 +208,18 @@ def test_run_equals_run_filter_equals_a_hand_loop(case, batched):
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)
 def test_nan_measurement_is_predict_only(case):
+    """No component: predict only. A missing component: its innovation is NaN (the others may update)."""
     z, u = _inputs(case, True)
     res = case.make(True).run(z, u)
-    missing = ~np.isfinite(z).reshape(M, K, -1).all(axis=-1)
+    present = np.isfinite(z).reshape(M, K, -1)
+    missing = ~present.any(axis=-1)
     assert missing.any() and (~missing).any()
     np.testing.assert_array_equal(res.x[missing], res.x_prior[missing])
     assert np.isnan(res.innovations[missing]).all()
-    used = res.extras.get("accepted", ~missing)          # a gate may reject some of the measurements present
-    assert not used[missing].any() and np.isfinite(res.innovations[used]).all()
+    assert np.isnan(res.innovations[~present]).all()
+    used = res.extras.get("accepted", res.extras.get("updated", ~missing))   # a gate may reject some present
+    assert not used[missing].any() and np.isfinite(res.innovations[used & present.all(axis=-1)]).all()
+    assert np.isfinite(res.innovations[used]).any(axis=-1).all()
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)
@@ -206,8 +248,10 @@ def _single_from_batched(case, m):
     if case.name == "FadingEKF":
         return FadingEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
     if case.name.startswith("CooperativeEKF"):
+        formulation, _, lost = case.name.split("-", 1)[1].partition("-lost-")
         return CooperativeEKF(paper_b.PAPER_B.x1, _COOP_P0, _COOP.dr_displacements[m], _COOP.leader_broadcast[m],
-                              8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R, formulation=case.name.split("-", 1)[1])
+                              8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R, formulation=formulation,
+                              lost=lost or "step")
     raise AssertionError(case.name)
 
 

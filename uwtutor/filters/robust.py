@@ -115,8 +115,14 @@ class SecondMomentGate(Gate):
         self.delta = d
 
     def accept(self, ctx: GateContext) -> np.ndarray:
-        zz = np.sum(ctx.z**2, axis=-1)
-        D = np.trace(ctx.S, axis1=-2, axis2=-1) + np.sum(ctx.z_pred**2, axis=-1)
+        present = ctx.present
+        if present is None or present.all():
+            zz = np.sum(ctx.z**2, axis=-1)
+            D = np.trace(ctx.S, axis1=-2, axis2=-1) + np.sum(ctx.z_pred**2, axis=-1)
+        else:                                      # the components present (a run with none is rejected)
+            zz = np.where(present.any(axis=-1), np.sum(np.where(present, ctx.z, 0.0) ** 2, axis=-1), np.nan)
+            D = (np.sum(np.where(present, np.diagonal(ctx.S, axis1=-2, axis2=-1), 0.0), axis=-1)
+                 + np.sum(np.where(present, ctx.z_pred, 0.0) ** 2, axis=-1))
         with np.errstate(invalid="ignore"):
             return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
 
@@ -274,8 +280,10 @@ class RobustGate(Gate):
                n_state: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Line fits through the buffered measurements of ``runs``: (ok, x, P) for those runs."""
         if n_state != 2 * d:
-            raise ValueError("re-acquisition needs a constant-velocity state [position, velocity] whose position "
-                             f"is measured: a state of size {2 * d} for measurements of size {d}; got {n_state}")
+            raise ValueError("RobustGate's re-acquisition (a line fit through the rejected measurements) needs a "
+                             "constant-velocity state [position, velocity] whose position is measured: a state of "
+                             f"size {2 * d} for measurements of size {d}; got {n_state}. For any other state use "
+                             "uwtutor.filters.ReacquiringGate (covariance inflation after repeated rejections)")
         t = self.times[self._kbuf[runs]] - self.times[k]                     # (m, n)
         A = np.stack([np.ones_like(t), t], axis=-1)                          # (m, n, 2)
         G = np.swapaxes(A, -1, -2) @ A                                       # (m, 2, 2)
