@@ -59,6 +59,7 @@ TARGETS = {
     "widget_latency_ms": ("<=", 150.0),
     "peak_memory_mb": ("<=", 500.0),
     "odometry_ekf_s": ("<=", 1.0),
+    "navigate_plaza2_s": ("<=", 1.0),
 }
 
 
@@ -199,6 +200,21 @@ def bench_odometry_ekf(repeats: int) -> dict[str, Any]:
     extended_kalman_filter(*args[:4], inputs["u"][:50], inputs["z"][:50])                 # warm-up
     seconds = best_time(lambda: extended_kalman_filter(*args, times=inputs["times"]), repeats)
     return {"odometry_ekf_s": seconds, "odometry_epochs": ODOMETRY_EPOCHS, "odometry_beacons": ODOMETRY_BEACONS}
+
+
+def bench_navigate(repeats: int) -> dict[str, Any]:
+    """``datasets.navigate`` on the real Plaza 2 log (4091 epochs, 4 beacons; the gtsam wheel's copy): the whole
+    call a user makes, placing the ranges on the epochs included. Skipped without the ``data`` extra."""
+    try:
+        from uwtutor.datasets import navigate, plaza
+
+        data = plaza(2)
+    except ModuleNotFoundError as exc:
+        print(f"navigate on Plaza 2 skipped: {exc}")
+        return {}
+    navigate(data, [0])                                                                     # warm-up
+    return {"navigate_plaza2_s": best_time(lambda: navigate(data), repeats),
+            "navigate_plaza2_epochs": int(data.times.size)}
 
 
 def bench_pf(repeats: int) -> dict[str, Any]:
@@ -502,6 +518,7 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_ekf(repeats))
     results.update(bench_generic_ekf(repeats))
     results.update(bench_odometry_ekf(repeats))
+    results.update(bench_navigate(repeats))
     results.update(bench_pf(repeats))
     results.update(bench_pf_batched(repeats))
     results.update(bench_widgets(repeats))
@@ -625,7 +642,8 @@ def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
 
 #: The benchmarks ``--only`` can run alone.
 SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
-    "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf, "pf": bench_pf,
+    "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
+    "navigate": bench_navigate, "pf": bench_pf,
     "pf_batched": bench_pf_batched,
 }
 

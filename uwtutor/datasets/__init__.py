@@ -17,7 +17,9 @@ along the previous heading, then turns); :meth:`RangeDataset.ranges_on_epochs` p
 :func:`plaza` loads the two CMU Plaza sets (a robot with wheel odometry ranging by radio to 4 beacons, with
 ground truth; Djugash, Hamner and Roth 2009) from the copies in GTSAM's wheel: ``pip install "uwtutor[data]"``.
 
-This package imports only numpy, scipy and the lower layers of ``uwtutor`` (``_validate``, ``motion``).
+:func:`navigate` is the recommended filter for such a log in one call: heading, gyro bias and range scale in the
+state, gated, smoothed when asked. The dataset type and the loaders import only numpy, scipy and the lower layers of
+``uwtutor`` (``_validate``, ``motion``); ``navigate`` (module ``navigation``) sits on top of the models and filters.
 
 Examples
 --------
@@ -33,5 +35,6 @@ array([[nan],
 
 from ._core import DEFAULT_START_SIGMAS, RangeDataset
 from ._plaza import PLAZA_HEADING_OFFSET, plaza
+from .navigation import navigate
 
-__all__ = ["RangeDataset", "plaza", "DEFAULT_START_SIGMAS", "PLAZA_HEADING_OFFSET"]
+__all__ = ["RangeDataset", "plaza", "navigate", "DEFAULT_START_SIGMAS", "PLAZA_HEADING_OFFSET"]

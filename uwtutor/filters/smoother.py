@@ -136,7 +136,9 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> Sm
                             (M, n, n))
         # C = P F^T (P-)^-1, computed as the transpose of (P-)^-1 F P (P- symmetric)
         Ck = np.swapaxes(np.linalg.solve(Pp[:, k + 1], F @ P[:, k]), -1, -2)
-        xs[:, k] = xb[:, k] + (Ck @ (xs[:, k + 1] - xp[:, k + 1])[..., None])[..., 0]
+        # the model's own difference and normalization: a heading wraps at +-pi
+        step = motion.difference(xs[:, k + 1], xp[:, k + 1])
+        xs[:, k] = motion.normalize(xb[:, k] + (Ck @ step[..., None])[..., 0])
         Pk = P[:, k] + Ck @ (Ps[:, k + 1] - Pp[:, k + 1]) @ np.swapaxes(Ck, -1, -2)
         Ps[:, k] = 0.5 * (Pk + np.swapaxes(Pk, -1, -2))
         C[:, k] = Ck

@@ -68,6 +68,15 @@ class MotionModel:
         Q = self.Q(x, u, k)
         return self.f(x, u, k), F, Q
 
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        r"""The difference ``a - b`` of two states ``(..., n)``; a model with an angle in its state wraps it (the
+        smoother's correction must not see a heading jump by :math:`2\pi` where it crosses :math:`\pm\pi`)."""
+        return a - b
+
+    def normalize(self, x: np.ndarray) -> np.ndarray:
+        """A state ``(..., n)`` put back in its canonical range (an angle wrapped); the identity by default."""
+        return x
+
 
 class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.

@@ -502,6 +502,18 @@ class OdometryMotion(MotionModel):
         d, _, ca, sa, dt = self._parts(x, u, k)
         return self._Q(self._G(x, d, ca, sa), k, dt)
 
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        r"""``a - b`` with the heading difference wrapped to :math:`[-\pi, \pi)`."""
+        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+        d[..., self.layout.heading] = wrap_angle(d[..., self.layout.heading])
+        return d
+
+    def normalize(self, x: np.ndarray) -> np.ndarray:
+        r"""The state with its heading wrapped to :math:`[-\pi, \pi)`."""
+        out = np.array(x, dtype=float)
+        out[..., self.layout.heading] = wrap_angle(out[..., self.layout.heading])
+        return out
+
     def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         d, turn, ca, sa, dt = self._parts(x, u, k)
         return (self._f(x, d, turn, ca, sa), self._F(x, d, ca, sa, dt),
