@@ -230,3 +230,11 @@ def test_isfekf_step_checker_accepts_the_reference_and_names_slips():
     assert not fb.correct
     assert not ch05.check_isfekf_step(None).correct
     assert not ch05.check_isfekf_step(lambda *a: (1, 2)).correct
+
+
+def test_isfekf_step_checker_says_not_answered_for_the_stub():
+    def stub(*args):
+        raise NotImplementedError()
+
+    fb = ch05.check_isfekf_step(stub)
+    assert not fb.correct and fb.message.startswith("No answer yet")

@@ -599,6 +599,10 @@ def check_isfekf_step(func: Any) -> Feedback:
         try:
             out = func(np.array(x), np.array(P), np.array(m), np.array(Xi), V, u.copy(), z, Q.copy(), R,
                        c["mu_gamma"], c["sigma_gamma"], c["rho"])
+        except NotImplementedError:
+            return Feedback(False, "No answer yet: `isfekf_step` still raises NotImplementedError.",
+                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
+                                 "that cell and this one again.")
         except Exception as exc:  # noqa: BLE001 - the student's code may raise anything
             return Feedback(False, f"Not yet: isfekf_step raised {type(exc).__name__}: {exc} (at step {k}).",
                             hint="Run it by hand on the first step of `ch05.isfekf_step_run()` and read the trace.")
