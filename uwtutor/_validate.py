@@ -67,6 +67,7 @@ __all__ = [
     "as_bool_array",
     "check_model_covariance",
     "check_work",
+    "check_finite_result",
     "check_same_length",
     "check_same_shape",
     "MAX_WORK",
@@ -167,6 +168,8 @@ def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None 
         raise TypeError(f"{name} must hold numbers; got strings (dtype {raw.dtype}); convert them with float()")
     elif kind == "O":
         _bad_element(name, value)
+        _bad_element(name, list(raw.flat) if raw.ndim else [raw.item()])   # inside object arrays too (None is
+        #                                                                    # never a missing value: NaN is)
         try:
             arr = raw.astype(float)
         except OverflowError:
@@ -416,7 +419,7 @@ def as_scalar(name: str, value: Any, *, domain: str = "finite", low: float | Non
     """
     arr = as_float_array(name, value)
     if arr.ndim != 0:
-        shown = f" (write {arr.flat[0]!r}, not [{arr.flat[0]!r}])" if arr.size == 1 else ""
+        shown = f" (write {float(arr.flat[0])!r}, not [{float(arr.flat[0])!r}])" if arr.size == 1 else ""
         raise ValueError(f"{name} must be a single number; got an array of shape {arr.shape}{shown}")
     if domain == "positive":
         x = float(as_positive(name, arr))
@@ -492,3 +495,20 @@ def check_work(name: str, n_values: Any, what: str = "values") -> None:
         raise ValueError(f"{name} asks for {float(n_values):.3g} {what} (above {MAX_WORK:.0e}, about "
                          f"{8 * MAX_WORK / 1e9:.1f} GB): use fewer, or run them in chunks "
                          "(uwtutor.montecarlo)")
+
+
+def check_finite_result(result: Any, *names: str, what: str = "the result") -> Any:
+    """Refuse a computed result that overflowed (inf) or became NaN from finite inputs, naming the inputs that
+    caused it: an overflow is an input in the wrong units, never a silent ``inf``.
+
+    >>> with np.errstate(over="ignore"):
+    ...     r = np.array([1e308]) * 10
+    >>> check_finite_result(r, "travel_time", "sound_speed", what="the range")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    ValueError: the range overflows float64 for these travel_time and sound_speed (...): change their units
+    """
+    if not np.all(np.isfinite(result)):
+        raise ValueError(f"{what} overflows float64 for these {' and '.join(names)} (a value beyond 1.8e308): change "
+                         "their units")
+    return result

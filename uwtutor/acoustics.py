@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn
-from ._validate import as_flag, as_finite, as_in_range, as_nonnegative, as_positive, as_range_array
+from ._validate import (as_finite, as_flag, as_in_range, as_nonnegative, as_positive, as_range_array,
+                        check_finite_result)
 
 __all__ = [
     "MACKENZIE_VALIDITY",
@@ -150,9 +151,11 @@ def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = F
     two_way = as_flag("two_way", two_way)
     tau = as_nonnegative("travel_time", travel_time)
     c = as_positive("sound_speed", sound_speed)
-    r = c * tau
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = c * tau
     if two_way:
         r = r / 2.0
+    check_finite_result(r, "travel_time", "sound_speed", what="the range")
     return _scalar_or_array(np.asarray(r, dtype=float))
 
 
@@ -176,9 +179,11 @@ def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = F
     two_way = as_flag("two_way", two_way)
     r = as_range_array("slant_range", slant_range)
     c = as_positive("sound_speed", sound_speed)
-    tau = r / c
-    if two_way:
-        tau = 2.0 * tau
+    with np.errstate(over="ignore", invalid="ignore"):
+        tau = r / c
+        if two_way:
+            tau = 2.0 * tau
+    check_finite_result(tau, "slant_range", "sound_speed", what="the travel time")
     return _scalar_or_array(np.asarray(tau, dtype=float))
 
 

@@ -211,6 +211,8 @@ def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
     (array([1., 2., 3., 4.]), array([0.25, 0.5 , 0.75, 1.  ]))
     """
     e = as_float_array("errors", errors, ndim=1)
+    if np.isinf(e).any():
+        raise ValueError("errors must be finite (NaN for a run without a value is dropped); got an infinite value")
     e = np.sort(e[~np.isnan(e)])
     if e.size == 0:
         raise ValueError("errors must contain at least one value that is not NaN")

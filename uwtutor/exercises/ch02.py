@@ -26,6 +26,7 @@ based on range measurements from a single location", IROS 2005.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import Any
@@ -260,11 +261,13 @@ def turn_rmse_bound(turn_deg: float) -> float:
     return float(observability.rmse_bound(bound[-1]))
 
 
+@functools.lru_cache(maxsize=1)
 def _halving_angle() -> float:
     target = turn_rmse_bound(REFERENCE_TURN_DEG) / 2
     return float(brentq(lambda a: turn_rmse_bound(a) - target, REFERENCE_TURN_DEG, 60.0, xtol=1e-8))
 
 
+@functools.lru_cache(maxsize=1)
 def _best_turn() -> float:
     angles = np.arange(REFERENCE_TURN_DEG, 180.0 + 1e-9, 1.0)
     return float(angles[np.argmin([turn_rmse_bound(a) for a in angles])])

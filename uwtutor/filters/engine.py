@@ -577,7 +577,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
         raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, motion.n)
-    z = as_float_array("z", z)
+    z = as_float_array("z", z, nonempty=True)
     if u is not None:
         u = as_finite("u", u)
     # A scalar measurement given as a column (K, 1) -- e.g. the ranges to one beacon taken from a table of several --
