@@ -106,7 +106,7 @@ class Real(Kind):
             a.flat[0] = x
             return a
         out += [Hostile("nan", like(math.nan), not self.nan_ok), Hostile("inf", like(math.inf), not self.inf_ok),
-                Hostile("-inf", like(-math.inf), True),
+                Hostile("-inf", like(-math.inf), not self.inf_ok),
                 Hostile("huge", like(1e300), False), Hostile("tiny", like(1e-300), False)]
         if self.domain in ("nonneg", "pos", "prob", "open01"):
             out.append(Hostile("negative", like(-1.0), True))
@@ -139,6 +139,8 @@ def _with_none(arr: np.ndarray) -> np.ndarray:
 class Covariance(Kind):
     """A symmetric PSD matrix (``definite``: positive definite); its hostile values break symmetry and PSD."""
     definite: bool = False
+    inf_ok: bool = False        # an infinite variance is a documented value (an unobservable direction)
+    any_size: bool = False      # the function takes any n x n (e.g. reads the position block)
 
     def hostile(self, valid: Any) -> list[Hostile]:
         P = np.atleast_2d(np.asarray(valid, dtype=float))
@@ -151,9 +153,10 @@ class Covariance(Kind):
             ns = np.array(P, dtype=float)
             ns[..., 0, 1] += 1.0
             out.append(Hostile("non-symmetric", ns, True))
-        out += [Hostile("nan", P * math.nan, True), Hostile("inf", P * math.inf, True),
-                Hostile("huge", P * 1e300, True), Hostile("tiny", P * 1e-300, False),
-                Hostile("wrong size", np.eye(n + 1), True), Hostile("complex", P.astype(complex), True),
+        out += [Hostile("nan", np.full_like(P, math.nan), True),
+                Hostile("inf", np.full_like(P, math.inf), not self.inf_ok),
+                Hostile("huge", P * 1e300, False), Hostile("tiny", P * 1e-300, False),
+                Hostile("wrong size", np.eye(n + 1), not self.any_size), Hostile("complex", P.astype(complex), True),
                 Hostile("negative definite", -np.eye(n), True)]
         if self.definite:
             out.append(Hostile("zero", np.zeros_like(P), True))

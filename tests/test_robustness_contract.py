@@ -98,6 +98,12 @@ def test_pending_list_only_names_existing_targets():
     assert not specified, "specified now, remove from tests/robustness_pending.txt: " + ", ".join(specified)
 
 
+def test_every_specification_names_a_public_callable():
+    stale = sorted(set(rs.SPECS) - set(TARGETS))
+    assert not stale, ("SPECS entries that match no public callable (renamed or moved? keys are "
+                       "'module:qualname' where the object is defined): " + ", ".join(stale))
+
+
 def test_a_new_public_function_without_a_specification_fails_discovery():
     fake = types.ModuleType("uwtutor.fake_new_module")
 

@@ -319,8 +319,12 @@ def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) ->
     ca = as_in_range("assumed_speed", as_positive("assumed_speed", assumed_speed), 0.0, 1e5)
     ct = as_in_range("true_speed", as_positive("true_speed", true_speed), 0.0, 1e5)
     sc = as_in_range("speed_sigma", as_nonnegative("speed_sigma", speed_sigma), 0.0, 1e5)
-    mu = ca / ct
-    sigma = ca * sc / ct**2
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        mu = ca / ct
+        sigma = ca * sc / ct**2
+    check_finite_result(np.asarray(mu, dtype=float), "assumed_speed", "true_speed", what="the range factor")
+    check_finite_result(np.asarray(sigma, dtype=float), "assumed_speed", "true_speed", "speed_sigma",
+                        what="the range factor's spread")
     return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))
 
 

@@ -291,8 +291,12 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
                          f"got {S.shape}")
     y = _without_covariance(y, S)
     _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
-    out = _quadratic_form(y, S, "innovation_cov")
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _quadratic_form(y, S, "innovation_cov")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
+    if np.isinf(out).any():
+        raise ValueError("innovations and innovation_cov give a NIS that overflows float64 (innovations near "
+                         "1e154, or a variance near 0): change their units")
     return out
 
 
@@ -315,7 +319,7 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
     counts : ndarray of int, shape (K,)
         :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
     """
-    v = as_float_array("values", values, ndim=2)
+    v = as_float_array("values", values, ndim=2, nonempty=True)
     ok = ~np.isnan(v)
     counts = ok.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
