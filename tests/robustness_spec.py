@@ -305,6 +305,12 @@ EXEMPT: dict[str, str] = {
                                                          "contract; answers parsed by the shared check_choice",
     "uwtutor.exercises.ch10:check_final_bound": "computes a cached bound first (5 s): too slow for the contract; "
                                                 "answers parsed by the shared check_number",
+    "uwtutor.exercises.ch10:check_first_ratio": "computes a cached study first (8 s): too slow for the contract; "
+                                                "answers parsed by the shared check_number",
+    "uwtutor.exercises.ch09:check_good_rejected": "computes a cached study first (6 s): too slow for the contract; "
+                                                  "answers parsed by the shared check_number",
+    "uwtutor.exercises.ch09:check_within_ten_percent": "computes a cached study first (11 s): too slow for the "
+                                                       "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.feedback:Feedback": "the verdict object the checkers build (library-internal values)",
 }
 
