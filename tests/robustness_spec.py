@@ -299,6 +299,15 @@ EXEMPT_RULES: list[tuple[str, str]] = [
 ]
 
 EXEMPT: dict[str, str] = {
+    # the reference solutions and the data of the exercises that build a whole step (5.5, 6.6, 10.4): what the
+    # checkers compare a student's function with, called only on the checkers' own cases
+    "uwtutor.exercises.ch05:isfekf_step_reference": "the reference step exercise 5.5's checker replays; its inputs "
+                                                    "are the checker's own",
+    "uwtutor.exercises.ch05:isfekf_step_run": "no arguments: the data of exercise 5.5 (covered by its tests)",
+    "uwtutor.exercises.ch06:pf_step_reference": "the reference step exercise 6.6's checker compares with; its "
+                                                "inputs are the checker's own",
+    "uwtutor.exercises.ch10:pcrb_reference": "the reference recursion exercise 10.4's checker compares with; its "
+                                             "inputs are the checker's own",
     "uwtutor.exercises.ch07:check_bias_diagnosis": "runs a Monte Carlo study on every call (7 s): too slow for the "
                                                    "contract; it parses answers with the shared _as_scalar",
     "uwtutor.exercises.ch08:check_unobservable_pattern": "computes a cached study first (8 s): too slow for the "

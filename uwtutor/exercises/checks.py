@@ -1126,10 +1126,11 @@ def parse_real_array(answer: Any, name: str, shape: tuple[int, ...] | None = Non
     return arr, None
 
 
-def run_student(func: Any, *args: Any, name: str = "your function",
-                time_limit_s: float | None = None) -> tuple[Any, Feedback | None]:
+def run_student(func: Any, *args: Any, name: str = "your function", time_limit_s: float | None = None,
+                reraise: tuple[type[BaseException], ...] = ()) -> tuple[Any, Feedback | None]:
     """Call a student's function within the time limit: ``(value, None)``, or ``(None, Feedback)`` when it is
-    not a function, runs past ``time_limit_s`` (default ``TIME_LIMIT``), calls ``sys.exit()`` or raises.
+    not a function, runs past ``time_limit_s`` (default ``TIME_LIMIT``), calls ``sys.exit()`` or raises (but the
+    exception types in ``reraise``, which the caller answers itself, e.g. a stub's ``NotImplementedError``).
 
     Every checker that calls student code outside :func:`check_function` goes through this function, so that a
     loop never hangs the notebook and ``sys.exit()`` never escapes.
@@ -1150,6 +1151,8 @@ def run_student(func: Any, *args: Any, name: str = "your function",
     try:
         with time_limit(limit):
             return func(*args), None
+    except reraise:
+        raise
     except StudentTimeout:
         return None, Feedback(False, f"{_NOT_YET}`{name}` was still running after {limit:g} s and was stopped.",
                               hint="An endless loop? Check that every `while` loop changes what its condition "
