@@ -12,7 +12,7 @@ A real range log differs from the book's simulations in two errors that the posi
 state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.OdometryMotion` (each step moves along the
 previous heading, then turns: the convention of the data, :meth:`RangeDataset.dead_reckoning`) and
 :class:`uwtutor.models.BeaconRanges` (:math:`z_j = s\,\lVert p - b_j\rVert + v_j`, the beacons heard at an epoch,
-the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.ReacquiringGate`),
+the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.gates.ReacquiringGate`),
 and smooths it with :func:`uwtutor.filters.rts_smoother` when asked. Nothing here is a new loop: a model pair,
 the engine and its gate.
 
@@ -87,7 +87,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
         Prior standard deviation of :math:`s` about 1, and its random walk [1/√s].
     gate : bool, default True
         Reject ranges outside the 99.9 % chi-square gate, component by component, with re-acquisition after 10
-        rejected epochs in a row (:class:`uwtutor.filters.ReacquiringGate`), so that the gate never locks out.
+        rejected epochs in a row (:class:`uwtutor.filters.gates.ReacquiringGate`), so that the gate never locks out.
 
     Returns
     -------

@@ -192,7 +192,7 @@ def check_good_rejected(answer: Any) -> Feedback:
         The verdict; counting the outliers too, counting with the default re-acquisition, and one too many (an
         off-by-one) are recognised.
     """
-    expected, all_rejected, default_rejected, default_outlier = _good_rejected_counts()
+    expected, all_rejected, default_rejected, default_outlier, first, last = _good_rejected_counts()
     mistakes = {
         all_rejected: "That counts every rejected range, the 30 outliers included; keep "
                       "only the epochs where outlier_mask is False.",
@@ -201,7 +201,6 @@ def check_good_rejected(answer: Any) -> Feedback:
         default_outlier: "That is the default filter's final classification, after "
                          "re-acquisition cleared its window; use reacquire=None.",
     }
-    first, last = np.flatnonzero(literal.extras["rejected"] & good)[[0, -1]]
     mistakes.setdefault(expected + 1, f"One too many (an off-by-one, not a rounding): the good ranges rejected run "
                                       f"from epoch {first} to epoch {last}, both included. Counting from the last "
                                       f"outlier (epoch {first - 1}), or last − first + 2, gives one more; count with "
@@ -214,8 +213,9 @@ def check_good_rejected(answer: Any) -> Feedback:
 
 
 @functools.lru_cache(maxsize=1)
-def _good_rejected_counts() -> tuple[int, int, int, int]:
-    """The expected count of exercise 9.3 and the counts of its recognised mistakes (computed once: 6 s)."""
+def _good_rejected_counts() -> tuple[int, int, int, int, int, int]:
+    """The expected count of exercise 9.3, the counts of its recognised mistakes, and the first and last epochs of
+    the good ranges rejected (computed once: 6 s)."""
     dive = lockout_dive()
     z = dive.slant_ranges[0]
     good = ~np.asarray(dive.outlier_mask[0])
@@ -223,8 +223,10 @@ def _good_rejected_counts() -> tuple[int, int, int, int]:
         warnings.simplefilter("ignore", UwtutorWarning)       # the lock-out is the point of the exercise
         literal = robust_range_kf(z, 1.0, reacquire=None)
         default = robust_range_kf(z, 1.0)
+    first, last = np.flatnonzero(literal.extras["rejected"] & good)[[0, -1]]
     return (int(np.sum(literal.extras["rejected"] & good)), int(np.sum(literal.extras["rejected"])),
-            int(np.sum(default.extras["rejected"] & good)), int(np.sum(default.extras["outlier"] & good)))
+            int(np.sum(default.extras["rejected"] & good)), int(np.sum(default.extras["outlier"] & good)),
+            int(first), int(last))
 
 
 # -- exercise 9.4: the 10 % statistic -----------------------------------------------------------------------------------
