@@ -24,6 +24,7 @@ import re
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import nbformat
@@ -104,9 +105,13 @@ def open_page(session):
         page.close()
 
 
-def _markdown_sources() -> str:
+def _markdown_cells() -> list[str]:
     nb = nbformat.read(REPO / CHAPTER_PATH, as_version=4)
-    return "\n".join(c.source for c in nb.cells if c.cell_type == "markdown")
+    return [c.source for c in nb.cells if c.cell_type == "markdown"]
+
+
+def _markdown_sources() -> str:
+    return "\n".join(_markdown_cells())
 
 
 def _directives(text: str, names: str) -> list[str]:
@@ -140,6 +145,24 @@ RENDERED_FACTS = r"""() => {
 }"""
 
 
+def _settled_facts(page, markdown_cells: int, timeout_s: float = 60.0, interval_ms: int = 500) -> dict:
+    """RENDERED_FACTS once jupyterlab-myst has rendered every Markdown cell and two reads ``interval_ms`` apart agree.
+
+    The notebook is shown before jupyterlab-myst has finished: it renders the cells one by one, asynchronously, so a
+    read taken at once can miss a box (a CI run on a quiet machine counted 3 of chapter 1's 4 admonitions).
+    """
+    deadline = time.monotonic() + timeout_s
+    previous = None
+    while True:
+        facts = page.evaluate(RENDERED_FACTS)
+        if facts["cells"] >= markdown_cells and facts == previous:
+            return facts
+        if time.monotonic() > deadline:
+            return facts                 # the assertions that follow say what is missing
+        previous = facts
+        page.wait_for_timeout(interval_ms)
+
+
 def test_chapter_renders_admonitions_folded_solutions_math_and_roles(open_page):
     source = _markdown_sources()
     admonitions = _directives(source, "admonition|note|tip|hint|important|warning|caution|attention|danger|error"
@@ -150,7 +173,7 @@ def test_chapter_renders_admonitions_folded_solutions_math_and_roles(open_page):
     assert all(":class: dropdown" in body for body in solutions), "a solution of chapter 1 is not folded in the HTML"
 
     page = open_page(CHAPTER_PATH)
-    facts = page.evaluate(RENDERED_FACTS)
+    facts = _settled_facts(page, markdown_cells=len(_markdown_cells()))
     _screenshot(page, "chapter")
     assert facts["admonitions"] == len(admonitions)
     assert facts["exercises"] == len(exercises)
