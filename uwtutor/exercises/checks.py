@@ -281,8 +281,13 @@ def _power_hint(k: int, units: str) -> str:
             f"milliseconds...): check that every input is in SI units{inunits}.")
 
 
-def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tuple[str, str | None]:
-    """How the answer ``a`` relates to the expected ``e`` (``e != 0``), with a hint when the relation is telling."""
+def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
+              reveal: bool = True) -> tuple[str, str | None]:
+    """How the answer ``a`` relates to the expected ``e`` (``e != 0``), with a hint when the relation is telling.
+
+    With ``reveal=False`` a relation that names a mistake (a wrong sign, a factor of 2, a power of ten) is kept, but
+    nothing is said from which ``e`` could be worked out: no distance, tolerance, percentage or ratio.
+    """
 
     def close(target: float) -> bool:
         return abs(a - target) <= atol + max(rtol, 1e-12) * abs(target)
@@ -303,6 +308,14 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tu
     if a == 0:
         return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
                                                    "division (`//`) round the result down to 0?")
+    if not reveal:
+        if abs(a - e) <= 10 * tol:
+            return ("is close, but outside the tolerance",
+                    "Did you round an intermediate value or a constant? Keep full precision until the end, and check "
+                    "that no small term is missing.")
+        if (a > 0) != (e > 0):
+            return "has the wrong sign", _SIGN_HINT
+        return f"is too {'large' if abs(a) > abs(e) else 'small'}{' in size' if e < 0 else ''}", None
     if abs(a - e) <= 10 * tol:
         return (f"is close, but just outside the tolerance (off by {_with_units(a - e, units, 3)}; "
                 f"the tolerance is ±{_with_units(tol, units, 3)})",
@@ -330,7 +343,7 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tu
 # ---------------------------------------------------------------------------------------------------------------------
 def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: float = 0.0, name: str = "the answer",
                  units: str = "", common_mistakes: Mapping[float, str] | None = None, hint: str | None = None,
-                 explanation: str | None = None) -> Feedback:
+                 explanation: str | None = None, reveal_expected: bool = True) -> Feedback:
     """Check a single number against the expected value and explain a wrong one.
 
     The answer is accepted when ``abs(answer - expected) <= atol + rtol * abs(expected)``. A wrong answer is first
@@ -357,6 +370,10 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
         The hint shown when no specific cause is recognised (default ``DEFAULT_HINT``).
     explanation : str, optional
         A sentence appended to the message of a correct answer (why it is right, what it means).
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: the message then gives nothing from which the expected value could be
+        worked out (no percentage, ratio, distance or tolerance; "should be zero" becomes "is not right"), only the
+        student's own value, a recognised mistake and the hint.
 
     Returns
     -------
@@ -374,6 +391,9 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     >>> check_number(-60.0, 60.0, name="the range error", units="m")
     ✘ Not yet: your value for the range error, -60 m, has the right size but the wrong sign.
       Hint: Check the sign convention of the task (for example, error = estimated value − true value).
+    >>> check_number(1510.0, 1480.0, name="c_e", units="m/s", reveal_expected=False)
+    ✘ Not yet: your value for c_e, 1510 m/s, is too large.
+      Hint: Re-read the task: check the formula, each input and its units.
     """
     e = float(expected)
     if not math.isfinite(e):
@@ -401,12 +421,13 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     for value, mistake_hint in (common_mistakes or {}).items():
         v = float(value)
         if abs(a - v) <= atol + rtol * abs(v):
-            relation = _relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 else "is not right"
+            relation = (_relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 and reveal_expected
+                        else "is not right")
             return Feedback(False, f"{subject} {relation}.", hint=mistake_hint, details={**details, "mistake": v})
     if e == 0:
-        return Feedback(False, f"{subject} should be zero (within ±{_with_units(atol, units)}).",
-                        hint=hint or DEFAULT_HINT, details=details)
-    relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units)
+        should = f"should be zero (within ±{_with_units(atol, units)})" if reveal_expected else "is not right"
+        return Feedback(False, f"{subject} {should}.", hint=hint or DEFAULT_HINT, details=details)
+    relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units, reveal=reveal_expected)
     return Feedback(False, f"{subject} {relation}.", hint=special_hint or hint or DEFAULT_HINT, details=details)
 
 
@@ -641,7 +662,7 @@ def _array_relation(arr: np.ndarray, exp: np.ndarray, rtol: float, atol: float) 
 
 def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float = 0.0, name: str = "the array",
                 units: str = "", common_mistakes: Iterable[tuple[Any, str]] | None = None, hint: str | None = None,
-                explanation: str | None = None) -> Feedback:
+                explanation: str | None = None, reveal_expected: bool = True) -> Feedback:
     """Check an array against the expected array and explain a wrong one.
 
     Elements are compared with ``numpy.isclose(answer, expected, rtol, atol, equal_nan=True)`` (a NaN where NaN is
@@ -672,6 +693,9 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
         The hint shown when no specific cause is recognised.
     explanation : str, optional
         A sentence appended to the message of a correct answer.
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: the message then shows no expected element (only the student's own
+        worst element), and for flags only how many differ, not which.
 
     Returns
     -------
@@ -700,7 +724,7 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
         return _shape_feedback(arr, exp, name)
     details: dict[str, Any] = {"shape": arr.shape}
     if boolean:
-        return _compare_flags(arr, exp, name, hint, explanation, details)
+        return _compare_flags(arr, exp, name, hint, explanation, details, reveal_expected)
 
     nan_where_number = np.isnan(arr) & ~np.isnan(exp)
     if nan_where_number.any():
@@ -749,13 +773,14 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
                         details=details)
     u = f" {units}" if units else ""
     verb = "is" if n_wrong == 1 else "are"
+    expected_text = f", expected {_fmt(exp[worst])}{u}" if reveal_expected else ""
     return Feedback(False, f"{_NOT_YET}{n_wrong} of {arr.size} elements of {name} {verb} off; the worst is at index "
-                           f"{_fmt_index(worst)}: got {_fmt(arr[worst])}{u}, expected {_fmt(exp[worst])}{u}.",
+                           f"{_fmt_index(worst)}: got {_fmt(arr[worst])}{u}{expected_text}.",
                     hint=hint or DEFAULT_HINT, details=details)
 
 
 def _compare_flags(arr: np.ndarray, exp: np.ndarray, name: str, hint: str | None, explanation: str | None,
-                   details: dict[str, Any]) -> Feedback:
+                   details: dict[str, Any], reveal: bool = True) -> Feedback:
     false_alarms = [tuple(i) for i in np.argwhere(arr & ~exp)]
     misses = [tuple(i) for i in np.argwhere(~arr & exp)]
     if not false_alarms and not misses:
@@ -770,6 +795,10 @@ def _compare_flags(arr: np.ndarray, exp: np.ndarray, name: str, hint: str | None
         parts.append(f"misses {_list_indices(misses)}, which should be flagged")
     n_wrong = len(false_alarms) + len(misses)
     details.update(n_wrong=n_wrong, false_alarms=false_alarms, misses=misses)
+    if not reveal:
+        return Feedback(False, f"{_NOT_YET}{n_wrong} of {arr.size} flags of {name} differ ({len(false_alarms)} set "
+                               f"where they should not be, {len(misses)} missed).",
+                        hint=hint or DEFAULT_HINT, details=details)
     return Feedback(False, f"{_NOT_YET}{name} {' and '.join(parts)} ({n_wrong} of {arr.size} flags differ).",
                     hint=hint or DEFAULT_HINT, details=details)
 
@@ -871,22 +900,24 @@ def _same(a: Any, b: Any) -> bool:
         return True
 
 
-def _default_compare(got: Any, expected: Any, rtol: float, atol: float) -> Feedback:
+def _default_compare(got: Any, expected: Any, rtol: float, atol: float, reveal: bool = True) -> Feedback:
     if isinstance(expected, (numbers.Real, np.number)) and not isinstance(expected, (bool, np.bool_)):
-        return check_number(got, expected, rtol=rtol, atol=atol, name="the result")
+        return check_number(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
     if isinstance(expected, (np.ndarray, list, tuple)):
-        return check_array(got, expected, rtol=rtol, atol=atol, name="the result")
+        return check_array(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
     try:
         equal = bool(got == expected)
     except Exception:
         equal = False
     if equal:
         return Feedback(True, "Correct.")
-    return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}, expected {_fmt_value(expected)}.")
+    return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}"
+                           + (f", expected {_fmt_value(expected)}." if reveal else ", which is not right."))
 
 
 def _judge(got: Any, expected: Any, compare: Callable[[Any, Any], Feedback] | None, rtol: float, atol: float,
-           case: Case, names: list[str], args: tuple, kwargs: dict, allow_mutation: bool) -> Feedback | tuple:
+           case: Case, names: list[str], args: tuple, kwargs: dict, allow_mutation: bool,
+           reveal: bool = True) -> Feedback | tuple:
     """The verdict on one case: ``("mutated", name)``, ``("none",)`` or the comparison's Feedback."""
     if not allow_mutation:
         for key, original, passed in [*zip(names, case.args, args),
@@ -895,7 +926,7 @@ def _judge(got: Any, expected: Any, compare: Callable[[Any, Any], Feedback] | No
                 return ("mutated", key)
     if got is None and expected is not None:
         return ("none",)
-    return compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol)
+    return compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol, reveal)
 
 
 class StudentTimeout(BaseException):
@@ -939,7 +970,8 @@ def time_limit(seconds: float):
 def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
                    compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
                    hint: str | None = None, explanation: str | None = None,
-                   allow_mutation: bool = False, time_limit_s: float = TIME_LIMIT) -> Feedback:
+                   allow_mutation: bool = False, time_limit_s: float = TIME_LIMIT,
+                   reveal_expected: bool = True) -> Feedback:
     """Run a student's function on test cases and report the first case where it disagrees with a reference.
 
     For each case the reference and the student's function are called on separate deep copies of the arguments.
@@ -972,6 +1004,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     time_limit_s : float
         Seconds the student's function (and the reading of what it returned) may take on one case before it is
         stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: a failing case then shows its inputs and what the function returned,
+        but not the expected result (the default comparison also keeps it out of its message).
 
     Returns
     -------
@@ -1049,7 +1084,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                             details={**base_details, "exception": exc})
         try:
             with time_limit(time_limit_s):       # the returned object's own methods (__float__, __eq__...) run here
-                verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation)
+                verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation,
+                                 reveal_expected)
         except StudentTimeout:
             verdict = ("unreadable", f"reading what `{fname}` returned ({_a_type(got)}) took more than "
                        f"{time_limit_s:g} s")
@@ -1058,7 +1094,7 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                        f"expected value ({type(exc).__name__}: {str(exc)[:80]})")
         if isinstance(verdict, tuple) and verdict[0] == "unreadable":
             return Feedback(False, f"{_NOT_YET}{where_case} fails: {verdict[1]}.\nInputs: {shown_inputs}"
-                                   f"\nExpected: {_fmt_value(expected)}",
+                                   + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else ""),
                             hint="Return a number or a NumPy array of numbers, as the task asks.",
                             details={**base_details, "got": got})
         if isinstance(verdict, tuple) and verdict[0] == "mutated":
@@ -1076,7 +1112,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
             if core.startswith("Your answer is "):
                 core = f"`{fname}` returned " + core.removeprefix("Your answer is ")
             message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
-                       f"\nExpected: {_fmt_value(expected)}\nGot: {_fmt_value(got)}")
+                       + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else "")
+                       + f"\nGot: {_fmt_value(got)}")
             specific = verdict.hint if verdict.hint != DEFAULT_HINT else None
             if verdict.details.get("diagnosed") and specific:  # the comparison recognised the cause
                 best_hint = specific
