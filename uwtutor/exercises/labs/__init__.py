@@ -28,7 +28,8 @@ Examples
   Hint: Pass temperature, salinity and depth of the cast, in that order, to `sound_speed`.
 >>> check_part("range_error_budget", "A", cast)
 ✘ No answer yet: `profile_speeds` is not defined.
-  Hint: Run the notebook's cells from the top down to this one (Run > Run All Above Selected Cell), then this one.
+  Hint: Run the notebook's cells from the top down to this one (Run > Run All Above Selected Cell), then
+  this one.
 """
 
 from __future__ import annotations
