@@ -335,3 +335,25 @@ def test_uwtutor_labs_errors(tmp_path, capsys):
     assert main(["labs", str(tmp_path / "y"), "--source", str(tmp_path / "nowhere")]) == 2
     with pytest.raises(ValueError, match="source directory"):
         write_lab_versions(LABS_DIR, LABS_DIR)
+
+
+# -- the project's JupyterLab is a student's: nbgrader is installed for these tests, not shown ------------------------
+def _jupyter(*args: str) -> str:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JUPYTER", "JPY_"))}
+    proc = subprocess.run([str(Path(sys.executable).with_name("jupyter")), *args], capture_output=True, text=True,
+                          timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    return re.sub(r"\x1b\[[0-9;]*m", "", proc.stdout + proc.stderr)
+
+
+def test_nbgrader_extensions_are_disabled_in_the_project_environment():
+    """`make setup` disables nbgrader's JupyterLab extension and server extensions (`make lab` is a student's view:
+    no nbgrader menu, no "Create Assignment" sidebar); jupytext, whose extension fails under JupyterLab 4.5, is gone."""
+    if not Path(sys.executable).with_name("jupyter").exists():
+        pytest.skip("no jupyter in this environment")
+    labextensions = _jupyter("labextension", "list")
+    assert re.search(r"@jupyter/nbgrader v\S+ disabled", labextensions), labextensions
+    assert "jupytext" not in labextensions, "jupytext's extension does not load under JupyterLab 4.5: run make setup"
+    server = _jupyter("server", "extension", "list")
+    listed = re.findall(r"^\s*(nbgrader\.server_extensions\.\w+) (enabled|disabled)", server, re.M)
+    assert listed and all(state == "disabled" for _, state in listed), listed

@@ -1,13 +1,12 @@
 """The hidden tests of the course labs, computed inside the library so that a lab's feedback shows no answer.
 
 nbgrader's feedback shows every test cell as it is, hidden tests included. A hidden test that recomputed the
-reference in the cell would show the student the solution of the part they failed. So each hidden test is a call::
+reference in the cell would show the student the solution of the part they failed. So each hidden test (between the
+lab's ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` lines) is a call and an ``assert``::
 
-    ### BEGIN HIDDEN TESTS
     from uwtutor.exercises.labs import check_part
-    _verdict = check_part("bias_tracking_iekf", "C", globals())
+    _verdict = check_part(LAB, PART, globals())       # e.g. check_part("bias_tracking_iekf", "C", globals())
     assert _verdict, _verdict
-    ### END HIDDEN TESTS
 
 ``check_part`` reads the part's answers (and the lab's given data) from the notebook's namespace, computes the
 references with the library, and returns a ``Feedback``: correct, or the first check that fails, with a message that
