@@ -683,6 +683,20 @@ NAME = "ch01_positioning_and_errors.ipynb"
 
 
 class TestCommand:
+    def test_next_step_says_how_to_get_jupyterlab_when_it_is_missing(self, tmp_path, capsys, monkeypatch):
+        from uwtutor.exercises import cli
+
+        monkeypatch.setattr(cli, "jupyterlab_available", lambda: False)
+        assert main(["exercises", str(tmp_path / "a")]) == 0
+        out = capsys.readouterr().out
+        assert 'pip install "uwtutor[lab]"' in out and "JupyterLab is not installed" in out
+        assert main(["labs", str(tmp_path / "b"), "--lab", "ekf_consistency"]) == 0
+        assert 'pip install "uwtutor[lab]"' in capsys.readouterr().out
+        monkeypatch.setattr(cli, "jupyterlab_available", lambda: True)
+        assert main(["exercises", str(tmp_path / "c")]) == 0
+        out = capsys.readouterr().out
+        assert f"jupyter lab {tmp_path / 'c'}" in out and "pip install" not in out
+
     def test_writes_skips_and_forces(self, tmp_path, capsys):
         dest = tmp_path / "my-work"
         assert main(["exercises", str(dest)]) == 0
