@@ -100,7 +100,7 @@ def test_bad_lab_or_part_is_named():
 
 def test_a_missing_name_says_which_cells_to_run():
     fb = check_part("range_error_budget", "A", {})
-    assert not fb and "is not defined" in fb.message and "Run the cells of part A" in fb.hint
+    assert not fb and "is not defined" in fb.message and "Run the notebook's cells from the top" in fb.hint
 
 
 def test_an_answer_of_the_wrong_kind_is_feedback_not_a_crash():

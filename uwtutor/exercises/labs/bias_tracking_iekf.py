@@ -99,7 +99,7 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                        hint="`np.argmax` of an all-False array is 0: check that some epoch is below 2 before "
                             "trusting it.")
         yield fail(f"k_start_run0 = {k} is not the first epoch where your α is below 2.",
-                   hint="Take the FIRST epoch with α < 2: `int(np.argmax(alpha_run0 < 2.0))`.")
+                   hint="Take the FIRST epoch where α is below 2 (epochs count from 0), as an int.")
     for name in ("rmse_direct", "rmse_prepositioned", "median_start"):
         ns[name]
     if _wrong_q(ns):

@@ -108,7 +108,7 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                            reveal_expected=False)
     if ns["best_rho"] != min(values, key=values.get):
         yield fail(f"best_rho = {ns['best_rho']!r} does not have the smallest RMSE.",
-                   hint="`min(rmse_by_rho, key=rmse_by_rho.get)`.")
+                   hint="best_rho is the key of rmse_by_rho with the smallest value, not the value itself.")
     yield Feedback(True, "Correct.")
 
 

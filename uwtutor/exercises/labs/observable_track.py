@@ -71,7 +71,7 @@ def part_b(ns: Answers) -> Iterator[Feedback]:
                                hint="table maps each name to final_bounds(track).", reveal_expected=False)
     if list(ranking) != sorted(pos, key=pos.get):
         yield fail("ranking is not ordered from the smallest to the largest position bound.",
-                   hint="`sorted(table, key=lambda name: table[name][0])`.")
+                   hint="Sort the names by their position bound, the first element of each entry of table.")
     if sorted(ns["unobservable"]) != sorted(n for n in pos if np.isinf(pos[n])):
         yield fail("unobservable should list the names whose position bound is infinite.")
     yield Feedback(True, "Correct.")

@@ -102,7 +102,7 @@ def part_e(ns: Answers) -> Iterator[Feedback]:
     largest = max(expected, key=lambda t: abs(expected[t]))
     if ns["dominant"] != largest:
         yield fail(f"dominant = {ns['dominant']!r} is not the largest term of your budget.",
-                   hint="Compare the sizes of the four terms (`max(budget, key=...)`).")
+                   hint="dominant is the key of the term with the largest size.")
     yield check_number(ns["max_range"], optimize.brentq(lambda x: _speed_error(x, ns, c_e) - 5.0, 300.0, 2500.0),
                        rtol=1e-3, name="max_range", units="m",
                        hint="Find the root of `speed_range_error(x) - 5` between 300 m and 2500 m.",
