@@ -15,6 +15,8 @@ from pathlib import Path
 import nbformat
 from nbclient import NotebookClient
 
+from uwtutor.exercises.generate import KERNELSPEC
+
 
 def notebooks_in(paths: list[str]) -> list[Path]:
     found: list[Path] = []
@@ -31,7 +33,11 @@ def notebooks_in(paths: list[str]) -> list[Path]:
 
 def execute(path: Path) -> None:
     nb = nbformat.read(path, as_version=4)
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    # The kernelspec as JupyterLab writes it (another display_name, and JupyterLab rewrites it, marking the chapter
+    # modified as soon as it is opened); the kernel writes language_info. jupytext's pairing metadata is left over
+    # from authoring and nothing reads it.
+    nb.metadata["kernelspec"] = dict(KERNELSPEC)
+    nb.metadata.pop("jupytext", None)
     client = NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}},
                             store_widget_state=True)
     client.execute()
