@@ -9,8 +9,9 @@ Four checkers cover the exercises of the book:
 - ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
   reports the first failing case with its inputs, the expected result and the student's result; an exception raised
   by the student's code is caught and reported with the line it came from;
-- ``check_choice`` for a multiple-choice answer given as a letter: it accepts the letter in any case (or the option's
-  text), names the letters when the answer is none of them, and gives each wrong option its own hint.
+- ``check_choice`` for a multiple-choice answer given as a capital letter: it asks for the capital when the letter is
+  written in lower case and for the letter when the option's text is given, names the letters when the answer is none
+  of them, and gives each wrong option its own hint (``read_letter`` does the reading, for other checkers too).
 
 None of them ever raises because of the *answer*: ``None`` (not answered yet), a string, a list of the wrong length or a
 function that crashes all give a ``Feedback`` with ``correct=False`` and a helpful message. They do raise ``ValueError``
@@ -49,7 +50,8 @@ import numpy as np
 
 from .feedback import Feedback
 
-__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "DEFAULT_HINT"]
+__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "read_letter",
+           "DEFAULT_HINT"]
 
 #: The hint given when an answer is wrong and no more specific cause is recognised.
 DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
@@ -434,27 +436,79 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
 # ---------------------------------------------------------------------------------------------------------------------
 # check_choice
 # ---------------------------------------------------------------------------------------------------------------------
-def _choice_key(answer: str, options: Mapping[str, str]) -> str | None:
-    """The option key that a text answer names: its letter (any case, with or without ``(``, ``)``, ``.``) or its
-    whole text; ``None`` if it names none."""
+def read_letter(answer: Any, letters: Sequence[str], *, name: str = "the answer",
+                options: Mapping[str, str] | None = None, example: str = "choice") -> tuple[str | None, Feedback | None]:
+    """Read an answer that must be one of the capital ``letters``, as the question asks.
+
+    Surrounding spaces are ignored. Anything else is not accepted, but explained, without saying whether the choice
+    would be right: a letter in lower case (``"b"`` for ``"B"``), the text of an option instead of its letter, the
+    letter in brackets or with a full stop, a number, a letter that is not an option.
+
+    Parameters
+    ----------
+    answer : object
+        The student's answer; ``None`` (or ``...``) means "not answered yet".
+    letters : sequence of str
+        The capital letters of the options, e.g. ``("A", "B", "C")``.
+    name : str
+        What the letter names, e.g. ``"the consistent filter"``; used in the messages.
+    options : mapping of str to str, optional
+        The options' texts by letter, to recognise an answer that gives the text.
+    example : str
+        The variable the student assigns, shown in the hints (``choice = "A"``).
+
+    Returns
+    -------
+    tuple
+        ``(letter, None)`` for an accepted letter, ``(None, feedback)`` otherwise.
+
+    Examples
+    --------
+    >>> read_letter("B", "ABC")
+    ('B', None)
+    >>> print(read_letter("b", "ABC", name="the overconfident filter", example="overconfident")[1])
+    ✘ Not yet: the overconfident filter is asked as a capital letter: write "B", not 'b'.
+      Hint: The options are the capital letters "A", "B", "C"; Python tells "b" from "B": `overconfident = "B"`.
+    """
+    keys = list(letters)
+    listed = ", ".join(f'"{k}"' for k in keys)
+    if _is_unanswered(answer):
+        return None, not_answered(f"the letter of {name} (one of {listed})")
+    first = f'`{example} = "{keys[0]}"`'
+    if not isinstance(answer, str):
+        return None, Feedback(False, f"Not yet: {name} should be one of the letters {listed}; got "
+                                     f"{_a_type(answer)}, {_fmt_value(answer)}.",
+                              hint=f"Write the letter in quotes, e.g. {first}.")
     text = answer.strip()
-    letter = text.strip("()[]. ").upper()
-    for key in options:
-        if letter == key.upper():
-            return key
-    for key, option in options.items():
+    if text in keys:
+        return text, None
+    bare = text.strip("()[]. ")
+    if bare.upper() in keys and bare != bare.upper():
+        letter = bare.upper()
+        return None, Feedback(False, f'Not yet: {name} is asked as a capital letter: write "{letter}", not '
+                                     f"{answer!r}.",
+                              hint=f'The options are the capital letters {listed}; Python tells "{bare}" from '
+                                   f'"{letter}": `{example} = "{letter}"`.', details={"case": letter})
+    if bare in keys:
+        return None, Feedback(False, f'Not yet: write the letter alone, "{bare}", not {answer!r}.',
+                              hint=f'Only the letter, in quotes: `{example} = "{bare}"`.', details={"bare": bare})
+    for key, option in (options or {}).items():
         if text.casefold() == str(option).strip().casefold():
-            return key
-    return None
+            return None, Feedback(False, f"Not yet: {name} is asked as the letter of an option; {answer!r} is the "
+                                         f'text of option "{key}".',
+                                  hint=f'Give its letter: `{example} = "{key}"`.', details={"text_of": key})
+    return None, Feedback(False, f"Not yet: {name} should be one of the letters {listed}; got {answer!r}.",
+                          hint=f"Write the letter in quotes, e.g. {first}.")
 
 
 def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name: str = "the answer",
                  common_mistakes: Mapping[str, str] | None = None, hint: str | None = None,
                  explanation: str | None = None) -> Feedback:
-    """Check a multiple-choice answer given as the letter of an option, and explain a wrong choice.
+    """Check a multiple-choice answer given as the capital letter of an option, and explain a wrong choice.
 
-    The letter may be written in either case, with surrounding spaces or as ``"(b)"``; the full text of an option is
-    accepted too. Anything else (a number, a truth value, a letter that is not an option) gets a message listing the
+    The answer must be the letter as the question asks (surrounding spaces aside): a lower-case letter, the option's
+    text or ``"(B)"`` gets a message that asks for the capital letter alone, without judging the choice
+    (``read_letter``); anything else (a number, a truth value, a letter that is not an option) a message listing the
     letters.
 
     Parameters
@@ -488,8 +542,11 @@ def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name
     Examples
     --------
     >>> options = {"A": "the EKF", "B": "the particle filter"}
-    >>> check_choice("b", "B", options, name="the method")
+    >>> check_choice("B", "B", options, name="the method")
     ✔ Correct: B, the particle filter.
+    >>> check_choice("the particle filter", "B", options, name="the method")
+    ✘ Not yet: the method is asked as the letter of an option; 'the particle filter' is the text of option "B".
+      Hint: Give its letter: `choice = "B"`.
     >>> check_choice("C", "B", options, name="the method")
     ✘ Not yet: the method should be one of the letters "A", "B"; got 'C'.
       Hint: Write the letter in quotes, e.g. `choice = "A"`.
@@ -503,17 +560,10 @@ def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name
         raise ValueError(f"the keys of options must differ in more than case; got {keys!r}")
     if expected not in options:
         raise ValueError(f"expected must be one of the keys of options {keys}; got {expected!r}")
-    letters = ", ".join(f'"{k}"' for k in keys)
-    if _is_unanswered(answer):
-        return not_answered(f"the letter of {name} (one of {letters})")
-    example = f'Write the letter in quotes, e.g. `choice = "{keys[0]}"`.'
-    if not isinstance(answer, str):
-        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {_a_type(answer)}, "
-                               f"{_fmt_value(answer)}.", hint=example)
-    key = _choice_key(answer, options)
-    if key is None:
-        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {answer!r}.",
-                        hint=example)
+    key, problem = read_letter(answer, keys, name=name, options=options)
+    if problem is not None:
+        return problem
+    assert key is not None
     details = {"answer": key}
     if key == expected:
         message = f"Correct: {key}, {options[key]}."
