@@ -23,7 +23,7 @@ NBGRADER_SERVER_EXTENSIONS := formgrader validate_assignment assignment_list cou
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,lab,test,scale]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,lab,test,scale,data]"
 	$(PY) -m pip uninstall --quiet --yes jupytext 2>/dev/null || true
 	$(VENV)/bin/jupyter labextension disable --level=sys_prefix @jupyter/nbgrader >/dev/null 2>&1
 	for ext in $(NBGRADER_SERVER_EXTENSIONS); do \
@@ -47,11 +47,14 @@ book: setup
 # One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
 # exercises, the strict book build and the browser test over it), every docstring example of the library
 # (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
-# committed ones, after tests/nbval_sanitize.cfg).
+# committed ones, after tests/nbval_sanitize.cfg; its kernels play another CPU than the one that wrote
+# the outputs, tools/cpu_variants.py). On every core (pytest-xdist); --dist loadfile keeps each file,
+# and so each notebook's cells, in one worker. PYTEST_ARGS adds options (e.g. PYTEST_ARGS="-k ekf").
 NBVAL := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg
+WORKERS ?= auto
 
 test: setup
-	$(PY) -m pytest $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(WORKERS) --dist loadfile $(NBVAL) --doctest-modules tests uwtutor book $(PYTEST_ARGS)
 
 # JupyterLab on the chapters (book/) and on your own copies of the exercises and labs (my-work/, made
 # on first use; existing notebooks there are never overwritten). Instructors find the sources in exercises/.
@@ -69,6 +72,7 @@ study: setup
 	$(PY) studies/comparison.py --overwrite
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
+# The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.
 notebooks: setup
 	$(PY) tools/execute_notebooks.py book
 

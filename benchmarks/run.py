@@ -14,7 +14,11 @@ Measured in one run, on this machine:
    ``jupyterlab_session.py``), from the key press that moves its first slider to the first frame painted with the
    new figure, against the same widget built the way widgets updated before; and what the kernel alone spends on
    that update (compute, draw, PNG), in this process; ``--no-browser`` leaves JupyterLab out;
-6. the peak memory of the 1000-run EKF study, in a fresh subprocess.
+6. the peak memory of the 1000-run EKF study, in a fresh subprocess;
+7. the generic EKF on a real-data-sized odometry log: wheel odometry with a gyro bias and a range scale in the state,
+   4091 epochs x 4 beacons (the size of the CMU Plaza logs), one run.
+
+``--only NAME`` runs one benchmark and prints its numbers (nothing is saved).
 
 ``--save`` writes ``benchmarks/results.json`` and regenerates the table of ``book/appendix_performance.md``
 between its marker comments, so that the committed page always shows the committed results (the book build
@@ -41,6 +45,7 @@ START_MARKER = "<!-- BENCH-TABLE:START -->"
 END_MARKER = "<!-- BENCH-TABLE:END -->"
 
 EKF_RUNS, EKF_STEPS = 1000, 1500
+ODOMETRY_EPOCHS, ODOMETRY_BEACONS = 4091, 4
 FILTERPY_SAMPLE_RUNS = 20
 PF_PARTICLES, PF_STEPS = 1000, 2000
 
@@ -53,6 +58,8 @@ TARGETS = {
     "widget_ms": ("<=", 150.0),
     "widget_latency_ms": ("<=", 150.0),
     "peak_memory_mb": ("<=", 500.0),
+    "odometry_ekf_s": ("<=", 1.0),
+    "navigate_plaza2_s": ("<=", 1.0),
 }
 
 
@@ -71,6 +78,30 @@ def ekf_study_inputs(M: int = EKF_RUNS, K: int = EKF_STEPS, seed: int = 0) -> di
     z[rng.random((M, K)) < 0.1] = np.nan
     x0 = track[0] + rng.normal(0.0, 20.0, (M, 2))
     return dict(x0=x0, P0=np.eye(2) * 400.0, u=u, z=z, Q=np.eye(2) * 0.25, R=4.0)
+
+
+def odometry_inputs(K: int = ODOMETRY_EPOCHS, seed: int = 0) -> dict[str, Any]:
+    """A robot wandering among four beacons for K epochs of 0.5 s: odometry [distance, heading change] with noise and
+    a gyro bias of 0.004 rad/s, ranges 1.07 times the distance with 5 cm noise, 30 % of them missing."""
+    import numpy as np
+
+    from uwtutor.models import BeaconRanges, OdometryMotion
+
+    rng = np.random.default_rng(seed)
+    beacons = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]])
+    t = 0.5 * np.arange(K)
+    u_true = np.column_stack([np.full(K, 0.5), (0.12 + 0.08 * np.sin(2 * np.pi * t / 90.0)) * 0.5])
+    u_true[0] = 0.0
+    truth = OdometryMotion(0.0, 0.0).integrate([20.0, 5.0, 0.0], u_true)
+    u = u_true + np.column_stack([rng.normal(0, 0.02, K), rng.normal(0, 0.003, K) + 0.002])
+    u[0] = 0.0
+    z = 1.07 * np.linalg.norm(truth[:, None, :2] - beacons, axis=-1) + rng.normal(0, 0.05, (K, len(beacons)))
+    z[rng.random(z.shape) < 0.3] = np.nan
+    motion = OdometryMotion(0.02, 0.003, gyro_bias=True, scale=True, times=t, gyro_bias_walk=1e-6, scale_walk=1e-6)
+    x0, P0 = motion.layout.initial_state([20.0, 5.0, 0.0], np.diag([1.0, 1.0, 0.01]), gyro_bias=(0.0, 0.01),
+                                         scale=(1.0, 0.1))
+    return dict(motion=motion, measurement=BeaconRanges(beacons, R=0.05**2, layout=motion.layout), x0=x0, P0=P0,
+                u=u, z=z, times=t)
 
 
 def best_time(fn: Callable[[], Any], repeats: int) -> float:
@@ -159,6 +190,33 @@ def bench_generic_ekf(repeats: int) -> dict[str, Any]:
             "generic_ekf_speedup_vs_filterpy": scaled / ours}
 
 
+def bench_odometry_ekf(repeats: int) -> dict[str, Any]:
+    """The generic EKF with the odometry model (heading, gyro bias, range scale: 5 states) and the ranges to four
+    beacons with missing components, over 4091 epochs: the size of a real log (CMU Plaza)."""
+    from uwtutor.filters import extended_kalman_filter
+
+    inputs = odometry_inputs()
+    args = [inputs[k] for k in ("motion", "measurement", "x0", "P0", "u", "z")]
+    extended_kalman_filter(*args[:4], inputs["u"][:50], inputs["z"][:50])                 # warm-up
+    seconds = best_time(lambda: extended_kalman_filter(*args, times=inputs["times"]), repeats)
+    return {"odometry_ekf_s": seconds, "odometry_epochs": ODOMETRY_EPOCHS, "odometry_beacons": ODOMETRY_BEACONS}
+
+
+def bench_navigate(repeats: int) -> dict[str, Any]:
+    """``datasets.navigate`` on the real Plaza 2 log (4091 epochs, 4 beacons; the gtsam wheel's copy): the whole
+    call a user makes, placing the ranges on the epochs included. Skipped without the ``data`` extra."""
+    try:
+        from uwtutor.datasets import navigate, plaza
+
+        data = plaza(2)
+    except ModuleNotFoundError as exc:
+        print(f"navigate on Plaza 2 skipped: {exc}")
+        return {}
+    navigate(data, [0])                                                                     # warm-up
+    return {"navigate_plaza2_s": best_time(lambda: navigate(data), repeats),
+            "navigate_plaza2_epochs": int(data.times.size)}
+
+
 def bench_pf(repeats: int) -> dict[str, Any]:
     import numpy as np
     from filterpy.monte_carlo import systematic_resample as filterpy_systematic
@@ -182,6 +240,22 @@ def bench_pf(repeats: int) -> dict[str, Any]:
     theirs = best_time(lambda: run(with_filterpy), max(1, min(2, repeats)))
     return {"pf_s": ours, "pf_steps_per_s": PF_STEPS / ours, "pf_filterpy_resampler_s": theirs,
             "pf_filterpy_resampler_steps_per_s": PF_STEPS / theirs, "pf_speedup_vs_filterpy_resampler": theirs / ours}
+
+
+def bench_depth_filters(repeats: int) -> dict[str, Any]:
+    """Chapter 6's cost table: time per step of the EKF, bootstrap PF, GPF and MMPF on one run of its dive."""
+    import numpy as np
+
+    from uwtutor.widgets import ch06
+
+    profile = ch06.maneuvering_depth_profile()
+    Z = ch06.simulate_depth_sensors(profile, 1, np.random.default_rng(2013))
+    per_step_ms = {}
+    for name in ("EKF", "PF", "GPF", "MMPF"):
+        seconds = best_time(lambda name=name: ch06.run_depth_study(profile, Z, (name,)), repeats)
+        per_step_ms[name] = 1000.0 * seconds / profile.n_steps
+    return {"depth_filters": {"steps": int(profile.n_steps), "per_step_ms": per_step_ms,
+                              "date": machine_info()["date"]}}
 
 
 PF_BATCH_RUNS, PF_BATCH_STEPS = 100, 500
@@ -459,8 +533,11 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
                                "targets": {k: list(v) for k, v in TARGETS.items()}}
     results.update(bench_ekf(repeats))
     results.update(bench_generic_ekf(repeats))
+    results.update(bench_odometry_ekf(repeats))
+    results.update(bench_navigate(repeats))
     results.update(bench_pf(repeats))
     results.update(bench_pf_batched(repeats))
+    results.update(bench_depth_filters(repeats))
     results.update(bench_widgets(repeats))
     results.update(bench_widget_updates(repeats))
     if browser:
@@ -508,6 +585,11 @@ def render_table(results: dict[str, Any]) -> str:
                      f"{results['generic_filterpy_sample_s']:.2f} s, scaled: {results['generic_filterpy_scaled_s']:.1f} s)",
                      f"{g:.0f}×", _target("generic_ekf_speedup_vs_filterpy", t, "×"),
                      _status("generic_ekf_speedup_vs_filterpy", g, t)))
+    if "odometry_ekf_s" in results:
+        o = results["odometry_ekf_s"]
+        rows.append((f"Generic EKF, odometry with gyro bias and range scale (5 states), {results['odometry_epochs']} "
+                     f"epochs × {results['odometry_beacons']} beacons with missing ranges, one run",
+                     f"{o:.2f} s", _target("odometry_ekf_s", t, " s"), _status("odometry_ekf_s", o, t)))
     pf = results["pf_steps_per_s"]
     rows.append((f"Bootstrap PF, paper C depth/speed/pitch model, N = {sizes['pf_particles']}, "
                  f"{sizes['pf_steps']} steps (systematic resampling every step)",
@@ -520,6 +602,12 @@ def render_table(results: dict[str, Any]) -> str:
         rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
                      f"call (same PF; {batch['runs']} single-run calls: {batch['single_calls_s']:.2f} s)",
                      f"{batch['one_call_s']:.2f} s ({batch['speedup']:.2f}× the single calls)", "(reported)", "–"))
+    depth = results.get("depth_filters")
+    if depth:
+        ms = depth["per_step_ms"]
+        rows.append((f"Chapter 6's depth filters, one run of {depth['steps']} steps, time per step (EKF, bootstrap PF, "
+                     "GPF, MMPF; N = 1000)",
+                     " / ".join(f"{ms[k]:.2f}" for k in ("EKF", "PF", "GPF", "MMPF")) + " ms", "(reported)", "–"))
     widgets = results["widgets_ms"]
     if not widgets:
         rows.append(("Widget compute functions", results["widgets_note"], _target("widget_ms", t, " ms"), "–"))
@@ -575,6 +663,14 @@ def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
     page.write_text(text[:start] + "\n" + render_table(results) + "\n" + text[end:], encoding="utf-8")
 
 
+#: The benchmarks ``--only`` can run alone.
+SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
+    "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
+    "navigate": bench_navigate, "pf": bench_pf,
+    "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters,
+}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--save", action="store_true",
@@ -582,6 +678,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=5, help="timing repeats; the best is kept (default 5)")
     parser.add_argument("--no-browser", action="store_true",
                         help="skip the widget latency in JupyterLab (needs Debian's chromium and playwright)")
+    parser.add_argument("--only", choices=sorted(SINGLE_BENCHMARKS),
+                        help="run one benchmark and print its numbers (nothing is saved)")
     parser.add_argument("--memory-probe", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.memory_probe:
@@ -589,6 +687,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.repeats < 1:
         parser.error("--repeats must be >= 1")
+    if args.only:
+        if args.save:
+            parser.error("--only cannot be combined with --save (the table needs every benchmark)")
+        print(json.dumps(SINGLE_BENCHMARKS[args.only](args.repeats), indent=2, sort_keys=True))
+        return 0
     print("Running the uwtutor benchmarks (about a minute)...", flush=True)
     results = run_all(args.repeats, browser=not args.no_browser)
     print()

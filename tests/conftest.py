@@ -3,61 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
-import re
-import shutil
+import json
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-BUILD_DIR = REPO / "_build"
-HTML_DIR = BUILD_DIR / "html"
-BUILD_LOG = BUILD_DIR / "book-build.log"
-BUILD_TIMEOUT = 3600  # seconds; the notebooks run in this build unless cached
-
-# The build command of `make book`, in the strict form: warnings are errors (-W), nitpicky
-# cross-references (-n), every warning reported (--keep-going), every page re-read (--all: without
-# it an unchanged page with a warning is not re-read and the rebuild passes).
-BUILD_CMD = ["build", "--all", "-W", "-n", "--keep-going", "."]
-
-_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
-
-
-def jupyter_book_exe() -> str:
-    """The jupyter-book of the running interpreter's environment (the project's venv)."""
-    beside = Path(sys.executable).with_name("jupyter-book")
-    if beside.exists():
-        return str(beside)
-    found = shutil.which("jupyter-book")
-    if not found:
-        pytest.fail("jupyter-book is not installed in this environment: run `make setup`")
-    return found
-
-
-def toc_docnames(toc_path: Path = REPO / "_toc.yml") -> list[str]:
-    """Every page of the book's table of contents, root first, in reading order."""
-    import yaml  # PyYAML: a dependency of jupyter-book
-
-    toc = yaml.safe_load(toc_path.read_text(encoding="utf-8"))
-    names: list[str] = [toc["root"]]
-
-    def walk(node):
-        if isinstance(node, dict):
-            if "file" in node:
-                names.append(node["file"])
-            for key in ("parts", "chapters", "sections", "subtrees", "entries"):
-                if key in node:
-                    walk(node[key])
-        elif isinstance(node, list):
-            for item in node:
-                walk(item)
-
-    walk({k: v for k, v in toc.items() if k != "root"})
-    # Drop source suffixes: _toc.yml may name `book/ch01.ipynb` or `book/ch01`.
-    return [re.sub(r"\.(md|ipynb|rst)$", "", n) for n in names]
+from book_paths import (BUILD_CMD, BUILD_DIR, BUILD_LOG, BUILD_TIMEOUT, HTML_DIR, REPO, _ANSI,  # noqa: F401 (re-exported)
+                        jupyter_book_exe, toc_docnames)
 
 
 @dataclasses.dataclass
@@ -73,8 +27,30 @@ class BookBuild:
 
 
 @pytest.fixture(scope="session")
-def book_build() -> BookBuild:
-    """Run the strict Jupyter Book build once per session (cheap when the execution cache is warm)."""
+def book_build(tmp_path_factory, worker_id) -> BookBuild:
+    """Run the strict Jupyter Book build once per test session, whichever worker asks first.
+
+    Under pytest-xdist each worker has its own session fixtures; the build tests and the browser tests may
+    run in two workers, and two builds in one ``_build/`` would trample each other. The first worker to ask
+    builds under a file lock and records the result; the others wait for the lock and read it.
+    """
+    if worker_id == "master":  # no xdist: this process is the whole session
+        return _run_book_build()
+    from filelock import FileLock
+
+    shared = tmp_path_factory.getbasetemp().parent  # one folder for every worker of this run
+    record = shared / "book-build.json"
+    with FileLock(str(shared / "book-build.lock")):
+        if record.exists():
+            data = json.loads(record.read_text())
+            return BookBuild(data["returncode"], data["output"], data["seconds"])
+        build = _run_book_build()
+        record.write_text(json.dumps({"returncode": build.returncode, "output": build.output,
+                                      "seconds": build.seconds}))
+        return build
+
+
+def _run_book_build() -> BookBuild:
     BUILD_DIR.mkdir(exist_ok=True)
     start = time.perf_counter()
     try:
@@ -95,33 +71,3 @@ def book_build() -> BookBuild:
     output = _ANSI.sub("", proc.stdout)
     BUILD_LOG.write_text(output)
     return BookBuild(proc.returncode, output, seconds)
-
-
-# --- nbval -----------------------------------------------------------------------------------
-
-def pytest_configure(config):
-    if getattr(config.option, "nbval", False):
-        _nbval_runs_cells_like_jupyter()
-
-
-def _nbval_runs_cells_like_jupyter() -> None:
-    """Make nbval execute cells with ``store_history=True``, as Jupyter and nbclient do.
-
-    nbval >= 0.10 sends ``store_history=False``, and IPython then ignores a trailing ``;``
-    (it looks for the ``;`` in the last *stored* input: ipython/ipython#14162,
-    computationalmodelling/nbval#194): ``plt.plot(...);`` gains an ``[<Line2D ...>]`` output that the
-    committed notebook does not have and the strict comparison fails. Storing history restores
-    what the notebooks were executed with (tools/execute_notebooks.py uses nbclient).
-    """
-    try:
-        from nbval.kernel import RunningKernel
-    except ImportError:
-        return
-    if getattr(RunningKernel.execute_cell_input, "_stores_history", False):
-        return
-
-    def execute_cell_input(self, cell_input, allow_stdin=None):
-        return self.kc.execute(cell_input, store_history=True, allow_stdin=allow_stdin, stop_on_error=False)
-
-    execute_cell_input._stores_history = True
-    RunningKernel.execute_cell_input = execute_cell_input

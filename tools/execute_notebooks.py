@@ -4,7 +4,8 @@ Usage: ``python tools/execute_notebooks.py book [more notebooks or folders...]``
 
 Every chapter is a notebook whose outputs are committed and compared by nbval, so after changing a chapter or
 the library run ``make notebooks`` and commit the result. Execution is deterministic by construction (seeded
-``numpy.random.default_rng``, no timings in outputs); widget state is stored so the HTML can show widgets.
+``numpy.random.default_rng``, no timings in outputs, no digit that depends on the CPU: ``tools/cpu_variants.py``);
+widget state is stored so the HTML can show widgets.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from pathlib import Path
 import nbformat
 from nbclient import NotebookClient
 
-from uwtutor.exercises.generate import KERNELSPEC
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import cpu_variants  # noqa: E402  (tools/cpu_variants.py: the CPU the committed outputs are made on)
+from uwtutor.exercises.generate import KERNELSPEC  # noqa: E402
 
 
 def notebooks_in(paths: list[str]) -> list[Path]:
@@ -40,7 +43,10 @@ def execute(path: Path) -> None:
     nb.metadata.pop("jupytext", None)
     client = NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}},
                             store_widget_state=True)
-    client.execute()
+    # The kernel plays the CPU of cpu_variants.MAKE; `make test` checks the outputs on another (CHECK).
+    client.execute(env=cpu_variants.kernel_env(cpu_variants.MAKE))
+    for cell in nb.cells:  # execution timestamps: noise in every diff
+        cell.metadata.pop("execution", None)
     nbformat.write(nb, path)
     print(f"executed {path}")
 

@@ -41,6 +41,7 @@ observable exactly when :math:`J` has full rank.
 ``mirror_point``                       the reflection of a point across a line through the beacon
 ``error_ellipse``                      points of a covariance ellipse, for plots
 ``posterior_crlb``                     the posterior bound of a filter with process noise (and bias, current)
+``model_posterior_crlb``               the posterior bound of any motion/measurement model pair on a true track
 =====================================  ==============================================================================
 
 Degenerate geometry is a normal case, never a crash and never a silent finite number: a singular information
@@ -70,10 +71,11 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
-                        as_information, as_int, as_positive)
+from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
+                        as_in_range, as_information, as_int, as_positive)
 from .errors import IllConditionedError, UnobservableWarning, warn
-from .models.range import line_of_sight
+from .models.base import MeasurementModel, MotionModel
+from .models.range import _line_of_sight
 
 __all__ = [
     "DEFAULT_RTOL",
@@ -97,6 +99,7 @@ __all__ = [
     "mirror_point",
     "error_ellipse",
     "posterior_crlb",
+    "model_posterior_crlb",
 ]
 
 #: Relative tolerance on the singular values of a column-scaled Jacobian (on the square roots of the eigenvalues of
@@ -120,7 +123,7 @@ def _warn(message: str) -> None:
 # validation helpers
 # ---------------------------------------------------------------------------------------------------------------------
 def _as_points(name: str, value: Any, *, min_ndim: int = 1) -> np.ndarray:
-    p = as_finite(name, value)
+    p = as_finite(name, value, max_abs=MAX_COORDINATE)
     if p.ndim < min_ndim or p.shape[-1] != 2:
         want = "(2,)" if min_ndim == 1 else "(N, 2)"
         raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis, e.g. shape {want}; got shape "
@@ -197,7 +200,7 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     p = _as_points("position", position)
     b = _as_points("beacons", beacons)
     p, b = _broadcast("position", p, "beacons", b)
-    _, los, defined = line_of_sight(p, b)
+    _, los, defined = _line_of_sight(p, b)
     if not defined.all():
         _warn(f"the position coincides with a beacon at {int((~defined).sum())} place(s): the range is not "
               "differentiable there, so that range is given no information (a zero Jacobian row)")
@@ -1123,6 +1126,10 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
                              "with the time of x0")
         return None
     t = as_finite("times", times, ndim=1)
+    if len(t) in (k, k + 1) and np.any(np.diff(t) <= 0):      # checked even where the times are not used
+        step = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise ValueError(f"times must increase strictly; times[{step + 1}] = {t[step + 1]:g} follows "
+                         f"times[{step}] = {t[step]:g}")
     if len(t) == k + 1:
         if not current:
             return None
@@ -1162,6 +1169,10 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
     bad = np.isnan(s) | (s <= 0)
     if bad.any():
         raise ValueError(f"sigma must be > 0 (np.inf for an epoch without a range); got {s[bad].flat[0]}")
+    small = s < 1e-150
+    if small.any():
+        raise ValueError(f"sigma must be at least 1e-150 (1 / sigma^2 overflows float64 below it); got "
+                         f"{s[small].flat[0]:.3g}. Change its units")
     try:
         s = np.broadcast_to(s, shape)
     except ValueError:
@@ -1353,7 +1364,7 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
 
     pb = np.broadcast_to(p, (M, K, 2))
     bb = np.broadcast_to(b, (M, K, 2))
-    _, los, defined = line_of_sight(pb, bb)
+    _, los, defined = _line_of_sight(pb, bb)
     if not defined.all():
         j, k = (int(i) for i in np.argwhere(~defined)[0])
         _warn(f"positions coincide with the beacon at {np.count_nonzero(~defined)} epoch(s) (the first: run {j}, "
@@ -1385,5 +1396,230 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
         J = _sym(J_pred) + info[:, k]
         J = _sym(J)
         bounds[:, k] = _sym(_spd_inverse(J))
+    out = bounds if full else bounds[..., :2, :2]
+    return out if batched else out[0]
+
+
+def _runs_axis(name: str, a: np.ndarray, single_ndim: int) -> int | None:
+    return a.shape[0] if a.ndim == single_ndim + 1 else None
+
+
+def _as_batch(value: Any, M: int, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """A model's matrix (shape) or (M,) + shape as (M,) + shape."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape == shape:
+        return np.broadcast_to(arr, (M,) + shape)
+    if arr.shape == (M,) + shape:
+        return arr
+    raise ValueError(f"{what} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
+
+
+def _measured_mask(measured: Any, M: int, K: int, m: int) -> np.ndarray:
+    """``measured`` as a bool array (M, K, m): (K,), (K, m), (M, K) or (M, K, m); None: every component."""
+    if measured is None:
+        return np.ones((M, K, m), dtype=bool)
+    arr = np.asarray(measured)
+    if arr.dtype != bool:
+        raise TypeError(f"measured must be a bool array, True where a measurement is present (e.g. "
+                        f"np.isfinite(z)); got dtype {arr.dtype}")
+    if arr.shape == (K,):
+        out = arr[None, :, None]
+    elif arr.shape == (K, m):
+        out = arr[None]
+    elif arr.ndim == 2 and arr.shape[1] == K:
+        out = arr[:, :, None]
+    elif arr.ndim == 3 and arr.shape[1:] == (K, m):
+        out = arr
+    else:
+        raise ValueError(f"measured must have shape ({K},), ({K}, {m}), (M, {K}) or (M, {K}, {m}); got {arr.shape}")
+    if out.shape[0] not in (1, M):
+        raise ValueError(f"measured has {out.shape[0]} runs but the other inputs have {M}")
+    return np.broadcast_to(out, (M, K, m))
+
+
+def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) -> np.ndarray:
+    r""":math:`(Q + F J^{-1} F^T)^{-1}` for stacks (M, n, n), without inverting J when F is invertible."""
+    eye = np.eye(J.shape[-1])
+    try:
+        F_inv = np.linalg.inv(F)
+        ok = bool(np.isfinite(F_inv).all())
+    except np.linalg.LinAlgError:
+        ok = False
+    if ok:
+        Jt = np.swapaxes(F_inv, -1, -2) @ J @ F_inv                              # F^-T J F^-1
+        A = eye + Q @ Jt                                                         # eigenvalues >= 1
+        return np.swapaxes(np.linalg.solve(np.swapaxes(A, -1, -2), Jt), -1, -2)  # Jt (I + Q Jt)^-1
+    P_pred = _sym(F @ _spd_inverse(J) @ np.swapaxes(F, -1, -2) + Q)               # a singular F: covariance form
+    try:
+        return _spd_inverse(P_pred)
+    except np.linalg.LinAlgError:
+        raise IllConditionedError(f"the predicted covariance F J^-1 F^T + Q is singular at step {k} (a singular "
+                                  "F with a singular Q): the bound is infinite along some direction") from None
+
+
+def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth: Any, u: Any = None, *,
+                         measured: Any = None, full: bool = False) -> np.ndarray:
+    r"""The posterior Cramér–Rao bound of any motion/measurement model pair, along a given true track.
+
+    For :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`, and :math:`z_k = h_k(x_k) + v_k`,
+    :math:`v_k \sim N(0, R_k)` -- the models of :mod:`uwtutor.models`, as the filters use them -- Tichavský,
+    Muravchik and Nehorai (1998) bound the mean squared error of any estimator of :math:`x_k` by
+    :math:`J_k^{-1}`, with the information recursion (their additive-Gaussian-noise form)
+
+    .. math::
+
+        J_0 = P_0^{-1}, \qquad
+        J_k = \left(Q_k + F_k J_{k-1}^{-1} F_k^\mathsf{T}\right)^{-1} + H_k^\mathsf{T} R_k^{-1} H_k,
+
+    with :math:`F_k = \partial f / \partial x` at the true :math:`x_{k-1}` (and the input :math:`u_k`),
+    :math:`Q_k` and :math:`R_k` the models' noise there, and :math:`H_k = \partial h_k / \partial x` at the true
+    :math:`x_k`. Components of :math:`z_k` that are not measured are skipped (:math:`H_k` and :math:`R_k`
+    restricted to those measured, as the filters update); a step without any measurement only predicts. As in
+    :func:`posterior_crlb` (its special case for dead reckoning with a range bias and a current), the expectation
+    over the true states is evaluated on the one track given: a first-order approximation, good while the true
+    track is known to a small fraction of the ranges; pass the sampled tracks of a Monte Carlo study (a runs
+    axis) for one bound per track.
+
+    The recursion never inverts :math:`J`: with :math:`\tilde J = F_k^{-\mathsf{T}} J_{k-1} F_k^{-1}`,
+    :math:`(Q_k + \tilde J^{-1})^{-1} = \tilde J (I + Q_k \tilde J)^{-1}`, which holds for a singular
+    :math:`Q_k` (constant states: a range scale, a bias) and a nearly uninformative :math:`P_0`; a singular
+    :math:`F_k` falls back to the covariance form.
+
+    Parameters
+    ----------
+    motion : uwtutor.models.MotionModel
+        :math:`F` and :math:`Q` (``f`` itself is not used: the true states are given).
+    measurement : uwtutor.models.MeasurementModel
+        :math:`H` (through ``linearize``) and :math:`R`.
+    x0 : array_like, shape (n,) or (M, n)
+        The true state before the first step (where :math:`F_0` is evaluated).
+    P0 : array_like, shape (n, n) or (M, n, n)
+        The prior covariance of ``x0`` (positive definite).
+    truth : array_like, shape (K, n) or (M, K, n)
+        The true states after each step, where :math:`H_k` is evaluated (the epochs of the filter's ``x``).
+    u : array_like, shape (K, p) or (M, K, p), optional
+        The inputs of the steps (e.g. the odometry), as the filter gets them.
+    measured : array_like of bool, optional
+        Where a measurement is present: ``(K,)`` per step, ``(K, m)`` per component, or with a runs axis
+        ``(M, K)``, ``(M, K, m)``; e.g. ``np.isfinite(z)``. Default: every component at every step.
+    full : bool, default False
+        Return the bound of the whole state, not only of the position ``x[..., :2]``.
+
+    Returns
+    -------
+    ndarray, shape (K, 2, 2), or (K, n, n) with ``full``; a leading runs axis when an input had one
+        The bound :math:`J_k^{-1}` after step :math:`k`'s measurement.
+
+    Warns
+    -----
+    UnobservableWarning
+        Where the model says its Jacobian is undefined for a measured component (a position on a beacon): that
+        component adds no information.
+
+    See Also
+    --------
+    posterior_crlb : the bound of dead reckoning with one range (and a bias, a current), in closed form.
+
+    References
+    ----------
+    P. Tichavský, C. H. Muravchik and A. Nehorai, "Posterior Cramér–Rao bounds for discrete-time nonlinear
+    filtering", IEEE Trans. Signal Process. 46(5), 1386–1396, 1998 (eqs. 21-22 and the additive Gaussian case).
+
+    Examples
+    --------
+    Wheel odometry with a range scale, four beacons: the bound of the position and of the scale along a loop.
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BeaconRanges, OdometryMotion
+    >>> from uwtutor.observability import model_posterior_crlb, rmse_bound
+    >>> motion = OdometryMotion(sigma_distance=0.05, sigma_heading=0.01, scale=True)
+    >>> ranges = BeaconRanges([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]], R=0.1**2, layout=motion.layout)
+    >>> u = np.tile([[1.0, 2 * np.pi / 100]], (100, 1))                 # a circle of 100 m
+    >>> x0 = np.array([20.0, 15.0 - 100 / (2 * np.pi), 0.0, 1.07])
+    >>> truth = motion.integrate(x0, u)
+    >>> bound = model_posterior_crlb(motion, ranges, x0, np.diag([4.0, 4.0, 0.1, 0.01]), truth, u, full=True)
+    >>> bound.shape
+    (100, 4, 4)
+    >>> print(f"position {rmse_bound(bound[-1]):.2f} m, scale {np.sqrt(bound[-1, 3, 3]):.1e}")
+    position 0.07 m, scale 2.7e-04
+    """
+    if not isinstance(motion, MotionModel):
+        raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
+    if not isinstance(measurement, MeasurementModel):
+        raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
+    n, m = motion.n, measurement.m
+    if measurement.n != n:
+        raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's state "
+                         f"has size {n}: build both for the same state")
+    x0 = as_finite("x0", x0, ndim=(1, 2))
+    truth = as_finite("truth", truth, ndim=(2, 3), nonempty=True)
+    for name, a in (("x0", x0), ("truth", truth)):
+        if a.shape[-1] != n:
+            raise ValueError(f"{name} must have {n} entries per state (the models' state size); got shape {a.shape}")
+    K = truth.shape[-2]
+    P0 = as_covariance("P0", P0, n)
+    if P0.ndim not in (2, 3):
+        raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
+    if u is not None:
+        u = as_finite("u", u, ndim=(2, 3))
+        if u.shape[-2] != K:
+            raise ValueError(f"u must give one input per step ({K} steps, as truth); got shape {u.shape}")
+    sizes = {name: size for name, size in (("x0", _runs_axis("x0", x0, 1)), ("truth", _runs_axis("truth", truth, 2)),
+                                           ("P0", _runs_axis("P0", P0, 2)),
+                                           ("u", None if u is None else _runs_axis("u", u, 2)))
+             if size is not None}
+    if measured is not None and np.ndim(measured) == 3:
+        sizes["measured"] = np.shape(measured)[0]
+    if len(set(sizes.values())) > 1:
+        described = ", ".join(f"{name} has {size}" for name, size in sizes.items())
+        raise ValueError(f"the inputs disagree on the number of runs M: {described}")
+    M = next(iter(sizes.values()), 1)
+    batched = bool(sizes)
+    xs = np.broadcast_to(truth, (M, K, n))
+    x_prev = np.array(np.broadcast_to(x0, (M, n)))
+    uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))
+    present_all = _measured_mask(measured, M, K, m)
+
+    J = np.array(np.broadcast_to(_spd_inverse(P0), (M, n, n)))
+    bounds = np.empty((M, K, n, n))
+    singular = 0
+    for k in range(K):
+        u_k = None if uu is None else uu[:, k]
+        F = _as_batch(motion.F(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.F")
+        Q = _as_batch(motion.Q(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.Q")
+        for method, value in (("F", F), ("Q", Q)):
+            if not np.isfinite(value).all():
+                raise ValueError(f"{type(motion).__name__}.{method} returned a non-finite value at step {k}")
+        J = _sym(_predicted_information(J, F, Q, k))
+        x_k = np.ascontiguousarray(xs[:, k])
+        present = present_all[:, k]
+        if present.any():
+            _, H, defined = measurement.linearize(x_k, k)
+            H = np.asarray(H, dtype=float)
+            if H.shape != (M, m, n):
+                raise ValueError(f"{type(measurement).__name__}'s H must have shape ({M}, {m}, {n}); got {H.shape}")
+            d = np.asarray(defined, dtype=bool)
+            d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
+            if (present & ~d).any():
+                singular += int((present & ~d).sum())
+            present = present & d
+            R = _as_batch(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
+            bad = present & ~np.isfinite(H).all(axis=-1)
+            if bad.any():
+                raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
+                                 f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+            both = present[:, :, None] & present[:, None, :]
+            if (both & ~np.isfinite(R)).any():
+                raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
+                                 "measurement is present")
+            Hm = np.where(present[:, :, None], H, 0.0)
+            Rm = np.where(both, R, np.eye(m))
+            J = J + np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm)            # H^T R^-1 H
+            J = _sym(J)
+        bounds[:, k] = _sym(_spd_inverse(J))
+        x_prev = x_k
+    if singular:
+        _warn(f"the Jacobian is undefined for {singular} measured component(s) (a position on a beacon): those "
+              "measurements add no information")
     out = bounds if full else bounds[..., :2, :2]
     return out if batched else out[0]

@@ -32,7 +32,7 @@ from ..filters import bias_ekf, extended_kalman_filter
 from ..metrics import chi2_mean_bounds
 from ..models import (BiasRateDeadReckoning, RangeToBeacon, bias_rate_process_noise, paper_a_process_noise)
 from ..scenarios import paper_a
-from .checks import check_array, check_number, not_answered, read_letter
+from .checks import check_array, check_number, not_answered, parse_real_array, read_letter
 from .feedback import Feedback
 
 __all__ = [
@@ -196,7 +196,10 @@ def check_weak_direction(answer: Any) -> Feedback:
     weak, strong, across = _weak_direction()
     if answer is None or answer is Ellipsis:
         return not_answered("the unit vector [vx, vy, v_bias] (a NumPy array of 3 numbers)")
-    v = np.asarray(answer, dtype=float).ravel()
+    v, refusal = parse_real_array(answer, "the direction")
+    if refusal is not None:
+        return refusal
+    v = v.ravel()
     if v.shape != (3,):
         return Feedback(False, f"Not yet: the direction has one component per state [x, y, bias]: 3 numbers; got "
                                f"{v.size}.", hint="Take a row of Vt from np.linalg.svd(A) (A is N x 3).")
@@ -243,8 +246,8 @@ def check_start_count(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; the 0-based index (one fewer), the count for paper A's threshold of 2, for ``<=`` instead of
-        ``<`` when it differs, and for the position-only precision factor are recognised.
+        The verdict; the 0-based index (one fewer), one more than the count, the count for paper A's threshold of 2,
+        for ``<=`` instead of ``<`` when it differs, and for the position-only precision factor are recognised.
     """
     track = _arc()
     alpha = lsq.precision_factor_history(track)
@@ -256,6 +259,9 @@ def check_start_count(answer: Any) -> Feedback:
         float(n - 1): "That is the 0-based index of the epoch; the question asks for the number of ranges (index + 1).",
         float(n_pos): "That is the precision factor of the position alone; paper A's has the bias column too "
                       "(unknown_bias=True, the default).",
+        float(n + 1): "One range too many (an off-by-one, not a rounding): np.argmax(alpha < 1.0) is the 0-based "
+                      "index of the first range with α < 1, and the count is that index + 1. Adding 2, or a track "
+                      "with an extra starting point, gives one more.",
     }
     if n2 != n:
         mistakes[float(n2)] = f"That is the count for paper A's threshold α < 2; this exercise asks for α < " \

@@ -35,7 +35,7 @@ from ..filters.cooperative import cooperative_ekf
 from ..models.cooperative import SquaredRangePair
 from ..owtt import clock_range_error, resolve_travel_time
 from ..scenarios import paper_b
-from .checks import Case, check_array, check_function, check_number
+from .checks import Case, check_array, check_function, check_number, parse_real_array, run_student
 from .feedback import Feedback
 
 __all__ = [
@@ -235,22 +235,35 @@ def check_pair_jacobian(func: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; paper B's literal Jacobian (evaluated at the prediction as printed) is recognised.
+        The verdict; paper B's literal Jacobian (evaluated at the prediction as printed) and the Jacobian of the
+        ranges instead of the squared ranges are recognised.
     """
     cases = _jacobian_cases()
     x, b0, b1, u, dt = cases[0].args
     literal = SquaredRangePair(np.stack([b0, b1]), u[None], dt, np.eye(10), literal=True).H(x[None], 0)[0]
     if callable(func):
-        try:
-            got = np.asarray(func(x.copy(), b0.copy(), b1.copy(), u.copy(), dt), dtype=float)
-        except Exception:  # noqa: BLE001 - check_function below reports the exception with its case
-            got = None
+        value, refusal = run_student(func, x.copy(), b0.copy(), b1.copy(), u.copy(), dt, name="pair_jacobian")
+        if refusal is not None and "timeout" in refusal.details or \
+                refusal is not None and isinstance(refusal.details.get("exception"), SystemExit):
+            return refusal                  # a loop or sys.exit(): no need to run it on every case
+        got = None
+        if refusal is None:
+            got, _ = parse_real_array(value, "the Jacobian")
         if got is not None and got.shape == literal.shape and np.allclose(got, literal, rtol=1e-9, atol=1e-9):
             return Feedback(False, "Not yet: that is paper B's Jacobian evaluated at the predicted state as printed "
                                    "(eq. 11 with x_(k+1|k) in place of x_k).",
                             hint="The predicted state is *after* the move. Write r_k² through p_k = p − u_k − δt·U: "
                                  "the current then appears in row 1 (as −2δt·s_k), and row 2 has none.",
                             details={"mistake": "literal"})
+        if got is not None and got.shape == literal.shape:
+            ref = pair_jacobian_reference(x, b0, b1, u, dt)
+            ranges = np.linalg.norm(ref[:, :2], axis=-1)          # |2 s| = 2 r on each row
+            if np.allclose(got * ranges[:, None], ref, rtol=1e-6, atol=1e-9):
+                return Feedback(False, "Not yet: that is the Jacobian of the ranges [r_k, r_(k+1)], each row divided "
+                                       "by 2r; paper B measures the squared ranges.",
+                                hint="d(r²)/dx = 2s, not s/‖s‖: drop the division by the range (the rows are "
+                                     "[2s_k, −2δt·s_k] and [2s_(k+1), 0, 0]).",
+                                details={"mistake": "ranges"})
     compare = lambda got, expected: check_array(got, expected, rtol=1e-9, atol=1e-9, name="the Jacobian")  # noqa
     return check_function(func, pair_jacobian_reference, cases, name="pair_jacobian", compare=compare,
                           hint="Rows [2s_k, −2δt·s_k] and [2s_(k+1), 0, 0] with s_k = p − u_k − δt·U − p^M_k and "

@@ -7,7 +7,7 @@ from .depth_ekf import DepthEKF
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
-from .gates import ChiSquareGate, Gate, GateContext
+from .gates import ChiSquareGate, Gate, GateContext, ReacquiringGate
 from .kalman import KalmanFilter
 from .staggered import StaggeredRun, filter_from_start_epochs
 from .robust import RobustGate, SecondMomentGate, cascade_kf, robust_range_kf
@@ -26,7 +26,7 @@ from .particle import (
 
 __all__ = [
     "Filter", "FilterResult", "run_filter", "KalmanFilter",
-    "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate",
+    "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate", "ReacquiringGate",
     "StaggeredRun", "filter_from_start_epochs",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",

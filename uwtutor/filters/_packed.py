@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_int, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_range_array
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 
 ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
@@ -183,15 +183,60 @@ def check_psd(s: np.ndarray, R: Any) -> None:
 
 # --- validation -------------------------------------------------------------------------------------------------
 
-def noise_parameters(Q: Any, R: Any) -> tuple[np.ndarray, float, np.ndarray]:
+def noise_parameters(Q: Any, R: Any, n_steps: int | None = None,
+                     where: str = "range_only_ekf") -> tuple[np.ndarray, Any, np.ndarray]:
+    """``Q`` (2, 2) and the range variance ``R`` (a float); with ``n_steps`` also one per step: ``Q`` (K, 2, 2) and
+    ``R`` (K,) (NaN allowed at steps without a range). Returns ``(Q, R, q4)`` with ``q4`` the packed ``[Qxx, Qxy,
+    Qxy, Qyy]`` as a (4, 1) column, or (K, 4, 1) per step."""
     Q = as_covariance("Q", Q, 2, allow_singular=True)
-    if Q.shape != (2, 2):
-        raise ValueError(f"Q must be one 2x2 matrix shared by all runs; got shape {Q.shape}")
+    per_step = n_steps is not None and Q.shape == (n_steps, 2, 2)
+    if Q.shape != (2, 2) and not per_step:
+        if n_steps is None:
+            raise ValueError(f"Q must be one 2x2 matrix shared by all runs; got shape {Q.shape} (one Q per step is "
+                             f"taken by {where}'s functional form)")
+        raise ValueError(f"Q must be one 2x2 matrix shared by all runs, or one per step ({n_steps}, 2, 2); got shape "
+                         f"{Q.shape}")
+    R_val = range_variances(R, n_steps)
+    if per_step:
+        q4 = np.stack([Q[:, 0, 0], Q[:, 0, 1], Q[:, 0, 1], Q[:, 1, 1]], axis=1)[:, :, None]
+    else:
+        q4 = np.array([Q[0, 0], Q[0, 1], Q[0, 1], Q[1, 1]]).reshape(4, 1)
+    return Q, R_val, q4
+
+
+def range_variances(R: Any, n_steps: int | None = None) -> Any:
+    """The range variance: a float (from a scalar or a 1x1 matrix), or, with ``n_steps``, one per step (K,),
+    > 0, NaN allowed at steps without a range."""
+    R_arr = as_float_array("R", R)
+    if n_steps is not None and R_arr.ndim == 1:
+        if R_arr.shape != (n_steps,):
+            raise ValueError(f"R must be the range variance, or one per step ({n_steps},); got shape {R_arr.shape}")
+        bad = np.isinf(R_arr) | (R_arr <= 0)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"R must hold range variances > 0 (NaN at a step without a range); got {R_arr[k]:g} at "
+                             f"step {k}")
+        return R_arr
+    if n_steps is None and R_arr.ndim == 1 and R_arr.size > 1:
+        raise ValueError(f"R must be one range variance here; got shape {R_arr.shape} (one variance per step is "
+                         "taken by the functional forms range_only_ekf and bias_ekf)")
     R_arr = as_covariance("R", R, 1)
     if R_arr.shape != (1, 1):
-        raise ValueError(f"R must be the range variance, a scalar (or a 1x1 matrix); got shape {R_arr.shape}")
-    q4 = np.array([Q[0, 0], Q[0, 1], Q[0, 1], Q[1, 1]]).reshape(4, 1)
-    return Q, float(R_arr[0, 0]), q4
+        per = f", or one variance per step ({n_steps},)" if n_steps is not None else ""
+        raise ValueError(f"R must be the range variance, a scalar (or a 1x1 matrix){per}; got shape {R_arr.shape}")
+    return float(R_arr[0, 0])
+
+
+def check_variances_where_measured(R: Any, z: np.ndarray) -> Any:
+    """Per-step range variances ``R`` (K,) may be NaN only where no range is present in ``z`` (..., K): refuse one
+    where a range is present; return ``R`` with those NaNs replaced by 1 (any finite value: they are not used)."""
+    if not isinstance(R, np.ndarray) or not np.isnan(R).any():
+        return R
+    bad = np.isnan(R) & np.isfinite(z).reshape(-1, z.shape[-1]).any(axis=0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"R is NaN at step {k}, where a range is present: give its variance")
+    return np.where(np.isnan(R), 1.0, R)
 
 
 def fixed_beacon(beacon: Any) -> tuple[float, float]:

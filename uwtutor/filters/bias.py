@@ -45,6 +45,7 @@ import numpy as np
 
 from .. import lsq
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
+from ._packed import range_variances
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
 from .staggered import filter_from_start_epochs
@@ -53,23 +54,26 @@ from .engine import ExtendedKalmanFilter, extended_kalman_filter
 __all__ = ["bias_ekf", "BiasEKF", "prepositioned_bias_ekf"]
 
 
-def _bias_models(Q: Any, R: Any, beacon: Any) -> tuple[DeadReckoning, RangeToBeacon]:
-    """Paper A's model pair: DR with a random-walk bias, range plus bias (state [x, y, bias])."""
+def _bias_models(Q: Any, R: Any, beacon: Any, n_steps: int | None = None) -> tuple[DeadReckoning, RangeToBeacon]:
+    """Paper A's model pair: DR with a random-walk bias, range plus bias (state [x, y, bias]); with ``n_steps``,
+    ``Q`` (K, 3, 3) and ``R`` (K,) may give one value per step."""
     Q = as_covariance("Q", Q, 3, allow_singular=True)
-    if Q.shape != (3, 3):
+    if Q.shape != (3, 3) and not (n_steps is not None and Q.shape == (n_steps, 3, 3)):
+        per = f", or one per step ({n_steps}, 3, 3)" if n_steps is not None else ""
         raise ValueError(f"Q must be one 3x3 matrix diag(sigma_x^2, sigma_y^2, sigma_bias^2) for the state "
-                         f"[x, y, bias]; got shape {Q.shape}")
-    R = float(as_positive("R", R, ndim=0))
+                         f"[x, y, bias]{per}; got shape {Q.shape}")
+    R = range_variances(R, n_steps)
     return DeadReckoning(Q), RangeToBeacon(beacon, R, n=3, bias_index=2)
 
 
 def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0),
-             times: Any = None) -> FilterResult:
+             times: Any = None, *, gate: Any = None) -> FilterResult:
     r"""Run paper A's IEKF (state ``[x, y, bias]``) over whole sequences, one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]`` (the bias is kept, its variance grows by
     ``Q[2, 2]``) and updates with the range ``z[..., k]`` (equations in the module docstring). A NaN range
-    means no reply: predict only.
+    means no reply: predict only. ``Q`` and ``R`` may change from step to step; a ``gate`` tests each range
+    before it is used.
 
     Parameters
     ----------
@@ -81,21 +85,24 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
         DR displacement from epoch ``k - 1`` to epoch ``k`` [m].
     z : array_like, shape (K,) or (M, K)
         Measured ranges [m], NaN where missing.
-    Q : array_like, shape (3, 3)
-        Process noise per epoch (e.g. ``uwtutor.models.bias.paper_a_process_noise``) [m²].
-    R : float
-        Variance of the white part :math:`\eta_k` of the range error [m²], > 0.
+    Q : array_like, shape (3, 3) or (K, 3, 3)
+        Process noise per epoch (e.g. ``uwtutor.models.bias.paper_a_process_noise``) [m²]; or one per epoch.
+    R : float or array_like, shape (K,)
+        Variance of the white part :math:`\eta_k` of the range error [m²], > 0; or one per epoch (NaN allowed
+        where there is no range).
     beacon : array_like, shape (2,), (K, 2) or (M, K, 2), optional
         Beacon position: fixed (the origin by default), one per epoch, or one per run and epoch (a moving
         beacon, e.g. the other boat of paper A's lake trial).
     times : array_like, shape (K,), optional
         Epoch times for the result (default ``0..K-1``).
+    gate : uwtutor.filters.Gate, optional
+        An outlier test on each innovation (e.g. ``ReacquiringGate()``); None uses every range.
 
     Returns
     -------
     FilterResult
         ``x`` (…, K, 3) with the bias estimate in ``x[..., 2]``, ``P`` (…, K, 3, 3), the priors, innovations
-        (…, K, 1) and their covariances, ``extras["accepted"]`` (…, K).
+        (…, K, 1) and their covariances, ``extras["accepted"]`` (…, K) (and the gate's per-step outputs).
 
     Raises
     ------
@@ -130,8 +137,9 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     >>> bool(abs(res.x[-1, 2] - 30.0) < 2.0), bool(np.linalg.norm(res.x[-1, :2] - track[-1]) < 3.0)
     (True, True)
     """
-    motion, measurement = _bias_models(Q, R, beacon)
-    return extended_kalman_filter(motion, measurement, x0, P0, u, z, times=times)
+    zz = as_float_array("z", z)
+    motion, measurement = _bias_models(Q, R, beacon, zz.shape[-1] if zz.ndim else None)
+    return extended_kalman_filter(motion, measurement, x0, P0, u, z, times=times, gate=gate)
 
 
 class BiasEKF(ExtendedKalmanFilter):

@@ -22,7 +22,10 @@ code: ``"consistent"`` (the measurement written as a function of the predicted s
 eqs. 11-12 evaluated at the predicted state as printed) and ``"single_range"`` (only :math:`r_{k+1}`, a plain
 range-only EKF to a moving beacon).
 
-A lost message (a NaN range) makes the step predict only: for the pair, a NaN at either end of the interval.
+A lost message (a NaN range) makes the step predict only: for the pair, by default, a NaN at either end of the
+interval (``lost="step"``: paper B's measurement is the pair, and this is what chapter 8's numbers use). With
+``lost="range"`` the pair formulations follow the engine's general rule instead: the step updates with the range
+that did arrive (the squared range at the other end, with its block of :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`).
 
 When the follower's motion relative to the leader is a straight line (a leader that keeps a parallel course), the
 ranges cannot tell the truth from a rotation of the follower about the leader together with its relative velocity,
@@ -47,6 +50,8 @@ __all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "relative_track_d
 
 #: The formulations of paper B's filter that ``CooperativeEKF`` runs.
 FORMULATIONS = ("consistent", "literal", "single_range")
+#: What a pair with one range lost does: the whole step is predict only, or the other range is used.
+LOST_POLICIES = ("step", "range")
 
 
 
@@ -190,6 +195,9 @@ class CooperativeEKF:
     range_variance : float, optional
         The range variance of ``"single_range"`` [m²]; default :math:`R_{11} + R_{33}` (paper B's variances of the
         follower's and the leader's x, as they enter a range).
+    lost : {"step", "range"}, default "step"
+        A pair with one range lost: predict only (``"step"``), or update with the other range (``"range"``, the
+        engine's rule for a vector with missing components).
 
     Attributes
     ----------
@@ -220,9 +228,14 @@ class CooperativeEKF:
     """
 
     def __init__(self, x0: Any, P0: Any, u: Any, leader: Any, dt: Any, Q: Any, R: Any, *,
-                 formulation: str = "consistent", range_variance: Any = None, _n_runs: int | None = None) -> None:
+                 formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
+                 _n_runs: int | None = None) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
+        if lost not in LOST_POLICIES:
+            raise ValueError(f"lost must be one of {LOST_POLICIES} (a pair with one range lost: predict only, or "
+                             f"update with the other range); got {lost!r}")
+        self.lost = lost
         x, P, d, b = _check_inputs(x0, P0, u, leader, _n_runs)
         self.formulation = formulation
         self.u = d
@@ -293,6 +306,8 @@ class CooperativeEKF:
         if z.shape[-1:] != (2,):
             raise ValueError(f"z must be the two ranges [r_k, r_(k+1)] of the step, shape (2,) or (M, 2); got shape "
                              f"{z.shape}")
+        if self.lost == "step":                   # a lost end makes the whole pair missing
+            z = np.where(np.isnan(z).any(axis=-1, keepdims=True), np.nan, z)
         return np.square(z)
 
     def predict(self, u: Any = None) -> None:
@@ -317,7 +332,8 @@ class CooperativeEKF:
 
 
 def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any, Q: Any, R: Any, times: Any = None,
-                    *, formulation: str = "consistent", range_variance: Any = None) -> FilterResult:
+                    *, formulation: str = "consistent", range_variance: Any = None,
+                    lost: str = "step") -> FilterResult:
     r"""Run paper B's cooperative EKF over a whole run (or ``M`` runs at once).
 
     Parameters
@@ -344,6 +360,8 @@ def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any,
         See ``CooperativeEKF``.
     range_variance : float, optional
         For ``"single_range"``.
+    lost : {"step", "range"}, default "step"
+        See ``CooperativeEKF``.
 
     Returns
     -------
@@ -370,7 +388,7 @@ def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any,
     """
     pairs = range_pairs(ranges)
     filt = CooperativeEKF(x0, P0, u, leader, dt, Q, R, formulation=formulation, range_variance=range_variance,
-                          _n_runs=len(pairs) if pairs.ndim == 3 else None)
+                          lost=lost, _n_runs=len(pairs) if pairs.ndim == 3 else None)
     if pairs.shape[-2] != filt.u.shape[-2]:
         raise ValueError(f"ranges must hold K + 1 = {filt.u.shape[-2] + 1} epochs (one more than u's intervals); "
                          f"got {pairs.shape[-2] + 1}")

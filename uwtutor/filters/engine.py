@@ -18,11 +18,25 @@ the covariance update in Joseph form, computed as written (not as an algebraical
 symmetrized, so that :math:`P_k` stays symmetric positive semi-definite under rounding
 (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.2).
 
+.. rubric:: Missing components
+
+A measurement vector may have some components and not others (four beacons, of which two answered). The update
+then uses the components that are present, :math:`z_{k,\mathcal P}` with the rows :math:`H_{k,\mathcal P}` and
+the block :math:`R_{k,\mathcal{PP}}`: the update a model of those components alone would make, and for a
+diagonal :math:`R` the same as updating with them one scalar at a time. It is computed for all runs at once by
+masking: the rows of :math:`H_k` of the missing components are set to zero and their rows and columns of
+:math:`R_k` to those of the identity, which makes :math:`S_k` block-diagonal and the gain's columns of the
+missing components exactly zero. The innovation of a missing component is NaN, and so are its row and column of
+:math:`S_k`. A model's prediction or Jacobian may be NaN for a component that is not measured (it is never
+used); where a measurement *is* present a non-finite value is an error that names the model's method and the
+step.
+
 Every array carries an axis of ``M`` Monte Carlo runs: one call filters a whole study. The covariances are held
 runs-last, ``(n, n, M)``, so that each matrix product is one ``einsum`` over contiguous rows of length ``M``
 (three times faster than ``@`` on stacks of small matrices); the attributes show them as ``(M, n, n)``. A NaN measurement means "no measurement": that run's step is predict only (its gain is
 zero, its innovation NaN). A *gate* (:mod:`uwtutor.filters.gates`) may reject measurements the same way, run by
-run, and then adjust the estimate of the rejected runs.
+run (or component by component), and then adjust the estimate of the rejected runs; per-step values the gate
+names in its ``extra_outputs`` are recorded in the result's ``extras`` next to ``"accepted"``.
 
 Two forms:
 
@@ -48,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_float_array
+from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -72,6 +86,51 @@ def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np
     if arr.shape == (M,) + shape:
         return arr
     raise ValueError(f"the model's {name} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
+
+
+def _not_finite_error(model: Any, method: str, k: int, where: tuple[int, ...], what: str) -> ValueError:
+    """The error for a model that returned NaN or infinity where its value is used."""
+    at = ", ".join(f"{name} {i}" for name, i in zip(("run", "component"), where))
+    return ValueError(f"{type(model).__name__}.{method} returned a non-finite value at step {k} ({at}){what}: "
+                      "the filter cannot use it. Check the model there (a NaN beacon position or parameter, a "
+                      "table that does not cover this step)")
+
+
+def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
+    """A model's "defined" mask, per run (M,) or per component (M, m), as (M, m) (bools only: 0.3 is refused)."""
+    if defined is True or defined is np.True_:        # a model with no singular point may say so once
+        return np.ones((M, m), dtype=bool)
+    d = as_bool_array("the measurement model's linearize (its mask of defined values)", defined, ((M,), (M, m)))
+    if d.shape == (M, m):
+        return d
+    return np.repeat(d[:, None], m, axis=1)
+
+
+class _CovarianceCheck:
+    """Checks a covariance returned by a user's model (symmetric PSD) once per distinct array: a model that returns
+    the same Q at every step pays for one eigendecomposition, not one per step."""
+
+    def __init__(self, name: str) -> None:
+        self.name, self._seen = name, None
+
+    def __call__(self, value: np.ndarray) -> None:
+        if value is self._seen:
+            return
+        check_model_covariance(self.name, value)
+        self._seen = value
+
+
+def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """H (M, m, n) with the rows of the missing components zero, R (M, m, m) with their rows and columns those of
+    the identity: the update with these is the update with the present components alone."""
+    m = present.shape[1]
+    H = np.where(present[:, :, None], H, 0.0)
+    both = present[:, :, None] & present[:, None, :]
+    R = np.where(both, R, _EYES.get(m) if m in _EYES else _EYES.setdefault(m, np.eye(m)))
+    return H, R
+
+
+_EYES: dict[int, np.ndarray] = {}
 
 
 # The covariances of all runs are held runs-last, (n, n, M): every product below is then an einsum over
@@ -208,6 +267,22 @@ class ExtendedKalmanFilter:
         self._accepted = np.zeros(self._M, dtype=bool)
         self._eye = np.eye(n)
         self.k = -1
+        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q")
+        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R")
+        gate_outputs = tuple(getattr(gate, "extra_outputs", ())) if gate is not None else ()
+        clash = set(gate_outputs) & set(dir(type(self)))
+        if clash:
+            raise ValueError(f"the gate's extra_outputs {sorted(clash)} clash with the filter's own attributes: "
+                             "rename them")
+        self._gate_outputs = gate_outputs
+        if gate_outputs:
+            self.extra_outputs = type(self).extra_outputs + gate_outputs
+
+    def __getattr__(self, name: str) -> Any:
+        # the per-step values a gate names in its extra_outputs, read from the gate (runs axis as for x)
+        if name in self.__dict__.get("_gate_outputs", ()):
+            return self._out(np.asarray(getattr(self.gate, name)))
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     # -- state access (views of the filter's arrays; assignment is validated) --
     def _out(self, a: np.ndarray) -> np.ndarray:
@@ -285,11 +360,18 @@ class ExtendedKalmanFilter:
         k = self.k
         M, n = self._M, self.n
         x, P = self._x, self._P
-        F = _batched_matrix("F", self.motion.F(x, u, k), M, (n, n))
-        Q = _batched_matrix("Q", self.motion.Q(x, u, k), M, (n, n))
-        x_new = np.asarray(self.motion.f(x, u, k), dtype=float)
+        x_new, F, Q = self.motion.linearize(x, u, k)
+        F = _batched_matrix("F", F, M, (n, n))
+        Q = _batched_matrix("Q", Q, M, (n, n))
+        x_new = np.asarray(x_new, dtype=float)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
+        for method, value in (("f", x_new), ("F", F), ("Q", Q)):
+            if not np.isfinite(value).all():
+                bad = np.argwhere(~np.isfinite(value))[0]
+                where = (int(bad[0]),) if value.ndim == 3 or method == "f" else ()
+                raise _not_finite_error(self.motion, method, k, where, "")
+        self._check_Q(Q)
         if F.ndim == 2 and np.array_equal(F, self._eye):         # dead reckoning: F = I
             P_new = P.copy()
         elif F.ndim == 2:                                         # one F for every run: F P F^T by BLAS
@@ -318,7 +400,8 @@ class ExtendedKalmanFilter:
         return z
 
     def update(self, z: Any) -> None:
-        """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update."""
+        """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update
+        (a NaN component: the update uses the components that are present)."""
         z = self._measurement(z)
         k = max(self.k, 0)
         M, n, m = self._M, self.n, self.m
@@ -329,26 +412,54 @@ class ExtendedKalmanFilter:
         if H.shape != (M, m, n):
             raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
         R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
-        Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
-        has = np.isfinite(z).all(axis=-1)
+        present = np.isfinite(z)                                     # (M, m)
+        defined = _defined_mask(defined, M, m)
         if not defined.all():
-            if (has & ~defined).any():
+            if (present & ~defined).any():
+                per_run = bool((defined == defined[:, :1]).all())
                 warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
-                     "the update is skipped for that step (predict only)", BeaconSingularityWarning)
-            has = has & defined
+                     + ("the update is skipped for that step (predict only)" if per_run else
+                        "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
+            present = present & defined
+        finite = self._check_used_values(present, z_pred, H, R, k)
+        if finite:
+            self._check_R(R)
+        has = present.any(axis=1)
+        # A run with some components missing, or values that are not finite where nothing is measured: zero rows
+        # of H and identity rows of R, so that the update is the one with the present components. (Runs with all or
+        # none of their components take the plain path, as they always did: the gain of the latter is zeroed.)
+        masked = not finite or bool((has & ~present.all(axis=1)).any())
+        if masked:
+            H, R = _masked(H, R, present)
         Hc = _runs_last(H)                                           # (m, n, M)
+        Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
         PHT = _mm_t(P, Hc)                                           # P H^T, (n, m, M)
         S = _mm(Hc, PHT) + Rc                                        # H P H^T + R, (m, m, M)
         y = self.measurement.residual(z, z_pred)
-        use = has
+        use, used = has, present                                     # per run (M,), per component (M, m)
         if self.gate is not None:
-            ctx = GateContext(k=k, z=z, z_pred=z_pred, y=np.where(has[:, None], y, np.nan),
-                              S=_runs_first(S), H=H, R=R, x_prior=x, P_prior=_runs_first(P))
-            verdict = np.asarray(self.gate.accept(ctx), dtype=bool)
-            if verdict.shape != (M,):
-                raise ValueError(f"the gate's accept must return a bool array of shape ({M},); got {verdict.shape}")
-            use = has & verdict
-        y_used = np.where(use[:, None], y, 0.0)
+            y_gate = np.where(present, y, np.nan)
+            ctx = GateContext(k=k, z=z, z_pred=z_pred, y=y_gate, S=_runs_first(S), H=H, R=R, x_prior=x,
+                              P_prior=_runs_first(P), present=present)
+            verdict = as_bool_array(f"the gate {type(self.gate).__name__}.accept", self.gate.accept(ctx),
+                                    ((M,), (M, m)))
+            if verdict.shape == (M,):
+                use = has & verdict
+            elif verdict.shape == (M, m):
+                used = present & verdict
+                use = used.any(axis=1)
+                narrowed = use & (used != present).any(axis=1)       # some of a run's components rejected
+                if narrowed.any():                                   # mask those too, then recompute S
+                    H, R = _masked(H, np.broadcast_to(R, (M, m, m)), np.where(use[:, None], used, present))
+                    Hc, Rc = _runs_last(H), _runs_last(R)
+                    PHT = _mm_t(P, Hc)
+                    S = _mm(Hc, PHT) + Rc
+                    masked = True
+            else:
+                raise ValueError(f"the gate's accept must return a bool array of shape ({M},) or ({M}, {m}); got "
+                                 f"{verdict.shape}")
+        used = used & use[:, None]
+        y_used = np.where(used, y, 0.0)
         if m == 1:
             gain = PHT / S[0, 0]                                     # K = P H^T / S, (n, 1, M)
         else:                                                        # K = P H^T S^-1 (S symmetric)
@@ -370,9 +481,40 @@ class ExtendedKalmanFilter:
             if x_post.shape != (M, n) or P_post.shape != (n, n, M):
                 raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
         self._x, self._P = x_post, P_post
-        self._y = np.where(use[:, None], y, np.nan)
-        self._S = np.where(use[:, None, None], S, np.nan)
+        if not masked:
+            self._y = np.where(use[:, None], y, np.nan)
+            self._S = np.where(use[:, None, None], S, np.nan)
+        else:
+            self._y = np.where(used, y, np.nan)
+            self._S = np.where(used[:, :, None] & used[:, None, :], S, np.nan)
         self._accepted = use
+
+    def _check_used_values(self, present: np.ndarray, z_pred: np.ndarray, H: np.ndarray, R: np.ndarray,
+                           k: int) -> bool:
+        """Refuse a non-finite prediction, Jacobian row or noise where a measurement is present (elsewhere it is
+        never used); return whether every value is finite."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            if np.isfinite(z_pred.sum() + H.sum() + R.sum()):        # one test for the usual case
+                return True
+        if np.isfinite(z_pred).all() and np.isfinite(H).all() and np.isfinite(R).all():
+            return True                                               # finite, only their sum overflowed
+        model = self.measurement
+        own = type(model).linearize is not MeasurementModel.linearize
+        what = " where a measurement is present"
+        bad = present & ~np.isfinite(z_pred)
+        if bad.any():
+            raise _not_finite_error(model, "linearize" if own else "h", k, tuple(int(i) for i in np.argwhere(bad)[0]),
+                                    what)
+        bad = present & ~np.isfinite(H).all(axis=-1)
+        if bad.any():
+            raise _not_finite_error(model, "linearize" if own else "H", k, tuple(int(i) for i in np.argwhere(bad)[0]),
+                                    what)
+        Rb = np.broadcast_to(R, (len(present),) + R.shape[-2:])
+        bad = present[:, :, None] & present[:, None, :] & ~np.isfinite(Rb)
+        if bad.any():
+            run, i, _ = (int(v) for v in np.argwhere(bad)[0])
+            raise _not_finite_error(model, "R", k, (run, i), what)
+        return False
 
     def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
@@ -402,7 +544,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     u : array_like, shape (K, p) or (M, K, p), or None
         The input of each step (e.g. the DR displacement).
     z : array_like, shape (K,), (K, m), (M, K) or (M, K, m)
-        The measurements, NaN where missing (predict only).
+        The measurements, NaN where missing (predict only); for a vector, a NaN component is missing (the update
+        uses the others). A scalar measurement may come as a column (K, 1) when ``u`` or ``times`` has K steps.
     times : array_like, shape (K,), optional
         Time stamps for the result.
     gate : Gate, optional
@@ -434,9 +577,14 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
         raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, motion.n)
-    z = as_float_array("z", z)
+    z = as_float_array("z", z, nonempty=True)
     if u is not None:
         u = as_finite("u", u)
+    # A scalar measurement given as a column (K, 1) -- e.g. the ranges to one beacon taken from a table of several --
+    # is one run of K steps, not K runs of one step, when u or times say the run has K steps.
+    steps_hint = u.shape[-2] if u is not None and u.ndim >= 2 else (None if times is None else np.size(times))
+    if measurement.m == 1 and z.ndim == 2 and z.shape[1] == 1 and z.shape[0] == steps_hint != 1:
+        z = z[:, 0]
     # The runs axis may come from any input; the others are shared by every run.
     single_z_ndim = 1 if measurement.m == 1 else 2
     sizes = {

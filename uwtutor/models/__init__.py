@@ -10,13 +10,15 @@ from .cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from .dead_reckoning import DeadReckoning
 from .depth import DepthSpeedPitch
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
-from .range import MultiplicativeRange, RangeToBeacon, line_of_sight
+from .odometry import OdometryMotion, StateLayout, wrap_angle
+from .range import BeaconRanges, MultiplicativeRange, NoiseSchedule, RangeToBeacon, line_of_sight
 from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [
     "MotionModel", "MeasurementModel",
     "DeadReckoning", "DepthSpeedPitch", "LinearMotion", "LinearMeasurement", "DirectMeasurement",
-    "RangeToBeacon", "MultiplicativeRange", "line_of_sight",
+    "RangeToBeacon", "MultiplicativeRange", "line_of_sight", "BeaconRanges", "NoiseSchedule",
+    "OdometryMotion", "StateLayout", "wrap_angle",
     "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
     "CooperativeMotion", "SquaredRangePair", "leader_range",
     "ConstantVelocity", "PositionMeasurement",

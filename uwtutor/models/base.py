@@ -18,7 +18,13 @@ Shapes inside the engine always carry a leading runs axis ``M`` (a single run is
 
 A motion model with a noise map :math:`W` (noise entering through some other space, as in paper B) returns
 :math:`W Q W^T` from :meth:`MotionModel.Q`; a measurement model with a noise map :math:`V` returns
-:math:`V R V^T` from :meth:`MeasurementModel.R`.
+:math:`V R V^T` from :meth:`MeasurementModel.R`. A filter asks for :math:`f, F, Q` at once through
+:meth:`MotionModel.linearize` and for :math:`h, H` through :meth:`MeasurementModel.linearize`; override them when
+the pieces share work.
+
+A measurement vector may have components missing at a step (NaN in ``z``, e.g. a beacon that did not answer):
+the filters update with the components present, and a model may return NaN for the components that are not
+measured (its Jacobian row, its prediction, its noise).
 """
 
 from __future__ import annotations
@@ -55,6 +61,22 @@ class MotionModel:
         """The process noise covariance of step ``k`` in state space: ``(n, n)`` or ``(M, n, n)``."""
         raise NotImplementedError
 
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``f``, ``F`` and ``Q`` of one step at once (what a filter's prediction needs); override it when the three
+        share work (a heading's sine and cosine), as :class:`~uwtutor.models.odometry.OdometryMotion` does."""
+        F = self.F(x, u, k)
+        Q = self.Q(x, u, k)
+        return self.f(x, u, k), F, Q
+
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        r"""The difference ``a - b`` of two states ``(..., n)``; a model with an angle in its state wraps it (the
+        smoother's correction must not see a heading jump by :math:`2\pi` where it crosses :math:`\pm\pi`)."""
+        return a - b
+
+    def normalize(self, x: np.ndarray) -> np.ndarray:
+        """A state ``(..., n)`` put back in its canonical range (an angle wrapped); the identity by default."""
+        return x
+
 
 class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.
@@ -87,7 +109,9 @@ class MeasurementModel:
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted measurement ``(M, m)``, Jacobian ``(M, m, n)`` and a mask ``(M,)`` of the runs where both are
-        defined. Where the mask is False the filter skips the update of that run (predict only) and warns."""
+        defined -- or ``(M, m)``, component by component. Where the mask is False the filter skips the update of
+        that run (or component) and warns. A component that is not measured at step ``k`` may be NaN here: the
+        filters never use it."""
         return self.h(x, k), self.H(x, k), np.ones(x.shape[0], dtype=bool)
 
     def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:

@@ -33,8 +33,9 @@ class DeadReckoning(MotionModel):
 
     Parameters
     ----------
-    Q : array_like, shape (n, n)
-        Process noise covariance per step, positive semi-definite; its size sets the state size ``n >= 2``.
+    Q : array_like, shape (n, n) or (K, n, n)
+        Process noise covariance per step, positive semi-definite; its size sets the state size ``n >= 2``. One
+        per step, ``(K, n, n)``, for a DR whose error changes along the run (step ``k`` uses ``Q[k]``).
 
     Examples
     --------
@@ -49,11 +50,16 @@ class DeadReckoning(MotionModel):
 
     def __init__(self, Q: Any) -> None:
         self._Q = as_covariance("Q", Q, allow_singular=True)
-        if self._Q.ndim != 2 or self._Q.shape[0] < 2:
-            raise ValueError("Q must be one (n, n) matrix with n >= 2 (the position comes first); "
-                             f"got shape {self._Q.shape}")
-        self.n = self._Q.shape[0]
+        if self._Q.ndim not in (2, 3) or self._Q.shape[-1] < 2:
+            raise ValueError("Q must be one (n, n) matrix with n >= 2 (the position comes first), or one per step "
+                             f"(K, n, n); got shape {self._Q.shape}")
+        self.n = self._Q.shape[-1]
         self._I = np.eye(self.n)
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps a per-step ``Q`` covers (None for one ``Q`` for every step)."""
+        return self._Q.shape[0] if self._Q.ndim == 3 else None
 
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         if u is None:
@@ -70,4 +76,9 @@ class DeadReckoning(MotionModel):
         return self._I
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self._Q
+        if self._Q.ndim == 2:
+            return self._Q
+        if not 0 <= k < len(self._Q):
+            raise IndexError(f"Q has {len(self._Q)} per-step matrices; step {k} is beyond them. Give one per step "
+                             "of the run")
+        return self._Q[k]

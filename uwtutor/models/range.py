@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_int
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
 from .base import MeasurementModel
 
-__all__ = ["RangeToBeacon", "MultiplicativeRange", "line_of_sight"]
+__all__ = ["RangeToBeacon", "MultiplicativeRange", "BeaconRanges", "NoiseSchedule", "line_of_sight"]
 
 
 def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,6 +62,23 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     (array([5., 0.]), array([[0.6, 0.8],
            [0. , 0. ]]), array([ True, False]))
     """
+    positions = as_float_array("positions", positions, nonempty=True)
+    if positions.ndim < 1 or positions.shape[-1] != 2:
+        raise ValueError(f"positions must have shape (..., 2) (x, y); got {positions.shape}")
+    if np.isinf(positions).any():
+        raise ValueError("positions must be finite (a NaN position gives NaN); got an infinite value")
+    beacon = as_finite("beacon", beacon, max_abs=MAX_COORDINATE)
+    if beacon.ndim < 1 or beacon.shape[-1] != 2:
+        raise ValueError(f"beacon must have shape (2,) or (..., 2); got {beacon.shape}")
+    try:
+        np.broadcast_shapes(positions.shape, beacon.shape)
+    except ValueError:
+        raise ValueError(f"beacon {beacon.shape} does not broadcast against positions {positions.shape}") from None
+    return _line_of_sight(positions, beacon)
+
+
+def _line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`line_of_sight` without the checks of its arguments (the filters' per-step path)."""
     d = positions - beacon
     r = np.hypot(d[..., 0], d[..., 1])
     defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
@@ -77,12 +94,16 @@ class RangeToBeacon(MeasurementModel):
     ----------
     beacon : array_like, shape (2,), (K, 2) or (M, K, 2)
         Beacon position: fixed, one per step ``k`` (shared by every run), or one per run and step.
-    R : float or array_like, shape (1, 1)
-        Range noise variance (> 0) [m^2].
+    R : float or array_like, shape (1, 1) or (K,)
+        Range noise variance (> 0) [m^2]; or one per step, ``(K,)`` (NaN allowed at steps without a range).
     n : int, optional
         Size of the state (default 2); the position is ``x[..., :2]``.
     bias_index : int, optional
         Index of a state component added to the range (a range bias, paper A); ``None`` for none.
+
+    See Also
+    --------
+    BeaconRanges : ranges to several beacons at once, with a range scale and biases in the state.
 
     Examples
     --------
@@ -100,16 +121,17 @@ class RangeToBeacon(MeasurementModel):
     m = 1
 
     def __init__(self, beacon: Any, R: Any, *, n: int = 2, bias_index: int | None = None) -> None:
+        if isinstance(beacon, dict):
+            raise TypeError("beacon must be one beacon's position [x, y] (or its path); got a dict of beacons. For "
+                            "ranges to several beacons at once use uwtutor.models.BeaconRanges(beacons, R)")
         b = as_finite("beacon", beacon, ndim=(1, 2, 3), nonempty=True, max_abs=1e150)
         if b.shape[-1] != 2:
             raise ValueError(f"beacon must hold horizontal positions [x, y]: shape (2,), (K, 2) or (M, K, 2); "
                              f"got {b.shape}")
         self.beacon = b
         self.n = as_int("n", n, minimum=2)
-        R_arr = as_covariance("R", R, 1)
-        if R_arr.shape != (1, 1):
-            raise ValueError(f"R must be the range variance, a scalar or a 1x1 matrix; got shape {R_arr.shape}")
-        self._R = R_arr
+        self._noise = NoiseSchedule("R", R, 1)
+        self._R = self._noise.constant
         if bias_index is not None:
             bias_index = as_int("bias_index", bias_index, minimum=2)
             if bias_index >= self.n:
@@ -137,7 +159,7 @@ class RangeToBeacon(MeasurementModel):
         return self.beacon[k] if self.beacon.ndim == 2 else self.beacon[:, k]
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        r, los, defined = line_of_sight(x[..., :2], self.beacon_at(k))
+        r, los, defined = _line_of_sight(x[..., :2], self.beacon_at(k))
         H = np.zeros(x.shape[:-1] + (1, self.n))
         H[..., 0, :2] = los
         z = r[..., None]
@@ -153,7 +175,7 @@ class RangeToBeacon(MeasurementModel):
         return self.linearize(x, k)[1]
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._R
+        return self._noise.at(k)
 
 
 class MultiplicativeRange(RangeToBeacon):
@@ -208,5 +230,248 @@ class MultiplicativeRange(RangeToBeacon):
         return self.mu_gamma * z, self.mu_gamma * H, defined
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        r, _, _ = line_of_sight(x[..., :2], self.beacon_at(k))
-        return (self.sigma_gamma**2 * r**2 + self._R[0, 0])[:, None, None]
+        r, _, _ = _line_of_sight(x[..., :2], self.beacon_at(k))
+        return (self.sigma_gamma**2 * r**2 + self._noise.at(k)[0, 0])[:, None, None]
+
+
+class NoiseSchedule:
+    r"""A measurement noise covariance that may change from step to step: what a model's ``R(x, k)`` returns.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for the error messages.
+    R : float or array_like
+        One of
+
+        * a number: the variance of every component [unit²], > 0;
+        * ``(m, m)``: one covariance (symmetric positive definite) for every step;
+        * ``(K,)``: one variance per step, the same for every component;
+        * ``(K, m)``: one variance per step and component (``m`` must then differ from ``K``; give per-step
+          matrices ``(K, m, m)`` when it does not);
+        * ``(K, m, m)``: one covariance per step.
+
+        Per-step variances may be NaN at a step (or for a component) without a measurement; a filter refuses a NaN
+        where a measurement is present.
+    m : int
+        Size of one measurement.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models.range import NoiseSchedule
+    >>> R = NoiseSchedule("R", [[0.1, 0.2], [np.nan, 0.3], [0.1, 0.1]], 2)     # (K, m): per step and beacon
+    >>> R.n_steps, R.at(1)
+    (3, array([[nan, 0. ],
+           [0. , 0.3]]))
+    >>> NoiseSchedule("R", 4.0, 2).at(7)
+    array([[4., 0.],
+           [0., 4.]])
+    """
+
+    def __init__(self, name: str, R: Any, m: int) -> None:
+        self.name, self.m = name, m
+        arr = as_float_array(name, R)
+        self.constant: np.ndarray | None = None
+        self._variances: np.ndarray | None = None
+        self._matrices: np.ndarray | None = None
+        if arr.ndim == 0:
+            self.constant = float(as_covariance(name, arr, 1)[0, 0]) * np.eye(m)
+        elif arr.ndim == 2 and arr.shape == (m, m):
+            try:
+                self.constant = as_covariance(name, arr, m)
+            except ValueError as exc:
+                raise ValueError(f"{exc} (a ({m}, {m}) {name} is one covariance for every step; for per-step "
+                                 f"variances of a run of {m} steps give ({m}, {m}, {m}) diagonal matrices)") from None
+        elif arr.ndim == 1 or (arr.ndim == 2 and arr.shape[1] == m):
+            var = arr[:, None] * np.ones(m) if arr.ndim == 1 else arr
+            if var.shape[0] == 0:
+                raise ValueError(f"{name} is empty: give a variance, or one per step")
+            bad = np.isinf(var) | (var <= 0)
+            if bad.any():
+                k, j = (int(i) for i in np.argwhere(bad)[0])
+                raise ValueError(f"{name} must hold variances > 0 (NaN at a step without a measurement); got "
+                                 f"{var[k, j]:g} at step {k}" + (f", component {j}" if m > 1 else ""))
+            self._variances = np.ascontiguousarray(var)
+        elif arr.ndim == 3 and arr.shape[1:] == (m, m):
+            self._matrices = as_covariance(name, arr, m)
+        else:
+            per = "(K,), (K, m)" if m > 1 else "(K,)"
+            raise ValueError(f"{name} must be a variance, a ({m}, {m}) covariance, or one per step: {per} variances "
+                             f"or (K, {m}, {m}) covariances (m = {m} components); got shape {arr.shape}")
+        if self._variances is not None:
+            self._eye = np.eye(m, dtype=bool)
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps covered (None for one covariance for every step)."""
+        per_step = self._variances if self._variances is not None else self._matrices
+        return None if per_step is None else per_step.shape[0]
+
+    def at(self, k: int) -> np.ndarray:
+        """The covariance ``(m, m)`` of step ``k``."""
+        if self.constant is not None:
+            return self.constant
+        K = self.n_steps
+        if not 0 <= k < K:
+            raise IndexError(f"{self.name} has {K} per-step values; step {k} is beyond them. Give one per step of "
+                             "the run")
+        if self._matrices is not None:
+            return self._matrices[k]
+        out = np.zeros((self.m, self.m))
+        np.fill_diagonal(out, self._variances[k])
+        return out
+
+
+def _beacon_table(beacons: Any) -> tuple[tuple[Any, ...], np.ndarray]:
+    """Beacon ids and positions (B, 2) from a dict id -> (x, y), an array (B, 2) or one position (2,)."""
+    if isinstance(beacons, dict):
+        if not beacons:
+            raise ValueError("beacons is an empty dict: give at least one beacon id -> (x, y)")
+        ids = tuple(beacons)
+        try:
+            pos = as_finite("beacons", [beacons[i] for i in ids], ndim=2, max_abs=1e150)
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"beacons must map each beacon id to its position (x, y): {exc}") from None
+    else:
+        pos = as_finite("beacons", beacons, ndim=(1, 2), nonempty=True, max_abs=1e150)
+        if pos.ndim == 1:
+            pos = pos[None]
+        ids = tuple(range(len(pos)))
+    if pos.shape[-1] != 2:
+        raise ValueError(f"beacons must hold horizontal positions (x, y): a dict id -> (x, y), shape (B, 2) or (2,); "
+                         f"got positions of shape {pos.shape}")
+    return ids, pos
+
+
+class BeaconRanges(MeasurementModel):
+    r"""Ranges to one beacon or several at once, with an optional range scale and range bias(es) in the state.
+
+    For beacons :math:`b_1, \dots, b_B` at known, fixed positions the measurement of step :math:`k` is the vector
+
+    .. math::
+
+        z_{k,j} = s\,\lVert p_k - b_j \rVert + \upsilon_j + v_{k,j}, \qquad v_k \sim N(0, R_k), \qquad
+        j = 1, \dots, B,
+
+    with :math:`s` the range scale (1 without a scale state: a sound-speed error or a clock that runs fast
+    makes every range :math:`s` times the distance) and :math:`\upsilon_j` a range bias (0 without one; one
+    shared by every beacon or one per beacon). Its Jacobian row :math:`j` is
+
+    .. math::
+
+        H_{k,j} = \Big[\, s\,\frac{(p - b_j)^\mathsf{T}}{\lVert p - b_j \rVert},\; \dots,\;
+        \lVert p - b_j \rVert \text{ at the scale},\; \dots,\; 1 \text{ at } \upsilon_j \,\Big].
+
+    A beacon that did not answer at an epoch is a NaN component of :math:`z_k`: the filters update with the
+    components that are present (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`). The state layout -- which index
+    is the scale, which the bias -- comes from a :class:`~uwtutor.models.odometry.StateLayout` (``layout=``, e.g. the
+    motion model's ``motion.layout``) or from the indices.
+
+    Parameters
+    ----------
+    beacons : dict or array_like
+        The beacon positions [m]: a dict id -> (x, y) (the order of the dict is the order of the components), an
+        array ``(B, 2)``, or one position ``(2,)``.
+    R : float or array_like
+        Range noise: a variance [m²] for every beacon and step, a ``(B, B)`` covariance, or per step: ``(K,)``
+        variances shared by the beacons, ``(K, B)`` per beacon, or ``(K, B, B)`` (see :class:`NoiseSchedule`;
+        NaN allowed where there is no range). The model's ``R(x, k)`` reads row ``k``.
+    layout : StateLayout, optional
+        Where the scale and the range bias(es) are in the state (and its size).
+    n : int, optional
+        Size of the state, without ``layout`` (default 2 plus nothing).
+    scale_index : int, optional
+        Index of the range scale, without ``layout``.
+    bias_index : int or sequence of int, optional
+        Index of one range bias shared by every beacon, or ``B`` indices (one per beacon), without ``layout``.
+
+    Attributes
+    ----------
+    beacon_ids : tuple
+        The ids of the beacons, in the order of the components (0..B-1 for an array).
+    beacons : ndarray, shape (B, 2)
+        Their positions.
+
+    Examples
+    --------
+    Four beacons, a state ``[x, y, heading, scale]``, the ranges 7 % long:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BeaconRanges, StateLayout
+    >>> beacons = {"A": (0.0, 0.0), "B": (30.0, 0.0), "C": (30.0, 40.0), "D": (0.0, 40.0)}
+    >>> model = BeaconRanges(beacons, R=0.01, layout=StateLayout.odometry(scale=True))
+    >>> x = np.array([[3.0, 4.0, 0.3, 1.07]])                    # [x, y, heading, scale]
+    >>> model.h(x, 0).round(3)                                  # 1.07 x (5, 27.295, 45, 36.125)
+    array([[ 5.35 , 29.205, 48.15 , 38.654]])
+    >>> model.H(x, 0)[0, 0].round(3)                            # d/dx, d/dy, d/dheading, d/dscale
+    array([0.642, 0.856, 0.   , 5.   ])
+    """
+
+    def __init__(self, beacons: Any, R: Any, *, layout: Any = None, n: int | None = None,
+                 scale_index: int | None = None, bias_index: Any = None) -> None:
+        self.beacon_ids, self.beacons = _beacon_table(beacons)
+        B = len(self.beacons)
+        self.m = B
+        if layout is not None:
+            from .odometry import StateLayout
+
+            if not isinstance(layout, StateLayout):
+                raise TypeError(f"layout must be a uwtutor.models.StateLayout (e.g. motion.layout); got "
+                                f"{type(layout).__name__}")
+            if n is not None or scale_index is not None or bias_index is not None:
+                raise ValueError("give layout or the indices (n, scale_index, bias_index), not both")
+            n, scale_index, bias = layout.n, layout.scale, layout.range_bias
+        else:
+            n = 2 if n is None else n
+            bias = () if bias_index is None else tuple(np.atleast_1d(np.asarray(bias_index)).tolist())
+        self.n = as_int("n", n, minimum=2)
+        taken = {}
+        for name, i in [("scale_index", scale_index)] + [(f"bias_index[{j}]", i) for j, i in enumerate(bias)]:
+            if i is None:
+                continue
+            i = as_int(name, i, minimum=2)
+            if i >= self.n or i in taken:
+                raise ValueError(f"{name} must be a free index of the state (2..{self.n - 1}, 0 and 1 being the "
+                                 f"position); got {i}" + (f", already {taken[i]}" if i in taken else ""))
+            taken[i] = name
+        self.scale_index = None if scale_index is None else int(scale_index)
+        if len(bias) not in (0, 1, B):
+            raise ValueError(f"the range biases must be one shared by every beacon or one per beacon ({B}); got "
+                             f"{len(bias)} bias states")
+        self.bias_index = tuple(int(i) for i in bias)
+        self._bias_cols = (np.array(self.bias_index * B if len(self.bias_index) == 1 else self.bias_index)
+                           if self.bias_index else None)
+        self._noise = NoiseSchedule("R", R, B)
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps a per-step ``R`` covers (None when it is one for every step)."""
+        return self._noise.n_steps
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)`` and a mask ``(M, B)``, False where the position is
+        exactly on a beacon (that component's Jacobian is undefined)."""
+        r, los, defined = _line_of_sight(x[..., None, :2], self.beacons)       # (M, B), (M, B, 2), (M, B)
+        H = np.zeros(r.shape + (self.n,))
+        if self.scale_index is None:
+            z = r
+            H[..., :2] = los
+        else:
+            s = x[..., self.scale_index, None]
+            z = s * r
+            H[..., :2] = s[..., None] * los
+            H[..., self.scale_index] = r
+        if self._bias_cols is not None:
+            z = z + x[..., self._bias_cols]
+            H[..., np.arange(self.m), self._bias_cols] = 1.0
+        return z, H, defined
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.linearize(x, k)[0]
+
+    def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.linearize(x, k)[1]
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._noise.at(k)

@@ -1,0 +1,559 @@
+r"""Wheel (or any body-frame) odometry as a motion model: a pose moved by a distance and a heading change.
+
+Real logs do not come as world-frame displacements. A wheeled robot's odometry, a DVL with a compass or a gyro,
+gives at each step :math:`k` the distance travelled :math:`d_k` and the change of heading :math:`\Delta\theta_k`
+in the body frame, from epoch :math:`k - 1` to epoch :math:`k`: the input :math:`u_k = [d_k, \Delta\theta_k]`.
+The state carries the heading :math:`\theta` (radians, counter-clockwise from the x axis) next to the position:
+
+.. math::
+
+    x = [x, y, \theta \;(, b_g) \;(, s) \;(, \upsilon_1, \dots)]^\mathsf{T},
+
+optionally with a **gyro bias** :math:`b_g` [rad/s], a **range scale** :math:`s` (a sound-speed error, or a UWB
+clock that runs fast: every range is :math:`s` times the true distance) and one or several **range biases**
+:math:`\upsilon` [m]. The motion keeps :math:`s` and :math:`\upsilon` constant (up to their random walks): they
+are there so that one motion model serves the augmented filters, and the measurement model
+(:class:`~uwtutor.models.range.BeaconRanges`) reads them. Which index holds what is a :class:`StateLayout`,
+shared by both models.
+
+.. rubric:: The motion
+
+A gyro bias is a *rate*: the heading change a biased gyro reports over a step of :math:`\Delta t_k` seconds is
+the true one plus :math:`b_g\,\Delta t_k`. The heading and the position then move as
+
+.. math::
+
+    \theta_k = \theta_{k-1} + \delta_k, \qquad \delta_k = \Delta\theta_k - b_{g,k-1}\,\Delta t_k,
+
+    p_k = p_{k-1} + d_k \begin{bmatrix} \cos\alpha_k \\ \sin\alpha_k \end{bmatrix}, \qquad
+    \alpha_k = \theta_{k-1} + c\,\delta_k,
+
+with :math:`c` the **order of operations**, a documented choice (``order``):
+
+=================  ======  ==========================================================================
+``"turn-first"``   c = 1   turn by :math:`\delta_k`, then move :math:`d_k` along the *new* heading
+                           (the default)
+``"move-first"``   c = 0   move along the *old* heading, then turn
+``"midpoint"``     c = ½   move along the mean heading of the step (the chord of an arc of constant
+                           turn rate: exact to second order when the log's steps are long turns)
+=================  ======  ==========================================================================
+
+The heading is wrapped to :math:`[-\pi, \pi)` after every prediction. The Jacobian
+:math:`F = \partial f / \partial x` is the identity plus
+
+.. math::
+
+    F_{x\theta} = -d_k \sin\alpha_k, \quad F_{y\theta} = d_k \cos\alpha_k, \quad
+    F_{x b} = c\,\Delta t_k\,d_k \sin\alpha_k, \quad F_{y b} = -c\,\Delta t_k\,d_k\cos\alpha_k, \quad
+    F_{\theta b} = -\Delta t_k .
+
+.. rubric:: The noise
+
+The odometry is in error by :math:`n_k \sim N(0, \Sigma_u)`, :math:`\Sigma_u = \operatorname{diag}(\sigma_{d,k}^2,
+\sigma_{\theta,k}^2)` (the distance and heading-change noise of one step), which enters through the Jacobian
+with respect to the input,
+
+.. math::
+
+    G_k = \frac{\partial f}{\partial u} = \begin{bmatrix} \cos\alpha_k & -c\,d_k \sin\alpha_k \\
+    \sin\alpha_k & c\,d_k\cos\alpha_k \\ 0 & 1 \\ 0 & 0 \end{bmatrix}, \qquad
+    Q_k = G_k \Sigma_u G_k^\mathsf{T} + \operatorname{diag}(0, 0, 0, q_b\,\Delta t_k, q_s\,\Delta t_k,
+    q_\upsilon\,\Delta t_k),
+
+the last terms the random walks of the bias, scale and range-bias states (spectral densities :math:`q`, per
+second; per step when the model has no times). Everything is evaluated at the estimate, for all ``M`` runs at
+once (``f`` ``(M, n)``, ``F`` and ``Q`` ``(M, n, n)``).
+
+.. rubric:: A filter over a dataset, in a few lines
+
+With ``data`` a ``uwtutor.datasets.RangeDataset`` (its ``odometry`` the per-step ``[distance, heading
+change]``, row ``k`` the motion from ``times[k-1]`` to ``times[k]``), a filter with a gyro bias and a range
+scale is::
+
+    motion = OdometryMotion(0.02, 0.005, gyro_bias=True, scale=True, times=data.times,
+                            gyro_bias_walk=1e-5, scale_walk=1e-6)
+    ranges = BeaconRanges(data.beacon_positions(ids), R=0.1**2, layout=motion.layout)
+    x0, P0 = motion.layout.initial_state(data.start, data.start_cov, gyro_bias=(0.0, 0.01), scale=(1.0, 0.1))
+    result = extended_kalman_filter(motion, ranges, x0, P0, data.odometry, data.ranges_on_epochs(ids),
+                                    times=data.times, gate=ReacquiringGate())
+
+References
+----------
+Thrun, S., Burgard, W. and Fox, D. (2005). *Probabilistic Robotics*. MIT Press. Chapter 5 (odometry motion
+models; the input-noise Jacobian), sec. 7.4 (the EKF with an odometry model).
+Farrell, J. A. (2008). *Aided Navigation: GPS with High Rate Sensors*. McGraw-Hill. Sec. 4.9 (gyro bias as a
+rate; state augmentation with sensor biases and scale factors).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validate import as_covariance, as_finite, as_flag, as_int, as_nonnegative
+from .base import MotionModel
+
+__all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
+
+#: The orders of operations :class:`OdometryMotion` knows, with the fraction :math:`c` of the step's turn taken
+#: before the move.
+ORDERS = {"turn-first": 1.0, "move-first": 0.0, "midpoint": 0.5}
+
+
+def wrap_angle(angle: Any) -> np.ndarray:
+    r"""Angles wrapped to :math:`[-\pi, \pi)` [rad].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models.odometry import wrap_angle
+    >>> wrap_angle(np.array([3 * np.pi / 2, -np.pi, np.pi, 0.1]))
+    array([-1.57079633, -3.14159265, -3.14159265,  0.1       ])
+    """
+    a = np.asarray(angle, dtype=float)
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _index(name: str, value: Any, n: int, taken: dict[int, str]) -> int:
+    i = as_int(name, value, minimum=2)
+    if i >= n:
+        raise ValueError(f"{name} must index the state (2..{n - 1}; 0 and 1 are the position); got {i}")
+    if i in taken:
+        raise ValueError(f"{name} = {i} is already the index of {taken[i]}: give each state its own index")
+    taken[i] = name
+    return i
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    r"""Which component of the state is what: the contract between a motion and a measurement model.
+
+    The position is always ``x[..., :2]`` (the library's convention); the other states are optional and each
+    has one index. Build one with :meth:`odometry` (the state of :class:`OdometryMotion`) or :meth:`position`
+    (the dead-reckoning state of :class:`~uwtutor.models.dead_reckoning.DeadReckoning`), or give the indices yourself.
+
+    Parameters
+    ----------
+    n : int
+        Size of the state (>= 2).
+    heading : int, optional
+        Index of the heading :math:`\theta` [rad].
+    gyro_bias : int, optional
+        Index of the gyro bias :math:`b_g` [rad/s].
+    scale : int, optional
+        Index of the range scale :math:`s` (dimensionless, about 1).
+    range_bias : tuple of int, optional
+        Indices of the range biases [m]: one shared by every beacon, or one per beacon (in the order of the
+        measurement model's beacons).
+
+    Examples
+    --------
+    >>> from uwtutor.models import StateLayout
+    >>> layout = StateLayout.odometry(gyro_bias=True, scale=True)
+    >>> layout.n, layout.names
+    (5, ('x', 'y', 'heading', 'gyro_bias', 'scale'))
+    >>> StateLayout.position(range_bias=True).names
+    ('x', 'y', 'range_bias')
+    """
+
+    n: int
+    heading: int | None = None
+    gyro_bias: int | None = None
+    scale: int | None = None
+    range_bias: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        n = as_int("n", self.n, minimum=2)
+        taken: dict[int, str] = {}
+        for name in ("heading", "gyro_bias", "scale"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _index(name, value, n, taken))
+        rb = self.range_bias
+        rb = () if rb is None else (rb,) if isinstance(rb, (int, np.integer)) else tuple(rb)
+        object.__setattr__(self, "range_bias", tuple(_index(f"range_bias[{j}]", i, n, taken)
+                                                     for j, i in enumerate(rb)))
+        if self.gyro_bias is not None and self.heading is None:
+            raise ValueError("a gyro_bias state needs a heading state (the bias turns the heading): give heading")
+        object.__setattr__(self, "n", n)
+
+    @classmethod
+    def odometry(cls, *, gyro_bias: bool = False, scale: bool = False, range_bias: Any = False) -> "StateLayout":
+        """The state ``[x, y, heading (, gyro_bias) (, scale) (, range biases)]``, in that order.
+
+        ``range_bias`` is False (none), True (one shared by every beacon) or a number of range biases (one per
+        beacon).
+        """
+        return cls._build(3, heading=2, gyro_bias=gyro_bias, scale=scale, range_bias=range_bias)
+
+    @classmethod
+    def position(cls, *, scale: bool = False, range_bias: Any = False) -> "StateLayout":
+        """The state ``[x, y (, scale) (, range biases)]`` of dead reckoning in world-frame displacements."""
+        return cls._build(2, heading=None, gyro_bias=False, scale=scale, range_bias=range_bias)
+
+    @classmethod
+    def _build(cls, n: int, *, heading: int | None, gyro_bias: Any, scale: Any, range_bias: Any) -> "StateLayout":
+        idx: dict[str, Any] = {"heading": heading}
+        if as_flag("gyro_bias", gyro_bias):
+            idx["gyro_bias"], n = n, n + 1
+        if as_flag("scale", scale):
+            idx["scale"], n = n, n + 1
+        if isinstance(range_bias, (bool, np.bool_)):
+            count = int(range_bias)
+        else:
+            count = as_int("range_bias", range_bias, minimum=0)
+        idx["range_bias"] = tuple(range(n, n + count))
+        return cls(n=n + count, **idx)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The name of each state component, in order (``range_bias`` numbered when there are several)."""
+        names = ["x", "y"] + ["?"] * (self.n - 2)
+        for name in ("heading", "gyro_bias", "scale"):
+            if getattr(self, name) is not None:
+                names[getattr(self, name)] = name
+        for j, i in enumerate(self.range_bias):
+            names[i] = "range_bias" if len(self.range_bias) == 1 else f"range_bias_{j}"
+        return tuple(names)
+
+    def initial_state(self, start: Any, start_cov: Any, **extra: Any) -> tuple[np.ndarray, np.ndarray]:
+        r"""The initial state and covariance: a start pose and its covariance, augmented with the extra states.
+
+        Parameters
+        ----------
+        start : array_like, shape (q,) or (M, q)
+            The first ``q`` components of the state (``[x, y]``, or ``[x, y, heading]`` for an odometry state).
+        start_cov : array_like, shape (q, q)
+            Their covariance (positive definite).
+        **extra : (mean, std)
+            One pair per further state of the layout: ``gyro_bias=(0.0, 0.01)`` [rad/s], ``scale=(1.0, 0.1)``,
+            ``range_bias=(0.0, 1.0)`` [m] (shared by every range-bias state). Each is uncorrelated with the rest.
+
+        Returns
+        -------
+        x0 : ndarray, shape (n,) or (M, n)
+        P0 : ndarray, shape (n, n)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import StateLayout
+        >>> layout = StateLayout.odometry(scale=True)
+        >>> x0, P0 = layout.initial_state([1.0, 2.0, 0.5], np.diag([1.0, 1.0, 0.01]), scale=(1.0, 0.1))
+        >>> x0, np.diag(P0)
+        (array([1. , 2. , 0.5, 1. ]), array([1.  , 1.  , 0.01, 0.01]))
+        """
+        lead = self.heading + 1 if self.heading is not None else 2
+        s = as_finite("start", start, ndim=(1, 2))
+        if s.shape[-1] != lead:
+            raise ValueError(f"start must hold the first {lead} states {list(self.names[:lead])}; got shape "
+                             f"{s.shape}")
+        C = as_covariance("start_cov", start_cov, lead)
+        if C.ndim != 2:
+            raise ValueError(f"start_cov must be one ({lead}, {lead}) matrix; got shape {C.shape}")
+        wanted = {name for name in ("gyro_bias", "scale") if getattr(self, name) is not None}
+        if self.range_bias:
+            wanted.add("range_bias")
+        if set(extra) != wanted:
+            missing, unknown = sorted(wanted - set(extra)), sorted(set(extra) - wanted)
+            raise ValueError(f"initial_state needs (mean, std) for each further state of the layout {sorted(wanted)}; "
+                             + (f"missing {missing}" if missing else "") + ("; " if missing and unknown else "")
+                             + (f"not in the layout: {unknown}" if unknown else ""))
+        x0 = np.zeros(s.shape[:-1] + (self.n,))
+        P0 = np.zeros((self.n, self.n))
+        x0[..., :lead] = s
+        P0[:lead, :lead] = C
+        for name, pair in extra.items():
+            pair = as_finite(name, pair, shape=(2,))
+            if pair[1] <= 0:
+                raise ValueError(f"{name} must be (mean, std) with std > 0; got std {pair[1]:g}")
+            for i in (self.range_bias if name == "range_bias" else (getattr(self, name),)):
+                x0[..., i] = pair[0]
+                P0[i, i] = pair[1] ** 2
+        if lead < self.n and np.any(np.all(P0[lead:, lead:] == 0, axis=1)):
+            unnamed = [self.names[i] for i in range(lead, self.n) if P0[i, i] == 0]
+            raise ValueError(f"the layout has states without an initial value: {unnamed}")
+        return x0, P0
+
+
+def _per_step(name: str, value: Any) -> np.ndarray:
+    """A number or one value per step (K,), >= 0."""
+    arr = as_nonnegative(name, value, ndim=(0, 1))
+    if arr.ndim == 1 and arr.size == 0:
+        raise ValueError(f"{name} is empty: give a number or one value per step")
+    return arr
+
+
+def _durations(times: Any, dt: Any) -> tuple[np.ndarray | None, int | None]:
+    """Step lengths Delta t_k (K,) or a scalar array, and the number of steps they fix (None if any)."""
+    if times is not None and dt is not None:
+        raise ValueError("give times or dt, not both")
+    if dt is not None:
+        d = as_nonnegative("dt", dt, ndim=(0, 1))
+        return d, (len(d) if d.ndim == 1 else None)
+    if times is None:
+        return None, None
+    t = as_finite("times", times, ndim=1, nonempty=True)
+    steps = np.diff(t)
+    if np.any(steps < 0):
+        k = int(np.flatnonzero(steps < 0)[0]) + 1
+        raise ValueError(f"times must not decrease; times[{k}] = {t[k]:g} comes before times[{k - 1}] = {t[k - 1]:g}")
+    # x0 is the state at times[0], so the first step lasts 0 s (a dataset's start pose, its odometry row 0 the
+    # motion up to times[0]); give dt instead to let the first step last longer.
+    return np.concatenate([[0.0], steps]), len(t)
+
+
+class OdometryMotion(MotionModel):
+    r"""A pose moved by body-frame odometry ``u = [distance, heading change]``, with optional bias states.
+
+    Equations in the module docstring: heading and position moved in the order ``order``, the gyro bias
+    :math:`b_g` (a rate, rad/s) taken off the heading change, scale and range biases kept constant; the noise is
+    the odometry noise through :math:`G = \partial f / \partial u` plus random walks.
+
+    Parameters
+    ----------
+    sigma_distance : float or array_like, shape (K,)
+        Standard deviation of the distance of one step :math:`\sigma_{d,k}` [m], >= 0; one per step is allowed
+        (e.g. proportional to the distance: ``0.01 + 0.02 * abs(odometry[:, 0])``).
+    sigma_heading : float or array_like, shape (K,)
+        Standard deviation of the heading change of one step :math:`\sigma_{\theta,k}` [rad], >= 0.
+    gyro_bias : bool, default False
+        Add a gyro bias state [rad/s] (then ``times`` or ``dt`` is needed: the bias turns the heading by
+        :math:`b_g\,\Delta t_k`).
+    scale : bool, default False
+        Add a range scale state (constant up to ``scale_walk``), read by the range model.
+    range_bias : bool or int, default False
+        Add a range bias state (True: one shared; an int: that many, one per beacon), read by the range model.
+    times : array_like, shape (K,), optional
+        Epoch times [s], non-decreasing: step ``k`` lasts ``times[k] - times[k - 1]``. The state before the first
+        step is the state at ``times[0]``, so the first step lasts 0 s (a dataset's start pose, its odometry row
+        0 the motion up to ``times[0]``).
+    dt : float or array_like, shape (K,), optional
+        The step lengths :math:`\Delta t_k` [s] directly, instead of ``times`` (e.g. to give the first step a
+        length).
+    order : {"turn-first", "move-first", "midpoint"}, default "turn-first"
+        The order of operations within a step (module docstring).
+    gyro_bias_walk : float, default 0
+        :math:`\sqrt{q_b}` [rad/s/√s]: how fast the gyro bias wanders (0: a constant).
+    scale_walk : float, default 0
+        :math:`\sqrt{q_s}` [1/√s] for the scale.
+    range_bias_walk : float, default 0
+        :math:`\sqrt{q_\upsilon}` [m/√s] for the range biases.
+
+    Attributes
+    ----------
+    layout : StateLayout
+        Which index is what (pass it to the range model).
+    n : int
+        Size of the state.
+    n_steps : int or None
+        Number of steps the per-step arrays cover (None when every parameter is one number).
+
+    Examples
+    --------
+    A quarter turn, then 10 m along the new heading (turn first, the default):
+
+    >>> import numpy as np
+    >>> from uwtutor.models import OdometryMotion
+    >>> motion = OdometryMotion(sigma_distance=0.1, sigma_heading=0.01)
+    >>> motion.f(np.array([[0.0, 0.0, 0.0]]), np.array([10.0, np.pi / 2]), 0).round(6)
+    array([[ 0.      , 10.      ,  1.570796]])
+    >>> OdometryMotion(0.1, 0.01, order="move-first").f(np.array([[0.0, 0.0, 0.0]]),
+    ...                                                   np.array([10.0, np.pi / 2]), 0).round(6)
+    array([[10.      ,  0.      ,  1.570796]])
+
+    With a gyro bias of 0.01 rad/s over 2 s steps, a measured heading change of 0.02 rad is no turn at all:
+
+    >>> biased = OdometryMotion(0.1, 0.01, gyro_bias=True, dt=2.0)
+    >>> biased.layout.names
+    ('x', 'y', 'heading', 'gyro_bias')
+    >>> biased.f(np.array([[0.0, 0.0, 0.0, 0.01]]), np.array([5.0, 0.02]), 0)
+    array([[5.  , 0.  , 0.  , 0.01]])
+    """
+
+    def __init__(self, sigma_distance: Any, sigma_heading: Any, *, gyro_bias: bool = False, scale: bool = False,
+                 range_bias: Any = False, times: Any = None, dt: Any = None, order: str = "turn-first",
+                 gyro_bias_walk: Any = 0.0, scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
+        if order not in ORDERS:
+            raise ValueError(f"order must be one of {tuple(ORDERS)} (when the step's turn happens relative to its "
+                             f"move); got {order!r}")
+        self.order = order
+        self._c = ORDERS[order]
+        self.layout = StateLayout.odometry(gyro_bias=gyro_bias, scale=scale, range_bias=range_bias)
+        self.n = self.layout.n
+        self.sigma_distance = _per_step("sigma_distance", sigma_distance)
+        self.sigma_heading = _per_step("sigma_heading", sigma_heading)
+        self._dt, steps_from_times = _durations(times, dt)
+        if self.layout.gyro_bias is not None and self._dt is None:
+            raise ValueError("a gyro bias is a rate (rad/s): give times (the epoch times, s) or dt (the step "
+                             "lengths, s) so that the model knows how long each step lasts")
+        walks = {"gyro_bias_walk": (gyro_bias_walk, self.layout.gyro_bias is not None),
+                 "scale_walk": (scale_walk, self.layout.scale is not None),
+                 "range_bias_walk": (range_bias_walk, bool(self.layout.range_bias))}
+        self._walk = np.zeros(self.n)               # q per second (or per step), on the diagonal
+        for name, (value, present) in walks.items():
+            q = float(as_nonnegative(name, value, ndim=0)) ** 2
+            if q > 0 and not present:
+                raise ValueError(f"{name} was given but the state has no {name[:-5]} (set {name[:-5]}=True)")
+            idx = {"gyro_bias_walk": (self.layout.gyro_bias,), "scale_walk": (self.layout.scale,),
+                   "range_bias_walk": self.layout.range_bias}[name]
+            for i in idx:
+                if i is not None:
+                    self._walk[i] = q
+        self._has_walk = bool(self._walk.any())
+        self._walk_diag = np.diag(self._walk)
+        self._eye = np.eye(self.n)
+        sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
+                                              ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
+        if steps_from_times is not None:
+            sizes["times" if times is not None else "dt"] = steps_from_times
+        if len(set(sizes.values())) > 1:
+            described = ", ".join(f"{name} has {k}" for name, k in sizes.items())
+            raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
+        self.n_steps = next(iter(sizes.values()), None)
+
+    # -- per-step parameters --
+    def _step(self, k: int) -> int:
+        if self.n_steps is not None and not 0 <= k < self.n_steps:
+            raise IndexError(f"step {k} is beyond the {self.n_steps} steps this model's per-step arrays cover "
+                             "(sigma_distance, sigma_heading, times or dt)")
+        return k
+
+    def dt(self, k: int) -> float:
+        """The length :math:`\\Delta t_k` of step ``k`` [s] (1 when the model has no times)."""
+        if self._dt is None:
+            return 1.0
+        return float(self._dt if self._dt.ndim == 0 else self._dt[self._step(k)])
+
+    @staticmethod
+    def _value(a: np.ndarray, k: int) -> float:
+        return float(a if a.ndim == 0 else a[k])
+
+    def _input(self, u: Any) -> tuple[np.ndarray, np.ndarray]:
+        if u is None:
+            raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
+                             "Pass the odometry as the filter's u")
+        u = np.asarray(u, dtype=float)
+        if u.shape[-1:] != (2,):
+            raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
+                             f"2); got shape {u.shape}")
+        return u[..., 0], u[..., 1]
+
+    def _parts(self, x: np.ndarray, u: Any, k: int) -> tuple[Any, Any, np.ndarray, np.ndarray, float]:
+        """Distance d_k, turn delta_k, cos and sin of the move heading alpha_k, and dt of step k."""
+        d, dth = self._input(u)
+        dt = self.dt(self._step(k))
+        h, b = self.layout.heading, self.layout.gyro_bias
+        turn = dth - x[..., b] * dt if b is not None else dth
+        alpha = x[..., h] + self._c * turn if self._c else x[..., h]
+        return d, turn, np.cos(alpha), np.sin(alpha), dt
+
+    def _f(self, x: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        h = self.layout.heading
+        out = np.array(x, dtype=float)
+        out[..., 0] += d * ca
+        out[..., 1] += d * sa
+        out[..., h] = wrap_angle(x[..., h] + turn)
+        return out
+
+    def _F(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray, dt: float) -> np.ndarray:
+        h, b = self.layout.heading, self.layout.gyro_bias
+        F = np.repeat(self._eye[None], x.shape[0], axis=0) if x.ndim == 2 else self._eye.copy()
+        ds, dc = d * sa, d * ca
+        F[..., 0, h] = -ds
+        F[..., 1, h] = dc
+        if b is not None:
+            F[..., 0, b] = self._c * dt * ds
+            F[..., 1, b] = -self._c * dt * dc
+            F[..., h, b] = -dt
+        return F
+
+    def _G(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        G = np.zeros(x.shape[:-1] + (self.n, 2))
+        G[..., 0, 0], G[..., 1, 0] = ca, sa
+        G[..., 0, 1], G[..., 1, 1] = -self._c * d * sa, self._c * d * ca
+        G[..., self.layout.heading, 1] = 1.0
+        return G
+
+    def _Q(self, G: np.ndarray, k: int, dt: float) -> np.ndarray:
+        var = np.array([self._value(self.sigma_distance, k) ** 2, self._value(self.sigma_heading, k) ** 2])
+        Q = (G * var) @ np.swapaxes(G, -1, -2)                   # G Sigma_u G^T
+        if self._has_walk:
+            Q += self._walk_diag * dt
+        return Q
+
+    # -- the model --
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, turn, ca, sa, _ = self._parts(x, u, k)
+        return self._f(x, d, turn, ca, sa)
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, _, ca, sa, dt = self._parts(x, u, k)
+        return self._F(x, d, ca, sa, dt)
+
+    def G(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        r"""The Jacobian :math:`G = \partial f / \partial u` with respect to the odometry, ``(M, n, 2)``."""
+        d, _, ca, sa, _ = self._parts(x, u, k)
+        return self._G(x, d, ca, sa)
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        d, _, ca, sa, dt = self._parts(x, u, k)
+        return self._Q(self._G(x, d, ca, sa), k, dt)
+
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        r"""``a - b`` with the heading difference wrapped to :math:`[-\pi, \pi)`."""
+        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+        d[..., self.layout.heading] = wrap_angle(d[..., self.layout.heading])
+        return d
+
+    def normalize(self, x: np.ndarray) -> np.ndarray:
+        r"""The state with its heading wrapped to :math:`[-\pi, \pi)`."""
+        out = np.array(x, dtype=float)
+        out[..., self.layout.heading] = wrap_angle(out[..., self.layout.heading])
+        return out
+
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d, turn, ca, sa, dt = self._parts(x, u, k)
+        return (self._f(x, d, turn, ca, sa), self._F(x, d, ca, sa, dt),
+                self._Q(self._G(x, d, ca, sa), k, dt))
+
+    def integrate(self, x0: Any, u: Any) -> np.ndarray:
+        r"""Dead reckoning: the states :math:`x_1, \dots, x_K` that the odometry alone gives from ``x0`` (no noise).
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,) or (M, n)
+            The state before the first step.
+        u : array_like, shape (K, 2) or (M, K, 2)
+            The odometry of each step.
+
+        Returns
+        -------
+        ndarray, shape (K, n) or (M, K, n)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import OdometryMotion
+        >>> square = np.tile([[10.0, 0.0], [0.0, np.pi / 2]], (4, 1))       # 10 m, then a left turn, 4 times
+        >>> OdometryMotion(0.0, 0.0).integrate([0.0, 0.0, 0.0], square)[-1].round(9) + 0.0
+        array([0., 0., 0.])
+        """
+        x = as_finite("x0", x0, ndim=(1, 2))
+        if x.shape[-1] != self.n:
+            raise ValueError(f"x0 must have {self.n} entries {list(self.layout.names)}; got shape {x.shape}")
+        uu = as_finite("u", u, ndim=(2, 3))
+        if uu.shape[-1] != 2:
+            raise ValueError(f"u must hold [distance, heading change] per step, shape (K, 2) or (M, K, 2); got "
+                             f"{uu.shape}")
+        single = x.ndim == 1 and uu.ndim == 2
+        M = max(x.shape[0] if x.ndim == 2 else 1, uu.shape[0] if uu.ndim == 3 else 1)
+        state = np.array(np.broadcast_to(x, (M, self.n)))
+        K = uu.shape[-2]
+        out = np.empty((M, K, self.n))
+        for k in range(K):
+            state = self.f(state, uu[:, k] if uu.ndim == 3 else uu[k], k)
+            out[:, k] = state
+        return out[0] if single else out
