@@ -20,7 +20,6 @@ import numpy as np
 
 from ..feedback import Feedback
 
-__all__ = ["Answers", "NotDefined", "run_part", "cached", "call", "fail", "WRAP"]
 
 #: Width the messages are wrapped at (nbgrader's feedback shows them in a fixed-width block).
 WRAP = 100
