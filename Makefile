@@ -13,10 +13,22 @@ NODE_STAMP := node_modules/.installed-stamp
 
 .PHONY: setup book test lab bench study notebooks clean
 
+# The environment: the book, JupyterLab for students (the lab extra), the tests, Dask. nbgrader comes with the tests
+# (tests/test_labs_nbgrader.py) but its JupyterLab menu, sidebars and server extensions are an instructor's
+# (pip install "uwtutor[instructor]"): they are disabled here, so that `make lab` shows what a student sees.
+# jupytext was once in a dev extra; nothing uses it and its JupyterLab extension does not load under JupyterLab 4.5,
+# so it is removed from an environment made before.
+NBGRADER_SERVER_EXTENSIONS := formgrader validate_assignment assignment_list course_list
+
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,test,dev,scale,data]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,lab,test,scale,data]"
+	$(PY) -m pip uninstall --quiet --yes jupytext 2>/dev/null || true
+	$(VENV)/bin/jupyter labextension disable --level=sys_prefix @jupyter/nbgrader >/dev/null 2>&1
+	for ext in $(NBGRADER_SERVER_EXTENSIONS); do \
+	  $(VENV)/bin/jupyter server extension disable --sys-prefix nbgrader.server_extensions.$$ext >/dev/null 2>&1; \
+	done
 	touch $(STAMP)
 
 # MathJax, require.js and the widget manager for the offline HTML (copied into the build by

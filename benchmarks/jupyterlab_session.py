@@ -71,7 +71,7 @@ def jupyter_exe() -> str:
     """The ``jupyter`` of the running interpreter's environment (the project's venv)."""
     beside = Path(sys.executable).with_name("jupyter")
     if not beside.exists():
-        raise RuntimeError(f"{beside} not found: run `make setup` (JupyterLab is in the book extra)")
+        raise RuntimeError(f"{beside} not found: run `make setup` (JupyterLab is in the lab extra)")
     return str(beside)
 
 

@@ -571,9 +571,54 @@ class TestGenerator:
                 assert cell.outputs == [] and cell.execution_count is None
         assert nb.cells[1].metadata == {"tags": ["answer"]}
         assert nb.cells[2].metadata == {}
-        assert nb.metadata == {"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"},
-                               "language_info": {"name": "python"}}
+        # the kernelspec and language_info as JupyterLab writes them when the kernel starts: opening the student
+        # version does not mark it modified (the source's "Python 3" and its Python 3.11.9 are replaced)
+        from ipykernel.ipkernel import IPythonKernel
+
+        assert nb.metadata == {"kernelspec": {"name": "python3", "display_name": "Python 3 (ipykernel)",
+                                              "language": "python"},
+                               "language_info": IPythonKernel.language_info}
         nbformat.validate(nb)
+
+    def test_another_kernel_keeps_its_kernelspec(self):
+        src = _source_notebook()
+        src.metadata["kernelspec"] = {"name": "ir", "display_name": "R", "language": "R"}
+        src.metadata["language_info"] = {"name": "R", "version": "4.4.1"}
+        nb = make_student_version(src)
+        assert nb.metadata == {"kernelspec": {"name": "ir", "display_name": "R", "language": "R"},
+                               "language_info": {"name": "R"}}
+
+
+def test_every_source_carries_the_kernelspec_jupyterlab_writes():
+    from uwtutor.exercises.generate import KERNELSPEC
+
+    sources = list(SOURCE_DIR.glob("*.ipynb")) + list(SOURCE_DIR.glob("labs/*/*.ipynb"))
+    assert len(sources) > 10
+    for path in sources:
+        assert nbformat.read(path, as_version=4).metadata["kernelspec"] == KERNELSPEC, path.name
+
+
+def test_execute_notebooks_writes_the_kernelspec_jupyterlab_writes(tmp_path):
+    """tools/execute_notebooks.py (make notebooks): the chapters get the kernelspec JupyterLab writes, the kernel's
+    language_info, and lose jupytext's left-over metadata."""
+    import importlib.util
+
+    from ipykernel.ipkernel import IPythonKernel
+
+    from uwtutor.exercises.generate import KERNELSPEC
+
+    spec = importlib.util.spec_from_file_location("execute_notebooks", REPO / "tools" / "execute_notebooks.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    path = tmp_path / "chapter.ipynb"
+    nbformat.write(new_notebook(cells=[new_code_cell("print(6 * 7)")], metadata={
+        "kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"},
+        "jupytext": {"notebook_metadata_filter": "-all"}}), path)
+    tool.execute(path)
+    nb = nbformat.read(path, as_version=4)
+    assert nb.metadata["kernelspec"] == KERNELSPEC and "jupytext" not in nb.metadata
+    assert nb.metadata["language_info"] == IPythonKernel.language_info
+    assert nb.cells[0].outputs[0].text == "42\n"
 
     def test_accepts_a_path(self, tmp_path):
         path = tmp_path / "src.ipynb"
@@ -683,6 +728,20 @@ NAME = "ch01_positioning_and_errors.ipynb"
 
 
 class TestCommand:
+    def test_next_step_says_how_to_get_jupyterlab_when_it_is_missing(self, tmp_path, capsys, monkeypatch):
+        from uwtutor.exercises import cli
+
+        monkeypatch.setattr(cli, "jupyterlab_available", lambda: False)
+        assert main(["exercises", str(tmp_path / "a")]) == 0
+        out = capsys.readouterr().out
+        assert 'pip install "uwtutor[lab]"' in out and "JupyterLab is not installed" in out
+        assert main(["labs", str(tmp_path / "b"), "--lab", "ekf_consistency"]) == 0
+        assert 'pip install "uwtutor[lab]"' in capsys.readouterr().out
+        monkeypatch.setattr(cli, "jupyterlab_available", lambda: True)
+        assert main(["exercises", str(tmp_path / "c")]) == 0
+        out = capsys.readouterr().out
+        assert f"jupyter lab {tmp_path / 'c'}" in out and "pip install" not in out
+
     def test_writes_skips_and_forces(self, tmp_path, capsys):
         dest = tmp_path / "my-work"
         assert main(["exercises", str(dest)]) == 0

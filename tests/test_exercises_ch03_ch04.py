@@ -208,7 +208,9 @@ def test_diagnosis_checker():
     consistent, over, under = ch04._classify(studies)
     assert {consistent, over, under} == {"A", "B", "C"}
     assert ch04.check_diagnosis(consistent, over)
-    assert ch04.check_diagnosis(consistent.lower(), f" {over} ")
+    assert ch04.check_diagnosis(consistent, f" {over} ")
+    lower = ch04.check_diagnosis(consistent.lower(), over)
+    assert not lower and "capital letter" in lower.message and f'"{consistent}"' in lower.message
     assert "underconfident" in ch04.check_diagnosis(consistent, under).message
     assert "both" in ch04.check_diagnosis(over, over).message
     assert not ch04.check_diagnosis(under, over)

@@ -115,7 +115,9 @@ def test_diagnosis_studies_and_checker():
     assert lo < late["B"] < hi                  # the rate state follows it
     assert late["C"] < lo                       # a huge bias noise follows it, claiming too much uncertainty
     assert ch07.check_bias_diagnosis("B", "A").correct
-    assert ch07.check_bias_diagnosis(" b ", "a").correct
+    assert ch07.check_bias_diagnosis(" B ", "A").correct
+    lower = ch07.check_bias_diagnosis(" b ", "A")
+    assert not lower and "capital letter" in lower.message and 'write "B"' in lower.message
     for c, o, fragment in (("A", "A", "both"), ("B", "C", "below"), ("C", "A", "not the consistent"),
                            ("B", "x", "letters"), (None, "A", "No answer")):
         fb = ch07.check_bias_diagnosis(c, o)

@@ -73,8 +73,7 @@ def test_right_answers_pass(bound, table):
                           (ch10.check_median_over_bound, row["median_final_error"] / row["final_bound"]),
                           (ch10.check_lost_runs, round(n_lost)), (ch10.check_lost_runs, n_lost),
                           (ch10.check_lost_runs, np.int64(round(n_lost))),
-                          (ch10.check_method_choice, letter), (ch10.check_method_choice, letter.lower()),
-                          (ch10.check_method_choice, f" ({letter}) "), (ch10.check_method_choice, best.upper())]:
+                          (ch10.check_method_choice, letter), (ch10.check_method_choice, f" {letter} ")]:
         fb = check(answer)
         assert fb.correct, (check.__name__, answer, fb.message, fb.hint)
         fb.assert_correct()
@@ -196,12 +195,33 @@ def test_check_choice_refuses_a_misconfigured_checker():
 
 def test_check_choice_gives_the_wrong_option_its_hint():
     options = {"A": "the EKF", "B": "the particle filter", "C": "the IEKF"}
-    fb = check_choice("a", "B", options, name="the method", common_mistakes={"A": "It loses runs."}, hint="Generic.")
+    fb = check_choice("A", "B", options, name="the method", common_mistakes={"A": "It loses runs."}, hint="Generic.")
     assert not fb.correct and fb.hint == "It loses runs." and fb.details == {"answer": "A", "mistake": "A"}
     fb = check_choice("C", "B", options, name="the method", common_mistakes={"A": "It loses runs."}, hint="Generic.")
     assert not fb.correct and fb.hint == "Generic." and "mistake" not in fb.details
-    assert check_choice("The Particle Filter", "B", options).correct
-    assert check_choice("b.", "B", options, explanation="Why.").message.endswith("Why.")
+    assert check_choice(" B ", "B", options, explanation="Why.").message.endswith("Why.")
+
+
+@pytest.mark.parametrize("answer, asks, letter", [("b", "capital letter", "B"), ("a", "capital letter", "A"),
+                                                  ("(b)", "capital letter", "B"), ("b.", "capital letter", "B"),
+                                                  ("(B)", "letter alone", "B"),
+                                                  ("The Particle Filter", "text of option", "B"),
+                                                  ("the IEKF", "text of option", "C")])
+def test_check_choice_asks_for_the_capital_letter_without_judging_the_choice(answer, asks, letter):
+    """The question asks for a capital letter: "b", "(B)" or an option's text are not accepted, and the message says
+    what to write, the same whether that option is right or not."""
+    options = {"A": "the EKF", "B": "the particle filter", "C": "the IEKF"}
+    fb = check_choice(answer, "B", options, name="the method", common_mistakes={"A": "It loses runs."})
+    assert not fb.correct and asks in fb.message and f'"{letter}"' in fb.message + fb.hint
+    assert "answer" not in fb.details and "right" not in fb.message and "It loses runs" not in (fb.hint or "")
+    wrong = check_choice(answer, "A", options, name="the method")
+    assert (wrong.message, wrong.hint) == (fb.message, fb.hint), "the message does not tell right from wrong"
+
+
+def test_method_choice_asks_for_the_letter_of_iekf():
+    fb = ch10.check_method_choice("IEKF")
+    assert not fb and 'text of option "B"' in fb.message
+    assert not ch10.check_method_choice("b") and "capital letter" in ch10.check_method_choice("b").message
 
 
 def test_source_carries_nbgrader_metadata_and_the_student_version_has_no_solution():

@@ -234,3 +234,15 @@ def test_student_exercise_gives_a_hint_for_a_wrong_answer_and_accepts_the_right_
     _screenshot(page, "exercise-right")
     assert "✔" in right and "✘" not in right, right
     assert not open_page.errors, f"console errors: {open_page.errors}"
+
+
+def test_opening_a_student_notebook_does_not_mark_it_modified(open_page):
+    """JupyterLab rewrites a notebook's kernelspec and language_info when its kernel starts; a student version made by
+    `uwtutor exercises` carries them as JupyterLab writes them, so it is not "modified" before the student types."""
+    page = open_page(EXERCISES_PATH)
+    page.wait_for_timeout(1000)                 # the kernel's info reply has been applied by now
+    state = page.evaluate("""() => { const w = window.jupyterapp.shell.currentWidget;
+        return {dirty: w.context.model.dirty, kernelspec: w.context.model.getMetadata('kernelspec')}; }""")
+    assert state["kernelspec"]["display_name"] == "Python 3 (ipykernel)"
+    assert state["dirty"] is False, "the student notebook is marked modified on opening"
+    assert not open_page.errors, f"console errors: {open_page.errors}"

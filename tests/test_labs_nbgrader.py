@@ -1,26 +1,34 @@
 """The labs are nbgrader assignments: nbgrader itself generates, autogrades and writes feedback on each of them.
 
-For every lab folder in ``exercises/labs/`` a temporary nbgrader course (its own sqlite gradebook) is made:
-``nbgrader generate_assignment``, then three submissions are autograded by ``nbgrader autograde``:
+One temporary nbgrader course (its own sqlite gradebook) holds every lab folder of ``exercises/labs/`` as an
+assignment, so that nbgrader starts three times in all (not three times per lab): ``nbgrader generate_assignment``,
+then ``nbgrader autograde`` of three submissions of every lab:
 
 - ``solution``: the instructor's source with the solution markers taken out: it must get every autograded point;
 - ``blank``: the released version, unanswered: it must get no point;
 - ``wrong``: the solution with one typical mistake (listed in ``MISTAKES``): some points, not all;
 
-and ``nbgrader generate_feedback`` writes the HTML feedback, which must name what failed. The labs run in full (they
-are written to take seconds), two courses at a time. Also tested: the metadata nbgrader reads, the released version,
-and ``uwtutor labs DIR`` (the student versions made without nbgrader).
+and ``nbgrader generate_feedback`` writes the HTML feedback, which must name what failed and show no answer. The labs
+run in full (they are written to take seconds). Also tested: the metadata nbgrader reads, the released version, and
+``uwtutor labs DIR`` (the student versions made without nbgrader).
+
+Time (``time .venv/bin/python -m pytest tests/test_labs_nbgrader.py``, on two cores shared with other work, so the
+CPU time is the steadier measure): one course per lab (24 nbgrader processes, two courses at a time) took 170-280 s
+of CPU (250-790 s wall); the one course takes 100-125 s of CPU (110-280 s wall). Of that, autograding the 24
+submissions is about 85 %: a kernel per notebook and each lab's own compute (1-6 s; depth_pf_vs_ekf is the
+heaviest). Two courses of four labs side by side were measured too: no faster on a loaded machine and more CPU,
+and ``make test`` already keeps both cores busy (pytest-xdist).
 """
 
 from __future__ import annotations
 
 import copy
+import html
 import os
 import re
 import shutil
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import nbformat
@@ -30,6 +38,7 @@ nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the te
 
 from uwtutor.exercises.cli import main  # noqa: E402
 from uwtutor.exercises.generate import CODE_STUB, list_lab_sources, write_lab_versions  # noqa: E402
+from uwtutor.exercises.labs import lab_parts  # noqa: E402
 from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, total_points  # noqa: E402
 
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
@@ -99,9 +108,8 @@ def _nbgrader(course: Path, *args: str) -> subprocess.CompletedProcess:
     return result
 
 
-def _grade_lab(root: Path, lab: str) -> dict:
-    """Make a course for one lab, generate it, autograde three students, write their feedback; report the scores."""
-    course = root / lab
+def _grade_all(course: Path) -> dict:
+    """One course with every lab: generate them, autograde three students, write their feedback; report the scores."""
     (course / "source").mkdir(parents=True)
     stub = CODE_STUB[0] + "\n" + CODE_STUB[1]
     (course / "nbgrader_config.py").write_text(
@@ -111,47 +119,56 @@ def _grade_lab(root: Path, lab: str) -> dict:
         f"c.CourseDirectory.db_url = 'sqlite:///{course / 'gradebook.db'}'\n"
         f"c.ClearSolutions.code_stub = {{'python': {stub!r}}}\n"
         "c.ExecutePreprocessor.timeout = 600\n", encoding="utf-8")
-    shutil.copytree(LABS_DIR / lab, course / "source" / lab)
-    _nbgrader(course, "generate_assignment", lab, "--create")
-    notebooks = LABS[lab]
-    (right_id, right, wrong), _, _ = MISTAKES[lab]
-    for path in notebooks:
-        source = nbformat.read(path, as_version=4)
-        released = nbformat.read(course / "release" / lab / path.name, as_version=4)
-        has_mistake = any(c.metadata.get("nbgrader", {}).get("grade_id") == right_id and right in c.source
-                          for c in source.cells)
-        submissions = {"solution": _solution_version(source), "blank": released,
-                       "wrong": _with_mistake(source, right_id, right, wrong) if has_mistake else _solution_version(source)}
-        for student, nb in submissions.items():
-            folder = course / "submitted" / student / lab
-            folder.mkdir(parents=True, exist_ok=True)
-            nbformat.write(nb, folder / path.name)
-    _nbgrader(course, "autograde", lab, "--create")
-    _nbgrader(course, "generate_feedback", lab)
-    scores: dict = {}
+    for lab in LABS:
+        shutil.copytree(LABS_DIR / lab, course / "source" / lab)
+    _nbgrader(course, "generate_assignment", "*")     # every folder of source/ (one assignment each)
+    for lab, notebooks in LABS.items():
+        (right_id, right, wrong), _, _ = MISTAKES[lab]
+        for path in notebooks:
+            source = nbformat.read(path, as_version=4)
+            released = nbformat.read(course / "release" / lab / path.name, as_version=4)
+            has_mistake = any(c.metadata.get("nbgrader", {}).get("grade_id") == right_id and right in c.source
+                              for c in source.cells)
+            submissions = {"solution": _solution_version(source), "blank": released,
+                           "wrong": _with_mistake(source, right_id, right, wrong) if has_mistake
+                           else _solution_version(source)}
+            for student, nb in submissions.items():
+                folder = course / "submitted" / student / lab
+                folder.mkdir(parents=True, exist_ok=True)
+                nbformat.write(nb, folder / path.name)
+    autograde = _nbgrader(course, "autograde", "*")
+    _nbgrader(course, "generate_feedback", "*")
+    results: dict = {}
     with nbgrader_api.Gradebook(f"sqlite:///{course / 'gradebook.db'}") as gradebook:
-        for student in ("solution", "blank", "wrong"):
-            auto = maximum = 0.0
-            manual_pending = 0
-            for path in notebooks:
-                submission = gradebook.find_submission_notebook(path.stem, lab, student)
-                for grade in submission.grades:
-                    if grade.cell.cell_type == "code":
-                        auto += grade.auto_score or 0.0
-                        maximum += grade.max_score
-                    elif grade.needs_manual_grade:
-                        manual_pending += 1
-            scores[student] = {"auto": auto, "max": maximum, "manual_pending": manual_pending}
-    return {"course": course, "scores": scores}
+        for lab, notebooks in LABS.items():
+            scores: dict = {}
+            for student in ("solution", "blank", "wrong"):
+                auto = maximum = 0.0
+                manual_pending = 0
+                for path in notebooks:
+                    submission = gradebook.find_submission_notebook(path.stem, lab, student)
+                    for grade in submission.grades:
+                        if grade.cell.cell_type == "code":
+                            auto += grade.auto_score or 0.0
+                            maximum += grade.max_score
+                        elif grade.needs_manual_grade:
+                            manual_pending += 1
+                scores[student] = {"auto": auto, "max": maximum, "manual_pending": manual_pending}
+            results[lab] = {"course": course, "scores": scores}
+    results["_autograde_log"] = autograde.stdout + autograde.stderr
+    return results
 
 
 @pytest.fixture(scope="module")
 def graded(tmp_path_factory):
-    """Every lab graded by nbgrader, two labs at a time (one course each)."""
-    root = tmp_path_factory.mktemp("nbgrader-courses")
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        results = dict(zip(LABS, pool.map(lambda lab: _grade_lab(root, lab), LABS)))
-    return results
+    """Every lab graded by nbgrader in one course."""
+    return _grade_all(tmp_path_factory.mktemp("nbgrader-course") / "course")
+
+
+def _feedback_text(course: Path, student: str, lab: str, stem: str) -> str:
+    """The text of a feedback page (tags removed, entities decoded, white space collapsed)."""
+    page = (course / "feedback" / student / lab / f"{stem}.html").read_text(encoding="utf-8")
+    return " ".join(html.unescape(re.sub(r"<[^>]+>", " ", page)).split())
 
 
 # -- the sources ------------------------------------------------------------------------------------------------------
@@ -210,13 +227,60 @@ def test_feedback_is_written_and_names_the_failure(graded, lab):
     course = graded[lab]["course"]
     for path in LABS[lab]:
         for student in ("solution", "blank", "wrong"):
-            html = course / "feedback" / student / lab / f"{path.stem}.html"
-            assert html.is_file(), f"no feedback for {student}"
+            page = course / "feedback" / student / lab / f"{path.stem}.html"
+            assert page.is_file(), f"no feedback for {student}"
         wrong = (course / "feedback" / "wrong" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
-        assert MISTAKES[lab][2] in wrong, "the feedback shows the failing test's message"
+        phrase = " ".join(html.unescape(MISTAKES[lab][2]).split())
+        assert phrase in _feedback_text(course, "wrong", lab, path.stem), "the feedback shows the failing test's message"
         assert "output_error" in wrong
         solution = (course / "feedback" / "solution" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
         assert "output_error" not in solution, "the solution's feedback shows an error"
+
+
+_REGION = re.compile(r"^[ \t]*### BEGIN (SOLUTION|HIDDEN TESTS)[ \t]*\n(.*?)^[ \t]*### END \1", re.M | re.S)
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_feedback_shows_no_answer(graded, lab):
+    """A student who failed every part gets feedback with no line of the solution (the blank submission; the wrong
+    one is the solution with a mistake), and no submission's feedback shows a grader-side frame."""
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        source = nbformat.read(path, as_version=4)
+        outside = "\n".join(_REGION.sub("", c.source) for c in source.cells)       # given code, visible tests
+        solution_lines = {line.strip() for c in source.cells for kind, body in _REGION.findall(c.source)
+                          if kind == "SOLUTION" for line in body.split("\n")
+                          if len(line.strip()) >= 25 and line.strip() not in outside}
+        assert solution_lines, f"{lab}: no solution line to look for"
+        for student in ("blank", "wrong"):
+            text = _feedback_text(course, student, lab, path.stem)
+            code = re.sub(r"\s+", "", text)       # highlighted code: every token in a tag of its own
+            shown = [line for line in solution_lines if re.sub(r"\s+", "", line) in code]
+            assert student == "wrong" or not shown, f"{lab}: the {student} feedback shows solution lines: {shown[:3]}"
+            assert "uwtutor/exercises" not in text and "site-packages" not in text, "a grader-side frame is shown"
+            assert f'_verdict=check_part("{lab}",' in code
+            # every hidden test shown (in its cell, and in a traceback's context lines, which may stop inside it) is
+            # the call and nothing else
+            chunks = text.split("### BEGIN HIDDEN TESTS")[1:]
+            assert len(chunks) >= len(lab_parts(lab))
+            calls = [f'fromuwtutor.exercises.labsimportcheck_part_verdict=check_part("{lab}","{part}",globals())'
+                     "assert_verdict,_verdict" for part in lab_parts(lab)]
+            for chunk in chunks:
+                region = re.split(r"### END HIDDEN TESTS|\w+Error :|Traceback|Cell In", chunk)[0]
+                body = re.sub(r"\s+|\d+|---->", "", region)
+                assert any(call.startswith(body) for call in calls), \
+                    f"{lab}: a hidden test shows more than the call: {region[:300]}"
+
+
+def test_checksum_warnings_name_only_cells_with_hidden_tests(graded):
+    """nbgrader warns "Attribute 'checksum' for cell ... has changed!" when it puts the hidden tests back into a
+    submitted test cell (labs/README.md says so): every such warning names a test cell that has hidden tests."""
+    log = graded["_autograde_log"]
+    named = set(re.findall(r"Attribute 'checksum' for cell (\S+) has changed", log))
+    assert named, "nbgrader no longer warns about restored test cells: update exercises/labs/README.md"
+    with_hidden = {c.metadata["nbgrader"]["grade_id"] for nbs in LABS.values() for path in nbs
+                   for c in nbformat.read(path, as_version=4).cells if "BEGIN HIDDEN TESTS" in c.source}
+    assert named <= with_hidden, named - with_hidden
 
 
 @pytest.mark.parametrize("lab", LABS)
@@ -275,3 +339,25 @@ def test_uwtutor_labs_errors(tmp_path, capsys):
     assert main(["labs", str(tmp_path / "y"), "--source", str(tmp_path / "nowhere")]) == 2
     with pytest.raises(ValueError, match="source directory"):
         write_lab_versions(LABS_DIR, LABS_DIR)
+
+
+# -- the project's JupyterLab is a student's: nbgrader is installed for these tests, not shown ------------------------
+def _jupyter(*args: str) -> str:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JUPYTER", "JPY_"))}
+    proc = subprocess.run([str(Path(sys.executable).with_name("jupyter")), *args], capture_output=True, text=True,
+                          timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    return re.sub(r"\x1b\[[0-9;]*m", "", proc.stdout + proc.stderr)
+
+
+def test_nbgrader_extensions_are_disabled_in_the_project_environment():
+    """`make setup` disables nbgrader's JupyterLab extension and server extensions (`make lab` is a student's view:
+    no nbgrader menu, no "Create Assignment" sidebar); jupytext, whose extension fails under JupyterLab 4.5, is gone."""
+    if not Path(sys.executable).with_name("jupyter").exists():
+        pytest.skip("no jupyter in this environment")
+    labextensions = _jupyter("labextension", "list")
+    assert re.search(r"@jupyter/nbgrader v\S+ disabled", labextensions), labextensions
+    assert "jupytext" not in labextensions, "jupytext's extension does not load under JupyterLab 4.5: run make setup"
+    server = _jupyter("server", "extension", "list")
+    listed = re.findall(r"^\s*(nbgrader\.server_extensions\.\w+) (enabled|disabled)", server, re.M)
+    assert listed and all(state == "disabled" for _, state in listed), listed

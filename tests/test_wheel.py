@@ -10,11 +10,21 @@ The wheel is then installed with ``--no-deps`` into a new virtual environment ma
 ``.pth`` files inside that directory, such as the editable install's finder, are not processed). In that
 environment, from a directory outside the checkout, ``uwtutor exercises DIR`` and ``python -m uwtutor exercises DIR``
 must write every student notebook, identical to what the checkout's generator makes, with no solution left in it.
+
+The wheel carries the student versions only: no file in it may hold a solution or hidden-test marker, a line of a
+solution or of a hidden test, or an instructor note (the sdist, for instructors, has the sources and the notes).
+
+Last, what a student does (``pip install "uwtutor[lab]"``, then opens an exercise): the wheel is installed with its
+``lab`` extra into a fresh virtual environment, offline, from a wheelhouse of the pinned versions
+(``constraints.txt``) kept in the project's environment (``.venv/wheelhouse``, downloaded from PyPI on first use);
+JupyterLab, jupyterlab-myst and the widgets' extension must be there, and a kernel of that environment runs the
+first cells of an exercise notebook written by its ``uwtutor exercises``.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -63,8 +73,18 @@ def _run(args: list[str], cwd: Path, **kwargs) -> subprocess.CompletedProcess:
     return proc
 
 
+def _student_files() -> set[str]:
+    """What the wheel carries of the exercise tree: each exercise notebook and each lab notebook (student versions)."""
+    from uwtutor.exercises.generate import list_exercise_sources, list_lab_sources
+
+    found = {p.name for p in list_exercise_sources(SOURCES)}
+    for lab, notebooks in list_lab_sources(SOURCES / "labs").items():
+        found |= {f"labs/{lab}/{p.name}" for p in notebooks}
+    return found
+
+
 def _source_files() -> set[str]:
-    """The exercise tree's files (relative paths) that the wheel must carry: all but hidden files and caches."""
+    """The exercise tree's files (relative paths) that the sdist must carry: all but hidden files and caches."""
     found = set()
     for path in SOURCES.rglob("*"):
         rel = path.relative_to(SOURCES)
@@ -127,15 +147,72 @@ def test_wheel_carries_the_exercise_sources_and_the_metadata(build):
         entry_points = zf.read(next(n for n in names if n.endswith(".dist-info/entry_points.txt"))).decode()
     prefix = "uwtutor/_data/exercises/"
     shipped = {n[len(prefix):] for n in names if n.startswith(prefix) and not n.endswith("/")}
-    assert shipped == _source_files()
-    assert any(s.endswith(".ipynb") for s in shipped)
+    assert shipped == _student_files(), "the wheel carries the student versions of the notebooks, and nothing else"
+    with zipfile.ZipFile(wheel) as zf:
+        for name in shipped:
+            notebook = nbformat.reads(zf.read(prefix + name).decode("utf-8"), as_version=4)
+            assert notebook == make_student_version(SOURCES / name), f"{name} is not the generator's student version"
     assert "uwtutor/__main__.py" in names and "uwtutor/py.typed" in names
     assert not any(n.startswith(("tests/", "exercises/", "benchmarks/", "book/")) for n in names)
     assert "License-Expression: MIT" in metadata
     assert "uwtutor = uwtutor.exercises.cli:main" in entry_points
     with tarfile.open(sdist) as tar:
         in_sdist = {Path(n).relative_to(Path(n).parts[0]).as_posix() for n in tar.getnames() if "/" in n}
-    assert {f"exercises/{s}" for s in _source_files()} <= in_sdist
+    assert {f"exercises/{s}" for s in _source_files()} <= in_sdist, "the sdist carries the sources (instructors)"
+    assert any(n.startswith("exercises/labs/instructor-notes/") for n in in_sdist)
+
+
+_MARKERS = ("BEGIN SOLUTION", "END SOLUTION", "BEGIN HIDDEN TESTS", "END HIDDEN TESTS")
+_REGION = re.compile(r"^[ \t]*#+ *BEGIN (SOLUTION|HIDDEN TESTS)[ \t]*\n(.*?)^[ \t]*#+ *END \1", re.M | re.S)
+
+
+def _secret_lines() -> dict[str, set[str]]:
+    """Lines that must not leave the repository: of solutions and hidden tests (those that appear nowhere else in
+    the sources, given code and visible tests of every notebook), and of the instructor notes."""
+    from uwtutor.exercises.generate import list_exercise_sources, list_lab_sources
+
+    notebooks = list_exercise_sources(SOURCES) + [p for nbs in list_lab_sources(SOURCES / "labs").values() for p in nbs]
+    sources = [c.source for path in notebooks for c in nbformat.read(path, as_version=4).cells]
+    public = "\n".join(_REGION.sub("", source) for source in sources)
+    secret: dict[str, set[str]] = {"solution": set(), "hidden test": set(), "instructor note": set()}
+    for source in sources:
+        for kind, body in _REGION.findall(source):
+            secret["solution" if kind == "SOLUTION" else "hidden test"] |= {
+                line.strip() for line in body.split("\n") if len(line.strip()) >= 20 and line.strip() not in public}
+    for note in (SOURCES / "labs" / "instructor-notes").glob("*.md"):
+        secret["instructor note"] |= {line.strip() for line in note.read_text(encoding="utf-8").split("\n")
+                                      if len(line.strip()) >= 40}
+    return secret
+
+
+def test_wheel_holds_no_solution_hidden_test_or_instructor_note(build):
+    """The notebooks and data of the wheel hold no marker and no line of a solution or hidden test; no file of the
+    wheel holds a line of an instructor note, or a marked region of a source. (The library's modules may name the
+    markers: the generator and the graders work with them.)"""
+    wheel, _, _ = build
+    secret = _secret_lines()
+    assert all(secret.values()), "nothing to look for: the sources have changed shape"
+    found = []
+    with zipfile.ZipFile(wheel) as zf:
+        for name in zf.namelist():
+            if "instructor" in name.lower():
+                found.append(f"{name}: an instructor's file")
+            try:
+                text = zf.read(name).decode("utf-8")
+            except UnicodeDecodeError:
+                continue
+            if name.startswith("uwtutor/_data/") or name.endswith(".ipynb"):
+                if name.endswith(".ipynb"):
+                    text = "\n".join(c.source for c in nbformat.reads(text, as_version=4).cells)
+                found += [f"{name}: {marker!r}" for marker in _MARKERS if marker in text]
+                found += [f"{name}: a line of a {kind}: {line!r}" for kind in ("solution", "hidden test")
+                          for line in secret[kind] if line in text]
+            for kind, body in _REGION.findall(text):
+                if any(line.strip() in secret["solution"] | secret["hidden test"] for line in body.split("\n")):
+                    found.append(f"{name}: a marked {kind.lower()} region of a source")
+            found += [f"{name}: a line of an instructor note: {line[:60]!r}" for line in secret["instructor note"]
+                      if line in text]
+    assert not found, "the wheel gives students what is the instructor's:\n" + "\n".join(found[:20])
 
 
 def test_installed_package_is_the_wheel_not_the_checkout(installed, tmp_path):
@@ -187,3 +264,91 @@ def test_installed_wheel_reads_the_committed_comparison(installed, tmp_path):
     from uwtutor import methods
     table = methods.load_comparison()
     assert shape == f"{len(table)} {table.rmse_curves.shape}"
+
+
+def test_installed_wheel_writes_the_labs(installed, tmp_path):
+    from uwtutor.exercises.generate import list_lab_sources
+
+    dest = tmp_path / "labs"
+    proc = _run([str(installed / "bin" / "uwtutor"), "labs", str(dest)], cwd=tmp_path)
+    labs = list_lab_sources(SOURCES / "labs")
+    assert f"Wrote {sum(len(nbs) for nbs in labs.values())} notebooks" in proc.stdout
+    for lab, notebooks in labs.items():
+        for path in notebooks:
+            student = nbformat.read(dest / lab / path.name, as_version=4)
+            assert student == make_student_version(path)
+    assert not (dest / "instructor-notes").exists()
+
+
+# -- pip install "uwtutor[lab]": what a student needs to open the exercises --------------------------------------------
+WHEELHOUSE = Path(sys.prefix) / "wheelhouse"
+
+
+def _requirements(metadata: str, extra: str) -> list[str]:
+    """The wheel's requirements without an extra and those of ``extra`` (markers dropped; self-references out)."""
+    found = []
+    for line in metadata.splitlines():
+        if not line.startswith("Requires-Dist: "):
+            continue
+        requirement, _, marker = line[len("Requires-Dist: "):].partition(";")
+        marker = marker.strip()
+        if requirement.strip().startswith("uwtutor"):
+            continue
+        if not marker or marker.replace("'", '"') == f'extra == "{extra}"':
+            found.append(requirement.strip())
+    return found
+
+
+@pytest.fixture(scope="module")
+def lab_venv(build, tmp_path_factory):
+    """A fresh venv (with pip) and ``pip install WHEEL[lab]`` into it, offline from the wheelhouse."""
+    wheel, _, _ = build
+    with zipfile.ZipFile(wheel) as zf:
+        metadata = zf.read(next(n for n in zf.namelist() if n.endswith(".dist-info/METADATA"))).decode()
+    requirements = _requirements(metadata, "lab")
+    assert any(r.startswith("jupyterlab") for r in requirements) and any(r.startswith("ipykernel")
+                                                                         for r in requirements)
+    venv = tmp_path_factory.mktemp("lab-venv") / "venv"
+    _run([sys.executable, "-m", "venv", str(venv)], cwd=venv.parent)
+    python = str(venv / "bin" / "python")
+    install = [python, "-m", "pip", "install", "--disable-pip-version-check", "--quiet", "--no-compile", "--no-index",
+               "--find-links", str(WHEELHOUSE), "--only-binary", ":all:", f"{wheel}[lab]"]
+    proc = subprocess.run(install, cwd=venv.parent, capture_output=True, text=True, timeout=600, env=_clean_env())
+    if proc.returncode != 0:        # the wheelhouse lacks a pinned version: fetch the missing wheels once
+        download = [sys.executable, "-m", "pip", "download", "--disable-pip-version-check", "--quiet", "--dest",
+                    str(WHEELHOUSE), "--only-binary", ":all:", "-c", str(REPO / "constraints.txt"), *requirements]
+        fetched = subprocess.run(download, cwd=REPO, capture_output=True, text=True, timeout=600, env=_clean_env())
+        if fetched.returncode != 0:
+            if os.environ.get("CI", "").lower() == "true":
+                pytest.fail(f"cannot fill the wheelhouse {WHEELHOUSE} from PyPI:\n{fetched.stderr[-2000:]}")
+            pytest.skip(f"the wheelhouse {WHEELHOUSE} lacks wheels and PyPI cannot be reached")
+        _run(install, cwd=venv.parent)
+    return venv
+
+
+def test_lab_extra_gives_a_student_jupyterlab_and_a_kernel(lab_venv, tmp_path):
+    bin_dir = lab_venv / "bin"
+    assert (bin_dir / "jupyter-lab").exists(), "pip install 'uwtutor[lab]' must bring JupyterLab"
+    extensions = re.sub(r"\x1b\[[0-9;]*m", "", _run([str(bin_dir / "jupyter"), "labextension", "list"],
+                                                    cwd=tmp_path).stderr)
+    for name in ("jupyterlab-myst", "@jupyter-widgets/jupyterlab-manager"):
+        assert re.search(re.escape(name) + r" v\S+ enabled", extensions), f"{name} missing:\n{extensions}"
+    assert "nbgrader" not in extensions and "jupytext" not in extensions
+    # a student's first exercise notebook, as `uwtutor exercises` writes it, run by the environment's own kernel
+    _run([str(bin_dir / "uwtutor"), "exercises", str(tmp_path / "my-work")], cwd=tmp_path)
+    script = r"""
+import sys, nbformat
+from nbclient import NotebookClient
+nb = nbformat.read(sys.argv[1], as_version=4)
+first = next(i for i, c in enumerate(nb.cells) if "answer" in c.metadata.get("tags", []))
+nb.cells = nb.cells[:first] + [nbformat.v4.new_code_cell("import sys, uwtutor; print(sys.executable); print(uwtutor.__file__)")]
+NotebookClient(nb, timeout=300, kernel_name="python3").execute()
+errors = [o for c in nb.cells for o in c.get("outputs", []) if o.output_type == "error"]
+assert not errors, errors
+print(nb.cells[-1].outputs[0].text)
+"""
+    notebook = tmp_path / "my-work" / "ch01_positioning_and_errors.ipynb"
+    proc = _run([str(bin_dir / "python"), "-c", script, str(notebook)], cwd=tmp_path)
+    kernel_python, module = proc.stdout.split()[-2:]
+    assert Path(kernel_python).parent == bin_dir, "the kernel is the lab environment's Python"
+    assert Path(module).is_relative_to(lab_venv), "the kernel imports the installed wheel"

@@ -18,6 +18,7 @@ from nbclient import NotebookClient
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cpu_variants  # noqa: E402  (tools/cpu_variants.py: the CPU the committed outputs are made on)
+from uwtutor.exercises.generate import KERNELSPEC  # noqa: E402
 
 
 def notebooks_in(paths: list[str]) -> list[Path]:
@@ -35,7 +36,11 @@ def notebooks_in(paths: list[str]) -> list[Path]:
 
 def execute(path: Path) -> None:
     nb = nbformat.read(path, as_version=4)
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    # The kernelspec as JupyterLab writes it (another display_name, and JupyterLab rewrites it, marking the chapter
+    # modified as soon as it is opened); the kernel writes language_info. jupytext's pairing metadata is left over
+    # from authoring and nothing reads it.
+    nb.metadata["kernelspec"] = dict(KERNELSPEC)
+    nb.metadata.pop("jupytext", None)
     client = NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}},
                             store_widget_state=True)
     # The kernel plays the CPU of cpu_variants.MAKE; `make test` checks the outputs on another (CHECK).

@@ -28,7 +28,7 @@ import numpy as np
 from scipy import stats
 
 from ..filters import RangeOnlyEKF
-from .checks import Case, check_array, check_function, check_number, not_answered
+from .checks import Case, check_array, check_function, check_number, not_answered, read_letter
 from .feedback import Feedback
 
 __all__ = [
@@ -331,14 +331,13 @@ def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
         The verdict, with a hint on how to read a NEES curve.
     """
     right_c, right_o, right_u = _classify(diagnosis_studies())
-    letters = set(DIAGNOSIS_FILTERS)
+    chosen = {}
     for name, value in (("consistent", consistent), ("overconfident", overconfident)):
-        if value is None or value is Ellipsis:
-            return not_answered(f"the letter of the {name} filter (\"A\", \"B\" or \"C\")")
-        if not isinstance(value, str) or value.strip().upper() not in letters:
-            return Feedback(False, f"Not yet: `{name}` should be one of the letters \"A\", \"B\", \"C\"; got "
-                                   f"{value!r}.", hint="Write the letter in quotes, e.g. `consistent = \"A\"`.")
-    c, o = consistent.strip().upper(), overconfident.strip().upper()
+        chosen[name], problem = read_letter(value, sorted(DIAGNOSIS_FILTERS), name=f"the {name} filter",
+                                            example=name)
+        if problem is not None:
+            return problem
+    c, o = chosen["consistent"], chosen["overconfident"]
     read = ("A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
             "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
             "(underconfident).")

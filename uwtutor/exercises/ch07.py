@@ -32,7 +32,7 @@ from ..filters import bias_ekf, extended_kalman_filter
 from ..metrics import chi2_mean_bounds
 from ..models import (BiasRateDeadReckoning, RangeToBeacon, bias_rate_process_noise, paper_a_process_noise)
 from ..scenarios import paper_a
-from .checks import check_array, check_number, not_answered, parse_real_array
+from .checks import check_array, check_number, not_answered, parse_real_array, read_letter
 from .feedback import Feedback
 
 __all__ = [
@@ -347,13 +347,13 @@ def check_bias_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
         The verdict, with what each filter's NEES says.
     """
     right_c, right_o, right_u = _classify(bias_diagnosis_studies())
+    chosen = {}
     for name, value in (("consistent", consistent), ("overconfident", overconfident)):
-        if value is None or value is Ellipsis:
-            return not_answered(f"the letter of the {name} filter (\"A\", \"B\" or \"C\")")
-        if not isinstance(value, str) or value.strip().upper() not in DIAGNOSIS_FILTERS:
-            return Feedback(False, f"Not yet: `{name}` should be one of the letters \"A\", \"B\", \"C\"; got "
-                                   f"{value!r}.", hint="Write the letter in quotes, e.g. `consistent = \"A\"`.")
-    c, o = consistent.strip().upper(), overconfident.strip().upper()
+        chosen[name], problem = read_letter(value, sorted(DIAGNOSIS_FILTERS), name=f"the {name} filter",
+                                            example=name)
+        if problem is not None:
+            return problem
+    c, o = chosen["consistent"], chosen["overconfident"]
     read = ("Mean NEES of a consistent 3-state filter: about 3, inside the band. Far above: the filter's P is too "
             "small for its errors (here, a bias that moves faster than its Q allows). Below: P too large.")
     if c == right_c and o == right_o:

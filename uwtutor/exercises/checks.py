@@ -9,8 +9,9 @@ Four checkers cover the exercises of the book:
 - ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
   reports the first failing case with its inputs, the expected result and the student's result; an exception raised
   by the student's code is caught and reported with the line it came from;
-- ``check_choice`` for a multiple-choice answer given as a letter: it accepts the letter in any case (or the option's
-  text), names the letters when the answer is none of them, and gives each wrong option its own hint.
+- ``check_choice`` for a multiple-choice answer given as a capital letter: it asks for the capital when the letter is
+  written in lower case and for the letter when the option's text is given, names the letters when the answer is none
+  of them, and gives each wrong option its own hint (``read_letter`` does the reading, for other checkers too).
 
 None of them ever raises because of the *answer*: ``None`` (not answered yet), a string, a list of the wrong length or a
 function that crashes all give a ``Feedback`` with ``correct=False`` and a helpful message. They do raise ``ValueError``
@@ -50,8 +51,8 @@ import numpy as np
 
 from .feedback import Feedback
 
-__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "DEFAULT_HINT",
-           "parse_real_array", "run_student"]
+__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "read_letter",
+           "DEFAULT_HINT", "parse_real_array", "run_student"]
 
 #: The hint given when an answer is wrong and no more specific cause is recognised.
 DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
@@ -283,8 +284,13 @@ def _power_hint(k: int, units: str) -> str:
             f"milliseconds...): check that every input is in SI units{inunits}.")
 
 
-def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tuple[str, str | None]:
-    """How the answer ``a`` relates to the expected ``e`` (``e != 0``), with a hint when the relation is telling."""
+def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
+              reveal: bool = True) -> tuple[str, str | None]:
+    """How the answer ``a`` relates to the expected ``e`` (``e != 0``), with a hint when the relation is telling.
+
+    With ``reveal=False`` a relation that names a mistake (a wrong sign, a factor of 2, a power of ten) is kept, but
+    nothing is said from which ``e`` could be worked out: no distance, tolerance, percentage or ratio.
+    """
 
     def close(target: float) -> bool:
         return abs(a - target) <= atol + max(rtol, 1e-12) * abs(target)
@@ -305,6 +311,14 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tu
     if a == 0:
         return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
                                                    "division (`//`) round the result down to 0?")
+    if not reveal:
+        if abs(a - e) <= 10 * tol:
+            return ("is close, but outside the tolerance",
+                    "Did you round an intermediate value or a constant? Keep full precision until the end, and check "
+                    "that no small term is missing.")
+        if (a > 0) != (e > 0):
+            return "has the wrong sign", _SIGN_HINT
+        return f"is too {'large' if abs(a) > abs(e) else 'small'}{' in size' if e < 0 else ''}", None
     if abs(a - e) <= 10 * tol:
         return (f"is close, but just outside the tolerance (off by {_with_units(a - e, units, 3)}; "
                 f"the tolerance is ±{_with_units(tol, units, 3)})",
@@ -332,7 +346,7 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str) -> tu
 # ---------------------------------------------------------------------------------------------------------------------
 def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: float = 0.0, name: str = "the answer",
                  units: str = "", common_mistakes: Mapping[float, str] | None = None, hint: str | None = None,
-                 explanation: str | None = None) -> Feedback:
+                 explanation: str | None = None, reveal_expected: bool = True) -> Feedback:
     """Check a single number against the expected value and explain a wrong one.
 
     The answer is accepted when ``abs(answer - expected) <= atol + rtol * abs(expected)``. A wrong answer is first
@@ -359,6 +373,10 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
         The hint shown when no specific cause is recognised (default ``DEFAULT_HINT``).
     explanation : str, optional
         A sentence appended to the message of a correct answer (why it is right, what it means).
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: the message then gives nothing from which the expected value could be
+        worked out (no percentage, ratio, distance or tolerance; "should be zero" becomes "is not right"), only the
+        student's own value, a recognised mistake and the hint.
 
     Returns
     -------
@@ -376,6 +394,9 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     >>> check_number(-60.0, 60.0, name="the range error", units="m")
     ✘ Not yet: your value for the range error, -60 m, has the right size but the wrong sign.
       Hint: Check the sign convention of the task (for example, error = estimated value − true value).
+    >>> check_number(1510.0, 1480.0, name="c_e", units="m/s", reveal_expected=False)
+    ✘ Not yet: your value for c_e, 1510 m/s, is too large.
+      Hint: Re-read the task: check the formula, each input and its units.
     """
     e = float(expected)
     if not math.isfinite(e):
@@ -403,39 +424,92 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     for value, mistake_hint in (common_mistakes or {}).items():
         v = float(value)
         if abs(a - v) <= atol + rtol * abs(v):
-            relation = _relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 else "is not right"
+            relation = (_relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 and reveal_expected
+                        else "is not right")
             return Feedback(False, f"{subject} {relation}.", hint=mistake_hint, details={**details, "mistake": v})
     if e == 0:
-        return Feedback(False, f"{subject} should be zero (within ±{_with_units(atol, units)}).",
-                        hint=hint or DEFAULT_HINT, details=details)
-    relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units)
+        should = f"should be zero (within ±{_with_units(atol, units)})" if reveal_expected else "is not right"
+        return Feedback(False, f"{subject} {should}.", hint=hint or DEFAULT_HINT, details=details)
+    relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units, reveal=reveal_expected)
     return Feedback(False, f"{subject} {relation}.", hint=special_hint or hint or DEFAULT_HINT, details=details)
 
 
 # ---------------------------------------------------------------------------------------------------------------------
 # check_choice
 # ---------------------------------------------------------------------------------------------------------------------
-def _choice_key(answer: str, options: Mapping[str, str]) -> str | None:
-    """The option key that a text answer names: its letter (any case, with or without ``(``, ``)``, ``.``) or its
-    whole text; ``None`` if it names none."""
+def read_letter(answer: Any, letters: Sequence[str], *, name: str = "the answer",
+                options: Mapping[str, str] | None = None, example: str = "choice") -> tuple[str | None, Feedback | None]:
+    """Read an answer that must be one of the capital ``letters``, as the question asks.
+
+    Surrounding spaces are ignored. Anything else is not accepted, but explained, without saying whether the choice
+    would be right: a letter in lower case (``"b"`` for ``"B"``), the text of an option instead of its letter, the
+    letter in brackets or with a full stop, a number, a letter that is not an option.
+
+    Parameters
+    ----------
+    answer : object
+        The student's answer; ``None`` (or ``...``) means "not answered yet".
+    letters : sequence of str
+        The capital letters of the options, e.g. ``("A", "B", "C")``.
+    name : str
+        What the letter names, e.g. ``"the consistent filter"``; used in the messages.
+    options : mapping of str to str, optional
+        The options' texts by letter, to recognise an answer that gives the text.
+    example : str
+        The variable the student assigns, shown in the hints (``choice = "A"``).
+
+    Returns
+    -------
+    tuple
+        ``(letter, None)`` for an accepted letter, ``(None, feedback)`` otherwise.
+
+    Examples
+    --------
+    >>> read_letter("B", "ABC")
+    ('B', None)
+    >>> print(read_letter("b", "ABC", name="the overconfident filter", example="overconfident")[1])
+    ✘ Not yet: the overconfident filter is asked as a capital letter: write "B", not 'b'.
+      Hint: The options are the capital letters "A", "B", "C"; Python tells "b" from "B": `overconfident = "B"`.
+    """
+    keys = list(letters)
+    listed = ", ".join(f'"{k}"' for k in keys)
+    if _is_unanswered(answer):
+        return None, not_answered(f"the letter of {name} (one of {listed})")
+    first = f'`{example} = "{keys[0]}"`'
+    if not isinstance(answer, str):
+        return None, Feedback(False, f"Not yet: {name} should be one of the letters {listed}; got "
+                                     f"{_a_type(answer)}, {_fmt_value(answer)}.",
+                              hint=f"Write the letter in quotes, e.g. {first}.")
     text = answer.strip()
-    letter = text.strip("()[]. ").upper()
-    for key in options:
-        if letter == key.upper():
-            return key
-    for key, option in options.items():
+    if text in keys:
+        return text, None
+    bare = text.strip("()[]. ")
+    if bare.upper() in keys and bare != bare.upper():
+        letter = bare.upper()
+        return None, Feedback(False, f'Not yet: {name} is asked as a capital letter: write "{letter}", not '
+                                     f"{answer!r}.",
+                              hint=f'The options are the capital letters {listed}; Python tells "{bare}" from '
+                                   f'"{letter}": `{example} = "{letter}"`.', details={"case": letter})
+    if bare in keys:
+        return None, Feedback(False, f'Not yet: write the letter alone, "{bare}", not {answer!r}.',
+                              hint=f'Only the letter, in quotes: `{example} = "{bare}"`.', details={"bare": bare})
+    for key, option in (options or {}).items():
         if text.casefold() == str(option).strip().casefold():
-            return key
-    return None
+            return None, Feedback(False, f"Not yet: {name} is asked as the letter of an option; {answer!r} is the "
+                                         f'text of option "{key}".',
+                                  hint=f'Give its letter: `{example} = "{key}"`.', details={"text_of": key})
+    return None, Feedback(False, f"Not yet: {name} should be one of the letters {listed}; got {answer!r}.",
+                          hint=f"Write the letter in quotes, e.g. {first}.")
 
 
 def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name: str = "the answer",
                  common_mistakes: Mapping[str, str] | None = None, hint: str | None = None,
                  explanation: str | None = None) -> Feedback:
-    """Check a multiple-choice answer given as the letter of an option, and explain a wrong choice.
+    """Check a multiple-choice answer given as the capital letter of an option, and explain a wrong choice.
 
-    The letter may be written in either case, with surrounding spaces or as ``"(b)"``; the full text of an option is
-    accepted too. Anything else (a number, a truth value, a letter that is not an option) gets a message listing the
+    The answer must be the letter as the question asks (surrounding spaces aside): a lower-case letter, the option's
+    text or ``"(B)"`` gets a message that asks for the capital letter alone, without judging the choice
+    (``read_letter``); anything else (a number, a truth value, a letter that is not an option) a message listing the
     letters.
 
     Parameters
@@ -469,8 +543,11 @@ def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name
     Examples
     --------
     >>> options = {"A": "the EKF", "B": "the particle filter"}
-    >>> check_choice("b", "B", options, name="the method")
+    >>> check_choice("B", "B", options, name="the method")
     ✔ Correct: B, the particle filter.
+    >>> check_choice("the particle filter", "B", options, name="the method")
+    ✘ Not yet: the method is asked as the letter of an option; 'the particle filter' is the text of option "B".
+      Hint: Give its letter: `choice = "B"`.
     >>> check_choice("C", "B", options, name="the method")
     ✘ Not yet: the method should be one of the letters "A", "B"; got 'C'.
       Hint: Write the letter in quotes, e.g. `choice = "A"`.
@@ -484,17 +561,10 @@ def check_choice(answer: Any, expected: str, options: Mapping[str, str], *, name
         raise ValueError(f"the keys of options must differ in more than case; got {keys!r}")
     if expected not in options:
         raise ValueError(f"expected must be one of the keys of options {keys}; got {expected!r}")
-    letters = ", ".join(f'"{k}"' for k in keys)
-    if _is_unanswered(answer):
-        return not_answered(f"the letter of {name} (one of {letters})")
-    example = f'Write the letter in quotes, e.g. `choice = "{keys[0]}"`.'
-    if not isinstance(answer, str):
-        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {_a_type(answer)}, "
-                               f"{_fmt_value(answer)}.", hint=example)
-    key = _choice_key(answer, options)
-    if key is None:
-        return Feedback(False, f"Not yet: {name} should be one of the letters {letters}; got {answer!r}.",
-                        hint=example)
+    key, problem = read_letter(answer, keys, name=name, options=options)
+    if problem is not None:
+        return problem
+    assert key is not None
     details = {"answer": key}
     if key == expected:
         message = f"Correct: {key}, {options[key]}."
@@ -643,7 +713,7 @@ def _array_relation(arr: np.ndarray, exp: np.ndarray, rtol: float, atol: float) 
 
 def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float = 0.0, name: str = "the array",
                 units: str = "", common_mistakes: Iterable[tuple[Any, str]] | None = None, hint: str | None = None,
-                explanation: str | None = None) -> Feedback:
+                explanation: str | None = None, reveal_expected: bool = True) -> Feedback:
     """Check an array against the expected array and explain a wrong one.
 
     Elements are compared with ``numpy.isclose(answer, expected, rtol, atol, equal_nan=True)`` (a NaN where NaN is
@@ -674,6 +744,9 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
         The hint shown when no specific cause is recognised.
     explanation : str, optional
         A sentence appended to the message of a correct answer.
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: the message then shows no expected element (only the student's own
+        worst element), and for flags only how many differ, not which.
 
     Returns
     -------
@@ -702,7 +775,7 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
         return _shape_feedback(arr, exp, name)
     details: dict[str, Any] = {"shape": arr.shape}
     if boolean:
-        return _compare_flags(arr, exp, name, hint, explanation, details)
+        return _compare_flags(arr, exp, name, hint, explanation, details, reveal_expected)
 
     nan_where_number = np.isnan(arr) & ~np.isnan(exp)
     if nan_where_number.any():
@@ -751,13 +824,14 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
                         details=details)
     u = f" {units}" if units else ""
     verb = "is" if n_wrong == 1 else "are"
+    expected_text = f", expected {_fmt(exp[worst])}{u}" if reveal_expected else ""
     return Feedback(False, f"{_NOT_YET}{n_wrong} of {arr.size} elements of {name} {verb} off; the worst is at index "
-                           f"{_fmt_index(worst)}: got {_fmt(arr[worst])}{u}, expected {_fmt(exp[worst])}{u}.",
+                           f"{_fmt_index(worst)}: got {_fmt(arr[worst])}{u}{expected_text}.",
                     hint=hint or DEFAULT_HINT, details=details)
 
 
 def _compare_flags(arr: np.ndarray, exp: np.ndarray, name: str, hint: str | None, explanation: str | None,
-                   details: dict[str, Any]) -> Feedback:
+                   details: dict[str, Any], reveal: bool = True) -> Feedback:
     false_alarms = [tuple(i) for i in np.argwhere(arr & ~exp)]
     misses = [tuple(i) for i in np.argwhere(~arr & exp)]
     if not false_alarms and not misses:
@@ -772,6 +846,10 @@ def _compare_flags(arr: np.ndarray, exp: np.ndarray, name: str, hint: str | None
         parts.append(f"misses {_list_indices(misses)}, which should be flagged")
     n_wrong = len(false_alarms) + len(misses)
     details.update(n_wrong=n_wrong, false_alarms=false_alarms, misses=misses)
+    if not reveal:
+        return Feedback(False, f"{_NOT_YET}{n_wrong} of {arr.size} flags of {name} differ ({len(false_alarms)} set "
+                               f"where they should not be, {len(misses)} missed).",
+                        hint=hint or DEFAULT_HINT, details=details)
     return Feedback(False, f"{_NOT_YET}{name} {' and '.join(parts)} ({n_wrong} of {arr.size} flags differ).",
                     hint=hint or DEFAULT_HINT, details=details)
 
@@ -873,22 +951,24 @@ def _same(a: Any, b: Any) -> bool:
         return True
 
 
-def _default_compare(got: Any, expected: Any, rtol: float, atol: float) -> Feedback:
+def _default_compare(got: Any, expected: Any, rtol: float, atol: float, reveal: bool = True) -> Feedback:
     if isinstance(expected, (numbers.Real, np.number)) and not isinstance(expected, (bool, np.bool_)):
-        return check_number(got, expected, rtol=rtol, atol=atol, name="the result")
+        return check_number(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
     if isinstance(expected, (np.ndarray, list, tuple)):
-        return check_array(got, expected, rtol=rtol, atol=atol, name="the result")
+        return check_array(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
     try:
         equal = bool(got == expected)
     except Exception:
         equal = False
     if equal:
         return Feedback(True, "Correct.")
-    return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}, expected {_fmt_value(expected)}.")
+    return Feedback(False, f"{_NOT_YET}the result is {_fmt_value(got)}"
+                           + (f", expected {_fmt_value(expected)}." if reveal else ", which is not right."))
 
 
 def _judge(got: Any, expected: Any, compare: Callable[[Any, Any], Feedback] | None, rtol: float, atol: float,
-           case: Case, names: list[str], args: tuple, kwargs: dict, allow_mutation: bool) -> Feedback | tuple:
+           case: Case, names: list[str], args: tuple, kwargs: dict, allow_mutation: bool,
+           reveal: bool = True) -> Feedback | tuple:
     """The verdict on one case: ``("mutated", name)``, ``("none",)`` or the comparison's Feedback."""
     if not allow_mutation:
         for key, original, passed in [*zip(names, case.args, args),
@@ -897,7 +977,7 @@ def _judge(got: Any, expected: Any, compare: Callable[[Any, Any], Feedback] | No
                 return ("mutated", key)
     if got is None and expected is not None:
         return ("none",)
-    return compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol)
+    return compare(got, expected) if compare is not None else _default_compare(got, expected, rtol, atol, reveal)
 
 
 class StudentTimeout(BaseException):
@@ -941,7 +1021,8 @@ def time_limit(seconds: float):
 def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
                    compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
                    hint: str | None = None, explanation: str | None = None,
-                   allow_mutation: bool = False, time_limit_s: float | None = None) -> Feedback:
+                   allow_mutation: bool = False, time_limit_s: float | None = None,
+                   reveal_expected: bool = True) -> Feedback:
     """Run a student's function on test cases and report the first case where it disagrees with a reference.
 
     For each case the reference and the student's function are called on separate deep copies of the arguments.
@@ -974,6 +1055,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     time_limit_s : float, optional
         Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading of what it returned) may take on one case before it is
         stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
+    reveal_expected : bool
+        ``False`` for a graded (hidden) test: a failing case then shows its inputs and what the function returned,
+        but not the expected result (the default comparison also keeps it out of its message).
 
     Returns
     -------
@@ -1053,7 +1137,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                             details={**base_details, "exception": exc})
         try:
             with time_limit(time_limit_s):       # the returned object's own methods (__float__, __eq__...) run here
-                verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation)
+                verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation,
+                                 reveal_expected)
         except StudentTimeout:
             verdict = ("unreadable", f"reading what `{fname}` returned ({_a_type(got)}) took more than "
                        f"{time_limit_s:g} s")
@@ -1062,7 +1147,7 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                        f"expected value ({type(exc).__name__}: {str(exc)[:80]})")
         if isinstance(verdict, tuple) and verdict[0] == "unreadable":
             return Feedback(False, f"{_NOT_YET}{where_case} fails: {verdict[1]}.\nInputs: {shown_inputs}"
-                                   f"\nExpected: {_fmt_value(expected)}",
+                                   + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else ""),
                             hint="Return a number or a NumPy array of numbers, as the task asks.",
                             details={**base_details, "got": got})
         if isinstance(verdict, tuple) and verdict[0] == "mutated":
@@ -1080,7 +1165,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
             if core.startswith("Your answer is "):
                 core = f"`{fname}` returned " + core.removeprefix("Your answer is ")
             message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
-                       f"\nExpected: {_fmt_value(expected)}\nGot: {_fmt_value(got)}")
+                       + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else "")
+                       + f"\nGot: {_fmt_value(got)}")
             specific = verdict.hint if verdict.hint != DEFAULT_HINT else None
             if verdict.details.get("diagnosed") and specific:  # the comparison recognised the cause
                 best_hint = specific

@@ -18,6 +18,7 @@ error (unknown option, missing sources, ``DIR`` is a file).
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -100,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     exercises.add_argument("dir", metavar="DIR", type=_dir_argument,
                            help="where to write the notebooks (created if it does not exist)")
     exercises.add_argument("--source", metavar="SRC", type=Path, default=None,
-                           help="the directory of the exercise sources (with solutions); default: the exercises/ "
+                           help="the directory of the exercise notebooks (sources with solutions, or student "
+                                "versions); default: the student versions shipped with uwtutor, or the exercises/ "
                                 "directory of the repository uwtutor is installed from")
     exercises.add_argument("--force", action="store_true",
                            help="overwrite notebooks that already exist in DIR (your changes in them are lost)")
@@ -110,13 +112,28 @@ def build_parser() -> argparse.ArgumentParser:
     labs.add_argument("dir", metavar="DIR", type=_dir_argument,
                       help="where to write the labs, DIR/NAME/NAME.ipynb (created if it does not exist)")
     labs.add_argument("--source", metavar="SRC", type=Path, default=None,
-                      help="the directory of the lab folders (with solutions); default: exercises/labs/ of the "
+                      help="the directory of the lab folders (sources or student versions); default: the "
+                           "student versions shipped with uwtutor, or exercises/labs/ of the "
                            "repository uwtutor is installed from")
     labs.add_argument("--lab", metavar="NAME", action="append", default=None,
                       help="only this lab (repeat for several); default: every lab")
     labs.add_argument("--force", action="store_true",
                       help="overwrite files that already exist in DIR (your changes in them are lost)")
     return parser
+
+
+def jupyterlab_available() -> bool:
+    """Whether JupyterLab can be started from this environment (``jupyter-lab`` beside Python, or on ``PATH``)."""
+    return Path(sys.executable).with_name("jupyter-lab").exists() or shutil.which("jupyter-lab") is not None
+
+
+def _next_step(dest: Path, then: str) -> str:
+    """What to do after writing the notebooks: open them in JupyterLab, or first install it."""
+    if jupyterlab_available():
+        return f"Next: open them in JupyterLab (jupyter lab {dest}) and {then}."
+    return (f"Next: open them in JupyterLab and {then}. JupyterLab is not installed in this environment: "
+            f'install it with pip install "uwtutor[lab]" (JupyterLab, a Python kernel, MyST and the widgets), '
+            f"then run jupyter lab {dest}")
 
 
 def _error(message: str, command: str = "exercises") -> None:
@@ -146,7 +163,7 @@ def _exercises(args: argparse.Namespace) -> int:
         return 1
     print(report.summary(force_hint=f"run 'uwtutor exercises {dest} --force'"))
     if report.written:
-        print(f"Next: open them in JupyterLab (jupyter lab {dest}) and run the cells in order.")
+        print(_next_step(dest, "run the cells in order"))
     return 0
 
 
@@ -176,7 +193,7 @@ def _labs(args: argparse.Namespace) -> int:
         return 1
     print(report.summary(force_hint=f"run 'uwtutor labs {dest} --force'"))
     if report.written:
-        print(f"Next: open them in JupyterLab (jupyter lab {dest}) and work through each lab from the top.")
+        print(_next_step(dest, "work through each lab from the top"))
     return 0
 
 

@@ -26,6 +26,7 @@ import copy
 import json
 import os
 import re
+import sys
 import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -47,6 +48,8 @@ __all__ = [
     "CODE_STUB",
     "STUB_MESSAGE",
     "TEXT_STUB",
+    "KERNELSPEC",
+    "python_language_info",
 ]
 
 #: The message of the stub's ``NotImplementedError``: what the student is to do.
@@ -55,6 +58,36 @@ STUB_MESSAGE = "not answered yet: write your code in place of this line, then ru
 CODE_STUB = ("# YOUR CODE HERE", f"raise NotImplementedError({STUB_MESSAGE!r})")
 #: The line that replaces a solution region in a Markdown cell.
 TEXT_STUB = "YOUR ANSWER HERE"
+
+#: The kernelspec of the Python kernel as JupyterLab writes it (ipykernel's ``python3``). A notebook that carries
+#: another ``display_name`` (``"Python 3"``) is rewritten, and so marked modified, as soon as JupyterLab opens it.
+KERNELSPEC = {"display_name": "Python 3 (ipykernel)", "language": "python", "name": "python3"}
+
+
+def python_language_info() -> dict[str, Any]:
+    """The ``language_info`` that ipykernel reports for this Python, as JupyterLab writes it into a notebook.
+
+    JupyterLab replaces a notebook's ``language_info`` by the kernel's when the kernel starts, and a notebook whose
+    ``language_info`` differs (a shorter one, another Python version) is marked modified before the student has done
+    anything. The student versions carry this one, made by the Python that writes them (``uwtutor exercises`` runs in
+    the student's environment, whose Python the kernel is).
+
+    Returns
+    -------
+    dict
+        ``name``, ``version``, ``mimetype``, ``codemirror_mode``, ``pygments_lexer``, ``nbconvert_exporter``,
+        ``file_extension``.
+
+    Examples
+    --------
+    >>> info = python_language_info()
+    >>> info["name"], info["file_extension"], info["codemirror_mode"]["name"]
+    ('python', '.py', 'ipython')
+    """
+    return {"codemirror_mode": {"name": "ipython", "version": sys.version_info[0]}, "file_extension": ".py",
+            "mimetype": "text/x-python", "name": "python", "nbconvert_exporter": "python",
+            "pygments_lexer": "ipython3", "version": sys.version.split()[0]}
+
 
 _MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+(SOLUTION|HIDDEN TESTS)\s*$")
 _MARKER_TEXT = re.compile(r"(BEGIN|END)\s+(SOLUTION|HIDDEN TESTS)")
@@ -149,8 +182,9 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
         A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
         and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
         TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
-        execution counts cleared; notebook metadata reduced to ``kernelspec`` and the language's name, cell metadata
-        to ``tags``.
+        execution counts cleared; notebook metadata reduced to ``kernelspec`` and ``language_info`` (for Python, as
+        JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so that opening the notebook does not
+        mark it modified), cell metadata to ``tags``.
 
     Raises
     ------
@@ -175,12 +209,15 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
         cell.metadata = nbformat.NotebookNode({"tags": list(tags)} if tags else {})
         cells.append(cell)
     nb.cells = cells
-    kernelspec = nb.metadata.get("kernelspec") or {"name": "python3", "display_name": "Python 3",
-                                                   "language": "python"}
+    kernelspec = dict(nb.metadata.get("kernelspec") or KERNELSPEC)
     language = (nb.metadata.get("language_info") or {}).get("name", kernelspec.get("language", "python"))
+    if kernelspec.get("name") == KERNELSPEC["name"]:        # Python: as JupyterLab and ipykernel write them
+        kernelspec, language_info = dict(KERNELSPEC), python_language_info()
+    else:
+        language_info = {"name": language}
     nb.metadata = nbformat.NotebookNode({
-        "kernelspec": nbformat.NotebookNode(dict(kernelspec)),
-        "language_info": nbformat.NotebookNode({"name": language}),
+        "kernelspec": nbformat.NotebookNode(kernelspec),
+        "language_info": nbformat.NotebookNode(language_info),
     })
     nbformat.validate(nb)
     return nb

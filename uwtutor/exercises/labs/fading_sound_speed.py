@@ -1,0 +1,137 @@
+"""Hidden tests of the lab ``fading_sound_speed`` (chapter 5, paper D): a thermocline's sound-speed error.
+
+Recognised mistakes (the instructor notes list them): ``c_e / c`` for μγ (upside down); ``fading=True`` for a
+"multiplicative EKF" entry; the calibration regressing the true ranges on the measured ones, using one run only, or
+the whole mission instead of the first 60 epochs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from ...filters import fading_ekf, range_only_ekf
+from ..checks import check_number
+from ..feedback import Feedback
+from ._common import Answers, cached, fail
+
+__all__ = ["PARTS"]
+
+
+def _moments(ns: Answers) -> tuple[float, float]:
+    c_nav, c_e = ns["c_nav"], ns["c_e"]
+    return c_nav / c_e, c_nav * ns["sigma_c"] / c_e**2
+
+
+def _part_a_right(ns: Answers) -> bool:
+    mu, sg = _moments(ns)
+    try:
+        return bool(np.isclose(float(ns.get("mu_gamma")), mu, rtol=1e-9)
+                    and np.isclose(float(ns.get("sigma_gamma")), sg, rtol=1e-3))
+    except (TypeError, ValueError):
+        return False
+
+
+_PART_A = ("Part {part} uses mu_gamma and sigma_gamma of part A, which are not right yet: fix part A first (the "
+           "checks of this part use the right ones).")
+
+
+def _off(answer: object, value: float) -> bool:
+    """Whether a numeric answer is outside the checks' tolerance (an answer that is no number: not judged here)."""
+    try:
+        return not np.isclose(float(answer), value, rtol=1e-3)
+    except (TypeError, ValueError):
+        return False
+
+
+def _run(ns: Answers, kind: str, **kwargs: object) -> float:
+    sc = ns["scenario"]
+    inputs = (ns["x0"], ns["P0"], sc.dr_displacements, sc.ranges, ns["Q"], ns["R"])
+
+    def compute() -> float:
+        if kind == "ekf":
+            return ns["final_rmse"](range_only_ekf(*inputs))
+        return ns["final_rmse"](fading_ekf(*inputs, **kwargs))
+
+    return cached("fading_sound_speed." + kind, (inputs, sc.true_positions, kwargs), compute)
+
+
+def part_a(ns: Answers) -> Iterator[Feedback]:
+    mu, sg = _moments(ns)
+    yield check_number(ns["mu_gamma"], mu, rtol=1e-9, name="mu_gamma", common_mistakes={
+        ns["c_e"] / ns["c_nav"]: "Upside down: the vehicle reports c·τ with τ = r/c_e, so γ = c/c_e."},
+        reveal_expected=False)
+    yield check_number(ns["sigma_gamma"], sg, rtol=1e-3, name="sigma_gamma",
+                       hint="To first order σγ = (c/c_e)(σ_c/c_e).", reveal_expected=False)
+
+
+def part_b(ns: Answers) -> Iterator[Feedback]:
+    mu, sg = _moments(ns)
+    rmse = ns["rmse"]
+    expected = {
+        "EKF": ("ekf", {}),
+        "multiplicative EKF": ("fading", {"mu_gamma": mu, "sigma_gamma": sg, "fading": False}),
+        "multiplicative EKF, mu=1": ("fading", {"mu_gamma": 1.0, "sigma_gamma": sg, "fading": False}),
+        "ISFEKF, mu=1": ("fading", {"mu_gamma": 1.0, "sigma_gamma": sg}),
+    }
+    for name, (kind, kwargs) in expected.items():
+        if name not in rmse:
+            yield fail(f"rmse has no entry {name!r}.")
+        value = _run(ns, kind, **kwargs)
+        off = _off(rmse[name], value)
+        if off and name != "EKF" and not _part_a_right(ns):
+            yield fail(f"rmse[{name!r}] is computed with your mu_gamma and sigma_gamma.", hint=_PART_A.format(part="B"))
+        mistakes = {}
+        if off and kwargs.get("fading") is False:
+            mistakes[_run(ns, kind, **{**kwargs, "fading": True})] = (
+                "That is the filter with fading: a \"multiplicative EKF\" has `fading=False`.")
+        if off and kwargs.get("sigma_gamma"):
+            mistakes[_run(ns, kind, **{k: v for k, v in kwargs.items() if k != "sigma_gamma"})] = (
+                "Pass `sigma_gamma` too: without it the filter has no multiplicative variance.")
+        yield check_number(rmse[name], value, rtol=1e-3, name=f"rmse[{name!r}]", units="m", common_mistakes=mistakes,
+                           hint="Check the filter's arguments against the task: mu_gamma, sigma_gamma and fading.",
+                           reveal_expected=False)
+
+
+def part_c(ns: Answers) -> Iterator[Feedback]:
+    _, sg = _moments(ns)
+    by_rho = ns["rmse_by_rho"]
+    values = {rho: _run(ns, "fading", mu_gamma=1.0, sigma_gamma=sg, rho=rho) for rho in ns["rho_grid"]}
+    for rho, value in values.items():
+        if rho not in by_rho:
+            yield fail(f"rmse_by_rho has no entry for ρ = {rho}.")
+        if _off(by_rho[rho], value) and not _part_a_right(ns):
+            yield fail(f"rmse_by_rho[{rho}] is computed with your sigma_gamma.", hint=_PART_A.format(part="C"))
+        yield check_number(by_rho[rho], value, rtol=1e-3, name=f"rmse_by_rho[{rho}]", units="m",
+                           hint="The ISFEKF with mu_gamma=1, the right sigma_gamma and this rho.",
+                           reveal_expected=False)
+    if ns["best_rho"] != min(values, key=values.get):
+        yield fail(f"best_rho = {ns['best_rho']!r} does not have the smallest RMSE.",
+                   hint="best_rho is the key of rmse_by_rho with the smallest value, not the value itself.")
+    yield Feedback(True, "Correct.")
+
+
+def part_d(ns: Answers) -> Iterator[Feedback]:
+    sc = ns["scenario"]
+    measured, true = sc.ranges[:, :60], sc.true_ranges[:, :60]
+    mu_hat = float(np.sum(measured * true) / np.sum(true**2))
+    yield check_number(ns["mu_hat"], mu_hat, rtol=1e-7, name="mu_hat", common_mistakes={
+        float(np.sum(measured * true) / np.sum(measured**2)): "That regresses the true ranges on the measured ones: "
+                                                               "the model is measured ≈ μ · true.",
+        float(np.sum(measured[0] * true[0]) / np.sum(true[0] ** 2)): "That uses run 0 only: the task asks for the "
+                                                                     "first 60 epochs of all runs.",
+        float(np.nansum(sc.ranges * sc.true_ranges) / np.nansum(sc.true_ranges**2)):
+            "That uses the whole mission: only the first 60 epochs (the calibration leg) have known true ranges."},
+        hint="μ̂ = Σ r_k r_k^true / Σ (r_k^true)² over the first 60 epochs of all runs.", reveal_expected=False)
+    _, sg = _moments(ns)
+    calibrated = _run(ns, "fading", mu_gamma=mu_hat, sigma_gamma=sg, fading=False)
+    if _off(ns["rmse_calibrated"], calibrated) and not _part_a_right(ns):
+        yield fail("rmse_calibrated is computed with your sigma_gamma.", hint=_PART_A.format(part="D"))
+    yield check_number(ns["rmse_calibrated"], calibrated,
+                       rtol=1e-3, name="rmse_calibrated", units="m",
+                       hint="The multiplicative EKF (fading=False) with mu_gamma=mu_hat and the right sigma_gamma.",
+                       reveal_expected=False)
+
+
+PARTS = {"A": part_a, "B": part_b, "C": part_c, "D": part_d}
