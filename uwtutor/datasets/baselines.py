@@ -259,7 +259,7 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
 
 
 def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, spacing: float = 10.0,
-                 range_q: float = 1.0, fix_q: float = 1.0, range_sigma: float = RANGE_SIGMA) -> BaselineRun:
+                 range_q: float = 30.0, fix_q: float = 1.0, range_sigma: float = RANGE_SIGMA) -> BaselineRun:
     r"""Chapter 9's OR-VMLBL-KF (paper E) on a log: the fixed beacon as the "ship", four-epoch virtual baselines.
 
     :func:`uwtutor.pipelines.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
@@ -275,9 +275,13 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
         The one beacon.
     spacing : float, default 10
         Seconds between the four epochs of a fix.
-    range_q, fix_q : float, default 1
-        Acceleration variances of the range filter and of the cascade filter [(m/s²)²] (a robot that turns and
-        brakes, not a submersible holding its course).
+    range_q : float, default 30
+        Acceleration variance of the range filter [(m/s²)²]. A robot turning at 3.6 m/s within metres of a beacon
+        has range accelerations of a few m/s² (:math:`v^2/r`); with paper E's :math:`q = 2`, tuned for a
+        submersible kilometres from its ship, the range filter's gate locks out on Plaza 2 (chapter 11).
+    fix_q : float, default 1
+        Acceleration variance of the cascade filter [(m/s²)²] (a robot that turns and brakes, not a submersible
+        holding its course).
 
     Returns
     -------

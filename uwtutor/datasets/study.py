@@ -12,7 +12,8 @@ What it holds:
   median and final position error and the fraction of epochs within 2 m (:func:`error_summary`);
 * ``ablation`` -- each position-only method of chapters 4 to 9 on Plaza 2 with its most-heard beacon, on the log
   as it is, with the range scale removed, with the heading taken from the truth, and with both
-  (:func:`without_scale`, :func:`with_true_heading`): which real error each method leaves out;
+  (:func:`without_scale`, :func:`with_true_heading`): which real error each method leaves out (the virtual
+  baseline's rows also hold paper E's trial statistic, :func:`fixes_within`);
 * ``sweep`` -- GTSAM's batch solution against the heading noise of its odometry factors, per beacon;
 * ``grid`` -- :func:`navigate` on Plaza 2 for every beacon (and all four), range period and set of estimated states
   (chapter 11's widget), with the error, the scale estimate and the NEES, decimated to one value a second.
@@ -34,7 +35,7 @@ from ._core import RangeDataset
 __all__ = [
     "ACOUSTIC_PERIOD", "GRID_BEACONS", "GRID_PERIODS", "GRID_STATES", "STATE_FLAGS", "DECIMATION", "TABLE_METHODS",
     "ABLATION_METHODS", "ABLATION_VARIANTS", "SWEEP_HEADING_NOISE", "PF_SEED",
-    "error_summary", "nees", "measured_scale", "most_heard_beacon", "without_scale", "with_true_heading",
+    "error_summary", "nees", "measured_scale", "fixes_within", "most_heard_beacon", "without_scale", "with_true_heading",
     "navigation_run", "navigation_grid", "method_table", "ablation_table", "gtsam_sweep",
     "RealDataStudy", "run_real_data_study", "load_real_data_study", "STUDY_FILES",
 ]
@@ -332,6 +333,30 @@ def method_table(data: RangeDataset, progress: Callable[[str], None] | None = No
     return rows
 
 
+def fixes_within(run: Any, truth: Any, beacon: Any, fraction: float = 0.1) -> float:
+    r"""Paper E's trial statistic: the fraction of a virtual-baseline run's filtered fixes whose horizontal error is
+    at most ``fraction`` of the distance to the beacon (chapter 9's reading of "within 10 % error").
+
+    Parameters
+    ----------
+    run : BaselineRun
+        A run of :func:`uwtutor.datasets.baselines.vmlbl_filter`.
+    truth : array_like, shape (K, >= 2)
+        The true positions at the log's epochs [m].
+    beacon : array_like, shape (2,)
+        The beacon's position [m].
+    fraction : float, default 0.1
+        The tolerance, a fraction of the distance.
+    """
+    out = run.result
+    now = np.asarray(out.now)
+    fix = np.asarray(out.track.x)[:, :2]
+    true = np.asarray(truth, dtype=float)[now, :2]
+    dist = np.hypot(*(true - np.asarray(beacon, dtype=float)).T)
+    ok = np.isfinite(fix).all(axis=-1)
+    return float(np.mean(np.hypot(*(fix[ok] - true[ok]).T) <= fraction * dist[ok]))
+
+
 def _ablation_run(data: RangeDataset, method: str, ids: list[int], scale: float | None) -> np.ndarray:
     from . import baselines
 
@@ -360,9 +385,19 @@ def ablation_table(data: RangeDataset, progress: Callable[[str], None] | None = 
         if progress is not None:
             progress(f"ablation: {method}")
         for variant, log in variants.items():
-            positions = (gtsam_map(log, ids).poses if method == "GTSAM" else _ablation_run(log, method, ids, scale))
+            extra = {}
+            if method == "GTSAM":
+                positions = gtsam_map(log, ids).poses
+            elif method == "OR-VMLBL-KF":
+                from . import baselines
+
+                run = baselines.vmlbl_filter(log, ids)
+                positions = run.positions
+                extra["within_ten_percent"] = fixes_within(run, data.truth, data.beacons[ids[0]])
+            else:
+                positions = _ablation_run(log, method, ids, scale)
             rows.append({"set": data.name, "method": method, "variant": variant, "beacon_ids": ids,
-                         **error_summary(positions, data.truth)})
+                         **error_summary(positions, data.truth), **extra})
     return rows
 
 
