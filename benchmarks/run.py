@@ -242,6 +242,22 @@ def bench_pf(repeats: int) -> dict[str, Any]:
             "pf_filterpy_resampler_steps_per_s": PF_STEPS / theirs, "pf_speedup_vs_filterpy_resampler": theirs / ours}
 
 
+def bench_depth_filters(repeats: int) -> dict[str, Any]:
+    """Chapter 6's cost table: time per step of the EKF, bootstrap PF, GPF and MMPF on one run of its dive."""
+    import numpy as np
+
+    from uwtutor.widgets import ch06
+
+    profile = ch06.maneuvering_depth_profile()
+    Z = ch06.simulate_depth_sensors(profile, 1, np.random.default_rng(2013))
+    per_step_ms = {}
+    for name in ("EKF", "PF", "GPF", "MMPF"):
+        seconds = best_time(lambda name=name: ch06.run_depth_study(profile, Z, (name,)), repeats)
+        per_step_ms[name] = 1000.0 * seconds / profile.n_steps
+    return {"depth_filters": {"steps": int(profile.n_steps), "per_step_ms": per_step_ms,
+                              "date": machine_info()["date"]}}
+
+
 PF_BATCH_RUNS, PF_BATCH_STEPS = 100, 500
 
 
@@ -521,6 +537,7 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_navigate(repeats))
     results.update(bench_pf(repeats))
     results.update(bench_pf_batched(repeats))
+    results.update(bench_depth_filters(repeats))
     results.update(bench_widgets(repeats))
     results.update(bench_widget_updates(repeats))
     if browser:
@@ -585,6 +602,12 @@ def render_table(results: dict[str, Any]) -> str:
         rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
                      f"call (same PF; {batch['runs']} single-run calls: {batch['single_calls_s']:.2f} s)",
                      f"{batch['one_call_s']:.2f} s ({batch['speedup']:.2f}× the single calls)", "(reported)", "–"))
+    depth = results.get("depth_filters")
+    if depth:
+        ms = depth["per_step_ms"]
+        rows.append((f"Chapter 6's depth filters, one run of {depth['steps']} steps, time per step (EKF, bootstrap PF, "
+                     "GPF, MMPF; N = 1000)",
+                     " / ".join(f"{ms[k]:.2f}" for k in ("EKF", "PF", "GPF", "MMPF")) + " ms", "(reported)", "–"))
     widgets = results["widgets_ms"]
     if not widgets:
         rows.append(("Widget compute functions", results["widgets_note"], _target("widget_ms", t, " ms"), "–"))
@@ -644,7 +667,7 @@ def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
 SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
     "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
     "navigate": bench_navigate, "pf": bench_pf,
-    "pf_batched": bench_pf_batched,
+    "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters,
 }
 
 

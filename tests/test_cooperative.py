@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from uwtutor.errors import UnobservableWarning
-from uwtutor.filters import Filter, cooperative_ekf, extended_kalman_filter
+from uwtutor.filters import cooperative_ekf, extended_kalman_filter
 from uwtutor.filters.cooperative import FORMULATIONS, CooperativeEKF, range_pairs, relative_track_deviation
 from uwtutor.models.cooperative import (CooperativeMotion, SquaredRangePair, leader_range, measurement_noise_map,
                                         process_noise_map)
@@ -198,32 +198,11 @@ def test_nan_range_is_predict_only(formulation):
 
 
 @pytest.mark.parametrize("formulation", FORMULATIONS)
-def test_batched_equals_single_runs(formulation):
-    sc = paper_b.make(np.random.default_rng(6), 3, packet_loss=0.2)
-    batch = _run(sc, formulation=formulation)
-    for i in range(3):
-        one = _run(sc, i, formulation=formulation)
-        for name in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
-            np.testing.assert_allclose(getattr(batch, name)[i], getattr(one, name), rtol=1e-10, atol=1e-8,
-                                       err_msg=name)
-        np.testing.assert_array_equal(batch.extras["accepted"][i], one.extras["accepted"])
-
-
-@pytest.mark.parametrize("formulation", FORMULATIONS)
-def test_step_by_step_class_equals_the_functional_form_and_the_engine(formulation):
+def test_the_functional_form_is_its_model_pair_on_the_engine(formulation):
+    """(That the class equals the functional form, run for run and step by step, is the contract test's.)"""
     sc = paper_b.make(np.random.default_rng(7), 2, packet_loss=0.1)
     res = _run(sc, formulation=formulation)
-    filt = CooperativeEKF(P.x1, P0, sc.dr_displacements, sc.leader_broadcast, P.interval, P.Q, P.R,
-                          formulation=formulation)
-    assert isinstance(filt, Filter)
     pairs = range_pairs(sc.ranges)
-    z = pairs[..., 1] if formulation == "single_range" else pairs
-    for k in range(sc.n_steps):
-        filt.predict()
-        filt.update(z[:, k])
-        np.testing.assert_allclose(filt.x, res.x[:, k], rtol=1e-12, atol=1e-9)
-        np.testing.assert_allclose(filt.P, res.P[:, k], rtol=1e-12, atol=1e-9)
-        np.testing.assert_array_equal(filt.accepted, res.extras["accepted"][:, k])
     np.testing.assert_allclose(res.times, P.interval * np.arange(1, sc.n_steps + 1))
     # the same model pair on the engine's functional form
     motion = CooperativeMotion(P.interval, P.Q)
@@ -246,13 +225,6 @@ def test_step_by_step_class_equals_the_functional_form_and_the_engine(formulatio
     if partial is not None:
         assert partial.any() and by_range.extras["accepted"][partial].all()
         assert not res.extras["accepted"][partial].any()
-
-
-def test_covariances_stay_symmetric_positive_definite():
-    sc = paper_b.make(np.random.default_rng(8), 10)
-    res = _run(sc, P0=P.P1)
-    np.testing.assert_allclose(res.P, np.swapaxes(res.P, -1, -2), rtol=0, atol=1e-9 * np.abs(res.P).max())
-    assert np.linalg.eigvalsh(res.P).min() > 0
 
 
 def test_paper_b_pair_uses_each_range_twice():
@@ -353,9 +325,8 @@ def test_scenario_rejects_bad_parameters(kw, err):
 
 
 @pytest.mark.parametrize("formulation", FORMULATIONS)
-def test_protocol_run_equals_run_filter_and_bad_steps_name_the_argument(formulation):
-    from uwtutor.filters import run_filter
-
+def test_bad_steps_name_the_argument(formulation):
+    """(run == run_filter == a hand loop is the contract test's.)"""
     sc = paper_b.make(np.random.default_rng(12), 3, packet_loss=0.2)
     pairs = range_pairs(sc.ranges)
     z = pairs[..., 1] if formulation == "single_range" else pairs
@@ -364,11 +335,7 @@ def test_protocol_run_equals_run_filter_and_bad_steps_name_the_argument(formulat
         return CooperativeEKF(P.x1, P0, sc.dr_displacements, sc.leader_broadcast, P.interval, P.Q, P.R,
                               formulation=formulation)
 
-    a = make().run(z, sc.dr_displacements)
-    b = run_filter(make(), z, sc.dr_displacements)
-    for field in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
-        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
-    assert set(a.extras) == set(make().extra_outputs) == {"accepted"}
+    assert set(make().extra_outputs) == {"accepted"}
     with pytest.raises(ValueError, match=r"\bz\b"):
         make().run(z[:2])
     with pytest.raises(ValueError, match=r"\bu\b"):

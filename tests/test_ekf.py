@@ -9,8 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uwtutor import metrics
-from uwtutor.filters import (BeaconSingularityWarning, Filter, FilterResult, RangeOnlyEKF, range_only_ekf,
-                             run_filter)
+from uwtutor.filters import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 
 TOL = dict(rtol=1e-9, atol=1e-9)
 
@@ -81,62 +80,6 @@ def test_batched_equals_filterpy_loop(beacon):
         np.testing.assert_allclose(res.P_prior[m], ref["P_prior"], **TOL)
         np.testing.assert_allclose(res.innovations[m, :, 0], ref["y"], **TOL)    # NaN where missing, too
         np.testing.assert_allclose(res.innovation_cov[m, :, 0, 0], ref["S"], **TOL)
-
-
-def test_batched_equals_single_run_loop():
-    inputs, _ = circling_study(M=7, K=100, seed=5)
-    batched = range_only_ekf(**inputs)
-    for m in range(7):
-        single = range_only_ekf(inputs["x0"][m], inputs["P0"], inputs["u"][m], inputs["z"][m],
-                                inputs["Q"], inputs["R"])
-        assert single.x.shape == (100, 2) and single.P.shape == (100, 2, 2)
-        assert single.innovations.shape == (100, 1) and single.innovation_cov.shape == (100, 1, 1)
-        for name in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
-            np.testing.assert_allclose(getattr(batched, name)[m], getattr(single, name), **TOL)
-        np.testing.assert_array_equal(batched.extras["updated"][m], single.extras["updated"])
-
-
-def test_object_form_matches_functional_form():
-    inputs, _ = circling_study(M=4, K=80, seed=11)
-    ref = range_only_ekf(**inputs)
-    m = 2
-    ekf = RangeOnlyEKF(inputs["x0"][m], inputs["P0"], inputs["Q"], inputs["R"])
-    assert isinstance(ekf, Filter)
-    for k in range(80):
-        ekf.predict(inputs["u"][m, k])
-        np.testing.assert_allclose(ekf.x, ref.x_prior[m, k], **TOL)
-        ekf.update(inputs["z"][m, k])
-        np.testing.assert_allclose(ekf.x, ref.x[m, k], **TOL)
-        np.testing.assert_allclose(ekf.P, ref.P[m, k], **TOL)
-        np.testing.assert_allclose(ekf.y, ref.innovations[m, k], **TOL)
-        np.testing.assert_allclose(ekf.S, ref.innovation_cov[m, k], **TOL)
-    # the generic driver and the run helper give the same history
-    via_driver = run_filter(RangeOnlyEKF(inputs["x0"][m], inputs["P0"], inputs["Q"], inputs["R"]),
-                            inputs["z"][m], inputs["u"][m])
-    runner = RangeOnlyEKF(inputs["x0"][m], inputs["P0"], inputs["Q"], inputs["R"])
-    via_run = runner.run(inputs["z"][m], inputs["u"][m])
-    for res in (via_driver, via_run):
-        assert isinstance(res, FilterResult)
-        for name in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
-            np.testing.assert_allclose(getattr(res, name), getattr(ref, name)[m], **TOL)
-    np.testing.assert_allclose(runner.x, ref.x[m, -1], **TOL)       # left at the last step
-    np.testing.assert_allclose(runner.P, ref.P[m, -1], **TOL)
-
-
-def test_batched_object_form():
-    inputs, _ = circling_study(M=3, K=40, seed=2)
-    ref = range_only_ekf(**inputs)
-    ekf = RangeOnlyEKF(inputs["x0"], inputs["P0"], inputs["Q"], inputs["R"])
-    res = ekf.run(inputs["z"], inputs["u"])
-    np.testing.assert_allclose(res.x, ref.x, **TOL)
-    ekf2 = RangeOnlyEKF(inputs["x0"], inputs["P0"], inputs["Q"], inputs["R"])
-    for k in range(40):
-        ekf2.predict(inputs["u"][:, k])
-        ekf2.update(inputs["z"][:, k])
-    assert ekf2.x.shape == (3, 2) and ekf2.P.shape == (3, 2, 2)
-    assert ekf2.y.shape == (3, 1) and ekf2.S.shape == (3, 1, 1)
-    np.testing.assert_allclose(ekf2.x, ref.x[:, -1], **TOL)
-    np.testing.assert_allclose(ekf2.P, ref.P[:, -1], **TOL)
 
 
 def test_shared_inputs_broadcast_over_runs():

@@ -8,8 +8,8 @@ import pytest
 from filterpy.kalman import ExtendedKalmanFilter as FilterpyEKF
 
 from uwtutor.errors import BeaconSingularityWarning, UwtutorWarning
-from uwtutor.filters import (ChiSquareGate, ExtendedKalmanFilter, Filter, FilterResult, Gate, KalmanFilter,
-                             extended_kalman_filter, range_only_ekf)
+from uwtutor.filters import (ChiSquareGate, ExtendedKalmanFilter, Gate, KalmanFilter, extended_kalman_filter,
+                             range_only_ekf)
 from uwtutor.models import (DeadReckoning, DirectMeasurement, LinearMeasurement, LinearMotion, MeasurementModel,
                             RangeToBeacon)
 
@@ -81,47 +81,6 @@ def test_equals_filterpy_step_by_step(n, moving):
         ref = filterpy_run(motion, meas, x0[m], P0, u, z[m])
         for key in ("x", "P", "x_prior", "P_prior"):
             np.testing.assert_allclose(getattr(res, key)[m], ref[key], **TOL, err_msg=f"{key}, run {m}")
-
-
-@pytest.mark.parametrize("n", [2, 3, 4])
-def test_batched_equals_single_runs(n):
-    motion, meas, x0, P0, u, z = study(n, moving=True)
-    batched = extended_kalman_filter(motion, meas, x0, P0, u, z)
-    for m in range(x0.shape[0]):
-        single = extended_kalman_filter(motion, meas, x0[m], P0, u, z[m])
-        for key in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
-            np.testing.assert_allclose(getattr(batched, key)[m], getattr(single, key), **TOL)
-        np.testing.assert_array_equal(batched.extras["accepted"][m], single.extras["accepted"])
-
-
-def test_nan_measurement_is_predict_only():
-    motion, meas, x0, P0, u, z = study(2, missing=0.3)
-    res = extended_kalman_filter(motion, meas, x0, P0, u, z)
-    missing = np.isnan(z)
-    assert missing.any()
-    np.testing.assert_array_equal(res.x[missing], res.x_prior[missing])
-    np.testing.assert_array_equal(res.P[missing], res.P_prior[missing])
-    assert np.isnan(res.innovations[missing]).all() and np.isnan(res.innovation_cov[missing]).all()
-    np.testing.assert_array_equal(res.extras["accepted"], ~missing)
-    assert np.isfinite(res.innovations[~missing]).all()
-
-
-def test_functional_equals_object_and_the_protocol_holds():
-    motion, meas, x0, P0, u, z = study(3)
-    res = extended_kalman_filter(motion, meas, x0, P0, u, z, times=np.arange(z.shape[1]) * 10.0)
-    filt = ExtendedKalmanFilter(motion, meas, x0, P0)
-    assert isinstance(filt, Filter)
-    by_hand = {key: [] for key in ("x", "P", "x_prior", "P_prior", "y", "S")}
-    for k in range(z.shape[1]):
-        filt.predict(u[k])
-        filt.update(z[:, k])
-        for key in by_hand:
-            by_hand[key].append(np.array(getattr(filt, key)))
-    assert isinstance(res, FilterResult)
-    np.testing.assert_array_equal(res.times, np.arange(z.shape[1]) * 10.0)
-    for key, field in (("x", "x"), ("P", "P"), ("x_prior", "x_prior"), ("P_prior", "P_prior"),
-                       ("y", "innovations"), ("S", "innovation_cov")):
-        np.testing.assert_array_equal(getattr(res, field), np.stack(by_hand[key], axis=1))
 
 
 def test_linear_model_pair_equals_kalman_filter():

@@ -185,3 +185,56 @@ def test_fading_reference_matches_the_library_filter():
     subtracted = ex["innovation_power"] - ex["fading_numerator"]     # sigma^2 T + mu^2 CQC + beta R
     lam = ch05.fading_factors_reference(res.innovations[:, 0], ex["fading_denominator"], subtracted, 0.95)
     np.testing.assert_allclose(lam, res.fading_factor, rtol=1e-9)
+
+
+# -- exercise 5.5: one ISFEKF step ---------------------------------------------------------------------------------------
+def test_isfekf_step_reference_equals_the_library_over_a_whole_run():
+    from uwtutor.filters.fading import FadingEKF
+    rng = np.random.default_rng(ch05.ISF_STEP_SEED)         # the checker's run, all 151 steps
+    sc = scenarios.approach_with_turn_scenario(rng, n_runs=1)
+    angle = rng.uniform(0.0, 2 * np.pi)
+    c = ch05.ISF_STEP_CONSTANTS
+    Q = np.eye(2) * c["q"]
+    x0 = np.asarray(sc.true_positions)[0, 0] + 150.0 * np.array([np.cos(angle), np.sin(angle)])
+    P0 = np.eye(2) * 150.0**2
+    np.testing.assert_array_equal(x0, ch05.isfekf_step_run()["x0"])
+    lib = FadingEKF(x0, P0, Q, c["R"], mu_gamma=c["mu_gamma"], sigma_gamma=c["sigma_gamma"], rho=c["rho"],
+                    beta="range")
+    state = (x0, P0, x0, P0 + np.outer(x0, x0), None)
+    lams = []
+    for u, z in zip(np.asarray(sc.dr_displacements)[0], np.asarray(sc.ranges)[0]):
+        lib.predict(u)
+        lib.update(z)
+        out = ch05.isfekf_step_reference(*state, u, float(z), Q, c["R"], c["mu_gamma"], c["sigma_gamma"], c["rho"])
+        np.testing.assert_allclose(out[0], lib.x, rtol=1e-5, atol=1e-3)
+        np.testing.assert_allclose(out[5], float(lib.fading_factor), rtol=1e-4)
+        lams.append(out[5])
+        state = out[:5]
+    assert max(lams) > 100.0          # the run exercises the fading rule
+
+
+def test_isfekf_step_checker_accepts_the_reference_and_names_slips():
+    assert ch05.check_isfekf_step(ch05.isfekf_step_reference).correct
+
+    def no_fading(*args):
+        return (*ch05.isfekf_step_reference(*args)[:5], 1.0)
+
+    fb = ch05.check_isfekf_step(no_fading)
+    assert not fb.correct and fb.details["quantity"] == "lam"
+
+    def estimate_not_moments(x, P, m, Xi, V, u, z, Q, R, mu, sg, rho):
+        # the weakening factor taken from the estimate instead of the moments
+        return ch05.isfekf_step_reference(x, P, x, Xi, V, u, z, Q, R, mu, sg, rho)
+
+    fb = ch05.check_isfekf_step(estimate_not_moments)
+    assert not fb.correct
+    assert not ch05.check_isfekf_step(None).correct
+    assert not ch05.check_isfekf_step(lambda *a: (1, 2)).correct
+
+
+def test_isfekf_step_checker_says_not_answered_for_the_stub():
+    def stub(*args):
+        raise NotImplementedError()
+
+    fb = ch05.check_isfekf_step(stub)
+    assert not fb.correct and fb.message.startswith("No answer yet")

@@ -163,3 +163,36 @@ def test_eigenvalue_mistakes(value, words):
 def test_correlation_mistakes(value, words):
     fb = ch06.check_q_correlation(value)
     assert not fb and words in text(fb)
+
+
+# -- exercise 6.6: one bootstrap step ------------------------------------------------------------------------------------
+def test_pf_step_reference_is_the_library_filter_step():
+    """With the same draws, the reference step is BootstrapParticleFilter's predict + update + resample."""
+    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+
+    model = DepthSpeedPitchModel(T=ch06.PF_STEP_T, process_std=ch06.PF_STEP_PROCESS_STD, R=ch06.PF_STEP_R)
+    rng = np.random.default_rng(5)
+    particles = np.array([12.0, 1.8, 0.14]) + rng.standard_normal((300, 3)) * np.array([0.3, 0.05, 0.02])
+    z = np.array([12.1, 1.82, 0.15])
+    pf = BootstrapParticleFilter(model, particles.copy(), np.random.default_rng(9))
+    pf.predict()
+    moved = pf.particles.copy()
+    pf.update(z)
+    # the library's draws, recovered from its moved particles: only the depth row depends on the noise nonlinearly
+    noise = np.empty_like(particles)
+    noise[:, 1:] = moved[:, 1:] - particles[:, 1:]
+    noise[:, 0] = moved[:, 0] - particles[:, 0] - moved[:, 1] * np.sin(moved[:, 2]) * ch06.PF_STEP_T
+    est, w, _ = ch06.pf_step_reference(particles, z, noise, 0.5, ch06.PF_STEP_T, ch06.PF_STEP_R)
+    np.testing.assert_allclose(est, pf.x, rtol=1e-9, atol=1e-12)
+
+
+def test_pf_step_checker():
+    assert ch06.check_pf_step(ch06.pf_step_reference).correct
+
+    def noise_after_kinematics(particles, z, noise, u, T, R):
+        est, w, res = ch06.pf_step_reference(particles, z, np.zeros_like(noise), u, T, R)
+        return ch06.pf_step_reference(particles + 0.0, z, noise * 1.5, u, T, R)
+
+    assert not ch06.check_pf_step(noise_after_kinematics).correct
+    assert not ch06.check_pf_step(None).correct
+    assert not ch06.check_pf_step(lambda *a: (1, 2)).correct

@@ -88,6 +88,7 @@ def test_start_count_is_a_demand_on_the_geometry():
     (ch07.check_weak_direction, np.ones(2), "3 numbers"),
     (ch07.check_weak_direction, np.array([0.0, 0.0, 1.0]), "angle"),
     (ch07.check_start_count, start_count() - 1, "0-based"),
+    (ch07.check_start_count, start_count() + 1, "off-by-one"),
     (ch07.check_start_count, start_count(2.0), "α < 2"),
     (ch07.check_start_count, start_count(bias=False), "position alone"),
 ])

@@ -65,6 +65,12 @@ def test_right_answers_pass(check, answer):
     assert fb.correct, str(fb)
 
 
+def range_jacobian(x, b0, b1, u, dt):
+    # the Jacobian of the ranges, not of the squared ranges: each row divided by 2r
+    J = ch08.pair_jacobian_reference(x, b0, b1, u, dt)
+    return J / np.linalg.norm(J[:, :2], axis=-1)[:, None]
+
+
 @pytest.mark.parametrize("check, answer, words", [
     (ch08.check_clock_range_error, 1500.0 * 0.4e-3, "offset alone"),
     (ch08.check_clock_range_error, 1500.0 * 5e-6 * 2000.0, "drift alone"),
@@ -74,6 +80,7 @@ def test_right_answers_pass(check, answer):
     (ch08.check_resolve, lambda w, r: np.asarray(w) + np.floor(np.asarray(r) / 1500.0 - np.asarray(w)), "nearest"),
     (ch08.check_resolve, lambda w, r: np.asarray(w) + np.round(np.asarray(r) / 1500.0 - np.asarray(w)), "negative"),
     (ch08.check_pair_jacobian, literal_jacobian, "as printed"),
+    (ch08.check_pair_jacobian, range_jacobian, "squared ranges"),
     (ch08.check_unobservable_pattern, "zigzag", "bends"),
     (ch08.check_unobservable_pattern, "square", "not a leader pattern"),
 ])

@@ -17,6 +17,7 @@ def _text(fb: Feedback) -> str:
 # -- expected values computed here, independently of the checkers ------------------------------------------------------
 D = 3.0 + 2000.0**2
 Y_MAX = np.sqrt(1.03 * D) - 2000.0
+Y_MIN = np.sqrt(0.97 * D) - 2000.0                       # the lower edge of the gate
 VB = ch09.SHIP + (ch09.DR[-1] - ch09.DR)
 
 
@@ -55,6 +56,8 @@ def test_right_answers_pass():
     (ch09.check_gate_upper, 0.03 * 2000.0, "δ/2"),
     (ch09.check_gate_upper, np.sqrt(1.03 * D), "minus the prediction"),
     (ch09.check_gate_upper, 0.03 * D, "m²"),
+    (ch09.check_gate_upper, Y_MIN, "lower edge"),
+    (ch09.check_gate_upper, round(-Y_MIN, 2), "lower edge"),
     (ch09.check_equivalent_nis, Y_MAX / np.sqrt(3.0), "square"),
     (ch09.check_equivalent_nis, 6.634896601021214, "chi-square gate"),
     (ch09.check_equivalent_nis, Y_MAX**2, "divides by S"),
@@ -78,3 +81,6 @@ def test_lockout_and_ten_percent_mistakes():
     assert "percentage" in _text(ch09.check_within_ten_percent(100 * fraction))
     assert "10 m" in _text(ch09.check_within_ten_percent(float(np.mean(err <= 10.0))))
     assert "No answer yet" in _text(ch09.check_within_ten_percent(None))
+    assert ch09.check_within_ten_percent(round(fraction, 2)).correct          # the task asks for no precision
+    n = int(np.sum(literal.extras["rejected"] & good))
+    assert "off-by-one" in _text(ch09.check_good_rejected(n + 1))

@@ -210,16 +210,39 @@ def test_source_carries_nbgrader_metadata_and_the_student_version_has_no_solutio
     assert all(not c.get("outputs") for c in source.cells if c.cell_type == "code")
     kinds = [c.metadata["nbgrader"]["grade_id"].rsplit("_", 1)[-1].rstrip("0123456789")
              for c in source.cells if "nbgrader" in c.metadata]
-    assert kinds.count("check") == 6 and kinds.count("answer") == 6 and kinds.count("written") == 2
+    assert kinds.count("check") == 7 and kinds.count("answer") == 7 and kinds.count("written") == 3
     student = make_student_version(SOURCE)
     text = "\n".join(c.source for c in student.cells)
     for marker in ("BEGIN SOLUTION", "END SOLUTION", "HIDDEN TESTS", "assert_correct"):
         assert marker not in text
     for solution in ("rmse_bound(posterior_crlb(**inputs))", "rmse[0] / bound[0]", 'ekf_line["final_rmse"]',
-                     "divergence_fraction\"] * ", "min(allowed", "mirror image", "line of sight $\\mathbf{e}_1$"):
+                     "divergence_fraction\"] * ", "min(allowed", "mirror image", "line of sight $\\mathbf{e}_1$",
+                     "np.outer(h, h) / sigma**2", "Jensen"):
         assert solution not in text, solution
     code = "\n".join(c.source for c in student.cells if c.cell_type == "code")
-    assert code.count("# YOUR CODE HERE") == 6 and code.count("raise NotImplementedError") == 6
-    assert text.count("YOUR ANSWER HERE") == 2
+    assert code.count("# YOUR CODE HERE") == 7 and code.count("raise NotImplementedError") == 7
+    assert text.count("YOUR ANSWER HERE") == 3
     for name in ("b_final", "ratio_first", "efficiency_final", "median_ratio", "n_lost", "choice"):
         assert f"{name} = None" in text
+
+
+def _pcrb(positions, beacon, sigma, Q, P0):
+    J = np.linalg.inv(P0)
+    out = []
+    for p in positions:
+        J = np.linalg.inv(Q + np.linalg.inv(J))
+        h = (p - beacon) / np.linalg.norm(p - beacon)
+        J = J + np.outer(h, h) / sigma**2
+        out.append(np.linalg.inv(J))
+    return np.array(out)
+
+
+def test_pcrb_recursion_by_hand():
+    assert ch10.check_pcrb_recursion(_pcrb).correct
+    no_q = ch10.check_pcrb_recursion(lambda p, b, s, Q, P0: _pcrb(p, b, s, 0 * Q, P0))
+    assert not no_q.correct and "prediction" in str(no_q)
+    info = ch10.check_pcrb_recursion(lambda *a: np.linalg.inv(_pcrb(*a)))
+    assert not info.correct and "information" in str(info)
+    origin = ch10.check_pcrb_recursion(lambda p, b, s, Q, P0: _pcrb(p, 0 * b, s, Q, P0))
+    assert not origin.correct and "from the beacon" in str(origin)
+    assert not ch10.check_pcrb_recursion(None).correct

@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 
 from uwtutor import lsq, metrics, scenarios
-from uwtutor.filters.base import Filter, run_filter
 from uwtutor.filters.ekf import range_only_ekf
-from uwtutor.filters.fading import (FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf,
+from uwtutor.filters.fading import (FadingEKF, LSFadingResult, fading_ekf, ls_fading_ekf,
                                     range_factor_moments)
 
 TOL = dict(rtol=1e-6, atol=1e-6)
@@ -168,38 +167,6 @@ def test_fading_that_never_triggers_gives_the_plain_ekf():
     np.testing.assert_array_equal(fad.fading_factor, 1.0)
     np.testing.assert_allclose(fad.x, ekf.x, rtol=0, atol=1e-9)
     np.testing.assert_allclose(fad.P, ekf.P, rtol=1e-12, atol=1e-9)
-
-
-def test_batched_equals_single_runs_and_object_form():
-    sc, x0, P0 = approach(M=5, seed=5, initial_error=60.0)
-    kw = dict(mu_gamma=MU_D, sigma_gamma=SIGMA_D, rho=0.95, beta="range")
-    batch = fading_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q_D, R_D, times=sc.times, **kw)
-    assert isinstance(batch, FadingResult)
-    np.testing.assert_array_equal(batch.times, sc.times)
-    for m in (0, 3):
-        single = fading_ekf(x0[m], P0, sc.dr_displacements[m], sc.ranges[m], Q_D, R_D, **kw)
-        assert single.x.shape == (sc.n_steps, 2) and single.fading_factor.shape == (sc.n_steps,)
-        np.testing.assert_allclose(single.x, batch.x[m], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(single.fading_factor, batch.fading_factor[m], rtol=1e-12)
-    # the object form, step by step and with its run helper, and through run_filter
-    filt = FadingEKF(x0, P0, Q_D, R_D, **kw)
-    assert isinstance(filt, Filter)
-    for k in range(sc.n_steps):
-        filt.predict(sc.dr_displacements[:, k])
-        np.testing.assert_allclose(filt.x, batch.x_prior[:, k], rtol=0, atol=1e-9)
-        filt.update(sc.ranges[:, k])
-        np.testing.assert_allclose(filt.x, batch.x[:, k], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(filt.fading_factor, batch.fading_factor[:, k], rtol=1e-12)
-        np.testing.assert_allclose(filt.y[:, 0], batch.innovations[:, k, 0], rtol=1e-12)
-        np.testing.assert_allclose(filt.S[:, 0, 0], batch.innovation_cov[:, k, 0, 0], rtol=1e-12)
-    filt2 = FadingEKF(x0, P0, Q_D, R_D, **kw)
-    res = filt2.run(sc.ranges, sc.dr_displacements)
-    np.testing.assert_allclose(res.x, batch.x, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(filt2.x, batch.x[:, -1], rtol=0, atol=1e-9)
-    via = run_filter(FadingEKF(x0, P0, Q_D, R_D, **kw), sc.ranges, sc.dr_displacements)
-    np.testing.assert_allclose(via.x, batch.x, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(via.extras["fading_factor"], batch.fading_factor, rtol=1e-12)
-    np.testing.assert_allclose(via.extras["weakening_factor"], batch.weakening_factor, rtol=1e-12)
 
 
 def test_object_form_single_run_and_predict_only_steps():

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, FilterResult, KalmanFilter,
-                             RangeOnlyEKF, extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
-from uwtutor.filters import CooperativeEKF
+                             RangeOnlyEKF, bias_ekf, extended_kalman_filter, fading_ekf, range_only_ekf, run_filter)
+from uwtutor.filters import CooperativeEKF, cooperative_ekf
 from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
 from uwtutor.filters import ReacquiringGate
@@ -33,6 +33,8 @@ class Case:
     z: np.ndarray            # (M, K) or (M, K, m)
     u: np.ndarray | None     # (M, K, p) or None
     result_type: type = FilterResult
+    #: the functional form on the same sequence (single run or batched), where the family has one
+    functional: Callable[[bool], FilterResult] | None = None
 
 
 def _range_inputs(seed=0):
@@ -65,20 +67,32 @@ def _kf_case():
                                                        P0=np.eye(2) * 10.0), z, None)
 
 
+def _engine_case(name, motion, measurement, x0, P0, z, u, gate=None):
+    """A model pair on the generic engine, in its object form and its functional form."""
+    return Case(name, lambda b: ExtendedKalmanFilter(motion, measurement, _pick(x0, b), P0,
+                                                     gate=None if gate is None else gate()), z, u,
+                functional=lambda b: extended_kalman_filter(motion, measurement, _pick(x0, b), P0, _pick(u, b),
+                                                            _pick(z, b), gate=None if gate is None else gate()))
+
+
 CASES = [
     _kf_case(),
-    Case("RangeOnlyEKF", lambda b: RangeOnlyEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0), Z, U),
-    Case("ExtendedKalmanFilter-range", lambda b: ExtendedKalmanFilter(
-        DeadReckoning(Q2), RangeToBeacon((0.0, 0.0), R=4.0), _pick(X0, b), np.eye(2) * 400.0), Z, U),
-    Case("ExtendedKalmanFilter-bias", lambda b: ExtendedKalmanFilter(
-        DeadReckoning(Q3), RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2), _pick(X0_BIAS, b),
-        np.diag([400.0, 400.0, 25.0])), Z + 3.0, U),
-    Case("ExtendedKalmanFilter-moving-beacon", lambda b: ExtendedKalmanFilter(
-        DeadReckoning(Q2), RangeToBeacon(np.column_stack([np.linspace(0, 200, K), np.zeros(K)]), R=4.0),
-        _pick(X0, b), np.eye(2) * 400.0), Z, U),
-    Case("BiasEKF", lambda b: BiasEKF(_pick(X0_BIAS, b), np.diag([400.0, 400.0, 25.0]), Q3, 4.0), Z + 3.0, U),
+    Case("RangeOnlyEKF", lambda b: RangeOnlyEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0), Z, U,
+         functional=lambda b: range_only_ekf(_pick(X0, b), np.eye(2) * 400.0, _pick(U, b), _pick(Z, b), Q2, 4.0)),
+    _engine_case("ExtendedKalmanFilter-range", DeadReckoning(Q2), RangeToBeacon((0.0, 0.0), R=4.0), X0,
+                 np.eye(2) * 400.0, Z, U),
+    _engine_case("ExtendedKalmanFilter-bias", DeadReckoning(Q3), RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2),
+                 X0_BIAS, np.diag([400.0, 400.0, 25.0]), Z + 3.0, U),
+    _engine_case("ExtendedKalmanFilter-moving-beacon", DeadReckoning(Q2),
+                 RangeToBeacon(np.column_stack([np.linspace(0, 200, K), np.zeros(K)]), R=4.0), X0,
+                 np.eye(2) * 400.0, Z, U),
+    Case("BiasEKF", lambda b: BiasEKF(_pick(X0_BIAS, b), np.diag([400.0, 400.0, 25.0]), Q3, 4.0), Z + 3.0, U,
+         functional=lambda b: bias_ekf(_pick(X0_BIAS, b), np.diag([400.0, 400.0, 25.0]), _pick(U, b),
+                                       _pick(Z + 3.0, b), Q3, 4.0)),
     Case("FadingEKF", lambda b: FadingEKF(_pick(X0, b), np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98,
-                                          sigma_gamma=1 / 1500), Z, U, FadingResult),
+                                          sigma_gamma=1 / 1500), Z, U, FadingResult,
+         functional=lambda b: fading_ekf(_pick(X0, b), np.eye(2) * 400.0, _pick(U, b), _pick(Z, b), Q2, 4.0,
+                                         mu_gamma=0.98, sigma_gamma=1 / 1500)),
 ]
 _COOP = paper_b.make(np.random.default_rng(5), M, packet_loss=0.2, duration=8.0 * K)
 _COOP_P0 = np.diag([1e4, 1e4, 1.0, 1.0])
@@ -90,9 +104,13 @@ def _coop(formulation):
         return CooperativeEKF(paper_b.PAPER_B.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
                               _pick(_COOP.leader_broadcast, b), 8.0, paper_b.PAPER_B.Q, paper_b.PAPER_B.R,
                               formulation=formulation)
+    def functional(b):
+        return cooperative_ekf(paper_b.PAPER_B.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
+                               _pick(_COOP.leader_broadcast, b), _pick(_COOP.ranges, b), 8.0, paper_b.PAPER_B.Q,
+                               paper_b.PAPER_B.R, formulation=formulation)
     pairs = range_pairs(_COOP.ranges)
     return Case(f"CooperativeEKF-{formulation}", make, pairs[..., 1] if formulation == "single_range" else pairs,
-                _COOP.dr_displacements)
+                _COOP.dr_displacements, functional=functional)
 
 
 def _robust_case():
@@ -142,9 +160,8 @@ _ODO_P0 = np.diag([1.0, 1.0, 0.01, 1e-4, 0.01])
 
 
 def _odometry_case(gate=None, name="ExtendedKalmanFilter-odometry-beacons"):
-    return Case(name, lambda b: ExtendedKalmanFilter(
-        _ODO_MOTION, BeaconRanges(_BEACONS, R=0.05**2, layout=_ODO_MOTION.layout), _pick(_ODO_X0, b), _ODO_P0,
-        gate=None if gate is None else gate()), _ODO_Z, _ODO_U)
+    return _engine_case(name, _ODO_MOTION, BeaconRanges(_BEACONS, R=0.05**2, layout=_ODO_MOTION.layout), _ODO_X0,
+                        _ODO_P0, _ODO_Z, _ODO_U, gate)
 
 
 CASES += [_coop(f) for f in ("consistent", "literal", "single_range")] + [_robust_case(), _coop_lost_range()]
@@ -204,6 +221,26 @@ def test_run_equals_run_filter_equals_a_hand_loop(case, batched):
         np.testing.assert_array_equal(by_run.extras[name], np.stack(rec[name], axis), err_msg=name)
     # the filter is left at the last step, as the loop leaves it
     np.testing.assert_array_equal(case.make(batched).run(z, u).x[..., -1, :], filt.x)
+
+
+FUNCTIONAL = [c for c in CASES if c.functional is not None]
+
+
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+@pytest.mark.parametrize("case", FUNCTIONAL, ids=[c.name for c in FUNCTIONAL])
+def test_functional_form_equals_the_object_run(case, batched):
+    """``range_only_ekf``, ``bias_ekf``, ``fading_ekf``, ``cooperative_ekf`` and ``extended_kalman_filter`` give
+    the object form's run, field for field (the packed fast paths to round-off)."""
+    z, u = _inputs(case, batched)
+    by_function = case.functional(batched)
+    by_object = case.make(batched).run(z, u, by_function.times)      # the same clock (cooperative: 8 s steps)
+    assert type(by_function) is type(by_object)
+    _assert_same(by_function, by_object, exact=False)
+
+
+def test_every_family_with_a_functional_form_is_checked_in_it():
+    names = {c.name.split("-")[0] for c in FUNCTIONAL}
+    assert names >= {"RangeOnlyEKF", "BiasEKF", "FadingEKF", "CooperativeEKF", "ExtendedKalmanFilter"}
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)

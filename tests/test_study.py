@@ -92,3 +92,17 @@ def test_no_method_beats_the_bound_at_any_epoch(table):
     assert np.isfinite(ratio).all()
     worst = np.unravel_index(np.argmin(ratio), ratio.shape)
     assert ratio.min() > 1.05, (table.method[worst[0]], table.scenario[worst[0]], table.condition[worst[0]])
+
+
+def test_the_per_run_file_holds_the_tables_runs(table):
+    # studies/comparison_runs.py: chapter 10's intervals are computed from the runs of the committed table
+    runs = np.load(Path(methods.__file__).parent / "data" / "comparison_runs.npz")
+    assert runs["final_error"].shape == (len(runs["method"]), int(table.n_runs[0]))
+    assert {(m, s) for m, s, c in zip(table.method, table.scenario, table.condition) if c == "white"} <= \
+        {(m, s) for m, s, c in zip(runs["method"], runs["scenario"], runs["condition"]) if c == "white"}
+    for j, (m, s, c) in enumerate(zip(runs["method"], runs["scenario"], runs["condition"])):
+        hit = (table.method == m) & (table.scenario == s) & (table.condition == c)
+        e = runs["final_error"][j].astype(float)
+        assert np.median(np.where(np.isnan(e), np.inf, e)) == pytest.approx(float(table.median_final_error[hit][0]),
+                                                                           rel=1e-6)
+        assert np.mean(~(e <= 50.0)) == pytest.approx(float(table.divergence_fraction[hit][0]))

@@ -252,8 +252,8 @@ def check_nees_bounds(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; the bounds of a single run (n degrees of freedom), bounds not divided by M, one-sided
-        quantiles and the normal approximation are recognised.
+        The verdict; the bounds of a single run (n degrees of freedom), bounds not divided by M, M instead of M·n
+        degrees of freedom, one-sided quantiles and the normal approximation are recognised.
     """
     M, n, conf = BOUNDS_RUNS, BOUNDS_STATES, BOUNDS_CONFIDENCE
     tail = (1.0 - conf) / 2.0
@@ -265,6 +265,12 @@ def check_nees_bounds(answer: Any) -> Feedback:
                                                     "χ²_{Mn}(q)/M."),
         (stats.chi2.ppf([1.0 - conf, conf], M * n) / M, "A two-sided 95 % interval leaves 2.5 % in each tail: "
                                                         "quantiles 0.025 and 0.975."),
+        (stats.chi2.ppf([tail, 1.0 - tail], M) / M, "Those are χ²_M quantiles: M degrees of freedom counts one per "
+                                                    "run, but each run's NEES has n = 2 (one per state), so the "
+                                                    "sum over M runs has M·n."),
+        (stats.chi2.ppf([tail, 1.0 - tail], M), "Those are χ²_M quantiles, not divided by M: the sum of M runs' "
+                                                "NEES has M·n degrees of freedom (n per run), and the mean is "
+                                                "that sum divided by M."),
         (n + np.array([-1.96, 1.96]) * np.sqrt(2 * n / M), "That is the normal approximation; use the chi-square "
                                                            "quantiles (scipy.stats.chi2.ppf)."),
     ]

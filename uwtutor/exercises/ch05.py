@@ -14,6 +14,8 @@ checker                                             exercise
                                                     with :math:`\beta = 1` ...
 ``check_threshold_beta_range(z)``                   5.3: ... and with paper D's :math:`\beta \approx 2000`
 ``check_final_rmse(rmse_ekf, rmse_mult, ...)``      5.4: where the ISFEKF's advantage comes from
+``check_isfekf_step(func)``                         5.5: one whole ISFEKF step written by the student (a function),
+                                                    replayed against ``FadingEKF``
 ==================================================  ====================================================================
 
 The exercises themselves are in the repository's ``exercises/ch05_multiplicative_noise.ipynb``.
@@ -41,6 +43,9 @@ from .checks import Case, check_array, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
+    "check_isfekf_step",
+    "isfekf_step_reference",
+    "isfekf_step_run",
     "check_mu_gamma",
     "check_sigma_gamma",
     "check_mean_range_error",
@@ -114,10 +119,22 @@ def check_mu_gamma(answer: Any) -> Feedback:
         -dc / ce: "That is minus the relative error; the factor itself is 1 + Δc / c_e, with Δc = c − c_e < 0 "
                   "here.",
     }
-    return check_number(answer, expected, rtol=1e-3, name="μ_γ", common_mistakes=mistakes,
+    first_order = 1.0 + dc / c                     # dividing by the assumed speed: the same to first order
+    explanation = (f"The ranges are {100 * (1 - expected):.2f} % short on average. Writing 1 + Δc / c instead "
+                   "(dividing by the assumed speed) is the same to first order.")
+    a = answer if isinstance(answer, (int, float)) and not isinstance(answer, bool) else None
+    if a is not None and abs(a - first_order) <= _MU_RTOL * abs(first_order):
+        return check_number(answer, first_order, rtol=_MU_RTOL, name="μ_γ", explanation=explanation)
+    mistakes[round(expected, 2)] = (
+        "That is μ_γ rounded to two decimals (the chapter's 0.98 is 1470/1500 rounded). Here the speeds are "
+        f"{c:g} and {ce:g} m/s: give c / c_e to at least four digits.")
+    return check_number(answer, expected, rtol=_MU_RTOL, name="μ_γ", common_mistakes=mistakes,
                         hint="A range is the travel time times the assumed speed: r_meas = c·τ with τ = r / c_e.",
-                        explanation=f"The ranges are {100 * (1 - expected):.2f} % short on average. Writing "
-                                    "1 + Δc / c instead (dividing by the assumed speed) is the same to first order.")
+                        explanation=explanation)
+
+
+#: Relative tolerance of μ_γ: 4 significant digits pass (0.9801), the two-decimal 0.98 does not.
+_MU_RTOL = 5e-5
 
 
 def check_sigma_gamma(answer: Any) -> Feedback:
@@ -230,6 +247,17 @@ def _fading_cases() -> list[Case]:
     ]
 
 
+def _fading_factors_slip(innovations: Any, predicted: Any, subtracted: Any, rho: float) -> np.ndarray:
+    """The precedence slip λ_k = max(1, V_k/N_k − s_k) (the division before the subtraction)."""
+    z = np.asarray(innovations, dtype=float)
+    lam = np.empty_like(z)
+    V = 0.0
+    for k in range(len(z)):
+        V = z[k] ** 2 if k == 0 else (rho * V + z[k] ** 2) / (1.0 + rho)
+        lam[k] = max(1.0, V / predicted[k] - subtracted[k])
+    return lam
+
+
 def check_fading_factors(func: Any) -> Feedback:
     r"""Check a student's ``fading_factors(innovations, predicted, subtracted, rho)`` (exercise 5.2).
 
@@ -246,6 +274,21 @@ def check_fading_factors(func: Any) -> Feedback:
         The verdict; the first failing case is reported with its inputs, the expected and the student's factors,
         and a hint aimed at the mistake that case catches (no ``max``, a wrong start, a wrong weighting).
     """
+    if callable(func):
+        # the slip λ = V/N − s passes some cases and fails with the hint of another: recognise it first
+        args = (np.array([12.0, 3.0]), np.array([0.5, 0.8]), np.array([2.5, 1.5]), 0.95)
+        try:
+            got = np.asarray(func(*(a.copy() if isinstance(a, np.ndarray) else a for a in args)), dtype=float)
+        except Exception:  # noqa: BLE001 - the full check below reports the exception with its hint
+            got = None
+        if (got is not None and got.shape == (2,)
+                and np.allclose(got, _fading_factors_slip(*args), rtol=1e-9)
+                and not np.allclose(got, fading_factors_reference(*args), rtol=1e-9)):
+            return Feedback(False, "Not yet: your fading factors are max(1, V/N − s); the rule is "
+                                   "max(1, (V − s)/N).",
+                            hint="Subtract the terms s_k from V_k first, then divide by N_k: "
+                                 "lam = max(1.0, (V - s[k]) / n[k]) (mind the parentheses).",
+                            details={"answer": got.tolist()})
     return check_function(
         func, fading_factors_reference, _fading_cases(), name="fading_factors",
         compare=lambda got, expected: check_array(got, expected, rtol=1e-9, atol=1e-12, name="the fading factors"),
@@ -430,3 +473,161 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
     return Feedback(True, f"Correct: EKF {expected['ekf']:.1f} m, multiplicative EKF {expected['mult']:.1f} m, "
                           f"ISFEKF {expected['isfekf']:.1f} m.",
                     details={"expected": expected})
+
+
+# -- exercise 5.5: one ISFEKF step, written by the student --------------------------------------------------------------
+#: Exercise 5.5: the filter constants (paper D's simulation; beacon at the origin) ...
+ISF_STEP_CONSTANTS: dict[str, float] = {"mu_gamma": 0.98, "sigma_gamma": 1.0 / 1500.0, "rho": 0.95, "R": 0.49,
+                                        "q": 0.81}
+#: ... the seed of the run the checker replays, its initial error (m) and the number of steps it compares.
+ISF_STEP_SEED, ISF_STEP_INITIAL_ERROR, ISF_STEP_STEPS = 2019, 150.0, 12
+
+
+def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: float, Q: Any, R: float,
+                          mu_gamma: float, sigma_gamma: float, rho: float) -> tuple[Any, ...]:
+    r"""One step of paper D's ISFEKF for a beacon at the origin, in the order of chapter 5's box.
+
+    Parameters
+    ----------
+    x, P : array_like, shapes (2,), (2, 2)
+        :math:`\hat{\mathbf x}_{k-1|k-1}`, :math:`\mathbf P_{k-1|k-1}` [m, m²].
+    m, Xi : array_like, shapes (2,), (2, 2)
+        :math:`\mathbf m_{k-1}`, :math:`\boldsymbol\Xi_{k-1}`.
+    V : float or None
+        :math:`V_{k-1}` [m²], ``None`` before the first range.
+    u : array_like, shape (2,)
+        :math:`\mathbf u_k` [m].
+    z : float
+        :math:`z_k` [m] (finite).
+    Q, R, mu_gamma, sigma_gamma, rho
+        The filter's constants.
+
+    Returns
+    -------
+    tuple
+        ``(x, P, m, Xi, V, lam)`` after the step: :math:`\hat{\mathbf x}_{k|k}`, :math:`\mathbf P_{k|k}`,
+        :math:`\mathbf m_k`, :math:`\boldsymbol\Xi_k`, :math:`V_k` and the fading factor :math:`\lambda_k`.
+    """
+    x, P, m, Xi, u, Q = (np.asarray(a, dtype=float) for a in (x, P, m, Xi, u, Q))
+    Xi = Xi + np.outer(m, u) + np.outer(u, m) + np.outer(u, u) + Q          # 1. moments (old m)
+    m = m + u
+    x_pred = x + u                                                          # 2. predicted mean, linearization
+    r = float(np.hypot(*x_pred))
+    H = x_pred / r                                                          # d_k = 0 (beacon at the origin)
+    T = max(float(H @ Xi @ H), 0.0)
+    y = z - mu_gamma * r                                                    # 3. innovation and its power
+    V = y * y if V is None else (rho * V + y * y) / (1.0 + rho)
+    beta = float(H @ m)                                                     # 4. fading factor
+    num = V - sigma_gamma ** 2 * T - mu_gamma ** 2 * float(H @ Q @ H) - beta * R
+    den = mu_gamma ** 2 * float(H @ P @ H)
+    lam = max(1.0, num / den) if den > 0.0 else 1.0
+    P_pred = lam * P + Q                                                    # 5. predicted covariance
+    noise = sigma_gamma ** 2 * T + R                                        # 6. update (Joseph form)
+    S = mu_gamma ** 2 * float(H @ P_pred @ H) + noise
+    K = (mu_gamma / S) * (P_pred @ H)
+    A = np.eye(2) - mu_gamma * np.outer(K, H)
+    return x_pred + K * y, A @ P_pred @ A.T + noise * np.outer(K, K), m, Xi, V, lam
+
+
+def isfekf_step_run() -> dict[str, Any]:
+    """The run exercise 5.5's checker replays: one run of paper D's approach, started ``ISF_STEP_INITIAL_ERROR`` off.
+
+    Returns
+    -------
+    dict
+        ``x0``, ``P0`` (the start), ``u`` (K, 2) and ``z`` (K,) for ``K = ISF_STEP_STEPS``, and ``Q`` (2, 2).
+    """
+    rng = np.random.default_rng(ISF_STEP_SEED)
+    sc = scenarios.approach_with_turn_scenario(rng, n_runs=1)
+    angle = rng.uniform(0.0, 2 * np.pi)
+    d0 = ISF_STEP_INITIAL_ERROR
+    x0 = np.asarray(sc.true_positions)[0, 0] + d0 * np.array([np.cos(angle), np.sin(angle)])
+    K = ISF_STEP_STEPS
+    return {"x0": x0, "P0": np.eye(2) * d0 ** 2, "u": np.asarray(sc.dr_displacements)[0, :K],
+            "z": np.asarray(sc.ranges)[0, :K], "Q": np.eye(2) * ISF_STEP_CONSTANTS["q"]}
+
+
+def check_isfekf_step(func: Any) -> Feedback:
+    r"""Check a student's ``isfekf_step(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho)`` (exercise 5.5).
+
+    The function is run for ``ISF_STEP_STEPS`` steps of one run of paper D's approach from 150 m off (the first
+    steps have large fading factors), its estimate, covariance and fading factor compared at every step with
+    ``uwtutor.filters.FadingEKF`` (``beta="range"``) and its moments and innovation power with
+    ``isfekf_step_reference``. The first disagreement is reported with a hint aimed at that part of the step.
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function, returning ``(x, P, m, Xi, V, lam)``.
+
+    Returns
+    -------
+    Feedback
+        The verdict.
+    """
+    from ..filters.fading import FadingEKF
+    from .checks import _is_unanswered, not_answered
+    if _is_unanswered(func):
+        return not_answered("isfekf_step")
+    if not callable(func):
+        return Feedback(False, f"Not yet: isfekf_step should be a function; got {type(func).__name__}.",
+                        hint="Define it with def isfekf_step(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho):")
+    c = ISF_STEP_CONSTANTS
+    d = isfekf_step_run()
+    Q, R = d["Q"], c["R"]
+    lib = FadingEKF(d["x0"], d["P0"], Q, R, mu_gamma=c["mu_gamma"], sigma_gamma=c["sigma_gamma"], rho=c["rho"],
+                    beta="range")
+    state = (d["x0"].copy(), d["P0"].copy(), d["x0"].copy(), d["P0"] + np.outer(d["x0"], d["x0"]), None)
+    ref_state = state
+    hints = {
+        "m": "Moments first: m_k = m_{k−1} + u_k, and Ξ_k = Ξ_{k−1} + m_{k−1}u_kᵀ + u_k m_{k−1}ᵀ + u_k u_kᵀ + Q, "
+             "with the *old* m in the cross terms.",
+        "Xi": "Ξ_k = Ξ_{k−1} + m_{k−1}u_kᵀ + u_k m_{k−1}ᵀ + u_k u_kᵀ + Q: use m_{k−1} (before adding u_k) in the "
+              "cross terms, and add Q.",
+        "V": "The innovation is y = z − μ_γ‖x̂_{k|k−1}‖ (with the *predicted* position). V starts as y² at the first "
+             "range (V is None), then V = (ρ V_{k−1} + y²)/(1 + ρ).",
+        "lam": "λ = max(1, M/N) with M = V − σ_γ²T − μ_γ² H Q Hᵀ − β R, β = H m_k (the moments, not the estimate), "
+               "and N = μ_γ² H P_{k−1|k−1} Hᵀ (the *previous posterior*, before fading and before Q).",
+        "P": "Predict the covariance with the fading factor, P_{k|k−1} = λ P_{k−1|k−1} + Q (not λ(P + Q)); then "
+             "S = σ_γ²T + μ_γ² H P_{k|k−1} Hᵀ + R, K = (μ_γ/S) P_{k|k−1} Hᵀ and the Joseph form with the noise "
+             "σ_γ²T + R.",
+        "x": "x̂_{k|k} = x̂_{k|k−1} + K y with K = (μ_γ/S) P_{k|k−1} Hᵀ: the gain carries a factor μ_γ.",
+    }
+    for k in range(ISF_STEP_STEPS):
+        u, z = d["u"][k], float(d["z"][k])
+        x, P, m, Xi, V = state
+        try:
+            out = func(np.array(x), np.array(P), np.array(m), np.array(Xi), V, u.copy(), z, Q.copy(), R,
+                       c["mu_gamma"], c["sigma_gamma"], c["rho"])
+        except NotImplementedError:
+            return Feedback(False, "No answer yet: `isfekf_step` still raises NotImplementedError.",
+                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
+                                 "that cell and this one again.")
+        except Exception as exc:  # noqa: BLE001 - the student's code may raise anything
+            return Feedback(False, f"Not yet: isfekf_step raised {type(exc).__name__}: {exc} (at step {k}).",
+                            hint="Run it by hand on the first step of `ch05.isfekf_step_run()` and read the trace.")
+        if not isinstance(out, tuple) or len(out) != 6:
+            return Feedback(False, "Not yet: isfekf_step should return a tuple of six: (x, P, m, Xi, V, lam).",
+                            hint="End the function with return x, P, m, Xi, V, lam.")
+        ref = isfekf_step_reference(*ref_state, u, z, Q, R, c["mu_gamma"], c["sigma_gamma"], c["rho"])
+        lib.predict(u)
+        lib.update(z)
+        expected = {"m": ref[2], "Xi": ref[3], "V": ref[4], "lam": float(lib.fading_factor),
+                    "P": lib.P, "x": lib.x}
+        got = dict(zip(("x", "P", "m", "Xi", "V", "lam"), out))
+        for name in ("m", "Xi", "V", "lam", "P", "x"):
+            try:
+                g = np.asarray(got[name], dtype=float)
+            except (TypeError, ValueError):
+                return Feedback(False, f"Not yet: {name} should be numbers; got {got[name]!r} at step {k}.",
+                                hint=hints[name])
+            e = np.asarray(expected[name], dtype=float)
+            if g.shape != e.shape or not np.allclose(g, e, rtol=1e-4, atol=1e-8 * max(1.0, float(np.max(np.abs(e))))):
+                return Feedback(False, f"Not yet: at step {k} your {name} is {np.round(g, 4).tolist()}, the library's "
+                                       f"{np.round(e, 4).tolist()} (steps before it agree).",
+                                hint=hints[name], details={"step": k, "quantity": name})
+        state = tuple(np.array(a) if a is not None and name != "V" else a
+                      for a, name in zip(out[:5], ("x", "P", "m", "Xi", "V")))
+        ref_state = ref[:5]
+    return Feedback(True, f"Correct: your ISFEKF step reproduces uwtutor's FadingEKF (x, P and λ at every step) and "
+                          f"the moments m, Ξ and V over {ISF_STEP_STEPS} steps, large early fading factors included.")

@@ -13,6 +13,8 @@ checker                                        exercise
 ``check_systematic_resample(func)``            a systematic resampler ``func(weights, u) -> indices``
 ``check_q_smallest_eigenvalue(value)``         the smallest eigenvalue of paper C's process covariance as printed
 ``check_q_correlation(value)``                 the depth-speed correlation that matrix implies
+``check_pf_step(func)``                        6.6: one whole bootstrap step written by the student (a function),
+                                               against ``pf_step_reference`` (uwtutor's model, likelihood, resampler)
 =============================================  ======================================================================
 
 The exercises themselves are in the repository's ``exercises/ch06_particle_filters.ipynb``.
@@ -43,6 +45,8 @@ __all__ = [
     "check_systematic_resample",
     "check_q_smallest_eigenvalue",
     "check_q_correlation",
+    "check_pf_step",
+    "pf_step_reference",
     "DEPTH_SERIES",
     "NOISE_WINDOW",
     "PARTICLE_WEIGHTS",
@@ -50,7 +54,7 @@ __all__ = [
 ]
 
 # -- the data of the exercises -----------------------------------------------------------------------------------------
-#: Six depth readings (m), one every 0.05 s, for exercises 6.1 and 6.2.
+#: Six depth readings (m), one a second, for exercises 6.1 and 6.2.
 DEPTH_SERIES = np.array([12.1, 12.6, 13.0, 13.5, 14.1, 14.6])
 
 
@@ -395,3 +399,129 @@ def check_q_correlation(value: Any) -> Feedback:
                         hint="ρ = Q[0, 1] / sqrt(Q[0, 0] · Q[1, 1]).",
                         explanation="A correlation must lie between −1 and 1, and it has no units, so no reading of the "
                                     "paper's units can make this Q valid.")
+
+
+# -- exercise 6.6: one bootstrap particle-filter step, written by the student --------------------------------------------
+#: Exercise 6.6: the sampling interval (s) and the sensor covariance (paper C's R, SI units) of the step ...
+PF_STEP_T = 0.05
+PF_STEP_R = np.diag([0.2, 0.05, math.radians(0.5)]) ** 2
+#: ... paper C's process noise standard deviations (m, m/s, rad), the number of particles and the seed of the cases.
+PF_STEP_PROCESS_STD = np.array([0.2, 0.01, math.radians(0.5)])
+PF_STEP_PARTICLES, PF_STEP_SEED = 200, 606
+
+
+def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R: Any) -> tuple[Any, Any, Any]:
+    r"""One bootstrap step on paper C's model, built from ``uwtutor``'s pieces, with the randomness given.
+
+    Predict :math:`x^{(i)}_k = g(x^{(i)}_{k-1} + w^{(i)}_k)` (``uwtutor.models.depth.DepthSpeedPitch.f``), weight by
+    the Gaussian likelihood (``DepthSpeedPitchModel.log_likelihood``, normalized in log space), estimate the
+    weighted mean, resample systematically with the offset ``u`` (``uwtutor.resampling.systematic_resample``).
+
+    Parameters
+    ----------
+    particles : array_like, shape (N, 3)
+        Equally weighted particles after the last resampling (depth m, speed m/s, pitch rad).
+    z : array_like, shape (3,)
+        The readings.
+    noise : array_like, shape (N, 3)
+        The process-noise draws :math:`w^{(i)}_k`, already scaled.
+    u : float
+        The uniform offset in [0, 1) of the systematic resampler.
+    T : float
+        Sampling interval [s].
+    R : array_like, shape (3, 3)
+        Sensor noise covariance.
+
+    Returns
+    -------
+    tuple
+        ``(estimate (3,), weights (N,), resampled (N, 3))``: the weighted mean, the normalized weights before
+        resampling and the resampled particles.
+    """
+    from ..filters import DepthSpeedPitchModel
+    from ..models.depth import DepthSpeedPitch
+    from ..resampling import systematic_resample
+
+    p = np.asarray(particles, dtype=float)
+    moved = DepthSpeedPitch(T=T).f(p + np.asarray(noise, dtype=float), None, 0)
+    logw = DepthSpeedPitchModel(T=T, R=R).log_likelihood(moved, np.asarray(z, dtype=float))
+    w = np.exp(logw - logw.max())
+    w /= w.sum()
+
+    class _Offset:                                   # a "generator" that returns the given offset
+        def random(self, shape: Any = None) -> Any:
+            return np.full(shape, u) if shape is not None else u
+
+    try:
+        idx = systematic_resample(w, _Offset())      # type: ignore[arg-type]
+    except (TypeError, ValueError):                   # a strict rng check: the same points by hand
+        idx = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(len(w)) + u) / len(w), side="right"),
+                         len(w) - 1)
+    return w @ moved, w, moved[idx]
+
+
+def _pf_step_cases() -> list[Case]:
+    rng = np.random.default_rng(PF_STEP_SEED)
+    N = PF_STEP_PARTICLES
+    start = np.array([12.0, 1.8, math.radians(8.0)])
+    cases = []
+    for label, spread, offset, hint in (
+            ("a cloud around the truth, readings near it", 1.0, 0.0,
+             "Predict g(x + w): add the noise *before* the kinematics (the speed and pitch noise enter the depth "
+             "equation), z ← z + (v + w_v)·sin(φ + w_φ)·T + w_z."),
+            ("a cloud 2 m off in depth: a few particles take all the weight", 1.0, 2.0,
+             "Weights in log space: log w = −½ (z − x)ᵀ R⁻¹ (z − x); subtract the largest before np.exp, or they "
+             "all underflow to 0 (0/0 = NaN after normalizing)."),
+            ("a wide cloud", 5.0, 0.0,
+             "Systematic resampling: the N points (j + u)/N, j = 0..N−1, looked up in the cumulative weights "
+             "(np.searchsorted(np.cumsum(w), points, side='right'))."),
+    ):
+        particles = start + spread * rng.standard_normal((N, 3)) * np.array([0.3, 0.05, math.radians(1.0)])
+        noise = rng.standard_normal((N, 3)) * PF_STEP_PROCESS_STD
+        z = start + np.array([offset, 0.0, 0.0]) + rng.standard_normal(3) * np.sqrt(np.diag(PF_STEP_R))
+        u = float(rng.random())
+        cases.append(Case((particles, z, noise, u, PF_STEP_T, PF_STEP_R), label=label, hint=hint))
+    return cases
+
+
+def _compare_pf_step(got: Any, expected: Any) -> Feedback:
+    if not isinstance(got, tuple) or len(got) != 3:
+        return Feedback(False, "Not yet: pf_step should return a tuple of three: (estimate, weights, resampled).",
+                        hint="End the function with return estimate, weights, resampled.")
+    for name, g, e, hint in zip(
+            ("the weights", "the estimate", "the resampled particles"), (got[1], got[0], got[2]),
+            (expected[1], expected[0], expected[2]),
+            ("The weight of a particle is its likelihood p(z | x) (the bootstrap proposal is the motion model), "
+             "normalized to sum 1: w ∝ exp(−½ (z − x)ᵀ R⁻¹ (z − x)) at the *moved* particles.",
+             "The estimate is the weighted mean Σ w_i x_i, taken before resampling.",
+             "Resample with the given offset u: points (j + u)/N for j = 0..N−1, particle i drawn where the "
+             "cumulative weights first exceed a point.")):
+        fb = check_array(g, e, rtol=1e-7, atol=1e-12, name=name, hint=hint)
+        if not fb.correct:
+            return fb
+    return Feedback(True, "Correct.")
+
+
+def check_pf_step(func: Any) -> Feedback:
+    r"""Check a student's ``pf_step(particles, z, noise, u, T, R)`` (exercise 6.6) against ``pf_step_reference``.
+
+    Three cases (a cloud near the readings, one 2 m off in depth where the weights underflow without the log
+    trick, a wide one); for each the weights, the estimate and the resampled particles are compared, in that
+    order, with the step built from ``uwtutor``'s model, likelihood and systematic resampler.
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function, returning ``(estimate, weights, resampled)``.
+
+    Returns
+    -------
+    Feedback
+        The verdict, with the first failing case and a hint aimed at its part of the step.
+    """
+    return check_function(
+        func, pf_step_reference, _pf_step_cases(), name="pf_step", compare=_compare_pf_step,
+        hint="Four lines of algebra: move (g(x + w)), weight (likelihood, log space, normalize), estimate "
+             "(weighted mean), resample (systematic with the given u).",
+        explanation="This is one step of uwtutor's BootstrapParticleFilter on paper C's model, with the random "
+                    "draws made visible.")

@@ -243,8 +243,8 @@ def check_start_count(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; the 0-based index (one fewer), the count for paper A's threshold of 2, for ``<=`` instead of
-        ``<`` when it differs, and for the position-only precision factor are recognised.
+        The verdict; the 0-based index (one fewer), one more than the count, the count for paper A's threshold of 2,
+        for ``<=`` instead of ``<`` when it differs, and for the position-only precision factor are recognised.
     """
     track = _arc()
     alpha = lsq.precision_factor_history(track)
@@ -256,6 +256,9 @@ def check_start_count(answer: Any) -> Feedback:
         float(n - 1): "That is the 0-based index of the epoch; the question asks for the number of ranges (index + 1).",
         float(n_pos): "That is the precision factor of the position alone; paper A's has the bias column too "
                       "(unknown_bias=True, the default).",
+        float(n + 1): "One range too many (an off-by-one, not a rounding): np.argmax(alpha < 1.0) is the 0-based "
+                      "index of the first range with α < 1, and the count is that index + 1. Adding 2, or a track "
+                      "with an extra starting point, gives one more.",
     }
     if n2 != n:
         mistakes[float(n2)] = f"That is the count for paper A's threshold α < 2; this exercise asks for α < " \

@@ -235,7 +235,8 @@ def check_pair_jacobian(func: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; paper B's literal Jacobian (evaluated at the prediction as printed) is recognised.
+        The verdict; paper B's literal Jacobian (evaluated at the prediction as printed) and the Jacobian of the
+        ranges instead of the squared ranges are recognised.
     """
     cases = _jacobian_cases()
     x, b0, b1, u, dt = cases[0].args
@@ -251,6 +252,15 @@ def check_pair_jacobian(func: Any) -> Feedback:
                             hint="The predicted state is *after* the move. Write r_k² through p_k = p − u_k − δt·U: "
                                  "the current then appears in row 1 (as −2δt·s_k), and row 2 has none.",
                             details={"mistake": "literal"})
+        if got is not None and got.shape == literal.shape:
+            ref = pair_jacobian_reference(x, b0, b1, u, dt)
+            ranges = np.linalg.norm(ref[:, :2], axis=-1)          # |2 s| = 2 r on each row
+            if np.allclose(got * ranges[:, None], ref, rtol=1e-6, atol=1e-9):
+                return Feedback(False, "Not yet: that is the Jacobian of the ranges [r_k, r_(k+1)], each row divided "
+                                       "by 2r; paper B measures the squared ranges.",
+                                hint="d(r²)/dx = 2s, not s/‖s‖: drop the division by the range (the rows are "
+                                     "[2s_k, −2δt·s_k] and [2s_(k+1), 0, 0]).",
+                                details={"mistake": "ranges"})
     compare = lambda got, expected: check_array(got, expected, rtol=1e-9, atol=1e-9, name="the Jacobian")  # noqa
     return check_function(func, pair_jacobian_reference, cases, name="pair_jacobian", compare=compare,
                           hint="Rows [2s_k, −2δt·s_k] and [2s_(k+1), 0, 0] with s_k = p − u_k − δt·U − p^M_k and "

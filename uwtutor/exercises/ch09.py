@@ -86,12 +86,16 @@ def check_gate_upper(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; :math:`\delta \hat z` (no square root), the largest accepted *range* and the interval in m² are
-        recognised.
+        The verdict; :math:`\delta \hat z` (no square root), the lower edge of the gate (with either sign), the
+        largest accepted *range* and the interval in m² are recognised.
     """
-    _, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
+    lo, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
     D = S_INNOV + Z_PRED**2
+    lower_edge = ("That is the lower edge of the gate, where z² = (1 − δ)D: the most negative innovation accepted. "
+                  "The gate is symmetric in z², not in z, so the upper edge, z² = (1 + δ)D, is a little closer to ẑ.")
     mistakes = {
+        float(lo): lower_edge,
+        float(-lo): lower_edge,
         DELTA * Z_PRED: "That is δ·ẑ. The test compares z², not z, with D(1 ± δ): a relative tolerance δ on the "
                         "square is about δ/2 on the range itself.",
         float(np.sqrt((1 + DELTA) * D)): "That is the largest range the test accepts; the innovation is that range "
@@ -184,7 +188,8 @@ def check_good_rejected(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; counting the outliers too, and counting with the default re-acquisition, are recognised.
+        The verdict; counting the outliers too, counting with the default re-acquisition, and one too many (an
+        off-by-one) are recognised.
     """
     dive = lockout_dive()
     z = dive.slant_ranges[0]
@@ -200,6 +205,11 @@ def check_good_rejected(answer: Any) -> Feedback:
         int(np.sum(default.extras["outlier"] & good)): "That is the default filter's final classification, after "
                                                        "re-acquisition cleared its window; use reacquire=None.",
     }
+    first, last = np.flatnonzero(literal.extras["rejected"] & good)[[0, -1]]
+    mistakes.setdefault(expected + 1, f"One too many (an off-by-one, not a rounding): the good ranges rejected run "
+                                      f"from epoch {first} to epoch {last}, both included. Counting from the last "
+                                      f"outlier (epoch {first - 1}), or last − first + 2, gives one more; count with "
+                                      f"np.sum(rejected & good).")
     return check_number(answer, expected, rtol=0, atol=0.5, name="the number of good ranges rejected",
                         common_mistakes=mistakes,
                         hint="Use extras['rejected'] and the dive's outlier_mask (True on the outliers).",
@@ -232,8 +242,9 @@ def check_within_ten_percent(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; a percentage instead of a fraction, the horizontal range instead of the slant range, the
-        cascade filter's fixes and an absolute 10 m are recognised.
+        The verdict; a fraction rounded to two decimals is accepted (the task gives no precision); a percentage
+        instead of a fraction, the horizontal range instead of the slant range, the cascade filter's fixes and an
+        absolute 10 m are recognised.
     """
     s = study()
     err = np.linalg.norm(s["result"].fixes - s["truth"], axis=-1)
@@ -248,7 +259,7 @@ def check_within_ten_percent(answer: Any) -> Feedback:
                                                    "fixes themselves (result.fixes).",
         float(np.mean(err <= 10.0)): "That counts errors under 10 m; '10 %' is relative to the range.",
     }
-    return check_number(answer, expected, rtol=0, atol=1e-9, name="the fraction within 10 %",
+    return check_number(answer, expected, rtol=0, atol=0.005, name="the fraction within 10 %",
                         common_mistakes=mistakes,
                         hint="Error = distance between result.fixes and the true positions; compare it with 0.1 × "
                              "the true slant range at the same epochs.",

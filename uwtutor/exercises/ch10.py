@@ -15,6 +15,7 @@ checker                                             exercise
 ``check_median_over_bound(ratio)``                  10.2: its median final error over the bound
 ``check_lost_runs(n)``                              10.2: the number of its runs that diverged
 ``check_method_choice(letter)``                     10.3: which method for an approach with a wrong sound speed
+``check_pcrb_recursion(func)``                      10.4: the PCRB recursion written by the student (a function)
 ==================================================  ====================================================================
 
 The exercises themselves are in the repository's ``exercises/ch10_comparison.ipynb``.
@@ -35,7 +36,7 @@ import numpy as np
 from .. import methods
 from ..observability import posterior_crlb, rmse_bound
 from ..scenarios import suite
-from .checks import check_choice, check_number
+from .checks import Case, check_array, check_choice, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -45,6 +46,8 @@ __all__ = [
     "check_median_over_bound",
     "check_lost_runs",
     "check_method_choice",
+    "check_pcrb_recursion",
+    "pcrb_reference",
     "bound_variants",
     "choice_rows",
     "BOUND_SCENARIO",
@@ -397,3 +400,85 @@ def check_method_choice(answer: Any) -> Feedback:
                         hint="Keep the methods whose divergence_fraction is at most 0.05, then take the lowest "
                              "median_final_error.",
                         explanation=explanation)
+
+
+# -- exercise 10.4: the recursion by hand ------------------------------------------------------------------------------
+def pcrb_reference(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any) -> np.ndarray:
+    r"""The reference for exercise 10.4: :math:`\mathbf J_k^{-1}` after each epoch of one track (``F = I``), from
+    :func:`uwtutor.observability.posterior_crlb`.
+
+    Parameters
+    ----------
+    positions : array_like, shape (K, 2)
+        The true positions at the ranging epochs [m].
+    beacon : array_like, shape (2,)
+        The beacon [m].
+    sigma : float
+        Range noise standard deviation [m].
+    Q, P0 : array_like, shape (2, 2)
+        Process noise per epoch and prior covariance [m²].
+
+    Returns
+    -------
+    ndarray, shape (K, 2, 2)
+    """
+    positions = np.asarray(positions, dtype=float)
+    return posterior_crlb(positions, np.broadcast_to(np.asarray(beacon, float), positions.shape), float(sigma),
+                          np.asarray(Q, float), np.asarray(P0, float))
+
+
+def _pcrb_cases() -> list[Case]:
+    phi = np.radians(np.arange(12) * 15.0)
+    arc = 1000.0 * np.column_stack([np.cos(phi), np.sin(phi)])
+    line = np.column_stack([np.linspace(-300.0, 300.0, 10), np.full(10, 400.0)])
+    return [
+        Case((arc, np.zeros(2), 2.0, np.eye(2), 100.0**2 * np.eye(2)), label="an arc of 12 epochs about the beacon",
+             hint="Predict, then add the range's information: J = inv(Q + inv(J)) + h hᵀ / σ², h the unit line of "
+                  "sight from the beacon to the true position; J₀ = inv(P0). Return inv(J) after each epoch."),
+        Case((line, np.array([50.0, -20.0]), 3.0, 4.0 * np.eye(2), 50.0**2 * np.eye(2)),
+             label="a straight pass, a beacon off the origin",
+             hint="The line of sight is (p − b)/‖p − b‖: from the beacon, not from the origin."),
+        Case((arc[:3], np.zeros(2), 1.0, np.zeros((2, 2)), 1e4 * np.eye(2)), label="no process noise (Q = 0)",
+             hint="With Q = 0 the prediction leaves J unchanged: inv(0 + inv(J)) = J."),
+    ]
+
+
+def check_pcrb_recursion(func: Any) -> Feedback:
+    r"""Check a student's ``pcrb(positions, beacon, sigma, Q, P0)`` against :func:`pcrb_reference` (exercise 10.4).
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function, returning :math:`\mathbf J_k^{-1}` of shape (K, 2, 2).
+
+    Returns
+    -------
+    Feedback
+        The verdict; returning the information :math:`\mathbf J_k` instead of its inverse, and forgetting the
+        prediction (no :math:`\mathbf Q`), are recognised.
+    """
+    cases = _pcrb_cases()
+    if callable(func):
+        args = cases[0].args
+        try:
+            got = np.asarray(func(*[np.copy(a) if isinstance(a, np.ndarray) else a for a in args]), dtype=float)
+        except Exception:  # noqa: BLE001 - check_function below reports the exception with its case
+            got = None
+        ref = pcrb_reference(*args)
+        if got is not None and got.shape == ref.shape:
+            if np.allclose(got, np.linalg.inv(ref), rtol=1e-6):
+                return Feedback(False, "Not yet: that is the information J_k, not the bound J_k⁻¹.",
+                                hint="Return np.linalg.inv(J) after each epoch.", details={"mistake": "information"})
+            no_q = pcrb_reference(args[0], args[1], args[2], np.zeros((2, 2)), args[4])
+            if np.allclose(got, no_q, rtol=1e-6):
+                return Feedback(False, "Not yet: that is the bound without process noise: the prediction step "
+                                       "J ← inv(Q + inv(J)) is missing, so old ranges never lose their weight.",
+                                hint="Before adding each range's information, predict: J = inv(Q + inv(J)).",
+                                details={"mistake": "no prediction"})
+    compare = lambda got, expected: check_array(got, expected, rtol=1e-6, atol=1e-9, name="the bounds J_k⁻¹",  # noqa
+                                                units="m²")
+    return check_function(func, pcrb_reference, cases, name="pcrb", compare=compare,
+                          hint="J₀ = inv(P0); for each epoch: J = inv(Q + inv(J)), then J += h hᵀ / σ² with h the "
+                               "unit line of sight from the beacon; store inv(J).",
+                          explanation="This is posterior_crlb on one track with F = I: the information filter of "
+                                      "chapter 4 with the Jacobian taken at the true position.")

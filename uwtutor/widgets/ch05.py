@@ -191,7 +191,7 @@ def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     ax_err.set_ylabel("position error [m]")
     ax_err.set_title(f"{view.n_runs} runs; steady RMS {view.steady_rmse['fading']:.1f} m "
                      f"(EKF {view.steady_rmse['ekf']:.1f} m)", fontsize=8)
-    ax_err.legend(fontsize=6, ncol=2, loc="upper right")
+    ax_err.legend(fontsize=7, ncol=2, loc="upper right")
     ax_lam.semilogy(t, view.fading_factor, ".", ms=3, color="C3")
     ax_lam.set_ylim(0.8, None)
     ax_lam.set_xlabel("time [s]")

@@ -108,7 +108,7 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
     ax_t, ax_f = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.6, 1)})
     n = len(view.methods)
     if method == "all":
-        colors = [plt.get_cmap("tab20")(i % 20) for i in range(n)]
+        colors = [plt.get_cmap("tab10")(i) if i < 10 else (0.2, 0.2, 0.2, 1.0) for i in range(n)]   # no pastels
     else:                   # the chosen method in a strong colour, the others in grey behind it
         colors = ["C3" if name == method else (0.75, 0.75, 0.75, 1.0) for name in view.methods]
     for i, name in enumerate(view.methods):
@@ -133,7 +133,10 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
     ax_f.set_yticks(y, view.methods, fontsize=7)
     ax_f.invert_yaxis()
     ax_f.set_xlabel("final error [m]: median, 95 %")
-    ax_t.legend(fontsize=6, ncol=2, loc="upper right")
+    # no legend over the curves: the right panel's tick labels name the methods, in the curves' colours
+    for label, color in zip(ax_f.get_yticklabels(), colors):
+        label.set_color(color if method == "all" or color == "C3" else "0.45")
+    ax_t.text(0.98, 0.97, "-- bound (PCRB)", transform=ax_t.transAxes, ha="right", va="top", fontsize=7)
     fig.tight_layout()
     return fig
 
