@@ -102,8 +102,8 @@ def test_usual_mistakes_get_their_hint(data, fit, drift_rate, lockout):
         (ch11.check_locked_rmse, lockout["back"], "re-acquisition"),
         (ch11.check_reacquired_rmse, lockout["locked"], "without re-acquisition"),
     ]
-    wrapped = (data.dead_reckoning()[:, 2] - data.truth[:, 2] + np.pi) % (2 * np.pi) - np.pi
-    cases.append((ch11.check_drift_rate, np.degrees(np.polyfit(data.times, wrapped, 1)[0]), "Unwrap"))
+    raw = data.dead_reckoning()[:, 2] - data.truth[:, 2]           # each heading wrapped: jumps of 2 pi
+    cases.append((ch11.check_drift_rate, np.degrees(np.polyfit(data.times, raw, 1)[0]), "np.unwrap"))
     for check, answer, words in cases:
         fb = check(answer)
         assert not fb.correct and words in _text(fb), (check.__name__, answer, _text(fb))

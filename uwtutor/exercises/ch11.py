@@ -188,8 +188,6 @@ def check_drift_rate(answer: Any) -> Feedback:
     v = drift_variants()
     mistakes = {
         v["radians"]: "That is in rad/s; the task asks for degrees per second (np.degrees).",
-        v["wrapped"]: "The difference was wrapped to ±180°: past −180° it jumps by 360° and the line through it is "
-                      "wrong. Unwrap each heading (np.unwrap) before differencing.",
         v["no_unwrap"]: "The headings are wrapped to ±π: their raw difference jumps by 2π whenever one of them "
                         "crosses ±π. Unwrap each heading (np.unwrap) before differencing.",
         v["per_minute"]: "That is per minute; the task asks for degrees per second.",
