@@ -56,7 +56,7 @@ def test_plot_and_panel():
     panel = ch11.real_data_widget()
     assert len(panel.children) == 3
     controls = panel.children[0].children
-    assert [c.description for c in controls] == ["beacons", "ranges", "states"]
+    assert [c.description for c in controls] == ["beacon", "ranges", "states"]
     before = panel.children[2].children[0].value
     controls[1].value = 30.0                        # redraws the same figure in place
     assert panel.children[2].children[0].value != before

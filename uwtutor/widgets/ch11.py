@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import NullLocator
 
 from ..datasets.study import GRID_BEACONS, GRID_PERIODS, GRID_STATES, RealDataStudy, load_real_data_study
 from ._panel import slider_panel
@@ -40,7 +41,7 @@ class RealDataView:
     states : str
         The states estimated beyond :math:`[x, y, \\theta]`, one of ``GRID_STATES``.
     times : ndarray, shape (K,)
-        Epoch times [s], one a second.
+        Time since the start of the log [s], one epoch a second.
     truth, dead_reckoning, estimate : ndarray, shape (K, 2)
         The true track, the odometry alone and the filter's track [m].
     error, error_rts : ndarray, shape (K,)
@@ -94,7 +95,8 @@ def real_data_view(beacon: str = "5", period: float | None = None, states: str =
     c = {name: np.asarray(values[i, j, k], dtype=float) for name, values in g["curves"].items()}
     m = {name: float(values[i, j, k]) for name, values in g["measures"].items()}
     used = g["beacons"] if beacon == "all" else {int(beacon): g["beacons"][int(beacon)]}
-    return RealDataView(beacon=beacon, period=period, states=states, times=np.asarray(g["times"], dtype=float),
+    t = np.asarray(g["times"], dtype=float)
+    return RealDataView(beacon=beacon, period=period, states=states, times=t - t[0],
                         truth=np.asarray(g["truth"])[:, :2], dead_reckoning=np.asarray(g["dead_reckoning"])[:, :2],
                         estimate=c["xy"], error=c["error"], error_rts=c["error_rts"], scale=c["scale"],
                         scale_sigma=c["scale_sigma"], measured_scale=float(s.info["scale"]["Plaza 2"]),
@@ -107,7 +109,9 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     """The track against the truth and the odometry (left), the error over time (top right) and the scale estimate
     with its one-sigma band (bottom right)."""
     fig = fig or plt.figure(figsize=(7.8, 3.9))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.25))
+    # fixed margins, no tight_layout: it measures every tick label, most of the time of a redraw
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.25), left=0.085, right=0.78, bottom=0.2, top=0.92,
+                            wspace=0.3, hspace=0.18)
     ax_t = fig.add_subplot(grid[:, 0])
     ax_e = fig.add_subplot(grid[0, 1])
     ax_s = fig.add_subplot(grid[1, 1], sharex=ax_e)
@@ -129,6 +133,7 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     ax_e.semilogy(view.times, np.maximum(view.error, 1e-3), color="C3", lw=0.9, label="filter")
     ax_e.semilogy(view.times, np.maximum(view.error_rts, 1e-3), color="C2", lw=0.9, label="RTS smoother")
     ax_e.set_ylim(0.05, 300.0)
+    ax_e.yaxis.set_minor_locator(NullLocator())          # major ticks only: a redraw is mostly tick objects
     ax_e.set_ylabel("error [m]")
     ax_e.set_title(f"{view.states}: RMSE {view.summary['rmse']:.2f} m (RTS {view.rts_rmse:.2f} m), "
                    f"{100 * view.summary['within']:.0f} % within 2 m", fontsize=8)
@@ -143,10 +148,9 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
                   va="center", fontsize=8, color="0.4")
     ax_s.axhline(view.measured_scale, color="k", ls="--", lw=1.0, label="measured on the truth")
     ax_s.set_ylim(0.95, 1.15)
-    ax_s.set_xlabel("time [s]")
+    ax_s.set_xlabel("time since the start [s]")
     ax_s.set_ylabel("range scale s")
     ax_s.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    fig.tight_layout()
     return fig
 
 
@@ -157,8 +161,7 @@ def real_data_widget(study: RealDataStudy | None = None) -> Any:
     s = load_real_data_study() if study is None else study
     style = {"description_width": "initial"}
     controls = {
-        "beacon": w.Dropdown(options=[(("all four" if b == "all" else f"beacon {b}"), b) for b in GRID_BEACONS],
-                             value="5", description="beacons", style=style),
+        "beacon": w.Dropdown(options=list(GRID_BEACONS), value="5", description="beacon", style=style),
         "period": w.Dropdown(options=[(PERIOD_LABELS[p], p) for p in GRID_PERIODS], value=None,
                              description="ranges", style=style),
         "states": w.Dropdown(options=list(GRID_STATES), value="+ scale and gyro bias", description="states",
