@@ -15,7 +15,7 @@ chapters assumed and run their filters unchanged:
 
 =============================  ======================================================================================
 :func:`position_ekf`           chapter 4's range-only EKF, state :math:`[x, y]` (several beacons: the generic engine
-                               with :class:`~uwtutor.models.BeaconRanges`)
+                               with :class:`~uwtutor.models.range.BeaconRanges`)
 :func:`bias_iekf`              chapter 7's IEKF (paper A), :math:`[x, y, \upsilon]` (several beacons: one bias each)
 :func:`fading_filter`          chapter 5's ISFEKF (paper D) with the range factor :math:`\mu_\gamma` given
 :func:`vmlbl_filter`           chapter 9's OR-VMLBL-KF (paper E): gated range filter, four-epoch virtual long-baseline
@@ -42,7 +42,8 @@ __all__ = ["BaselineRun", "world_displacements", "displacement_covariance", "pos
 
 #: The range noise :math:`\sigma_r` [m] of every method here (the Plaza radios: about 0.55 m measured).
 RANGE_SIGMA = 0.6
-#: :math:`(a, c)`: the displacement noise per step and axis is :math:`a + c\,d_k` [m] (as :func:`navigate`'s distance).
+#: :math:`(a, c)`, the displacement noise per step and axis being :math:`a + c\,d_k` [m] (as the distance noise of
+#: :func:`~uwtutor.datasets.navigate`).
 DISTANCE_SIGMA = (0.01, 0.02)
 
 
@@ -59,7 +60,7 @@ class BaselineRun:
     positions : ndarray, shape (K, 2)
         The estimated positions at every epoch [m].
     result : object
-        The method's own result (a :class:`~uwtutor.filters.FilterResult`, or a
+        The method's own result (a :class:`~uwtutor.filters.base.FilterResult`, or a
         :class:`~uwtutor.pipelines.VMLBLResult` for the virtual baseline), for its innovations, covariances and
         extras.
     """
@@ -133,8 +134,8 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
                  range_sigma: float = RANGE_SIGMA, distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 4's range-only EKF on a log: state :math:`[x, y]`, dead-reckoned displacements, ranges as logged.
 
-    One beacon runs :func:`uwtutor.filters.range_only_ekf` itself; several run the generic engine on
-    :class:`~uwtutor.models.DeadReckoning` and :class:`~uwtutor.models.BeaconRanges` (the same filter, every beacon
+    One beacon runs :func:`uwtutor.filters.ekf.range_only_ekf` itself; several run the generic engine on
+    :class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.BeaconRanges` (the same filter, every beacon
     heard at an epoch in one update).
 
     Parameters
@@ -178,7 +179,7 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
 
     Paper A's process noise: the bias walks by :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` per step (here
     :math:`\sigma_k^2`); the bias starts at 0 with standard deviation ``bias_sigma``. One beacon runs
-    :func:`uwtutor.filters.bias_ekf`; several give each beacon its own bias (the generic engine, state
+    :func:`uwtutor.filters.bias.bias_ekf`; several give each beacon its own bias (the generic engine, state
     :math:`[x, y, \upsilon_1, \dots, \upsilon_B]`).
 
     Parameters
@@ -316,7 +317,7 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
                     distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 6's bootstrap particle filter on chapter 4's model: :math:`[x, y]` relative to the one beacon.
 
-    :class:`uwtutor.filters.BootstrapParticleFilter` with :class:`uwtutor.filters.RelativeRangeModel` (its
+    :class:`uwtutor.filters.particle.BootstrapParticleFilter` with ``uwtutor.filters.RelativeRangeModel`` (its
     :math:`\mathbf Q` the mean of the per-step :math:`\sigma_k^2\mathbf I`), particles drawn from the start's
     :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the effective sample size falls below half
     (:func:`uwtutor.methods.particle_filter`'s settings).

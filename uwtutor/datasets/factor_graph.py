@@ -42,7 +42,7 @@ from ._core import RangeDataset
 
 __all__ = ["GraphSolution", "gtsam_map", "HEADING_NOISE"]
 
-#: Default heading noise density of the odometry factors [rad/√s]: loose enough that a heading random walk can
+#: Default heading noise density of the odometry factors [rad/√s], loose enough that a heading random walk can
 #: follow a drift of a few mrad/s (a one-sigma step of 0.01 rad per second), as the Plaza 2 heading drifts.
 HEADING_NOISE = 0.01
 
@@ -61,8 +61,10 @@ class GraphSolution:
         Range factors in the graph.
     iterations : int
         Levenberg--Marquardt iterations.
-    initial_error, final_error : float
-        The graph's error (half the sum of squared whitened residuals) at the initial guess and at the solution.
+    initial_error : float
+        The graph's error (half the sum of squared whitened residuals) at the initial guess.
+    final_error : float
+        The same at the solution.
     seconds : float
         Wall time of the optimization (the graph's construction excluded).
     """
@@ -95,7 +97,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     beacon_ids : sequence of int, optional
         The beacons used (default: all).
     min_period : float, optional
-        At most one range per beacon every ``min_period`` seconds (as :meth:`RangeDataset.ranges_on_epochs`).
+        At most one range per beacon every ``min_period`` seconds (as :meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs`).
     range_scale : float, default 1
         Every range is divided by it before it enters the graph (1: the ranges as logged; the log's scale: the
         scale removed).

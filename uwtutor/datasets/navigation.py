@@ -8,12 +8,12 @@ A real range log differs from the book's simulations in two errors that the posi
   constant to *estimate*, not a known factor;
 * a **gyro bias** :math:`b_g`: the odometry's heading drifts (by more than 100 degrees over Plaza 2).
 
-:func:`navigate` therefore runs the library's generic EKF (:func:`uwtutor.filters.extended_kalman_filter`) on the
-state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.OdometryMotion` (each step moves along the
+:func:`navigate` therefore runs the library's generic EKF (:func:`uwtutor.filters.engine.extended_kalman_filter`) on the
+state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.odometry.OdometryMotion` (each step moves along the
 previous heading, then turns: the convention of the data, :meth:`RangeDataset.dead_reckoning`) and
-:class:`uwtutor.models.BeaconRanges` (:math:`z_j = s\,\lVert p - b_j\rVert + v_j`, the beacons heard at an epoch,
-the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.ReacquiringGate`),
-and smooths it with :func:`uwtutor.filters.rts_smoother` when asked. Nothing here is a new loop: a model pair,
+:class:`uwtutor.models.range.BeaconRanges` (:math:`z_j = s\,\lVert p - b_j\rVert + v_j`, the beacons heard at an epoch,
+the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.gates.ReacquiringGate`),
+and smooths it with :func:`uwtutor.filters.smoother.rts_smoother` when asked. Nothing here is a new loop: a model pair,
 the engine and its gate.
 
 The noise defaults describe wheel odometry and radio ranges like the Plaza sets' (range noise about 0.55 m,
@@ -88,7 +88,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
         Prior standard deviation of :math:`s` about 1, and its random walk [1/√s].
     gate : bool, default True
         Reject ranges outside the 99.9 % chi-square gate, component by component, with re-acquisition after 10
-        rejected epochs in a row (:class:`uwtutor.filters.ReacquiringGate`), so that the gate never locks out.
+        rejected epochs in a row (:class:`uwtutor.filters.gates.ReacquiringGate`), so that the gate never locks out.
 
     Returns
     -------
@@ -154,9 +154,9 @@ class NavigationModels:
 
     Attributes
     ----------
-    motion : uwtutor.models.OdometryMotion
+    motion : uwtutor.models.odometry.OdometryMotion
         The odometry motion model (each step moves along the previous heading, then turns).
-    measurement : uwtutor.models.BeaconRanges
+    measurement : uwtutor.models.range.BeaconRanges
         The ranges to the chosen beacons, with the scale when it is estimated.
     x0 : ndarray, shape (n,)
         The initial state: the start pose, then :math:`b_g = 0` and :math:`s = 1` when estimated.

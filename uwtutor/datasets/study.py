@@ -15,7 +15,7 @@ What it holds:
   (:func:`without_scale`, :func:`with_true_heading`): which real error each method leaves out (the virtual
   baseline's rows also hold paper E's trial statistic, :func:`fixes_within`);
 * ``sweep`` -- GTSAM's batch solution against the heading noise of its odometry factors, per beacon;
-* ``grid`` -- :func:`navigate` on Plaza 2 for every beacon (and all four), range period and set of estimated states
+* ``grid`` -- :func:`~uwtutor.datasets.navigate` on Plaza 2 for every beacon (and all four), range period and set of estimated states
   (chapter 11's widget), with the error, the scale estimate and the NEES, decimated to one value a second.
 
 Every number is deterministic (the particle filter draws from a fixed seed); nothing here is timed.
@@ -40,18 +40,18 @@ __all__ = [
     "RealDataStudy", "run_real_data_study", "load_real_data_study", "STUDY_FILES",
 ]
 
-#: One range per beacon every this many seconds: an acoustic modem's rate.
+#: One range per beacon every this many seconds, an acoustic modem's rate.
 ACOUSTIC_PERIOD = 10.0
-#: The widget's beacons: each alone, or all four.
+#: The widget's beacons, each alone or all four.
 GRID_BEACONS: tuple[str, ...] = ("0", "1", "5", "6", "all")
-#: The widget's range periods [s] (None: every range logged).
+#: The widget's range periods [s] (None for every range logged).
 GRID_PERIODS: tuple[float | None, ...] = (None, 5.0, 10.0, 30.0)
 #: The widget's sets of estimated states beyond the pose [x, y, heading].
 GRID_STATES: tuple[str, ...] = ("pose only", "+ scale", "+ gyro bias", "+ scale and gyro bias")
-#: ``(gyro_bias, scale)`` of :func:`navigate` for each entry of ``GRID_STATES``.
+#: ``(gyro_bias, scale)`` of :func:`~uwtutor.datasets.navigate` for each entry of ``GRID_STATES``.
 STATE_FLAGS = {"pose only": (False, False), "+ scale": (False, True), "+ gyro bias": (True, False),
                "+ scale and gyro bias": (True, True)}
-#: The grid's curves keep one epoch in this many (Plaza 2: one value a second).
+#: The grid's curves keep one epoch in this many (one value a second on Plaza 2).
 DECIMATION = 10
 #: The seed of the particle filter's draws.
 PF_SEED = 11
@@ -195,7 +195,7 @@ def _beacon_ids(data: RangeDataset, beacon: str) -> list[int]:
 
 def navigation_run(data: RangeDataset, beacon: str = "all", period: float | None = None,
                    states: str = "+ scale and gyro bias", decimation: int = DECIMATION) -> dict[str, Any]:
-    r"""One run of :func:`navigate` (filter and RTS smoother) with its measures and decimated curves.
+    r"""One run of :func:`~uwtutor.datasets.navigate` (filter and RTS smoother) with its measures and decimated curves.
 
     Parameters
     ----------
@@ -435,8 +435,12 @@ class RealDataStudy:
 
     Attributes
     ----------
-    table, ablation, sweep : list of dict
-        The rows of the three tables.
+    table : list of dict
+        The method table's rows.
+    ablation : list of dict
+        The ablation's rows.
+    sweep : list of dict
+        GTSAM's heading-noise sweep.
     grid : dict
         ``measures`` and ``curves`` (arrays over ``GRID_BEACONS`` x ``GRID_PERIODS`` x ``GRID_STATES``), ``times``,
         ``truth``, ``dead_reckoning`` (decimated) and ``beacons``.

@@ -42,12 +42,20 @@ class RealDataView:
         The states estimated beyond :math:`[x, y, \\theta]`, one of ``GRID_STATES``.
     times : ndarray, shape (K,)
         Time since the start of the log [s], one epoch a second.
-    truth, dead_reckoning, estimate : ndarray, shape (K, 2)
-        The true track, the odometry alone and the filter's track [m].
-    error, error_rts : ndarray, shape (K,)
-        The filter's and the RTS smoother's position errors [m].
-    scale, scale_sigma : ndarray, shape (K,)
-        The scale estimate :math:`\\hat s_k` and its standard deviation (NaN when the scale is not estimated).
+    truth : ndarray, shape (K, 2)
+        The true track [m].
+    dead_reckoning : ndarray, shape (K, 2)
+        The odometry alone, integrated from the start [m].
+    estimate : ndarray, shape (K, 2)
+        The filter's track [m].
+    error : ndarray, shape (K,)
+        The filter's position error [m].
+    error_rts : ndarray, shape (K,)
+        The RTS smoother's position error [m].
+    scale : ndarray, shape (K,)
+        The scale estimate :math:`\\hat s_k` (NaN when the scale is not estimated).
+    scale_sigma : ndarray, shape (K,)
+        Its standard deviation.
     measured_scale : float
         The scale measured against the truth (least squares over every range).
     beacons : dict
