@@ -187,3 +187,13 @@ def test_installed_wheel_reads_the_committed_comparison(installed, tmp_path):
     from uwtutor import methods
     table = methods.load_comparison()
     assert shape == f"{len(table)} {table.rmse_curves.shape}"
+
+
+def test_installed_wheel_reads_the_committed_real_data_study(installed, tmp_path):
+    # chapter 11's runs travel with the library too (its widget reads them without gtsam or the Plaza files)
+    python = installed / "bin" / "python"
+    proc = _run([str(python), "-c", "from uwtutor.datasets.study import load_real_data_study as f; s = f(); "
+                                    "print(len(s.table), s.grid['curves']['xy'].shape)"], cwd=tmp_path)
+    from uwtutor.datasets.study import load_real_data_study
+    study = load_real_data_study()
+    assert proc.stdout.strip() == f"{len(study.table)} {study.grid['curves']['xy'].shape}"
