@@ -4,61 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import re
-import shutil
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-BUILD_DIR = REPO / "_build"
-HTML_DIR = BUILD_DIR / "html"
-BUILD_LOG = BUILD_DIR / "book-build.log"
-BUILD_TIMEOUT = 3600  # seconds; the notebooks run in this build unless cached
-
-# The build command of `make book`, in the strict form: warnings are errors (-W), nitpicky
-# cross-references (-n), every warning reported (--keep-going), every page re-read (--all: without
-# it an unchanged page with a warning is not re-read and the rebuild passes).
-BUILD_CMD = ["build", "--all", "-W", "-n", "--keep-going", "."]
-
-_ANSI = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
-
-
-def jupyter_book_exe() -> str:
-    """The jupyter-book of the running interpreter's environment (the project's venv)."""
-    beside = Path(sys.executable).with_name("jupyter-book")
-    if beside.exists():
-        return str(beside)
-    found = shutil.which("jupyter-book")
-    if not found:
-        pytest.fail("jupyter-book is not installed in this environment: run `make setup`")
-    return found
-
-
-def toc_docnames(toc_path: Path = REPO / "_toc.yml") -> list[str]:
-    """Every page of the book's table of contents, root first, in reading order."""
-    import yaml  # PyYAML: a dependency of jupyter-book
-
-    toc = yaml.safe_load(toc_path.read_text(encoding="utf-8"))
-    names: list[str] = [toc["root"]]
-
-    def walk(node):
-        if isinstance(node, dict):
-            if "file" in node:
-                names.append(node["file"])
-            for key in ("parts", "chapters", "sections", "subtrees", "entries"):
-                if key in node:
-                    walk(node[key])
-        elif isinstance(node, list):
-            for item in node:
-                walk(item)
-
-    walk({k: v for k, v in toc.items() if k != "root"})
-    # Drop source suffixes: _toc.yml may name `book/ch01.ipynb` or `book/ch01`.
-    return [re.sub(r"\.(md|ipynb|rst)$", "", n) for n in names]
+from book_paths import (BUILD_CMD, BUILD_DIR, BUILD_LOG, BUILD_TIMEOUT, HTML_DIR, REPO, _ANSI,  # noqa: F401 (re-exported)
+                        jupyter_book_exe, toc_docnames)
 
 
 @dataclasses.dataclass

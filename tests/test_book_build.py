@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import BUILD_LOG, HTML_DIR, toc_docnames
+from book_paths import BUILD_LOG, HTML_DIR, toc_docnames
 
 pytestmark = pytest.mark.book
 

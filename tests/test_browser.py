@@ -24,7 +24,7 @@ from urllib.parse import urlsplit
 
 import pytest
 
-from conftest import BUILD_DIR, HTML_DIR, toc_docnames
+from book_paths import BUILD_DIR, HTML_DIR, toc_docnames
 
 pytestmark = pytest.mark.browser
 

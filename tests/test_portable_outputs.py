@@ -19,7 +19,7 @@ import pytest
 
 from uwtutor.reporting import as_shown
 
-from conftest import REPO
+from book_paths import REPO
 
 BOOK = REPO / "book"
 CHAPTERS = sorted(BOOK.glob("ch*.ipynb"))

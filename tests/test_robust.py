@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter as FilterpyKF
 
+from uwtutor.errors import UwtutorWarning
 from uwtutor.filters import ExtendedKalmanFilter, GateContext, run_filter
 from uwtutor.filters.robust import (RobustGate, SecondMomentGate, cascade_kf, moment_gate_interval,
                                     robust_range_kf, robust_track_kf)
@@ -137,8 +138,9 @@ def test_reacquisition_restarts_from_a_line_through_the_rejected_ranges():
     assert k == 14 and res.extras["rejected"][:15].all()
     assert not res.extras["outlier"][:15].any()                 # reclassified as good
     assert abs(res.x[k, 0] - truth[k]) < 3.0 and abs(res.x[k, 1] + 1.2) < 0.2
-    never = robust_track_kf(z[:, None], 1.0, q=0.01, r=2.0, test="paper", reacquire=None, x0=x0,
-                            P0=np.diag([2.0, 0.01]))
+    with pytest.warns(UwtutorWarning, match="rejected 120 of 120 measurements"):     # locked out: said so
+        never = robust_track_kf(z[:, None], 1.0, q=0.01, r=2.0, test="paper", reacquire=None, x0=x0,
+                                P0=np.diag([2.0, 0.01]))
     assert never.extras["rejected"].all()
 
 

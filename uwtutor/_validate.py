@@ -61,8 +61,16 @@ __all__ = [
     "as_index",
     "as_flag",
     "as_instance",
+    "as_scalar",
+    "as_choice",
+    "as_callable",
+    "as_bool_array",
+    "check_model_covariance",
+    "check_work",
+    "check_finite_result",
     "check_same_length",
     "check_same_shape",
+    "MAX_WORK",
     "SYMMETRY_RTOL",
     "PSD_RTOL",
     "MAX_COVARIANCE",
@@ -160,6 +168,8 @@ def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None 
         raise TypeError(f"{name} must hold numbers; got strings (dtype {raw.dtype}); convert them with float()")
     elif kind == "O":
         _bad_element(name, value)
+        _bad_element(name, list(raw.flat) if raw.ndim else [raw.item()])   # inside object arrays too (None is
+        #                                                                    # never a missing value: NaN is)
         try:
             arr = raw.astype(float)
         except OverflowError:
@@ -392,3 +402,113 @@ def check_same_shape(**arrays: np.ndarray) -> tuple[int, ...]:
         described = ", ".join(f"{name} has shape {s}" for name, s in shapes.items())
         raise ValueError(f"the arrays must have the same shape (nothing is broadcast): {described}")
     return next(iter(shapes.values()))
+
+
+def as_scalar(name: str, value: Any, *, domain: str = "finite", low: float | None = None,
+              high: float | None = None) -> float:
+    """One real number (a Python float): a one-element list or array is refused by name, not by numpy's
+    "only 0-dimensional arrays can be converted" error.
+
+    ``domain``: ``"finite"``, ``"positive"`` (> 0), ``"nonnegative"`` (>= 0) or ``"probability"`` (in (0, 1));
+    ``low``/``high`` add inclusive bounds.
+
+    >>> as_scalar("interval", [8.0])
+    Traceback (most recent call last):
+        ...
+    ValueError: interval must be a single number; got an array of shape (1,) (write 8.0, not [8.0])
+    """
+    arr = as_float_array(name, value)
+    if arr.ndim != 0:
+        shown = f" (write {float(arr.flat[0])!r}, not [{float(arr.flat[0])!r}])" if arr.size == 1 else ""
+        raise ValueError(f"{name} must be a single number; got an array of shape {arr.shape}{shown}")
+    if domain == "positive":
+        x = float(as_positive(name, arr))
+    elif domain == "nonnegative":
+        x = float(as_nonnegative(name, arr))
+    elif domain == "probability":
+        x = float(as_in_range(name, arr, 0.0, 1.0, closed=(False, False)))
+    else:
+        x = float(as_finite(name, arr))
+    if low is not None and x < low:
+        raise ValueError(f"{name} must be >= {low:g}; got {x:g}")
+    if high is not None and x > high:
+        raise ValueError(f"{name} must be <= {high:g}; got {x:g}")
+    return x
+
+
+def as_choice(name: str, value: Any, options: Any) -> str:
+    """One of the strings ``options`` (a list, not a value that merely compares equal; unhashables refused)."""
+    choices = list(options)
+    if not isinstance(value, str) or value not in choices:
+        shown = _describe(value) if isinstance(value, (str, bytes)) else repr(value)
+        raise ValueError(f"{name} must be one of {choices}; got {shown}")
+    return value
+
+
+def as_callable(name: str, value: Any, hint: str = "") -> Any:
+    """``value`` if it is callable; a :class:`TypeError` naming the argument otherwise."""
+    if not callable(value):
+        raise TypeError(f"{name} must be a function{(' (' + hint + ')') if hint else ''}; got "
+                        f"{_describe(value) if isinstance(value, str) else type(value).__name__}")
+    return value
+
+
+def as_bool_array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) -> np.ndarray:
+    """A decision returned by user code (a gate's verdict, a model's "defined" mask): bools only, of one of
+    ``shapes``. A float such as 0.3 is refused instead of counting as True.
+    """
+    arr = np.asarray(value)
+    if arr.dtype.kind != "b":
+        raise TypeError(f"{name} must return bools (True/False), not dtype {arr.dtype}"
+                        + (f" (e.g. {arr.flat[0]!r})" if arr.size else "")
+                        + ": return a comparison such as `nis <= threshold`")
+    if arr.shape not in shapes:
+        want = " or ".join(str(s) for s in shapes)
+        raise ValueError(f"{name} must return a bool array of shape {want}; got {arr.shape}")
+    return arr
+
+
+def check_model_covariance(name: str, value: np.ndarray) -> None:
+    """A covariance a user's model returned (``Q``, ``R``): finite, symmetric and positive semi-definite, matrix
+    by matrix; the error names the model method (``name``) rather than the filter's own arguments."""
+    C = np.asarray(value, dtype=float)
+    if not np.isfinite(C).all():
+        raise ValueError(f"{name} returned a non-finite value")
+    scale = max(1.0, float(np.max(np.abs(C)))) if C.size else 1.0
+    if not np.allclose(C, np.swapaxes(C, -1, -2), rtol=SYMMETRY_RTOL, atol=1e-12 * scale):
+        raise ValueError(f"{name} returned a matrix that is not symmetric; return (Q + Q.T) / 2 if it is only off "
+                         "by rounding")
+    eig_min = float(np.linalg.eigvalsh(C).min())
+    if eig_min < -PSD_RTOL * scale * 1e3:
+        raise ValueError(f"{name} returned a matrix that is not positive semi-definite (smallest eigenvalue "
+                         f"{eig_min:.3g}): a covariance has variances >= 0 and correlations within [-1, 1]")
+
+
+#: Most float64 values an input may ask a function to allocate (8e8 bytes); beyond it use chunks (montecarlo).
+MAX_WORK = 10**8
+
+
+def check_work(name: str, n_values: Any, what: str = "values") -> None:
+    """Refuse a count whose work (``n_values`` floats) exceeds :data:`MAX_WORK`, with the fix, before numpy's
+    MemoryError or an endless run."""
+    if n_values > MAX_WORK:
+        raise ValueError(f"{name} asks for {float(n_values):.3g} {what} (above {MAX_WORK:.0e}, about "
+                         f"{8 * MAX_WORK / 1e9:.1f} GB): use fewer, or run them in chunks "
+                         "(uwtutor.montecarlo)")
+
+
+def check_finite_result(result: Any, *names: str, what: str = "the result") -> Any:
+    """Refuse a computed result that overflowed (inf) or became NaN from finite inputs, naming the inputs that
+    caused it: an overflow is an input in the wrong units, never a silent ``inf``.
+
+    >>> with np.errstate(over="ignore"):
+    ...     r = np.array([1e308]) * 10
+    >>> check_finite_result(r, "travel_time", "sound_speed", what="the range")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    ValueError: the range overflows float64 for these travel_time and sound_speed (...): change their units
+    """
+    if not np.all(np.isfinite(result)):
+        raise ValueError(f"{what} overflows float64 for these {' and '.join(names)} (a value beyond 1.8e308): change "
+                         "their units")
+    return result

@@ -24,7 +24,8 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn
-from ._validate import as_flag, as_finite, as_in_range, as_nonnegative, as_positive, as_range_array
+from ._validate import (as_finite, as_flag, as_in_range, as_nonnegative, as_positive, as_range_array,
+                        check_finite_result)
 
 __all__ = [
     "MACKENZIE_VALIDITY",
@@ -150,9 +151,11 @@ def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = F
     two_way = as_flag("two_way", two_way)
     tau = as_nonnegative("travel_time", travel_time)
     c = as_positive("sound_speed", sound_speed)
-    r = c * tau
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = c * tau
     if two_way:
         r = r / 2.0
+    check_finite_result(r, "travel_time", "sound_speed", what="the range")
     return _scalar_or_array(np.asarray(r, dtype=float))
 
 
@@ -176,9 +179,11 @@ def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = F
     two_way = as_flag("two_way", two_way)
     r = as_range_array("slant_range", slant_range)
     c = as_positive("sound_speed", sound_speed)
-    tau = r / c
-    if two_way:
-        tau = 2.0 * tau
+    with np.errstate(over="ignore", invalid="ignore"):
+        tau = r / c
+        if two_way:
+            tau = 2.0 * tau
+    check_finite_result(tau, "slant_range", "sound_speed", what="the travel time")
     return _scalar_or_array(np.asarray(tau, dtype=float))
 
 
@@ -314,8 +319,12 @@ def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) ->
     ca = as_in_range("assumed_speed", as_positive("assumed_speed", assumed_speed), 0.0, 1e5)
     ct = as_in_range("true_speed", as_positive("true_speed", true_speed), 0.0, 1e5)
     sc = as_in_range("speed_sigma", as_nonnegative("speed_sigma", speed_sigma), 0.0, 1e5)
-    mu = ca / ct
-    sigma = ca * sc / ct**2
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        mu = ca / ct
+        sigma = ca * sc / ct**2
+    check_finite_result(np.asarray(mu, dtype=float), "assumed_speed", "true_speed", what="the range factor")
+    check_finite_result(np.asarray(sigma, dtype=float), "assumed_speed", "true_speed", "speed_sigma",
+                        what="the range factor's spread")
     return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))
 
 

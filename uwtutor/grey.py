@@ -67,7 +67,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_int
+from ._validate import as_finite, as_float_array, as_int
 
 __all__ = [
     "GM11",
@@ -444,7 +444,7 @@ def gm11_next(series: Any) -> np.ndarray:
     >>> gm11_next(np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]])).round(3)
     array([3.751, 5.   ])
     """
-    x0 = np.asarray(series, dtype=float)
+    x0 = as_float_array("series", series)       # dtype checks; NaN and <= 0 refused below
     if x0.ndim == 0 or x0.shape[-1] < _MIN_LENGTH:
         raise ValueError(f"series must hold at least {_MIN_LENGTH} values along its last axis for GM(1,1); "
                          f"got shape {x0.shape}")
@@ -453,7 +453,12 @@ def gm11_next(series: Any) -> np.ndarray:
                          "<= 0 or NaN")
     a, b = _coefficients(x0, 0.5)
     n = x0.shape[-1]
-    return _restored(x0[..., 0], a, b, np.array([float(n)]))[..., 0]
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _restored(x0[..., 0], a, b, np.array([float(n)]))[..., 0]
+    if not np.all(np.isfinite(out)):
+        raise ValueError("series gives a GM(1,1) forecast that overflows float64 (values near 1e308, or a series "
+                         "that grows too fast for its length): rescale the series")
+    return out
 
 
 def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,

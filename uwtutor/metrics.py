@@ -211,6 +211,8 @@ def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
     (array([1., 2., 3., 4.]), array([0.25, 0.5 , 0.75, 1.  ]))
     """
     e = as_float_array("errors", errors, ndim=1)
+    if np.isinf(e).any():
+        raise ValueError("errors must be finite (NaN for a run without a value is dropped); got an infinite value")
     e = np.sort(e[~np.isnan(e)])
     if e.size == 0:
         raise ValueError("errors must contain at least one value that is not NaN")
@@ -289,8 +291,12 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
                          f"got {S.shape}")
     y = _without_covariance(y, S)
     _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
-    out = _quadratic_form(y, S, "innovation_cov")
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _quadratic_form(y, S, "innovation_cov")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
+    if np.isinf(out).any():
+        raise ValueError("innovations and innovation_cov give a NIS that overflows float64 (innovations near "
+                         "1e154, or a variance near 0): change their units")
     return out
 
 
@@ -313,7 +319,7 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
     counts : ndarray of int, shape (K,)
         :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
     """
-    v = as_float_array("values", values, ndim=2)
+    v = as_float_array("values", values, ndim=2, nonempty=True)
     ok = ~np.isnan(v)
     counts = ok.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

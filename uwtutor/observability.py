@@ -71,11 +71,11 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
-                        as_information, as_int, as_positive)
+from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
+                        as_in_range, as_information, as_int, as_positive)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.base import MeasurementModel, MotionModel
-from .models.range import line_of_sight
+from .models.range import _line_of_sight
 
 __all__ = [
     "DEFAULT_RTOL",
@@ -123,7 +123,7 @@ def _warn(message: str) -> None:
 # validation helpers
 # ---------------------------------------------------------------------------------------------------------------------
 def _as_points(name: str, value: Any, *, min_ndim: int = 1) -> np.ndarray:
-    p = as_finite(name, value)
+    p = as_finite(name, value, max_abs=MAX_COORDINATE)
     if p.ndim < min_ndim or p.shape[-1] != 2:
         want = "(2,)" if min_ndim == 1 else "(N, 2)"
         raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis, e.g. shape {want}; got shape "
@@ -200,7 +200,7 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     p = _as_points("position", position)
     b = _as_points("beacons", beacons)
     p, b = _broadcast("position", p, "beacons", b)
-    _, los, defined = line_of_sight(p, b)
+    _, los, defined = _line_of_sight(p, b)
     if not defined.all():
         _warn(f"the position coincides with a beacon at {int((~defined).sum())} place(s): the range is not "
               "differentiable there, so that range is given no information (a zero Jacobian row)")
@@ -1126,6 +1126,10 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
                              "with the time of x0")
         return None
     t = as_finite("times", times, ndim=1)
+    if len(t) in (k, k + 1) and np.any(np.diff(t) <= 0):      # checked even where the times are not used
+        step = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise ValueError(f"times must increase strictly; times[{step + 1}] = {t[step + 1]:g} follows "
+                         f"times[{step}] = {t[step]:g}")
     if len(t) == k + 1:
         if not current:
             return None
@@ -1165,6 +1169,10 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
     bad = np.isnan(s) | (s <= 0)
     if bad.any():
         raise ValueError(f"sigma must be > 0 (np.inf for an epoch without a range); got {s[bad].flat[0]}")
+    small = s < 1e-150
+    if small.any():
+        raise ValueError(f"sigma must be at least 1e-150 (1 / sigma^2 overflows float64 below it); got "
+                         f"{s[small].flat[0]:.3g}. Change its units")
     try:
         s = np.broadcast_to(s, shape)
     except ValueError:
@@ -1356,7 +1364,7 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
 
     pb = np.broadcast_to(p, (M, K, 2))
     bb = np.broadcast_to(b, (M, K, 2))
-    _, los, defined = line_of_sight(pb, bb)
+    _, los, defined = _line_of_sight(pb, bb)
     if not defined.all():
         j, k = (int(i) for i in np.argwhere(~defined)[0])
         _warn(f"positions coincide with the beacon at {np.count_nonzero(~defined)} epoch(s) (the first: run {j}, "

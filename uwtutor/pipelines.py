@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from . import lsq
-from ._validate import as_finite, as_float_array, as_int, as_nonnegative, as_rng
+from ._validate import as_finite, as_float_array, as_int, as_nonnegative, as_rng, as_scalar
 from .errors import IllConditionedWarning, warn as _warn
 from .filters.base import FilterResult
 from .filters.robust import cascade_kf, robust_range_kf
@@ -209,7 +209,7 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     rb = np.broadcast_to(r, (M, K))
     shipb = np.broadcast_to(ship, (M, K, 2))
     drb = np.broadcast_to(dr, (M, K, 2))
-    h = float(as_finite("depth", depth, ndim=0))
+    h = as_scalar("depth", depth, domain="nonnegative")      # a depth below the surface: h >= 0
     steps = step_lengths(K, dt, times)
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
     if preprocess:

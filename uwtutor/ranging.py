@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UwtutorWarning, warn as _warn
-from ._validate import as_finite, as_flag, as_int, as_positive, as_range_array, as_rng
+from ._validate import MAX_COORDINATE, as_finite, as_flag, as_int, as_positive, as_range_array, as_rng
 from .acoustics import range_factor
 from .motion import _as_n_runs, _as_scalar, _as_times, _with_runs
 
@@ -468,7 +468,7 @@ def _warn_negative(measured: np.ndarray) -> None:
 
 
 def _as_points(name: str, value: Any) -> np.ndarray:
-    p = as_finite(name, value)
+    p = as_finite(name, value, max_abs=MAX_COORDINATE, nonempty=True)
     if p.ndim == 0 or p.shape[-1] != 2:
         raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis; got shape {p.shape}")
     return p

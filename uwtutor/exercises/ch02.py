@@ -26,6 +26,7 @@ based on range measurements from a single location", IROS 2005.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from typing import Any
@@ -34,7 +35,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .. import motion, observability
-from .checks import _as_scalar, _is_unanswered, check_array, check_number, not_answered
+from .checks import _as_scalar, _is_unanswered, check_array, check_number, not_answered, parse_real_array
 from .feedback import Feedback
 
 __all__ = [
@@ -210,10 +211,9 @@ def check_mirror_solutions(answer: Any) -> Feedback:
         swapped = observability.two_range_fix(b, r[::-1], u)
     if _is_unanswered(answer):
         return not_answered("the two candidate positions (an array of shape (2, 2), one position per row)")
-    try:
-        arr = np.asarray(answer, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
+    arr, refusal = parse_real_array(answer, "the pair of candidates")
+    if refusal is not None:
+        return refusal
     if arr is not None and arr.shape == (2,):
         return Feedback(False, "Not yet: you gave one position; two circles that cross meet in two points.",
                         hint="Both intersections fit both ranges equally well: give both, one per row, "
@@ -261,11 +261,13 @@ def turn_rmse_bound(turn_deg: float) -> float:
     return float(observability.rmse_bound(bound[-1]))
 
 
+@functools.lru_cache(maxsize=1)
 def _halving_angle() -> float:
     target = turn_rmse_bound(REFERENCE_TURN_DEG) / 2
     return float(brentq(lambda a: turn_rmse_bound(a) - target, REFERENCE_TURN_DEG, 60.0, xtol=1e-8))
 
 
+@functools.lru_cache(maxsize=1)
 def _best_turn() -> float:
     angles = np.arange(REFERENCE_TURN_DEG, 180.0 + 1e-9, 1.0)
     return float(angles[np.argmin([turn_rmse_bound(a) for a in angles])])
@@ -386,11 +388,9 @@ def check_unobservable_direction(answer: Any) -> Feedback:
     expected = np.array([-y0, x0, -wy, wx])
     if _is_unanswered(answer):
         return not_answered("a direction [δx₀, δy₀, δU_x, δU_y] (an array of 4 numbers)")
-    try:
-        v = np.asarray(answer, dtype=float)
-    except (TypeError, ValueError):
-        return Feedback(False, "Not yet: the direction must be an array of 4 numbers.",
-                        hint="For example `np.array([dx0, dy0, dUx, dUy])`.")
+    v, refusal = parse_real_array(answer, "the direction")
+    if refusal is not None:
+        return refusal
     if v.shape != (4,):
         return Feedback(False, f"Not yet: the direction must have shape (4,) (δx₀, δy₀, δU_x, δU_y); got shape "
                                f"{v.shape}.",

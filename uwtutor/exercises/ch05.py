@@ -39,7 +39,7 @@ import numpy as np
 from .. import scenarios
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf, range_factor_moments
-from .checks import Case, check_array, check_function, check_number
+from .checks import Case, check_array, check_function, check_number, run_student
 from .feedback import Feedback
 
 __all__ = [
@@ -123,6 +123,10 @@ def check_mu_gamma(answer: Any) -> Feedback:
     explanation = (f"The ranges are {100 * (1 - expected):.2f} % short on average. Writing 1 + Δc / c instead "
                    "(dividing by the assumed speed) is the same to first order.")
     a = answer if isinstance(answer, (int, float)) and not isinstance(answer, bool) else None
+    try:
+        a = None if a is None or not math.isfinite(float(a)) else float(a)
+    except OverflowError:                          # an int beyond any float: check_number below explains
+        a = None
     if a is not None and abs(a - first_order) <= _MU_RTOL * abs(first_order):
         return check_number(answer, first_order, rtol=_MU_RTOL, name="μ_γ", explanation=explanation)
     mistakes[round(expected, 2)] = (
@@ -277,9 +281,13 @@ def check_fading_factors(func: Any) -> Feedback:
     if callable(func):
         # the slip λ = V/N − s passes some cases and fails with the hint of another: recognise it first
         args = (np.array([12.0, 3.0]), np.array([0.5, 0.8]), np.array([2.5, 1.5]), 0.95)
+        value, stopped = run_student(func, *(a.copy() if isinstance(a, np.ndarray) else a for a in args),
+                                     name="fading_factors")
+        if stopped is not None and "exception" not in (stopped.details or {}):
+            return stopped                         # a loop or sys.exit(), stopped within the time limit
         try:
-            got = np.asarray(func(*(a.copy() if isinstance(a, np.ndarray) else a for a in args)), dtype=float)
-        except Exception:  # noqa: BLE001 - the full check below reports the exception with its hint
+            got = None if stopped is not None else np.asarray(value, dtype=float)
+        except (TypeError, ValueError):  # the full check below reports an answer that is not numbers
             got = None
         if (got is not None and got.shape == (2,)
                 and np.allclose(got, _fading_factors_slip(*args), rtol=1e-9)
@@ -597,15 +605,17 @@ def check_isfekf_step(func: Any) -> Feedback:
         u, z = d["u"][k], float(d["z"][k])
         x, P, m, Xi, V = state
         try:
-            out = func(np.array(x), np.array(P), np.array(m), np.array(Xi), V, u.copy(), z, Q.copy(), R,
-                       c["mu_gamma"], c["sigma_gamma"], c["rho"])
+            out, stopped = run_student(func, np.array(x), np.array(P), np.array(m), np.array(Xi), V, u.copy(), z,
+                                       Q.copy(), R, c["mu_gamma"], c["sigma_gamma"], c["rho"], name="isfekf_step",
+                                       reraise=(NotImplementedError,))
         except NotImplementedError:
             return Feedback(False, "No answer yet: `isfekf_step` still raises NotImplementedError.",
                             hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
                                  "that cell and this one again.")
-        except Exception as exc:  # noqa: BLE001 - the student's code may raise anything
-            return Feedback(False, f"Not yet: isfekf_step raised {type(exc).__name__}: {exc} (at step {k}).",
-                            hint="Run it by hand on the first step of `ch05.isfekf_step_run()` and read the trace.")
+        if stopped is not None:                    # a loop, sys.exit() or an exception, stopped within the limit
+            return Feedback(False, f"{stopped.message} (at step {k})",
+                            hint="Run it by hand on the first step of `ch05.isfekf_step_run()` and read the trace.",
+                            details=stopped.details)
         if not isinstance(out, tuple) or len(out) != 6:
             return Feedback(False, "Not yet: isfekf_step should return a tuple of six: (x, P, m, Xi, V, lam).",
                             hint="End the function with return x, P, m, Xi, V, lam.")

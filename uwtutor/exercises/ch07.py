@@ -32,7 +32,7 @@ from ..filters import bias_ekf, extended_kalman_filter
 from ..metrics import chi2_mean_bounds
 from ..models import (BiasRateDeadReckoning, RangeToBeacon, bias_rate_process_noise, paper_a_process_noise)
 from ..scenarios import paper_a
-from .checks import check_array, check_number, not_answered
+from .checks import check_array, check_number, not_answered, parse_real_array
 from .feedback import Feedback
 
 __all__ = [
@@ -196,7 +196,10 @@ def check_weak_direction(answer: Any) -> Feedback:
     weak, strong, across = _weak_direction()
     if answer is None or answer is Ellipsis:
         return not_answered("the unit vector [vx, vy, v_bias] (a NumPy array of 3 numbers)")
-    v = np.asarray(answer, dtype=float).ravel()
+    v, refusal = parse_real_array(answer, "the direction")
+    if refusal is not None:
+        return refusal
+    v = v.ravel()
     if v.shape != (3,):
         return Feedback(False, f"Not yet: the direction has one component per state [x, y, bias]: 3 numbers; got "
                                f"{v.size}.", hint="Take a row of Vt from np.linalg.svd(A) (A is N x 3).")

@@ -34,6 +34,7 @@ import inspect
 import math
 import numbers
 import contextlib
+import dataclasses
 import reprlib
 import signal
 import sys
@@ -49,7 +50,8 @@ import numpy as np
 
 from .feedback import Feedback
 
-__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "DEFAULT_HINT"]
+__all__ = ["Case", "check_number", "check_array", "check_choice", "check_function", "not_answered", "DEFAULT_HINT",
+           "parse_real_array", "run_student"]
 
 #: The hint given when an answer is wrong and no more specific cause is recognised.
 DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
@@ -939,7 +941,7 @@ def time_limit(seconds: float):
 def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
                    compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
                    hint: str | None = None, explanation: str | None = None,
-                   allow_mutation: bool = False, time_limit_s: float = TIME_LIMIT) -> Feedback:
+                   allow_mutation: bool = False, time_limit_s: float | None = None) -> Feedback:
     """Run a student's function on test cases and report the first case where it disagrees with a reference.
 
     For each case the reference and the student's function are called on separate deep copies of the arguments.
@@ -969,8 +971,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         A sentence appended to the message when every case passes.
     allow_mutation : bool
         Whether the function may modify its input arrays in place (default: no).
-    time_limit_s : float
-        Seconds the student's function (and the reading of what it returned) may take on one case before it is
+    time_limit_s : float, optional
+        Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading of what it returned) may take on one case before it is
         stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
 
     Returns
@@ -985,6 +987,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         If there are no cases (a bug in the checker).
     """
     case_list = [_as_case(c) for c in cases]
+    if time_limit_s is None:
+        time_limit_s = TIME_LIMIT
     if not (isinstance(time_limit_s, (int, float)) and not isinstance(time_limit_s, bool) and 0 < time_limit_s < 1e6):
         raise ValueError(f"time_limit_s must be a number of seconds in (0, 1e6); got {time_limit_s!r}")
     if not case_list:
@@ -1090,3 +1094,74 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     if explanation:
         message += " " + explanation
     return Feedback(True, message)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Shared by every checker: one parser of real answers, one time-limited runner of student code
+# ---------------------------------------------------------------------------------------------------------------------
+def parse_real_array(answer: Any, name: str, shape: tuple[int, ...] | None = None,
+                     what: str | None = None) -> tuple[np.ndarray | None, Feedback | None]:
+    """A student's answer as a float array, or the Feedback that says why it is not one.
+
+    Real numbers only: complex numbers (even with a zero imaginary part), strings, None inside, bools, functions
+    and objects are refused with a teaching message (never silently converted: ``np.asarray(w + 5j, dtype=float)``
+    would drop the imaginary part). With ``shape`` the shape is checked too (a column vector is not raveled).
+
+    Examples
+    --------
+    >>> arr, fb = parse_real_array(np.array([1.0, 2.0]) + 5j, "the direction", (2,))
+    >>> arr is None, fb.correct
+    (True, False)
+    """
+    if _is_unanswered(answer):
+        return None, not_answered(what or f"{name} (an array of numbers)")
+    template = np.zeros(shape if shape is not None else (1,))
+    arr, fb = _as_array(answer, name, template)
+    if fb is not None:
+        if shape is None:               # the template's shape (1,) means "any shape": do not show it
+            fb = dataclasses.replace(fb, message=fb.message.replace("an array of shape (1,)", "an array of numbers"))
+        return None, fb
+    if shape is not None and arr.shape != tuple(shape):
+        return None, _shape_feedback(arr, template, name)
+    return arr, None
+
+
+def run_student(func: Any, *args: Any, name: str = "your function", time_limit_s: float | None = None,
+                reraise: tuple[type[BaseException], ...] = ()) -> tuple[Any, Feedback | None]:
+    """Call a student's function within the time limit: ``(value, None)``, or ``(None, Feedback)`` when it is
+    not a function, runs past ``time_limit_s`` (default ``TIME_LIMIT``), calls ``sys.exit()`` or raises (but the
+    exception types in ``reraise``, which the caller answers itself, e.g. a stub's ``NotImplementedError``).
+
+    Every checker that calls student code outside :func:`check_function` goes through this function, so that a
+    loop never hangs the notebook and ``sys.exit()`` never escapes.
+
+    Examples
+    --------
+    >>> import sys
+    >>> value, fb = run_student(lambda: sys.exit(1), name="f")
+    >>> value is None and "sys.exit" in fb.message
+    True
+    """
+    limit = TIME_LIMIT if time_limit_s is None else time_limit_s
+    if _is_unanswered(func):
+        return None, Feedback(False, f"No answer yet: define the function `{name}`.", details={"answered": False})
+    if not callable(func):
+        return None, Feedback(False, f"`{name}` is {_a_type(func)}, not a function.",
+                              hint=f"Define it with `def {name}(...):` and run that cell again.")
+    try:
+        with time_limit(limit):
+            return func(*args), None
+    except reraise:
+        raise
+    except StudentTimeout:
+        return None, Feedback(False, f"{_NOT_YET}`{name}` was still running after {limit:g} s and was stopped.",
+                              hint="An endless loop? Check that every `while` loop changes what its condition "
+                                   "tests.", details={"timeout": limit})
+    except SystemExit as exc:
+        return None, Feedback(False, f"{_NOT_YET}`{name}` called `sys.exit()` (exit code {exc.code!r}), which would "
+                                     "stop the whole notebook.",
+                              hint="Return a value instead; to signal a bad input, raise an exception such as "
+                                   "`ValueError`.", details={"exception": exc})
+    except Exception as exc:  # noqa: BLE001 - the student's code failed: feedback, never a crash
+        return None, Feedback(False, f"{_NOT_YET}`{name}` raised {type(exc).__name__}: {exc}.",
+                              hint=_exception_hint(exc), details={"exception": exc})

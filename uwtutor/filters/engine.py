@@ -62,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_float_array
+from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -97,14 +97,27 @@ def _not_finite_error(model: Any, method: str, k: int, where: tuple[int, ...], w
 
 
 def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
-    """A model's "defined" mask, per run (M,) or per component (M, m), as (M, m)."""
-    d = np.asarray(defined, dtype=bool)
+    """A model's "defined" mask, per run (M,) or per component (M, m), as (M, m) (bools only: 0.3 is refused)."""
+    if defined is True or defined is np.True_:        # a model with no singular point may say so once
+        return np.ones((M, m), dtype=bool)
+    d = as_bool_array("the measurement model's linearize (its mask of defined values)", defined, ((M,), (M, m)))
     if d.shape == (M, m):
         return d
-    if d.shape == (M,):
-        return np.repeat(d[:, None], m, axis=1)
-    raise ValueError(f"the measurement model's linearize must return a mask of shape ({M},) or ({M}, {m}); got "
-                     f"{d.shape}")
+    return np.repeat(d[:, None], m, axis=1)
+
+
+class _CovarianceCheck:
+    """Checks a covariance returned by a user's model (symmetric PSD) once per distinct array: a model that returns
+    the same Q at every step pays for one eigendecomposition, not one per step."""
+
+    def __init__(self, name: str) -> None:
+        self.name, self._seen = name, None
+
+    def __call__(self, value: np.ndarray) -> None:
+        if value is self._seen:
+            return
+        check_model_covariance(self.name, value)
+        self._seen = value
 
 
 def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -254,6 +267,8 @@ class ExtendedKalmanFilter:
         self._accepted = np.zeros(self._M, dtype=bool)
         self._eye = np.eye(n)
         self.k = -1
+        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q")
+        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R")
         gate_outputs = tuple(getattr(gate, "extra_outputs", ())) if gate is not None else ()
         clash = set(gate_outputs) & set(dir(type(self)))
         if clash:
@@ -356,6 +371,7 @@ class ExtendedKalmanFilter:
                 bad = np.argwhere(~np.isfinite(value))[0]
                 where = (int(bad[0]),) if value.ndim == 3 or method == "f" else ()
                 raise _not_finite_error(self.motion, method, k, where, "")
+        self._check_Q(Q)
         if F.ndim == 2 and np.array_equal(F, self._eye):         # dead reckoning: F = I
             P_new = P.copy()
         elif F.ndim == 2:                                         # one F for every run: F P F^T by BLAS
@@ -406,6 +422,8 @@ class ExtendedKalmanFilter:
                         "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
             present = present & defined
         finite = self._check_used_values(present, z_pred, H, R, k)
+        if finite:
+            self._check_R(R)
         has = present.any(axis=1)
         # A run with some components missing, or values that are not finite where nothing is measured: zero rows
         # of H and identity rows of R, so that the update is the one with the present components. (Runs with all or
@@ -423,7 +441,8 @@ class ExtendedKalmanFilter:
             y_gate = np.where(present, y, np.nan)
             ctx = GateContext(k=k, z=z, z_pred=z_pred, y=y_gate, S=_runs_first(S), H=H, R=R, x_prior=x,
                               P_prior=_runs_first(P), present=present)
-            verdict = np.asarray(self.gate.accept(ctx), dtype=bool)
+            verdict = as_bool_array(f"the gate {type(self.gate).__name__}.accept", self.gate.accept(ctx),
+                                    ((M,), (M, m)))
             if verdict.shape == (M,):
                 use = has & verdict
             elif verdict.shape == (M, m):
@@ -558,7 +577,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
         raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
     P0 = as_covariance("P0", P0, motion.n)
-    z = as_float_array("z", z)
+    z = as_float_array("z", z, nonempty=True)
     if u is not None:
         u = as_finite("u", u)
     # A scalar measurement given as a column (K, 1) -- e.g. the ranges to one beacon taken from a table of several --

@@ -295,6 +295,9 @@ def _per_run(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[An
     if np.any(bad):
         rel = ">" if strict else ">="
         raise ValueError(f"{name} must be {rel} {minimum:g}; got {arr[bad].flat[0]:g}")
+    if strict and np.any(arr < 1e-3):      # a factor near 0 (1e-300) empties the covariance: refused by name
+        raise ValueError(f"{name} must be at least 1e-3 (the factor c / c_e is near 1; a tiny factor collapses the "
+                         f"covariance); got {arr[arr < 1e-3].flat[0]:g}")
     if arr.ndim == 0:
         return float(arr), None
     return arr, arr.shape[0]
@@ -332,8 +335,7 @@ def _second_moment(x0: np.ndarray, P0: np.ndarray, second_moment0: Any, M: int) 
     S = as_finite("second_moment0", second_moment0, ndim=(2, 3))
     if S.shape[-2:] != (2, 2) or (S.ndim == 3 and S.shape[0] != M):
         raise ValueError(f"second_moment0 must have shape (2, 2) or (M, 2, 2) with M = {M}; got {S.shape}")
-    if not np.allclose(S, np.swapaxes(S, -1, -2)):
-        raise ValueError("second_moment0 must be symmetric")
+    S = as_covariance("second_moment0", S, 2, allow_singular=True)    # E[x x^T]: symmetric PSD, not overflowing
     return np.broadcast_to(S, (M, 2, 2))
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._linalg import quadratic_form
-from .._validate import as_finite, as_flag, as_int
+from .._validate import as_finite, as_flag, as_float_array, as_int, as_scalar
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared"]
 
@@ -92,6 +92,14 @@ def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     >>> normalized_innovation_squared(np.array([[2.0]]), np.array([[[4.0]]]))
     array([1.])
     """
+    y = as_float_array("y", y, nonempty=True)
+    S = as_float_array("S", S, nonempty=True)
+    if y.ndim < 1 or S.ndim != y.ndim + 1 or S.shape[-2:] != (y.shape[-1], y.shape[-1]) \
+            or S.shape[:-2] != y.shape[:-1]:
+        raise ValueError(f"y (..., m) and S (..., m, m) must agree: got y of shape {y.shape} and S of shape "
+                         f"{S.shape}")
+    if np.isinf(y).any():
+        raise ValueError("y must be finite (NaN marks a missing innovation); got an infinite value")
     return quadratic_form(y, S, "S")
 
 
@@ -144,7 +152,7 @@ class ChiSquareGate(Gate):
     """
 
     def __init__(self, probability: Any = 0.99, *, per_component: bool = False) -> None:
-        p = float(as_finite("probability", probability))
+        p = as_scalar("probability", probability)
         if not 0.0 < p < 1.0:
             raise ValueError(f"probability must lie strictly between 0 and 1, e.g. 0.99; got {p}")
         self.probability = p

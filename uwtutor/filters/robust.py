@@ -56,7 +56,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .._validate import as_finite, as_float_array, as_int, as_positive
+from .._validate import as_finite, as_float_array, as_int, as_positive, as_scalar
+from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
 from .engine import ExtendedKalmanFilter
@@ -74,6 +75,8 @@ __all__ = [
 
 #: The tests ``robust_range_kf`` and ``cascade_kf`` know by name.
 TESTS = ("paper", "chi2", "none")
+#: Fraction of rejected measurements above which robust_track_kf warns that the filter is locked out.
+REJECTION_WARNING = 0.5
 #: What a rejected measurement is replaced by.
 ON_OUTLIER = ("predict", "extrapolate")
 
@@ -109,7 +112,7 @@ class SecondMomentGate(Gate):
     """
 
     def __init__(self, delta: Any = 0.03) -> None:
-        d = float(as_finite("delta", delta, ndim=0))
+        d = as_scalar("delta", delta)
         if not 0.0 < d < 1.0:
             raise ValueError(f"delta must lie strictly between 0 and 1 (paper E uses 0.03); got {d:g}")
         self.delta = d
@@ -167,16 +170,17 @@ def moment_gate_interval(z_pred: Any, S: Any, delta: Any = 0.03) -> tuple[np.nda
 
 def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate | None:
     """The gate named by ``test``: ``"paper"`` (``SecondMomentGate(delta)``), ``"chi2"``
-    (``ChiSquareGate(probability)``), ``"none"`` (None: every measurement used), or a ``Gate`` itself."""
+    (``ChiSquareGate(probability)``), ``"none"`` (None: every measurement used), or a ``Gate`` itself.
+
+    ``delta`` and ``probability`` are checked whichever test uses them, so that a bad value is never silently
+    ignored (``make_test("chi2", delta=nan)`` is refused).
+    """
+    paper, chi2 = SecondMomentGate(delta), ChiSquareGate(probability)      # both checked, whichever is used
     if isinstance(test, Gate):
         return test
-    if test == "paper":
-        return SecondMomentGate(delta)
-    if test == "chi2":
-        return ChiSquareGate(probability)
-    if test == "none":
-        return None
-    raise ValueError(f"test must be one of {TESTS} or a uwtutor.filters.Gate; got {test!r}")
+    if not isinstance(test, str) or test not in TESTS:
+        raise ValueError(f"test must be one of {list(TESTS)} or a uwtutor.filters.Gate; got {test!r}")
+    return {"paper": paper, "chi2": chi2, "none": None}[test]
 
 
 class RobustGate(Gate):
@@ -392,6 +396,12 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     outlier = rejected.copy()
     for run, step in robust.cleared:
         outlier[run, step] = False
+    present = np.isfinite(zb).all(axis=-1)
+    n_present, n_out = int(present.sum()), int((outlier & present).sum())
+    if n_present and n_out > REJECTION_WARNING * n_present:
+        warn(f"the outlier test rejected {n_out} of {n_present} measurements: the filter is locked out, not "
+             "filtering. Its noise (q, r) is probably far too small for the data (q=0 or r near 0 makes every "
+             "new measurement an outlier); check q, r and the test's delta/probability", UwtutorWarning)
     extras = dict(res.extras, rejected=rejected, outlier=outlier, reacquired=np.stack(robust.reacquired, axis=1))
     fields = {f.name: getattr(res, f.name) for f in dataclasses.fields(res) if f.name not in ("times", "extras")}
     if not batched:

@@ -36,7 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite
+from .._validate import as_covariance, as_finite
+from ..errors import IllConditionedError
 from ..models.base import MotionModel
 from .base import FilterResult
 
@@ -121,6 +122,10 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> Sm
         return a if batched else a[None]
 
     P, xp, Pp = runs(result.P), runs(result.x_prior), runs(result.P_prior)
+    # the filter's covariances are the smoother's input: symmetric PSD (an indefinite P would come out negative
+    # definite), checked once here rather than trusted
+    as_covariance("result.P", P, n, allow_singular=True)
+    as_covariance("result.P_prior", Pp, n, allow_singular=True)
     if u is not None:
         u = as_finite("u", u)
         if u.ndim == 2:
@@ -135,13 +140,26 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> Sm
         F = np.broadcast_to(np.asarray(motion.F(xb[:, k], None if u is None else u[:, k + 1], k + 1), dtype=float),
                             (M, n, n))
         # C = P F^T (P-)^-1, computed as the transpose of (P-)^-1 F P (P- symmetric)
-        Ck = np.swapaxes(np.linalg.solve(Pp[:, k + 1], F @ P[:, k]), -1, -2)
+        try:
+            Ck = np.swapaxes(np.linalg.solve(Pp[:, k + 1], F @ P[:, k]), -1, -2)
+        except np.linalg.LinAlgError:
+            raise IllConditionedError(
+                f"result.P_prior is singular to float64 precision at step {k + 1}: the smoother gain "
+                "P F^T (P-)^-1 does not exist. This happens when the filter's covariance spans more than ~1e16 "
+                "(e.g. P0 = 1e12 I with R <= 1e-6): start from a smaller P0 (a least-squares fix) or a larger R, or "
+                "give the motion model some process noise Q") from None
         # the model's own difference and normalization: a heading wraps at +-pi
         step = motion.difference(xs[:, k + 1], xp[:, k + 1])
         xs[:, k] = motion.normalize(xb[:, k] + (Ck @ step[..., None])[..., 0])
         Pk = P[:, k] + Ck @ (Ps[:, k + 1] - Pp[:, k + 1]) @ np.swapaxes(Ck, -1, -2)
         Ps[:, k] = 0.5 * (Pk + np.swapaxes(Pk, -1, -2))
         C[:, k] = Ck
+    lost = np.linalg.eigvalsh(Ps).min(axis=-1) < -1e-9 * np.maximum(1.0, np.abs(Ps).max(axis=(-1, -2)))
+    if lost.any():
+        j, k = (int(i) for i in np.argwhere(lost)[0])
+        raise IllConditionedError(f"the smoothed covariance lost positive semi-definiteness (run {j}, step {k}): the "
+                                  "filter's covariances are too ill-conditioned for float64 (a P0 far above R); start "
+                                  "from a smaller P0 or a larger R")
 
     def out(a: np.ndarray) -> np.ndarray:
         return a if batched else a[0]

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_float_array
+from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_float_array
 from .base import FilterResult
 
 __all__ = ["StaggeredRun", "filter_from_start_epochs"]
@@ -119,8 +119,11 @@ def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: 
     >>> bool(np.isnan(x[0, :3]).all() and np.isfinite(x[0, 3:]).all() and np.isnan(x[1, :6]).all())
     True
     """
+    as_callable("filter_fn", filter_fn, "a functional filter such as uwtutor.filters.fading_ekf")
     u = as_finite("u", u, ndim=3)
     z = as_float_array("z", z)
+    if np.isinf(z).any():
+        raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
     M, K = u.shape[:2]
     if z.shape[:2] != (M, K):
         raise ValueError(f"z must have the runs and epochs of u, ({M}, {K}, ...); got shape {z.shape}")
@@ -133,7 +136,21 @@ def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: 
     x_start = as_float_array("x_start", x_start, ndim=2)
     if x_start.shape[0] != M:
         raise ValueError(f"x_start must have one row per run ({M}); got shape {x_start.shape}")
-    P_start = as_float_array("P_start", P_start, ndim=(2, 3))
+    if np.any(np.abs(x_start[np.isfinite(x_start)]) > MAX_COORDINATE):
+        raise ValueError(f"x_start must be at most {MAX_COORDINATE:.0e} in magnitude (beyond it the filter overflows "
+                         "float64). Change its units")
+    if np.isinf(x_start).any():
+        raise ValueError("x_start must be finite, or NaN for a run that never starts; got an infinite value")
+    P_start = as_covariance("P_start", P_start, x_start.shape[1])
+    if P_start.ndim not in (2, 3) or (P_start.ndim == 3 and P_start.shape[0] != M):
+        raise ValueError(f"P_start must have shape (n, n) or ({M}, n, n); got {P_start.shape}")
+    if per_run is not None and not isinstance(per_run, dict):
+        raise TypeError(f"per_run must be a dict of filter arguments with a runs axis first; got "
+                        f"{type(per_run).__name__}")
+    for name, value in (per_run or {}).items():
+        if np.shape(value)[:1] != (M,):
+            raise ValueError(f"per_run[{name!r}] must have one value per run first (M = {M}); got shape "
+                             f"{np.shape(value)} (nothing is truncated or broadcast)")
     runs = np.flatnonzero(np.isfinite(x_start).all(axis=1))
     if runs.size == 0:
         raise ValueError("no run has a finite x_start: there is nothing to filter (a run that never started "

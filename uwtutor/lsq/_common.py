@@ -6,9 +6,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_positive
+from .._validate import MAX_COORDINATE, as_finite, as_positive
 from ..errors import IllConditionedWarning, warn
-from ..models.range import line_of_sight
+from ..models.range import _line_of_sight
 
 #: Singular-value ratio :math:`s_\mathrm{min}/s_\mathrm{max}` below which a design matrix counts as singular
 #: (:math:`\kappa > 10^7`): the precision factor is then infinite and a fix is NaN.
@@ -43,7 +43,7 @@ def alpha_from_singular_values(s: np.ndarray, n_cols: int) -> tuple[np.ndarray, 
 
 def unit_los(positions: np.ndarray, beacons: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Unit line-of-sight rows (p - b)/|p - b| and distances; an error if a point sits on its beacon."""
-    rho, los, defined = line_of_sight(positions, beacons)
+    rho, los, defined = _line_of_sight(positions, beacons)
     if not defined.all():
         raise ValueError(f"{name} coincides with a beacon, where the range has no direction (its gradient is "
                          "undefined); move the linearization point off the beacon")
@@ -95,10 +95,10 @@ def batched_lstsq(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 
 
 def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.ndarray]:
-    r = as_finite("ranges", ranges, ndim=(1, 2))
+    r = as_finite("ranges", ranges, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if np.any(r < 0):
         raise ValueError(f"ranges must be >= 0; got {r[r < 0].flat[0]:g}")
-    b = as_finite("beacons", beacons, ndim=(2, 3))
+    b = as_finite("beacons", beacons, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if b.shape[-1] != 2:
         raise ValueError(f"beacons must hold horizontal positions, shape (N, 2) or (M, N, 2); got {b.shape}")
     if b.shape[-2] != r.shape[-1]:

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_flag, as_finite, as_int, as_positive
+from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_positive
 from ..errors import IllConditionedWarning
 #: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
 MAX_ITERATIONS = 1000
@@ -143,7 +143,7 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     r, b = as_ranges_and_beacons(ranges, beacons)
-    p0 = as_finite("provisional", provisional, ndim=(1, 2))
+    p0 = as_finite("provisional", provisional, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if p0.shape[-1] != 2:
         raise ValueError(f"provisional must be a position [x, y], shape (2,) or (M, 2); got {p0.shape}")
     steps = as_int("iterations", iterations, minimum=1, maximum=MAX_ITERATIONS)

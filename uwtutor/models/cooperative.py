@@ -62,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_positive
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, check_same_shape
 from .base import MeasurementModel, MotionModel
 from .range import RangeToBeacon
 
@@ -122,9 +122,16 @@ def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
     -------
     ndarray, shape (2, 10) or (M, 2, 10)
     """
-    a = np.asarray(a, dtype=float)
-    c = np.asarray(c, dtype=float)
-    d = _interval(dt)
+    a = as_finite("a", a, max_abs=MAX_COORDINATE, ndim=(1, 2))
+    c = as_finite("c", c, max_abs=MAX_COORDINATE, ndim=(1, 2))
+    check_same_shape(a=a, c=c)
+    if a.shape[-1] != 2 or a.size == 0:
+        raise ValueError(f"a and c must have shape (2,) or (M, 2); got {a.shape}")
+    return _noise_map(a, c, _interval(dt))
+
+
+def _noise_map(a: np.ndarray, c: np.ndarray, d: float) -> np.ndarray:
+    """:func:`measurement_noise_map` without the checks (the filter's per-step path)."""
     L = np.zeros(np.broadcast_shapes(a.shape, c.shape)[:-1] + (2, 10))
     L[..., 0, 0:2] = 2.0 * a
     L[..., 0, 2:4] = -2.0 * a
@@ -236,7 +243,7 @@ class SquaredRangePair(MeasurementModel):
                              f"got {self.leader.shape[-2]} and {self.displacements.shape[-2]}")
         self.dt = _interval(dt)
         self.R10 = as_covariance("R", R, 10, allow_singular=True)
-        self.literal = bool(literal)
+        self.literal = as_flag("literal", literal)
 
     def _vectors(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(a, c) of the consistent formulation and (a, c) where the Jacobians are evaluated."""

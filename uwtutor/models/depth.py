@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_nonnegative, as_positive
+from .._validate import as_finite, as_nonnegative, as_positive, as_scalar
 from .base import MotionModel
 from .noise import per_run_generators, standard_normal_per_run
 
@@ -85,7 +85,18 @@ def depth_speed_pitch_kinematics(s: Any, T: float, axis: int = -1, *, out: np.nd
     >>> depth_speed_pitch_kinematics(np.array([10.0, 2.0, np.pi / 6]), 0.5)        # 2 m/s at 30 deg for 0.5 s
     array([10.5       ,  2.        ,  0.52359878])
     """
-    s = np.asarray(s, dtype=float)
+    s = as_finite("s", s)
+    if s.ndim == 0 or s.shape[axis % s.ndim if s.ndim else 0] != 3:
+        raise ValueError(f"s must hold depth, speed and pitch (3 components) along axis {axis}; got shape {s.shape}")
+    T = as_scalar("T", T, domain="positive")
+    if out is not None and (not isinstance(out, np.ndarray) or out.shape != s.shape or out.dtype != np.float64):
+        raise ValueError(f"out must be a float64 array of the shape of s {s.shape}; got "
+                         f"{getattr(out, 'shape', type(out).__name__)}")
+    return _kinematics(s, T, axis, out)
+
+
+def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None = None) -> np.ndarray:
+    """:func:`depth_speed_pitch_kinematics` without the checks (the filters' per-step path)."""
     if out is None:
         out = s.copy()
     elif out is not s:
@@ -123,7 +134,15 @@ def depth_speed_pitch_jacobian(s: Any, T: float) -> np.ndarray:
            [0., 1., 0.],
            [0., 0., 1.]])
     """
-    s = np.asarray(s, dtype=float)
+    s = as_finite("s", s)
+    if s.ndim == 0 or s.shape[-1] != 3:
+        raise ValueError(f"s must have shape (..., 3) (depth, speed, pitch); got {s.shape}")
+    T = as_scalar("T", T, domain="positive")
+    return _jacobian(s, T)
+
+
+def _jacobian(s: np.ndarray, T: float) -> np.ndarray:
+    """:func:`depth_speed_pitch_jacobian` without the checks."""
     v, phi = s[..., 1], s[..., 2]
     G = np.zeros(s.shape[:-1] + (3, 3))
     G[..., 0, 0] = G[..., 1, 1] = G[..., 2, 2] = 1.0
@@ -169,13 +188,13 @@ class DepthSpeedPitch(MotionModel):
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         if u is not None:
             raise ValueError("the depth/speed/pitch model takes no control input: predict without u")
-        return depth_speed_pitch_kinematics(x, self.T)
+        return _kinematics(np.asarray(x, dtype=float), self.T)
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return depth_speed_pitch_jacobian(x, self.T)
+        return _jacobian(np.asarray(x, dtype=float), self.T)
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        G = depth_speed_pitch_jacobian(x, self.T)
+        G = _jacobian(np.asarray(x, dtype=float), self.T)
         return G @ self.process_cov @ np.swapaxes(G, -1, -2)
 
     def sample_rows(self, rows: np.ndarray, rng: Any) -> np.ndarray:
@@ -189,7 +208,7 @@ class DepthSpeedPitch(MotionModel):
         noise = standard_normal_per_run(rngs, rows.shape[1:])      # rows u^z, u^v, u^phi of every run
         noise *= self.process_std[:, None]
         s = np.add(rows, noise, out=noise)                       # z + u^z, v_k = v + u^v, phi_k = phi + u^phi
-        return depth_speed_pitch_kinematics(s, self.T, axis=-2, out=s)
+        return _kinematics(s, self.T, axis=-2, out=s)
 
     def sample(self, x: Any, rng: Any) -> np.ndarray:
         r"""Draw the next states of states ``x`` of shape (..., 3): :math:`g(x + u)`, :math:`u \sim N(0, Q)`.

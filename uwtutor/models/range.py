@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_float_array, as_int
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
 from .base import MeasurementModel
 
 __all__ = ["RangeToBeacon", "MultiplicativeRange", "BeaconRanges", "NoiseSchedule", "line_of_sight"]
@@ -62,6 +62,23 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     (array([5., 0.]), array([[0.6, 0.8],
            [0. , 0. ]]), array([ True, False]))
     """
+    positions = as_float_array("positions", positions, nonempty=True)
+    if positions.ndim < 1 or positions.shape[-1] != 2:
+        raise ValueError(f"positions must have shape (..., 2) (x, y); got {positions.shape}")
+    if np.isinf(positions).any():
+        raise ValueError("positions must be finite (a NaN position gives NaN); got an infinite value")
+    beacon = as_finite("beacon", beacon, max_abs=MAX_COORDINATE)
+    if beacon.ndim < 1 or beacon.shape[-1] != 2:
+        raise ValueError(f"beacon must have shape (2,) or (..., 2); got {beacon.shape}")
+    try:
+        np.broadcast_shapes(positions.shape, beacon.shape)
+    except ValueError:
+        raise ValueError(f"beacon {beacon.shape} does not broadcast against positions {positions.shape}") from None
+    return _line_of_sight(positions, beacon)
+
+
+def _line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`line_of_sight` without the checks of its arguments (the filters' per-step path)."""
     d = positions - beacon
     r = np.hypot(d[..., 0], d[..., 1])
     defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
@@ -142,7 +159,7 @@ class RangeToBeacon(MeasurementModel):
         return self.beacon[k] if self.beacon.ndim == 2 else self.beacon[:, k]
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        r, los, defined = line_of_sight(x[..., :2], self.beacon_at(k))
+        r, los, defined = _line_of_sight(x[..., :2], self.beacon_at(k))
         H = np.zeros(x.shape[:-1] + (1, self.n))
         H[..., 0, :2] = los
         z = r[..., None]
@@ -213,7 +230,7 @@ class MultiplicativeRange(RangeToBeacon):
         return self.mu_gamma * z, self.mu_gamma * H, defined
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        r, _, _ = line_of_sight(x[..., :2], self.beacon_at(k))
+        r, _, _ = _line_of_sight(x[..., :2], self.beacon_at(k))
         return (self.sigma_gamma**2 * r**2 + self._noise.at(k)[0, 0])[:, None, None]
 
 
@@ -435,7 +452,7 @@ class BeaconRanges(MeasurementModel):
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)`` and a mask ``(M, B)``, False where the position is
         exactly on a beacon (that component's Jacobian is undefined)."""
-        r, los, defined = line_of_sight(x[..., None, :2], self.beacons)       # (M, B), (M, B, 2), (M, B)
+        r, los, defined = _line_of_sight(x[..., None, :2], self.beacons)       # (M, B), (M, B, 2), (M, B)
         H = np.zeros(r.shape + (self.n,))
         if self.scale_index is None:
             z = r

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_rng
+from .._validate import as_finite, as_int, as_rng, as_scalar, check_work
 from ..motion import (Track, _readonly, circle_track, dead_reckoning, straight_track, turning_track)
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
@@ -104,8 +104,7 @@ class PaperBParameters:
 
     def __post_init__(self) -> None:
         for name in ("speed", "duration", "dr_step", "interval", "sound_speed"):
-            if not float(getattr(self, name)) > 0:
-                raise ValueError(f"{name} must be > 0; got {getattr(self, name)!r}")
+            as_scalar(name, getattr(self, name), domain="positive")    # a one-element list is refused by name
         ratio = self.interval / self.dr_step
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"interval must be a whole number of dr_step (paper B: 8 s = 8 x 1 s); got "
@@ -115,8 +114,7 @@ class PaperBParameters:
         if not 0.0 <= self.packet_loss < 1.0:
             raise ValueError(f"packet_loss must lie in [0, 1); got {self.packet_loss!r}")
         for name in ("range_sigma", "leader_sigma", "dr_speed_sigma", "dr_heading_sigma"):
-            if not float(getattr(self, name)) >= 0:
-                raise ValueError(f"{name} must be >= 0; got {getattr(self, name)!r}")
+            as_scalar(name, getattr(self, name), domain="nonnegative")
         if (self.current_after is None) != (self.change_time is None):
             raise ValueError("give both current_after and change_time (or neither)")
         if self.ambiguity_period is not None and not self.owtt:
@@ -207,7 +205,8 @@ def matched_tuning(params: PaperBParameters | None = None, *, position_noise: fl
     p = PAPER_B if params is None else params
     n = p.interval / p.dr_step
     dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
-    q, cu = float(position_noise) ** 2, float(current_noise) ** 2
+    q = as_scalar("position_noise", position_noise, domain="positive") ** 2
+    cu = as_scalar("current_noise", current_noise, domain="positive") ** 2
     Q = np.diag([q, q, dr**2, dr**2, cu, cu])
     R = np.diag([2 * p.range_sigma**2] * 2 + [2 * p.leader_sigma**2] * 4 + [dr**2, dr**2, cu, cu])
     d = float(np.linalg.norm(np.asarray(p.initial_estimate[:2]) - np.asarray(p.follower_start)))
@@ -405,7 +404,12 @@ def _params(params: PaperBParameters | None, changes: dict[str, Any]) -> PaperBP
     unknown = set(changes) - {f.name for f in dataclasses.fields(PaperBParameters)}
     if unknown:
         raise TypeError(f"unknown parameter(s) {sorted(unknown)}; see PaperBParameters for the names")
-    return dataclasses.replace(base, **changes) if changes else base
+    p = dataclasses.replace(base, **changes) if changes else base
+    if not p.dr_step <= p.interval <= p.duration:
+        raise ValueError(f"interval must lie between dr_step and duration ({p.dr_step:g} <= interval <= "
+                         f"{p.duration:g} s); got {p.interval:g}")
+    check_work("duration", p.duration / p.dr_step, "dead-reckoning steps (duration / dr_step)")
+    return p
 
 
 def make(rng: np.random.Generator, n_runs: int = 1, params: PaperBParameters | None = None,
@@ -439,6 +443,7 @@ def make(rng: np.random.Generator, n_runs: int = 1, params: PaperBParameters | N
     """
     M = as_int("n_runs", n_runs, minimum=1)
     p = _params(params, changes)
+    check_work("n_runs", 20.0 * M * p.duration / p.dr_step, "floats (n_runs x the dead-reckoning steps)")
     follower = (tuple(float(v) for v in as_finite("follower_start", p.follower_start, shape=(2,))),
                 float(p.follower_heading))
     return _simulate(rng, M, p, [follower])[0]

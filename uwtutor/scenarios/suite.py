@@ -34,7 +34,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .._validate import as_int, as_rng
+from .._validate import as_choice, as_int, as_rng, as_seed, check_work
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
 from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError
 
@@ -280,6 +280,7 @@ def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: s
     n = as_int("n", n, minimum=1)
     rng = as_rng(rng)
     K1 = len(track.times)
+    check_work("n", 6 * n * K1, "floats (n runs x the epochs x 2 coordinates, three arrays)")
     start_error = rng.normal(0.0, p.start_sigma, (n, 1, 2))
     steps = np.zeros((n, K1, 2))
     steps[:, 1:] = rng.normal(0.0, p.dr_sigma, (n, K1 - 1, 2))
@@ -479,12 +480,15 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     >>> bound.shape, bool(bound[-1] < bound[0] < 100.0 * 2**0.5)
     ((150,), True)
     """
-    if scenario not in SCENARIOS:
-        raise ValueError(f"scenario must be one of {list(SCENARIOS)}; got {scenario!r}")
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {list(CONDITIONS)}; got {condition!r}")
+    as_choice("scenario", scenario, SCENARIOS)
+    as_choice("condition", condition, CONDITIONS)
+    seed = as_seed("seed", seed)                  # None would draw OS entropy: a different bound every call
+    n_tracks = as_int("n_tracks", n_tracks, minimum=1)
     p = SUITE if params is None else params
-    runs = SCENARIOS[scenario](np.random.default_rng(seed), as_int("n_tracks", n_tracks, minimum=1), p)
+    try:
+        runs = SCENARIOS[scenario](np.random.default_rng(seed), n_tracks, p)
+    except ValueError as exc:                      # the scenario names its count "n": say which argument it was
+        raise ValueError(str(exc).replace("n asks", "n_tracks asks", 1)) from None
     pos = runs.positions
     if condition == "current":
         pos = pos + np.asarray(p.current_velocity) * (runs.times - runs.times[0])[:, None]
