@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_nonnegative
+from .._validate import as_int, as_nonnegative, as_scalar
 from ._core import RangeDataset
 
 __all__ = ["BaselineRun", "world_displacements", "displacement_covariance", "position_ekf", "bias_iekf",
@@ -77,6 +77,11 @@ def _check(data: Any) -> RangeDataset:
     if data.start is None:
         raise ValueError("data has no start pose: build the RangeDataset with start= (or truth=)")
     return data
+
+
+def _pos(name: str, value: Any) -> float:
+    # bounded so that its square (a variance) neither underflows to 0 nor overflows
+    return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
 def _one_beacon(data: RangeDataset, beacon_ids: Any, method: str) -> int:
@@ -163,7 +168,7 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     z = data.ranges_on_epochs(ids, min_period=min_period)
     u, Q = world_displacements(data), displacement_covariance(data, distance_sigma)
     x0, P0 = _start(data)
-    R = float(range_sigma) ** 2
+    R = _pos("range_sigma", range_sigma) ** 2
     if len(ids) == 1:
         result = range_only_ekf(x0, P0, u, z[:, 0], Q, R, beacon=data.beacons[int(ids[0])], times=data.times)
     else:
@@ -211,8 +216,8 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     x0 = np.concatenate([x0p, np.zeros(B)])
     P0 = np.zeros((n, n))
     P0[:2, :2] = P0p
-    P0[idx, idx] = float(bias_sigma) ** 2
-    R = float(range_sigma) ** 2
+    P0[idx, idx] = _pos("bias_sigma", bias_sigma) ** 2
+    R = _pos("range_sigma", range_sigma) ** 2
     if B == 1:
         result = bias_ekf(x0, P0, u, z[:, 0], Q, R, beacon=data.beacons[int(ids[0])], times=data.times)
     else:
@@ -253,8 +258,9 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
     z = data.ranges_on_epochs([beacon], min_period=min_period)[:, 0]
     Q = displacement_covariance(data, distance_sigma).mean(axis=0)
     x0, P0 = _start(data)
-    result = fading_ekf(x0, P0, world_displacements(data), z, Q, float(range_sigma) ** 2, mu_gamma=mu_gamma,
-                        sigma_gamma=sigma_gamma, rho=0.95, beta="range", beacon=data.beacons[beacon],
+    result = fading_ekf(x0, P0, world_displacements(data), z, Q, _pos("range_sigma", range_sigma) ** 2,
+                        mu_gamma=_pos("mu_gamma", mu_gamma),
+                        sigma_gamma=as_scalar("sigma_gamma", sigma_gamma, domain="nonnegative", high=1.0), rho=0.95, beta="range", beacon=data.beacons[beacon],
                         times=data.times)
     return BaselineRun("ISFEKF", data.times, result.x[:, :2], result)
 
@@ -299,11 +305,13 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     z = data.ranges_on_epochs([beacon], min_period=min_period)[:, 0]
     dr = data.dead_reckoning()[:, :2]
     ship = np.broadcast_to(np.asarray(data.beacons[beacon], dtype=float), dr.shape)
-    steps = max(int(round(float(spacing) / float(np.median(np.diff(data.times))))), 1)
+    steps = max(int(round(_pos("spacing", spacing) / float(np.median(np.diff(data.times))))), 1)
+    range_q, fix_q = _pos("range_q", range_q), _pos("fix_q", fix_q)
+    r = _pos("range_sigma", range_sigma) ** 2
     with warnings.catch_warnings():         # near-collinear windows are part of what is measured
         warnings.simplefilter("ignore", IllConditionedWarning)
         out = or_vmlbl_kf(z, ship, dr, depth=0.0, times=data.times, spacing=steps,
-                          range_options=dict(q=range_q, r=float(range_sigma) ** 2, test="chi2"), fix_q=fix_q,
+                          range_options=dict(q=range_q, r=r, test="chi2"), fix_q=fix_q,
                           fix_options=dict(reacquire=5))
     positions = dr.copy()
     track = np.asarray(out.track.x[:, :2])
@@ -348,7 +356,8 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     b = np.asarray(data.beacons[beacon], dtype=float)
     Q = displacement_covariance(data, distance_sigma).mean(axis=0)
     x0, P0 = _start(data)
-    pf = BootstrapParticleFilter.from_gaussian(RelativeRangeModel(Q, float(range_sigma) ** 2), x0 - b, P0,
-                                               n_particles, rng, ess_threshold=0.5)
+    n = as_int("n_particles", n_particles, minimum=1, maximum=1_000_000)
+    pf = BootstrapParticleFilter.from_gaussian(RelativeRangeModel(Q, _pos("range_sigma", range_sigma) ** 2), x0 - b,
+                                               P0, n, rng, ess_threshold=0.5)
     result = pf.run(z[:, None], world_displacements(data), times=data.times)
     return BaselineRun("particle filter", data.times, result.x[:, :2] + b, result)

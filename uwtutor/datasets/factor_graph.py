@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_nonnegative
+from .._validate import as_finite, as_int, as_nonnegative, as_scalar
 from ._core import RangeDataset
 
 __all__ = ["GraphSolution", "gtsam_map", "HEADING_NOISE"]
@@ -79,10 +79,8 @@ class GraphSolution:
 
 
 def _positive(name: str, value: Any) -> float:
-    number = float(as_nonnegative(name, value, ndim=0))
-    if number <= 0.0:
-        raise ValueError(f"{name} must be > 0; got {value!r}")
-    return number
+    # bounded so that its square (a variance) neither underflows to 0 nor overflows
+    return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
 def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, range_scale: Any = 1.0,
@@ -170,6 +168,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     across = _positive("across_sigma", across_sigma)
     q_heading = _positive("heading_noise", heading_noise)
     sigma_r = _positive("range_sigma", range_sigma)
+    iterations = as_int("max_iterations", max_iterations, minimum=1, maximum=10_000)
     K = data.n_epochs
     guess = data.dead_reckoning() if initial is None else as_finite("initial", initial, shape=(K, 3))
 
@@ -194,7 +193,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     for k, j in zip(epochs.tolist(), which.tolist()):
         graph.add(gtsam.RangeFactor2D(X(k), L(j), float(z[k, j]), noise))
     params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(int(max_iterations))
+    params.setMaxIterations(iterations)
     optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
     start = time.perf_counter()
     solution = optimizer.optimize()

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_nonnegative
+from .._validate import as_finite, as_flag, as_nonnegative, as_scalar
 from ..filters import ChiSquareGate, FilterResult, ReacquiringGate, extended_kalman_filter, rts_smoother
 from ..models import BeaconRanges, OdometryMotion
 from ._core import RangeDataset
@@ -36,10 +36,8 @@ __all__ = ["navigate", "navigation_models", "NavigationModels"]
 
 
 def _positive(name: str, value: Any) -> float:
-    number = float(as_nonnegative(name, value, ndim=0))
-    if number <= 0.0:
-        raise ValueError(f"{name} must be > 0; got {value!r}")
-    return number
+    # bounded so that its square (a variance) neither underflows to 0 nor overflows
+    return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
 def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, smooth: bool = False,
@@ -203,6 +201,7 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
     if data.start is None:
         raise ValueError("data has no start pose: build the RangeDataset with start=(x, y, heading) (and "
                          "start_cov), or with truth, whose first row is the default start")
+    gyro_bias, scale = as_flag("gyro_bias", gyro_bias), as_flag("scale", scale)
     ids = list(data.beacons) if beacon_ids is None else beacon_ids
     z = data.ranges_on_epochs(ids, min_period=min_period)
     beacons = data.beacon_positions(ids)

@@ -30,6 +30,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._validate import as_choice, as_finite, as_scalar
 from ._core import RangeDataset
 
 __all__ = [
@@ -94,11 +95,17 @@ def error_summary(positions: Any, truth: Any, within: float = 2.0) -> dict[str, 
     >>> error_summary([[0.0, 0.0], [3.0, 4.0]], [[0.0, 1.0], [0.0, 0.0]])
     {'rmse': 3.605551275463989, 'median': 3.0, 'final': 5.0, 'within': 0.5}
     """
-    p = np.asarray(positions, dtype=float)[:, :2]
-    t = np.asarray(truth, dtype=float)[:, :2]
-    e = np.hypot(*(p - t).T)
+    p = as_finite("positions", positions, ndim=2, nonempty=True, max_abs=1e9)
+    t = as_finite("truth", truth, ndim=2, nonempty=True, max_abs=1e9)
+    for name, a in (("positions", p), ("truth", t)):
+        if a.shape[1] < 2:
+            raise ValueError(f"{name} must hold [x, y, ...] per epoch, shape (K, >= 2); got {a.shape}")
+    if p.shape[0] != t.shape[0]:
+        raise ValueError(f"positions and truth must have one row per epoch each; got {p.shape[0]} and {t.shape[0]}")
+    radius = as_scalar("within", within, domain="positive")
+    e = np.hypot(*(p[:, :2] - t[:, :2]).T)
     return {"rmse": float(np.sqrt(np.mean(e**2))), "median": float(np.median(e)), "final": float(e[-1]),
-            "within": float(np.mean(e <= within))}
+            "within": float(np.mean(e <= radius))}
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -135,13 +142,19 @@ def nees(x: Any, P: Any, truth: Any, components: str = "pose") -> np.ndarray:
     array([2.])
     """
     chosen = {"pose": [0, 1, 2], "position": [0, 1], "heading": [2]}
-    if components not in chosen:
-        raise ValueError(f"components must be one of {list(chosen)}; got {components!r}")
-    idx = chosen[components]
-    x = np.asarray(x, dtype=float)
-    t = np.asarray(truth, dtype=float)
+    idx = chosen[as_choice("components", components, chosen)]
+    x = as_finite("x", x, ndim=2, nonempty=True, max_abs=1e9)
+    t = as_finite("truth", truth, ndim=2, nonempty=True, max_abs=1e9)
+    if x.shape[1] < 3 or t.shape[1] < 3 or x.shape[0] != t.shape[0]:
+        raise ValueError(f"x and truth must hold [x, y, heading, ...] at the same epochs, shapes (K, >= 3); got "
+                         f"{x.shape} and {t.shape}")
+    from .._validate import as_covariance
+
+    P = as_covariance("P", P)
+    if P.shape[:2] != (x.shape[0], x.shape[1]) or P.shape[2] != x.shape[1]:
+        raise ValueError(f"P must hold one ({x.shape[1]}, {x.shape[1]}) covariance per epoch of x; got {P.shape}")
     e = np.column_stack([x[:, :2] - t[:, :2], _wrap(x[:, 2] - t[:, 2])])[:, idx]
-    S = np.asarray(P, dtype=float)[:, idx][:, :, idx]
+    S = P[:, idx][:, :, idx]
     return np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
 
 
@@ -158,30 +171,47 @@ def measured_scale(data: RangeDataset, beacon_ids: Any = None) -> float:
     >>> round(measured_scale(plaza(2)), 4)
     1.0697
     """
+    _with_truth(data, "measured_scale")
     r = data.ranges_on_epochs(beacon_ids)
     d = data.true_ranges(beacon_ids)
     ok = np.isfinite(r)
+    if not ok.any():
+        raise ValueError("data has no range to the beacons chosen (beacon_ids): no scale to measure")
     return float(r[ok] @ d[ok] / (d[ok] @ d[ok]))
+
+
+def _with_truth(data: Any, what: str) -> RangeDataset:
+    if not isinstance(data, RangeDataset):
+        raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
+    if data.truth is None:
+        raise ValueError(f"{what} needs the truth: data.truth is None")
+    return data
 
 
 def most_heard_beacon(data: RangeDataset) -> int:
     """The beacon with the most ranges in the log (the lowest id on a tie): the one-beacon case of the study."""
+    if not isinstance(data, RangeDataset):
+        raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
+    if data.n_ranges == 0:
+        raise ValueError("data has no range at all: no beacon is heard most")
     ids, counts = np.unique(data.ranges[:, 1].astype(int), return_counts=True)
     return int(ids[np.argmax(counts)])
 
 
 def without_scale(data: RangeDataset, scale: float) -> RangeDataset:
     """The log with every range divided by ``scale`` (a calibrated scale removed)."""
+    if not isinstance(data, RangeDataset):
+        raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
+    scale = as_scalar("scale", scale, domain="positive", low=1e-6, high=1e6)
     ranges = np.array(data.ranges)
-    ranges[:, 2] /= float(scale)
+    ranges[:, 2] /= scale
     return replace(data, ranges=ranges, name=f"{data.name}, ranges / {scale:.4f}",
                    notes=data.notes + (f"ranges divided by {scale:.6f}",))
 
 
 def with_true_heading(data: RangeDataset) -> RangeDataset:
     """The log with its odometry's heading changes replaced by the truth's (an oracle compass: no drift)."""
-    if data.truth is None:
-        raise ValueError("with_true_heading needs the truth (data.truth)")
+    _with_truth(data, "with_true_heading")
     odometry = np.array(data.odometry)
     odometry[1:, 1] = np.diff(np.unwrap(data.truth[:, 2]))
     return replace(data, odometry=odometry, name=f"{data.name}, true heading",

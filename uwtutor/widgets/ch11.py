@@ -91,12 +91,16 @@ def real_data_view(beacon: str = "5", period: float | None = None, states: str =
     """The committed run of ``navigate`` on Plaza 2 for a beacon (``"all"`` for four), a range period and the
     estimated states (``study``: the committed one by default)."""
     s = load_real_data_study() if study is None else study
-    beacon = str(beacon)
-    if beacon not in GRID_BEACONS:
-        raise ValueError(f"beacon must be one of {list(GRID_BEACONS)}; got {beacon!r}")
+    if not isinstance(study, (RealDataStudy, type(None))):
+        raise TypeError(f"study must be a RealDataStudy (load_real_data_study()) or None; got {type(study).__name__}")
+    if not isinstance(beacon, str) or beacon not in GRID_BEACONS:
+        raise ValueError(f"beacon must be one of {list(GRID_BEACONS)} (strings); got {beacon!r}")
+    if period is not None and (isinstance(period, (bool, np.bool_)) or not isinstance(period, (int, float, np.number))
+                               or not np.isreal(period)):
+        raise TypeError(f"period must be None or one of {list(GRID_PERIODS[1:])} seconds; got {period!r}")
     if period not in GRID_PERIODS:
         raise ValueError(f"period must be one of {list(GRID_PERIODS)} (seconds; None for every range); got {period!r}")
-    if states not in GRID_STATES:
+    if not isinstance(states, str) or states not in GRID_STATES:
         raise ValueError(f"states must be one of {list(GRID_STATES)}; got {states!r}")
     i, j, k = GRID_BEACONS.index(beacon), GRID_PERIODS.index(period), GRID_STATES.index(states)
     g = s.grid
