@@ -2,7 +2,7 @@
 #   make book   -- build the HTML book into _build/html
 #   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
 # and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
-# make study (chapter 10's comparison table, written to uwtutor/data/).
+# make study (chapter 10's comparison table, written to uwtutor/data/), make study-real (chapter 11's study).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -11,7 +11,7 @@ JB     := $(VENV)/bin/jupyter-book
 STAMP  := $(VENV)/.installed-stamp
 NODE_STAMP := node_modules/.installed-stamp
 
-.PHONY: setup book test lab bench study notebooks clean
+.PHONY: setup book test lab bench study study-real notebooks clean
 
 # The environment: the book, JupyterLab for students (the lab extra), the tests, Dask. nbgrader comes with the tests
 # (tests/test_labs_nbgrader.py) but its JupyterLab menu, sidebars and server extensions are an instructor's
@@ -70,6 +70,11 @@ bench: setup
 # commit the three files it writes. About 8 minutes on 2 cores.
 study: setup
 	$(PY) studies/comparison.py --overwrite
+
+# Chapter 11's study (the book's methods, navigate and GTSAM on the CMU Plaza logs; the widget's grid) into
+# uwtutor/data/; commit the two files it writes. About 15 minutes on 2 cores.
+study-real: setup
+	$(PY) studies/real_data.py --overwrite
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
 # The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.

@@ -117,6 +117,28 @@ def _paper_e():
     return paper_e.make(np.random.default_rng(3))
 
 
+@functools.lru_cache(maxsize=1)
+def _small_log():
+    """A square driven twice with ranges to two beacons and its truth: a RangeDataset whose filters take ms."""
+    from uwtutor.datasets import RangeDataset
+    K = 81
+    turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    turn[:2] = 0.0
+    odo = np.column_stack([np.r_[0.0, np.full(K - 1, 1.0)], turn])
+    beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    truth = RangeDataset(times=np.arange(K, dtype=float), odometry=odo, ranges=np.zeros((0, 3)), beacons=beacons,
+                         start=[0.0, 0.0, 0.0]).dead_reckoning()
+    ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    b = np.array([beacons[int(i)] for i in ids])
+    r = 1.05 * np.linalg.norm(truth[1:, :2] - b, axis=1) + 0.1
+    return RangeDataset(times=np.arange(K, dtype=float), odometry=odo,
+                        ranges=np.column_stack([np.arange(1.0, K), ids, r]), beacons=beacons, truth=truth)
+
+
+_DATA = dict(data=Instance())
+_OPT_POS = Real((), "pos", optional=True)
+
+
 # --- the table ----------------------------------------------------------------------------------------------------------
 SPECS: dict[str, Spec] = {
     # filters
@@ -273,6 +295,61 @@ SPECS: dict[str, Spec] = {
                                 dr_positions=d.dr_positions[0][:200], depth=d.depth, spacing=20))(_paper_e()),
         kinds=dict(ranges=Real((None,), "nonneg", nan_ok=True), ship_positions=Kind(), dr_positions=Kind(),
                    depth=Real((), "nonneg"), spacing=Kind()), per_argument=3),
+    # real logs (chapter 11): the book's earlier methods, GTSAM's graph, the study's measures, on a small log
+    "uwtutor.datasets.navigation:navigation_models": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], min_period=2.0, gyro_bias=True, scale=True, range_sigma=0.6,
+                     distance_sigma=(0.01, 0.02), heading_noise=1e-3, gyro_bias_prior=0.01, gyro_bias_walk=1e-4,
+                     scale_prior=0.1, scale_walk=1e-5),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), min_period=_OPT_POS, gyro_bias=Flag(), scale=Flag(),
+                   range_sigma=Real((), "pos"), distance_sigma=Real((2,), "nonneg"), heading_noise=Real((), "pos"),
+                   gyro_bias_prior=Real((), "pos"), gyro_bias_walk=Real((), "pos"), scale_prior=Real((), "pos"),
+                   scale_walk=Real((), "pos"))),
+    "uwtutor.datasets.baselines:world_displacements": Spec(lambda: dict(data=_small_log()), kinds=_DATA),
+    "uwtutor.datasets.baselines:displacement_covariance": Spec(
+        lambda: dict(data=_small_log(), distance_sigma=(0.01, 0.02)),
+        kinds=dict(data=Instance(), distance_sigma=Real((2,), "nonneg"))),
+    "uwtutor.datasets.baselines:position_ekf": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3, 7], min_period=2.0, range_sigma=0.6,
+                     distance_sigma=(0.01, 0.02)),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), min_period=_OPT_POS, range_sigma=Real((), "pos"),
+                   distance_sigma=Real((2,), "nonneg"))),
+    "uwtutor.datasets.baselines:bias_iekf": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], range_sigma=0.6, bias_sigma=5.0),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), range_sigma=Real((), "pos"), bias_sigma=Real((), "pos"))),
+    "uwtutor.datasets.baselines:fading_filter": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], mu_gamma=1.05, sigma_gamma=0.003, range_sigma=0.6),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), mu_gamma=Real((), "pos"), sigma_gamma=Real((), "nonneg"),
+                   range_sigma=Real((), "pos"))),
+    "uwtutor.datasets.baselines:vmlbl_filter": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], spacing=4.0, range_q=30.0, fix_q=1.0, range_sigma=0.6),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), spacing=Real((), "pos"), range_q=Real((), "pos"),
+                   fix_q=Real((), "pos"), range_sigma=Real((), "pos")), per_argument=3),
+    "uwtutor.datasets.baselines:particle_filter": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], rng=np.random.default_rng(0), n_particles=50,
+                     range_sigma=0.6),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), n_particles=Int(minimum=1, unbounded_work=True),
+                   range_sigma=Real((), "pos"))),
+    "uwtutor.datasets.factor_graph:gtsam_map": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3, 7], range_scale=1.05, range_sigma=0.6,
+                     distance_sigma=(0.01, 0.02), across_sigma=0.002, heading_noise=0.01, max_iterations=20),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), range_scale=Real((), "pos"), range_sigma=Real((), "pos"),
+                   distance_sigma=Real((2,), "nonneg"), across_sigma=Real((), "pos"), heading_noise=Real((), "pos"),
+                   max_iterations=Int(minimum=1, unbounded_work=True)), per_argument=4),
+    "uwtutor.datasets.study:error_summary": Spec(
+        lambda: dict(positions=_TRACK + 1.0, truth=_TRACK, within=2.0),
+        kinds=dict(positions=Real((6, 2)), truth=Real((6, 2)), within=Real((), "pos"))),
+    "uwtutor.datasets.study:nees": Spec(
+        lambda: dict(x=np.array([[1.0, 0.0, 0.1], [0.5, 0.2, -0.1]]), P=np.tile(np.diag([1.0, 2.0, 0.01]), (2, 1, 1)),
+                     truth=np.zeros((2, 3)), components="pose"),
+        kinds=dict(x=Real((2, 3)), P=Kind(), truth=Real((2, 3)), components=Choice())),
+    "uwtutor.datasets.study:measured_scale": Spec(lambda: dict(data=_small_log()), kinds=_DATA),
+    "uwtutor.datasets.study:most_heard_beacon": Spec(lambda: dict(data=_small_log()), kinds=_DATA),
+    "uwtutor.datasets.study:without_scale": Spec(lambda: dict(data=_small_log(), scale=1.05),
+                                                 kinds=dict(data=Instance(), scale=Real((), "pos"))),
+    "uwtutor.datasets.study:with_true_heading": Spec(lambda: dict(data=_small_log()), kinds=_DATA),
+    "uwtutor.widgets.ch11:real_data_view": Spec(
+        lambda: dict(beacon="5", period=10.0, states="+ scale"),
+        kinds=dict(beacon=Choice(), period=Real((), "pos", optional=True), states=Choice())),
 }
 
 
@@ -327,6 +404,34 @@ EXEMPT: dict[str, str] = {
     "uwtutor.exercises.ch09:check_within_ten_percent": "computes a cached study first (11 s): too slow for the "
                                                        "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.feedback:Feedback": "the verdict object the checkers build (library-internal values)",
+    # chapter 11: the study over the Plaza logs (minutes; tests/test_real_data_study.py re-runs a sample), its
+    # containers, the exercises' data and the slow checkers
+    "uwtutor.datasets.study:navigation_run": "a study step over a whole Plaza log (seconds): tested in "
+                                             "tests/test_real_data_study.py",
+    "uwtutor.datasets.study:navigation_grid": "the widget grid's study (minutes): make study-real",
+    "uwtutor.datasets.study:method_table": "the method table's study (minutes): make study-real",
+    "uwtutor.datasets.study:ablation_table": "the ablation's study (minutes): make study-real",
+    "uwtutor.datasets.study:gtsam_sweep": "GTSAM's heading-noise sweep (minutes): make study-real",
+    "uwtutor.datasets.study:run_real_data_study": "the whole study (about 15 minutes): make study-real",
+    "uwtutor.datasets.study:load_real_data_study": "no arguments: reads the committed files",
+    "uwtutor.datasets.study:fixes_within": "takes a run of baselines.vmlbl_filter (library-made values); tested "
+                                           "in tests/test_real_data_study.py",
+    "uwtutor.datasets.study:RealDataStudy": "the committed study's container, built by run_real_data_study or load",
+    "uwtutor.datasets.baselines:BaselineRun": "a result container the baselines build",
+    "uwtutor.datasets.factor_graph:GraphSolution": "a result container gtsam_map builds",
+    "uwtutor.datasets.navigation:NavigationModels": "a container navigation_models builds",
+    "uwtutor.widgets.ch11:RealDataView": "a view container real_data_view builds",
+    "uwtutor.exercises.ch11:scale_variants": "no arguments: the data of exercise 11.1 (covered by its tests)",
+    "uwtutor.exercises.ch11:drift_variants": "no arguments: the data of exercise 11.2 (covered by its tests)",
+    "uwtutor.exercises.ch11:lockout_runs": "no arguments: the runs of exercise 11.4 (covered by its tests)",
+    "uwtutor.exercises.ch11:check_rejected": "runs two filters over Plaza 2 first (5 s): too slow for the contract; "
+                                             "answers parsed by the shared check_number",
+    "uwtutor.exercises.ch11:check_locked_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
+                                                "contract; answers parsed by the shared check_number",
+    "uwtutor.exercises.ch11:check_reacquired_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
+                                                    "contract; answers parsed by the shared check_number",
+    "uwtutor.exercises.labs.real_ranges_plaza:reference": "no arguments: the lab's reference values (three filters "
+                                                          "over Plaza 2, 5-10 s)",
 }
 
 

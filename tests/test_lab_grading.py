@@ -309,6 +309,28 @@ def test_outlier_rejection_vmlbl_mistakes():
     _fails_with(lab, "D", "Use the filtered ranges", fix_errors=raw)
 
 
+def test_real_ranges_plaza_mistakes():
+    lab = "real_ranges_plaza"
+    ns = _solution(lab)
+    from uwtutor.exercises.labs import real_ranges_plaza as grader
+
+    ref = grader.reference()
+    assert ns["s_cal"] == pytest.approx(ref["s_cal"], rel=1e-9) and ns["rmse_cal"] == pytest.approx(ref["rmse_cal"])
+    r, d = ns["r_leg"], ns["d_leg"]
+    _fails_with(lab, "A", "line with an offset", s_cal=np.polyfit(d, r, 1)[0])
+    _fails_with(lab, "A", "mean of the ratios", s_cal=np.mean(r / d))
+    _fails_with(lab, "B", "filter with a scale state", rmse_cal=ns["rmse_est"])
+    _fails_with(lab, "C", "calibrated filter of part B", rmse_est=ns["rmse_cal"])
+    _fails_with(lab, "C", "your calibrated scale", scale_end=ns["s_cal"])
+    _fails_with(lab, "D", "a percentage", nees_inside=100 * ns["nees_inside"])
+    _fails_with(lab, "B", "not a usable range scale", s_cal=float("nan"))
+    # a mistake in A is not counted again in B: the reference of B is run with the student's own scale
+    affine = float(np.polyfit(d, r, 1)[0])
+    assert not check_part(lab, "A", _with(lab, s_cal=affine))
+    fb = check_part(lab, "B", _with(lab, s_cal=affine, rmse_cal=grader._rmse(grader._calibrated(affine).x)))
+    assert fb, fb
+
+
 # -- no answer in the feedback ----------------------------------------------------------------------------------------
 def test_feedback_never_shows_the_expected_value():
     lab = "range_error_budget"

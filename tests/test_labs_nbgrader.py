@@ -74,6 +74,9 @@ MISTAKES = {
     "outlier_rejection_vmlbl": (("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)",
                                  "epochs = k_fix - s * np.arange(4)  # newest first"),
                                 8.0, "List the epochs oldest first"),
+    "real_ranges_plaza": (("A_answer", "s_cal = (r_leg @ d_leg) / (d_leg @ d_leg)",
+                           "s_cal = np.polyfit(d_leg, r_leg, 1)[0]  # a line with an offset"),
+                          10.0, "Fit through the origin"),  # A only: B and D are checked with the student's s_cal
 }
 
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")

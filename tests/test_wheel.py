@@ -352,3 +352,13 @@ print(nb.cells[-1].outputs[0].text)
     kernel_python, module = proc.stdout.split()[-2:]
     assert Path(kernel_python).parent == bin_dir, "the kernel is the lab environment's Python"
     assert Path(module).is_relative_to(lab_venv), "the kernel imports the installed wheel"
+
+
+def test_installed_wheel_reads_the_committed_real_data_study(installed, tmp_path):
+    # chapter 11's runs travel with the library too (its widget reads them without gtsam or the Plaza files)
+    python = installed / "bin" / "python"
+    proc = _run([str(python), "-c", "from uwtutor.datasets.study import load_real_data_study as f; s = f(); "
+                                    "print(len(s.table), s.grid['curves']['xy'].shape)"], cwd=tmp_path)
+    from uwtutor.datasets.study import load_real_data_study
+    study = load_real_data_study()
+    assert proc.stdout.strip() == f"{len(study.table)} {study.grid['curves']['xy'].shape}"

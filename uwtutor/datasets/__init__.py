@@ -35,6 +35,7 @@ array([[nan],
 
 from ._core import DEFAULT_START_SIGMAS, RangeDataset
 from ._plaza import PLAZA_HEADING_OFFSET, plaza
-from .navigation import navigate
+from .navigation import NavigationModels, navigate, navigation_models
 
-__all__ = ["RangeDataset", "plaza", "navigate", "DEFAULT_START_SIGMAS", "PLAZA_HEADING_OFFSET"]
+__all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "NavigationModels", "DEFAULT_START_SIGMAS",
+           "PLAZA_HEADING_OFFSET"]

@@ -8,8 +8,8 @@ A real range log differs from the book's simulations in two errors that the posi
   constant to *estimate*, not a known factor;
 * a **gyro bias** :math:`b_g`: the odometry's heading drifts (by more than 100 degrees over Plaza 2).
 
-:func:`navigate` therefore runs the library's generic EKF (:func:`uwtutor.filters.extended_kalman_filter`) on the
-state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.OdometryMotion` (each step moves along the
+:func:`navigate` therefore runs the library's generic EKF (:func:`uwtutor.filters.engine.extended_kalman_filter`) on the
+state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.odometry.OdometryMotion` (each step moves along the
 previous heading, then turns: the convention of the data, :meth:`RangeDataset.dead_reckoning`) and
 :class:`uwtutor.models.BeaconRanges` (:math:`z_j = s\,\lVert p - b_j\rVert + v_j`, the beacons heard at an epoch,
 the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.gates.ReacquiringGate`),
@@ -22,23 +22,22 @@ odometry good to about 0.1 m over 2 s); pass your own for other sensors.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_nonnegative
+from .._validate import as_finite, as_flag, as_nonnegative, as_scalar
 from ..filters import ChiSquareGate, FilterResult, ReacquiringGate, extended_kalman_filter, rts_smoother
 from ..models import BeaconRanges, OdometryMotion
 from ._core import RangeDataset
 
-__all__ = ["navigate"]
+__all__ = ["navigate", "navigation_models", "NavigationModels"]
 
 
 def _positive(name: str, value: Any) -> float:
-    number = float(as_nonnegative(name, value, ndim=0))
-    if number <= 0.0:
-        raise ValueError(f"{name} must be > 0; got {value!r}")
-    return number
+    # bounded so that its square (a variance) neither underflows to 0 nor overflows
+    return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
 def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, smooth: bool = False,
@@ -94,7 +93,8 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     FilterResult
         At ``data.times``: ``x[:, :2]`` the positions, ``x[:, 2]`` the heading, then :math:`b_g` and :math:`s`
         (those estimated, in that order); with ``smooth=True`` the smoothed ``x`` and ``P`` beside the filter's
-        priors and innovations. ``extras["ranges"]`` holds the ranges used, ``(K, B)``, NaN where none.
+        priors and innovations. ``extras["ranges"]`` holds the ranges used, ``(K, B)``, NaN where none;
+        with ``smooth=True``, ``extras["filtered"]`` holds the filter's own result (its ``x`` and ``P``).
 
     Raises
     ------
@@ -129,11 +129,79 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     >>> bool(np.linalg.norm(result.x[-1, :2] - truth[-1, :2]) < 1.0)
     True
     """
+    models = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
+                               range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
+                               gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
+                               scale_prior=scale_prior, scale_walk=scale_walk)
+    chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
+    result = extended_kalman_filter(models.motion, models.measurement, models.x0, models.P0, data.odometry,
+                                    models.z, times=data.times, gate=chosen_gate)
+    extras = dict(result.extras, ranges=models.z)
+    if not smooth:
+        return FilterResult(result.times, result.x, result.P, result.x_prior, result.P_prior, result.innovations,
+                            result.innovation_cov, extras)
+    smoothed = rts_smoother(result, models.motion, data.odometry)
+    extras["filtered"] = result
+    return FilterResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior, result.innovations,
+                        result.innovation_cov, extras)
+
+
+@dataclass(frozen=True)
+class NavigationModels:
+    """What :func:`navigate` filters with: the model pair, the initial state and the ranges on the epochs.
+
+    Attributes
+    ----------
+    motion : uwtutor.models.odometry.OdometryMotion
+        The odometry motion model (each step moves along the previous heading, then turns).
+    measurement : uwtutor.models.range.BeaconRanges
+        The ranges to the chosen beacons, with the scale when it is estimated.
+    x0 : ndarray, shape (n,)
+        The initial state: the start pose, then :math:`b_g = 0` and :math:`s = 1` when estimated.
+    P0 : ndarray, shape (n, n)
+        Its covariance.
+    z : ndarray, shape (K, B)
+        The ranges placed on the epochs (:meth:`RangeDataset.ranges_on_epochs`), NaN where none.
+    """
+
+    motion: OdometryMotion
+    measurement: BeaconRanges
+    x0: np.ndarray
+    P0: np.ndarray
+    z: np.ndarray
+
+
+def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
+                      gyro_bias: bool = True, scale: bool = True, range_sigma: Any = 0.6,
+                      distance_sigma: tuple[float, float] = (0.01, 0.02), heading_noise: Any = 1e-3,
+                      gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4, scale_prior: Any = 0.1,
+                      scale_walk: Any = 1e-5) -> NavigationModels:
+    r"""The models :func:`navigate` runs its filter with, for a bound, a smoother or a filter of your own.
+
+    The arguments are :func:`navigate`'s (the same defaults, the same checks). Use it to evaluate the posterior
+    Cramér--Rao bound of exactly the model that :func:`navigate` filters with
+    (:func:`uwtutor.observability.model_posterior_crlb`), or to run the engine with another gate.
+
+    Returns
+    -------
+    NavigationModels
+        ``motion``, ``measurement``, ``x0``, ``P0`` and the ranges ``z`` on the epochs.
+
+    Examples
+    --------
+    >>> from uwtutor.datasets import RangeDataset, navigation_models
+    >>> data = RangeDataset(times=[0.0, 1.0, 2.0], odometry=[[0, 0], [1, 0], [1, 0]],
+    ...                     ranges=[[1.0, 3, 5.0]], beacons={3: (1.0, 5.0)}, start=[0.0, 0.0, 0.0])
+    >>> models = navigation_models(data, gyro_bias=False)
+    >>> models.motion.layout.names, models.x0.tolist(), models.z[:, 0].tolist()
+    (('x', 'y', 'heading', 'scale'), [0.0, 0.0, 0.0, 1.0], [nan, 5.0, nan])
+    """
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.start is None:
         raise ValueError("data has no start pose: build the RangeDataset with start=(x, y, heading) (and "
                          "start_cov), or with truth, whose first row is the default start")
+    gyro_bias, scale = as_flag("gyro_bias", gyro_bias), as_flag("scale", scale)
     ids = list(data.beacons) if beacon_ids is None else beacon_ids
     z = data.ranges_on_epochs(ids, min_period=min_period)
     beacons = data.beacon_positions(ids)
@@ -158,13 +226,4 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     if scale:
         extra["scale"] = (1.0, _positive("scale_prior", scale_prior))
     x0, P0 = motion.layout.initial_state(as_finite("data.start", data.start, shape=(3,)), data.start_cov, **extra)
-    chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
-    result = extended_kalman_filter(motion, measurement, x0, P0, data.odometry, z, times=data.times,
-                                    gate=chosen_gate)
-    extras = dict(result.extras, ranges=z)
-    if not smooth:
-        return FilterResult(result.times, result.x, result.P, result.x_prior, result.P_prior, result.innovations,
-                            result.innovation_cov, extras)
-    smoothed = rts_smoother(result, motion, data.odometry)
-    return FilterResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior, result.innovations,
-                        result.innovation_cov, extras)
+    return NavigationModels(motion, measurement, x0, P0, z)

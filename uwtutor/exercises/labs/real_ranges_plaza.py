@@ -1,0 +1,190 @@
+r"""Hidden tests of the lab ``real_ranges_plaza`` (chapter 11): a mission rehearsed on the Plaza 2 log.
+
+The lab treats the log as the rehearsal of an AUV mission: the truth is known on the first
+``CALIBRATION_SECONDS`` only (a vehicle at the surface with GPS), the mission ranges to beacon ``BEACON`` alone,
+one range every ``PERIOD`` seconds (an acoustic modem's rate). The references are computed here with
+:func:`uwtutor.datasets.navigate`; parts B and D use the student's own calibrated scale, so that a mistake in part A
+is not counted again.
+
+Recognised mistakes (the instructor notes list them): in A, a line with an offset, the mean of the ratios, or the
+whole log instead of the calibration leg; in B, the raw ranges (the scale not divided out) or part C's filter; in C,
+part B's filter, or the calibrated scale for the filter's own; in D, the NEES of the pose instead of the position,
+the median instead of the mean, a percentage instead of a fraction.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from ..checks import check_number
+from ..feedback import Feedback
+from ._common import Answers, cached, fail
+
+__all__ = ["PARTS", "reference", "SET", "BEACON", "PERIOD", "CALIBRATION_SECONDS"]
+
+#: The log (Plaza 2), the mission's one beacon, its range period [s] and the calibration leg [s].
+SET, BEACON, PERIOD, CALIBRATION_SECONDS = 2, 1, 8.0, 60.0
+
+
+@lru_cache(maxsize=1)
+def _data() -> Any:
+    from ...datasets import plaza
+
+    return plaza(SET)
+
+
+def _leg() -> tuple[np.ndarray, np.ndarray]:
+    """The ranges to ``BEACON`` and the true distances on the epochs of the calibration leg that have a range."""
+    data = _data()
+    leg = data.times <= data.times[0] + CALIBRATION_SECONDS
+    r = data.ranges_on_epochs([BEACON])[leg, 0]
+    d = data.true_ranges([BEACON])[leg, 0]
+    heard = np.isfinite(r)
+    return r[heard], d[heard]
+
+
+def _rmse(x: np.ndarray) -> float:
+    truth = _data().truth
+    return float(np.sqrt(np.mean(np.sum((x[:, :2] - truth[:, :2]) ** 2, axis=1))))
+
+
+def _calibrated(s_cal: float) -> Any:
+    """The filter of part B: the scale ``s_cal`` divided out of the ranges, no scale state."""
+    from ...datasets import navigate
+    from ...datasets.study import without_scale
+
+    return cached("real_ranges_plaza.calibrated", (float(s_cal),),
+                  lambda: navigate(without_scale(_data(), s_cal), [BEACON], min_period=PERIOD, scale=False))
+
+
+def _navigate(**options: Any) -> Any:
+    from ...datasets import navigate
+
+    return cached("real_ranges_plaza.navigate", options,
+                  lambda: navigate(_data(), [BEACON], min_period=PERIOD, **options))
+
+
+def _position_nees(result: Any) -> np.ndarray:
+    from ...datasets.study import nees
+
+    return nees(result.x, result.P, _data().truth, "position")
+
+
+def _s_cal_reference() -> float:
+    r, d = _leg()
+    return float(r @ d / (d @ d))
+
+
+def _student_scale(ns: Answers) -> tuple[float | None, Feedback | None]:
+    """The student's ``s_cal`` as a usable number, or a failed check that says why it cannot be used."""
+    s_cal = ns["s_cal"]
+    try:
+        value = float(np.asarray(s_cal, dtype=float).reshape(()))
+    except (TypeError, ValueError):
+        return None, fail("`s_cal` (part A) is not one number, and this part divides the ranges by it.",
+                          hint="Finish part A first.")
+    if not np.isfinite(value) or not 0.5 < value < 2.0:
+        return None, fail("`s_cal` (part A) is not a usable range scale, and this part divides the ranges by it.",
+                          hint="Finish part A first: the scale is a little above 1.")
+    return value, None
+
+
+def part_a(ns: Answers) -> Iterator[Feedback]:
+    r, d = _leg()
+    data = _data()
+    all_r, all_d = data.ranges_on_epochs([BEACON])[:, 0], data.true_ranges([BEACON])[:, 0]
+    heard = np.isfinite(all_r)
+    yield check_number(ns["s_cal"], _s_cal_reference(), rtol=1e-6, name="s_cal", reveal_expected=False,
+                       common_mistakes={
+                           float(np.polyfit(d, r, 1)[0]): "That is the slope of a line with an offset: the model "
+                                                          "r = s d has none. Fit through the origin.",
+                           float(np.mean(r / d)): "That is the mean of the ratios r/d; least squares weighs each "
+                                                  "range by its distance.",
+                           float(all_r[heard] @ all_d[heard] / (all_d[heard] @ all_d[heard])):
+                               "That uses the whole log; the truth is known on the calibration leg only."},
+                       hint="Keep the epochs of the calibration leg that have a range (not NaN), then least squares "
+                            "of r = s d through the origin.")
+
+
+def part_b(ns: Answers) -> Iterator[Feedback]:
+    s_cal, problem = _student_scale(ns)
+    if problem is not None:
+        yield problem
+        return
+    yield check_number(ns["rmse_cal"], _rmse(_calibrated(s_cal).x), rtol=1e-4, name="rmse_cal", units="m",
+                       reveal_expected=False,
+                       common_mistakes={_rmse(_navigate(scale=False).x): "That is the filter on the raw ranges: "
+                                                                         "divide them by your s_cal first.",
+                                        _rmse(_navigate().x): "That is the filter with a scale state (part C)."},
+                       hint="Check the ranges (beacon 1, one per 8 s, divided by s_cal), the noise of each step, the "
+                            "initial state and the gate, and that the RMSE runs over every epoch.")
+
+
+def part_c(ns: Answers) -> Iterator[Feedback]:
+    estimated = _navigate()
+    mistakes = {}
+    s_cal = ns.get("s_cal")
+    if s_cal is not None and np.ndim(s_cal) == 0 and np.isfinite(float(s_cal)):
+        mistakes[float(s_cal)] = ("That is your calibrated scale (part A); the task asks for the filter's own "
+                                  "estimate at the last epoch.")
+    yield check_number(ns["rmse_est"], _rmse(estimated.x), rtol=1e-4, name="rmse_est", units="m",
+                       reveal_expected=False,
+                       common_mistakes={_rmse(_calibrated(_s_cal_reference()).x): "That is the calibrated filter of "
+                                                                                  "part B."},
+                       hint="navigate(data, [BEACON], min_period=PERIOD) with its default states, on the raw ranges; "
+                            "the RMSE over every epoch.")
+    yield check_number(ns["scale_end"], float(estimated.x[-1, 4]), rtol=1e-5, name="scale_end",
+                       reveal_expected=False, common_mistakes=mistakes,
+                       hint="The scale is the fifth state of [x, y, heading, gyro bias, scale]; take its last epoch.")
+
+
+def part_d(ns: Answers) -> Iterator[Feedback]:
+    from scipy import stats
+
+    from ...datasets.study import nees
+
+    s_cal, problem = _student_scale(ns)
+    if problem is not None:
+        yield problem
+        return
+    calibrated = _calibrated(s_cal)
+    e = _position_nees(calibrated)
+    pose = nees(calibrated.x, calibrated.P, _data().truth, "pose")
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
+    inside = float(np.mean((e >= lo) & (e <= hi)))
+    yield check_number(ns["nees_mean"], float(np.mean(e)), rtol=1e-4, name="nees_mean", reveal_expected=False,
+                       common_mistakes={float(np.mean(pose)): "That is the NEES of the pose [x, y, heading]; the "
+                                                              "task asks for the position [x, y] only.",
+                                        float(np.median(e)): "That is the median; the task asks for the mean."},
+                       hint="The error of [x, y] against the truth and the 2 x 2 position block of the calibrated "
+                            "filter's P, at every epoch.")
+    yield check_number(ns["nees_inside"], inside, rtol=1e-4, name="nees_inside", reveal_expected=False,
+                       common_mistakes={100 * inside: "That is a percentage; the task asks for a fraction."},
+                       hint="The two-sided 95 % interval of chi-square with 2 degrees of freedom, and the fraction "
+                            "of the epochs whose NEES lies in it.")
+
+
+def reference() -> dict[str, float]:
+    """The lab's reference answers, for the instructor (the hidden tests never print them).
+
+    Returns
+    -------
+    dict
+        ``s_cal``, ``rmse_cal``, ``rmse_est``, ``scale_end``, ``nees_mean`` and ``nees_inside``.
+    """
+    s_cal = _s_cal_reference()
+    calibrated, estimated = _calibrated(s_cal), _navigate()
+    e = _position_nees(calibrated)
+    from scipy import stats
+
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
+    return {"s_cal": s_cal, "rmse_cal": _rmse(calibrated.x), "rmse_est": _rmse(estimated.x),
+            "scale_end": float(estimated.x[-1, 4]), "nees_mean": float(np.mean(e)),
+            "nees_inside": float(np.mean((e >= lo) & (e <= hi)))}
+
+
+PARTS = {"A": part_a, "B": part_b, "C": part_c, "D": part_d}
