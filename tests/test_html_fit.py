@@ -13,7 +13,7 @@ widgets have rendered:
   page sideways); the test names the widest elements that stick out.
 
 ``python tests/test_html_fit.py [HTML_DIR]`` prints the same counts for a built book without pytest
-(``-v``: every overflow) (for instance
+(``-v``: every overflow; ``-kNAME``: only the pages whose name holds NAME) (for instance
 the main checkout's ``_build/html``), page by page.
 """
 
@@ -78,10 +78,17 @@ MEASURE = r"""() => {
   const culprits = [];
   if (page) {
     const limit = root.clientWidth + TOL;
+    const clipped = el => {  // inside a box that scrolls or clips: it cannot widen the page
+      for (let a = el.parentElement; a && a !== document.body; a = a.parentElement) {
+        if (getComputedStyle(a).overflowX !== 'visible') return true;
+      }
+      return false;
+    };
     for (const el of document.body.querySelectorAll('*')) {
       const r = el.getBoundingClientRect();
       if (r.width === 0 || r.right <= limit) continue;
       if (el.parentElement && el.parentElement.getBoundingClientRect().right > limit) continue;  // outermost only
+      if (clipped(el)) continue;
       culprits.push(`${el.tagName.toLowerCase()}.${String(el.className).split(' ')[0]} ${where(el)} ` +
                     `(right edge ${Math.round(r.right)} px)`);
       if (culprits.length >= 5) break;
@@ -160,7 +167,8 @@ def main(argv: list[str]) -> int:
     from test_browser import CHROMIUM, CHROMIUM_FLAGS
 
     verbose = "-v" in argv
-    paths = [a for a in argv if a != "-v"]
+    only = [a[2:] for a in argv if a.startswith("-k")]
+    paths = [a for a in argv if not a.startswith("-")]
     html = Path(paths[0]).resolve() if paths else HTML_DIR
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -187,6 +195,8 @@ def main(argv: list[str]) -> int:
                 tabs[name].set_viewport_size({"width": width, "height": HEIGHT})
             print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page':>22s}" for w in WIDTHS))
             for doc in DOCNAMES:
+                if only and not any(o in doc for o in only):
+                    continue
                 row = []
                 for name in WIDTHS:
                     facts = measure(tabs[name], base + f"{doc}.html")
