@@ -44,7 +44,11 @@ def quadratic_form(vec: np.ndarray, cov: np.ndarray, name: str) -> np.ndarray:
     --------
     >>> import numpy as np
     >>> from uwtutor._linalg import quadratic_form
-    >>> quadratic_form(np.array([[2.0, 0.0], [np.nan, 1.0]]), np.tile(np.eye(2) * 4.0, (2, 1, 1)), "S")
+    >>> quadratic_form(
+    ...     np.array([[2.0, 0.0], [np.nan, 1.0]]),
+    ...     np.tile(np.eye(2) * 4.0, (2, 1, 1)),
+    ...     "S",
+    ... )
     array([ 1., nan])
     """
     n = vec.shape[-1]
@@ -91,7 +95,8 @@ def psd_violations(P: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
     --------
     >>> import numpy as np
     >>> from uwtutor._linalg import psd_violations
-    >>> P = np.stack([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]], axis=-1)   # two runs, runs-last
+    >>> # two runs, runs-last
+    >>> P = np.stack([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]], axis=-1)
     >>> psd_violations(P)
     array([False,  True])
     """

@@ -503,7 +503,9 @@ def check_finite_result(result: Any, *names: str, what: str = "the result") -> A
 
     >>> with np.errstate(over="ignore"):
     ...     r = np.array([1e308]) * 10
-    >>> check_finite_result(r, "travel_time", "sound_speed", what="the range")  # doctest: +ELLIPSIS
+    >>> check_finite_result(  # doctest: +ELLIPSIS
+    ...     r, "travel_time", "sound_speed", what="the range"
+    ... )
     Traceback (most recent call last):
         ...
     ValueError: the range overflows float64 for these travel_time and sound_speed (...): change their units

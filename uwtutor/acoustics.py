@@ -55,9 +55,9 @@ def sound_speed(temperature: Any, salinity: Any, depth: Any) -> float | np.ndarr
 
     .. math::
 
-        c = 1448.96 + 4.591\,T - 5.304\times10^{-2}\,T^2 + 2.374\times10^{-4}\,T^3
-            + 1.340\,(S - 35) + 1.630\times10^{-2}\,D + 1.675\times10^{-7}\,D^2
-            - 1.025\times10^{-2}\,T\,(S - 35) - 7.139\times10^{-13}\,T\,D^3
+        c = {} & 1448.96 + 4.591\,T - 5.304\times10^{-2}\,T^2 + 2.374\times10^{-4}\,T^3 \\
+            & + 1.340\,(S - 35) + 1.630\times10^{-2}\,D + 1.675\times10^{-7}\,D^2 \\
+            & - 1.025\times10^{-2}\,T\,(S - 35) - 7.139\times10^{-13}\,T\,D^3
 
     with :math:`T` in degrees Celsius, :math:`S` in PSU (parts per thousand) and :math:`D` in metres.
     The published standard error is about 0.07 m/s.

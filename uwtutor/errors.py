@@ -11,8 +11,14 @@ squares problem too ill-conditioned to trust -- share the subclass :class:`Geome
 Examples
 --------
 >>> import warnings
->>> from uwtutor.errors import BeaconSingularityWarning, GeometryWarning, UwtutorWarning
->>> issubclass(BeaconSingularityWarning, GeometryWarning) and issubclass(GeometryWarning, UwtutorWarning)
+>>> from uwtutor.errors import (
+...     BeaconSingularityWarning,
+...     GeometryWarning,
+...     UwtutorWarning,
+... )
+>>> issubclass(BeaconSingularityWarning, GeometryWarning) and issubclass(
+...     GeometryWarning, UwtutorWarning
+... )
 True
 """
 

@@ -409,7 +409,11 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     --------
     >>> import numpy as np
     >>> from uwtutor.grey import gm11_forecast
-    >>> gm11_forecast(np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]])).round(3)
+    >>> gm11_forecast(
+    ...     np.array(
+    ...         [[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]]
+    ...     )
+    ... ).round(3)
     array([[3.751],
            [5.   ]])
     """
@@ -441,7 +445,11 @@ def gm11_next(series: Any) -> np.ndarray:
     --------
     >>> import numpy as np
     >>> from uwtutor.grey import gm11_next
-    >>> gm11_next(np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]])).round(3)
+    >>> gm11_next(
+    ...     np.array(
+    ...         [[2.874, 3.278, 3.337, 3.390, 3.679], [5.0, 5.0, 5.0, 5.0, 5.0]]
+    ...     )
+    ... ).round(3)
     array([3.751, 5.   ])
     """
     x0 = as_float_array("series", series)       # dtype checks; NaN and <= 0 refused below

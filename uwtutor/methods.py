@@ -380,7 +380,9 @@ def run(name: str, scenario: str, condition: str, rng: Any, n_runs: int = 1) -> 
     --------
     >>> import numpy as np
     >>> from uwtutor import methods
-    >>> res, truth = methods.run("EKF", "circle", "white", np.random.default_rng(7), n_runs=20)
+    >>> res, truth = methods.run(
+    ...     "EKF", "circle", "white", np.random.default_rng(7), n_runs=20
+    ... )
     >>> res.x.shape, truth.shape
     ((20, 150, 2), (20, 150, 2))
     >>> err = np.linalg.norm(res.x[:, -1] - truth[:, -1], axis=-1)
@@ -424,8 +426,14 @@ def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any 
     Examples
     --------
     >>> from uwtutor import methods
-    >>> table = methods.compare_suite(200, seed=3, methods=["EKF", "IEKF"], scenarios=["circle"],
-    ...                               conditions=["bias"], measure_cost=False)
+    >>> table = methods.compare_suite(
+    ...     200,
+    ...     seed=3,
+    ...     methods=["EKF", "IEKF"],
+    ...     scenarios=["circle"],
+    ...     conditions=["bias"],
+    ...     measure_cost=False,
+    ... )
     >>> [(r["method"], round(r["efficiency"], 1) > 0.9) for r in table.rows()]
     [('EKF', True), ('IEKF', True)]
     """

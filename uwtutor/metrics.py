@@ -154,7 +154,8 @@ def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.nda
     --------
     >>> import numpy as np
     >>> from uwtutor.metrics import rmse_over_time
-    >>> est = np.array([[[3.0, 4.0], [0.0, 1.0]], [[0.0, 0.0], [1.0, 0.0]]])   # M = 2 runs, K = 2 steps
+    >>> # M = 2 runs, K = 2 steps
+    >>> est = np.array([[[3.0, 4.0], [0.0, 1.0]], [[0.0, 0.0], [1.0, 0.0]]])
     >>> rmse_over_time(est, np.zeros((2, 2)))
     array([3.53553391, 1.        ])
     """

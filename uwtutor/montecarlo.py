@@ -206,21 +206,35 @@ def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, co
     >>> from uwtutor.filters import range_only_ekf
     >>> from uwtutor.montecarlo import run_monte_carlo
     >>> rng = np.random.default_rng(7)
-    >>> M, K, q, r = 500, 400, 0.3, 2.0                    # DR noise std per step and range noise std [m]
+    >>> # DR noise std per step and range noise std [m]
+    >>> M, K, q, r = 500, 400, 0.3, 2.0
     >>> theta = np.linspace(0.0, 2 * np.pi, K + 1)
     >>> track = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
-    >>> truth = np.broadcast_to(track[1:], (M, K, 2)) + np.cumsum(rng.normal(0.0, q, (M, K, 2)), axis=1)
-    >>> u = np.diff(track, axis=0)                         # what the DR reports, the same for every run
+    >>> truth = np.broadcast_to(track[1:], (M, K, 2)) + np.cumsum(
+    ...     rng.normal(0.0, q, (M, K, 2)), axis=1
+    ... )
+    >>> # what the DR reports, the same for every run
+    >>> u = np.diff(track, axis=0)
     >>> z = np.linalg.norm(truth, axis=-1) + rng.normal(0.0, r, (M, K))
     >>> P0 = np.eye(2) * 25.0
     >>> x0 = track[0] + rng.multivariate_normal([0.0, 0.0], P0, M)
-    >>> study = run_monte_carlo(range_only_ekf, truth, x0=x0, P0=P0, u=u, z=z, Q=np.eye(2) * q**2, R=r**2)
+    >>> study = run_monte_carlo(
+    ...     range_only_ekf,
+    ...     truth,
+    ...     x0=x0,
+    ...     P0=P0,
+    ...     u=u,
+    ...     z=z,
+    ...     Q=np.eye(2) * q**2,
+    ...     R=r**2,
+    ... )
     >>> study.rmse.shape, study.final_errors.shape, study.mean_nees.shape
     ((400,), (500,), (400,))
     >>> bool(study.rmse[-1] < study.rmse[0])
     True
     >>> lo, hi = study.nees_bounds
-    >>> bool(lo < np.mean(study.mean_nees) < hi)             # consistent: mean NEES close to 2
+    >>> # consistent: mean NEES close to 2
+    >>> bool(lo < np.mean(study.mean_nees) < hi)
     True
     """
     if not callable(filter_fn):
@@ -546,8 +560,14 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
     ...     x0 = track[0] + rng.normal(0.0, 5.0, (n, 2))
     ...     return dict(x0=x0, z=z), truth
     >>> def estimate(inputs):
-    ...     return range_only_ekf(inputs["x0"], 25.0 * np.eye(2), np.diff(track, axis=0), inputs["z"],
-    ...                           q**2 * np.eye(2), r**2)
+    ...     return range_only_ekf(
+    ...         inputs["x0"],
+    ...         25.0 * np.eye(2),
+    ...         np.diff(track, axis=0),
+    ...         inputs["z"],
+    ...         q**2 * np.eye(2),
+    ...         r**2,
+    ...     )
     >>> study = run_study(draw, estimate, 3000, seed=2026, chunk_size=1000)
     >>> study.final_errors.shape, study.rmse.shape, study.n_chunks
     ((3000,), (200,), 3)
@@ -972,28 +992,54 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
     >>> from uwtutor.filters import range_only_ekf
     >>> from uwtutor.montecarlo import compare
     >>> K = 150
-    >>> def circle(rng, n):                       # n runs of a track: (n, K + 1, 2), x0 first
+    >>> # n runs of a track: (n, K + 1, 2), x0 first
+    >>> def circle(rng, n):
     ...     t = np.linspace(0.0, np.pi, K + 1)
-    ...     return np.broadcast_to(300.0 * np.column_stack([np.cos(t), np.sin(t)]), (n, K + 1, 2))
+    ...     return np.broadcast_to(
+    ...         300.0 * np.column_stack([np.cos(t), np.sin(t)]), (n, K + 1, 2)
+    ...     )
     >>> def line(rng, n):
-    ...     xy = np.column_stack([np.linspace(-300.0, 300.0, K + 1), np.full(K + 1, 150.0)])
+    ...     xy = np.column_stack(
+    ...         [np.linspace(-300.0, 300.0, K + 1), np.full(K + 1, 150.0)]
+    ...     )
     ...     return np.broadcast_to(xy, (n, K + 1, 2))
     >>> def measured(bias):
     ...     def condition(rng, tracks):
     ...         n, truth = len(tracks), tracks[:, 1:]
-    ...         z = np.linalg.norm(truth, axis=-1) + bias + rng.normal(0.0, 2.0, (n, K))
+    ...         z = (
+    ...             np.linalg.norm(truth, axis=-1)
+    ...             + bias
+    ...             + rng.normal(0.0, 2.0, (n, K))
+    ...         )
     ...         x0 = tracks[:, 0] + rng.normal(0.0, 5.0, (n, 2))
     ...         return dict(x0=x0, z=z, u=np.diff(tracks, axis=1)), truth
+    ...
     ...     return condition
     >>> def ekf(inputs):
-    ...     return range_only_ekf(inputs["x0"], 25.0 * np.eye(2), inputs["u"], inputs["z"], 0.01 * np.eye(2), 4.0)
-    >>> table = compare({"EKF": ekf}, {"circle": circle, "line": line},
-    ...                 {"white": measured(0.0), "bias 5 m": measured(5.0)}, n_runs=400, seed=1, chunk_size=400,
-    ...                 measure_cost=False)
+    ...     return range_only_ekf(
+    ...         inputs["x0"],
+    ...         25.0 * np.eye(2),
+    ...         inputs["u"],
+    ...         inputs["z"],
+    ...         0.01 * np.eye(2),
+    ...         4.0,
+    ...     )
+    >>> table = compare(
+    ...     {"EKF": ekf},
+    ...     {"circle": circle, "line": line},
+    ...     {"white": measured(0.0), "bias 5 m": measured(5.0)},
+    ...     n_runs=400,
+    ...     seed=1,
+    ...     chunk_size=400,
+    ...     measure_cost=False,
+    ... )
     >>> len(table), table.columns[:4]
     (4, ('method', 'scenario', 'condition', 'n_runs'))
     >>> for r in table.rows():
-    ...     print(f"{r['scenario']:6s} {r['condition']:8s} final RMSE {r['final_rmse']:5.1f} m")
+    ...     print(
+    ...         f"{r['scenario']:6s} {r['condition']:8s} "
+    ...         f"final RMSE {r['final_rmse']:5.1f} m"
+    ...     )
     circle white    final RMSE   0.5 m
     circle bias 5 m final RMSE   6.5 m
     line   white    final RMSE   0.4 m

@@ -193,7 +193,8 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
 
     Examples
     --------
-    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]]) + 0.0     # + 0.0 turns -0.0 into 0.0
+    >>> # + 0.0 turns -0.0 into 0.0
+    >>> range_jacobian([0.0, 0.0], [[100.0, 0.0], [0.0, -50.0]]) + 0.0
     array([[-1.,  0.],
            [ 0.,  1.]])
     """
@@ -643,7 +644,9 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
 
     >>> import numpy as np
     >>> from uwtutor.observability import precision_factor
-    >>> beacons = np.array([[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0], [0.0, -100.0]])
+    >>> beacons = np.array(
+    ...     [[100.0, 0.0], [0.0, 100.0], [-100.0, 0.0], [0.0, -100.0]]
+    ... )
     >>> round(precision_factor(beacons, [0.0, 0.0]), 12)
     1.25
     """
@@ -1317,17 +1320,28 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
     >>> from uwtutor.observability import posterior_crlb, rmse_bound
     >>> theta = np.linspace(0.0, 2 * np.pi, 401)[1:]
     >>> track = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
-    >>> pcrb = posterior_crlb(track, [0.0, 0.0], sigma=2.0, Q=0.3**2 * np.eye(2), P0=25.0 * np.eye(2))
+    >>> pcrb = posterior_crlb(
+    ...     track, [0.0, 0.0], sigma=2.0, Q=0.3**2 * np.eye(2), P0=25.0 * np.eye(2)
+    ... )
     >>> pcrb.shape
     (400, 2, 2)
     >>> bound = rmse_bound(pcrb)
-    >>> print(f"{bound[0]:.2f} m at the first epoch, {bound[-1]:.2f} m at the last")
+    >>> print(
+    ...     f"{bound[0]:.2f} m at the first epoch, {bound[-1]:.2f} m at the last"
+    ... )
     5.34 m at the first epoch, 2.62 m at the last
 
     With an unknown range bias (paper A's three states), the full bound has the bias too:
 
-    >>> full = posterior_crlb(track, [0.0, 0.0], 2.0, 0.3**2 * np.eye(2), np.diag([25.0, 25.0, 4.0]),
-    ...                       bias=True, full=True)
+    >>> full = posterior_crlb(
+    ...     track,
+    ...     [0.0, 0.0],
+    ...     2.0,
+    ...     0.3**2 * np.eye(2),
+    ...     np.diag([25.0, 25.0, 4.0]),
+    ...     bias=True,
+    ...     full=True,
+    ... )
     >>> full.shape, bool(rmse_bound(full[-1]) > bound[-1])
     ((400, 3, 3), True)
     """
@@ -1532,15 +1546,27 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
     >>> import numpy as np
     >>> from uwtutor.models import BeaconRanges, OdometryMotion
     >>> from uwtutor.observability import model_posterior_crlb, rmse_bound
-    >>> motion = OdometryMotion(sigma_distance=0.05, sigma_heading=0.01, scale=True)
-    >>> ranges = BeaconRanges([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]], R=0.1**2, layout=motion.layout)
-    >>> u = np.tile([[1.0, 2 * np.pi / 100]], (100, 1))                 # a circle of 100 m
+    >>> motion = OdometryMotion(
+    ...     sigma_distance=0.05, sigma_heading=0.01, scale=True
+    ... )
+    >>> ranges = BeaconRanges(
+    ...     [[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]],
+    ...     R=0.1**2,
+    ...     layout=motion.layout,
+    ... )
+    >>> # a circle of 100 m
+    >>> u = np.tile([[1.0, 2 * np.pi / 100]], (100, 1))
     >>> x0 = np.array([20.0, 15.0 - 100 / (2 * np.pi), 0.0, 1.07])
     >>> truth = motion.integrate(x0, u)
-    >>> bound = model_posterior_crlb(motion, ranges, x0, np.diag([4.0, 4.0, 0.1, 0.01]), truth, u, full=True)
+    >>> bound = model_posterior_crlb(
+    ...     motion, ranges, x0, np.diag([4.0, 4.0, 0.1, 0.01]), truth, u, full=True
+    ... )
     >>> bound.shape
     (100, 4, 4)
-    >>> print(f"position {rmse_bound(bound[-1]):.2f} m, scale {np.sqrt(bound[-1, 3, 3]):.1e}")
+    >>> print(
+    ...     f"position {rmse_bound(bound[-1]):.2f} m, "
+    ...     f"scale {np.sqrt(bound[-1, 3, 3]):.1e}"
+    ... )
     position 0.07 m, scale 2.7e-04
     """
     if not isinstance(motion, MotionModel):

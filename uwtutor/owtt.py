@@ -216,9 +216,11 @@ def resolve_travel_time(wrapped: Any, predicted_range: Any, sound_speed: Any = 1
     Examples
     --------
     >>> from uwtutor.owtt import resolve_travel_time
-    >>> round(resolve_travel_time(0.25, 1900.0), 12)          # true travel time 1.25 s (1875 m)
+    >>> # true travel time 1.25 s (1875 m)
+    >>> round(resolve_travel_time(0.25, 1900.0), 12)
     1.25
-    >>> round(resolve_travel_time(0.25, 2700.0), 12)          # a prediction 825 m off: one second too many
+    >>> # a prediction 825 m off: one second too many
+    >>> round(resolve_travel_time(0.25, 2700.0), 12)
     2.25
     """
     w = as_float_array("wrapped", wrapped)
@@ -338,7 +340,11 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     >>> m = simulate_owtt([0.0], (0.0, 0.0), follower, clock_offset=1e-3)
     >>> round(float(m.ranges[0] - m.true_ranges[0]), 6)
     1.5
-    >>> round(float(m.follower_positions[0, 0] - m.follower_positions_at_send[0, 0]), 3)   # moved 2 m/s x 1.0013 s
+    >>> # moved 2 m/s x 1.0013 s
+    >>> round(
+    ...     float(m.follower_positions[0, 0] - m.follower_positions_at_send[0, 0]),
+    ...     3,
+    ... )
     2.003
     """
     ts = _as_times("send_times", send_times)

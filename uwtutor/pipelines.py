@@ -190,7 +190,12 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     >>> from uwtutor.pipelines import or_vmlbl_kf
     >>> from uwtutor.scenarios import paper_e
     >>> dive = paper_e.make(np.random.default_rng(3))
-    >>> out = or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth)
+    >>> out = or_vmlbl_kf(
+    ...     dive.slant_ranges[0],
+    ...     dive.ship_positions[0],
+    ...     dive.dr_positions[0],
+    ...     depth=dive.depth,
+    ... )
     >>> truth = dive.true_positions[0][out.now]
     >>> def rms(e): return float(np.sqrt(np.mean(np.sum(e ** 2, axis=-1))))
     >>> rms(out.filtered - truth) < rms(out.fixes - truth)
@@ -374,8 +379,14 @@ def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_posit
     >>> from uwtutor.pipelines import vmlbl_error_budget
     >>> from uwtutor.scenarios import paper_e
     >>> dive = paper_e.make(np.random.default_rng(0))
-    >>> b = vmlbl_error_budget(np.random.default_rng(1), dive.ship_positions[0], dive.true_positions[0],
-    ...                        depth=dive.depth, levels=[1.0, 2.0], n_runs=2000)
+    >>> b = vmlbl_error_budget(
+    ...     np.random.default_rng(1),
+    ...     dive.ship_positions[0],
+    ...     dive.true_positions[0],
+    ...     depth=dive.depth,
+    ...     levels=[1.0, 2.0],
+    ...     n_runs=2000,
+    ... )
     >>> b.rms.shape, bool(b.slope[1] > b.slope[0] > 1.0), float(b.slope[2]) < 1e-6
     ((3, 2), True, True)
     """

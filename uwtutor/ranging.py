@@ -172,7 +172,9 @@ class GaussianNoise(RangeErrorModel):
     --------
     >>> import numpy as np
     >>> from uwtutor.ranging import GaussianNoise
-    >>> e = GaussianNoise(0.7).sample(np.full(5, 1000.0), np.arange(5.0), np.random.default_rng(1), n_runs=3)
+    >>> e = GaussianNoise(0.7).sample(
+    ...     np.full(5, 1000.0), np.arange(5.0), np.random.default_rng(1), n_runs=3
+    ... )
     >>> e.shape
     (3, 5)
     """
@@ -445,8 +447,14 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     >>> import numpy as np
     >>> from uwtutor.ranging import GaussianNoise, SoundSpeedError, measure_ranges
     >>> rng = np.random.default_rng(3)
-    >>> r = measure_ranges(np.full(150, 2000.0), np.arange(150.0), SoundSpeedError() + GaussianNoise(0.7), rng)
-    >>> bool(abs(r.mean() - 1960.0) < 1.0)     # 1470/1500 of the true range on average
+    >>> r = measure_ranges(
+    ...     np.full(150, 2000.0),
+    ...     np.arange(150.0),
+    ...     SoundSpeedError() + GaussianNoise(0.7),
+    ...     rng,
+    ... )
+    >>> # 1470/1500 of the true range on average
+    >>> bool(abs(r.mean() - 1960.0) < 1.0)
     True
     """
     if error is not None and not isinstance(error, RangeErrorModel):

@@ -133,7 +133,8 @@ def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
     Examples
     --------
     >>> from uwtutor.wavelet import mad_sigma
-    >>> round(float(mad_sigma([0.5, -1.0, 0.2, 2.0, -0.7])), 4)     # median |d| = 0.7
+    >>> # median |d| = 0.7
+    >>> round(float(mad_sigma([0.5, -1.0, 0.2, 2.0, -0.7])), 4)
     1.0378
     """
     d = as_float_array("coefficients", coefficients)
@@ -301,7 +302,9 @@ def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mod
     >>> k = np.arange(4000)
     >>> sd = np.where(k < 2000, 0.1, 0.2)
     >>> s = sliding_noise_sigma(np.sin(k / 50) + rng.normal(0.0, sd), window=50)
-    >>> bool(np.isnan(s[:49]).all()), round(float(np.mean(s[49:2000])), 2), round(float(np.mean(s[2049:])), 2)
+    >>> bool(np.isnan(s[:49]).all()), round(float(np.mean(s[49:2000])), 2), round(
+    ...     float(np.mean(s[2049:])), 2
+    ... )
     (True, 0.1, 0.2)
     """
     w = as_wavelet(wavelet)

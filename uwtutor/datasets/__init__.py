@@ -25,8 +25,13 @@ Examples
 --------
 >>> import numpy as np
 >>> from uwtutor.datasets import RangeDataset
->>> data = RangeDataset(times=[0.0, 2.0, 4.0], odometry=[[0, 0], [2, 0], [2, 0]],
-...                     ranges=[[2.1, 1, 3.0]], beacons={1: (2.0, 3.0)}, start=[0.0, 0.0, 0.0])
+>>> data = RangeDataset(
+...     times=[0.0, 2.0, 4.0],
+...     odometry=[[0, 0], [2, 0], [2, 0]],
+...     ranges=[[2.1, 1, 3.0]],
+...     beacons={1: (2.0, 3.0)},
+...     start=[0.0, 0.0, 0.0],
+... )
 >>> data.ranges_on_epochs([1])
 array([[nan],
        [ 3.],

@@ -148,7 +148,12 @@ class RangeDataset:
 
     A bad field is named, with the fix:
 
-    >>> RangeDataset(times=[0.0, 1.0], odometry=[[0, 0]], ranges=np.zeros((0, 3)), beacons={})
+    >>> RangeDataset(
+    ...     times=[0.0, 1.0],
+    ...     odometry=[[0, 0]],
+    ...     ranges=np.zeros((0, 3)),
+    ...     beacons={},
+    ... )
     Traceback (most recent call last):
         ...
     ValueError: odometry must have one row per epoch, K = len(times) = 2; got 1 row(s). Row k is the motion from times[k-1] to times[k]; if your log has K - 1 steps, put a row [0, 0] first for the first epoch
@@ -279,7 +284,12 @@ class RangeDataset:
         Examples
         --------
         >>> from uwtutor.datasets import RangeDataset
-        >>> data = RangeDataset([0.0, 1.0], [[0, 0], [1, 0]], [[0.5, 2, 3.0]], {1: (0.0, 5.0), 2: (3.0, 4.0)})
+        >>> data = RangeDataset(
+        ...     [0.0, 1.0],
+        ...     [[0, 0], [1, 0]],
+        ...     [[0.5, 2, 3.0]],
+        ...     {1: (0.0, 5.0), 2: (3.0, 4.0)},
+        ... )
         >>> data.beacon_positions([2, 1])
         array([[3., 4.],
                [0., 5.]])
@@ -318,8 +328,13 @@ class RangeDataset:
         >>> import numpy as np
         >>> from uwtutor.datasets import RangeDataset
         >>> turn = np.pi / 2
-        >>> data = RangeDataset(np.arange(5.0), [[0, 0], [1, turn], [1, turn], [1, turn], [1, turn]],
-        ...                     np.zeros((0, 3)), {}, start=[0.0, 0.0, 0.0])
+        >>> data = RangeDataset(
+        ...     np.arange(5.0),
+        ...     [[0, 0], [1, turn], [1, turn], [1, turn], [1, turn]],
+        ...     np.zeros((0, 3)),
+        ...     {},
+        ...     start=[0.0, 0.0, 0.0],
+        ... )
         >>> data.dead_reckoning()[:, :2].round(6) + 0.0
         array([[0., 0.],
                [1., 0.],
@@ -377,9 +392,16 @@ class RangeDataset:
         >>> data = RangeDataset(
         ...     times=[0.0, 1.0, 2.0, 3.0],
         ...     odometry=[[0, 0], [1, 0], [1, 0], [1, 0]],
-        ...     ranges=[[0.2, 5, 10.0], [0.7, 5, 11.0], [1.1, 5, 12.0], [1.1, 9, 20.0], [2.9, 5, 13.0]],
+        ...     ranges=[
+        ...         [0.2, 5, 10.0],
+        ...         [0.7, 5, 11.0],
+        ...         [1.1, 5, 12.0],
+        ...         [1.1, 9, 20.0],
+        ...         [2.9, 5, 13.0],
+        ...     ],
         ...     beacons={5: (0.0, 10.0), 9: (20.0, 0.0)},
-        ...     start=[0.0, 0.0, 0.0])
+        ...     start=[0.0, 0.0, 0.0],
+        ... )
         >>> data.ranges_on_epochs()
         array([[10., nan],
                [12., 20.],
@@ -435,8 +457,13 @@ class RangeDataset:
         Examples
         --------
         >>> from uwtutor.datasets import RangeDataset
-        >>> data = RangeDataset([0.0, 1.0], [[0, 0], [3, 0]], [[1.0, 0, 5.1]], {0: (3.0, 4.0)},
-        ...                     truth=[[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+        >>> data = RangeDataset(
+        ...     [0.0, 1.0],
+        ...     [[0, 0], [3, 0]],
+        ...     [[1.0, 0, 5.1]],
+        ...     {0: (3.0, 4.0)},
+        ...     truth=[[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]],
+        ... )
         >>> data.true_ranges()
         array([[5.],
                [4.]])
@@ -487,7 +514,13 @@ class RangeDataset:
         --------
         >>> import tempfile, pathlib
         >>> from uwtutor.datasets import RangeDataset
-        >>> data = RangeDataset([0.0, 1.0], [[0, 0], [1, 0]], [[0.5, 2, 3.0]], {2: (3.0, 4.0)}, start=[0, 0, 0])
+        >>> data = RangeDataset(
+        ...     [0.0, 1.0],
+        ...     [[0, 0], [1, 0]],
+        ...     [[0.5, 2, 3.0]],
+        ...     {2: (3.0, 4.0)},
+        ...     start=[0, 0, 0],
+        ... )
         >>> with tempfile.TemporaryDirectory() as folder:
         ...     path = pathlib.Path(folder) / "log.npz"
         ...     data.save(path)
@@ -514,8 +547,14 @@ class RangeDataset:
         Examples
         --------
         >>> from uwtutor.datasets import RangeDataset
-        >>> data = RangeDataset([0.0, 1.0, 2.0], [[0, 0], [1, 0], [1, 0]], [[0.5, 2, 3.0], [1.5, 2, 2.5]],
-        ...                     {2: (3.0, 4.0), 4: (0.0, -1.0)}, start=[0, 0, 0], name="demo")
+        >>> data = RangeDataset(
+        ...     [0.0, 1.0, 2.0],
+        ...     [[0, 0], [1, 0], [1, 0]],
+        ...     [[0.5, 2, 3.0], [1.5, 2, 2.5]],
+        ...     {2: (3.0, 4.0), 4: (0.0, -1.0)},
+        ...     start=[0, 0, 0],
+        ...     name="demo",
+        ... )
         >>> print(data.summary())
         demo: 3 epochs over 2 s (odometry at 1 Hz), 2 m travelled by odometry
         2 ranges to 2 beacons:

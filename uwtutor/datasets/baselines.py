@@ -107,8 +107,13 @@ def world_displacements(data: RangeDataset) -> np.ndarray:
     >>> import numpy as np
     >>> from uwtutor.datasets import RangeDataset
     >>> from uwtutor.datasets.baselines import world_displacements
-    >>> data = RangeDataset(times=[0.0, 1.0, 2.0, 3.0], odometry=[[0, 0], [1, 0], [1, np.pi / 2], [1, 0]],
-    ...                     ranges=[[1.0, 3, 5.0]], beacons={3: (1.0, 5.0)}, start=[0.0, 0.0, np.pi / 2])
+    >>> data = RangeDataset(
+    ...     times=[0.0, 1.0, 2.0, 3.0],
+    ...     odometry=[[0, 0], [1, 0], [1, np.pi / 2], [1, 0]],
+    ...     ranges=[[1.0, 3, 5.0]],
+    ...     beacons={3: (1.0, 5.0)},
+    ...     start=[0.0, 0.0, np.pi / 2],
+    ... )
     >>> world_displacements(data).round(6) + 0.0
     array([[ 0.,  0.],
            [ 0.,  1.],

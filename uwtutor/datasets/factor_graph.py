@@ -135,14 +135,24 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
     >>> turn[:2] = 0.0
     >>> odo = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> truth = RangeDataset(times=np.arange(K, dtype=float), odometry=odo, ranges=np.zeros((0, 3)),
-    ...                      beacons={1: (5.0, 12.0)}, start=[0.0, 0.0, 0.0]).dead_reckoning()
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odo,
+    ...     ranges=np.zeros((0, 3)),
+    ...     beacons={1: (5.0, 12.0)},
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
     >>> beacons = {1: (5.0, 12.0), 2: (-4.0, 3.0)}
     >>> ids = np.where(np.arange(1, K) % 2 == 0, 1, 2)
     >>> b = np.array([beacons[int(i)] for i in ids])
     >>> r = np.linalg.norm(truth[1:, :2] - b, axis=1)
-    >>> data = RangeDataset(times=np.arange(K, dtype=float), odometry=odo,
-    ...                     ranges=np.column_stack([np.arange(1.0, K), ids, r]), beacons=beacons, truth=truth)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odo,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
     >>> solution = gtsam_map(data, initial=truth + [0.5, -0.3, 0.05])
     >>> solution.poses.shape, solution.n_ranges
     ((41, 3), 40)

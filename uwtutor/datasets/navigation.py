@@ -113,14 +113,25 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     >>> turn[0] = 0.0
     >>> odometry = np.column_stack([np.full(K, 0.5), turn + 0.002 * dt])
     >>> odometry[0] = 0.0
-    >>> truth = RangeDataset(times=dt * np.arange(K), odometry=np.column_stack([odometry[:, 0], turn]),
-    ...                      ranges=np.empty((0, 3)), beacons={7: (50.0, 50.0)},
-    ...                      start=[0.0, 0.0, 0.0]).dead_reckoning()
+    >>> truth = RangeDataset(
+    ...     times=dt * np.arange(K),
+    ...     odometry=np.column_stack([odometry[:, 0], turn]),
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons={7: (50.0, 50.0)},
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
     >>> heard = np.arange(1, K, 4)
-    >>> r = 1.03 * np.linalg.norm(truth[heard, :2] - [50.0, 50.0], axis=1) + rng.normal(0.0, 0.3, heard.size)
-    >>> data = RangeDataset(times=dt * np.arange(K), odometry=odometry,
-    ...                     ranges=np.column_stack([dt * heard, np.full(heard.size, 7), r]),
-    ...                     beacons={7: (50.0, 50.0)}, start=[0.0, 0.0, 0.0], truth=truth)
+    >>> r = 1.03 * np.linalg.norm(
+    ...     truth[heard, :2] - [50.0, 50.0], axis=1
+    ... ) + rng.normal(0.0, 0.3, heard.size)
+    >>> data = RangeDataset(
+    ...     times=dt * np.arange(K),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([dt * heard, np.full(heard.size, 7), r]),
+    ...     beacons={7: (50.0, 50.0)},
+    ...     start=[0.0, 0.0, 0.0],
+    ...     truth=truth,
+    ... )
     >>> result = navigate(data, range_sigma=0.3)
     >>> result.x.shape
     (1601, 5)
@@ -190,8 +201,13 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
     Examples
     --------
     >>> from uwtutor.datasets import RangeDataset, navigation_models
-    >>> data = RangeDataset(times=[0.0, 1.0, 2.0], odometry=[[0, 0], [1, 0], [1, 0]],
-    ...                     ranges=[[1.0, 3, 5.0]], beacons={3: (1.0, 5.0)}, start=[0.0, 0.0, 0.0])
+    >>> data = RangeDataset(
+    ...     times=[0.0, 1.0, 2.0],
+    ...     odometry=[[0, 0], [1, 0], [1, 0]],
+    ...     ranges=[[1.0, 3, 5.0]],
+    ...     beacons={3: (1.0, 5.0)},
+    ...     start=[0.0, 0.0, 0.0],
+    ... )
     >>> models = navigation_models(data, gyro_bias=False)
     >>> models.motion.layout.names, models.x0.tolist(), models.z[:, 0].tolist()
     (('x', 'y', 'heading', 'scale'), [0.0, 0.0, 0.0, 1.0], [nan, 5.0, nan])

@@ -138,7 +138,8 @@ def nees(x: Any, P: Any, truth: Any, components: str = "pose") -> np.ndarray:
     >>> from uwtutor.datasets.study import nees
     >>> x = np.array([[1.0, 0.0, np.pi - 0.05]])
     >>> P = np.diag([1.0, 1.0, 0.01])[None]
-    >>> nees(x, P, [[0.0, 0.0, -np.pi + 0.05]]).round(6)      # the heading error is 0.1 rad, not 2 pi - 0.1
+    >>> # the heading error is 0.1 rad, not 2 pi - 0.1
+    >>> nees(x, P, [[0.0, 0.0, -np.pi + 0.05]]).round(6)
     array([2.])
     """
     chosen = {"pose": [0, 1, 2], "position": [0, 1], "heading": [2]}

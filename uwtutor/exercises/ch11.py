@@ -103,7 +103,9 @@ def check_scale(answer: Any) -> Feedback:
     >>> from uwtutor.exercises import ch11
     >>> bool(ch11.check_scale(ch11.scale_variants()["scale"]))
     True
-    >>> print(ch11.check_scale(ch11.scale_variants()["affine_slope"]).hint)       # doctest: +ELLIPSIS
+    >>> print(  # doctest: +ELLIPSIS
+    ...     ch11.check_scale(ch11.scale_variants()["affine_slope"]).hint
+    ... )
     That is the slope of a straight line with an offset...
     """
     v = scale_variants()

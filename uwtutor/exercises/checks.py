@@ -20,8 +20,15 @@ or ``TypeError`` when the *checker* is misconfigured (an ``expected`` that is no
 Examples
 --------
 >>> from uwtutor.exercises.checks import check_number
->>> check_number(3600.0, 1800.0, name="the range", units="m",
-...              common_mistakes={3600.0: "A two-way travel time covers the path twice."})
+>>> check_number(
+...     3600.0,
+...     1800.0,
+...     name="the range",
+...     units="m",
+...     common_mistakes={
+...         3600.0: "A two-way travel time covers the path twice."
+...     },
+... )
 ✘ Not yet: your value for the range, 3600 m, is twice the expected value.
   Hint: A two-way travel time covers the path twice.
 >>> check_number(1800.2, 1800.0, name="the range", units="m")
@@ -394,7 +401,9 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     >>> check_number(-60.0, 60.0, name="the range error", units="m")
     ✘ Not yet: your value for the range error, -60 m, has the right size but the wrong sign.
       Hint: Check the sign convention of the task (for example, error = estimated value − true value).
-    >>> check_number(1510.0, 1480.0, name="c_e", units="m/s", reveal_expected=False)
+    >>> check_number(
+    ...     1510.0, 1480.0, name="c_e", units="m/s", reveal_expected=False
+    ... )
     ✘ Not yet: your value for c_e, 1510 m/s, is too large.
       Hint: Re-read the task: check the formula, each input and its units.
     """
@@ -467,7 +476,14 @@ def read_letter(answer: Any, letters: Sequence[str], *, name: str = "the answer"
     --------
     >>> read_letter("B", "ABC")
     ('B', None)
-    >>> print(read_letter("b", "ABC", name="the overconfident filter", example="overconfident")[1])
+    >>> print(
+    ...     read_letter(
+    ...         "b",
+    ...         "ABC",
+    ...         name="the overconfident filter",
+    ...         example="overconfident",
+    ...     )[1]
+    ... )
     ✘ Not yet: the overconfident filter is asked as a capital letter: write "B", not 'b'.
       Hint: The options are the capital letters "A", "B", "C"; Python tells "b" from "B": `overconfident = "B"`.
     """
@@ -1195,7 +1211,9 @@ def parse_real_array(answer: Any, name: str, shape: tuple[int, ...] | None = Non
 
     Examples
     --------
-    >>> arr, fb = parse_real_array(np.array([1.0, 2.0]) + 5j, "the direction", (2,))
+    >>> arr, fb = parse_real_array(
+    ...     np.array([1.0, 2.0]) + 5j, "the direction", (2,)
+    ... )
     >>> arr is None, fb.correct
     (True, False)
     """

@@ -175,11 +175,14 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import KalmanFilter, run_filter
-    >>> kf = KalmanFilter.constant_velocity(dt=1.0, q=0.01, r=4.0, x0=[100.0, 0.0], P0=np.diag([100.0, 1.0]))
+    >>> kf = KalmanFilter.constant_velocity(
+    ...     dt=1.0, q=0.01, r=4.0, x0=[100.0, 0.0], P0=np.diag([100.0, 1.0])
+    ... )
     >>> result = run_filter(kf, [101.0, 99.5, 100.7, np.nan, 100.2])
     >>> result.x.shape, result.innovations.shape
     ((5, 2), (5, 1))
-    >>> bool(np.isnan(result.innovations[3, 0]))      # the missing measurement: predict only
+    >>> # the missing measurement: predict only
+    >>> bool(np.isnan(result.innovations[3, 0]))
     True
     """
     missing = [name for name in ("x", "P", "predict", "update") if not hasattr(filt, name)]

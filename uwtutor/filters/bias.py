@@ -132,9 +132,17 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     >>> track = 1500.0 * np.column_stack([np.cos(angle), np.sin(angle)])
     >>> u = np.diff(track, axis=0, prepend=track[:1])
     >>> z = 1500.0 + 30.0 + np.random.default_rng(0).normal(0.0, 2.0, 401)
-    >>> res = bias_ekf([track[0, 0] + 20.0, 0.0, 0.0], np.diag([400.0, 400.0, 900.0]), u, z,
-    ...                Q=paper_a_process_noise(0.1), R=4.0)
-    >>> bool(abs(res.x[-1, 2] - 30.0) < 2.0), bool(np.linalg.norm(res.x[-1, :2] - track[-1]) < 3.0)
+    >>> res = bias_ekf(
+    ...     [track[0, 0] + 20.0, 0.0, 0.0],
+    ...     np.diag([400.0, 400.0, 900.0]),
+    ...     u,
+    ...     z,
+    ...     Q=paper_a_process_noise(0.1),
+    ...     R=4.0,
+    ... )
+    >>> bool(abs(res.x[-1, 2] - 30.0) < 2.0), bool(
+    ...     np.linalg.norm(res.x[-1, :2] - track[-1]) < 3.0
+    ... )
     (True, True)
     """
     zz = as_float_array("z", z)
@@ -162,7 +170,12 @@ class BiasEKF(ExtendedKalmanFilter):
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import BiasEKF
-    >>> filt = BiasEKF([1000.0, 0.0, 0.0], np.eye(3) * 100.0, Q=np.diag([0.25, 0.25, 0.25]), R=5.0)
+    >>> filt = BiasEKF(
+    ...     [1000.0, 0.0, 0.0],
+    ...     np.eye(3) * 100.0,
+    ...     Q=np.diag([0.25, 0.25, 0.25]),
+    ...     R=5.0,
+    ... )
     >>> filt.predict([0.0, 10.0])
     >>> filt.update(1012.0)
     >>> filt.x.shape, filt.P.shape, round(float(filt.bias), 3)
@@ -254,9 +267,16 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
     >>> from uwtutor.filters import prepositioned_bias_ekf
     >>> from uwtutor.models.bias import paper_a_process_noise
     >>> sc = paper_a.make(np.random.default_rng(0), n_runs=20)
-    >>> start = sc.true_positions[:, 0] + [150.0, 0.0]                 # believed start 150 m off
-    >>> res = prepositioned_bias_ekf(sc.ranges, sc.dr_displacements, start, paper_a_process_noise(1.0), 5.0,
-    ...                              P0=np.eye(3))
+    >>> # believed start 150 m off
+    >>> start = sc.true_positions[:, 0] + [150.0, 0.0]
+    >>> res = prepositioned_bias_ekf(
+    ...     sc.ranges,
+    ...     sc.dr_displacements,
+    ...     start,
+    ...     paper_a_process_noise(1.0),
+    ...     5.0,
+    ...     P0=np.eye(3),
+    ... )
     >>> k0 = np.argmax(res.extras["started"], axis=1)
     >>> bool(np.all((150 < k0) & (k0 < 400)))
     True

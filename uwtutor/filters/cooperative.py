@@ -114,7 +114,8 @@ def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | 
     >>> import numpy as np
     >>> from uwtutor.filters.cooperative import relative_track_deviation
     >>> t = np.arange(11.0)
-    >>> leader = np.column_stack([2.0 * t + 500.0, 0.0 * t])          # parallel, same speed
+    >>> # parallel, same speed
+    >>> leader = np.column_stack([2.0 * t + 500.0, 0.0 * t])
     >>> u = np.tile([2.0, 0.0], (10, 1))
     >>> round(relative_track_deviation(u, leader), 9)
     0.0
@@ -220,8 +221,15 @@ class CooperativeEKF:
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=1)
     >>> p = paper_b.PAPER_B
-    >>> f = CooperativeEKF(p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements[0], sc.leader_broadcast[0],
-    ...                    p.interval, p.Q, p.R)
+    >>> f = CooperativeEKF(
+    ...     p.x1,
+    ...     np.diag([1e4, 1e4, 1.0, 1.0]),
+    ...     sc.dr_displacements[0],
+    ...     sc.leader_broadcast[0],
+    ...     p.interval,
+    ...     p.Q,
+    ...     p.R,
+    ... )
     >>> f.predict(); f.update(sc.ranges[0, :2])
     >>> f.x.shape, f.y.shape
     ((4,), (2,))
@@ -381,8 +389,16 @@ def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any,
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=4)
     >>> p = paper_b.PAPER_B
-    >>> res = cooperative_ekf(p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.leader_broadcast,
-    ...                       sc.ranges, p.interval, p.Q, p.R)
+    >>> res = cooperative_ekf(
+    ...     p.x1,
+    ...     np.diag([1e4, 1e4, 1.0, 1.0]),
+    ...     sc.dr_displacements,
+    ...     sc.leader_broadcast,
+    ...     sc.ranges,
+    ...     p.interval,
+    ...     p.Q,
+    ...     p.R,
+    ... )
     >>> res.x.shape
     (4, 312, 4)
     """

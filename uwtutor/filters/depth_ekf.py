@@ -97,12 +97,17 @@ class DepthEKF:
     >>> import numpy as np
     >>> from uwtutor.filters import DepthEKF, DepthSpeedPitchModel
     >>> model = DepthSpeedPitchModel()
-    >>> truth, meas = model.simulate([10.0, 1.5, 0.1], 400, np.random.default_rng(0))
-    >>> ekf = DepthEKF(x0=meas[0], P0=model.R, Q=np.diag(model.process_std**2), R=model.R)
+    >>> truth, meas = model.simulate(
+    ...     [10.0, 1.5, 0.1], 400, np.random.default_rng(0)
+    ... )
+    >>> ekf = DepthEKF(
+    ...     x0=meas[0], P0=model.R, Q=np.diag(model.process_std**2), R=model.R
+    ... )
     >>> res = ekf.run(meas)
     >>> res.x.shape
     (400, 3)
-    >>> bool(np.sqrt(np.mean((res.x[100:, 0] - truth[100:, 0]) ** 2)) < 0.2)    # better than the 0.2 m sensor
+    >>> # better than the 0.2 m sensor
+    >>> bool(np.sqrt(np.mean((res.x[100:, 0] - truth[100:, 0]) ** 2)) < 0.2)
     True
     """
 

@@ -201,14 +201,22 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
     >>> theta = np.linspace(0.0, 4 * np.pi, K + 1)
     >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
     >>> truth = track[1:]
-    >>> u = np.diff(track, axis=0) + rng.normal(0.0, 0.5, (M, K, 2))      # noisy dead reckoning
-    >>> z = np.linalg.norm(truth, axis=1) + rng.normal(0.0, 2.0, (M, K))   # noisy ranges
-    >>> z[:, ::7] = np.nan                                                 # some epochs without a reply
+    >>> # noisy dead reckoning
+    >>> u = np.diff(track, axis=0) + rng.normal(0.0, 0.5, (M, K, 2))
+    >>> # noisy ranges
+    >>> z = np.linalg.norm(truth, axis=1) + rng.normal(0.0, 2.0, (M, K))
+    >>> # some epochs without a reply
+    >>> z[:, ::7] = np.nan
     >>> x0 = track[0] + rng.normal(0.0, 20.0, (M, 2))
-    >>> res = range_only_ekf(x0, np.eye(2) * 400.0, u, z, Q=np.eye(2) * 0.25, R=4.0)
+    >>> res = range_only_ekf(
+    ...     x0, np.eye(2) * 400.0, u, z, Q=np.eye(2) * 0.25, R=4.0
+    ... )
     >>> res.x.shape, res.P.shape, res.innovations.shape
     ((100, 500, 2), (100, 500, 2, 2), (100, 500, 1))
-    >>> bool(np.sqrt(np.mean(np.sum((res.x[:, -1] - truth[-1]) ** 2, axis=-1))) < 5.0)
+    >>> bool(
+    ...     np.sqrt(np.mean(np.sum((res.x[:, -1] - truth[-1]) ** 2, axis=-1)))
+    ...     < 5.0
+    ... )
     True
     """
     x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
@@ -284,7 +292,9 @@ class RangeOnlyEKF:
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import RangeOnlyEKF
-    >>> ekf = RangeOnlyEKF(x0=[100.0, 10.0], P0=np.eye(2) * 100.0, Q=np.eye(2) * 0.1, R=4.0)
+    >>> ekf = RangeOnlyEKF(
+    ...     x0=[100.0, 10.0], P0=np.eye(2) * 100.0, Q=np.eye(2) * 0.1, R=4.0
+    ... )
     >>> ekf.predict([0.0, 5.0])
     >>> ekf.x
     array([100.,  15.])

@@ -223,8 +223,12 @@ class ExtendedKalmanFilter:
     >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
     >>> rng = np.random.default_rng(0)
     >>> z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 2.0, (3, 100))
-    >>> filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2) * 0.25), RangeToBeacon((0.0, 0.0), R=4.0),
-    ...                             x0=np.tile(track[0] + [20.0, -15.0], (3, 1)), P0=np.eye(2) * 900.0)
+    >>> filt = ExtendedKalmanFilter(
+    ...     DeadReckoning(np.eye(2) * 0.25),
+    ...     RangeToBeacon((0.0, 0.0), R=4.0),
+    ...     x0=np.tile(track[0] + [20.0, -15.0], (3, 1)),
+    ...     P0=np.eye(2) * 900.0,
+    ... )
     >>> result = filt.run(z, u=np.diff(track, axis=0))
     >>> result.x.shape, result.P.shape, result.extras["accepted"].shape
     ((3, 100, 2), (3, 100, 2, 2), (3, 100))
@@ -564,10 +568,21 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     >>> from uwtutor.models import DeadReckoning, RangeToBeacon
     >>> u = np.tile([1.0, 0.0], (50, 1))                       # 1 m east per step
     >>> truth = np.array([50.0, 100.0]) + np.cumsum(u, axis=0)
-    >>> ship = truth + [0.0, -300.0] + np.column_stack([np.zeros(50), np.linspace(0, 50, 50)])
-    >>> z = np.linalg.norm(truth - ship, axis=1)               # exact ranges to a moving beacon
-    >>> res = extended_kalman_filter(DeadReckoning(np.eye(2) * 0.01), RangeToBeacon(ship, R=1.0), [60.0, 90.0],
-    ...           np.eye(2) * 100.0, u, z)
+    >>> ship = (
+    ...     truth
+    ...     + [0.0, -300.0]
+    ...     + np.column_stack([np.zeros(50), np.linspace(0, 50, 50)])
+    ... )
+    >>> # exact ranges to a moving beacon
+    >>> z = np.linalg.norm(truth - ship, axis=1)
+    >>> res = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon(ship, R=1.0),
+    ...     [60.0, 90.0],
+    ...     np.eye(2) * 100.0,
+    ...     u,
+    ...     z,
+    ... )
     >>> bool(np.linalg.norm(res.x[-1] - truth[-1]) < np.linalg.norm([10.0, 10.0]))
     True
     """

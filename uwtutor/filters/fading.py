@@ -493,15 +493,31 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     >>> import numpy as np
     >>> from uwtutor import scenarios
     >>> from uwtutor.filters.fading import fading_ekf, range_factor_moments
-    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(3), n_runs=200)
+    >>> sc = scenarios.approach_with_turn_scenario(
+    ...     np.random.default_rng(3), n_runs=200
+    ... )
     >>> mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
-    >>> x0 = sc.true_positions[:, 0] + [30.0, 0.0]                  # 30 m initial error
-    >>> res = fading_ekf(x0, np.eye(2) * 30.0**2, sc.dr_displacements, sc.ranges, Q=np.eye(2) * 0.81,
-    ...                  R=0.49, mu_gamma=mu, sigma_gamma=sigma, rho=0.95, beta="range", times=sc.times)
+    >>> # 30 m initial error
+    >>> x0 = sc.true_positions[:, 0] + [30.0, 0.0]
+    >>> res = fading_ekf(
+    ...     x0,
+    ...     np.eye(2) * 30.0**2,
+    ...     sc.dr_displacements,
+    ...     sc.ranges,
+    ...     Q=np.eye(2) * 0.81,
+    ...     R=0.49,
+    ...     mu_gamma=mu,
+    ...     sigma_gamma=sigma,
+    ...     rho=0.95,
+    ...     beta="range",
+    ...     times=sc.times,
+    ... )
     >>> res.x.shape, res.fading_factor.shape, res.weakening_factor.shape
     ((200, 151, 2), (200, 151), (200, 151))
     >>> err = np.linalg.norm(res.x[:, -1] - sc.true_positions[:, -1], axis=-1)
-    >>> bool(np.sqrt(np.mean(err**2)) < 15.0), bool(np.all(res.fading_factor >= 1.0))
+    >>> bool(np.sqrt(np.mean(err**2)) < 15.0), bool(
+    ...     np.all(res.fading_factor >= 1.0)
+    ... )
     (True, True)
     """
     x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
@@ -585,10 +601,18 @@ class FadingEKF:
     --------
     >>> import numpy as np
     >>> from uwtutor.filters.fading import FadingEKF
-    >>> f = FadingEKF([1000.0, 0.0], np.eye(2) * 100.0, Q=np.eye(2) * 0.81, R=0.49, mu_gamma=0.98,
-    ...               sigma_gamma=1 / 1500, beta=1.0)
+    >>> f = FadingEKF(
+    ...     [1000.0, 0.0],
+    ...     np.eye(2) * 100.0,
+    ...     Q=np.eye(2) * 0.81,
+    ...     R=0.49,
+    ...     mu_gamma=0.98,
+    ...     sigma_gamma=1 / 1500,
+    ...     beta=1.0,
+    ... )
     >>> f.predict([-20.0, 0.0])
-    >>> f.update(0.98 * 980.0 + 60.0)          # a range 60 m longer than the model expects
+    >>> # a range 60 m longer than the model expects
+    >>> f.update(0.98 * 980.0 + 60.0)
     >>> bool(f.fading_factor > 1.0), f.y.shape
     (True, (1,))
     """
@@ -890,9 +914,18 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     >>> import numpy as np
     >>> from uwtutor import scenarios
     >>> from uwtutor.filters.fading import ls_fading_ekf
-    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(5), n_runs=50)
-    >>> res = ls_fading_ekf(sc.ranges, sc.dr_displacements, Q=np.eye(2) * 0.81, R=0.49,
-    ...                     P0=np.eye(2) * 50.0**2, sigma_gamma=1 / 1500, times=sc.times)
+    >>> sc = scenarios.approach_with_turn_scenario(
+    ...     np.random.default_rng(5), n_runs=50
+    ... )
+    >>> res = ls_fading_ekf(
+    ...     sc.ranges,
+    ...     sc.dr_displacements,
+    ...     Q=np.eye(2) * 0.81,
+    ...     R=0.49,
+    ...     P0=np.eye(2) * 50.0**2,
+    ...     sigma_gamma=1 / 1500,
+    ...     times=sc.times,
+    ... )
     >>> res.x.shape, bool(res.accepted.all())
     ((50, 151, 2), True)
     >>> err = np.linalg.norm(res.x[:, -1] - sc.true_positions[:, -1], axis=-1)

@@ -145,8 +145,17 @@ class ChiSquareGate(Gate):
     >>> round(gate.threshold(1), 3)
     6.635
     >>> y = np.array([[1.0], [10.0]]); S = np.full((2, 1, 1), 4.0)
-    >>> ctx = GateContext(k=0, z=y, z_pred=0 * y, y=y, S=S, H=np.ones((2, 1, 2)), R=np.eye(1),
-    ...                   x_prior=np.zeros((2, 2)), P_prior=np.tile(np.eye(2), (2, 1, 1)))
+    >>> ctx = GateContext(
+    ...     k=0,
+    ...     z=y,
+    ...     z_pred=0 * y,
+    ...     y=y,
+    ...     S=S,
+    ...     H=np.ones((2, 1, 2)),
+    ...     R=np.eye(1),
+    ...     x_prior=np.zeros((2, 2)),
+    ...     P_prior=np.tile(np.eye(2), (2, 1, 1)),
+    ... )
     >>> gate.accept(ctx)
     array([ True, False])
     """
@@ -240,20 +249,40 @@ class ReacquiringGate(Gate):
     range and ends as far off as it started; with re-acquisition it finds the track:
 
     >>> import numpy as np
-    >>> from uwtutor.filters import ChiSquareGate, ReacquiringGate, extended_kalman_filter
+    >>> from uwtutor.filters import (
+    ...     ChiSquareGate,
+    ...     ReacquiringGate,
+    ...     extended_kalman_filter,
+    ... )
     >>> from uwtutor.models import DeadReckoning, RangeToBeacon
     >>> theta = np.linspace(0.0, 2 * np.pi, 201)
     >>> track = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
-    >>> z = np.linalg.norm(track[1:], axis=1) + np.random.default_rng(0).normal(0.0, 1.0, 200)
-    >>> args = (DeadReckoning(0.01 * np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), track[0] + [60.0, 0.0],
-    ...         np.eye(2), np.diff(track, axis=0), z)
+    >>> z = np.linalg.norm(track[1:], axis=1) + np.random.default_rng(0).normal(
+    ...     0.0, 1.0, 200
+    ... )
+    >>> args = (
+    ...     DeadReckoning(0.01 * np.eye(2)),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     track[0] + [60.0, 0.0],
+    ...     np.eye(2),
+    ...     np.diff(track, axis=0),
+    ...     z,
+    ... )
     >>> locked = extended_kalman_filter(*args, gate=ChiSquareGate(0.99))
-    >>> int(locked.extras["accepted"].sum()), round(float(np.linalg.norm(locked.x[-1] - track[-1])))
+    >>> int(locked.extras["accepted"].sum()), round(
+    ...     float(np.linalg.norm(locked.x[-1] - track[-1]))
+    ... )
     (6, 60)
-    >>> res = extended_kalman_filter(*args, gate=ReacquiringGate(ChiSquareGate(0.99), patience=5))
-    >>> np.flatnonzero(res.extras["inflated"]).tolist(), np.flatnonzero(res.extras["forced"]).tolist()
+    >>> res = extended_kalman_filter(
+    ...     *args, gate=ReacquiringGate(ChiSquareGate(0.99), patience=5)
+    ... )
+    >>> np.flatnonzero(res.extras["inflated"]).tolist(), np.flatnonzero(
+    ...     res.extras["forced"]
+    ... ).tolist()
     ([4, 10], [5, 11])
-    >>> bool(res.extras["accepted"][12:].all()), bool(np.linalg.norm(res.x[-1] - track[-1]) < 1.0)
+    >>> bool(res.extras["accepted"][12:].all()), bool(
+    ...     np.linalg.norm(res.x[-1] - track[-1]) < 1.0
+    ... )
     (True, True)
     """
 

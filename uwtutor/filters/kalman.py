@@ -87,10 +87,15 @@ class KalmanFilter(ExtendedKalmanFilter):
     >>> rng = np.random.default_rng(0)
     >>> true_range = 1000.0 - 1.5 * np.arange(50)
     >>> ranges = true_range + rng.normal(0.0, 3.0, 50)
-    >>> kf = KalmanFilter.constant_velocity(dt=1.0, q=0.01, r=9.0, x0=[ranges[0], 0.0], P0=np.diag([9.0, 4.0]))
+    >>> kf = KalmanFilter.constant_velocity(
+    ...     dt=1.0, q=0.01, r=9.0, x0=[ranges[0], 0.0], P0=np.diag([9.0, 4.0])
+    ... )
     >>> result = kf.run(ranges)
     >>> def rms(e): return float(np.sqrt(np.mean(e ** 2)))
-    >>> round(rms(ranges - true_range), 2), round(rms(result.x[:, 0] - true_range), 2)   # raw, filtered
+    >>> # raw, filtered
+    >>> round(rms(ranges - true_range), 2), round(
+    ...     rms(result.x[:, 0] - true_range), 2
+    ... )
     (2.76, 1.69)
     """
 

@@ -279,11 +279,14 @@ class DepthSpeedPitchModel(ParticleModel):
     >>> rng = np.random.default_rng(3)
     >>> model = DepthSpeedPitchModel()
     >>> truth, meas = model.simulate([10.0, 1.5, 0.1], 200, rng)
-    >>> pf = BootstrapParticleFilter.from_gaussian(model, meas[0], model.R, 500, rng)
+    >>> pf = BootstrapParticleFilter.from_gaussian(
+    ...     model, meas[0], model.R, 500, rng
+    ... )
     >>> res = pf.run(meas)
     >>> res.x.shape, res.extras["ess"].shape
     ((200, 3), (200,))
-    >>> bool(np.sqrt(np.mean((res.x[50:, 0] - truth[50:, 0]) ** 2)) < 0.2)   # better than the depth sensor
+    >>> # better than the depth sensor
+    >>> bool(np.sqrt(np.mean((res.x[50:, 0] - truth[50:, 0]) ** 2)) < 0.2)
     True
     """
 
@@ -374,8 +377,15 @@ class PitchManeuverModel(DepthSpeedPitchModel):
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import PitchManeuverModel
-    >>> dive = PitchManeuverModel(pitch_target=0.3, time_constant=1.0, T=0.05, process_std=[0.0, 0.0, 0.0])
-    >>> dive.propagate(np.array([[10.0, 2.0, 0.0]]), None, np.random.default_rng(0)).round(5)
+    >>> dive = PitchManeuverModel(
+    ...     pitch_target=0.3,
+    ...     time_constant=1.0,
+    ...     T=0.05,
+    ...     process_std=[0.0, 0.0, 0.0],
+    ... )
+    >>> dive.propagate(
+    ...     np.array([[10.0, 2.0, 0.0]]), None, np.random.default_rng(0)
+    ... ).round(5)
     array([[10.00146,  2.     ,  0.01463]])
     """
 
@@ -472,8 +482,11 @@ class LinearGaussianModel(ParticleModel):
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import LinearGaussianModel
-    >>> walk = LinearGaussianModel(F=[[1.0]], H=[[1.0]], Q=[[0.0]], R=[[1.0]], B=[[1.0]])
-    >>> walk.propagate(np.zeros((2, 1)), [0.5], np.random.default_rng(0))    # no noise: F x + B u
+    >>> walk = LinearGaussianModel(
+    ...     F=[[1.0]], H=[[1.0]], Q=[[0.0]], R=[[1.0]], B=[[1.0]]
+    ... )
+    >>> # no noise: F x + B u
+    >>> walk.propagate(np.zeros((2, 1)), [0.5], np.random.default_rng(0))
     array([[0.5],
            [0.5]])
     """
@@ -582,23 +595,35 @@ class BootstrapParticleFilter:
     A scalar random walk observed in noise, checked against the exact (Kalman) answer:
 
     >>> import numpy as np
-    >>> from uwtutor.filters import BootstrapParticleFilter, KalmanFilter, LinearGaussianModel
+    >>> from uwtutor.filters import (
+    ...     BootstrapParticleFilter,
+    ...     KalmanFilter,
+    ...     LinearGaussianModel,
+    ... )
     >>> rng = np.random.default_rng(0)
     >>> zs = np.cumsum(rng.normal(0.0, 1.0, 30)) + rng.normal(0.0, 2.0, 30)
     >>> model = LinearGaussianModel(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[4.0]])
-    >>> pf = BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], 20000, rng)
-    >>> kf = KalmanFilter(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[4.0]], x0=[0.0], P0=[[10.0]])
+    >>> pf = BootstrapParticleFilter.from_gaussian(
+    ...     model, [0.0], [[10.0]], 20000, rng
+    ... )
+    >>> kf = KalmanFilter(
+    ...     F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[4.0]], x0=[0.0], P0=[[10.0]]
+    ... )
     >>> bool(np.max(np.abs(pf.run(zs).x - kf.run(zs).x)) < 0.1)
     True
 
     Four runs at once, each with its own stream; run 2 is the single-run filter on the same stream:
 
     >>> Z = np.stack([zs, zs + 1.0, zs - 1.0, zs])
-    >>> batch = BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], 500, np.random.default_rng(1), n_runs=4)
+    >>> batch = BootstrapParticleFilter.from_gaussian(
+    ...     model, [0.0], [[10.0]], 500, np.random.default_rng(1), n_runs=4
+    ... )
     >>> res = batch.run(Z)
     >>> res.x.shape, res.extras["ess"].shape
     ((4, 30, 1), (4, 30))
-    >>> one = BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], 500, np.random.default_rng(1).spawn(4)[2])
+    >>> one = BootstrapParticleFilter.from_gaussian(
+    ...     model, [0.0], [[10.0]], 500, np.random.default_rng(1).spawn(4)[2]
+    ... )
     >>> bool(np.allclose(one.run(Z[2]).x, res.x[2]))
     True
     """
@@ -1097,15 +1122,21 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     --------
     >>> import numpy as np
     >>> from uwtutor.filters import MultipleModelParticleFilter, PitchManeuverModel
-    >>> modes = [PitchManeuverModel(pitch_target=p) for p in (0.0, 0.3, -0.3)]    # cruise, dive, climb
+    >>> # cruise, dive, climb
+    >>> modes = [PitchManeuverModel(pitch_target=p) for p in (0.0, 0.3, -0.3)]
     >>> Pi = np.full((3, 3), 0.005) + np.eye(3) * 0.985
     >>> rng = np.random.default_rng(0)
-    >>> truth, meas = PitchManeuverModel(pitch_target=0.3).simulate([10.0, 1.5, 0.0], 200, rng)
-    >>> mmpf = MultipleModelParticleFilter.from_gaussian(modes, meas[0], modes[0].R, 600, rng, transition=Pi)
+    >>> truth, meas = PitchManeuverModel(pitch_target=0.3).simulate(
+    ...     [10.0, 1.5, 0.0], 200, rng
+    ... )
+    >>> mmpf = MultipleModelParticleFilter.from_gaussian(
+    ...     modes, meas[0], modes[0].R, 600, rng, transition=Pi
+    ... )
     >>> res = mmpf.run(meas)
     >>> res.extras["mode_probabilities"].shape
     (200, 3)
-    >>> int(np.argmax(res.extras["mode_probabilities"][-50:].mean(axis=0)))     # the dive mode wins
+    >>> # the dive mode wins
+    >>> int(np.argmax(res.extras["mode_probabilities"][-50:].mean(axis=0)))
     1
     """
 
@@ -1287,7 +1318,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
     >>> model = DepthSpeedPitchModel()
     >>> rng = np.random.default_rng(5)
     >>> truth, meas = model.simulate([10.0, 1.5, 0.1], 300, rng)
-    >>> gpf = GreyParticleFilter.from_gaussian(model, meas[0], model.R, 500, rng, grey_offset=[0.0, 0.0, 1.0])
+    >>> gpf = GreyParticleFilter.from_gaussian(
+    ...     model, meas[0], model.R, 500, rng, grey_offset=[0.0, 0.0, 1.0]
+    ... )
     >>> res = gpf.run(meas)
     >>> int(res.extras["grey_used"].sum()), res.extras["noise_std"].shape
     (270, (300, 3))

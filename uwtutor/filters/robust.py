@@ -104,10 +104,22 @@ class SecondMomentGate(Gate):
     >>> import numpy as np
     >>> from uwtutor.filters import GateContext
     >>> from uwtutor.filters.robust import SecondMomentGate
-    >>> z = np.array([[1510.0], [1530.0]]); zp = np.full((2, 1), 1500.0); S = np.full((2, 1, 1), 4.0)
-    >>> ctx = GateContext(k=0, z=z, z_pred=zp, y=z - zp, S=S, H=np.ones((2, 1, 2)), R=np.eye(1),
-    ...                   x_prior=np.zeros((2, 2)), P_prior=np.tile(np.eye(2), (2, 1, 1)))
-    >>> SecondMomentGate(0.03).accept(ctx)                  # 10 m in, 30 m out (the gate is about 22.5 m)
+    >>> z = np.array([[1510.0], [1530.0]])
+    ... zp = np.full((2, 1), 1500.0)
+    ... S = np.full((2, 1, 1), 4.0)
+    >>> ctx = GateContext(
+    ...     k=0,
+    ...     z=z,
+    ...     z_pred=zp,
+    ...     y=z - zp,
+    ...     S=S,
+    ...     H=np.ones((2, 1, 2)),
+    ...     R=np.eye(1),
+    ...     x_prior=np.zeros((2, 2)),
+    ...     P_prior=np.tile(np.eye(2), (2, 1, 1)),
+    ... )
+    >>> # 10 m in, 30 m out (the gate is about 22.5 m)
+    >>> SecondMomentGate(0.03).accept(ctx)
     array([ True, False])
     """
 
@@ -456,9 +468,12 @@ def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, d
     >>> t = np.arange(200.0)
     >>> truth = 1500.0 + 2.0 * t
     >>> z = truth + np.random.default_rng(0).normal(0.0, np.sqrt(2.0), 200)
-    >>> z[100:110] += 80.0                                   # a patch of ten outliers
+    >>> # a patch of ten outliers
+    >>> z[100:110] += 80.0
     >>> res = robust_range_kf(z, 1.0)
-    >>> int(res.extras["outlier"].sum()), np.flatnonzero(res.extras["outlier"]).tolist() == list(range(100, 110))
+    >>> int(res.extras["outlier"].sum()), np.flatnonzero(
+    ...     res.extras["outlier"]
+    ... ).tolist() == list(range(100, 110))
     (10, True)
     >>> bool(np.max(np.abs(res.x[:, 0] - truth)) < 10.0)
     True

@@ -97,7 +97,14 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> Sm
     >>> truth = 1500.0 - 1.5 * np.arange(100.0)
     >>> z = truth + rng.normal(0.0, 2.0, 100)
     >>> F, Q = np.array([[1.0, 1.0], [0.0, 1.0]]), np.diag([1e-4, 1e-4])
-    >>> kf = KalmanFilter(F=F, H=[[1.0, 0.0]], Q=Q, R=[[4.0]], x0=[z[0], 0.0], P0=np.diag([4.0, 4.0]))
+    >>> kf = KalmanFilter(
+    ...     F=F,
+    ...     H=[[1.0, 0.0]],
+    ...     Q=Q,
+    ...     R=[[4.0]],
+    ...     x0=[z[0], 0.0],
+    ...     P0=np.diag([4.0, 4.0]),
+    ... )
     >>> filtered = kf.run(z)
     >>> smoothed = rts_smoother(filtered, LinearMotion(F, Q))
     >>> def rms(e): return float(np.sqrt(np.mean(e ** 2)))

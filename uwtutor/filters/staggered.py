@@ -111,12 +111,25 @@ def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: 
     >>> import numpy as np
     >>> from uwtutor.filters import range_only_ekf
     >>> from uwtutor.filters import filter_from_start_epochs
-    >>> u = np.tile([1.0, 0.0], (2, 10, 1)); truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
+    >>> u = np.tile([1.0, 0.0], (2, 10, 1))
+    ... truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
     >>> z = np.linalg.norm(truth, axis=-1)
-    >>> run = filter_from_start_epochs(range_only_ekf, [2, 5], truth[[0, 1], [2, 5]], np.eye(2), u, z,
-    ...                                Q=np.eye(2) * 0.01, R=1.0)
+    >>> run = filter_from_start_epochs(
+    ...     range_only_ekf,
+    ...     [2, 5],
+    ...     truth[[0, 1], [2, 5]],
+    ...     np.eye(2),
+    ...     u,
+    ...     z,
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ... )
     >>> x = run.at_epochs(run.filter_result.x, np.nan)
-    >>> bool(np.isnan(x[0, :3]).all() and np.isfinite(x[0, 3:]).all() and np.isnan(x[1, :6]).all())
+    >>> bool(
+    ...     np.isnan(x[0, :3]).all()
+    ...     and np.isfinite(x[0, 3:]).all()
+    ...     and np.isnan(x[1, :6]).all()
+    ... )
     True
     """
     as_callable("filter_fn", filter_fn, "a functional filter such as uwtutor.filters.fading_ekf")

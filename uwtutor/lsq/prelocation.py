@@ -239,12 +239,20 @@ def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bea
     >>> import numpy as np
     >>> from uwtutor import scenarios
     >>> from uwtutor.lsq import grid_prelocation
-    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(0), n_runs=20)
-    >>> pre = grid_prelocation(ranges=sc.ranges, dr_displacements=sc.dr_displacements)
+    >>> sc = scenarios.approach_with_turn_scenario(
+    ...     np.random.default_rng(0), n_runs=20
+    ... )
+    >>> pre = grid_prelocation(
+    ...     ranges=sc.ranges, dr_displacements=sc.dr_displacements
+    ... )
     >>> pre.position.shape, pre.cost_map.shape
     ((20, 151, 2), (20, 180, 26))
-    >>> err = np.linalg.norm(pre.position[:, -1] - sc.true_positions[:, -1], axis=-1)
-    >>> bool(np.median(err) < 60.0), bool(abs(np.median(pre.speed_error[:, -1]) + 30.0) <= 10.0)
+    >>> err = np.linalg.norm(
+    ...     pre.position[:, -1] - sc.true_positions[:, -1], axis=-1
+    ... )
+    >>> bool(np.median(err) < 60.0), bool(
+    ...     abs(np.median(pre.speed_error[:, -1]) + 30.0) <= 10.0
+    ... )
     (True, True)
     """
     c = float(as_positive("assumed_speed", assumed_speed, ndim=0))

@@ -134,11 +134,15 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
 
     >>> import numpy as np
     >>> from uwtutor.lsq import linearized_lsq
-    >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
+    >>> beacons = np.array(
+    ...     [[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]]
+    ... )
     >>> truth = np.array([30.0, -40.0])
     >>> r = np.linalg.norm(truth - beacons, axis=1) + 5.0
     >>> fix = linearized_lsq(r, beacons, provisional=[10.0, -30.0], iterations=3)
-    >>> np.round(fix.position, 6), round(float(fix.bias), 6), round(float(fix.alpha), 3)
+    >>> np.round(fix.position, 6), round(float(fix.bias), 6), round(
+    ...     float(fix.alpha), 3
+    ... )
     (array([ 30., -40.]), 5.0, 1.251)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)

@@ -144,8 +144,13 @@ class BiasRateDeadReckoning(MotionModel):
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.models.bias import BiasRateDeadReckoning, bias_rate_process_noise
-    >>> motion = BiasRateDeadReckoning(bias_rate_process_noise(0.5, rate_sigma=0.01, dt=5.0), dt=5.0)
+    >>> from uwtutor.models.bias import (
+    ...     BiasRateDeadReckoning,
+    ...     bias_rate_process_noise,
+    ... )
+    >>> motion = BiasRateDeadReckoning(
+    ...     bias_rate_process_noise(0.5, rate_sigma=0.01, dt=5.0), dt=5.0
+    ... )
     >>> motion.f(np.array([[0.0, 0.0, 5.0, 0.1]]), np.array([[1.0, 2.0]]), 0)
     array([[1. , 2. , 5.5, 0.1]])
     """

@@ -171,7 +171,9 @@ class CooperativeMotion(MotionModel):
     --------
     >>> import numpy as np
     >>> from uwtutor.models.cooperative import CooperativeMotion
-    >>> m = CooperativeMotion(8.0, np.diag([100.0, 100.0, 4.0, 4.0, 0.05**2, 0.05**2]))
+    >>> m = CooperativeMotion(
+    ...     8.0, np.diag([100.0, 100.0, 4.0, 4.0, 0.05**2, 0.05**2])
+    ... )
     >>> m.f(np.array([[0.0, 0.0, 0.5, 0.5]]), np.array([[16.0, 0.0]]), 0)
     array([[20. ,  4. ,  0.5,  0.5]])
     >>> round(float(m.Q(None, None, 0)[0, 0]), 2)       # 100 + 4 + 8^2 x 0.05^2
@@ -227,7 +229,8 @@ class SquaredRangePair(MeasurementModel):
     >>> from uwtutor.models.cooperative import SquaredRangePair
     >>> leader = np.array([[0.0, 0.0], [0.0, 0.0]])
     >>> pair = SquaredRangePair(leader, np.array([[30.0, 40.0]]), 10.0, np.eye(10))
-    >>> x = np.array([[30.0, 40.0, 0.0, 0.0]])       # moved from the leader's position to 50 m away
+    >>> # moved from the leader's position to 50 m away
+    >>> x = np.array([[30.0, 40.0, 0.0, 0.0]])
     >>> pair.h(x, 0)
     array([[   0., 2500.]])
     """

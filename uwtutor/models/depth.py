@@ -82,7 +82,8 @@ def depth_speed_pitch_kinematics(s: Any, T: float, axis: int = -1, *, out: np.nd
     --------
     >>> import numpy as np
     >>> from uwtutor.models.depth import depth_speed_pitch_kinematics
-    >>> depth_speed_pitch_kinematics(np.array([10.0, 2.0, np.pi / 6]), 0.5)        # 2 m/s at 30 deg for 0.5 s
+    >>> # 2 m/s at 30 deg for 0.5 s
+    >>> depth_speed_pitch_kinematics(np.array([10.0, 2.0, np.pi / 6]), 0.5)
     array([10.5       ,  2.        ,  0.52359878])
     """
     s = as_finite("s", s)
@@ -173,7 +174,8 @@ class DepthSpeedPitch(MotionModel):
     >>> motion = DepthSpeedPitch(T=0.5, process_std=[0.0, 0.0, 0.0])
     >>> motion.f(np.array([[10.0, 2.0, np.pi / 6]]), None, 0)
     array([[10.5       ,  2.        ,  0.52359878]])
-    >>> motion.sample(np.array([[10.0, 2.0, np.pi / 6]]), np.random.default_rng(0))   # no noise: g(x)
+    >>> # no noise: g(x)
+    >>> motion.sample(np.array([[10.0, 2.0, np.pi / 6]]), np.random.default_rng(0))
     array([[10.5       ,  2.        ,  0.52359878]])
     """
 

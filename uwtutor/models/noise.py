@@ -37,7 +37,9 @@ def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np
     >>> import numpy as np
     >>> from uwtutor.models.noise import per_run_generators
     >>> rngs = per_run_generators(np.random.default_rng(0), 3)
-    >>> len(rngs), float(rngs[1].random()) == float(np.random.default_rng(0).spawn(3)[1].random())
+    >>> len(rngs), float(rngs[1].random()) == float(
+    ...     np.random.default_rng(0).spawn(3)[1].random()
+    ... )
     (3, True)
     """
     if isinstance(rng, np.random.Generator):
@@ -63,8 +65,12 @@ def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[in
     --------
     >>> import numpy as np
     >>> from uwtutor.models.noise import standard_normal_per_run
-    >>> a = standard_normal_per_run([np.random.default_rng(1), np.random.default_rng(2)], (2, 3))
-    >>> a.shape, bool((a[1] == np.random.default_rng(2).standard_normal((2, 3))).all())
+    >>> a = standard_normal_per_run(
+    ...     [np.random.default_rng(1), np.random.default_rng(2)], (2, 3)
+    ... )
+    >>> a.shape, bool(
+    ...     (a[1] == np.random.default_rng(2).standard_normal((2, 3))).all()
+    ... )
     ((2, 2, 3), True)
     """
     if len(rngs) == 1:

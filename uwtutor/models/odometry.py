@@ -241,7 +241,9 @@ class StateLayout:
         >>> import numpy as np
         >>> from uwtutor.models import StateLayout
         >>> layout = StateLayout.odometry(scale=True)
-        >>> x0, P0 = layout.initial_state([1.0, 2.0, 0.5], np.diag([1.0, 1.0, 0.01]), scale=(1.0, 0.1))
+        >>> x0, P0 = layout.initial_state(
+        ...     [1.0, 2.0, 0.5], np.diag([1.0, 1.0, 0.01]), scale=(1.0, 0.1)
+        ... )
         >>> x0, np.diag(P0)
         (array([1. , 2. , 0.5, 1. ]), array([1.  , 1.  , 0.01, 0.01]))
         """
@@ -358,10 +360,13 @@ class OdometryMotion(MotionModel):
     >>> import numpy as np
     >>> from uwtutor.models import OdometryMotion
     >>> motion = OdometryMotion(sigma_distance=0.1, sigma_heading=0.01)
-    >>> motion.f(np.array([[0.0, 0.0, 0.0]]), np.array([10.0, np.pi / 2]), 0).round(6)
+    >>> motion.f(
+    ...     np.array([[0.0, 0.0, 0.0]]), np.array([10.0, np.pi / 2]), 0
+    ... ).round(6)
     array([[ 0.      , 10.      ,  1.570796]])
-    >>> OdometryMotion(0.1, 0.01, order="move-first").f(np.array([[0.0, 0.0, 0.0]]),
-    ...                                                   np.array([10.0, np.pi / 2]), 0).round(6)
+    >>> OdometryMotion(0.1, 0.01, order="move-first").f(
+    ...     np.array([[0.0, 0.0, 0.0]]), np.array([10.0, np.pi / 2]), 0
+    ... ).round(6)
     array([[10.      ,  0.      ,  1.570796]])
 
     With a gyro bias of 0.01 rad/s over 2 s steps, a measured heading change of 0.02 rad is no turn at all:
@@ -537,8 +542,14 @@ class OdometryMotion(MotionModel):
         --------
         >>> import numpy as np
         >>> from uwtutor.models import OdometryMotion
-        >>> square = np.tile([[10.0, 0.0], [0.0, np.pi / 2]], (4, 1))       # 10 m, then a left turn, 4 times
-        >>> OdometryMotion(0.0, 0.0).integrate([0.0, 0.0, 0.0], square)[-1].round(9) + 0.0
+        >>> # 10 m, then a left turn, 4 times
+        >>> square = np.tile([[10.0, 0.0], [0.0, np.pi / 2]], (4, 1))
+        >>> (
+        ...     OdometryMotion(0.0, 0.0)
+        ...     .integrate([0.0, 0.0, 0.0], square)[-1]
+        ...     .round(9)
+        ...     + 0.0
+        ... )
         array([0., 0., 0.])
         """
         x = as_finite("x0", x0, ndim=(1, 2))

@@ -109,12 +109,15 @@ class RangeToBeacon(MeasurementModel):
     --------
     >>> import numpy as np
     >>> from uwtutor.models import RangeToBeacon
-    >>> ship = np.array([[0.0, 0.0], [10.0, 0.0]])          # the beacon moves 10 m east between two steps
+    >>> # the beacon moves 10 m east between two steps
+    >>> ship = np.array([[0.0, 0.0], [10.0, 0.0]])
     >>> model = RangeToBeacon(ship, R=4.0)
     >>> x = np.array([[30.0, 40.0]])
     >>> model.h(x, 0), model.h(x, 1)
     (array([[50.]]), array([[44.72135955]]))
-    >>> RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2).H(np.array([[3.0, 4.0, 1.5]]), 0)
+    >>> RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2).H(
+    ...     np.array([[3.0, 4.0, 1.5]]), 0
+    ... )
     array([[[0.6, 0.8, 1. ]]])
     """
 
@@ -209,7 +212,9 @@ class MultiplicativeRange(RangeToBeacon):
     --------
     >>> import numpy as np
     >>> from uwtutor.models import MultiplicativeRange
-    >>> model = MultiplicativeRange((0.0, 0.0), R=0.49, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    >>> model = MultiplicativeRange(
+    ...     (0.0, 0.0), R=0.49, mu_gamma=0.98, sigma_gamma=1 / 1500
+    ... )
     >>> x = np.array([[3000.0, 4000.0]])
     >>> model.h(x, 0), model.R(x, 0)
     (array([[4900.]]), array([[[11.60111111]]]))
@@ -260,7 +265,8 @@ class NoiseSchedule:
     --------
     >>> import numpy as np
     >>> from uwtutor.models.range import NoiseSchedule
-    >>> R = NoiseSchedule("R", [[0.1, 0.2], [np.nan, 0.3], [0.1, 0.1]], 2)     # (K, m): per step and beacon
+    >>> # (K, m): per step and beacon
+    >>> R = NoiseSchedule("R", [[0.1, 0.2], [np.nan, 0.3], [0.1, 0.1]], 2)
     >>> R.n_steps, R.at(1)
     (3, array([[nan, 0. ],
            [0. , 0.3]]))
@@ -399,12 +405,22 @@ class BeaconRanges(MeasurementModel):
 
     >>> import numpy as np
     >>> from uwtutor.models import BeaconRanges, StateLayout
-    >>> beacons = {"A": (0.0, 0.0), "B": (30.0, 0.0), "C": (30.0, 40.0), "D": (0.0, 40.0)}
-    >>> model = BeaconRanges(beacons, R=0.01, layout=StateLayout.odometry(scale=True))
-    >>> x = np.array([[3.0, 4.0, 0.3, 1.07]])                    # [x, y, heading, scale]
-    >>> model.h(x, 0).round(3)                                  # 1.07 x (5, 27.295, 45, 36.125)
+    >>> beacons = {
+    ...     "A": (0.0, 0.0),
+    ...     "B": (30.0, 0.0),
+    ...     "C": (30.0, 40.0),
+    ...     "D": (0.0, 40.0),
+    ... }
+    >>> model = BeaconRanges(
+    ...     beacons, R=0.01, layout=StateLayout.odometry(scale=True)
+    ... )
+    >>> # [x, y, heading, scale]
+    >>> x = np.array([[3.0, 4.0, 0.3, 1.07]])
+    >>> # 1.07 x (5, 27.295, 45, 36.125)
+    >>> model.h(x, 0).round(3)
     array([[ 5.35 , 29.205, 48.15 , 38.654]])
-    >>> model.H(x, 0)[0, 0].round(3)                            # d/dx, d/dy, d/dheading, d/dscale
+    >>> # d/dx, d/dy, d/dheading, d/dscale
+    >>> model.H(x, 0)[0, 0].round(3)
     array([0.642, 0.856, 0.   , 5.   ])
     """
 

@@ -81,7 +81,9 @@ def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0
     --------
     >>> import numpy as np
     >>> from uwtutor.scenarios.paper_a import random_turn_track
-    >>> track = random_turn_track(np.random.default_rng(0), np.arange(0.0, 15000.0, 5.0))
+    >>> track = random_turn_track(
+    ...     np.random.default_rng(0), np.arange(0.0, 15000.0, 5.0)
+    ... )
     >>> r = np.hypot(*track.positions.T)
     >>> bool(1000 < r.min() and r.max() < 2000)
     True
@@ -236,7 +238,8 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
     >>> import numpy as np
     >>> from uwtutor.scenarios import paper_a
     >>> sc, bias = paper_a.make_with_truth(np.random.default_rng(1), n_runs=2)
-    >>> white = sc.range_errors - bias                      # what is left is the white noise, variance 5
+    >>> # what is left is the white noise, variance 5
+    >>> white = sc.range_errors - bias
     >>> bool(abs(np.var(white) - 5.0) < 0.3)
     True
     """
@@ -301,7 +304,8 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
     >>> sc = paper_a.make(np.random.default_rng(1), n_runs=4)
     >>> sc.ranges.shape, sc.dr_displacements.shape
     ((4, 3000), (4, 3000, 2))
-    >>> bias = sc.range_errors.mean()                         # about rho + gamma r = 50 + 14 m
+    >>> # about rho + gamma r = 50 + 14 m
+    >>> bias = sc.range_errors.mean()
     >>> bool(55.0 < bias < 75.0)
     True
     """

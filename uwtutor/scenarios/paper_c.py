@@ -222,7 +222,9 @@ def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitc
     >>> import numpy as np
     >>> from uwtutor.scenarios.paper_c import maneuvering_depth_profile
     >>> p = maneuvering_depth_profile()
-    >>> p.n_steps, round(float(np.degrees(p.truth[:, 2].max())), 1), round(float(p.truth[:, 0].max()), 1)
+    >>> p.n_steps, round(float(np.degrees(p.truth[:, 2].max())), 1), round(
+    ...     float(p.truth[:, 0].max()), 1
+    ... )
     (1200, 20.0, 22.8)
     """
     duration = float(as_positive("duration", duration))
@@ -277,7 +279,10 @@ def simulate_depth_sensors(profile: DepthProfile, n_runs: int, rng: np.random.Ge
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.scenarios.paper_c import maneuvering_depth_profile, simulate_depth_sensors
+    >>> from uwtutor.scenarios.paper_c import (
+    ...     maneuvering_depth_profile,
+    ...     simulate_depth_sensors,
+    ... )
     >>> p = maneuvering_depth_profile(duration=6.0)
     >>> simulate_depth_sensors(p, 3, np.random.default_rng(0)).shape
     (3, 120, 3)
@@ -464,10 +469,16 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     >>> import numpy as np
     >>> from uwtutor.scenarios import paper_c
     >>> sc = paper_c.make(np.random.default_rng(0), n_runs=2, duration=12.0)
-    >>> study = paper_c.run_depth_study(sc.profile, sc.measurements, ("EKF", "GPF"), n_particles=200)
+    >>> study = paper_c.run_depth_study(
+    ...     sc.profile, sc.measurements, ("EKF", "GPF"), n_particles=200
+    ... )
     >>> study.estimates["GPF"].shape, study.extras["GPF noise_std"].shape
     ((2, 240, 3), (2, 240, 3))
-    >>> {name: round(float(study.rmse_over(name)[0]), 3) for name in study.estimates}    # depth RMSE [m]
+    >>> # depth RMSE [m]
+    >>> {
+    ...     name: round(float(study.rmse_over(name)[0]), 3)
+    ...     for name in study.estimates
+    ... }
     {'EKF': 0.244, 'GPF': 0.213}
     """
     unknown = [f for f in filters if f not in FILTER_NAMES]

@@ -309,7 +309,8 @@ def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
 
     >>> import numpy as np
     >>> runs = turn(np.random.default_rng(0), 1)
-    >>> float(np.linalg.norm(runs.planned[0]))      # planned to start 2.2 km from the beacon
+    >>> # planned to start 2.2 km from the beacon
+    >>> float(np.linalg.norm(runs.planned[0]))
     2236.06797749979
     """
     p = SUITE if params is None else params
@@ -476,7 +477,9 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     Examples
     --------
     >>> from uwtutor.observability import posterior_crlb, rmse_bound
-    >>> bound = rmse_bound(posterior_crlb(**crlb_inputs("circle", "white", n_tracks=200)))
+    >>> bound = rmse_bound(
+    ...     posterior_crlb(**crlb_inputs("circle", "white", n_tracks=200))
+    ... )
     >>> bound.shape, bool(bound[-1] < bound[0] < 100.0 * 2**0.5)
     ((150,), True)
     """

@@ -20,9 +20,16 @@ Examples
 >>> from uwtutor.exercises.labs import check_part, lab_parts
 >>> lab_parts("range_error_budget")
 ('A', 'B', 'C', 'D', 'E')
->>> cast = dict(cast_temperature=np.array([14.2, 7.0]), cast_salinity=np.array([30.5, 34.9]),
-...             cast_depth=np.array([0.0, 180.0]))
->>> check_part("range_error_budget", "A", {**cast, "profile_speeds": np.array([1500.0, 1480.0])})
+>>> cast = dict(
+...     cast_temperature=np.array([14.2, 7.0]),
+...     cast_salinity=np.array([30.5, 34.9]),
+...     cast_depth=np.array([0.0, 180.0]),
+... )
+>>> check_part(
+...     "range_error_budget",
+...     "A",
+...     {**cast, "profile_speeds": np.array([1500.0, 1480.0])},
+... )
 ✘ Not yet: 2 of 2 elements of profile_speeds are off; the worst is at index 1: got 1480 m/s.
   Hint: Pass temperature, salinity and depth of the cast, in that order, to `sound_speed`.
 >>> check_part("range_error_budget", "A", cast)

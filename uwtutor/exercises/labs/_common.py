@@ -181,7 +181,9 @@ def cached(name: str, inputs: Any, compute: Callable[[], Any]) -> Any:
     >>> import numpy as np
     >>> calls = []
     >>> f = lambda: calls.append(1) or 42
-    >>> cached("doc", (np.arange(3),), f), cached("doc", (np.arange(3),), f), len(calls)
+    >>> cached("doc", (np.arange(3),), f), cached("doc", (np.arange(3),), f), len(
+    ...     calls
+    ... )
     (42, 42, 1)
     """
     h = hashlib.blake2b(name.encode(), digest_size=20)
