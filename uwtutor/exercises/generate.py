@@ -12,7 +12,9 @@ In the student version the region between (and including) the markers of a code 
 the ``BEGIN`` marker::
 
     # YOUR CODE HERE
-    raise NotImplementedError("not answered yet: write your code in place of this line, then run the cell again")
+    raise NotImplementedError(STUB_MESSAGE)
+
+(the message written out: ``STUB_MESSAGE`` below),
 
 so that running the student notebook stops at the first unanswered exercise; in a Markdown cell it becomes
 ``YOUR ANSWER HERE``. Regions between ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` are removed (a cell

@@ -105,8 +105,8 @@ class SecondMomentGate(Gate):
     >>> from uwtutor.filters import GateContext
     >>> from uwtutor.filters.robust import SecondMomentGate
     >>> z = np.array([[1510.0], [1530.0]])
-    ... zp = np.full((2, 1), 1500.0)
-    ... S = np.full((2, 1, 1), 4.0)
+    >>> zp = np.full((2, 1), 1500.0)
+    >>> S = np.full((2, 1, 1), 4.0)
     >>> ctx = GateContext(
     ...     k=0,
     ...     z=z,

@@ -112,7 +112,7 @@ def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: 
     >>> from uwtutor.filters import range_only_ekf
     >>> from uwtutor.filters import filter_from_start_epochs
     >>> u = np.tile([1.0, 0.0], (2, 10, 1))
-    ... truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
     >>> z = np.linalg.norm(truth, axis=-1)
     >>> run = filter_from_start_epochs(
     ...     range_only_ekf,

@@ -73,9 +73,11 @@ scale is::
     motion = OdometryMotion(0.02, 0.005, gyro_bias=True, scale=True, times=data.times,
                             gyro_bias_walk=1e-5, scale_walk=1e-6)
     ranges = BeaconRanges(data.beacon_positions(ids), R=0.1**2, layout=motion.layout)
-    x0, P0 = motion.layout.initial_state(data.start, data.start_cov, gyro_bias=(0.0, 0.01), scale=(1.0, 0.1))
-    result = extended_kalman_filter(motion, ranges, x0, P0, data.odometry, data.ranges_on_epochs(ids),
-                                    times=data.times, gate=ReacquiringGate())
+    x0, P0 = motion.layout.initial_state(data.start, data.start_cov,
+                                         gyro_bias=(0.0, 0.01), scale=(1.0, 0.1))
+    result = extended_kalman_filter(motion, ranges, x0, P0, data.odometry,
+                                    data.ranges_on_epochs(ids), times=data.times,
+                                    gate=ReacquiringGate())
 
 References
 ----------
