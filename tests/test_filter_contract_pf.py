@@ -5,7 +5,8 @@ The cases are (filter family x model pair): paper C's depth/speed/pitch pair in 
 grey particle filters and in the EKF engine; the range-only pair of chapter 10 (dead reckoning as the input ``u``,
 one run per beacon path: a moving beacon is a measurement model input) in the bootstrap and multiple-model
 filters; the odometry pair of the real logs (``OdometryMotion`` with a gyro bias and a range scale, four beacons
-with missing ranges) in the bootstrap filter; and a ``ModelPair`` given in place of the two models.
+with missing ranges) in the bootstrap filter, plain and roughened; and a ``ModelPair`` given in place of the two
+models.
 
 For every filter: it is a ``Filter``; ``run`` == ``run_filter`` == a hand loop for every field and extra (same
 seed); a NaN measurement means predict only and a NaN component is skipped; run ``m`` of a batch equals the single
@@ -123,11 +124,11 @@ def _range_mmpf(d, sel, rng, n=N):
                                                      d["P0"], n, rng, transition=[[0.95, 0.05], [0.1, 0.9]])
 
 
-def _odometry_pf(d, sel, rng, n=N):
+def _odometry_pf(d, sel, rng, n=N, **kw):
     """The real-data pair: odometry with a gyro bias and a range scale (no walk: a constant state), 4 beacons."""
     motion = OdometryMotion(0.02, 0.003, gyro_bias=True, scale=True, dt=0.5, gyro_bias_walk=1e-4)
     return BootstrapParticleFilter.from_gaussian(motion, BeaconRanges(BEACONS, R=0.05**2 * 4, layout=motion.layout),
-                                                 d["x0"][sel], d["P0"], n, rng, ess_threshold=0.5)
+                                                 d["x0"][sel], d["P0"], n, rng, ess_threshold=0.5, **kw)
 
 
 @dataclass
@@ -148,6 +149,8 @@ CASES = [
     Case("PF range input", _range_pf, _range_data),
     Case("MMPF range input", _range_mmpf, _range_data),
     Case("PF odometry", _odometry_pf, _odometry_data),
+    Case("PF odometry (roughened)", lambda d, sel, rng, n=N: _odometry_pf(d, sel, rng, n, roughening=0.1),
+         _odometry_data),
 ]
 BY_NAME = {c.name: c for c in CASES}
 DATA = {c.name: c.data() for c in CASES}

@@ -404,6 +404,8 @@ class OdometryMotion(MotionModel):
                 if i is not None:
                     self._walk[i] = q
         self._has_walk = bool(self._walk.any())
+        self._walking = np.flatnonzero(self._walk)                # the states with a walk, and its std per 1 s
+        self._walk_std = np.sqrt(self._walk[self._walking])
         self._walk_diag = np.diag(self._walk)
         self._eye = np.eye(self.n)
         sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
@@ -526,7 +528,7 @@ class OdometryMotion(MotionModel):
         """
         d, dth = self._input(u)
         k = self._step(k)
-        walking = np.flatnonzero(self._walk)
+        walking = self._walking
         eps = standard_normal_per_run(per_run_generators(rng, x.shape[0], spawn=False),
                                       x.shape[1:-1] + (2 + walking.size,))
         noisy = np.empty(eps.shape[:-1] + (2,))
@@ -536,7 +538,7 @@ class OdometryMotion(MotionModel):
         noisy[..., 1] += dth
         out = self.f(x, noisy, k)
         if walking.size:
-            out[..., walking] += eps[..., 2:] * np.sqrt(self._walk[walking] * self.dt(k))
+            out[..., walking] += eps[..., 2:] * (self._walk_std * np.sqrt(self.dt(k)))
         return out
 
     def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -42,6 +42,11 @@ The step index :math:`k` reaches both models (a beacon that moves, per-step nois
 and the posterior Cramér-Rao bound (:func:`uwtutor.observability.model_posterior_crlb`). A
 :class:`~uwtutor.models.base.ModelPair` may stand for the two models.
 
+A constant state (a gyro bias, a range scale) or a likelihood much narrower than the prediction makes the
+resampled copies of a few particles all the cloud has left (sample impoverishment); the roughening of Gordon et
+al. (1993) -- jitter of a size set by the cloud's own spread after each resampling -- keeps them apart
+(``roughening=0.1`` on the real logs, ``tests/test_particle_real_data.py``).
+
 The estimate of a state with an angle (a heading) is its circular mean: the filter takes the model's
 ``difference`` and ``normalize`` (:meth:`~uwtutor.models.base.MotionModel.difference`), so that a cloud that
 straddles :math:`\pm\pi` has its mean there, not at 0.
@@ -136,6 +141,10 @@ def whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, w
             d *= whiten[..., None]
         else:
             d = np.swapaxes(whiten, -1, -2) @ d
+    elif diagonal:                     # independent components: the marginal drops the missing ones' terms
+        d = hx_rows - z[..., None]
+        d *= whiten[..., None]
+        d = np.where(missing[..., None], 0.0, d)
     else:
         M, m, N = hx_rows.shape
         d = np.zeros((M, m, N))
@@ -194,6 +203,13 @@ class BootstrapParticleFilter:
         Resample when :math:`N_\mathrm{eff} <` ``ess_threshold`` :math:`\cdot N`. 1.0 (the default, as in paper C)
         resamples after every measurement, 0.5 is a common adaptive choice, 0 never resamples (plain
         sequential importance sampling, which degenerates). A step without a measurement never resamples.
+    roughening : float, optional
+        :math:`K` of the roughening of Gordon et al. (1993), 0 (none) by default: after each resampling, component
+        :math:`j` of every particle gets independent jitter :math:`N(0, (K E_j N^{-1/n})^2)`, :math:`E_j` the spread
+        (max - min) of that component over the run's particles (an angle's through the motion model's
+        ``difference``). It keeps the copies of a resampled particle apart where the motion noise does not -- in
+        constant states (a gyro bias, a range scale) and when precise measurements make the likelihood much
+        narrower than the prediction -- at the price of a slightly wider posterior. The paper uses 0.2.
 
     Attributes
     ----------
@@ -269,7 +285,8 @@ class BootstrapParticleFilter:
     result_type = FilterResult
 
     def __init__(self, motion: Any, measurement: Any, particles: Any = None, rng: Any = None, *,
-                 weights: Any = None, resampler: Resampler = systematic_resample, ess_threshold: float = 1.0) -> None:
+                 weights: Any = None, resampler: Resampler = systematic_resample, ess_threshold: float = 1.0,
+                 roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
         self._set_models(motion, measurement)
         p = as_finite("particles", particles, ndim=(2, 3))
@@ -287,6 +304,7 @@ class BootstrapParticleFilter:
             raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {resampler!r}")
         self.resampler = resampler
         self.ess_threshold = float(as_nonnegative("ess_threshold", ess_threshold))
+        self.roughening = float(as_nonnegative("roughening", roughening))
         m = self.m
         self.k = -1
         self._y = np.full((M, m), np.nan)
@@ -481,10 +499,10 @@ class BootstrapParticleFilter:
             return self._moments(rows)
         x = _rows(rows)
         ref = x[:, :1, :]
-        d = self.motion.difference(x, ref)                           # (M, N, n), angles wrapped about ref
-        mean = self.motion.normalize(ref[:, 0, :] + np.einsum("mn,mni->mi", self._w, d))
-        d = _rows(self.motion.difference(x, mean[:, None, :]))       # (M, n, N)
-        return mean, np.matmul(d * self._w[:, None, :], np.swapaxes(d, -1, -2))
+        # the differences from a reference particle, angles wrapped (a cloud narrower than pi unwrapped about it);
+        # their weighted mean and covariance are those of the cloud, the mean then moved back by ref
+        mean_d, cov = self._moments(_rows(self.motion.difference(x, ref)))
+        return self.motion.normalize(ref[:, 0, :] + mean_d), cov
 
     def _set_estimate(self) -> None:
         self._x, self._P = self._state_moments(self._rows_p)
@@ -648,6 +666,24 @@ class BootstrapParticleFilter:
             self._w[r].fill(1.0 / N)
             self._uniform[r] = True
             self._resampled[r] = True
+            if self.roughening > 0.0:
+                self._roughen(r)
+
+    def _roughen(self, run: int) -> None:
+        r"""Gordon et al.'s roughening of run ``run``'s resampled particles: component :math:`j` of every particle
+        gets :math:`N(0, (K E_j N^{-1/n})^2)`, :math:`E_j` its spread (max - min) over the particles, an angle's as
+        the motion model's differences from one particle."""
+        rows = self._rows_p[run]                                      # (n, N)
+        n, N = rows.shape
+        x = _rows(rows[None])                                         # (1, N, n)
+        d = self.motion.difference(x, x[:, :1]) if self._circular else x
+        spread = np.ptp(d[0], axis=0)
+        jitter = self.rngs[run].standard_normal((n, N))
+        jitter *= (self.roughening * N ** (-1.0 / n) * spread)[:, None]
+        rows = rows + jitter
+        if self._circular:
+            rows = _rows(np.asarray(self.motion.normalize(_rows(rows[None])), dtype=float))[0]
+        self._rows_p[run] = rows
 
     def _take(self, run: int, idx: np.ndarray) -> None:
         """Keep the particles ``idx`` of run ``run`` (a subclass moves what else its particles carry)."""
