@@ -114,8 +114,9 @@ def _depth_ekf(d, sel, rng, n=None):              # deterministic: rng unused
 
 def _range_pf(d, sel, rng, n=N):
     """Chapter 10's particle filter: the EKF's range-only pair, the DR displacement as input, per-run beacon path."""
-    return BootstrapParticleFilter.from_gaussian(DeadReckoning(np.eye(2) * 0.25), RangeToBeacon(d["beacon"][sel], R=4.0),
-                                                 d["x0"][sel], d["P0"], n, rng, ess_threshold=0.5)
+    return BootstrapParticleFilter.from_gaussian(DeadReckoning(np.eye(2) * 0.25),
+                                                 RangeToBeacon(d["beacon"][sel], R=4.0), d["x0"][sel], d["P0"], n,
+                                                 rng, ess_threshold=0.5)
 
 
 def _range_mmpf(d, sel, rng, n=N):

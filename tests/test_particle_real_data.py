@@ -40,7 +40,8 @@ def simulated_log(seed: int = 0, K: int = 4091) -> RangeDataset:
     rng = np.random.default_rng(seed)
     t, odometry, truth = _path(K)
     d = odometry[:, 0]
-    measured = odometry + np.column_stack([rng.normal(0.0, 0.01 + 0.02 * d), GYRO_BIAS * STEP + rng.normal(0.0, 3e-4, K)])
+    measured = odometry + np.column_stack([rng.normal(0.0, 0.01 + 0.02 * d),
+                                           GYRO_BIAS * STEP + rng.normal(0.0, 3e-4, K)])
     measured[0] = 0.0
     rows = []
     for beacon, position in BEACONS.items():

@@ -39,7 +39,8 @@ def _data(n_runs=3, steps=120):
 def test_one_run_likelihood_equals_the_built_in_one_single_and_batched():
     model, meas = _data()
     for m in range(meas.shape[0]):
-        ref = BootstrapParticleFilter.from_gaussian(model, meas[m, 0], model.R, 200, np.random.default_rng(m)).run(meas[m])
+        ref = BootstrapParticleFilter.from_gaussian(model, meas[m, 0], model.R, 200,
+                                                    np.random.default_rng(m)).run(meas[m])
         own = BootstrapParticleFilter.from_gaussian(OneRunLikelihood(), meas[m, 0], model.R, 200,
                                                     np.random.default_rng(m)).run(meas[m])
         np.testing.assert_allclose(own.x, ref.x, rtol=1e-9, atol=1e-9)

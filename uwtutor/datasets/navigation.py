@@ -97,7 +97,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
         Prior standard deviation of :math:`s` about 1, and its random walk [1/√s].
     gate : bool, default True
         Reject ranges outside the 99.9 % chi-square gate, component by component, with re-acquisition after 10
-        rejected epochs in a row (:class:`uwtutor.filters.ReacquiringGate`), so that the gate never locks out.
+        rejected epochs in a row (:class:`uwtutor.filters.gates.ReacquiringGate`), so that the gate never locks out.
 
     Returns
     -------
@@ -161,9 +161,9 @@ class NavigationModels:
 
     Attributes
     ----------
-    motion : uwtutor.models.OdometryMotion
+    motion : uwtutor.models.odometry.OdometryMotion
         The odometry with heading, gyro bias and range scale as :func:`navigate` sets it up.
-    measurement : uwtutor.models.BeaconRanges
+    measurement : uwtutor.models.range.BeaconRanges
         The ranges to the chosen beacons.
     x0 : ndarray, shape (n,)
         The start state (the log's start pose; gyro bias 0, scale 1).

@@ -32,14 +32,14 @@ The models of the chapter on paper C:
 :class:`DepthSensors`          the three sensors (eq. (6)), with a fixed :math:`R`, one per step, or one per
                                run and step (the wavelet estimates of the grey particle filter)
 :class:`DepthSpeedPitchModel`  motion and sensors in one :class:`~uwtutor.models.base.ModelPair`, with
-                               :meth:`~DepthSpeedPitchModel.simulate`
+                               :meth:`~uwtutor.models.base.ModelPair.simulate`
 :class:`PitchManeuverModel`    the same for :class:`PitchManeuver`
 =============================  ===========================================================================
 
 The one model pair runs in every filter: ``extended_kalman_filter(DepthSpeedPitch(), DepthSensors(), ...)`` is
 paper C's EKF (its first baseline), ``BootstrapParticleFilter.from_gaussian(DepthSpeedPitch(), DepthSensors(),
-...)`` its particle filter, and :class:`~uwtutor.filters.particle.GreyParticleFilter` and
-:class:`~uwtutor.filters.particle.MultipleModelParticleFilter` take the same models.
+...)`` its particle filter, and :class:`~uwtutor.filters.particle.grey.GreyParticleFilter` and
+:class:`~uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter` take the same models.
 
 References
 ----------
@@ -439,7 +439,7 @@ class PitchManeuverModel(DepthSpeedPitchModel):
 
     The pitch relaxes towards ``pitch_target`` with time constant :math:`\tau` before each step of paper C's model
     (equations in :class:`PitchManeuver`); a list of such models (cruise, dive, climb) is the mode set of
-    :class:`~uwtutor.filters.particle.MultipleModelParticleFilter`.
+    :class:`~uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter`.
 
     Parameters
     ----------

@@ -125,7 +125,7 @@ def _split_pair(first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, An
     return first, second, rest
 
 
-def whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
+def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
                             diagonal: bool) -> np.ndarray:
     r""":math:`-\tfrac12 (z - h)^T R^{-1} (z - h)` for every particle of every run, ``(M, N)``: the fast path of
     the Gaussian likelihood, with the whitening computed once for an ``R`` that does not change.
@@ -161,8 +161,8 @@ def whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, w
     return out
 
 
-def whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
-    """The whitening of :func:`whitened_log_likelihood` for one ``(m, m)`` covariance and whether it is diagonal."""
+def _whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The whitening of ``_whitened_log_likelihood`` for one ``(m, m)`` covariance and whether it is diagonal."""
     diagonal = bool(np.all(R == np.diag(np.diag(R))))
     return (1.0 / np.sqrt(np.diag(R)) if diagonal else np.linalg.inv(np.linalg.cholesky(R)).T), diagonal
 
@@ -356,7 +356,8 @@ class BootstrapParticleFilter:
         Parameters
         ----------
         motion, measurement : MotionModel, MeasurementModel
-            The model pair (the list of mode motion models of :class:`MultipleModelParticleFilter`), or one
+            The model pair (the list of mode motion models of
+            :class:`~uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter`), or one
             :class:`~uwtutor.models.base.ModelPair` in their place: ``from_gaussian(pair, x0, P0, N, rng)``.
         x0 : array_like, shape (n,) or (M, n)
             Mean of the initial particles; ``(M, n)`` makes ``M`` runs, one mean each.
@@ -578,9 +579,9 @@ class BootstrapParticleFilter:
         if R.ndim == 2:                                   # one R for every run: whiten once while it stays
             key = R.tobytes()
             if key != self._white_key:
-                self._white, self._white_diag = whitening(R)
+                self._white, self._white_diag = _whitening(R)
                 self._white_key = key
-            return whitened_log_likelihood(_rows(hx), z, R, self._white, self._white_diag)
+            return _whitened_log_likelihood(_rows(hx), z, R, self._white, self._white_diag)
         return gaussian_log_likelihood(hx, z, R)
 
     def _update(self, z: np.ndarray) -> None:

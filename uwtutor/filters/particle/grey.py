@@ -10,8 +10,8 @@ directly (:math:`h(x) = x`). Its filter is the bootstrap filter
 * the likelihood uses a measurement noise measured online, sensor by sensor, by the wavelet MAD estimate
   (:mod:`uwtutor.wavelet`), which follows a noise level that changes.
 
-It takes the same model pair as the EKF -- paper C's :class:`uwtutor.models.DepthSpeedPitch` and
-:class:`uwtutor.models.DepthSensors` -- and follows the filter protocol with a runs axis, as every filter here.
+It takes the same model pair as the EKF -- paper C's :class:`~uwtutor.models.depth.DepthSpeedPitch` and
+:class:`~uwtutor.models.depth.DepthSensors` -- and follows the filter protocol with a runs axis, as every filter here.
 
 References
 ----------
@@ -35,7 +35,7 @@ from ..._validate import as_finite, as_int, as_nonnegative, as_positive
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
 from ...wavelet import as_wavelet, detail_matrix, mad_sigma
-from .bootstrap import BootstrapParticleFilter, _all, _any, _rows, whitened_log_likelihood, whitening
+from .bootstrap import BootstrapParticleFilter, _all, _any, _rows, _whitened_log_likelihood, _whitening
 
 __all__ = ["GreyParticleFilter"]
 
@@ -70,10 +70,10 @@ class GreyParticleFilter(BootstrapParticleFilter):
     Parameters
     ----------
     motion : uwtutor.models.MotionModel
-        How the particles move, e.g. :class:`uwtutor.models.DepthSpeedPitch`.
+        How the particles move, e.g. :class:`~uwtutor.models.depth.DepthSpeedPitch`.
     measurement : uwtutor.models.MeasurementModel
         A model that measures the state directly, :math:`h(x) = x`, with one :math:`R` to start from, e.g.
-        :class:`uwtutor.models.DepthSensors`. The filter keeps its own per-run :math:`R_k` and leaves the model's
+        :class:`~uwtutor.models.depth.DepthSensors`. The filter keeps its own per-run :math:`R_k` and leaves the model's
         alone. A :class:`~uwtutor.models.base.ModelPair` may stand for ``motion`` and ``measurement``.
     particles : array_like, shape (N, n) or (M, N, n)
         Initial particles (of ``M`` runs).
@@ -181,7 +181,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self._noise_std = np.tile(sd0, (M, 1))
         # the R_k of each run: the model's R until the run's first wavelet estimate, diagonal after it
         self._R_runs = np.tile(R0, (M, 1, 1))
-        white, self._R_diag = whitening(R0)
+        white, self._R_diag = _whitening(R0)
         self._whiten_runs = np.tile(white, (M,) + (1,) * white.ndim)
         self._estimated = np.zeros(M, dtype=bool)
         self._history = np.full((M, n, max(self.grey_window, self.noise_window)), np.nan)
@@ -264,7 +264,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         return self._R_runs
 
     def _log_weights(self, x: np.ndarray, hx: np.ndarray, z: np.ndarray, R: np.ndarray, k: int) -> np.ndarray:
-        return whitened_log_likelihood(_rows(hx), z, self._R_runs, self._whiten_runs, self._R_diag)
+        return _whitened_log_likelihood(_rows(hx), z, self._R_runs, self._whiten_runs, self._R_diag)
 
     def _update(self, z: np.ndarray) -> None:
         hist = self._history

@@ -60,7 +60,7 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     Parameters
     ----------
     motions : sequence of uwtutor.models.MotionModel
-        The ``J`` mode models, for the same state (e.g. :class:`uwtutor.models.PitchManeuver` with the pitch
+        The ``J`` mode models, for the same state (e.g. :class:`~uwtutor.models.depth.PitchManeuver` with the pitch
         targets of cruise, dive and climb). A sequence of :class:`~uwtutor.models.base.ModelPair` may stand for
         ``motions`` and ``measurement`` (their motion models the modes; their measurement models the same).
     measurement : uwtutor.models.MeasurementModel
