@@ -71,10 +71,21 @@ def test_same_seed_same_result_and_the_model_pair_form():
     runs = [BootstrapParticleFilter.from_gaussian(*pair, x0, P0, 300, np.random.default_rng(5)).run(zs)
             for _ in range(2)]
     np.testing.assert_array_equal(runs[0].x, runs[1].x)
-    # one ModelPair in place of the two models (chapter 6's LinearGaussianModel) is the same filter, draw for draw
+    # one ModelPair in place of the two models (chapter 6's LinearGaussianModel) is the same filter, draw for draw,
+    # its other arguments given by position or by name
     for model in (ModelPair(*pair), LinearGaussianModel(**mats)):
-        res = BootstrapParticleFilter.from_gaussian(model, x0, P0, 300, np.random.default_rng(5)).run(zs)
-        np.testing.assert_array_equal(res.x, runs[0].x)
+        for make in (lambda: BootstrapParticleFilter.from_gaussian(model, x0, P0, 300, np.random.default_rng(5)),
+                     lambda: BootstrapParticleFilter.from_gaussian(model, x0, P0, n_particles=300,
+                                                                   rng=np.random.default_rng(5)),
+                     lambda: BootstrapParticleFilter.from_gaussian(model, x0=x0, P0=P0, n_particles=300,
+                                                                   rng=np.random.default_rng(5))):
+            np.testing.assert_array_equal(make().run(zs).x, runs[0].x)
+    start = np.random.default_rng(7).normal(size=(50, 2))
+    a = BootstrapParticleFilter(ModelPair(*pair), start, np.random.default_rng(1)).run(zs)
+    b = BootstrapParticleFilter(ModelPair(*pair), start, rng=np.random.default_rng(1)).run(zs)
+    c = BootstrapParticleFilter(*pair, start, np.random.default_rng(1)).run(zs)
+    np.testing.assert_array_equal(a.x, c.x)
+    np.testing.assert_array_equal(b.x, c.x)
 
 
 def test_ess_threshold_controls_resampling():
@@ -287,3 +298,34 @@ def test_gaussian_log_likelihood(R):
     pair = DepthSpeedPitchModel(R=R)
     np.testing.assert_allclose(pair.log_likelihood(particles[0], z_part), expected_part, rtol=1e-12)
     assert isinstance(pair.measurement, MeasurementModel) and isinstance(pair, ModelPair)
+
+
+def test_the_step_index_and_the_input_reach_both_models():
+    """predict passes k = 0, 1, ... and u to the motion model's sample; update passes the same k to h, R and the
+    likelihood (a beacon that moves, a noise per step read row k)."""
+    seen = []
+
+    class Motion(LinearMotion):
+        def sample(self, x, u, k, rng):
+            seen.append(("sample", k, None if u is None else np.asarray(u).tolist()))
+            return super().sample(x, u, k, rng)
+
+    class Measurement(LinearMeasurement):
+        def h(self, x, k):
+            seen.append(("h", k))
+            return super().h(x, k)
+
+        def R(self, x, k):
+            seen.append(("R", k))
+            return super().R(x, k)
+
+    pf = BootstrapParticleFilter.from_gaussian(Motion([[1.0]], [[0.1]], B=[[1.0]]),
+                                               Measurement([[1.0]], [1.0, 2.0, 3.0]), [0.0], [[1.0]], 100,
+                                               np.random.default_rng(0), n_runs=2)
+    pf.run(np.zeros((2, 3)), u=np.array([[[1.0], [2.0], [3.0]], [[4.0], [5.0], [6.0]]]))
+    assert [e for e in seen if e[0] == "sample"] == [("sample", k, [[[1.0 + k]], [[4.0 + k]]]) for k in range(3)]
+    assert [e[1] for e in seen if e[0] in ("h", "R")] == [0, 0, 1, 1, 2, 2]
+    assert pf.k == 2
+    with pytest.raises(IndexError, match="R has 3 per-step values; step 3 is beyond them"):
+        pf.predict([0.0])
+        pf.update([0.0, 0.0])

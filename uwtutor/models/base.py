@@ -151,7 +151,10 @@ class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.
 
     Subclasses set ``m`` and ``n`` and implement :meth:`h`, :meth:`H` and :meth:`R`; a model whose
-    Jacobian is undefined somewhere (the range on the beacon) overrides :meth:`linearize` and reports it there.
+    Jacobian is undefined somewhere (the range on the beacon) overrides :meth:`linearize` and reports it there. A
+    particle filter weighs through :meth:`log_likelihood` (Gaussian by default; override it for another noise).
+    A model with parameters per Monte Carlo run (a beacon path per run) sets ``n_runs`` and provides
+    ``select_runs(runs)``, the same model for some of the runs (a particle filter takes its runs block by block).
 
     Attributes
     ----------

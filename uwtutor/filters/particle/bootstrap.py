@@ -115,13 +115,23 @@ def _check_model(name: str, model: Any, kind: type) -> None:
                         f"uwtutor.models.ModelPair in place of motion and measurement; got {type(model).__name__}")
 
 
+def _shift_for_pair(second: Any, rest: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The arguments named ``rest`` when one ModelPair stood for two models: the positional ones (the leading
+    slots that are set, from ``second`` on) shift one name to the right; the ones given by keyword stay."""
+    slots = (second,) + tuple(rest)
+    p = 0
+    while p < len(slots) and slots[p] is not None:
+        p += 1
+    if p == len(slots):
+        raise TypeError("too many positional arguments: one ModelPair stands for both motion and measurement")
+    return tuple(slots[i - 1] if i <= p else slots[i] for i in range(1, len(slots)))
+
+
 def _split_pair(first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, Any, tuple[Any, ...]]:
     """``(motion, measurement, rest)`` from a filter's leading arguments, where one ModelPair may stand for the
-    first two (the others then shift one place left)."""
+    first two (the positional arguments after it then mean the next names)."""
     if isinstance(first, ModelPair):
-        if rest and rest[-1] is not None:
-            raise TypeError("too many positional arguments: a ModelPair stands for both motion and measurement")
-        return first.motion, first.measurement, (second,) + rest[:-1]
+        return first.motion, first.measurement, _shift_for_pair(second, rest)
     return first, second, rest
 
 
@@ -284,7 +294,7 @@ class BootstrapParticleFilter:
     extra_outputs: tuple[str, ...] = ("ess", "resampled")
     result_type = FilterResult
 
-    def __init__(self, motion: Any, measurement: Any, particles: Any = None, rng: Any = None, *,
+    def __init__(self, motion: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
                  weights: Any = None, resampler: Resampler = systematic_resample, ess_threshold: float = 1.0,
                  roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
@@ -349,8 +359,9 @@ class BootstrapParticleFilter:
                                  f"the particles are of {M} run(s): give one set of particles per run")
 
     @classmethod
-    def from_gaussian(cls, motion: Any, measurement: Any, x0: Any = None, P0: Any = None, n_particles: Any = None,
-                      rng: Any = None, *, n_runs: int | None = None, **kwargs: Any) -> "BootstrapParticleFilter":
+    def from_gaussian(cls, motion: Any, measurement: Any = None, x0: Any = None, P0: Any = None,
+                      n_particles: Any = None, rng: Any = None, *, n_runs: int | None = None,
+                      **kwargs: Any) -> "BootstrapParticleFilter":
         """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
 
         Parameters

@@ -136,7 +136,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
     def _can_split(self) -> bool:
         return self._R_diag and super()._can_split()      # whitening vectors of one shape in every block
 
-    def __init__(self, motion: Any, measurement: Any, particles: Any = None, rng: Any = None, *,
+    def __init__(self, motion: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
                  grey_fraction: float = 0.1, grey_window: int = 30, grey_std: Any = None, grey_offset: Any = None,
                  noise_window: int = 50, wavelet: str = "db6", adapt_noise: bool = True,
                  min_noise_std: Any = None, resampler: Resampler = systematic_resample,

@@ -36,7 +36,7 @@ import numpy as np
 from ..._validate import as_nonnegative
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...resampling import Resampler, systematic_resample
-from .bootstrap import BootstrapParticleFilter, _check_model
+from .bootstrap import BootstrapParticleFilter, _check_model, _shift_for_pair
 
 __all__ = ["MultipleModelParticleFilter"]
 
@@ -118,7 +118,7 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     extra_outputs = ("ess", "resampled", "mode_probabilities")
     _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
-    def __init__(self, motions: Any, measurement: Any, particles: Any = None, rng: Any = None, *,
+    def __init__(self, motions: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
                  transition: Any, modes: Any = None, mode_probabilities: Any = None, weights: Any = None,
                  resampler: Resampler = systematic_resample, ess_threshold: float = 1.0) -> None:
         motions, measurement, (particles, rng) = self._split_models(motions, measurement, (particles, rng))
@@ -162,14 +162,12 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
         if not items:
             raise TypeError("motions must be a non-empty list of motion models (one per mode)")
         if all(isinstance(p, ModelPair) for p in items):
-            if rest and rest[-1] is not None:
-                raise TypeError("too many positional arguments: the ModelPairs stand for motions and measurement")
             measurement = items[0].measurement
             for j, pair in enumerate(items[1:], start=1):
                 if pair.n != items[0].n or not _same_noise(pair._measurement, items[0]._measurement):
                     raise ValueError(f"the mode models must share the state size and the measurement noise R (one "
                                      f"likelihood for all modes); model {j} differs from model 0")
-            return [p.motion for p in items], measurement, (second,) + rest[:-1]
+            return [p.motion for p in items], measurement, _shift_for_pair(second, rest)
         for j, model in enumerate(items):
             _check_model(f"motions[{j}]", model, MotionModel)
             if model.n != items[0].n:
