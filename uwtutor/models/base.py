@@ -225,7 +225,16 @@ class MeasurementModel:
 
     def sample(self, x: np.ndarray, k: int, rng: Any) -> np.ndarray:
         r"""Draw measurements of states ``x`` ``(M, ..., n)``: :math:`z = h_k(x) + L\varepsilon`,
-        :math:`L L^\mathsf{T} = R_k` (``rng`` one Generator per run; to simulate data)."""
+        :math:`L L^\mathsf{T} = R_k` (``rng`` one Generator per run; to simulate data).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import RangeToBeacon
+        >>> z = RangeToBeacon((0.0, 0.0), R=4.0).sample(np.array([[3.0, 4.0]]), 0, [np.random.default_rng(0)])
+        >>> z.shape, bool(abs(z[0, 0] - 5.0) < 8.0)                      # 5 m, give or take 2 m noise
+        ((1, 1), True)
+        """
         mean = np.asarray(self.h(x, k), dtype=float)
         return mean + gaussian_noise(psd_sqrt(np.asarray(self.R(x, k), dtype=float)), rng, mean.shape)
 
