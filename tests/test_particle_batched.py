@@ -227,3 +227,64 @@ def test_batched_mmpf_and_gpf_extras():
     np.testing.assert_array_equal(sd[1, 71:120, 0], sd[1, 70, 0])   # depth estimate frozen while the gap is in it
     assert (sd[1, 71:, 1] != sd[1, 70, 1]).any()                    # the other sensors go on
     np.testing.assert_array_equal(model.R, DepthSpeedPitchModel().R)   # the user's model is left alone
+
+
+def _pair_cases():
+    """(name, motion, measurement, x0 (M, n), P0, u, z, true positions (M, K, 2) or (M, K, 1)) for every kind of
+    model pair of the library beyond paper C's and the odometry's (those have the contract test)."""
+    from uwtutor.filters.cooperative import range_pairs
+    from uwtutor.models import (BiasRateDeadReckoning, ConstantVelocity, CooperativeMotion, DeadReckoning,
+                                MultiplicativeRange, PositionMeasurement, RangeToBeacon, SquaredRangePair)
+    from uwtutor.models.robust import step_lengths
+    from uwtutor.scenarios import paper_b
+
+    rng = np.random.default_rng(0)
+    K, M = 60, 3
+    theta = np.linspace(0, np.pi, K + 1)
+    track = 300 * np.column_stack([np.cos(theta), np.sin(theta)])
+    u = np.diff(track, axis=0)[None] + rng.normal(0, 0.3, (M, K, 2))
+    z = np.linalg.norm(track[1:], axis=1) + rng.normal(0, 2.0, (M, K))
+    x0 = np.tile(track[0], (M, 1))
+    truth = np.broadcast_to(track[1:], (M, K, 2))
+    cases = [("DeadReckoning + MultiplicativeRange", DeadReckoning(np.eye(2) * 0.1),
+              MultiplicativeRange((0, 0), 4.0, 1.0, 1e-3), x0, np.eye(2) * 100, u, z, truth),
+             ("BiasRateDeadReckoning + RangeToBeacon(bias)",
+              BiasRateDeadReckoning(np.diag([0.1, 0.1, 0.01, 1e-4]), 1.0),
+              RangeToBeacon((0, 0), 4.0, n=4, bias_index=2), np.column_stack([x0, np.zeros((M, 2))]),
+              np.diag([100, 100, 4.0, 0.01]), u, z + 3.0, truth)]
+    cv = ConstantVelocity(1, 0.1, step_lengths(K, 1.0))                  # a singular Q: acceleration noise only
+    xs = np.array([300.0, -5.0]) + rng.normal(0.0, [2.0, 5.0], (M, 2))
+    states = np.empty((M, K, 2))                                          # a truth drawn from the model
+    for m in range(M):
+        x = xs[m][None, None]
+        for k in range(K):
+            x = cv.sample(x, None, k, [rng])
+            states[m, k] = x[0, 0]
+    cases.append(("ConstantVelocity + PositionMeasurement", cv, PositionMeasurement(1, 4.0),
+                  np.tile([300.0, -5.0], (M, 1)), np.diag([4.0, 25.0]), None,
+                  states[..., :1] + rng.normal(0.0, 2.0, (M, K, 1)), states[..., :1]))
+    sc = paper_b.make(np.random.default_rng(5), M, duration=8.0 * 40)       # a leader per run: per-run parameters
+    p = paper_b.PAPER_B
+    cases.append(("CooperativeMotion + SquaredRangePair", CooperativeMotion(8.0, p.Q),
+                  SquaredRangePair(sc.leader_broadcast, sc.dr_displacements, 8.0, p.R), np.tile(p.x1, (M, 1)),
+                  np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, range_pairs(sc.ranges) ** 2,
+                  np.broadcast_to(sc.true_states[:, :2], (M, 40, 2))))
+    return cases
+
+
+@pytest.mark.parametrize("case", _pair_cases(), ids=lambda c: c[0])
+def test_every_kind_of_model_pair_runs_in_the_particle_filter_as_in_the_ekf(case):
+    """The library's other model pairs (state-dependent R, a bias state, a singular Q, per-run leader paths) run
+    in the batched PF as they run in the EKF engine, and the PF is about as accurate."""
+    from uwtutor.filters import extended_kalman_filter
+
+    name, motion, measurement, x0, P0, u, z, truth = case
+    ekf = extended_kalman_filter(motion, measurement, x0, P0, u, z)
+    pf = BootstrapParticleFilter.from_gaussian(motion, measurement, x0, P0, 2000, np.random.default_rng(1),
+                                               ess_threshold=0.5).run(z, u)
+    assert pf.x.shape == ekf.x.shape and np.isfinite(pf.x).all()
+    d = truth.shape[-1]
+    late = slice(truth.shape[1] // 2, None)
+    error = {n: float(np.mean(np.linalg.norm(r.x[:, late, :d] - truth[:, late], axis=-1))) for n, r in
+             (("EKF", ekf), ("PF", pf))}
+    assert error["PF"] < 1.5 * error["EKF"] + 1.0, error
