@@ -6,9 +6,15 @@ A module of its own (not conftest.py), because two conftest.py files -- tests/ a
 
 from __future__ import annotations
 
+import contextlib
 import re
 import shutil
+import socket
+import subprocess
 import sys
+import time
+import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -59,3 +65,31 @@ def toc_docnames(toc_path: Path = REPO / "_toc.yml") -> list[str]:
     walk({k: v for k, v in toc.items() if k != "root"})
     # Drop source suffixes: _toc.yml may name `book/ch01.ipynb` or `book/ch01`.
     return [re.sub(r"\.(md|ipynb|rst)$", "", n) for n in names]
+
+
+@contextlib.contextmanager
+def serve_directory(directory: Path, timeout: float = 20.0) -> Iterator[str]:
+    """Serve ``directory`` with ``python -m http.server`` on a free port of 127.0.0.1; yields the base URL."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "http.server", "--bind", "127.0.0.1", "--directory",
+                               str(directory), str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    base = f"http://127.0.0.1:{port}/"
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                urllib.request.urlopen(base, timeout=2).close()
+                break
+            except OSError:
+                if server.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"python -m http.server did not start on port {port}")
+                time.sleep(0.1)
+        yield base
+    finally:
+        server.terminate()
+        try:
+            server.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            server.kill()

@@ -156,67 +156,47 @@ def test_page_fits(pages, site, browser, docname, width):
 
 def main(argv: list[str]) -> int:
     """Print, page by page and width by width, how many code blocks, equations and pages overflow."""
-    import socket
-    import subprocess
     import tempfile
-    import time
-    import urllib.request
 
     from playwright.sync_api import sync_playwright
 
+    from book_paths import serve_directory
     from test_browser import CHROMIUM, CHROMIUM_FLAGS
 
     verbose = "-v" in argv
     only = [a[2:] for a in argv if a.startswith("-k")]
     paths = [a for a in argv if not a.startswith("-")]
     html = Path(paths[0]).resolve() if paths else HTML_DIR
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = subprocess.Popen([sys.executable, "-m", "http.server", "--bind", "127.0.0.1", "--directory", str(html),
-                               str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    base = f"http://127.0.0.1:{port}/"
     totals = {w: {"code": 0, "input": 0, "output": 0, "equations": 0, "scrolling": 0, "pages": 0} for w in WIDTHS}
-    try:
-        for _ in range(100):
-            try:
-                urllib.request.urlopen(base + "index.html", timeout=2).close()
-                break
-            except OSError:
-                time.sleep(0.1)
-        with sync_playwright() as pw, tempfile.TemporaryDirectory() as profile:
-            context = pw.chromium.launch_persistent_context(
-                profile, executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS,
-                service_workers="block")
-            context.route("**/*", lambda r: r.continue_() if r.request.url.startswith(base) else r.abort())
-            tabs = {}
-            for name, width in WIDTHS.items():
-                tabs[name] = context.new_page()
-                tabs[name].set_viewport_size({"width": width, "height": HEIGHT})
-            print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page':>22s}" for w in WIDTHS))
-            for doc in DOCNAMES:
-                if only and not any(o in doc for o in only):
-                    continue
-                row = []
-                for name in WIDTHS:
-                    facts = measure(tabs[name], base + f"{doc}.html")
-                    t = totals[name]
-                    t["code"] += len(facts["code"])
-                    for c in facts["code"]:
-                        t[c["kind"]] = t.get(c["kind"], 0) + 1
-                    t["equations"] += len(facts["equations"])
-                    t["scrolling"] += facts["scrolling"]
-                    t["pages"] += bool(facts["page"])
-                    row.append(f"{len(facts['code']):>12d}/{len(facts['equations'])}/{int(bool(facts['page']))}"
-                               f"{'':>6s}")
-                    if verbose:
-                        for line in problems(facts):
-                            print(f"    [{name}] {line}")
-                print(f"{doc:38s} " + " ".join(f"{r:>22s}" for r in row))
-            context.close()
-    finally:
-        server.terminate()
-        server.wait(timeout=10)
+    with serve_directory(html) as base, sync_playwright() as pw, tempfile.TemporaryDirectory() as profile:
+        context = pw.chromium.launch_persistent_context(
+            profile, executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS, service_workers="block")
+        context.route("**/*", lambda r: r.continue_() if r.request.url.startswith(base) else r.abort())
+        tabs = {}
+        for name, width in WIDTHS.items():
+            tabs[name] = context.new_page()
+            tabs[name].set_viewport_size({"width": width, "height": HEIGHT})
+        print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page':>22s}" for w in WIDTHS))
+        for doc in DOCNAMES:
+            if only and not any(o in doc for o in only):
+                continue
+            row = []
+            for name in WIDTHS:
+                facts = measure(tabs[name], base + f"{doc}.html")
+                t = totals[name]
+                t["code"] += len(facts["code"])
+                for c in facts["code"]:
+                    t[c["kind"]] = t.get(c["kind"], 0) + 1
+                t["equations"] += len(facts["equations"])
+                t["scrolling"] += facts["scrolling"]
+                t["pages"] += bool(facts["page"])
+                row.append(f"{len(facts['code']):>12d}/{len(facts['equations'])}/{int(bool(facts['page']))}"
+                           f"{'':>6s}")
+                if verbose:
+                    for line in problems(facts):
+                        print(f"    [{name}] {line}")
+            print(f"{doc:38s} " + " ".join(f"{r:>22s}" for r in row))
+        context.close()
     for name, t in totals.items():
         print(f"{name} ({WIDTHS[name]} px): {t['code']} code blocks overflow ({t['input']} inputs, {t['output']} "
               f"outputs), {t['equations']} display equations cut ({t['scrolling']} scroll visibly), "
