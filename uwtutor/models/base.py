@@ -139,7 +139,9 @@ class MotionModel:
         >>> from uwtutor.models import LinearMotion
         >>> # the second state is constant
         >>> walk = LinearMotion(F=np.eye(2), Q=np.diag([1.0, 0.0]))
-        >>> x = walk.sample(np.zeros((1, 4, 2)), None, 0, [np.random.default_rng(0)])
+        >>> x = walk.sample(
+        ...     np.zeros((1, 4, 2)), None, 0, [np.random.default_rng(0)]
+        ... )
         >>> x.shape, bool(np.all(x[..., 1] == 0.0))
         ((1, 4, 2), True)
         """
