@@ -435,6 +435,8 @@ EXEMPT: dict[str, str] = {
                                                 "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.ch11:check_reacquired_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
                                                     "contract; answers parsed by the shared check_number",
+    "uwtutor._linalg:line_of_sight": "the unchecked kernel of uwtutor.models.range:line_of_sight (specified), on the "
+                                     "filters', least squares' and bounds' per-step path: their inputs are checked once",
     "uwtutor.models.noise:psd_sqrt": "the models' square root of their own covariance, checked once by the model "
                                      "(documented as unchecked: a per-step kernel)",
     "uwtutor.models.noise:gaussian_noise": "the samplers' kernel: called by the models with their own checked square "
