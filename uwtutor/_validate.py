@@ -507,6 +507,23 @@ def as_position_function(name: str, value: Any) -> Any:
     return lambda t: np.broadcast_to(fixed, np.shape(t) + (2,))
 
 
+def as_per_run_scalar(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[Any, int | None]:
+    r"""A scalar or one value per run (shape (M,)), finite and > (or >=) ``minimum``: ``(value, None)`` or
+    ``(array, M)``. A strict one (a factor such as paper D's :math:`\mu_\gamma`) is also refused below 1e-3."""
+    # the factor gamma ~ c / c_e is near 1: 1e3 is far beyond any sound-speed error and keeps mu^2 P finite
+    arr = as_finite(name, value, ndim=(0, 1), max_abs=1e3, nonempty=True)
+    bad = arr <= minimum if strict else arr < minimum
+    if np.any(bad):
+        rel = ">" if strict else ">="
+        raise ValueError(f"{name} must be {rel} {minimum:g}; got {arr[bad].flat[0]:g}")
+    if strict and np.any(arr < 1e-3):      # a factor near 0 (1e-300) empties the covariance: refused by name
+        raise ValueError(f"{name} must be at least 1e-3 (the factor c / c_e is near 1; a tiny factor collapses the "
+                         f"covariance); got {arr[arr < 1e-3].flat[0]:g}")
+    if arr.ndim == 0:
+        return float(arr), None
+    return arr, arr.shape[0]
+
+
 def as_choice(name: str, value: Any, options: Any) -> str:
     """One of the strings ``options`` (a list, not a value that merely compares equal; unhashables refused)."""
     choices = list(options)
