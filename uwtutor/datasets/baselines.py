@@ -333,9 +333,8 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     :class:`~uwtutor.filters.particle.bootstrap.BootstrapParticleFilter` on the EKF's model pair,
     :class:`~uwtutor.models.dead_reckoning.DeadReckoning` (its :math:`\mathbf Q` the mean of the per-step
     :math:`\sigma_k^2\mathbf I`) and :class:`~uwtutor.models.range.RangeToBeacon` (the beacon at the origin of the
-    frame), particles drawn from the start's
-    :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the effective sample size falls below half
-    (:func:`uwtutor.methods.particle_filter`'s settings).
+    frame), particles drawn from the start's :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the
+    effective sample size falls below half (:func:`uwtutor.methods.particle_filter`'s settings).
 
     Parameters
     ----------
