@@ -390,6 +390,11 @@ EXEMPT_RULES: list[tuple[str, str]] = [
 ]
 
 EXEMPT: dict[str, str] = {
+    # figure helpers of the book (presentation layer), each tested in tests/test_plotting_fit.py
+    "uwtutor.plotting:method_style": "the line style of a method's name in the book's comparison figures (a "
+                                     "lookup: any name gets a style)",
+    "uwtutor.plotting:method_legend": "legend entries for the book's comparison figures",
+    "uwtutor.plotting:legend_below": "places the legend of a matplotlib axes under it",
     # the reference solutions and the data of the exercises that build a whole step (5.5, 6.6, 10.4): what the
     # checkers compare a student's function with, called only on the checkers' own cases
     "uwtutor.exercises.ch05:isfekf_step_reference": "the reference step exercise 5.5's checker replays; its inputs "
