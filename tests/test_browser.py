@@ -14,17 +14,12 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
-import subprocess
-import sys
-import time
-import urllib.request
 from pathlib import Path
 from urllib.parse import urlsplit
 
 import pytest
 
-from book_paths import BUILD_DIR, HTML_DIR, toc_docnames
+from book_paths import BUILD_DIR, HTML_DIR, serve_directory, toc_docnames
 
 pytestmark = pytest.mark.browser
 
@@ -64,31 +59,15 @@ def site(book_build):
     """Serve _build/html on a free port of 127.0.0.1; yields the base URL."""
     if not (HTML_DIR / "index.html").is_file():
         pytest.fail(f"no book in {HTML_DIR} (the build failed: see test_book_build)", pytrace=False)
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = subprocess.Popen(
-        [sys.executable, "-m", "http.server", "--bind", "127.0.0.1", "--directory", str(HTML_DIR), str(port)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )
-    base = f"http://127.0.0.1:{port}/"
     try:
-        deadline = time.monotonic() + 20
-        while True:
-            try:
-                urllib.request.urlopen(base + "index.html", timeout=2).close()
-                break
-            except OSError:
-                if server.poll() is not None or time.monotonic() > deadline:
-                    pytest.fail(f"python -m http.server did not start on port {port}")
-                time.sleep(0.1)
+        server = serve_directory(HTML_DIR)
+        base = server.__enter__()
+    except RuntimeError as exc:
+        pytest.fail(str(exc))
+    try:
         yield base
     finally:
-        server.terminate()
-        try:
-            server.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        server.__exit__(None, None, None)
 
 
 @pytest.fixture(scope="module")
