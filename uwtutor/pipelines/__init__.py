@@ -25,8 +25,10 @@ from .depth_study import DepthStudy, run_depth_study
 from .ls_fading import LSFadingResult, ls_fading_ekf
 from .prepositioned import prepositioned_bias_ekf
 from .staggered import StaggeredRun, filter_from_start_epochs
-from .vmlbl import ERROR_SOURCES, ErrorBudget, NoUsableFixError, VMLBLResult, epoch_windows, or_vmlbl_kf, vmlbl_error_budget
+from .vmlbl import (ERROR_SOURCES, ErrorBudget, NoUsableFixError, VMLBLResult, epoch_windows, or_vmlbl_kf,
+                    vmlbl_error_budget)
 
 __all__ = ["prepositioned_bias_ekf", "ls_fading_ekf", "LSFadingResult", "filter_from_start_epochs", "StaggeredRun",
-           "or_vmlbl_kf", "VMLBLResult", "NoUsableFixError", "epoch_windows", "vmlbl_error_budget", "ErrorBudget", "ERROR_SOURCES",
+           "or_vmlbl_kf", "VMLBLResult", "NoUsableFixError", "epoch_windows", "vmlbl_error_budget", "ErrorBudget",
+           "ERROR_SOURCES",
            "run_depth_study", "DepthStudy"]
