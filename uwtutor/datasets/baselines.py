@@ -61,7 +61,7 @@ class BaselineRun:
         The estimated positions at every epoch [m].
     result : object
         The method's own result (a :class:`~uwtutor.filters.base.FilterResult`, or a
-        :class:`~uwtutor.pipelines.VMLBLResult` for the virtual baseline), for its innovations, covariances and
+        :class:`~uwtutor.pipelines.vmlbl.VMLBLResult` for the virtual baseline), for its innovations, covariances and
         extras.
     """
 
@@ -270,7 +270,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
                  range_q: float = 30.0, fix_q: float = 1.0, range_sigma: float = RANGE_SIGMA) -> BaselineRun:
     r"""Chapter 9's OR-VMLBL-KF (paper E) on a log: the fixed beacon as the "ship", four-epoch virtual baselines.
 
-    :func:`uwtutor.pipelines.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
+    :func:`uwtutor.pipelines.vmlbl.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
     log's dead reckoning as the vehicle's, the range filter's chi-square gate (chapter 10's choice; paper E's
     relative test is tuned to 1 s epochs at hundreds of metres) and a gated cascade filter. Before the first fix
     the positions are the dead reckoning.
@@ -294,7 +294,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     Returns
     -------
     BaselineRun
-        ``result`` is the :class:`~uwtutor.pipelines.VMLBLResult`.
+        ``result`` is the :class:`~uwtutor.pipelines.vmlbl.VMLBLResult`.
     """
     import warnings
 
