@@ -86,7 +86,8 @@ plain EKF (additive noise)                     ``mu_gamma=1, sigma_gamma=0, fadi
 suboptimal fading EKF (Zhou and Xi 1990)       ``mu_gamma=1, sigma_gamma=0, beta=1.0``
 fading EKF for multiplicative noise (paper D)  ``mu_gamma, sigma_gamma, beta=1.0``
 ISFEKF (paper D)                               ``mu_gamma, sigma_gamma, beta="range"``
-LS-EKF, LS-ISFEKF (paper D)                    :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` (grid-search start, then one of the above)
+LS-EKF, LS-ISFEKF (paper D)                    :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` (grid-search start,
+                                               then one of the above)
 =============================================  =====================================================================
 
 Forms: :func:`fading_ekf` runs ``M`` Monte Carlo runs of ``K`` steps in one call (explicit 2x2 algebra on arrays of
