@@ -84,7 +84,7 @@ def serve_directory(directory: Path, timeout: float = 20.0) -> Iterator[str]:
                 break
             except OSError:
                 if server.poll() is not None or time.monotonic() > deadline:
-                    raise RuntimeError(f"python -m http.server did not start on port {port}")
+                    raise RuntimeError(f"python -m http.server did not start on port {port}") from None
                 time.sleep(0.1)
         yield base
     finally:

@@ -125,7 +125,7 @@ def problems(facts: dict) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def pages(browser):
+def pages(browser):  # noqa: F811  (the fixture imported above)
     """One tab per width, reused for every page of the book."""
     context, _external = browser
     tabs = {}
@@ -140,7 +140,7 @@ def pages(browser):
 
 @pytest.mark.parametrize("width", list(WIDTHS))
 @pytest.mark.parametrize("docname", DOCNAMES)
-def test_page_fits(pages, site, browser, docname, width):
+def test_page_fits(pages, site, browser, docname, width):  # noqa: F811  (the fixtures imported above)
     _context, external = browser
     external.clear()
     if not (HTML_DIR / f"{docname}.html").is_file():
