@@ -289,3 +289,53 @@ def slider_latency(page: Any, index: int, slider: int = 0, key: str = "ArrowRigh
     handle.press(key)
     page.wait_for_function("() => window.__uwtutorLatencyMs !== null", timeout=timeout)
     return float(page.evaluate("() => window.__uwtutorLatencyMs"))
+
+
+#: Every control of a widget panel, in the order the page shows them: slider handles, dropdowns, checkboxes.
+CONTROL_SELECTOR = ".widget-slider .noUi-handle, .widget-dropdown select, .widget-checkbox input"
+
+
+def widget_controls(page: Any, index: int) -> list[dict[str, Any]]:
+    """The controls of the widget in cell ``index``: ``kind`` ("slider", "dropdown" or "checkbox") and ``label``
+    (the description shown beside it), in page order."""
+    return page.evaluate("""([i, selector]) => {
+      const node = window.jupyterapp.shell.currentWidget.content.widgets[i].node;
+      return Array.from(node.querySelectorAll(selector)).map((el) => {
+        const box = el.closest('.widget-slider, .widget-dropdown, .widget-checkbox');
+        const kind = box.classList.contains('widget-slider') ? 'slider'
+                     : box.classList.contains('widget-dropdown') ? 'dropdown' : 'checkbox';
+        const label = box.querySelector('.widget-label, label');
+        return {kind, label: label ? label.innerText.trim() : ''};
+      });
+    }""", [index, CONTROL_SELECTOR])
+
+
+def control_latency(page: Any, index: int, control: int, forward: bool = True, timeout: float = 60_000) -> float:
+    """Change control ``control`` of the widget in cell ``index`` as a person would with the keyboard and return the
+    milliseconds from the key press to the first frame painted with the new figure (as ``slider_latency``).
+
+    A slider moves one step (right when ``forward``, else left); a dropdown takes its next option (the first after
+    the last); a checkbox is toggled with the space bar.
+    """
+    element = cells(page).nth(index).locator(CONTROL_SELECTOR).nth(control)
+    element.scroll_into_view_if_needed()
+    tag = element.evaluate("(el) => el.tagName.toLowerCase() + ':' + (el.type || '')")
+    if tag.startswith("select"):
+        options, now = element.evaluate("(el) => [Array.from(el.options).map((o) => o.value), el.value]")
+        value = options[(options.index(now) + 1) % len(options)]
+        page.evaluate(_ARM_LATENCY, index)
+        element.select_option(value=value)            # timed from its input event
+    else:
+        element.focus()
+        page.evaluate(_ARM_LATENCY, index)
+        element.press(" " if tag == "input:checkbox" else ("ArrowRight" if forward else "ArrowLeft"))
+    page.wait_for_function("() => window.__uwtutorLatencyMs !== null", timeout=timeout)
+    return float(page.evaluate("() => window.__uwtutorLatencyMs"))
+
+
+def slider_room(page: Any, index: int, control: int) -> tuple[float, float]:
+    """Steps' worth of room of slider ``control`` below and above its value (from its ARIA values), as
+    (value - min, max - value)."""
+    element = cells(page).nth(index).locator(CONTROL_SELECTOR).nth(control)
+    now, low, high = (float(element.get_attribute(a)) for a in ("aria-valuenow", "aria-valuemin", "aria-valuemax"))
+    return now - low, high - now
