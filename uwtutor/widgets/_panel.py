@@ -1,7 +1,8 @@
 """The thin ipywidgets layer shared by every widget of the book: controls above one figure, updated in place.
 
-An update does the least a new picture needs. The chapter's compute function runs (each widget keeps its results
-in a small cache keyed by the control values, so a value seen before costs nothing). Then, where the chapter gives
+An update does the least a new picture needs. A setting of the controls shown before is shown again from the
+pictures the panel keeps (the last ``PICTURES_KEPT``, by control values). Otherwise the chapter's compute function
+runs (each widget keeps its results in a small cache keyed by the control values). Then, where the chapter gives
 an ``update`` function, the artists of the figure already drawn take the new data in place (``set_data``,
 ``set_offsets``, ``set_text``): no axes, ticks or layout are made again. The picture is then drawn *by blitting*:
 the figure without the artists that change (axes, ticks, labels, grid: the "background") is drawn once and kept as
@@ -14,6 +15,7 @@ the chapter's plot function. ``make bench`` times every control of every widget 
 from __future__ import annotations
 
 import io
+from collections import OrderedDict
 from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
@@ -35,7 +37,7 @@ def _encode_png(canvas: Any) -> bytes:
 
     width, height = canvas.get_width_height(physical=True)
     buffer = io.BytesIO()
-    Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).save(
+    Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB").save(
         buffer, format="png", compress_level=1)
     return buffer.getvalue()
 
@@ -108,9 +110,32 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
 
 
 def _axes_signature(fig: Any) -> tuple:
-    """What the background of ``fig`` depends on besides its static artists: each axes' position, limits, scales."""
-    return tuple((tuple(np.round(ax.get_position().bounds, 6)), tuple(ax.get_xlim()), tuple(ax.get_ylim()),
-                  ax.get_xscale(), ax.get_yscale()) for ax in fig.axes)
+    """What the background of ``fig`` depends on besides its static artists: each axes' position, limits, scales
+    (after the axes' aspect is applied, as drawing does)."""
+    for ax in fig.axes:
+        ax.apply_aspect()
+    return tuple((tuple(np.round(ax.get_position().bounds, 6)), ax.get_xscale(), ax.get_yscale(),
+                  tuple(ax.get_xlim()), tuple(ax.get_ylim())) for ax in fig.axes)
+
+
+def _same_background(a: tuple | None, b: tuple, tolerance: float = 2e-3) -> bool:
+    """Whether two ``_axes_signature`` are the same picture: same axes, positions and scales, and limits that differ
+    by less than ``tolerance`` of their span (a fraction of a pixel; in decades on a log axis). An axes with an
+    equal aspect re-centres its limits by a hair when its data moves; that alone does not redraw the background."""
+    if a is None or len(a) != len(b):
+        return False
+    for (pos_a, xs_a, ys_a, *lims_a), (pos_b, xs_b, ys_b, *lims_b) in zip(a, b):
+        if pos_a != pos_b or xs_a != xs_b or ys_a != ys_b:
+            return False
+        for (a0, a1), (b0, b1), scale in zip(lims_a, lims_b, (xs_a, ys_a)):
+            if scale == "log":
+                if min(a0, a1, b0, b1) <= 0:
+                    return False
+                a0, a1, b0, b1 = np.log10([a0, a1, b0, b1])
+            span = abs(a1 - a0)
+            if not (abs(a0 - b0) <= tolerance * span and abs(a1 - b1) <= tolerance * span):
+                return False
+    return True
 
 
 class BlitRenderer:
@@ -138,7 +163,7 @@ class BlitRenderer:
         for artist in self.dynamic:
             artist.set_animated(True)
         signature = _axes_signature(self.fig)
-        if self.background is None or signature != self.signature:
+        if self.background is None or not _same_background(self.signature, signature):
             self.canvas.draw()                      # everything but the dynamic artists
             self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
         else:
@@ -148,6 +173,22 @@ class BlitRenderer:
             if artist.get_visible():
                 artist.draw(renderer)
         return _encode_png(self.canvas)
+
+
+#: How many pictures a panel keeps, by control values, to show again at once (about 60 kB each).
+PICTURES_KEPT = 64
+
+
+def _key(values: dict[str, Any]) -> tuple:
+    """The control values as a key of the pictures kept (unhashable values by their text)."""
+    out = []
+    for name, value in values.items():
+        try:
+            hash(value)
+        except TypeError:
+            value = repr(value)
+        out.append((name, value))
+    return tuple(out)
 
 
 def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
@@ -186,14 +227,22 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
                     layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))
     messages = w.Output()
     state = {"failed": False}
+    shown: OrderedDict[tuple, bytes] = OrderedDict([(_key(values()), bytes(image.value))])
 
     def refresh(_change: Any = None) -> None:
+        key = _key(values())
         try:
+            if key in shown and not state["failed"]:   # a view shown before (a dropdown's option, a slider's
+                shown.move_to_end(key)                  # earlier value): its picture again
+                image.value = shown[key]
+                return
             dynamic = None if update is None or state["failed"] else update(fig, **values())
             if dynamic is None:
                 fig.clear()
                 draw(fig, **values())
-            image.value = renderer.png(dynamic)
+            image.value = shown[key] = renderer.png(dynamic)
+            if len(shown) > PICTURES_KEPT:
+                shown.popitem(last=False)
         except Exception:
             state["failed"] = True
             with messages:              # in a kernel, the Output widget shows the traceback and swallows it
