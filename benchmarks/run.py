@@ -478,7 +478,12 @@ def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any
                         if control["kind"] == "slider":
                             below, above = lab.slider_room(page, index, c)
                             forward = above >= below
-                        times = [lab.control_latency(page, index, c, forward) for _ in range(repeats + 1)][1:]
+                        start = lab.control_value(page, index, c) if control["kind"] == "dropdown" else None
+                        times = [lab.control_latency(page, index, c, forward, timeout=30_000)
+                                 for _ in range(repeats + 1)][1:]
+                        if start is not None and lab.control_value(page, index, c) != start:
+                            lab.control_latency(page, index, c, value=start, timeout=30_000)   # as it was
+                        times = [ms for ms in times if ms == ms] or [float("nan")]      # NaN: no new figure
                         controls[control["label"] or f"control {c}"] = {
                             "kind": control["kind"], "median_ms": statistics.median(times), "max_ms": max(times)}
                     medians = [v["median_ms"] for v in controls.values()]
