@@ -71,6 +71,12 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
     change, an axis whose data outgrew them gets ``headroom`` (a fraction of the span) on each side, so that the
     next step the same way usually fits."""
     for ax in axes:
+        # An equal-aspect axes that fits its limits to the data ("datalim") would re-centre kept limits on the
+        # data at every draw: while its limits are kept it keeps its box instead, and fits them again after.
+        if getattr(ax, "_uwtutor_datalim", False) or (ax.get_aspect() != "auto"
+                                                      and ax.get_adjustable() == "datalim"):
+            ax._uwtutor_datalim = True
+            ax.set_adjustable("datalim")
         old = (ax.get_xlim(), ax.get_ylim())
         ax.relim()
         ax.autoscale_view()
@@ -90,6 +96,8 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
         if keep:
             ax.set_xlim(*old[0])
             ax.set_ylim(*old[1])
+            if getattr(ax, "_uwtutor_datalim", False):
+                ax.set_adjustable("box")
             continue
         for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
             if not grow[i] or (i == 0 and ax.get_autoscalex_on() is False) or \
