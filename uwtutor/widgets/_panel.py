@@ -99,6 +99,13 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
             if getattr(ax, "_uwtutor_datalim", False):
                 ax.set_adjustable("box")
             continue
+        if getattr(ax, "_uwtutor_datalim", False) and scales == ("linear", "linear"):
+            ax.apply_aspect()                           # the frame a draw would give, then room on all sides
+            (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+            ax.set_xlim(x0 - headroom * (x1 - x0), x1 + headroom * (x1 - x0))
+            ax.set_ylim(y0 - headroom * (y1 - y0), y1 + headroom * (y1 - y0))
+            ax.set_adjustable("box")                    # the same ratio: the box stays where it is
+            continue
         for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
             if not grow[i] or (i == 0 and ax.get_autoscalex_on() is False) or \
                     (i == 1 and ax.get_autoscaley_on() is False):
