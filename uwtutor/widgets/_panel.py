@@ -158,7 +158,9 @@ class BlitRenderer:
 
     ``png(dynamic)`` marks the artists ``dynamic`` as animated (so a plain draw leaves them out), draws the rest of
     the figure only when the axes changed since the last picture (or on the first), and otherwise restores its
-    pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew).
+    pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew),
+    and so does a ``dynamic`` that holds the figure itself (its artists changed in place all over: colours, tick
+    labels).
     """
 
     def __init__(self, fig: Any) -> None:
@@ -171,7 +173,7 @@ class BlitRenderer:
     def png(self, dynamic: Sequence[Any] | None) -> bytes:
         for artist in self.dynamic:                  # the last picture's dynamic artists: back to normal
             artist.set_animated(False)
-        if dynamic is None:
+        if dynamic is None or self.fig in dynamic:     # drawn anew, or changed all over: a full draw
             self.background, self.signature, self.dynamic = None, None, []
             return figure_png(self.fig)
         self.dynamic = [a for a in dynamic if a is not None]
@@ -221,8 +223,9 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
         that same figure, cleared (when there is no ``update``, or ``update`` declines).
     update : callable, optional
         ``update(fig, **values)`` puts the view for these values into the artists of ``fig`` as ``draw`` left them
-        and returns every artist it changed (they are drawn over the kept background, see ``BlitRenderer``), or
-        ``None`` when the figure must be drawn anew (the panel then clears it and calls ``draw``).
+        and returns every artist it changed (they are drawn over the kept background, see ``BlitRenderer``; the
+        figure itself among them draws it all again, in place), or ``None`` when the figure must be made anew (the
+        panel then clears it and calls ``draw``).
 
     Returns
     -------
