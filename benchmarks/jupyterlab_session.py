@@ -330,7 +330,8 @@ def control_latency(page: Any, index: int, control: int, forward: bool = True, t
     tag = element.evaluate("(el) => el.tagName.toLowerCase() + ':' + (el.type || '')")
     if tag.startswith("select"):
         options, now = element.evaluate("(el) => [Array.from(el.options).map((o) => o.value), el.value]")
-        value = options[(options.index(now) + 1) % len(options)] if value is None else value
+        if value is None:                             # nothing chosen yet (index -1): the first option
+            value = options[(options.index(now) + 1 if now in options else 0) % len(options)]
         page.evaluate(_ARM_LATENCY, index)
         element.select_option(value=value)            # timed from its input event
     else:

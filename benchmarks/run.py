@@ -481,7 +481,7 @@ def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any
                         start = lab.control_value(page, index, c) if control["kind"] == "dropdown" else None
                         times = [lab.control_latency(page, index, c, forward, timeout=30_000)
                                  for _ in range(repeats + 1)][1:]
-                        if start is not None and lab.control_value(page, index, c) != start:
+                        if start and lab.control_value(page, index, c) != start:
                             lab.control_latency(page, index, c, value=start, timeout=30_000)   # as it was
                         times = [ms for ms in times if ms == ms] or [float("nan")]      # NaN: no new figure
                         controls[control["label"] or f"control {c}"] = {

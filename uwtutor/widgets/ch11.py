@@ -210,15 +210,17 @@ def real_data_widget(study: RealDataStudy | None = None) -> Any:
     style = {"description_width": "initial"}
     controls = {
         "beacon": w.Dropdown(options=list(GRID_BEACONS), value="5", description="beacon", style=style),
-        "period": w.Dropdown(options=[(PERIOD_LABELS[p], p) for p in GRID_PERIODS], value=None,
+        # "every" stands for None, which a Dropdown takes for "nothing chosen" (it would show an empty box)
+        "period": w.Dropdown(options=[(PERIOD_LABELS[p], "every" if p is None else p) for p in GRID_PERIODS],
+                             value="every",
                              description="ranges", style=style),
         "states": w.Dropdown(options=list(GRID_STATES), value="+ scale and gyro bias", description="states",
                              style=style),
     }
 
     @functools.lru_cache(maxsize=128)
-    def view(beacon: str, period: float | None, states: str) -> RealDataView:
-        return real_data_view(beacon, period, states, study=s)
+    def view(beacon: str, period: float | str, states: str) -> RealDataView:
+        return real_data_view(beacon, None if period == "every" else period, states, study=s)
 
     return slider_panel(controls, lambda fig, **p: plot_real_data_view(view(**p), fig),
                         lambda fig, **p: update_real_data_view(fig, view(**p)))
