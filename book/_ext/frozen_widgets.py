@@ -46,7 +46,7 @@ FROZEN_WIDGETS_JS = r"""
     p.className = "NOTE";
     p.appendChild(document.createTextNode("A frozen view at the default settings: its controls do nothing here. "
       + "The live widget runs in JupyterLab: open this chapter there (make lab in the book's repository) and run "
-      + "its cells" + (name ? ", or run " : "."));
+      + "its cells" + (name ? ", or run " : ".")));
     if (name) {
       var code = document.createElement("code");
       code.textContent = "from uwtutor.widgets import " + name + "; " + name + "()";

@@ -404,23 +404,29 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
     ax_t.legend(loc="upper left", fontsize=7)
     ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
     fig.tight_layout()
-    return keep(fig, image=im, best=best, runner=runner, track=track, runner_track=runner_track, now=now,
-                grid=(view.bearings_deg.shape, view.speeds.shape, db, dc))
+    return keep(fig, image=im, best=best, runner=runner, track=track, runner_track=runner_track, now=now)
 
 
 def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None:
     """Put another ``PrelocationView`` into a figure drawn by ``plot_prelocation_view``; returns what changed, or
-    ``None`` when it must be drawn anew (another grid, or a runner-up appearing or disappearing)."""
+    ``None`` when it must be drawn anew (a runner-up appearing or disappearing)."""
     a = kept(fig)
     db, dc = view.bearing_step_deg, view.speed_step
-    if (a["grid"] != (view.bearings_deg.shape, view.speeds.shape, db, dc)
-            or (a["runner"] is None) != (view.runner_up is None)
-            or (a["runner_track"] is None) != (view.runner_up_track is None)):
+    if (a["runner"] is None) != (view.runner_up is None) or \
+            (a["runner_track"] is None) != (view.runner_up_track is None):
         return None
     ax_c, ax_t = fig.axes[:2]
     finite = view.log_cost[np.isfinite(view.log_cost)]
     a["image"].set_data(view.log_cost[:, ::-1].T)
-    a["image"].set_clim(float(np.min(finite)), float(np.percentile(finite, 60)))
+    a["image"].set_extent((view.bearings_deg[0] - db / 2, view.bearings_deg[-1] + db / 2,
+                           view.speeds[-1] - dc / 2, view.speeds[0] + dc / 2))
+    ax_c.set_xlim(view.truth[0] - 60.0, view.truth[0] + 60.0)          # set_extent fits the limits to the image
+    ax_c.set_ylim(view.speeds[-1] - dc / 2, view.speeds[0] + dc / 2)
+    # the colour scale (and its bar) kept while the new one is within a tenth of its span
+    low, high = float(np.min(finite)), float(np.percentile(finite, 60))
+    now_low, now_high = a["image"].get_clim()
+    if max(abs(low - now_low), abs(high - now_high)) > 0.1 * (now_high - now_low):
+        a["image"].set_clim(low, high)
     a["best"].set_data([view.best[0]], [view.best[1]])
     a["track"].set_data(*view.estimated_track.T)
     a["now"].set_data([view.true_track[view.epoch][0]], [view.true_track[view.epoch][1]])
@@ -432,8 +438,7 @@ def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None
     ax_c.set_title(f"cost after {view.epoch + 1} epochs (t = {view.time:.0f} s)", fontsize=9)
     ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
     rescale(ax_t)
-    # the colour bar follows the new limits of the image: it is part of the picture that changes
-    return changed + [ax_c.title, ax_t.title, fig.axes[2]]
+    return changed + [ax_c.title, ax_t.title]
 
 
 def prelocation_widget() -> Any:
