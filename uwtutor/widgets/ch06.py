@@ -134,7 +134,7 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
     ax = fig.subplots(2, 2)
     t = view.times
     a = ax[0, 0]
-    a.plot(t, np.degrees(view.measurements[:, 2]), ".", ms=1.5, color="0.7", label="pitch sensor")
+    (readings,) = a.plot(t, np.degrees(view.measurements[:, 2]), ".", ms=1.5, color="0.7", label="pitch sensor")
     a.plot(t, np.degrees(view.truth[:, 2]), color="black", lw=1, label="truth")
     pitch = {name: a.plot(t, np.degrees(view.estimates[name][:, 2]), color=color, lw=1, label=name)[0]
              for name, color in (("EKF", "C3"), ("GPF", "C2"))}
@@ -142,7 +142,7 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
     a.set_ylabel("pitch [°]")
     a.legend(fontsize=7, loc="lower right")
     a = ax[0, 1]
-    a.plot(t, view.true_noise_std[:, 0], color="black", lw=1, label="true σ (depth)")
+    (true_noise,) = a.plot(t, view.true_noise_std[:, 0], color="black", lw=1, label="true σ (depth)")
     (noise,) = a.plot(t, view.noise_std[:, 0], color="C2", lw=1, label="wavelet estimate")
     a.set_xlabel("time [s]")
     a.set_ylabel("depth noise σ [m]")
@@ -162,7 +162,7 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
     a.set_ylabel("RMSE")
     a.legend(fontsize=7)
     fig.tight_layout()
-    return keep(fig, pitch=pitch, noise=noise, ess=ess, bars=bars, measurements=view.measurements)
+    return keep(fig, readings=readings, pitch=pitch, true_noise=true_noise, noise=noise, ess=ess, bars=bars)
 
 
 #: The bars' units: cm, cm/s and tenths of a degree.
@@ -170,12 +170,11 @@ _RMSE_SCALE = np.array([100.0, 100.0, 10 * 180 / np.pi])
 
 
 def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
-    """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed (``None``, to draw
-    anew, when the sensor readings changed: another noise change)."""
+    """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed."""
     a = kept(fig)
-    if a["measurements"] is not view.measurements:
-        return None
     ax = fig.axes
+    a["readings"].set_ydata(np.degrees(view.measurements[:, 2]))
+    a["true_noise"].set_ydata(view.true_noise_std[:, 0])
     for name, line in a["pitch"].items():
         line.set_ydata(np.degrees(view.estimates[name][:, 2]))
     a["noise"].set_ydata(view.noise_std[:, 0])
@@ -184,7 +183,7 @@ def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
     if not 0.5 * top <= view.n_particles * 1.05 <= top:     # N outgrew the axis, or fills under half of it
         ax[2].set_ylim(0, view.n_particles * 1.05 * (1.3 if view.n_particles * 1.05 > top else 1.0))
     ax[2].set_title(f"N = {view.n_particles}, {view.n_grey} grey", fontsize=9)
-    changed = [*a["pitch"].values(), a["noise"], a["ess"], ax[2].title]
+    changed = [a["readings"], *a["pitch"].values(), a["true_noise"], a["noise"], a["ess"], ax[2].title]
     for name, bars in a["bars"].items():
         for rect, height in zip(bars, view.rmse[name] * _RMSE_SCALE):
             rect.set_height(height)

@@ -192,8 +192,7 @@ def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
     ax_err.set_xlabel("time [s]")
     _cooperative_titles(view, ax_map, ax_err)
     fig.tight_layout()
-    return keep(fig, tracks=tracks, bands=bands, currents=currents, truths=truths, median=median,
-                times=view.times)
+    return keep(fig, tracks=tracks, bands=bands, currents=currents, truths=truths, median=median)
 
 
 def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list[Any]:
@@ -205,11 +204,8 @@ def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list
 
 
 def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None:
-    """Put another ``CooperativeView`` into a figure drawn by ``plot_cooperative_view``; returns what changed
-    (``None``, to draw anew, when the epochs changed: another update interval)."""
+    """Put another ``CooperativeView`` into a figure drawn by ``plot_cooperative_view``; returns what changed."""
     a = kept(fig)
-    if a["times"].shape != view.times.shape or not np.array_equal(a["times"], view.times):
-        return None
     ax_map, ax_cur, ax_err = fig.axes[:3]
     for (line, dot), track in zip(zip(a["tracks"][::2], a["tracks"][1::2]),
                                   (view.leader, view.truth, view.estimate, view.dr)):
@@ -220,13 +216,13 @@ def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None
         est, sig = view.current_estimate[:, i], view.current_sigma[:, i]
         a["bands"][i].remove()
         a["bands"][i] = ax_cur.fill_between(t, est - 2 * sig, est + 2 * sig, color=color, alpha=0.2)
-        a["currents"][i].set_ydata(est)
+        a["currents"][i].set_data(t, est)
         a["truths"][i].set_ydata([view.current[i], view.current[i]])
     low, high = min(view.current) - 1.0, max(view.current) + 1.0
     now_low, now_high = ax_cur.get_ylim()
     if not (now_low <= low and high <= now_high):       # kept while the band fits, with room when it moves
         ax_cur.set_ylim(low - 0.3, high + 0.3)
-    a["median"].set_ydata(np.maximum(view.median_error, 1e-2))
+    a["median"].set_data(t, np.maximum(view.median_error, 1e-2))
     rescale(ax_map, ax_err)
     return [*a["tracks"], *a["bands"], *a["currents"], *a["truths"], a["median"],
             *_cooperative_titles(view, ax_map, ax_err)]
