@@ -421,6 +421,29 @@ def legacy_panel(sliders, draw):
     return w.VBox([w.HBox(list(sliders.values())[:3]), w.HBox(list(sliders.values())[3:]), out])
 
 
+def floor():
+    """The least a widget update can cost here: one slider over a book-sized figure of one line, updated in place."""
+    import numpy as np
+    from uwtutor.widgets._panel import slider_panel
+
+    x = np.linspace(0.0, 1.0, 200)
+
+    def draw(fig, a):
+        fig = fig or plt.figure(figsize=(7.6, 3.6))
+        ax = fig.subplots()
+        ax.plot(x, a * x)
+        ax.set_ylim(-1.0, 1.0)
+        return fig
+
+    def update(fig, a):
+        line = fig.axes[0].lines[0]
+        line.set_ydata(a * x)
+        return [line]
+
+    return slider_panel({"a": w.FloatSlider(value=0.0, min=-1.0, max=1.0, step=0.01, description="a",
+                                            continuous_update=False)}, draw, update)
+
+
 def build(name, legacy):
     module = importlib.import_module(getattr(widgets, name).__module__)
     panel = module.slider_panel
@@ -457,7 +480,7 @@ def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any
     import jupyterlab_session as lab
 
     factories = {label: name for label, name in widget_factories().items() if not only or only in label}
-    code = [LATENCY_SETUP] + [f"build({name!r}, legacy=False)" for name in factories.values()]
+    code = [LATENCY_SETUP, "floor()"] + [f"build({name!r}, legacy=False)" for name in factories.values()]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in code])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     out: dict[str, dict[str, Any]] = {}
@@ -469,8 +492,12 @@ def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any
             with lab.lab_session(root, work) as session:
                 page = lab.open_notebook(session, "widgets.ipynb")
                 lab.run_cell(page, 0)
+                # the floor of this machine at this moment: a one-line figure updated in place
+                lab.run_cell(page, 1).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
+                floor_ms = [lab.control_latency(page, 1, 0) for _ in range(repeats + 1)][1:]
+                print(f"  floor (one line, in place): {statistics.median(floor_ms):.0f} ms", flush=True)
                 for k, label in enumerate(factories):
-                    index = 1 + k
+                    index = 2 + k
                     lab.run_cell(page, index).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
                     controls: dict[str, dict[str, Any]] = {}
                     for c, control in enumerate(lab.widget_controls(page, index)):
@@ -495,7 +522,7 @@ def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any
                     raise RuntimeError(f"JupyterLab requested addresses off this machine: {session.external}")
         except lab.Unavailable as exc:
             return {"widget_latency": {}, "widget_latency_note": f"not measured in JupyterLab: {exc}"}
-    return {"widget_latency": out, "widget_latency_note": ""}
+    return {"widget_latency": out, "widget_latency_note": "", "widget_latency_floor_ms": statistics.median(floor_ms)}
 
 
 def latency_baseline() -> dict[str, Any]:
@@ -507,9 +534,11 @@ def latency_baseline() -> dict[str, Any]:
         return {"commit": "", "widgets": {}}
 
 
-def render_latency_table(latency: dict[str, Any], repeats: int, baseline: dict[str, Any] | None = None) -> str:
+def render_latency_table(latency: dict[str, Any], repeats: int, baseline: dict[str, Any] | None = None,
+                         floor_ms: float | None = None) -> str:
     """Every control of every widget: median (and worst) key press -> new figure in JupyterLab, beside the median
-    before (``baseline``), as Markdown."""
+    before (``baseline``), as Markdown; ``floor_ms``, the same for a one-line figure updated in place in the same
+    session (what the machine costs at that moment whatever the widget does)."""
     baseline = latency_baseline() if baseline is None else baseline
     before = baseline.get("widgets", {})
     commit = baseline.get("commit", "")[:10] or "–"
@@ -522,7 +551,9 @@ def render_latency_table(latency: dict[str, Any], repeats: int, baseline: dict[s
             rows.append(f"| {label} | {control} | {v['median_ms']:.0f} ms | {v['max_ms']:.0f} ms | "
                         + (f"{old:.0f} ms" if old is not None else "–") + " | "
                         + ("PASS" if v["median_ms"] <= limit else "MISS") + " |")
-    return "\n".join(rows) + f"\n\nMedians of {repeats} moves per control (after one warm-up move)."
+    floor = "" if floor_ms is None else (f" The floor in the same session (a one-line figure updated in place): "
+                                         f"{floor_ms:.0f} ms.")
+    return "\n".join(rows) + f"\n\nMedians of {repeats} moves per control (after one warm-up move).{floor}"
 
 
 def _memory_probe() -> None:
@@ -744,7 +775,8 @@ def main(argv: list[str] | None = None) -> int:
             latency = bench_widget_latency(args.repeats, only=args.widgets)
             print(json.dumps(latency, indent=2, sort_keys=True))
             print()
-            print(latency["widget_latency_note"] or render_latency_table(latency["widget_latency"], args.repeats))
+            print(latency["widget_latency_note"] or render_latency_table(latency["widget_latency"], args.repeats,
+                                                                         floor_ms=latency.get("widget_latency_floor_ms")))
             return 0
         print(json.dumps(SINGLE_BENCHMARKS[args.only](args.repeats), indent=2, sort_keys=True))
         return 0
@@ -756,7 +788,8 @@ def main(argv: list[str] | None = None) -> int:
         print()
         print("Every widget control, key press -> new figure in JupyterLab (before: "
               f"{LATENCY_BASELINE_FILE.relative_to(ROOT)}):")
-        print(render_latency_table(results["widget_latency"], results["repeats"]))
+        print(render_latency_table(results["widget_latency"], results["repeats"],
+                                   floor_ms=results.get("widget_latency_floor_ms")))
     if args.save:
         RESULTS_FILE.write_text(json.dumps(results, indent=2, sort_keys=True) + "\n", encoding="utf-8")
         update_page(results)
