@@ -422,7 +422,7 @@ def legacy_panel(sliders, draw):
 
 
 def floor():
-    """The least a widget update can cost here: one slider over a book-sized figure of one line, updated in place."""
+    # the least a widget update can cost here: one slider over a book-sized figure of one line, updated in place
     import numpy as np
     from uwtutor.widgets._panel import slider_panel
 
