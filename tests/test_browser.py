@@ -287,14 +287,16 @@ WIDGET_PAGE = next((d for d in DOCNAMES if "ch07" in d), None)
 FROZEN_FACTS = """() => {
   const views = Array.from(document.querySelectorAll('script[type="application/vnd.jupyter.widget-view+json"]'))
                      .map(s => s.parentElement);
-  const controls = views.flatMap(v => Array.from(v.querySelectorAll('input, select, textarea, button')));
+  // form controls, and the sliders (noUiSlider divs: disabled by their attribute)
+  const controls = views.flatMap(v => Array.from(v.querySelectorAll('input, select, textarea, button, .noUi-target')));
   return {
     views: views.length,
     frozen: views.filter(v => v.classList.contains('uwtutor-frozen')).length,
     notes: views.map(v => { const p = v.querySelector(':scope > p.uwtutor-frozen-note');
                             return p ? p.innerText : null; }),
     controls: controls.length,
-    enabled: controls.filter(c => !c.disabled).length,
+    enabled: controls.filter(c => c.classList.contains('noUi-target') ? !c.hasAttribute('disabled')
+                                                                        : !c.disabled).length,
     sliders: views.flatMap(v => Array.from(v.querySelectorAll('.widget-slider'))).length,
     focusableHandles: views.flatMap(v => Array.from(v.querySelectorAll('.noUi-handle')))
                            .filter(h => h.getAttribute('tabindex') !== '-1').length,
