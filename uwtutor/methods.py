@@ -32,9 +32,10 @@ import numpy as np
 
 from ._validate import as_int, as_rng
 from .errors import IllConditionedWarning
-from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf, ls_fading_ekf,
-                      prepositioned_bias_ekf, range_only_ekf)
+from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf,
+                      range_only_ekf)
 from .models import DeadReckoning, RangeToBeacon
+from .pipelines import ls_fading_ekf, prepositioned_bias_ekf
 from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
 __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",
@@ -276,7 +277,8 @@ N_PARTICLES = 500
 
 def particle_filter(inputs: SuiteInputs) -> FilterResult:
     """A bootstrap particle filter on the 2-D range-only problem (chapter 6's filter on chapter 4's models): the
-    EKF's model pair, :class:`~uwtutor.models.dead_reckoning.DeadReckoning` with the suite's Q (the DR displacements as the
+    EKF's model pair, :class:`~uwtutor.models.dead_reckoning.DeadReckoning` with the suite's Q (the DR displacements as
+    the
     input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is only
     another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling
     (systematic) when the effective sample size falls below half. It can hold both mirror solutions of a straight
