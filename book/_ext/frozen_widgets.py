@@ -65,7 +65,9 @@ FROZEN_WIDGETS_JS = r"""
     });
     output.querySelectorAll(".noUi-target").forEach(function (el) { el.setAttribute("disabled", ""); });
     output.querySelectorAll(".noUi-handle").forEach(function (el) { el.setAttribute("tabindex", "-1"); });
-    output.querySelectorAll("[contenteditable]").forEach(function (el) { el.setAttribute("contenteditable", "false"); });
+    output.querySelectorAll("[contenteditable]").forEach(function (el) {
+      el.setAttribute("contenteditable", "false");
+    });
     output.querySelectorAll(CONTROLS).forEach(function (el) { el.setAttribute("aria-disabled", "true"); });
     output.classList.add("FROZEN");
     if (!output.querySelector("p.NOTE")) output.insertBefore(note(widgetName(output)), output.firstChild);

@@ -178,7 +178,7 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     tracks = ax_map.lines[-2:]
     drawn = False
     ellipses = []
-    for k, pts in _ellipses(view):
+    for _k, pts in _ellipses(view):
         ellipses.append(ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
                                     label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")[0])
         drawn = True
