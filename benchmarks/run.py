@@ -16,7 +16,9 @@ Measured in one run, on this machine:
    that update (compute, draw, PNG), in this process; ``--no-browser`` leaves JupyterLab out;
 6. the peak memory of the 1000-run EKF study, in a fresh subprocess;
 7. the generic EKF on a real-data-sized odometry log: wheel odometry with a gyro bias and a range scale in the state,
-   4091 epochs x 4 beacons (the size of the CMU Plaza logs), one run.
+   4091 epochs x 4 beacons (the size of the CMU Plaza logs), one run; ``navigate`` on the real Plaza 2 log; and the
+   bootstrap particle filter with the same odometry model pair on Plaza 2, N = 2000 (``--only pf_plaza``; skipped
+   without the ``data`` extra).
 
 ``--only NAME`` runs one benchmark and prints its numbers (nothing is saved).
 
@@ -60,7 +62,11 @@ TARGETS = {
     "peak_memory_mb": ("<=", 500.0),
     "odometry_ekf_s": ("<=", 1.0),
     "navigate_plaza2_s": ("<=", 1.0),
+    "pf_plaza2_s": ("<=", 10.0),
 }
+
+#: Particles of the particle filter on Plaza 2.
+PF_PLAZA_PARTICLES = 2000
 
 
 # --- inputs ---------------------------------------------------------------------------------------------------
@@ -217,19 +223,49 @@ def bench_navigate(repeats: int) -> dict[str, Any]:
             "navigate_plaza2_epochs": int(data.times.size)}
 
 
+def bench_pf_plaza(repeats: int) -> dict[str, Any]:
+    """The bootstrap particle filter, N = 2000 (resampling below N/2, roughening 0.1), on the real Plaza 2 log (4091
+    epochs, 4 beacons) with ``navigate``'s odometry model pair (heading, gyro bias, range scale): the whole run, one
+    call. Skipped without the ``data`` extra; a warm-up on 50 epochs first."""
+    try:
+        from uwtutor.datasets import navigation_models, plaza
+
+        data = plaza(2)
+    except ModuleNotFoundError as exc:
+        print(f"the particle filter on Plaza 2 skipped: {exc}")
+        return {}
+    import numpy as np
+
+    from uwtutor.filters import BootstrapParticleFilter
+
+    nav = navigation_models(data)
+
+    def run(steps: int | None = None) -> Any:
+        pf = BootstrapParticleFilter.from_gaussian(nav.motion, nav.measurement, nav.x0, nav.P0, PF_PLAZA_PARTICLES,
+                                                   np.random.default_rng(0), ess_threshold=0.5, roughening=0.1)
+        return pf.run(nav.z[:steps], nav.u[:steps], times=nav.times[:steps])
+
+    run(50)                                                                                 # warm-up
+    seconds = best_time(run, max(1, min(3, repeats)))
+    error = np.linalg.norm(run().x[:, :2] - data.truth[:, :2], axis=1)
+    return {"pf_plaza2_s": seconds, "pf_plaza2_particles": PF_PLAZA_PARTICLES, "pf_plaza2_epochs": int(data.n_epochs),
+            "pf_plaza2_rms_error_m": float(np.sqrt(np.mean(error**2)))}
+
+
 def bench_pf(repeats: int) -> dict[str, Any]:
     import numpy as np
     from filterpy.monte_carlo import systematic_resample as filterpy_systematic
 
-    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+    from uwtutor.filters import BootstrapParticleFilter
+    from uwtutor.models import DepthSpeedPitchModel
 
     model = DepthSpeedPitchModel()
     truth, measurements = model.simulate([20.0, 1.5, 0.05], PF_STEPS, np.random.default_rng(1))
 
     def run(resampler: Any = None) -> None:
         kwargs = {} if resampler is None else {"resampler": resampler}
-        pf = BootstrapParticleFilter.from_gaussian(model, measurements[0], model.R, PF_PARTICLES,
-                                                   np.random.default_rng(2), **kwargs)
+        pf = BootstrapParticleFilter.from_gaussian(model.motion, model.measurement, measurements[0], model.R,
+                                                   PF_PARTICLES, np.random.default_rng(2), **kwargs)
         pf.run(measurements)
 
     def with_filterpy(weights: Any, rng: Any) -> Any:
@@ -266,20 +302,23 @@ def bench_pf_batched(repeats: int) -> dict[str, Any]:
     ratio to 100 single-run calls (same streams: run m of the batch is the single run on ``spawn(100)[m]``)."""
     import numpy as np
 
-    from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel
+    from uwtutor.filters import BootstrapParticleFilter
+    from uwtutor.models import DepthSpeedPitchModel
 
     model = DepthSpeedPitchModel()
+    motion, sensors = model.motion, model.measurement
     rng = np.random.default_rng(1)
     z = np.stack([model.simulate([20.0, 1.5, 0.05], PF_BATCH_STEPS, rng)[1] for _ in range(PF_BATCH_RUNS)])
 
     def batched() -> None:
-        BootstrapParticleFilter.from_gaussian(model, z[:, 0], model.R, PF_PARTICLES, np.random.default_rng(2),
-                                              n_runs=PF_BATCH_RUNS).run(z)
+        BootstrapParticleFilter.from_gaussian(motion, sensors, z[:, 0], model.R, PF_PARTICLES,
+                                              np.random.default_rng(2), n_runs=PF_BATCH_RUNS).run(z)
 
     def singles() -> None:
         rngs = np.random.default_rng(2).spawn(PF_BATCH_RUNS)
         for m in range(PF_BATCH_RUNS):
-            BootstrapParticleFilter.from_gaussian(model, z[m, 0], model.R, PF_PARTICLES, rngs[m]).run(z[m])
+            BootstrapParticleFilter.from_gaussian(motion, sensors, z[m, 0], model.R, PF_PARTICLES,
+                                                  rngs[m]).run(z[m])
 
     n = max(1, min(2, repeats))
     one_call = best_time(batched, n)
@@ -538,6 +577,7 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_pf(repeats))
     results.update(bench_pf_batched(repeats))
     results.update(bench_depth_filters(repeats))
+    results.update(bench_pf_plaza(repeats))
     results.update(bench_widgets(repeats))
     results.update(bench_widget_updates(repeats))
     if browser:
@@ -597,6 +637,12 @@ def render_table(results: dict[str, Any]) -> str:
     rows.append(("Same PF with filterpy's loop-based systematic_resample",
                  f"{results['pf_filterpy_resampler_steps_per_s']:,.0f} steps/s "
                  f"(ours {results['pf_speedup_vs_filterpy_resampler']:.1f}× faster)", "(reference)", "–"))
+    if "pf_plaza2_s" in results:
+        p = results["pf_plaza2_s"]
+        rows.append((f"Bootstrap PF, N = {results['pf_plaza2_particles']}, with the odometry model pair of navigate "
+                     f"(heading, gyro bias, range scale) on the real Plaza 2 log, {results['pf_plaza2_epochs']} "
+                     f"epochs × 4 beacons (position RMS error {results['pf_plaza2_rms_error_m']:.2f} m)",
+                     f"{p:.2f} s", _target("pf_plaza2_s", t, " s"), _status("pf_plaza2_s", p, t)))
     batch = results.get("pf_batched")
     if batch:
         rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
@@ -667,7 +713,7 @@ def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
 SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
     "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
     "navigate": bench_navigate, "pf": bench_pf,
-    "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters,
+    "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters, "pf_plaza": bench_pf_plaza,
 }
 
 

@@ -178,6 +178,11 @@ SPECS: dict[str, Spec] = {
     # models
     "uwtutor.models.dead_reckoning:DeadReckoning": Spec(lambda: dict(Q=np.eye(2))),
     "uwtutor.models.range:RangeToBeacon": Spec(lambda: dict(beacon=(0.0, 0.0), R=1.0)),
+    "uwtutor.models.depth:PitchManeuver": Spec(
+        lambda: dict(pitch_target=0.2, time_constant=2.0, T=0.05, process_std=[0.01, 0.01, 0.01]),
+        kinds=dict(pitch_target=Real(()), time_constant=Real((), "pos"), T=Real((), "pos"),
+                   process_std=Real((3,), "nonneg"))),
+    "uwtutor.models.depth:DepthSensors": Spec(lambda: dict(R=np.eye(3) * 0.01), kinds=dict(R=Covariance(definite=True))),
     "uwtutor.models.linear:LinearMotion": Spec(lambda: dict(F=np.eye(2), Q=np.eye(2)), kinds=dict(F=Real((2, 2)))),
     "uwtutor.models.linear:LinearMeasurement": Spec(lambda: dict(H=[[1.0, 0.0]], R=[[1.0]]),
                                                     kinds=dict(H=Real((1, 2)))),
@@ -430,6 +435,12 @@ EXEMPT: dict[str, str] = {
                                                 "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.ch11:check_reacquired_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
                                                     "contract; answers parsed by the shared check_number",
+    "uwtutor.models.noise:psd_sqrt": "the models' square root of their own covariance, checked once by the model "
+                                     "(documented as unchecked: a per-step kernel)",
+    "uwtutor.models.noise:gaussian_noise": "the samplers' kernel: called by the models with their own checked square "
+                                           "roots and the filters' per-run generators, never with user data",
+    "uwtutor.models.noise:gaussian_log_likelihood": "the particle filters' weighting kernel: called with the models' "
+                                                    "own predictions and checked R, never with user data",
     "uwtutor.exercises.labs.real_ranges_plaza:reference": "no arguments: the lab's reference values (three filters "
                                                           "over Plaza 2, 5-10 s)",
 }

@@ -1,5 +1,5 @@
-"""The filter protocol, held over every Kalman-family filter of the library (the particle filters and paper C's
-depth EKF have their own file, tests/test_filter_contract_pf.py).
+"""The filter protocol, held over every Kalman-family filter of the library on its model pairs (the particle filters
+have their own file, tests/test_filter_contract_pf.py, which runs paper C's pair in the engine too).
 
 For each filter: it is a ``Filter``; ``run`` == ``run_filter`` == a hand loop of predict/update for every result
 field and extra; a NaN measurement is predict only; run m of a batched filter == a single-run filter; P stays
@@ -18,7 +18,8 @@ from uwtutor.filters import CooperativeEKF, cooperative_ekf
 from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
 from uwtutor.filters import ReacquiringGate
-from uwtutor.models import BeaconRanges, DeadReckoning, OdometryMotion, RangeToBeacon
+from uwtutor.models import (BeaconRanges, DeadReckoning, DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel,
+                            OdometryMotion, PitchManeuver, RangeToBeacon)
 from uwtutor.scenarios import paper_b
 
 M, K = 4, 60
@@ -164,7 +165,25 @@ def _odometry_case(gate=None, name="ExtendedKalmanFilter-odometry-beacons"):
                         _ODO_P0, _ODO_Z, _ODO_U, gate)
 
 
+def _depth_cases():
+    """Paper C's models on the engine (its EKF): the depth/speed/pitch motion and a dive mode, the three sensors with
+    single sensors and whole steps missing."""
+    R = np.diag([0.2, 0.05, np.radians(0.5)]) ** 2
+    std = np.array([0.05, 0.01, np.radians(0.3)])
+    rng = np.random.default_rng(12)
+    z = np.stack([DepthSpeedPitchModel(process_std=std, R=R).simulate([10.0, 1.5, 0.1], K, rng)[1] for _ in range(M)])
+    z[:, 7] = np.nan
+    z[rng.random(z.shape) < 0.1] = np.nan
+    x0 = np.array([10.0, 1.5, 0.1]) + rng.normal(0.0, [0.2, 0.05, 0.01], (M, 3))
+    return [Case("ExtendedKalmanFilter-depth-speed-pitch", lambda b: ExtendedKalmanFilter(
+                DepthSpeedPitch(process_std=std), DepthSensors(R), _pick(x0, b), R), z, None),
+            Case("ExtendedKalmanFilter-pitch-maneuver", lambda b: ExtendedKalmanFilter(
+                PitchManeuver(pitch_target=0.3, time_constant=1.0, process_std=std), DepthSensors(R), _pick(x0, b),
+                R), z, None)]
+
+
 CASES += [_coop(f) for f in ("consistent", "literal", "single_range")] + [_robust_case(), _coop_lost_range()]
+CASES += _depth_cases()
 CASES += [_odometry_case(), _odometry_case(lambda: ReacquiringGate(patience=1),
                                            "ExtendedKalmanFilter-odometry-reacquiring-gate")]
 IDS = [c.name for c in CASES]

@@ -11,11 +11,11 @@ import pytest
 
 from uwtutor.errors import BeaconSingularityWarning
 from uwtutor.filters import (BootstrapParticleFilter, ChiSquareGate, ExtendedKalmanFilter, Gate, GateContext,
-                             LinearGaussianModel, RangeOnlyEKF, ReacquiringGate, bias_ekf, cooperative_ekf,
+                             RangeOnlyEKF, ReacquiringGate, bias_ekf, cooperative_ekf,
                              extended_kalman_filter, range_only_ekf)
 from uwtutor.filters.robust import SecondMomentGate
-from uwtutor.models import (BeaconRanges, DeadReckoning, DirectMeasurement, LinearMotion, MeasurementModel,
-                            OdometryMotion, RangeToBeacon)
+from uwtutor.models import (BeaconRanges, DeadReckoning, DirectMeasurement, LinearMeasurement, LinearMotion,
+                            MeasurementModel, OdometryMotion, RangeToBeacon)
 from uwtutor.scenarios import paper_b
 
 BEACONS = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0], [0.0, 30.0]])
@@ -347,13 +347,13 @@ def test_the_trial_messages_are_gone_and_bad_per_step_noise_is_named():
 
 def test_particle_filter_likelihood_marginalises_missing_components():
     """A NaN component is skipped: the weights are those of the model of the other components."""
-    model = LinearGaussianModel(F=np.eye(2), H=[[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], Q=np.eye(2) * 0.1,
-                                R=np.diag([1.0, 2.0, 3.0]))
-    sub = LinearGaussianModel(F=np.eye(2), H=[[1.0, 0.0], [1.0, 1.0]], Q=np.eye(2) * 0.1, R=np.diag([1.0, 3.0]))
+    motion = LinearMotion(np.eye(2), np.eye(2) * 0.1)
+    model = LinearMeasurement(H=[[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]], R=np.diag([1.0, 2.0, 3.0]))
+    sub = LinearMeasurement(H=[[1.0, 0.0], [1.0, 1.0]], R=np.diag([1.0, 3.0]))
     particles = np.random.default_rng(0).normal(size=(200, 2))
-    np.testing.assert_allclose(model.log_likelihood(particles, np.array([0.5, np.nan, 1.0])),
-                               sub.log_likelihood(particles, np.array([0.5, 1.0])), rtol=1e-12)
-    filters = [BootstrapParticleFilter(m, particles, np.random.default_rng(1), ess_threshold=0.0)
+    np.testing.assert_allclose(model.log_likelihood(particles[None], np.array([[0.5, np.nan, 1.0]]), 0),
+                               sub.log_likelihood(particles[None], np.array([[0.5, 1.0]]), 0), rtol=1e-12)
+    filters = [BootstrapParticleFilter(motion, m, particles, np.random.default_rng(1), ess_threshold=0.0)
                for m in (model, sub)]
     filters[0].update(np.array([0.5, np.nan, 1.0]))
     filters[1].update(np.array([0.5, 1.0]))

@@ -1,4 +1,5 @@
-"""Chapter 6's filters: resampler unbiasedness, PF -> KF as N grows, the MMPF, the GPF, the depth EKF vs filterpy."""
+"""Chapter 6's filters: resampler unbiasedness, PF -> KF as N grows, the MMPF, the GPF, and paper C's EKF (the generic
+engine on paper C's model pair) against filterpy."""
 
 from __future__ import annotations
 
@@ -9,9 +10,11 @@ import pytest
 from filterpy.kalman import ExtendedKalmanFilter
 
 from uwtutor import grey, resampling, wavelet
-from uwtutor.filters import (BootstrapParticleFilter, DepthEKF, DepthSpeedPitchModel, Filter, FilterResult,
-                             GreyParticleFilter, KalmanFilter, LinearGaussianModel, MultipleModelParticleFilter,
-                             PitchManeuverModel, run_filter)
+from uwtutor import filters as uf
+from uwtutor.filters import (BootstrapParticleFilter, DepthEKF, Filter, FilterResult, GreyParticleFilter, KalmanFilter,
+                             MultipleModelParticleFilter, extended_kalman_filter, run_filter)
+from uwtutor.models import (DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel, LinearMeasurement, LinearMotion,
+                            PitchManeuver, PitchManeuverModel)
 
 SCHEMES = [resampling.multinomial_resample, resampling.stratified_resample, resampling.systematic_resample,
            resampling.residual_resample]
@@ -77,15 +80,16 @@ def test_particle_filters_converge_to_the_kalman_filter_as_n_grows(kind):
     zs = scalar_problem()
     mats = dict(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[4.0]])
     kf = KalmanFilter(x0=[0.0], P0=[[10.0]], **mats).run(zs)
-    model = LinearGaussianModel(**mats)
+    motion, measurement = LinearMotion(mats["F"], mats["Q"]), LinearMeasurement(mats["H"], mats["R"])
 
     def make(N, seed):
         rng = np.random.default_rng(seed)
         if kind == "bootstrap":
-            return BootstrapParticleFilter.from_gaussian(model, [0.0], [[10.0]], N, rng)
+            return BootstrapParticleFilter.from_gaussian(motion, measurement, [0.0], [[10.0]], N, rng)
         if kind == "mmpf with one mode":
-            return MultipleModelParticleFilter.from_gaussian([model], [0.0], [[10.0]], N, rng, transition=[[1.0]])
-        return GreyParticleFilter.from_gaussian(model, [0.0], [[10.0]], N, rng, grey_fraction=0.0,
+            return MultipleModelParticleFilter.from_gaussian([motion], measurement, [0.0], [[10.0]], N, rng,
+                                                             transition=[[1.0]])
+        return GreyParticleFilter.from_gaussian(motion, measurement, [0.0], [[10.0]], N, rng, grey_fraction=0.0,
                                                 adapt_noise=False, grey_std=[1.0])
 
     gaps = {}
@@ -106,49 +110,35 @@ def test_gpf_without_grey_and_wavelet_is_the_bootstrap_filter_bit_for_bit():
     np.testing.assert_array_equal(a.extras["ess"], b.extras["ess"])
 
 
-# --- PitchManeuverModel and the MMPF ---------------------------------------------------------------------------------
-
-def test_pitch_maneuver_model_equations():
-    m = PitchManeuverModel(pitch_target=0.3, time_constant=2.0, T=0.5, process_std=(0.1, 0.2, 0.05))
-    particles = np.asfortranarray([[10.0, 1.5, 0.1], [20.0, 2.0, -0.2]])
-    out = m.propagate(particles, None, np.random.default_rng(0))
-    uz, uv, uphi = np.random.default_rng(0).standard_normal((3, 2)) * np.array([[0.1], [0.2], [0.05]])
-    gain = 1 - np.exp(-0.5 / 2.0)
-    phi_bar = particles[:, 2] + gain * (0.3 - particles[:, 2])
-    v = particles[:, 1] + uv
-    phi = phi_bar + uphi
-    np.testing.assert_allclose(out[:, 2], phi)
-    np.testing.assert_allclose(out[:, 1], v)
-    np.testing.assert_allclose(out[:, 0], particles[:, 0] + v * np.sin(phi) * 0.5 + uz)
-    np.testing.assert_array_equal(particles, [[10.0, 1.5, 0.1], [20.0, 2.0, -0.2]])     # input untouched
-    with pytest.raises(ValueError, match="time_constant must be > 0"):
-        PitchManeuverModel(time_constant=0.0)
-
+# --- the MMPF ------------------------------------------------------------------------------------------------------
 
 def test_mmpf_mode_switching_follows_the_transition_matrix():
-    models = [DepthSpeedPitchModel(process_std=Q_STD) for _ in range(3)]
+    models = [DepthSpeedPitch(process_std=Q_STD) for _ in range(3)]
     cycle = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])        # 0 -> 1 -> 2 -> 0
     rng = np.random.default_rng(0)
-    f = MultipleModelParticleFilter(models, np.zeros((30, 3)), rng, transition=cycle, modes=np.arange(30) % 3)
+    f = MultipleModelParticleFilter(models, DepthSensors(), np.zeros((30, 3)), rng, transition=cycle,
+                                    modes=np.arange(30) % 3)
     before = np.bincount(f.modes, minlength=3)
     f.predict()
     np.testing.assert_array_equal(np.bincount(f.modes, minlength=3), np.roll(before, 1))
     # a random chain: the empirical transition frequencies match the matrix
     Pi = np.array([[0.8, 0.15, 0.05], [0.1, 0.7, 0.2], [0.3, 0.3, 0.4]])
-    f = MultipleModelParticleFilter(models, np.zeros((30000, 3)), rng, transition=Pi, modes=np.zeros(30000, int))
+    f = MultipleModelParticleFilter(models, DepthSensors(), np.zeros((30000, 3)), rng, transition=Pi,
+                                    modes=np.zeros(30000, int))
     f.predict()
     np.testing.assert_allclose(np.bincount(f.modes, minlength=3) / 30000, Pi[0], atol=0.01)
     np.testing.assert_allclose(f.mode_probabilities.sum(), 1.0)
 
 
 def test_mmpf_resampling_carries_the_modes_and_recognizes_a_dive():
-    modes = [PitchManeuverModel(pitch_target=np.radians(p), time_constant=1.0, process_std=Q_STD, R=R_PAPER)
+    modes = [PitchManeuver(pitch_target=np.radians(p), time_constant=1.0, process_std=Q_STD)
              for p in (0.0, 20.0, -20.0)]
     Pi = np.full((3, 3), 0.0025) + np.eye(3) * (0.995 - 0.0025)
     truth, meas = PitchManeuverModel(pitch_target=np.radians(20.0), time_constant=1.0, process_std=Q_STD / 10,
                                      R=R_PAPER).simulate([10.0, 1.5, 0.0], 300, np.random.default_rng(2))
-    f = MultipleModelParticleFilter.from_gaussian(modes, meas[0], R_PAPER, 1000, np.random.default_rng(3),
-                                                  transition=Pi, mode_probabilities=[1.0, 0.0, 0.0])
+    f = MultipleModelParticleFilter.from_gaussian(modes, DepthSensors(R_PAPER), meas[0], R_PAPER, 1000,
+                                                  np.random.default_rng(3), transition=Pi,
+                                                  mode_probabilities=[1.0, 0.0, 0.0])
     assert (f.modes == 0).all()
     res = f.run(meas)
     mu = res.extras["mode_probabilities"]
@@ -173,21 +163,32 @@ def test_mmpf_resampling_carries_the_modes_and_recognizes_a_dive():
 
 
 def test_mmpf_bad_input():
-    m = DepthSpeedPitchModel()
+    m, sensors = DepthSpeedPitch(), DepthSensors()
     rng = np.random.default_rng(0)
     with pytest.raises(ValueError, match="row-stochastic"):
-        MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=[[0.5, 0.4], [0.5, 0.5]])
+        MultipleModelParticleFilter([m, m], sensors, np.zeros((5, 3)), rng, transition=[[0.5, 0.4], [0.5, 0.5]])
     with pytest.raises(ValueError, match=r"transition must have shape \(2, 2\)"):
-        MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=np.eye(3))
+        MultipleModelParticleFilter([m, m], sensors, np.zeros((5, 3)), rng, transition=np.eye(3))
     with pytest.raises(ValueError, match="share the state size and the measurement noise"):
-        MultipleModelParticleFilter([m, DepthSpeedPitchModel(R=np.eye(3))], np.zeros((5, 3)), rng,
+        MultipleModelParticleFilter([DepthSpeedPitchModel(), DepthSpeedPitchModel(R=np.eye(3))], np.zeros((5, 3)),
+                                    rng, transition=np.eye(2))
+    with pytest.raises(ValueError, match=r"motions\[1\] has 1 states"):
+        MultipleModelParticleFilter([m, LinearMotion([[1.0]], [[1.0]])], sensors, np.zeros((5, 3)), rng,
                                     transition=np.eye(2))
-    with pytest.raises(TypeError, match="non-empty list of ParticleModel"):
-        MultipleModelParticleFilter([], np.zeros((5, 3)), rng, transition=np.eye(1))
+    with pytest.raises(TypeError, match="non-empty list of motion models"):
+        MultipleModelParticleFilter([], sensors, np.zeros((5, 3)), rng, transition=np.eye(1))
+    with pytest.raises(TypeError, match=r"motions\[1\] must be a uwtutor.models.base.MotionModel"):
+        MultipleModelParticleFilter([m, sensors], sensors, np.zeros((5, 3)), rng, transition=np.eye(2))
     with pytest.raises(ValueError, match=r"modes must be integers in 0..1 of shape \(5,\)"):
-        MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=np.eye(2), modes=[0, 1, 2, 0, 1])
+        MultipleModelParticleFilter([m, m], sensors, np.zeros((5, 3)), rng, transition=np.eye(2),
+                                    modes=[0, 1, 2, 0, 1])
     with pytest.raises(ValueError, match="mode_probabilities must have a positive sum"):
-        MultipleModelParticleFilter([m, m], np.zeros((5, 3)), rng, transition=np.eye(2), mode_probabilities=[0, 0])
+        MultipleModelParticleFilter([m, m], sensors, np.zeros((5, 3)), rng, transition=np.eye(2),
+                                    mode_probabilities=[0, 0])
+    # chapter 6's form: a list of PitchManeuverModel pairs stands for the modes and their one measurement model
+    pairs = [PitchManeuverModel(pitch_target=p) for p in (0.0, 0.3)]
+    f = MultipleModelParticleFilter(pairs, np.zeros((5, 3)), rng, transition=np.eye(2))
+    assert [type(x).__name__ for x in f.motions] == ["PitchManeuver", "PitchManeuver"]
 
 
 # --- the grey particle filter ----------------------------------------------------------------------------------------
@@ -274,11 +275,16 @@ def test_gpf_bad_input():
         GreyParticleFilter(model, p, rng, noise_window=10)
     with pytest.raises(ValueError, match=r"grey_offset must have shape \(3\)"):
         GreyParticleFilter(model, p, rng, grey_offset=[1.0])
-    with pytest.raises(ValueError, match="measures its state directly"):
-        GreyParticleFilter(LinearGaussianModel(F=np.eye(2), H=[[1.0, 0.0]], Q=np.eye(2), R=1.0), np.zeros((5, 2)),
+    with pytest.raises(ValueError, match="measures the state directly"):
+        GreyParticleFilter(LinearMotion(np.eye(2), np.eye(2)), LinearMeasurement([[1.0, 0.0]], 1.0), np.zeros((5, 2)),
                            rng)
-    with pytest.raises(ValueError, match="grey_std must be given"):
-        GreyParticleFilter(LinearGaussianModel(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[1.0]]), np.zeros((5, 1)), rng)
+    with pytest.raises(ValueError, match="measures the state directly"):
+        GreyParticleFilter(LinearMotion(np.eye(2), np.eye(2)), LinearMeasurement([[0.0, 1.0], [1.0, 0.0]], 1.0),
+                           np.zeros((5, 2)), rng)
+    with pytest.raises(ValueError, match="grey_std must be given for a motion model without a process_std"):
+        GreyParticleFilter(LinearMotion([[1.0]], [[1.0]]), LinearMeasurement([[1.0]], [[1.0]]), np.zeros((5, 1)), rng)
+    with pytest.raises(ValueError, match=r"starts from one R \(3, 3\)"):
+        GreyParticleFilter(DepthSpeedPitch(), DepthSensors(np.tile(np.eye(3), (2, 4, 1, 1))), p, rng)
     with pytest.raises(ValueError, match="wavelet must be the name"):
         GreyParticleFilter(model, p, rng, wavelet="nope")
 
@@ -293,7 +299,7 @@ def test_run_records_subclass_extras_like_run_filter():
     np.testing.assert_array_equal(a.x, b.x)
 
 
-# --- the depth EKF ---------------------------------------------------------------------------------------------------
+# --- paper C's EKF: the generic engine on paper C's pair -------------------------------------------------------------
 
 class FilterpyDepthEKF(ExtendedKalmanFilter):
     """filterpy's EKF with paper C's nonlinear prediction: F = G, Q = G Q G^T at each step."""
@@ -314,39 +320,44 @@ class FilterpyDepthEKF(ExtendedKalmanFilter):
         self.x = np.array([[z + v * np.sin(phi) * self.T], [v], [phi]])
 
 
-def test_depth_ekf_equals_filterpy_step_by_step():
+def _engine(x0, R=R_PAPER, sensors=None):
+    return uf.ExtendedKalmanFilter(DepthSpeedPitch(process_std=Q_STD), sensors or DepthSensors(R), x0, R_PAPER)
+
+
+def test_paper_c_ekf_equals_filterpy_step_by_step():
     model = DepthSpeedPitchModel(process_std=Q_STD, R=R_PAPER)
     truth, meas = model.simulate([10.0, 1.5, 0.3], 200, np.random.default_rng(0))
     Q = np.diag(Q_STD**2)
-    ours = DepthEKF(x0=meas[0], P0=R_PAPER, Q=Q, R=R_PAPER)
     ref = FilterpyDepthEKF(0.05, Q)
     ref.x = meas[0].reshape(3, 1).copy()
     ref.P = R_PAPER.copy()
     ref.R = R_PAPER.copy()
-    for z in meas:
-        ours.predict()
-        ref.predict_step()
-        np.testing.assert_allclose(ours.x, ref.x[:, 0], rtol=1e-10, atol=1e-12)
-        np.testing.assert_allclose(ours.P, ref.P, rtol=1e-9, atol=1e-14)
-        ours.update(z)
-        ref.update(z.reshape(3, 1), HJacobian=lambda x: np.eye(3), Hx=lambda x: x)
-        np.testing.assert_allclose(ours.x, ref.x[:, 0], rtol=1e-10, atol=1e-12)
-        np.testing.assert_allclose(ours.P, ref.P, rtol=1e-8, atol=1e-14)
-        np.testing.assert_allclose(ours.y, ref.y[:, 0], rtol=1e-9, atol=1e-12)
+    for ours in (_engine(meas[0]), DepthEKF(x0=meas[0], P0=R_PAPER, Q=Q, R=R_PAPER)):     # the engine; its old name
+        ref.x = meas[0].reshape(3, 1).copy()
+        ref.P = R_PAPER.copy()
+        for z in meas:
+            ours.predict()
+            ref.predict_step()
+            np.testing.assert_allclose(ours.x, ref.x[:, 0], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(ours.P, ref.P, rtol=1e-9, atol=1e-14)
+            ours.update(z)
+            ref.update(z.reshape(3, 1), HJacobian=lambda x: np.eye(3), Hx=lambda x: x)
+            np.testing.assert_allclose(ours.x, ref.x[:, 0], rtol=1e-10, atol=1e-12)
+            np.testing.assert_allclose(ours.P, ref.P, rtol=1e-8, atol=1e-14)
+            np.testing.assert_allclose(ours.y, ref.y[:, 0], rtol=1e-9, atol=1e-12)
 
 
-def test_depth_ekf_batched_runs_equal_single_runs_and_missing_readings():
+def test_paper_c_ekf_batched_runs_equal_single_runs_and_missing_readings():
     model = DepthSpeedPitchModel(process_std=Q_STD, R=R_PAPER)
     rng = np.random.default_rng(1)
     meas = np.stack([model.simulate([10.0, 1.5, 0.1], 80, rng)[1] for _ in range(4)])
     meas[1, 10] = np.nan                      # everything missing
     meas[2, 20, 1] = np.nan                   # the speed sensor missing
     meas[3, 20, [0, 2]] = np.nan              # depth and pitch missing, same step as run 2
-    Q = np.diag(Q_STD**2)
-    batched = DepthEKF(meas[:, 0], R_PAPER, Q, R_PAPER).run(meas)
+    batched = _engine(meas[:, 0]).run(meas)
     assert batched.x.shape == (4, 80, 3) and batched.P.shape == (4, 80, 3, 3)
     for m in range(4):
-        single = DepthEKF(meas[m, 0], R_PAPER, Q, R_PAPER).run(meas[m])
+        single = _engine(meas[m, 0]).run(meas[m])
         np.testing.assert_allclose(batched.x[m], single.x, rtol=1e-12)
         np.testing.assert_allclose(batched.innovations[m], single.innovations, rtol=1e-12)
     assert np.isnan(batched.innovations[1, 10]).all()
@@ -354,7 +365,7 @@ def test_depth_ekf_batched_runs_equal_single_runs_and_missing_readings():
     assert np.isnan(batched.innovations[2, 20, 1]) and np.isfinite(batched.innovations[2, 20, [0, 2]]).all()
     assert np.isnan(batched.innovation_cov[2, 20, 1]).all() and np.isfinite(batched.innovation_cov[2, 20, 0, 0])
     # a sensor missing: the update with the other two equals a KF update with H = rows of I
-    ekf = DepthEKF(meas[2, 0], R_PAPER, Q, R_PAPER)
+    ekf = _engine(meas[2, 0])
     for k in range(20):
         ekf.predict()
         ekf.update(meas[2, k])
@@ -367,35 +378,42 @@ def test_depth_ekf_batched_runs_equal_single_runs_and_missing_readings():
     np.testing.assert_allclose(ekf.x, xp + K @ (meas[2, 20, [0, 2]] - xp[[0, 2]]), rtol=1e-10)
 
 
-def test_depth_ekf_time_varying_R():
+def test_paper_c_ekf_with_an_R_per_step_and_per_run():
+    """DepthSensors takes one R per step (K, 3, 3) or per run and step (M, K, 3, 3): the EKF with the wavelet
+    estimates of the grey particle filter."""
     model = DepthSpeedPitchModel(process_std=Q_STD, R=R_PAPER)
     truth, meas = model.simulate([10.0, 1.5, 0.1], 50, np.random.default_rng(2))
-    Q = np.diag(Q_STD**2)
     Rs = np.broadcast_to(R_PAPER * 4.0, (50, 3, 3))
-    a = DepthEKF(meas[0], R_PAPER, Q, R_PAPER).run(meas, Rs=Rs)
-    b = DepthEKF(meas[0], R_PAPER, Q, R_PAPER * 4.0).run(meas)
+    a = _engine(meas[0], sensors=DepthSensors(Rs)).run(meas)
+    b = _engine(meas[0], sensors=DepthSensors(R_PAPER * 4.0)).run(meas)
     np.testing.assert_allclose(a.x, b.x, rtol=1e-12)
     batch = np.stack([meas, meas])
-    c = DepthEKF(batch[:, 0], R_PAPER, Q, R_PAPER).run(batch, Rs=np.stack([Rs, Rs]))
+    per_run = np.stack([np.broadcast_to(R_PAPER, (50, 3, 3)), Rs])
+    c = extended_kalman_filter(DepthSpeedPitch(process_std=Q_STD), DepthSensors(per_run), batch[:, 0], R_PAPER,
+                               None, batch)
     np.testing.assert_allclose(c.x[1], b.x, rtol=1e-12)
-    with pytest.raises(ValueError, match="Rs must have shape"):
-        DepthEKF(meas[0], R_PAPER, Q, R_PAPER).run(meas, Rs=np.eye(3))
+    np.testing.assert_allclose(c.x[0], _engine(meas[0]).run(meas).x, rtol=1e-12)
+    with pytest.raises(ValueError, match="the measurement model has 2"):
+        extended_kalman_filter(DepthSpeedPitch(), DepthSensors(per_run), np.zeros((3, 3)), R_PAPER, None,
+                               np.zeros((3, 50, 3)))
+    with pytest.raises(IndexError, match="R has 50 per-step values; step 50 is beyond them"):
+        DepthSensors(Rs).R(None, 50)
 
 
-def test_depth_ekf_bad_input():
+def test_paper_c_ekf_bad_input():
     Q = np.diag(Q_STD**2)
     with pytest.raises(ValueError, match=r"x0 must be \[depth, speed, pitch\]"):
         DepthEKF([1.0, 2.0], R_PAPER, Q, R_PAPER)
-    with pytest.raises(ValueError, match="Q must be positive semi-definite"):
+    with pytest.raises(ValueError, match="process_cov must be positive semi-definite"):
         DepthEKF([1.0, 2.0, 0.0], R_PAPER, np.array([[0.04, 0.64, 0.36], [0.64, 1, 0], [0.36, 0, 0.25]]), R_PAPER)
     with pytest.raises(ValueError, match="R must be positive definite"):
         DepthEKF([1.0, 2.0, 0.0], R_PAPER, Q, np.diag([1.0, 0.0, 1.0]))
-    ekf = DepthEKF([1.0, 2.0, 0.0], R_PAPER, Q, R_PAPER)
+    with pytest.raises(ValueError, match="R must be one 3x3 covariance"):
+        DepthEKF([1.0, 2.0, 0.0], R_PAPER, Q, np.tile(R_PAPER, (5, 1, 1)))
+    ekf = _engine(np.array([1.0, 2.0, 0.0]))
     with pytest.raises(ValueError, match="takes no control input"):
         ekf.predict([1.0])
-    with pytest.raises(ValueError, match=r"z must have shape \(3,\)"):
+    with pytest.raises(ValueError, match=r"z must be one measurement per run, shape \(3,\)"):
         ekf.update([1.0, 2.0])
     with pytest.raises(ValueError, match="finite, or NaN"):
         ekf.update([1.0, np.inf, 0.0])
-    with pytest.raises(ValueError, match="R of shape"):
-        ekf.R = np.stack([R_PAPER, R_PAPER])

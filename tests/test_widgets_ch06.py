@@ -159,10 +159,11 @@ def test_run_depth_study_batches_the_runs_like_single_runs():
     sc = paper_c.make(np.random.default_rng(5), 2, duration=6.0)
     study = paper_c.run_depth_study(sc.profile, sc.measurements, ("GPF",), n_particles=100, seed=3)
     R = paper_c.PaperCParameters().R
-    from uwtutor.filters import DepthSpeedPitchModel
+    from uwtutor.models import DepthSensors, DepthSpeedPitch
 
-    model = DepthSpeedPitchModel(T=0.05, process_std=paper_c.PAPER_C["process_std"], R=R)
+    motion, sensors = DepthSpeedPitch(T=0.05, process_std=paper_c.PAPER_C["process_std"]), DepthSensors(R)
     for m in range(2):
-        one = GreyParticleFilter.from_gaussian(model, sc.measurements[m, 0], R, 100, np.random.default_rng(3 + m),
+        one = GreyParticleFilter.from_gaussian(motion, sensors, sc.measurements[m, 0], R, 100,
+                                               np.random.default_rng(3 + m),
                                                grey_offset=[0.0, 0.0, paper_c.PITCH_OFFSET]).run(sc.measurements[m])
         np.testing.assert_allclose(study.estimates["GPF"][m], one.x, rtol=1e-9, atol=1e-12)

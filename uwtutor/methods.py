@@ -32,8 +32,9 @@ import numpy as np
 
 from ._validate import as_int, as_rng
 from .errors import IllConditionedWarning
-from .filters import (BootstrapParticleFilter, FilterResult, RelativeRangeModel, bias_ekf, cooperative_ekf,
-                      fading_ekf, ls_fading_ekf, prepositioned_bias_ekf, range_only_ekf)
+from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf, ls_fading_ekf,
+                      prepositioned_bias_ekf, range_only_ekf)
+from .models import DeadReckoning, RangeToBeacon
 from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
 __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",
@@ -274,19 +275,17 @@ N_PARTICLES = 500
 
 
 def particle_filter(inputs: SuiteInputs) -> FilterResult:
-    """A bootstrap particle filter on the 2-D range-only problem (chapter 6's filter on chapter 4's model):
-    ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, DR noise as proposal, resampling (systematic) when the
-    effective sample size falls below half. It can hold both mirror solutions of a straight track."""
+    """A bootstrap particle filter on the 2-D range-only problem (chapter 6's filter on chapter 4's models): the
+    EKF's model pair, :class:`~uwtutor.models.dead_reckoning.DeadReckoning` with the suite's Q (the DR displacements as the
+    input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is only
+    another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling
+    (systematic) when the effective sample size falls below half. It can hold both mirror solutions of a straight
+    track."""
     s = _inputs(inputs)
     rng = np.random.default_rng(s.method_seed)
-    b_prev = np.concatenate([s.beacon0[:, None], s.beacon[:, :-1]], axis=1)
-    relative_u = s.u - (s.beacon - b_prev)
-    pf = BootstrapParticleFilter.from_gaussian(RelativeRangeModel(s.Q, s.R), s.x0 - s.beacon0, s.P0, N_PARTICLES,
-                                               rng, n_runs=s.n_runs, ess_threshold=0.5)
-    res = pf.run(s.z[..., None], relative_u, times=s.times)
-    return FilterResult(times=res.times, x=res.x + s.beacon, P=res.P, x_prior=res.x_prior + s.beacon,
-                        P_prior=res.P_prior, innovations=res.innovations, innovation_cov=res.innovation_cov,
-                        extras=res.extras)
+    pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(s.Q), RangeToBeacon(s.beacon, R=s.R), s.x0, s.P0,
+                                               N_PARTICLES, rng, n_runs=s.n_runs, ess_threshold=0.5)
+    return pf.run(s.z, s.u, times=s.times)
 
 
 # ---------------------------------------------------------------------------------------------------------------------

@@ -196,7 +196,7 @@ def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
 
     Points :math:`p_j = (j - 1 + U)/N` with a single :math:`U \sim U[0, 1)`, so particle ``i`` is drawn
     :math:`\lfloor N w_i \rfloor` or :math:`\lceil N w_i \rceil` times. The cheapest scheme (one uniform) and
-    usually the least noisy; the default of :class:`uwtutor.filters.particle.BootstrapParticleFilter`
+    usually the least noisy; the default of :class:`uwtutor.filters.particle.bootstrap.BootstrapParticleFilter`
     (Arulampalam et al. 2002, Algorithm 2).
 
     Parameters

@@ -18,7 +18,8 @@ along the previous heading, then turns); :meth:`RangeDataset.ranges_on_epochs` p
 ground truth; Djugash, Hamner and Roth 2009) from the copies in GTSAM's wheel: ``pip install "uwtutor[data]"``.
 
 :func:`navigate` is the recommended filter for such a log in one call: heading, gyro bias and range scale in the
-state, gated, smoothed when asked. The dataset type and the loaders import only numpy, scipy and the lower layers of
+state, gated, smoothed when asked; :func:`navigation_models` gives its model pair, for any other filter (the
+particle filter). The dataset type and the loaders import only numpy, scipy and the lower layers of
 ``uwtutor`` (``_validate``, ``motion``); ``navigate`` (module ``navigation``) sits on top of the models and filters.
 
 Examples

@@ -325,8 +325,9 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
                     distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 6's bootstrap particle filter on chapter 4's model: :math:`[x, y]` relative to the one beacon.
 
-    :class:`uwtutor.filters.particle.BootstrapParticleFilter` with ``uwtutor.filters.RelativeRangeModel`` (its
-    :math:`\mathbf Q` the mean of the per-step :math:`\sigma_k^2\mathbf I`), particles drawn from the start's
+    :class:`uwtutor.filters.particle.BootstrapParticleFilter` on the EKF's model pair,
+    :class:`uwtutor.models.DeadReckoning` (its :math:`\mathbf Q` the mean of the per-step :math:`\sigma_k^2\mathbf I`)
+    and :class:`uwtutor.models.RangeToBeacon` (the beacon at the origin of the frame), particles drawn from the start's
     :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the effective sample size falls below half
     (:func:`uwtutor.methods.particle_filter`'s settings).
 
@@ -345,7 +346,8 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     -------
     BaselineRun
     """
-    from ..filters import BootstrapParticleFilter, RelativeRangeModel
+    from ..filters import BootstrapParticleFilter
+    from ..models import DeadReckoning, RangeToBeacon
 
     _check(data)
     if not isinstance(rng, np.random.Generator):
@@ -357,7 +359,8 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     Q = displacement_covariance(data, distance_sigma).mean(axis=0)
     x0, P0 = _start(data)
     n = as_int("n_particles", n_particles, minimum=1, maximum=1_000_000)
-    pf = BootstrapParticleFilter.from_gaussian(RelativeRangeModel(Q, _pos("range_sigma", range_sigma) ** 2), x0 - b,
-                                               P0, n, rng, ess_threshold=0.5)
+    pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(Q), RangeToBeacon(np.zeros(2),
+                                                                                R=_pos("range_sigma", range_sigma) ** 2),
+                                               x0 - b, P0, n, rng, ess_threshold=0.5)
     result = pf.run(z[:, None], world_displacements(data), times=data.times)
     return BaselineRun("particle filter", data.times, result.x[:, :2] + b, result)

@@ -16,6 +16,15 @@ the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtu
 and smooths it with :func:`uwtutor.filters.rts_smoother` when asked. Nothing here is a new loop: a model pair,
 the engine and its gate.
 
+:func:`navigation_models` gives that model pair, its start and the log's inputs and measurements, so that the
+same pair runs in any other filter of the library -- the particle filter, on a log where the EKF's Gaussian is
+not enough::
+
+    nav = navigation_models(data)
+    pf = BootstrapParticleFilter.from_gaussian(nav.motion, nav.measurement, nav.x0, nav.P0, 2000,
+                                               numpy.random.default_rng(0), ess_threshold=0.5)
+    result = pf.run(nav.z, nav.u, times=nav.times)
+
 The noise defaults describe wheel odometry and radio ranges like the Plaza sets' (range noise about 0.55 m,
 odometry good to about 0.1 m over 2 s); pass your own for other sensors.
 """
@@ -129,18 +138,18 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     >>> bool(np.linalg.norm(result.x[-1, :2] - truth[-1, :2]) < 1.0)
     True
     """
-    models = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
-                               range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
-                               gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
-                               scale_prior=scale_prior, scale_walk=scale_walk)
+    nav = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
+                            range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
+                            gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
+                            scale_prior=scale_prior, scale_walk=scale_walk)
     chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
-    result = extended_kalman_filter(models.motion, models.measurement, models.x0, models.P0, data.odometry,
-                                    models.z, times=data.times, gate=chosen_gate)
-    extras = dict(result.extras, ranges=models.z)
+    result = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z, times=nav.times,
+                                    gate=chosen_gate)
+    extras = dict(result.extras, ranges=nav.z)
     if not smooth:
         return FilterResult(result.times, result.x, result.P, result.x_prior, result.P_prior, result.innovations,
                             result.innovation_cov, extras)
-    smoothed = rts_smoother(result, models.motion, data.odometry)
+    smoothed = rts_smoother(result, nav.motion, nav.u)
     extras["filtered"] = result
     return FilterResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior, result.innovations,
                         result.innovation_cov, extras)
@@ -148,53 +157,72 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
 
 @dataclass(frozen=True)
 class NavigationModels:
-    """What :func:`navigate` filters with: the model pair, the initial state and the ranges on the epochs.
+    """The model pair of :func:`navigate` for a log, with its start and the log's inputs and measurements.
 
     Attributes
     ----------
     motion : uwtutor.models.odometry.OdometryMotion
-        The odometry motion model (each step moves along the previous heading, then turns).
+        The odometry with heading, gyro bias and range scale as :func:`navigate` sets it up.
     measurement : uwtutor.models.range.BeaconRanges
-        The ranges to the chosen beacons, with the scale when it is estimated.
+        The ranges to the chosen beacons.
     x0 : ndarray, shape (n,)
-        The initial state: the start pose, then :math:`b_g = 0` and :math:`s = 1` when estimated.
+        The start state (the log's start pose; gyro bias 0, scale 1).
     P0 : ndarray, shape (n, n)
         Its covariance.
+    u : ndarray, shape (K, 2)
+        The odometry, the filters' input.
     z : ndarray, shape (K, B)
-        The ranges placed on the epochs (:meth:`RangeDataset.ranges_on_epochs`), NaN where none.
+        The ranges on the epochs, NaN where a beacon was not heard.
+    times : ndarray, shape (K,)
+        The epochs [s].
     """
 
     motion: OdometryMotion
     measurement: BeaconRanges
     x0: np.ndarray
     P0: np.ndarray
+    u: np.ndarray
     z: np.ndarray
+    times: np.ndarray
 
 
-def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
-                      gyro_bias: bool = True, scale: bool = True, range_sigma: Any = 0.6,
-                      distance_sigma: tuple[float, float] = (0.01, 0.02), heading_noise: Any = 1e-3,
-                      gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4, scale_prior: Any = 0.1,
-                      scale_walk: Any = 1e-5) -> NavigationModels:
-    r"""The models :func:`navigate` runs its filter with, for a bound, a smoother or a filter of your own.
+def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, gyro_bias: bool = True,
+                      scale: bool = True, range_sigma: Any = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
+                      heading_noise: Any = 1e-3, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
+                      scale_prior: Any = 0.1, scale_walk: Any = 1e-5) -> NavigationModels:
+    r"""The motion/measurement model pair of :func:`navigate` for a log, and what a filter runs it on.
 
-    The arguments are :func:`navigate`'s (the same defaults, the same checks). Use it to evaluate the posterior
-    Cramér--Rao bound of exactly the model that :func:`navigate` filters with
-    (:func:`uwtutor.observability.model_posterior_crlb`), or to run the engine with another gate.
+    The same models, noise and start as :func:`navigate` (its parameters, with the same meaning and defaults),
+    for any filter of the library: the EKF engine, the smoother, the posterior Cramér-Rao bound
+    (:func:`uwtutor.observability.model_posterior_crlb`) or a particle filter.
 
     Returns
     -------
     NavigationModels
-        ``motion``, ``measurement``, ``x0``, ``P0`` and the ranges ``z`` on the epochs.
 
     Examples
     --------
+    A straight 50 m drive with a beacon ahead, in the particle filter:
+
+    >>> import numpy as np
     >>> from uwtutor.datasets import RangeDataset, navigation_models
-    >>> data = RangeDataset(times=[0.0, 1.0, 2.0], odometry=[[0, 0], [1, 0], [1, 0]],
-    ...                     ranges=[[1.0, 3, 5.0]], beacons={3: (1.0, 5.0)}, start=[0.0, 0.0, 0.0])
-    >>> models = navigation_models(data, gyro_bias=False)
-    >>> models.motion.layout.names, models.x0.tolist(), models.z[:, 0].tolist()
-    (('x', 'y', 'heading', 'scale'), [0.0, 0.0, 0.0, 1.0], [nan, 5.0, nan])
+    >>> from uwtutor.filters import BootstrapParticleFilter
+    >>> K = 101
+    >>> odometry = np.column_stack([np.r_[0.0, np.full(K - 1, 0.5)], np.zeros(K)])
+    >>> truth = np.column_stack([0.5 * np.arange(K), np.zeros(K), np.zeros(K)])
+    >>> heard = np.arange(1, K, 2)
+    >>> ranges = np.column_stack([heard * 0.5, np.full(heard.size, 3),
+    ...                           1.02 * np.linalg.norm(truth[heard, :2] - [60.0, 10.0], axis=1)])
+    >>> data = RangeDataset(times=0.5 * np.arange(K), odometry=odometry, ranges=ranges, beacons={3: (60.0, 10.0)},
+    ...                     truth=truth)
+    >>> nav = navigation_models(data, range_sigma=0.3)
+    >>> nav.motion.layout.names, nav.z.shape
+    (('x', 'y', 'heading', 'gyro_bias', 'scale'), (101, 1))
+    >>> pf = BootstrapParticleFilter.from_gaussian(nav.motion, nav.measurement, nav.x0, nav.P0, 2000,
+    ...                                            np.random.default_rng(0), ess_threshold=0.5)
+    >>> result = pf.run(nav.z, nav.u, times=nav.times)
+    >>> bool(np.linalg.norm(result.x[-1, :2] - truth[-1, :2]) < 1.0)
+    True
     """
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
@@ -226,4 +254,5 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
     if scale:
         extra["scale"] = (1.0, _positive("scale_prior", scale_prior))
     x0, P0 = motion.layout.initial_state(as_finite("data.start", data.start, shape=(3,)), data.start_cov, **extra)
-    return NavigationModels(motion, measurement, x0, P0, z)
+    return NavigationModels(motion=motion, measurement=measurement, x0=x0, P0=P0, u=data.odometry, z=z,
+                            times=data.times)

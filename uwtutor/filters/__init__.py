@@ -3,7 +3,6 @@
 from .base import Filter, FilterResult, run_filter
 from .bias import BiasEKF, bias_ekf, prepositioned_bias_ekf
 from .cooperative import CooperativeEKF, cooperative_ekf
-from .depth_ekf import DepthEKF
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .ekf import BeaconSingularityWarning, RangeOnlyEKF, range_only_ekf
 from .fading import FadingEKF, FadingResult, LSFadingResult, fading_ekf, ls_fading_ekf, range_factor_moments
@@ -12,26 +11,18 @@ from .kalman import KalmanFilter
 from .staggered import StaggeredRun, filter_from_start_epochs
 from .robust import RobustGate, SecondMomentGate, cascade_kf, robust_range_kf
 from .smoother import SmootherResult, rts_smoother
-from .particle import (
-    BootstrapParticleFilter,
-    DepthSpeedPitchModel,
-    GreyParticleFilter,
-    LinearGaussianModel,
-    MultipleModelParticleFilter,
-    ParticleDegeneracyError,
-    ParticleModel,
-    PitchManeuverModel,
-    RelativeRangeModel,
-)
+from .particle import BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter, ParticleDegeneracyError
+# Names kept for chapter 6 and the lab depth_pf_vs_ekf, which import them from here (see uwtutor.filters.legacy):
+from .legacy import DepthEKF, LinearGaussianModel
+from ..models.depth import DepthSpeedPitchModel, PitchManeuverModel
 
 __all__ = [
     "Filter", "FilterResult", "run_filter", "KalmanFilter",
     "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate", "ReacquiringGate",
     "StaggeredRun", "filter_from_start_epochs",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
-    "BootstrapParticleFilter", "ParticleModel", "DepthSpeedPitchModel", "LinearGaussianModel",
-    "ParticleDegeneracyError", "RelativeRangeModel",
-    "MultipleModelParticleFilter", "GreyParticleFilter", "PitchManeuverModel", "DepthEKF",
+    "BootstrapParticleFilter", "MultipleModelParticleFilter", "GreyParticleFilter", "ParticleDegeneracyError",
+    "DepthEKF", "LinearGaussianModel", "DepthSpeedPitchModel", "PitchManeuverModel",
     "cooperative_ekf", "CooperativeEKF",
     "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",
     "fading_ekf", "FadingEKF", "FadingResult", "ls_fading_ekf", "LSFadingResult", "range_factor_moments",

@@ -97,6 +97,9 @@ class KalmanFilter(ExtendedKalmanFilter):
     def __init__(self, F: Any, H: Any, Q: Any, R: Any, x0: Any, P0: Any, B: Any = None) -> None:
         motion = LinearMotion(F, Q, B)
         measurement = LinearMeasurement(H, R)
+        if measurement._R is None:
+            raise ValueError(f"R must be one ({measurement.m}, {measurement.m}) matrix; got shape {np.shape(R)} (for "
+                             "a noise per step, run extended_kalman_filter with a LinearMeasurement)")
         if measurement.n != motion.n:
             raise ValueError(f"H must have {motion.n} columns to match F; got shape {measurement._H.shape}")
         super().__init__(motion, measurement, x0, P0)

@@ -25,6 +25,33 @@ the pieces share work.
 A measurement vector may have components missing at a step (NaN in ``z``, e.g. a beacon that did not answer):
 the filters update with the components present, and a model may return NaN for the components that are not
 measured (its Jacobian row, its prediction, its noise).
+
+.. rubric:: The same pair in the particle filters
+
+The particle filters (:mod:`uwtutor.filters.particle`) run on the same two models. They need no Jacobian: they
+draw from the motion model (:meth:`MotionModel.sample`) and weigh by the likelihood of the measurement model
+(:meth:`MeasurementModel.log_likelihood`). For them the states carry one axis more, the ``N`` particles of each
+run:
+
+========================  =====================================================================================
+``x``                     particles, ``(M, N, n)`` (``f`` and ``h`` must broadcast over the extra axis)
+``u``                     ``(p,)`` shared by every run, or ``(M, 1, p)``: one per run, aligned with ``x``
+``h(x)``                  ``(M, N, m)``
+``Q``, ``R``              shared ``(n, n)``/``(m, m)``, per run ``(M, n, n)``/``(M, m, m)``, or per particle
+                          ``(M, N, n, n)``/``(M, N, m, m)`` where they depend on the state
+``rng``                   a sequence of ``M`` ``numpy.random.Generator``: run ``m`` draws from ``rng[m]``
+========================  =====================================================================================
+
+The defaults are Gaussian -- :math:`x_k = f(x_{k-1}, u_k, k) + L_k\varepsilon`, :math:`L_k L_k^\mathsf{T} =
+Q_k` (any square root: :math:`Q_k` may be singular), and the Gaussian likelihood of :math:`h` and :math:`R` with
+the missing components marginalised out -- so that every model of the library runs in every filter. A model
+overrides :meth:`MotionModel.sample` where it can draw more exactly or faster than through :math:`Q` (the
+odometry's noise in its inputs, paper C's noise inside its kinematics) or where its noise is not Gaussian, and
+:meth:`MeasurementModel.log_likelihood` for a measurement noise that is not Gaussian (a mixture for outliers).
+
+A :class:`ModelPair` holds a motion and a measurement model in one object (paper C's
+:class:`~uwtutor.models.depth.DepthSpeedPitchModel`); every filter that takes ``motion, measurement`` also takes
+one pair in their place.
 """
 
 from __future__ import annotations
@@ -33,13 +60,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MotionModel", "MeasurementModel"]
+from .noise import gaussian_log_likelihood, gaussian_noise, psd_sqrt
+
+__all__ = ["MotionModel", "MeasurementModel", "ModelPair"]
 
 
 class MotionModel:
-    r"""How the state moves in one step: :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`.
+    r"""How the state moves in one step: :math:`x_k = f(x_{k-1}, u_k, k) + w_k`, :math:`w_k \sim N(0, Q_k)`.
 
-    Subclasses set ``n`` and implement :meth:`f`, :meth:`F` and :meth:`Q`.
+    Subclasses set ``n`` and implement :meth:`f`, :meth:`F` and :meth:`Q`; a particle filter draws through
+    :meth:`sample` (Gaussian by default; override it for a model with its own sampler).
 
     Attributes
     ----------
@@ -77,12 +107,54 @@ class MotionModel:
         """A state ``(..., n)`` put back in its canonical range (an angle wrapped); the identity by default."""
         return x
 
+    def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
+        r"""Draw the next states of states ``x``: :math:`x_k = f(x_{k-1}, u_k, k) + L_k \varepsilon`,
+        :math:`\varepsilon \sim N(0, I)`, :math:`L_k L_k^\mathsf{T} = Q_k`.
+
+        The square root is :func:`~uwtutor.models.noise.psd_sqrt`'s: a Cholesky factor, or one from the
+        eigendecomposition when :math:`Q_k` is singular (a constant state, noise that enters through fewer inputs
+        than states), so that no component gets noise it should not have. Override it for a model that draws
+        more exactly than :math:`f + w` (noise inside the kinematics, or in the inputs), or whose noise is not
+        Gaussian.
+
+        Parameters
+        ----------
+        x : ndarray, shape (M, N, n) or (M, n)
+            The states of ``M`` runs (``N`` particles each).
+        u : array_like or None
+            The input of step ``k``: ``(p,)`` shared, or one per run aligned with ``x`` (``(M, 1, p)`` for
+            particles, ``(M, p)`` for ``(M, n)`` states).
+        k : int
+            The index of the step.
+        rng : sequence of numpy.random.Generator
+            One per run: run ``m`` draws from ``rng[m]``.
+
+        Returns
+        -------
+        ndarray, the shape of ``x``
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import LinearMotion
+        >>> walk = LinearMotion(F=np.eye(2), Q=np.diag([1.0, 0.0]))          # the second state is constant
+        >>> x = walk.sample(np.zeros((1, 4, 2)), None, 0, [np.random.default_rng(0)])
+        >>> x.shape, bool(np.all(x[..., 1] == 0.0))
+        ((1, 4, 2), True)
+        """
+        mean = np.asarray(self.f(x, u, k), dtype=float)
+        Q = np.asarray(self.Q(x, u, k), dtype=float)
+        return mean + gaussian_noise(psd_sqrt(Q), rng, mean.shape)
+
 
 class MeasurementModel:
     r"""What a measurement should be: :math:`z_k = h_k(x_k) + v_k`, :math:`v_k \sim N(0, R_k)`.
 
     Subclasses set ``m`` and ``n`` and implement :meth:`h`, :meth:`H` and :meth:`R`; a model whose
-    Jacobian is undefined somewhere (the range on the beacon) overrides :meth:`linearize` and reports it there.
+    Jacobian is undefined somewhere (the range on the beacon) overrides :meth:`linearize` and reports it there. A
+    particle filter weighs through :meth:`log_likelihood` (Gaussian by default; override it for another noise).
+    A model with parameters per Monte Carlo run (a beacon path per run) sets ``n_runs`` and provides
+    ``select_runs(runs)``, the same model for some of the runs (a particle filter takes its runs block by block).
 
     Attributes
     ----------
@@ -117,3 +189,208 @@ class MeasurementModel:
     def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
         """The innovation ``z - z_pred`` (override for angles or other wrapped quantities)."""
         return z - z_pred
+
+    def log_likelihood(self, x: np.ndarray, z: np.ndarray, k: int) -> np.ndarray:
+        r"""The log-likelihood :math:`\log p(z_k \mid x)` of the measurement ``z`` for every state of ``x``.
+
+        Gaussian by default, :math:`N(h_k(x), R_k)`, with the components missing from ``z`` (NaN) marginalised
+        out and up to a constant that is the same for every state of a run
+        (:func:`~uwtutor.models.noise.gaussian_log_likelihood`); a run whose ``z`` is all NaN gets 0. Override it
+        for a measurement noise that is not Gaussian (it must then take the runs axis and skip NaN components).
+
+        Parameters
+        ----------
+        x : ndarray, shape (M, N, n)
+            ``N`` states (particles) of each of ``M`` runs.
+        z : ndarray, shape (M, m)
+            The measurement of each run, NaN where a component is missing.
+        k : int
+            The index of the step.
+
+        Returns
+        -------
+        ndarray, shape (M, N)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import RangeToBeacon
+        >>> ranges = RangeToBeacon((0.0, 0.0), R=4.0)
+        >>> particles = np.array([[[3.0, 4.0], [6.0, 8.0]]])               # one run: ranges 5 and 10
+        >>> ranges.log_likelihood(particles, np.array([[7.0]]), 0)         # -(7 - r)^2 / (2 * 4)
+        array([[-0.5  , -1.125]])
+        """
+        return gaussian_log_likelihood(np.asarray(self.h(x, k), dtype=float), z, np.asarray(self.R(x, k), float),
+                                       self.residual)
+
+    def sample(self, x: np.ndarray, k: int, rng: Any) -> np.ndarray:
+        r"""Draw measurements of states ``x`` ``(M, ..., n)``: :math:`z = h_k(x) + L\varepsilon`,
+        :math:`L L^\mathsf{T} = R_k` (``rng`` one Generator per run; to simulate data).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import RangeToBeacon
+        >>> z = RangeToBeacon((0.0, 0.0), R=4.0).sample(np.array([[3.0, 4.0]]), 0, [np.random.default_rng(0)])
+        >>> z.shape, bool(abs(z[0, 0] - 5.0) < 8.0)                      # 5 m, give or take 2 m noise
+        ((1, 1), True)
+        """
+        mean = np.asarray(self.h(x, k), dtype=float)
+        return mean + gaussian_noise(psd_sqrt(np.asarray(self.R(x, k), dtype=float)), rng, mean.shape)
+
+
+class ModelPair:
+    r"""A motion model and a measurement model in one object: a state-space model.
+
+    Every filter that takes ``motion, measurement`` also takes one pair in their place, e.g.
+    ``BootstrapParticleFilter.from_gaussian(pair, x0, P0, n_particles, rng)``.
+
+    A subclass may override :meth:`log_likelihood` for **one run** -- ``particles`` ``(N, n)`` and ``z``
+    ``(m,)``, returning ``(N,)`` -- the way a student writes a likelihood (a mixture for a sensor that spikes):
+    the filters then call it run by run (and skip a run whose ``z`` is all NaN), reading the predicted
+    measurements from :meth:`measure`.
+
+    Parameters
+    ----------
+    motion : MotionModel
+    measurement : MeasurementModel
+        Built for the same state (``measurement.n == motion.n``).
+
+    Attributes
+    ----------
+    n, m : int
+        Sizes of the state and of a measurement.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import LinearMeasurement, LinearMotion, ModelPair
+    >>> pair = ModelPair(LinearMotion(F=[[1.0]], Q=[[1.0]]), LinearMeasurement(H=[[1.0]], R=4.0))
+    >>> truth, z = pair.simulate([0.0], 5, np.random.default_rng(1))
+    >>> truth.shape, z.shape
+    ((5, 1), (5, 1))
+    """
+
+    def __init__(self, motion: MotionModel, measurement: MeasurementModel) -> None:
+        if not isinstance(motion, MotionModel):
+            raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
+        if not isinstance(measurement, MeasurementModel):
+            raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
+        if measurement.n != motion.n:
+            raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's "
+                             f"state has size {motion.n}: build both for the same state")
+        self.motion = motion
+        self._measurement = measurement
+        self._k = 0
+
+    @property
+    def n(self) -> int:
+        """Size of the state."""
+        return self.motion.n
+
+    @property
+    def m(self) -> int:
+        """Size of a measurement."""
+        return self._measurement.m
+
+    @property
+    def measurement(self) -> MeasurementModel:
+        """The measurement model, as the filters use it (with this pair's one-run :meth:`log_likelihood` when a
+        subclass overrides it)."""
+        if type(self).log_likelihood is ModelPair.log_likelihood:
+            return self._measurement
+        return _OneRunLikelihood(self)
+
+    def measure(self, particles: np.ndarray, k: int | None = None) -> np.ndarray:
+        """The noise-free measurements :math:`h(x)` of states ``(..., n)``: ``(..., m)`` (``k``: the step, by
+        default the one the filter is weighing)."""
+        x = np.asarray(particles, dtype=float)
+        flat = x.reshape((-1, 1, x.shape[-1]))
+        hx = np.asarray(self._measurement.h(flat, self._k if k is None else k), dtype=float)
+        return hx.reshape(x.shape[:-1] + (hx.shape[-1],))
+
+    def log_likelihood(self, particles: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """The measurement model's log-likelihood of ``z`` ``(m,)`` for one run's particles ``(N, n)``: ``(N,)``."""
+        x = np.asarray(particles, dtype=float)
+        zz = np.asarray(z, dtype=float).reshape(1, -1)
+        return self._measurement.log_likelihood(x[None], zz, self._k)[0]
+
+    def simulate(self, x0: Any, n_steps: int, rng: np.random.Generator, u: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        """A true trajectory drawn from the motion model and its measurements.
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,)
+            The state before the first step.
+        n_steps : int
+            Number of steps ``K``.
+        rng : numpy.random.Generator
+            Source of the process noise (step by step) and then of the measurement noise (all steps at once).
+        u : array_like, shape (K, p), optional
+            The inputs of the steps.
+
+        Returns
+        -------
+        truth : ndarray, shape (K, n)
+            States after each step.
+        measurements : ndarray, shape (K, m)
+            ``h(truth)`` plus noise drawn from ``R``.
+        """
+        from .._validate import as_finite, as_int, as_rng
+
+        x = as_finite("x0", x0, shape=(self.n,))[None, None, :]
+        K = as_int("n_steps", n_steps, minimum=1)
+        rng = as_rng(rng)
+        inputs = None if u is None else as_finite("u", u, ndim=2)
+        if inputs is not None and len(inputs) != K:
+            raise ValueError(f"u must give one input per step ({K}); got shape {inputs.shape}")
+        truth = np.empty((K, self.n))
+        for k in range(K):
+            x = self.motion.sample(x, None if inputs is None else inputs[k], k, (rng,))
+            truth[k] = x[0, 0]
+        hx = np.stack([np.asarray(self._measurement.h(truth[k][None, None], k), dtype=float)[0, 0]
+                       for k in range(K)])
+        Rs = [np.asarray(self._measurement.R(truth[k][None, None], k), dtype=float) for k in range(K)]
+        eps = rng.standard_normal((K, hx.shape[-1]))
+        if all(R is Rs[0] for R in Rs) and Rs[0].ndim == 2:           # one R: one product, as a table of noise
+            return truth, hx + eps @ psd_sqrt(Rs[0]).T
+        roots = np.stack([psd_sqrt(R.reshape(R.shape[-2:])) for R in Rs])
+        return truth, hx + np.einsum("kij,kj->ki", roots, eps)
+
+
+class _OneRunLikelihood(MeasurementModel):
+    """A pair's measurement model whose log-likelihood is the pair's one-run override, called run by run."""
+
+    def __init__(self, pair: ModelPair) -> None:
+        self.pair = pair
+        self.base = pair._measurement
+        self.m, self.n = self.base.m, self.base.n
+        self.n_runs = getattr(self.base, "n_runs", None)
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.base.h(x, k)
+
+    def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.base.H(x, k)
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.base.R(x, k)
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.base.linearize(x, k)
+
+    def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
+        return self.base.residual(z, z_pred)
+
+    def log_likelihood(self, x: np.ndarray, z: np.ndarray, k: int) -> np.ndarray:
+        self.pair._k = k
+        out = np.zeros(x.shape[:2])
+        for run in range(x.shape[0]):
+            if np.isnan(z[run]).all():
+                continue
+            ll = np.asarray(self.pair.log_likelihood(x[run], z[run]), dtype=float)
+            if ll.shape != (x.shape[1],):
+                raise ValueError(f"{type(self.pair).__name__}.log_likelihood must return one value per particle of "
+                                 f"the run, shape ({x.shape[1]},); got {ll.shape}")
+            out[run] = ll
+        return out

@@ -250,6 +250,8 @@ class SquaredRangePair(MeasurementModel):
         b0 = self.leader[..., k, :]
         b1 = self.leader[..., k + 1, :]
         u = self.displacements[..., k, :]
+        if x.ndim == 3:                        # particles (M, N, 4): a run's values broadcast over its particles
+            b0, b1, u = (v[:, None, :] if v.ndim == 2 else v for v in (b0, b1, u))
         p, U = x[..., :2], x[..., 2:]
         a = p - u - self.dt * U - b0
         c = p - b1

@@ -8,6 +8,7 @@ sequence or paper E's cascade filter on position fixes.
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -68,14 +69,16 @@ class LinearMotion(MotionModel):
 
 
 class LinearMeasurement(MeasurementModel):
-    r"""Linear measurement :math:`z_k = H x_k + v_k`, :math:`v_k \sim N(0, R)`.
+    r"""Linear measurement :math:`z_k = H x_k + v_k`, :math:`v_k \sim N(0, R_k)`.
 
     Parameters
     ----------
     H : array_like, shape (m, n)
         Measurement matrix.
-    R : array_like, shape (m, m), or a scalar for m = 1
-        Measurement noise covariance (positive definite).
+    R : array_like
+        Measurement noise covariance (positive definite): ``(m, m)`` (a scalar for m = 1), or one per step or per
+        run and step, as :class:`~uwtutor.models.range.NoiseSchedule` reads them (``(K, m, m)``, ``(K,)`` or
+        ``(K, m)`` variances, ``(M, K, m, m)``).
 
     Examples
     --------
@@ -85,20 +88,43 @@ class LinearMeasurement(MeasurementModel):
     """
 
     def __init__(self, H: Any, R: Any) -> None:
+        from .range import NoiseSchedule
+
         self._H = as_finite("H", H, ndim=2)
         self.m, self.n = self._H.shape
-        self._R = as_covariance("R", R, self.m)
-        if self._R.ndim != 2:
-            raise ValueError(f"R must be one ({self.m}, {self.m}) matrix; got shape {self._R.shape}")
+        R_arr = as_finite("R", R)           # a clear message for text or a dict; NoiseSchedule checks the rest
+        if R_arr.ndim == 2 and R_arr.shape != (self.m, self.m) and not (R_arr.shape[1] == self.m and self.m > 1):
+            raise ValueError(f"R must be one ({self.m}, {self.m}) matrix to match H (or one per step); got shape "
+                             f"{R_arr.shape}")
+        self._noise = NoiseSchedule("R", R, self.m)
+        #: The one covariance of every step, ``(m, m)`` (None for a per-step or per-run ``R``).
+        self._R = self._noise.constant
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps a per-step ``R`` covers (None for one ``R``)."""
+        return self._noise.n_steps
+
+    @property
+    def n_runs(self) -> int | None:
+        """Number of runs of a per-run ``R`` (None when shared by every run)."""
+        return self._noise.n_runs
+
+    def select_runs(self, runs: Any) -> "LinearMeasurement":
+        """The same model for the runs ``runs`` of a per-run ``R`` (a particle filter takes its runs block by
+        block)."""
+        out = copy.copy(self)
+        out._noise = self._noise.select_runs(runs)
+        return out
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
         return x @ self._H.T
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
-        return np.broadcast_to(self._H, (x.shape[0],) + self._H.shape)
+        return np.broadcast_to(self._H, x.shape[:-1] + self._H.shape)
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._R
+        return self._R if self._R is not None else self._noise.at(k)
 
 
 class DirectMeasurement(LinearMeasurement):
@@ -119,6 +145,13 @@ class DirectMeasurement(LinearMeasurement):
     >>> DirectMeasurement(n=4, indices=[0, 1], R=[[4.0, 0.0], [0.0, 4.0]])._H
     array([[1., 0., 0., 0.],
            [0., 1., 0., 0.]])
+
+    Measuring the whole state in order, :math:`h(x)` is ``x`` itself (no copy, no product):
+
+    >>> import numpy as np
+    >>> x = np.zeros((1, 2))
+    >>> DirectMeasurement(n=2, indices=[0, 1], R=1.0).h(x, 0) is x
+    True
     """
 
     def __init__(self, n: int, indices: Any, R: Any) -> None:
@@ -129,3 +162,8 @@ class DirectMeasurement(LinearMeasurement):
         H = np.zeros((len(idx), n))
         H[np.arange(len(idx)), idx] = 1.0
         super().__init__(H, R)
+        self.indices = np.array(idx)
+        self._identity = idx == list(range(n))
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return x if self._identity else x[..., self.indices]

@@ -1,8 +1,18 @@
-"""Random streams for batches of Monte Carlo runs: one ``numpy.random.Generator`` per run.
+r"""Random streams for batches of Monte Carlo runs, and the Gaussian noise of the models.
 
 A model that draws noise for ``M`` runs at once draws run ``m``'s share from the ``m``-th generator, so that a
 batched run ``m`` is, draw for draw, the single run given that generator. :func:`per_run_generators` turns the
 ``rng`` a user gives into that sequence; :func:`standard_normal_per_run` draws from it.
+
+The two Gaussian computations every model shares by default (:mod:`uwtutor.models.base`) live here too:
+
+* drawing :math:`w \sim N(0, Q)` as :math:`w = L\varepsilon`, :math:`\varepsilon \sim N(0, I)`, with any
+  :math:`L L^\mathsf{T} = Q` (:func:`psd_sqrt`: a Cholesky factor, or :math:`V \Lambda^{1/2}` from the
+  eigendecomposition when :math:`Q` is singular -- a state that does not move, a noise that enters through fewer
+  inputs than states);
+* the log-likelihood of a measurement under :math:`N(h(x), R)` with its missing components marginalised out
+  (:func:`gaussian_log_likelihood`): the marginal of a Gaussian over some components is the Gaussian of those
+  components, :math:`N(h_{\mathcal P}(x), R_{\mathcal{PP}})`.
 """
 
 from __future__ import annotations
@@ -11,7 +21,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["per_run_generators", "standard_normal_per_run"]
+__all__ = ["per_run_generators", "standard_normal_per_run", "psd_sqrt", "gaussian_noise", "gaussian_log_likelihood"]
 
 
 def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np.random.Generator, ...]:
@@ -72,4 +82,161 @@ def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[in
     out = np.empty((len(rngs),) + tuple(shape))
     for m, r in enumerate(rngs):
         r.standard_normal(out=out[m])
+    return out
+
+
+def psd_sqrt(Q: Any) -> np.ndarray:
+    r"""A square root :math:`L` of positive semi-definite matrices, :math:`L L^\mathsf{T} = Q`, ``(..., n, n)``.
+
+    The Cholesky factor when every matrix of the stack is positive definite; otherwise
+    :math:`L = V \operatorname{diag}(\sqrt{\max(\lambda, 0)})` from the eigendecomposition
+    :math:`Q = V \operatorname{diag}(\lambda) V^\mathsf{T}`, which tolerates zero eigenvalues (a component
+    without noise) and clips the round-off negatives of a semi-definite matrix.
+
+    Parameters
+    ----------
+    Q : array_like, shape (..., n, n)
+        Symmetric positive semi-definite matrices (not checked here: the models check theirs once).
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models.noise import psd_sqrt
+    >>> Q = np.diag([4.0, 0.0])                     # the second state does not move
+    >>> L = psd_sqrt(Q)
+    >>> np.allclose(L @ L.T, Q)
+    True
+    """
+    Q = np.asarray(Q, dtype=float)
+    try:
+        return np.linalg.cholesky(Q)
+    except np.linalg.LinAlgError:
+        vals, vecs = np.linalg.eigh(Q)
+        return vecs * np.sqrt(np.clip(vals, 0.0, None))[..., None, :]
+
+
+def gaussian_noise(L: np.ndarray, rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> np.ndarray:
+    r"""Draws :math:`w = L \varepsilon`, :math:`\varepsilon \sim N(0, I_n)`, for ``M`` runs of ``shape[1:-1]`` each.
+
+    Run ``m`` draws its :math:`\varepsilon` of shape ``shape[1:]`` from ``rngs[m]``
+    (:func:`standard_normal_per_run`), so that a batched run is draw for draw the single run on the same Generator.
+
+    Parameters
+    ----------
+    L : ndarray
+        Square roots of the covariances (:func:`psd_sqrt`): ``(n, n)`` shared by every run, ``(M, n, n)`` one per
+        run, or ``shape[:-1] + (n, n)`` one per draw (e.g. per particle).
+    rngs : sequence of numpy.random.Generator
+        One per run, ``M = shape[0]``.
+    shape : tuple of int
+        ``(M, ..., n)``.
+
+    Returns
+    -------
+    ndarray, shape ``shape``
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models.noise import gaussian_noise
+    >>> w = gaussian_noise(np.diag([2.0, 0.0]), [np.random.default_rng(0)], (1, 50000, 2))
+    >>> np.round(w[0].std(axis=0), 1)
+    array([2., 0.])
+    """
+    eps = standard_normal_per_run(rngs, tuple(shape[1:]))
+    if L.ndim == 2:
+        if eps.shape[0] == 1:                                  # one run: a plain 2-D product
+            return (eps[0] @ L.T)[None] if eps.ndim == 3 else eps @ L.T
+        return eps @ L.T
+    if L.ndim == 3 and L.shape[0] == len(rngs) and eps.ndim == 3:      # one per run, (M, N, n)
+        return eps @ np.swapaxes(L, -1, -2)
+    return np.einsum("...ij,...j->...i", L, eps)
+
+
+def _present_patterns(present: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The runs (indices) sharing each pattern of present components, and the pattern; runs without any skipped."""
+    if present.shape[0] == 1:
+        return [(np.zeros(1, dtype=np.intp), present[0])] if present[0].any() else []
+    patterns, inverse = np.unique(present, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    return [(np.flatnonzero(inverse == i), p) for i, p in enumerate(patterns) if p.any()]
+
+
+def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray, residual: Any = None) -> np.ndarray:
+    r"""The log-likelihood of ``z`` under :math:`N(h(x), R)` for many states, missing components marginalised out.
+
+    .. math::
+
+        \log p(z \mid x) = -\tfrac12\, y^\mathsf{T} R_{\mathcal{PP}}^{-1}\, y
+        - \tfrac12 \log\det R_{\mathcal{PP}} + c, \qquad y = z_{\mathcal P} - h_{\mathcal P}(x),
+
+    over the components :math:`\mathcal P` present in ``z`` (its entries that are not NaN). The term
+    :math:`\log\det R` is kept only where ``R`` differs from state to state (one per ``hx`` row); where it is one
+    per run it is, like :math:`c`, the same for every state of the run and is dropped (it cancels in normalised
+    weights). A run with no component present gets 0: its weights do not change.
+
+    Parameters
+    ----------
+    hx : ndarray, shape (M, N, m)
+        The predicted measurements of ``N`` states of each of ``M`` runs.
+    z : ndarray, shape (M, m)
+        The measurement of each run, NaN where a component is missing.
+    R : ndarray
+        ``(m, m)`` shared, ``(M, m, m)`` per run, or ``(M, N, m, m)`` per state; positive definite over the
+        components present.
+    residual : callable, optional
+        ``residual(z, hx) -> y`` (a model's :meth:`~uwtutor.models.base.MeasurementModel.residual`, for angles);
+        ``z - hx`` by default.
+
+    Returns
+    -------
+    ndarray, shape (M, N)
+
+    Examples
+    --------
+    The marginal over the components present is the likelihood of the model of those components alone:
+
+    >>> import numpy as np
+    >>> from uwtutor.models.noise import gaussian_log_likelihood
+    >>> hx = np.array([[[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]])               # one run, two states, m = 3
+    >>> R = np.diag([1.0, 4.0, 9.0])
+    >>> gaussian_log_likelihood(hx, np.array([[1.0, np.nan, 3.0]]), R)     # -(1 + 9/9)/2 and -(0 + 4/9)/2
+    array([[-1.        , -0.22222222]])
+    """
+    M, N, m = hx.shape
+    y = (z[:, None, :] - hx) if residual is None else np.asarray(residual(z[:, None, :], hx), dtype=float)
+    present = ~np.isnan(z)
+    per_state = R.ndim == 4
+    out = np.zeros((M, N))
+    if present.all():
+        groups = [(None, None)]
+    else:
+        groups = _present_patterns(present)
+    for runs, pattern in groups:
+        yy = y if runs is None else y[runs][:, :, pattern]
+        if R.ndim == 2:
+            RR = R if runs is None else R[np.ix_(pattern, pattern)]
+        elif runs is None:
+            RR = R
+        else:
+            sel = R[runs]
+            RR = sel[..., pattern[:, None] & pattern[None, :]].reshape(sel.shape[:-2] + (pattern.sum(),) * 2)
+        L = np.linalg.cholesky(RR)
+        if RR.ndim == 2:
+            w = np.linalg.solve(L, yy.reshape(-1, yy.shape[-1]).T).T.reshape(yy.shape)
+        elif not per_state:                                     # (R, m, m) per run
+            w = np.swapaxes(np.linalg.solve(L, np.swapaxes(yy, -1, -2)), -1, -2)
+        else:                                                   # (R, N, m, m) per state
+            w = np.linalg.solve(L, yy[..., None])[..., 0]
+        ll = -0.5 * np.einsum("...i,...i->...", w, w)
+        if per_state:
+            ll -= np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(axis=-1)
+        if runs is None:
+            out = ll
+        else:
+            out[runs] = ll
     return out

@@ -94,6 +94,7 @@ import numpy as np
 
 from .._validate import as_covariance, as_finite, as_flag, as_int, as_nonnegative
 from .base import MotionModel
+from .noise import per_run_generators, standard_normal_per_run
 
 __all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
 
@@ -403,6 +404,8 @@ class OdometryMotion(MotionModel):
                 if i is not None:
                     self._walk[i] = q
         self._has_walk = bool(self._walk.any())
+        self._walking = np.flatnonzero(self._walk)                # the states with a walk, and its std per 1 s
+        self._walk_std = np.sqrt(self._walk[self._walking])
         self._walk_diag = np.diag(self._walk)
         self._eye = np.eye(self.n)
         sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
@@ -501,6 +504,42 @@ class OdometryMotion(MotionModel):
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         d, _, ca, sa, dt = self._parts(x, u, k)
         return self._Q(self._G(x, d, ca, sa), k, dt)
+
+    def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
+        r"""Draw the next poses of particles ``x`` ``(M, N, n)`` with the noise in the odometry itself.
+
+        Each particle moves by its own noisy reading of the step, :math:`\tilde d = d_k + \sigma_{d,k}
+        \varepsilon_1`, :math:`\widetilde{\Delta\theta} = \Delta\theta_k + \sigma_{\theta,k}\varepsilon_2`,
+        through the exact :math:`f` (the sample odometry motion model of Thrun et al. 2005, sec. 5.4), and the
+        bias, scale and range-bias states take their random walks, :math:`\sqrt{q\,\Delta t_k}\,\varepsilon`.
+        The :math:`Q_k = G_k \Sigma_u G_k^\mathsf{T} + \dots` of the Kalman filters is the linearization of this
+        draw; a state without a walk does not move (its :math:`Q` is singular). Run ``m`` draws
+        :math:`\varepsilon`, ``(N, 2 + w)`` (w the states with a walk), from ``rng[m]``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import OdometryMotion
+        >>> motion = OdometryMotion(0.1, 0.01, scale=True)                # the scale has no walk: it stays
+        >>> x = np.tile([0.0, 0.0, 0.0, 1.07], (1, 1000, 1))
+        >>> new = motion.sample(x, np.array([10.0, 0.0]), 0, [np.random.default_rng(0)])
+        >>> round(float(new[0, :, 0].std()), 2), bool(np.all(new[..., 3] == 1.07))
+        (0.1, True)
+        """
+        d, dth = self._input(u)
+        k = self._step(k)
+        walking = self._walking
+        eps = standard_normal_per_run(per_run_generators(rng, x.shape[0], spawn=False),
+                                      x.shape[1:-1] + (2 + walking.size,))
+        noisy = np.empty(eps.shape[:-1] + (2,))
+        np.multiply(eps[..., 0], self._value(self.sigma_distance, k), out=noisy[..., 0])
+        np.multiply(eps[..., 1], self._value(self.sigma_heading, k), out=noisy[..., 1])
+        noisy[..., 0] += d                             # (p,) shared, or (M, 1, p) per run: broadcast
+        noisy[..., 1] += dth
+        out = self.f(x, noisy, k)
+        if walking.size:
+            out[..., walking] += eps[..., 2:] * (self._walk_std * np.sqrt(self.dt(k)))
+        return out
 
     def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         r"""``a - b`` with the heading difference wrapped to :math:`[-\pi, \pi)`."""

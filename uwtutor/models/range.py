@@ -24,6 +24,7 @@ beacon is an ordinary update.
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -148,6 +149,14 @@ class RangeToBeacon(MeasurementModel):
         """Number of runs of a per-run beacon path (``None`` when shared by every run)."""
         return self.beacon.shape[0] if self.beacon.ndim == 3 else None
 
+    def select_runs(self, runs: Any) -> "RangeToBeacon":
+        """The same model for the runs ``runs`` (a slice or indices) of a per-run beacon path: what a particle filter
+        takes when it moves its runs block by block."""
+        out = copy.copy(self)
+        if self.beacon.ndim == 3:
+            out.beacon = self.beacon[runs]
+        return out
+
     def beacon_at(self, k: int) -> np.ndarray:
         """The beacon position(s) of step ``k``: ``(2,)`` or ``(M, 2)``."""
         if self.beacon.ndim == 1:
@@ -158,8 +167,15 @@ class RangeToBeacon(MeasurementModel):
                              "position per step of the run")
         return self.beacon[k] if self.beacon.ndim == 2 else self.beacon[:, k]
 
+    def _beacon_for(self, x: np.ndarray, k: int) -> np.ndarray:
+        """The beacon of step ``k`` aligned with states ``(M, n)`` or particles ``(M, N, n)``."""
+        b = self.beacon_at(k)
+        if b.ndim == 2 and x.ndim == 3:                  # one per run: broadcast over the particles of each run
+            b = b[:, None, :]
+        return b
+
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        r, los, defined = _line_of_sight(x[..., :2], self.beacon_at(k))
+        r, los, defined = _line_of_sight(x[..., :2], self._beacon_for(x, k))
         H = np.zeros(x.shape[:-1] + (1, self.n))
         H[..., 0, :2] = los
         z = r[..., None]
@@ -169,7 +185,11 @@ class RangeToBeacon(MeasurementModel):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self.linearize(x, k)[0]
+        d = x[..., :2] - self._beacon_for(x, k)
+        z = np.hypot(d[..., 0], d[..., 1])[..., None]
+        if self.bias_index is not None:
+            z = z + x[..., self.bias_index:self.bias_index + 1]
+        return z
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return self.linearize(x, k)[1]
@@ -229,9 +249,13 @@ class MultiplicativeRange(RangeToBeacon):
         z, H, defined = super().linearize(x, k)
         return self.mu_gamma * z, self.mu_gamma * H, defined
 
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.mu_gamma * super().h(x, k)
+
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        r, _, _ = _line_of_sight(x[..., :2], self.beacon_at(k))
-        return (self.sigma_gamma**2 * r**2 + self._noise.at(k)[0, 0])[:, None, None]
+        r""":math:`\sigma_\gamma^2 r^2 + R` at each state: ``(M, 1, 1)``, or ``(M, N, 1, 1)`` for particles."""
+        r, _, _ = _line_of_sight(x[..., :2], self._beacon_for(x, k))
+        return (self.sigma_gamma**2 * r**2 + self._noise.at(k)[0, 0])[..., None, None]
 
 
 class NoiseSchedule:
@@ -249,7 +273,8 @@ class NoiseSchedule:
         * ``(K,)``: one variance per step, the same for every component;
         * ``(K, m)``: one variance per step and component (``m`` must then differ from ``K``; give per-step
           matrices ``(K, m, m)`` when it does not);
-        * ``(K, m, m)``: one covariance per step.
+        * ``(K, m, m)``: one covariance per step;
+        * ``(M, K, m, m)``: one covariance per run and step (e.g. noise levels estimated online, run by run).
 
         Per-step variances may be NaN at a step (or for a component) without a measurement; a filter refuses a NaN
         where a measurement is present.
@@ -295,10 +320,14 @@ class NoiseSchedule:
             self._variances = np.ascontiguousarray(var)
         elif arr.ndim == 3 and arr.shape[1:] == (m, m):
             self._matrices = as_covariance(name, arr, m)
+        elif arr.ndim == 4 and arr.shape[2:] == (m, m):
+            # one per run and step, held step-major: at(k) is one contiguous (M, m, m) block
+            self._matrices = np.ascontiguousarray(np.swapaxes(as_covariance(name, arr, m), 0, 1))
         else:
             per = "(K,), (K, m)" if m > 1 else "(K,)"
             raise ValueError(f"{name} must be a variance, a ({m}, {m}) covariance, or one per step: {per} variances "
-                             f"or (K, {m}, {m}) covariances (m = {m} components); got shape {arr.shape}")
+                             f"or (K, {m}, {m}) covariances, or (M, K, {m}, {m}) per run and step (m = {m} "
+                             f"components); got shape {arr.shape}")
         if self._variances is not None:
             self._eye = np.eye(m, dtype=bool)
 
@@ -308,8 +337,21 @@ class NoiseSchedule:
         per_step = self._variances if self._variances is not None else self._matrices
         return None if per_step is None else per_step.shape[0]
 
+    @property
+    def n_runs(self) -> int | None:
+        """Number of runs of a per-run schedule ``(M, K, m, m)`` (None when shared by every run)."""
+        return self._matrices.shape[1] if self._matrices is not None and self._matrices.ndim == 4 else None
+
+    def select_runs(self, runs: Any) -> "NoiseSchedule":
+        """The schedule of the runs ``runs`` (a slice or indices) of a per-run schedule (itself otherwise)."""
+        if self.n_runs is None:
+            return self
+        out = copy.copy(self)
+        out._matrices = np.ascontiguousarray(self._matrices[:, runs])
+        return out
+
     def at(self, k: int) -> np.ndarray:
-        """The covariance ``(m, m)`` of step ``k``."""
+        """The covariance ``(m, m)`` of step ``k`` (``(M, m, m)`` for a per-run schedule)."""
         if self.constant is not None:
             return self.constant
         K = self.n_steps
@@ -468,7 +510,13 @@ class BeaconRanges(MeasurementModel):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self.linearize(x, k)[0]
+        d = x[..., None, :2] - self.beacons                                   # (..., B, 2)
+        z = np.hypot(d[..., 0], d[..., 1])
+        if self.scale_index is not None:
+            z *= x[..., self.scale_index, None]
+        if self._bias_cols is not None:
+            z += x[..., self._bias_cols]
+        return z
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return self.linearize(x, k)[1]

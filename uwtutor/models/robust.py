@@ -162,7 +162,7 @@ class PositionMeasurement(MeasurementModel):
         self._H = H
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        return x[:, : self.d]
+        return x[..., : self.d]
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return np.broadcast_to(self._H, (x.shape[0],) + self._H.shape)
@@ -172,4 +172,4 @@ class PositionMeasurement(MeasurementModel):
             return self._R
         if self._R.ndim == 3:
             return self._R[k]
-        return self._R[:, k]
+        return self._R[:, k]                    # (M, d, d): one per run

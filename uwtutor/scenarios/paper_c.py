@@ -25,8 +25,9 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .._validate import as_finite, as_int, as_nonnegative, as_positive, as_rng
-from ..filters import (BootstrapParticleFilter, DepthEKF, DepthSpeedPitchModel, GreyParticleFilter,
-                       MultipleModelParticleFilter, PitchManeuverModel)
+from ..filters import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
+                       extended_kalman_filter)
+from ..models.depth import DepthSensors, DepthSpeedPitch, PitchManeuver
 from ..wavelet import sliding_noise_sigma
 
 __all__ = [
@@ -390,10 +391,10 @@ class DepthStudy:
         return np.sqrt(np.mean(err**2, axis=(0, 1)))
 
 
-def _mmpf_models(process_std: np.ndarray, R: np.ndarray, T: float, targets_deg: np.ndarray,
-                 time_constant: float) -> list[PitchManeuverModel]:
-    return [PitchManeuverModel(pitch_target=np.radians(p), time_constant=time_constant, T=T,
-                               process_std=process_std, R=R) for p in targets_deg]
+def _mmpf_models(process_std: np.ndarray, T: float, targets_deg: np.ndarray,
+                 time_constant: float) -> list[PitchManeuver]:
+    return [PitchManeuver(pitch_target=np.radians(p), time_constant=time_constant, T=T, process_std=process_std)
+            for p in targets_deg]
 
 
 def _mmpf_transition(stay: float, J: int) -> np.ndarray:
@@ -413,19 +414,23 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     paper's Q by default). The filters:
 
     ``"EKF"``
-        :class:`~uwtutor.filters.depth_ekf.DepthEKF` with the fixed ``R``.
+        The generic EKF (:func:`~uwtutor.filters.engine.extended_kalman_filter`) on paper C's models
+        (:class:`~uwtutor.models.depth.DepthSpeedPitch`, :class:`~uwtutor.models.depth.DepthSensors`) with the fixed
+        ``R``.
     ``"MMPF"``
-        :class:`~uwtutor.filters.particle.MultipleModelParticleFilter` over one
-        :class:`~uwtutor.filters.particle.PitchManeuverModel` mode per pitch target in ``mmpf_targets_deg`` (by
+        :class:`~uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter` over one
+        :class:`~uwtutor.models.depth.PitchManeuver` mode per pitch target in ``mmpf_targets_deg`` (by
         default cruise 0°, dive +20°, climb -20°), time constant ``mmpf_time_constant``, staying in a mode with
         probability ``mmpf_stay`` per step and switching to each other mode with equal probability; fixed ``R``.
     ``"GPF"``
-        :class:`~uwtutor.filters.particle.GreyParticleFilter`: ``grey_fraction`` of the particles from the GM(1,1)
+        :class:`~uwtutor.filters.particle.grey.GreyParticleFilter`: ``grey_fraction`` of the particles from the GM(1,1)
         forecast of the last ``grey_window`` measurements (pitch shifted by 1 rad), wavelet ``R_k`` from
         ``noise_window`` samples (db6).
     ``"PF"``, ``"PF + wavelet R"``, ``"EKF + wavelet R"``
         The pieces of the GPF: the bootstrap filter with the fixed ``R``; the GPF without grey particles; the EKF
-        with the GPF's wavelet ``R_k``.
+        with the GPF's wavelet ``R_k`` (``DepthSensors`` with one ``R`` per run and step).
+
+    Every filter runs on the same model pair, ``DepthSpeedPitch(T, process_std)`` and ``DepthSensors(R)``.
 
     Parameters
     ----------
@@ -488,16 +493,16 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     T = profile.T
     R = np.diag(PAPER_C["sensor_std"] ** 2)
     M = Z.shape[0]
-    model = DepthSpeedPitchModel(T=T, process_std=q, R=R)
+    motion, sensors = DepthSpeedPitch(T=T, process_std=q), DepthSensors(R)
     gpf_kw = dict(grey_window=grey_window, noise_window=noise_window, grey_offset=[0.0, 0.0, PITCH_OFFSET])
     makers: dict[str, Callable[[np.ndarray, Sequence[np.random.Generator]], Any]] = {
-        "PF": lambda z0, rngs: BootstrapParticleFilter.from_gaussian(model, z0, R, N, rngs),
+        "PF": lambda z0, rngs: BootstrapParticleFilter.from_gaussian(motion, sensors, z0, R, N, rngs),
         "MMPF": lambda z0, rngs: MultipleModelParticleFilter.from_gaussian(
-            _mmpf_models(q, R, T, targets, mmpf_time_constant), z0, R, N, rngs,
+            _mmpf_models(q, T, targets, mmpf_time_constant), sensors, z0, R, N, rngs,
             transition=_mmpf_transition(stay, targets.size)),
-        "GPF": lambda z0, rngs: GreyParticleFilter.from_gaussian(model, z0, R, N, rngs, grey_fraction=grey_fraction,
-                                                                 **gpf_kw),
-        "PF + wavelet R": lambda z0, rngs: GreyParticleFilter.from_gaussian(model, z0, R, N, rngs,
+        "GPF": lambda z0, rngs: GreyParticleFilter.from_gaussian(motion, sensors, z0, R, N, rngs,
+                                                                 grey_fraction=grey_fraction, **gpf_kw),
+        "PF + wavelet R": lambda z0, rngs: GreyParticleFilter.from_gaussian(motion, sensors, z0, R, N, rngs,
                                                                             grey_fraction=0.0, **gpf_kw),
     }
     estimates: dict[str, np.ndarray] = {}
@@ -505,7 +510,7 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     extras: dict[str, np.ndarray] = {}
     for name in filters:
         if name == "EKF":
-            estimates[name] = DepthEKF(Z[:, 0], R, np.diag(q**2), R, T=T).run(Z).x
+            estimates[name] = extended_kalman_filter(motion, sensors, Z[:, 0], R, None, Z).x
             continue
         if name == "EKF + wavelet R":
             continue                                     # after the GPF (it uses the GPF's noise estimates)
@@ -525,6 +530,6 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
             sd = np.where(np.isnan(sd), PAPER_C["sensor_std"], np.maximum(sd, 0.01 * PAPER_C["sensor_std"]))
         Rs = np.zeros(Z.shape + (3,))
         Rs[..., [0, 1, 2], [0, 1, 2]] = sd**2
-        estimates["EKF + wavelet R"] = DepthEKF(Z[:, 0], R, np.diag(q**2), R, T=T).run(Z, Rs=Rs).x
+        estimates["EKF + wavelet R"] = extended_kalman_filter(motion, DepthSensors(Rs), Z[:, 0], R, None, Z).x
     estimates = {name: estimates[name] for name in filters}
     return DepthStudy(profile=profile, measurements=Z, estimates=estimates, ess=ess, extras=extras)

@@ -15,7 +15,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._validate import as_int, as_positive
-from ..filters import DepthEKF, DepthSpeedPitchModel, GreyParticleFilter
+from ..filters import GreyParticleFilter, extended_kalman_filter
+from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, DepthStudy, maneuvering_depth_profile,
                                  run_depth_study, simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
@@ -104,9 +105,9 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     z = simulate_depth_sensors(profile, 1, rng)[0]
     R = np.diag(PAPER_C["sensor_std"] ** 2)
     q = PAPER_C["process_std"]
-    model = DepthSpeedPitchModel(T=profile.T, process_std=q, R=R)
-    ekf = DepthEKF(z[0], R, np.diag(q**2), R, T=profile.T).run(z)
-    gpf = GreyParticleFilter.from_gaussian(model, z[0], R, N, np.random.default_rng(seed + 1000),
+    motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
+    ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
+    gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
                                            grey_fraction=grey_fraction, noise_window=noise_window,
                                            grey_offset=[0.0, 0.0, _PITCH_OFFSET]).run(z)
     after = profile.times >= profile.times[0] + 1.0
