@@ -1,11 +1,13 @@
 """The PDF edition's Sphinx extension (loaded by _config_pdf.yml only; does nothing for other builders).
 
-- **Animations** (``FuncAnimation.to_jshtml()`` outputs, HTML with every frame as a PNG) print as a sheet of frames:
-  up to six of them, evenly spaced, two to a row, each labelled with its number. LaTeX cannot show the HTML.
+- **Animations** (``FuncAnimation.to_jshtml()`` outputs, HTML with every frame as a PNG) print as some of their
+  frames: up to four, evenly spaced, first and last included, each labelled with its number. LaTeX cannot show
+  the HTML.
 - **Live widgets** (``application/vnd.jupyter.widget-view+json``) print as one line that names the widget's
   controls and their starting values, and says that it runs in JupyterLab, in place of ``VBox(children=...``.
 - Any other HTML-only output is a warning (and so fails the strict build): it would vanish from the page.
-- **The Reference part** (notation, glossary, ...) becomes the appendices (``\\appendix`` before its part).
+- **The Reference part** (notation, glossary, ...) becomes the appendices (``\\appendix`` before its part), and the
+  root page (book/intro) an unnumbered chapter "Introduction".
 - LaTeX set-up: fonts that have every character the book uses (DejaVu Sans Mono for code, Noto CJK for the
   glossary's Chinese through xeCJK), the bbm.sty stand-in (book/_ext/latex/), SVG through rsvg-convert
   (sphinxcontrib-svg2pdfconverter).
@@ -15,7 +17,6 @@ from __future__ import annotations
 
 import base64
 import hashlib
-import io
 import json
 import os
 import re
@@ -36,7 +37,7 @@ HERE = Path(__file__).resolve().parent
 WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
 WIDGET_STATE = "application/vnd.jupyter.widget-state+json"
 APPENDIX_PART = "Reference"  # the caption in _toc.yml of the part printed as the appendices
-SHEET_FRAMES = 6
+ANIMATION_FRAMES = 4  # printed of each animation, each at the width of the page like any figure
 
 # xelatex: Latin, Greek and mathematical symbols from the FreeFont family (Sphinx's default) except code, in DejaVu
 # Sans Mono (FreeMono has no ✘ nor ✔). Chinese (the glossary, the papers' titles: only CJK Unified Ideographs) in Noto
@@ -73,31 +74,11 @@ def animation_frames(html: str) -> list[bytes]:
     return [base64.b64decode(data.replace("\\n", "").replace("\n", "")) for _, data in found]
 
 
-def frame_sheet(frames: list[bytes], n_max: int = SHEET_FRAMES) -> bytes:
-    """A PNG with up to ``n_max`` of ``frames``, evenly spaced from first to last, two to a row, numbered."""
-    from PIL import Image, ImageDraw, ImageFont
-
-    n = len(frames)
-    picks = sorted({round(k * (n - 1) / (min(n, n_max) - 1)) for k in range(min(n, n_max))}) if n > 1 else [0]
-    images = [Image.open(io.BytesIO(frames[i])).convert("RGB") for i in picks]
-    w = max(im.width for im in images)
-    h = max(im.height for im in images)
-    label_h = 26
-    cols = 2 if len(images) > 1 else 1
-    rows = -(-len(images) // cols)
-    sheet = Image.new("RGB", (cols * w, rows * (h + label_h)), "white")
-    draw = ImageDraw.Draw(sheet)
-    try:
-        font = ImageFont.truetype("DejaVuSans.ttf", 16)
-    except OSError:
-        font = ImageFont.load_default()
-    for k, (i, im) in enumerate(zip(picks, images)):
-        x, y = (k % cols) * w, (k // cols) * (h + label_h)
-        draw.text((x + 8, y + 4), f"frame {i + 1} of {n}", fill="black", font=font)
-        sheet.paste(im, (x, y + label_h))
-    out = io.BytesIO()
-    sheet.save(out, format="PNG", optimize=True)
-    return out.getvalue()
+def frame_picks(n: int, n_max: int = ANIMATION_FRAMES) -> list[int]:
+    """Up to ``n_max`` frame indices of ``n``, evenly spaced, first and last included."""
+    if n <= n_max:
+        return list(range(n))
+    return sorted({round(k * (n - 1) / (n_max - 1)) for k in range(n_max)})
 
 
 def _widget_models(app: Sphinx, docname: str) -> dict[str, Any]:
@@ -146,7 +127,7 @@ class PrintableOutputs(SphinxTransform):
     """For the LaTeX builder: give animations and widget views a printable rendering in their mime bundle.
 
     Runs while a page is read (after myst-nb has put every mime type of an output in a ``mime_bundle``), so that the
-    sheet of frames is collected as an image of the page like any other; myst-nb's SelectMimeType then picks the
+    frames are collected as an image of the page like any other; myst-nb's SelectMimeType then picks the
     added ``image/png`` (or ``text/plain`` note) for LaTeX, by its usual priority.
     """
 
@@ -174,19 +155,20 @@ class PrintableOutputs(SphinxTransform):
                                    "the PDF (give it an image/png or text/latex rendering)", location=bundle)
 
     def _animation(self, bundle: nodes.container, by_type: dict, frames: list[bytes]) -> None:
-        png = frame_sheet(frames)
-        name = f"animation-{hashlib.sha1(png).hexdigest()[:16]}.png"
         out_dir = Path(self.app.outdir).parent / "pdf_fallbacks"
         out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / name).write_bytes(png)
-        # Sphinx reads a URI that starts with "/" as relative to the source folder (as myst-nb writes its own).
-        uri = "/" + os.path.relpath((out_dir / name).resolve(), self.app.srcdir)
-        image = nodes.image(uri=uri, alt=f"animation: {len(frames)} frames")
-        note = nodes.paragraph("", "", nodes.emphasis(
-            "", f"An animation of {len(frames)} frames in the HTML book and in JupyterLab; "
-                f"{min(len(frames), SHEET_FRAMES)} of them here."))
+        picks = frame_picks(len(frames))
         container = nodes.container(mime_type="image/png")
-        container += [image, note]
+        container += nodes.paragraph("", "", nodes.emphasis(
+            "", f"An animation of {len(frames)} frames in the HTML book and in JupyterLab; "
+                f"{len(picks)} of them here."))
+        for i in picks:
+            name = f"frame-{hashlib.sha1(frames[i]).hexdigest()[:16]}.png"
+            (out_dir / name).write_bytes(frames[i])
+            # Sphinx reads a URI that starts with "/" as relative to the source folder (as myst-nb writes its own).
+            uri = "/" + os.path.relpath((out_dir / name).resolve(), self.app.srcdir)
+            container += nodes.image(uri=uri, alt=f"frame {i + 1} of {len(frames)}")
+            container += nodes.paragraph("", "", nodes.emphasis("", f"Frame {i + 1} of {len(frames)}."))
         for child in list(bundle.children):
             bundle.remove(child)
         bundle += container
@@ -258,6 +240,25 @@ class ReferencePartAsAppendix(SphinxPostTransform):
                 return
 
 
+class RootAsIntroduction(SphinxPostTransform):
+    """The root page (book/intro, whose title is the book's) prints after the contents as an unnumbered chapter
+    "Introduction", listed in the contents and in the running heads (which would otherwise say CONTENTS)."""
+
+    builders = ("latex",)
+    default_priority = 800
+
+    def run(self, **kwargs: Any) -> None:
+        root = self.config.root_doc
+        for section in self.document.findall(nodes.section):
+            if section.get("docname") == root:
+                heading = "\\chapter*{Introduction}\\markboth{Introduction}{Introduction}" \
+                          "\\addcontentsline{toc}{chapter}{Introduction}\n"
+                index = next((i + 1 for i, child in enumerate(section.children)
+                              if isinstance(child, nodes.title)), 0)
+                section.insert(index, nodes.raw("", heading, format="latex"))
+                return
+
+
 # --- set-up --------------------------------------------------------------------------------------------------------
 
 def _on_config_inited(app: Sphinx, config: Config) -> None:
@@ -278,4 +279,5 @@ def setup(app: Sphinx) -> dict[str, Any]:
     app.add_transform(PrintableOutputs)
     app.add_transform(LongTableWidths)
     app.add_post_transform(ReferencePartAsAppendix)
+    app.add_post_transform(RootAsIntroduction)
     return {"version": __version__, "parallel_read_safe": True, "parallel_write_safe": True}
