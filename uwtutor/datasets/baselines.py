@@ -325,11 +325,11 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
                     distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 6's bootstrap particle filter on chapter 4's model: :math:`[x, y]` relative to the one beacon.
 
-    :class:`uwtutor.filters.particle.BootstrapParticleFilter` on the EKF's model pair,
-    :class:`uwtutor.models.DeadReckoning` (its :math:`\mathbf Q` the mean of the per-step :math:`\sigma_k^2\mathbf I`)
-    and :class:`uwtutor.models.RangeToBeacon` (the beacon at the origin of the frame), particles drawn from the start's
-    :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the effective sample size falls below half
-    (:func:`uwtutor.methods.particle_filter`'s settings).
+    :class:`~uwtutor.filters.particle.bootstrap.BootstrapParticleFilter` on the EKF's model pair,
+    :class:`~uwtutor.models.dead_reckoning.DeadReckoning` (its :math:`\mathbf Q` the mean of the per-step
+    :math:`\sigma_k^2\mathbf I`) and :class:`~uwtutor.models.range.RangeToBeacon` (the beacon at the origin of the
+    frame), particles drawn from the start's :math:`N(\mathbf p_0, \mathbf P_0)`, systematic resampling when the
+    effective sample size falls below half (:func:`uwtutor.methods.particle_filter`'s settings).
 
     Parameters
     ----------
