@@ -224,6 +224,16 @@ class LongTableWidths(SphinxTransform):
 
 # --- the Reference part as the appendices ------------------------------------------------------------------------
 
+# Sphinx numbers figures, tables, code blocks and equations with \arabic{chapter}: after \appendix, "Table D.1" and
+# not "Table 4.1" in appendix D.
+APPENDIX_LATEX = r"""\appendix
+\renewcommand{\thefigure}{\thechapter.\arabic{figure}}
+\renewcommand{\thetable}{\thechapter.\arabic{table}}
+\renewcommand{\theliteralblock}{\thechapter.\arabic{literalblock}}
+\renewcommand{\theequation}{\thechapter.\arabic{equation}}
+"""
+
+
 class ReferencePartAsAppendix(SphinxPostTransform):
     """``\\appendix`` before the part captioned APPENDIX_PART: its chapters print as Appendix A, B, ..."""
 
@@ -236,7 +246,7 @@ class ReferencePartAsAppendix(SphinxPostTransform):
             if (node.get("docname") == APPENDIX_PART and title is not None
                     and title.astext() == APPENDIX_PART):
                 wrapper = node.parent.parent  # compound(toctree-wrapper) > start_of_file > section
-                wrapper.parent.insert(wrapper.parent.index(wrapper), nodes.raw("", "\\appendix\n", format="latex"))
+                wrapper.parent.insert(wrapper.parent.index(wrapper), nodes.raw("", APPENDIX_LATEX, format="latex"))
                 return
 
 
