@@ -1,6 +1,6 @@
 # The two commands that do all the set-up on a fresh machine:
 #   make book   -- build the HTML book into _build/html
-#   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
+#   make test   -- run every test (unit, property, exercises, nbval, strict build, browser, PDF)
 # and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
 # make study (chapter 10's comparison table, written to uwtutor/data/), make study-real (chapter 11's study),
 # make pdf (the PDF edition, _build/pdf/uwtutor.pdf; needs TeX Live from Debian: PDF_DEBIAN_PACKAGES below).
@@ -61,8 +61,8 @@ pdf-deps:
 	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(PDF_DEBIAN_PACKAGES)
 
 # One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
-# exercises, the strict book build and the browser test over it), every docstring example of the library
-# (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
+# exercises, the strict book build and the browser test over it, the PDF edition), every docstring example of
+# the library (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
 # committed ones, after tests/nbval_sanitize.cfg; its kernels play another CPU than the one that wrote
 # the outputs, tools/cpu_variants.py). On every core (pytest-xdist); --dist loadfile keeps each file,
 # and so each notebook's cells, in one worker. PYTEST_ARGS adds options (e.g. PYTEST_ARGS="-k ekf").
