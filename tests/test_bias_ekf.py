@@ -13,8 +13,9 @@ import pytest
 from filterpy.kalman import ExtendedKalmanFilter as FilterpyEKF
 
 from uwtutor import lsq
-from uwtutor.filters import (BiasEKF, Filter, FilterResult, bias_ekf, extended_kalman_filter, prepositioned_bias_ekf,
-                             range_only_ekf, run_filter)
+from uwtutor.filters import (BiasEKF, Filter, FilterResult, bias_ekf, extended_kalman_filter, range_only_ekf,
+                             run_filter)
+from uwtutor.pipelines import prepositioned_bias_ekf
 from uwtutor.models import (BiasRateDeadReckoning, RangeToBeacon, bias_rate_process_noise, paper_a_process_noise)
 from uwtutor.scenarios import paper_a
 

@@ -12,8 +12,8 @@ import pytest
 
 from uwtutor import lsq, metrics, scenarios
 from uwtutor.filters.ekf import range_only_ekf
-from uwtutor.filters.fading import (FadingEKF, LSFadingResult, fading_ekf, ls_fading_ekf,
-                                    range_factor_moments)
+from uwtutor.filters.fading import FadingEKF, fading_ekf, range_factor_moments
+from uwtutor.pipelines import LSFadingResult, ls_fading_ekf
 
 TOL = dict(rtol=1e-6, atol=1e-6)
 Q_D = np.eye(2) * 0.81

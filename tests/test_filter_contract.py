@@ -366,7 +366,7 @@ def test_fading_p_prior_includes_the_fading_factor_under_run_filter():
 
 
 def test_ls_fading_result_is_a_filter_result_and_run_monte_carlo_scores_its_nis():
-    from uwtutor.filters import LSFadingResult, ls_fading_ekf
+    from uwtutor.pipelines import LSFadingResult, ls_fading_ekf
     from uwtutor.montecarlo import run_monte_carlo
     from uwtutor.scenarios import paper_d
 

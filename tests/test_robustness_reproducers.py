@@ -19,7 +19,7 @@ from uwtutor.exercises import ch02, ch07, ch08, checks
 from uwtutor.filters import extended_kalman_filter, fading_ekf, rts_smoother
 from uwtutor.filters.gates import Gate, normalized_innovation_squared
 from uwtutor.filters.robust import make_test, robust_range_kf
-from uwtutor.filters.staggered import filter_from_start_epochs
+from uwtutor.pipelines.staggered import filter_from_start_epochs
 from uwtutor.lsq import linearized_lsq
 from uwtutor.models import DeadReckoning, RangeToBeacon, SquaredRangePair
 from uwtutor.models.base import MeasurementModel, MotionModel

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from uwtutor.filters import filter_from_start_epochs, range_only_ekf
+from uwtutor.filters import range_only_ekf
+from uwtutor.pipelines import filter_from_start_epochs
 
 
 def _inputs(M=4, K=30, seed=2):

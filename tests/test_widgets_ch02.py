@@ -1,6 +1,5 @@
 """Chapter 2 widget: the observability view's compute function (tested without a UI), its plot and its panel."""
 
-import time
 import warnings
 
 import matplotlib
@@ -13,13 +12,12 @@ from uwtutor import observability, widgets  # noqa: E402
 from uwtutor.widgets import ch02  # noqa: E402
 
 
-def test_defaults_are_registered_and_fast():
+def test_defaults_are_registered_and_run_for_every_track():
+    # How fast they run is measured by `make bench` (bench_widgets), never timed here: a busy machine is slow.
     assert widgets.COMPUTE_FUNCTIONS["ch02 observability"] is ch02.observability_view
-    ch02.observability_view()                            # warm up
     for track in ch02.TRACK_CHOICES:
-        start = time.perf_counter()
-        ch02.observability_view(track=track, state="position + current")
-        assert time.perf_counter() - start < 0.15, track
+        view = ch02.observability_view(track=track, state="position + current")
+        assert view.track == track
 
 
 def test_ranks_follow_theory_for_each_track():

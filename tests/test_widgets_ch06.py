@@ -123,6 +123,7 @@ def test_compute_functions_registry():
 
 
 def test_paper_c_scenario_module_holds_the_papers_content():
+    from uwtutor.pipelines import DepthStudy, run_depth_study
     from uwtutor.scenarios import paper_c
 
     p = paper_c.PaperCParameters()
@@ -134,9 +135,9 @@ def test_paper_c_scenario_module_holds_the_papers_content():
     assert np.linalg.eigvalsh(p.Q_as_printed).min() < 0             # the printed Q is not a covariance
     assert set(paper_c.PAPER_C) == {f for f in p.as_dict()}
     # the widget module shows the same objects under the chapter's names
-    assert ch06.PAPER_C is paper_c.PAPER_C and ch06.run_depth_study is paper_c.run_depth_study
+    assert ch06.PAPER_C is paper_c.PAPER_C and ch06.run_depth_study is run_depth_study
     assert ch06.maneuvering_depth_profile is paper_c.maneuvering_depth_profile
-    assert ch06.DepthStudy is paper_c.DepthStudy and ch06.FILTER_NAMES == paper_c.FILTER_NAMES
+    assert ch06.DepthStudy is DepthStudy and ch06.FILTER_NAMES == paper_c.FILTER_NAMES
     # make(rng, n_runs) is the chapter's profile and sensor draws
     sc = paper_c.make(np.random.default_rng(2013), 3)
     profile = ch06.maneuvering_depth_profile()
@@ -157,7 +158,9 @@ def test_run_depth_study_batches_the_runs_like_single_runs():
     from uwtutor.scenarios import paper_c
 
     sc = paper_c.make(np.random.default_rng(5), 2, duration=6.0)
-    study = paper_c.run_depth_study(sc.profile, sc.measurements, ("GPF",), n_particles=100, seed=3)
+    from uwtutor.pipelines import run_depth_study
+
+    study = run_depth_study(sc.profile, sc.measurements, ("GPF",), n_particles=100, seed=3)
     R = paper_c.PaperCParameters().R
     from uwtutor.models import DepthSensors, DepthSpeedPitch
 

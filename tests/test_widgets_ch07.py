@@ -9,7 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from uwtutor import widgets  # noqa: E402
-from uwtutor.filters import prepositioned_bias_ekf  # noqa: E402
+from uwtutor.pipelines import prepositioned_bias_ekf  # noqa: E402
 from uwtutor.models import paper_a_process_noise  # noqa: E402
 from uwtutor.scenarios import paper_a  # noqa: E402
 from uwtutor.widgets import ch07  # noqa: E402

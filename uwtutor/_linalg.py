@@ -4,7 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["quadratic_form", "positive_definite", "psd_violations"]
+__all__ = ["quadratic_form", "positive_definite", "psd_violations", "line_of_sight"]
+
+
+def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ranges, unit lines of sight and where they are defined, without checks: the per-step path of the filters,
+    least squares and bounds (:func:`uwtutor.models.range.line_of_sight` is the checked public form)."""
+    d = positions - beacon
+    r = np.hypot(d[..., 0], d[..., 1])
+    defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
+    safe = np.where(defined, r, 1.0)
+    los = d / safe[..., None]
+    return r, los, defined
 
 
 def positive_definite(cov: np.ndarray) -> np.ndarray:

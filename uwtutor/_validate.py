@@ -436,6 +436,94 @@ def as_scalar(name: str, value: Any, *, domain: str = "finite", low: float | Non
     return x
 
 
+# --- epochs, points and runs axes (the motion, ranging, scenario and dataset modules share them) ----------------
+
+def readonly(arr: np.ndarray) -> np.ndarray:
+    """A read-only view of ``arr``: frozen dataclasses should not be changed through their arrays either."""
+    view = arr.view()
+    view.flags.writeable = False
+    return view
+
+
+def as_times(name: str, value: Any) -> np.ndarray:
+    """Epoch times: a finite 1-D array with at least one element, strictly increasing."""
+    t = as_finite(name, value, ndim=1)
+    if t.size == 0:
+        raise ValueError(f"{name} must hold at least one time")
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0)) + 1
+        raise ValueError(f"{name} must be strictly increasing; {name}[{k}] = {t[k]:g} follows {t[k - 1]:g}")
+    return t
+
+
+def as_point(name: str, value: Any) -> np.ndarray:
+    """A 2-D point or vector, shape ``(2,)``."""
+    return as_finite(name, value, shape=(2,))
+
+
+def as_n_runs(n_runs: Any) -> int | None:
+    """``None`` (no runs axis) or a number of Monte Carlo runs >= 1."""
+    return None if n_runs is None else as_int("n_runs", n_runs, minimum=1)
+
+
+def with_runs(name: str, arr: np.ndarray, n_runs: int | None, core_ndim: int) -> tuple[np.ndarray, bool]:
+    """Give ``arr`` (one run: ``core_ndim`` axes; a batch: one more) a leading runs axis.
+
+    Returns the batched array (possibly a broadcast view) and whether the caller should drop the runs axis again
+    (single-run input and ``n_runs is None``).
+    """
+    if arr.ndim == core_ndim:
+        m = 1 if n_runs is None else n_runs
+        return np.broadcast_to(arr, (m,) + arr.shape), n_runs is None
+    if arr.ndim == core_ndim + 1:
+        if n_runs is not None and arr.shape[0] != n_runs:
+            raise ValueError(f"{name} holds {arr.shape[0]} runs along its first axis but n_runs={n_runs}; "
+                             "pass n_runs=None to keep the runs of the input")
+        return arr, False
+    raise ValueError(f"{name} must have {core_ndim} dimension(s) (one run) or {core_ndim + 1} (a batch of runs); "
+                     f"got shape {arr.shape}")
+
+
+def as_points(name: str, value: Any, *, min_ndim: int = 1, nonempty: bool = False) -> np.ndarray:
+    """2-D points ``[x, y]`` on the last axis, finite and within ``MAX_COORDINATE``; at least ``min_ndim`` axes
+    (and no empty axis when ``nonempty``; otherwise the caller says what an empty set of points means)."""
+    p = as_finite(name, value, max_abs=MAX_COORDINATE, nonempty=nonempty)
+    if p.ndim < max(min_ndim, 1) or p.shape[-1] != 2:
+        want = "(2,)" if min_ndim <= 1 else "(N, 2)"
+        raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis, e.g. shape {want}; got shape "
+                         f"{p.shape}")
+    return p
+
+
+def as_position_function(name: str, value: Any) -> Any:
+    """A callable ``t -> (..., 2)`` (its output checked at each call) or a fixed ``(2,)`` position, as such a
+    callable."""
+    if callable(value):
+        def at(t: np.ndarray) -> np.ndarray:
+            return as_points(f"the output of {name}", value(t), nonempty=True)
+        return at
+    fixed = as_finite(name, value, shape=(2,))
+    return lambda t: np.broadcast_to(fixed, np.shape(t) + (2,))
+
+
+def as_per_run_scalar(name: str, value: Any, *, minimum: float, strict: bool) -> tuple[Any, int | None]:
+    r"""A scalar or one value per run (shape (M,)), finite and > (or >=) ``minimum``: ``(value, None)`` or
+    ``(array, M)``. A strict one (a factor such as paper D's :math:`\mu_\gamma`) is also refused below 1e-3."""
+    # the factor gamma ~ c / c_e is near 1: 1e3 is far beyond any sound-speed error and keeps mu^2 P finite
+    arr = as_finite(name, value, ndim=(0, 1), max_abs=1e3, nonempty=True)
+    bad = arr <= minimum if strict else arr < minimum
+    if np.any(bad):
+        rel = ">" if strict else ">="
+        raise ValueError(f"{name} must be {rel} {minimum:g}; got {arr[bad].flat[0]:g}")
+    if strict and np.any(arr < 1e-3):      # a factor near 0 (1e-300) empties the covariance: refused by name
+        raise ValueError(f"{name} must be at least 1e-3 (the factor c / c_e is near 1; a tiny factor collapses the "
+                         f"covariance); got {arr[arr < 1e-3].flat[0]:g}")
+    if arr.ndim == 0:
+        return float(arr), None
+    return arr, arr.shape[0]
+
+
 def as_choice(name: str, value: Any, options: Any) -> str:
     """One of the strings ``options`` (a list, not a value that merely compares equal; unhashables refused)."""
     choices = list(options)

@@ -32,9 +32,10 @@ import numpy as np
 
 from ._validate import as_int, as_rng
 from .errors import IllConditionedWarning
-from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf, ls_fading_ekf,
-                      prepositioned_bias_ekf, range_only_ekf)
+from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf,
+                      range_only_ekf)
 from .models import DeadReckoning, RangeToBeacon
+from .pipelines import ls_fading_ekf, prepositioned_bias_ekf
 from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
 __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",

@@ -27,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_flag, as_finite, as_int, as_nonnegative, as_positive, as_rng, check_same_length
+from ._validate import (as_flag, as_finite, as_n_runs, as_point, as_rng, as_scalar,
+                        as_times, check_same_length, readonly, with_runs)
 
 __all__ = [
     "Track",
@@ -46,59 +47,6 @@ __all__ = [
 
 # ----------------------------------------------------------------------------------------------------------------
 # private helpers (also used by uwtutor.ranging and uwtutor.scenarios)
-
-def _readonly(arr: np.ndarray) -> np.ndarray:
-    """A read-only view of ``arr``: frozen dataclasses should not be changed through their arrays either."""
-    view = arr.view()
-    view.flags.writeable = False
-    return view
-
-
-def _as_times(name: str, value: Any) -> np.ndarray:
-    """Epoch times: a finite 1-D array with at least one element, strictly increasing."""
-    t = as_finite(name, value, ndim=1)
-    if t.size == 0:
-        raise ValueError(f"{name} must hold at least one time")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        k = int(np.argmax(steps <= 0)) + 1
-        raise ValueError(f"{name} must be strictly increasing; {name}[{k}] = {t[k]:g} follows {t[k - 1]:g}")
-    return t
-
-
-def _as_scalar(name: str, value: Any, kind: str = "finite") -> float:
-    """A single number: ``kind`` is ``'finite'``, ``'positive'`` or ``'nonnegative'``."""
-    check = {"finite": as_finite, "positive": as_positive, "nonnegative": as_nonnegative}[kind]
-    return float(check(name, value, ndim=0))
-
-
-def _as_point(name: str, value: Any) -> np.ndarray:
-    """A 2-D point or vector, shape ``(2,)``."""
-    return as_finite(name, value, shape=(2,))
-
-
-def _as_n_runs(n_runs: Any) -> int | None:
-    """``None`` (no runs axis) or a number of Monte Carlo runs >= 1."""
-    return None if n_runs is None else as_int("n_runs", n_runs, minimum=1)
-
-
-def _with_runs(name: str, arr: np.ndarray, n_runs: int | None, core_ndim: int) -> tuple[np.ndarray, bool]:
-    """Give ``arr`` (one run: ``core_ndim`` axes; a batch: one more) a leading runs axis.
-
-    Returns the batched array (possibly a broadcast view) and whether the caller should drop the runs axis again
-    (single-run input and ``n_runs is None``).
-    """
-    if arr.ndim == core_ndim:
-        m = 1 if n_runs is None else n_runs
-        return np.broadcast_to(arr, (m,) + arr.shape), n_runs is None
-    if arr.ndim == core_ndim + 1:
-        if n_runs is not None and arr.shape[0] != n_runs:
-            raise ValueError(f"{name} holds {arr.shape[0]} runs along its first axis but n_runs={n_runs}; "
-                             "pass n_runs=None to keep the runs of the input")
-        return arr, False
-    raise ValueError(f"{name} must have {core_ndim} dimension(s) (one run) or {core_ndim + 1} (a batch of runs); "
-                     f"got shape {arr.shape}")
-
 
 def _unit(angle: np.ndarray) -> np.ndarray:
     """Unit vectors ``[cos a, sin a]`` with the components on a new last axis."""
@@ -144,12 +92,12 @@ class Track:
     velocities: np.ndarray
 
     def __post_init__(self) -> None:
-        t = _as_times("times", self.times)
+        t = as_times("times", self.times)
         p = as_finite("positions", self.positions, shape=(None, 2))
         v = as_finite("velocities", self.velocities, shape=(None, 2))
         check_same_length(times=t, positions=p, velocities=v)
         for name, arr in (("times", t), ("positions", p), ("velocities", v)):
-            object.__setattr__(self, name, _readonly(arr))
+            object.__setattr__(self, name, readonly(arr))
 
     @property
     def n_steps(self) -> int:
@@ -226,11 +174,11 @@ def circle_track(times: Any, radius: Any, speed: Any, center: Any = (0.0, 0.0), 
     Track
     """
     clockwise = as_flag("clockwise", clockwise)
-    t = _as_times("times", times)
-    R = _as_scalar("radius", radius, "positive")
-    v = _as_scalar("speed", speed, "nonnegative")
-    c = _as_point("center", center)
-    a0 = _as_scalar("start_angle", start_angle)
+    t = as_times("times", times)
+    R = as_scalar("radius", radius, domain="positive")
+    v = as_scalar("speed", speed, domain="nonnegative")
+    c = as_point("center", center)
+    a0 = as_scalar("start_angle", start_angle)
     sense = -1.0 if clockwise else 1.0
     theta = a0 + sense * v / R * (t - t[0])
     radial = _unit(theta)
@@ -256,10 +204,10 @@ def straight_track(times: Any, start: Any, speed: Any, heading: Any) -> Track:
     -------
     Track
     """
-    t = _as_times("times", times)
-    p0 = _as_point("start", start)
-    v = _as_scalar("speed", speed, "nonnegative")
-    psi = _as_scalar("heading", heading)
+    t = as_times("times", times)
+    p0 = as_point("start", start)
+    v = as_scalar("speed", speed, domain="nonnegative")
+    psi = as_scalar("heading", heading)
     u = _unit(np.asarray(psi))
     return Track(t, p0 + v * (t - t[0])[:, None] * u, np.broadcast_to(v * u, (len(t), 2)))
 
@@ -295,9 +243,9 @@ def turning_track(times: Any, start: Any, speed: Any, headings: Any, turn_times:
     -------
     Track
     """
-    t = _as_times("times", times)
-    p0 = _as_point("start", start)
-    v = _as_scalar("speed", speed, "nonnegative")
+    t = as_times("times", times)
+    p0 = as_point("start", start)
+    v = as_scalar("speed", speed, domain="nonnegative")
     psi = as_finite("headings", headings, ndim=1)
     turns = as_finite("turn_times", turn_times, ndim=1)
     if psi.size == 0:
@@ -345,12 +293,12 @@ def s_turn_track(times: Any, start: Any, speed: Any, heading: Any, turn_rate: An
     -------
     Track
     """
-    t = _as_times("times", times)
-    p0 = _as_point("start", start)
-    v = _as_scalar("speed", speed, "nonnegative")
-    psi0 = _as_scalar("heading", heading)
-    w = _as_scalar("turn_rate", turn_rate)
-    T = _as_scalar("half_period", half_period, "positive")
+    t = as_times("times", times)
+    p0 = as_point("start", start)
+    v = as_scalar("speed", speed, domain="nonnegative")
+    psi0 = as_scalar("heading", heading)
+    w = as_scalar("turn_rate", turn_rate)
+    T = as_scalar("half_period", half_period, domain="positive")
     elapsed = t - t[0]
     n = np.floor(elapsed / T)
     into = elapsed - n * T                    # time since the current half period began
@@ -390,12 +338,12 @@ def lawnmower_track(times: Any, start: Any, speed: Any, leg_length: Any, spacing
     -------
     Track
     """
-    t = _as_times("times", times)
-    p0 = _as_point("start", start)
-    v = _as_scalar("speed", speed, "nonnegative")
-    L = _as_scalar("leg_length", leg_length, "positive")
-    spacing = _as_scalar("spacing", spacing)
-    psi = _as_scalar("heading", heading)
+    t = as_times("times", times)
+    p0 = as_point("start", start)
+    v = as_scalar("speed", speed, domain="nonnegative")
+    L = as_scalar("leg_length", leg_length, domain="positive")
+    spacing = as_scalar("spacing", spacing)
+    psi = as_scalar("heading", heading)
     W, side = abs(spacing), (-1.0 if spacing < 0 else 1.0)
     # One cycle = leg out, cross, leg back, cross; work in (along, across) coordinates, then rotate.
     s = v * (t - t[0])
@@ -438,7 +386,7 @@ def with_current(track: Track, current: Any) -> Track:
         Motion over ground, starting at the same point.
     """
     _check_track("track", track)
-    U = _as_point("current", current)
+    U = as_point("current", current)
     elapsed = (track.times - track.times[0])[:, None]
     return Track(track.times, track.positions + elapsed * U, track.velocities + U)
 
@@ -519,11 +467,11 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
     """
     _check_track("track", track)
     rng = as_rng(rng)
-    sv = _as_scalar("speed_sigma", speed_sigma, "nonnegative")
-    spsi = _as_scalar("heading_sigma", heading_sigma, "nonnegative")
-    beta = _as_scalar("heading_bias", heading_bias)
-    scale = _as_scalar("speed_scale", speed_scale, "positive")
-    n = _as_n_runs(n_runs)
+    sv = as_scalar("speed_sigma", speed_sigma, domain="nonnegative")
+    spsi = as_scalar("heading_sigma", heading_sigma, domain="nonnegative")
+    beta = as_scalar("heading_bias", heading_bias)
+    scale = as_scalar("speed_scale", speed_scale, domain="positive")
+    n = as_n_runs(n_runs)
     m = 1 if n is None else n
 
     d = np.diff(track.positions, axis=0)                     # (K-1, 2) true steps
@@ -572,8 +520,8 @@ def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any,
     if d.shape[-1] != 2:
         raise ValueError(f"displacements must have 2 components ([dx, dy]) on its last axis; got shape {d.shape}")
     rng = as_rng(rng)
-    s = _as_scalar("sigma", sigma, "nonnegative")
-    batch, single = _with_runs("displacements", d, _as_n_runs(n_runs), core_ndim=2)
+    s = as_scalar("sigma", sigma, domain="nonnegative")
+    batch, single = with_runs("displacements", d, as_n_runs(n_runs), core_ndim=2)
     noise = s * rng.standard_normal(batch.shape)
     noise[:, 0] = 0.0
     out = batch + noise

@@ -65,17 +65,15 @@ IEEE Trans. Signal Process. 46(5), 1998 (the posterior bound of a filter with pr
 
 from __future__ import annotations
 
-import sys
-import warnings
 from typing import Any
 
 import numpy as np
 
-from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
-                        as_in_range, as_information, as_int, as_positive)
+from ._linalg import line_of_sight as _line_of_sight
+from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
+                        as_information, as_int, as_points, as_positive)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.base import MeasurementModel, MotionModel
-from .models.range import _line_of_sight
 
 __all__ = [
     "DEFAULT_RTOL",
@@ -122,15 +120,6 @@ def _warn(message: str) -> None:
 # ---------------------------------------------------------------------------------------------------------------------
 # validation helpers
 # ---------------------------------------------------------------------------------------------------------------------
-def _as_points(name: str, value: Any, *, min_ndim: int = 1) -> np.ndarray:
-    p = as_finite(name, value, max_abs=MAX_COORDINATE)
-    if p.ndim < min_ndim or p.shape[-1] != 2:
-        want = "(2,)" if min_ndim == 1 else "(N, 2)"
-        raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis, e.g. shape {want}; got shape "
-                         f"{p.shape}")
-    return p
-
-
 def _as_rtol(rtol: Any) -> float:
     r = float(as_positive("rtol", rtol))
     if r >= 1:
@@ -197,8 +186,8 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     array([[-1.,  0.],
            [ 0.,  1.]])
     """
-    p = _as_points("position", position)
-    b = _as_points("beacons", beacons)
+    p = as_points("position", position)
+    b = as_points("beacons", beacons)
     p, b = _broadcast("position", p, "beacons", b)
     _, los, defined = _line_of_sight(p, b)
     if not defined.all():
@@ -230,8 +219,8 @@ def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     ndarray, shape (..., 2)
         :math:`2 (p - b_i)` [m].
     """
-    p = _as_points("position", position)
-    b = _as_points("beacons", beacons)
+    p = as_points("position", position)
+    b = as_points("beacons", beacons)
     p, b = _broadcast("position", p, "beacons", b)
     return 2.0 * (p - b)
 
@@ -260,7 +249,7 @@ def beacons_at_bearings(position: Any, bearings: Any, distances: Any = 1000.0) -
     array([[100.,   0.],
            [  0., 100.]])
     """
-    p = _as_points("position", position)
+    p = as_points("position", position)
     if p.shape != (2,):
         raise ValueError(f"position must have shape (2,); got {p.shape}")
     beta = as_finite("bearings", bearings, ndim=1)
@@ -299,10 +288,10 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
     ndarray, shape (K, 2)
         Virtual beacon positions [m]; the one of the reference epoch is the beacon itself.
     """
-    p = _as_points("positions", positions, min_ndim=2)
+    p = as_points("positions", positions, min_ndim=2)
     if p.ndim != 2:
         raise ValueError(f"positions must have shape (K, 2); got {p.shape}")
-    b = _as_points("beacon", beacon)
+    b = as_points("beacon", beacon)
     if b.shape not in ((2,), p.shape):
         raise ValueError(f"beacon must have shape (2,) or {p.shape} (one position per epoch); got {b.shape}")
     k = len(p)
@@ -326,8 +315,8 @@ def _sigma_per_row(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 def _static_rows(beacons: Any, position: Any, unknown_bias: bool) -> np.ndarray:
     """The stacked Jacobian rows (..., N, n) of ranges from ``position`` (..., 2) to ``beacons`` (..., N, 2)."""
-    b = _as_points("beacons", beacons, min_ndim=2)
-    p = _as_points("position", position)
+    b = as_points("beacons", beacons, min_ndim=2)
+    p = as_points("position", position)
     if b.shape[-2] == 0:
         raise ValueError("beacons must hold at least one beacon, shape (N, 2) with N >= 1")
     h = range_jacobian(p[..., None, :], b)
@@ -650,8 +639,8 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
 
-    b = _as_points("beacons", beacons, min_ndim=2)
-    p = _as_points("position", position)
+    b = as_points("beacons", beacons, min_ndim=2)
+    p = as_points("position", position)
     h = range_jacobian(p[..., None, :], b)
     X = np.concatenate([h, np.ones(h.shape[:-1] + (1,))], axis=-1) if unknown_bias else h
     alpha = np.asarray(lsq.precision_factor(X), dtype=float)
@@ -669,10 +658,10 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
 # ---------------------------------------------------------------------------------------------------------------------
 def _track_inputs(positions: Any, beacon: Any, times: Any, unknown_current: bool) -> tuple[np.ndarray, np.ndarray,
                                                                                             np.ndarray | None]:
-    p = _as_points("positions", positions, min_ndim=2)
+    p = as_points("positions", positions, min_ndim=2)
     if p.ndim != 2 or len(p) == 0:
         raise ValueError(f"positions must have shape (K, 2) with K >= 1; got {p.shape}")
-    b = _as_points("beacon", beacon)
+    b = as_points("beacon", beacon)
     if b.shape not in ((2,), p.shape):
         raise ValueError(f"beacon must have shape (2,) or {p.shape} (one position per epoch); got {b.shape}")
     t = None
@@ -996,7 +985,7 @@ def two_range_fix(beacon: Any, ranges: Any, displacement: Any) -> np.ndarray:
     array([[-100.,  400.],
            [-100., -400.]])
     """
-    b = _as_points("beacon", beacon)
+    b = as_points("beacon", beacon)
     if b.shape != (2,):
         raise ValueError(f"beacon must have shape (2,); got {b.shape}")
     r = as_finite("ranges", ranges, shape=(2,))
@@ -1063,8 +1052,8 @@ def mirror_point(point: Any, beacon: Any, direction: Any) -> np.ndarray:
     ndarray, shape (..., 2)
         The reflected points [m].
     """
-    p = _as_points("point", point)
-    b = _as_points("beacon", beacon)
+    p = as_points("point", point)
+    b = as_points("beacon", beacon)
     if b.shape != (2,):
         raise ValueError(f"beacon must have shape (2,); got {b.shape}")
     d = as_finite("direction", direction, shape=(2,))
@@ -1333,11 +1322,11 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
     """
     bias, current = bool(bias), bool(current)
     n = _pcrb_state_size(bias, current)
-    p = _as_points("positions", positions, min_ndim=2)
+    p = as_points("positions", positions, min_ndim=2)
     if p.ndim not in (2, 3) or p.shape[-2] == 0:
         raise ValueError(f"positions must have shape (K, 2) or (M, K, 2) with K >= 1; got {p.shape}")
     K = p.shape[-2]
-    b = _as_points("beacon", beacon)
+    b = as_points("beacon", beacon)
     if b.ndim > 3 or (b.ndim >= 2 and b.shape[-2] != K):
         raise ValueError(f"beacon must have shape (2,), ({K}, 2) (one position per epoch) or (M, {K}, 2); got "
                          f"{b.shape}")

@@ -42,10 +42,10 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_float_array, as_nonnegative, as_positive
+from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_positive, as_scalar, as_times,
+                        readonly)
 from .acoustics import range_from_travel_time
-from .motion import _as_scalar, _as_times, _readonly
-from .ranging import _position_function, reception_times
+from .ranging import reception_times
 
 __all__ = [
     "clock_error",
@@ -89,8 +89,8 @@ def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.n
     0.0035
     """
     t = as_finite("times", times)
-    e0 = _as_scalar("offset", offset)
-    rate = _as_scalar("drift", drift)
+    e0 = as_scalar("offset", offset)
+    rate = as_scalar("drift", drift)
     return _scalar_or_array(np.asarray(e0 + rate * t, dtype=float))
 
 
@@ -121,7 +121,7 @@ def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_spe
     >>> clock_range_error(0.0, offset=1e-3)
     1.5
     """
-    c = _as_scalar("sound_speed", sound_speed, "positive")
+    c = as_scalar("sound_speed", sound_speed, domain="positive")
     return _scalar_or_array(c * np.asarray(clock_error(times, offset, drift), dtype=float))
 
 
@@ -149,7 +149,7 @@ def ambiguity_range(sound_speed: Any = 1500.0, period: Any = 1.0) -> float:
     >>> ambiguity_range(1500.0, 1.0)
     1500.0
     """
-    return _as_scalar("sound_speed", sound_speed, "positive") * _as_scalar("period", period, "positive")
+    return as_scalar("sound_speed", sound_speed, domain="positive") * as_scalar("period", period, domain="positive")
 
 
 def wrap_travel_time(travel_times: Any, period: Any = 1.0) -> float | np.ndarray:
@@ -180,7 +180,7 @@ def wrap_travel_time(travel_times: Any, period: Any = 1.0) -> float | np.ndarray
     0.25
     """
     tau = as_nonnegative("travel_times", travel_times)
-    T = _as_scalar("period", period, "positive")
+    T = as_scalar("period", period, domain="positive")
     return _scalar_or_array(np.asarray(np.mod(tau, T), dtype=float))
 
 
@@ -223,8 +223,8 @@ def resolve_travel_time(wrapped: Any, predicted_range: Any, sound_speed: Any = 1
     """
     w = as_float_array("wrapped", wrapped)
     r = as_float_array("predicted_range", predicted_range)
-    T = _as_scalar("period", period, "positive")
-    c = _as_scalar("sound_speed", sound_speed, "positive")
+    T = as_scalar("period", period, domain="positive")
+    c = as_scalar("sound_speed", sound_speed, domain="positive")
     if np.isinf(w).any() or np.isinf(r).any():
         raise ValueError("wrapped and predicted_range must not be infinite; use NaN for a lost message")
     bad = np.isfinite(w) & ((w < 0) | (w >= T))
@@ -293,7 +293,7 @@ class OWTTMeasurements:
         for name in ("send_times", "reception_times", "travel_times", "measured_travel_times", "ranges",
                      "true_ranges", "leader_positions", "leader_positions_at_reception", "follower_positions",
                      "follower_positions_at_send"):
-            object.__setattr__(self, name, _readonly(np.asarray(getattr(self, name), dtype=float)))
+            object.__setattr__(self, name, readonly(np.asarray(getattr(self, name), dtype=float)))
 
 
 def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at: Any, *, sound_speed: Any = 1500.0,
@@ -341,11 +341,11 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     >>> round(float(m.follower_positions[0, 0] - m.follower_positions_at_send[0, 0]), 3)   # moved 2 m/s x 1.0013 s
     2.003
     """
-    ts = _as_times("send_times", send_times)
-    leader_at = _position_function("leader_position_at", leader_position_at)
-    follower_at = _position_function("follower_position_at", follower_position_at)
-    c = _as_scalar("sound_speed", sound_speed, "positive")
-    c_a = c if assumed_sound_speed is None else _as_scalar("assumed_sound_speed", assumed_sound_speed, "positive")
+    ts = as_times("send_times", send_times)
+    leader_at = as_position_function("leader_position_at", leader_position_at)
+    follower_at = as_position_function("follower_position_at", follower_position_at)
+    c = as_scalar("sound_speed", sound_speed, domain="positive")
+    c_a = c if assumed_sound_speed is None else as_scalar("assumed_sound_speed", assumed_sound_speed, domain="positive")
     T = None if period is None else float(as_positive("period", period, ndim=0))
     t_r, true_ranges = reception_times(ts, leader_at, follower_at, c)
     tau = t_r - ts

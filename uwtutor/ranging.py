@@ -24,16 +24,15 @@ models without outliers). ``measure_ranges`` adds the errors to true ranges; ``h
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .errors import UwtutorWarning, warn as _warn
-from ._validate import MAX_COORDINATE, as_finite, as_flag, as_int, as_positive, as_range_array, as_rng
+from ._validate import (as_finite, as_flag, as_int, as_n_runs, as_points, as_position_function,
+                        as_positive, as_range_array, as_rng, as_scalar, as_times, with_runs)
 from .acoustics import range_factor
-from .motion import _as_n_runs, _as_scalar, _as_times, _with_runs
 
 __all__ = [
     "RangeErrorModel",
@@ -53,12 +52,12 @@ def _prepare(true_ranges: Any, times: Any, rng: Any, n_runs: Any) -> tuple[np.nd
                                                                            np.random.Generator, bool]:
     """Validate the arguments of ``sample``; return ranges with a runs axis ``(M, K)``, times, rng, squeeze flag."""
     r = as_range_array("true_ranges", true_ranges, ndim=(1, 2))
-    t = _as_times("times", times)
+    t = as_times("times", times)
     if r.shape[-1] != len(t):
         raise ValueError(f"true_ranges must have one range per epoch along its last axis: it has {r.shape[-1]}, "
                          f"times has {len(t)}")
     rng = as_rng(rng)
-    batch, single = _with_runs("true_ranges", r, _as_n_runs(n_runs), core_ndim=1)
+    batch, single = with_runs("true_ranges", r, as_n_runs(n_runs), core_ndim=1)
     return batch, t, rng, single
 
 
@@ -180,7 +179,7 @@ class GaussianNoise(RangeErrorModel):
     sigma: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "sigma", _as_scalar("sigma", self.sigma, "nonnegative"))
+        object.__setattr__(self, "sigma", as_scalar("sigma", self.sigma, domain="nonnegative"))
 
     def _draw(self, true_ranges: np.ndarray, times: np.ndarray,
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -230,9 +229,9 @@ class SoundSpeedError(RangeErrorModel):
     speed_sigma: float = 1.0
 
     def __post_init__(self) -> None:
-        c = _as_scalar("true_speed", self.true_speed, "positive")
-        ca = _as_scalar("assumed_speed", self.assumed_speed, "positive")
-        sc = _as_scalar("speed_sigma", self.speed_sigma, "nonnegative")
+        c = as_scalar("true_speed", self.true_speed, domain="positive")
+        ca = as_scalar("assumed_speed", self.assumed_speed, domain="positive")
+        sc = as_scalar("speed_sigma", self.speed_sigma, domain="nonnegative")
         if sc >= 0.1 * c:
             raise ValueError(f"speed_sigma must be below a tenth of true_speed ({0.1 * c:g} m/s); got {sc:g}")
         object.__setattr__(self, "true_speed", c)
@@ -302,9 +301,9 @@ class SlowBias(RangeErrorModel):
     time_constant: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mean", _as_scalar("mean", self.mean))
-        object.__setattr__(self, "sigma", _as_scalar("sigma", self.sigma, "nonnegative"))
-        object.__setattr__(self, "time_constant", _as_scalar("time_constant", self.time_constant, "positive"))
+        object.__setattr__(self, "mean", as_scalar("mean", self.mean))
+        object.__setattr__(self, "sigma", as_scalar("sigma", self.sigma, domain="nonnegative"))
+        object.__setattr__(self, "time_constant", as_scalar("time_constant", self.time_constant, domain="positive"))
 
     def _draw(self, true_ranges: np.ndarray, times: np.ndarray,
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -364,10 +363,10 @@ class Outliers(RangeErrorModel):
         onsets = np.atleast_1d(as_finite("onset_times", self.onset_times, ndim=(0, 1)))
         object.__setattr__(self, "onset_times", tuple(float(x) for x in onsets))
         object.__setattr__(self, "count", as_int("count", self.count, minimum=1))
-        object.__setattr__(self, "amplitude", _as_scalar("amplitude", self.amplitude, "nonnegative"))
+        object.__setattr__(self, "amplitude", as_scalar("amplitude", self.amplitude, domain="nonnegative"))
         object.__setattr__(self, "two_sided", as_flag("two_sided", self.two_sided))
         if self.probability is not None:
-            p = _as_scalar("probability", self.probability)
+            p = as_scalar("probability", self.probability)
             if not 0.0 <= p <= 1.0:
                 raise ValueError(f"probability must lie in [0, 1]; got {p:g}")
             object.__setattr__(self, "probability", p)
@@ -401,9 +400,9 @@ class Outliers(RangeErrorModel):
         -------
         ndarray of bool, shape (K,) or (M, K)
         """
-        t = _as_times("times", times)
+        t = as_times("times", times)
         rng = as_rng(rng)
-        n = _as_n_runs(n_runs)
+        n = as_n_runs(n_runs)
         mask = self._mask(t, rng, 1 if n is None else n)
         return mask[0] if n is None else mask
 
@@ -467,13 +466,6 @@ def _warn_negative(measured: np.ndarray) -> None:
                       UwtutorWarning)
 
 
-def _as_points(name: str, value: Any) -> np.ndarray:
-    p = as_finite(name, value, max_abs=MAX_COORDINATE, nonempty=True)
-    if p.ndim == 0 or p.shape[-1] != 2:
-        raise ValueError(f"{name} must hold 2-D points [x, y] on its last axis; got shape {p.shape}")
-    return p
-
-
 def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
     r"""Horizontal range :math:`\|p - b\|` between positions and a beacon.
 
@@ -489,8 +481,8 @@ def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
     float or ndarray, shape (...)
         Ranges [m]; a float for a single position.
     """
-    p = _as_points("positions", positions)
-    b = _as_points("beacon", beacon)
+    p = as_points("positions", positions, nonempty=True)
+    b = as_points("beacon", beacon, nonempty=True)
     try:
         d = p - b
     except ValueError:
@@ -525,16 +517,6 @@ def slant_range(positions: Any, beacon: Any, depth_difference: Any) -> float | n
         raise ValueError(f"depth_difference of shape {dz.shape} does not broadcast against the ranges of shape "
                          f"{h.shape}") from None
     return float(out) if out.ndim == 0 else out
-
-
-def _position_function(name: str, value: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """Wrap a callable ``t -> (..., 2)`` (checking its output) or a fixed ``(2,)`` position as such a callable."""
-    if callable(value):
-        def at(t: np.ndarray) -> np.ndarray:
-            return _as_points(f"the output of {name}", value(t))
-        return at
-    fixed = as_finite(name, value, shape=(2,))
-    return lambda t: np.broadcast_to(fixed, np.shape(t) + (2,))
 
 
 def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_at: Any, sound_speed: Any,
@@ -592,9 +574,9 @@ def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_a
     True
     """
     tp = as_finite("ping_times", ping_times, ndim=1)
-    beacon_at = _position_function("beacon_position_at", beacon_position_at)
-    vehicle_at = _position_function("vehicle_position_at", vehicle_position_at)
-    c = _as_scalar("sound_speed", sound_speed, "positive")
+    beacon_at = as_position_function("beacon_position_at", beacon_position_at)
+    vehicle_at = as_position_function("vehicle_position_at", vehicle_position_at)
+    c = as_scalar("sound_speed", sound_speed, domain="positive")
     n_iter = as_int("max_iter", max_iter, minimum=1)
     tol = float(as_positive("tol", tol, ndim=0))
 

@@ -10,8 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive
-from ..motion import _as_times, _readonly, integrate_odometry
+from .._validate import (as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive, as_times,
+                         readonly)
+from ..motion import integrate_odometry
 
 __all__ = ["RangeDataset", "DEFAULT_START_SIGMAS"]
 
@@ -165,7 +166,7 @@ class RangeDataset:
     notes: tuple[str, ...] = field(default=())
 
     def __post_init__(self) -> None:
-        t = _as_times("times", self.times)
+        t = as_times("times", self.times)
         K = len(t)
         odo = as_float_array("odometry", self.odometry, ndim=2)
         if odo.shape[1] != 2:
@@ -213,7 +214,7 @@ class RangeDataset:
 
         for key, value in (("times", t), ("odometry", odo), ("ranges", rng), ("truth", truth), ("start", start),
                            ("start_cov", cov)):
-            object.__setattr__(self, key, None if value is None else _readonly(value))
+            object.__setattr__(self, key, None if value is None else readonly(value))
         object.__setattr__(self, "beacons", beacons)
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "notes", tuple(notes))

@@ -8,7 +8,7 @@ import numpy as np
 
 from .._validate import MAX_COORDINATE, as_finite, as_positive
 from ..errors import IllConditionedWarning, warn
-from ..models.range import _line_of_sight
+from .._linalg import line_of_sight as _line_of_sight
 
 #: Singular-value ratio :math:`s_\mathrm{min}/s_\mathrm{max}` below which a design matrix counts as singular
 #: (:math:`\kappa > 10^7`): the precision factor is then infinite and a fix is NaN.

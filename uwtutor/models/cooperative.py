@@ -277,7 +277,7 @@ class SquaredRangePair(MeasurementModel):
     def noise_map(self, x: np.ndarray, k: int) -> np.ndarray:
         r""":math:`\mathbf{L}` at ``x`` for step ``k``, shape (M, 2, 10)."""
         _, _, a, c = self._vectors(x, k)
-        return measurement_noise_map(a, c, self.dt)
+        return _noise_map(a, c, self.dt)
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
         L = self.noise_map(x, k)

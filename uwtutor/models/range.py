@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import line_of_sight as _line_of_sight
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
 from .base import MeasurementModel
 
@@ -76,16 +77,6 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     except ValueError:
         raise ValueError(f"beacon {beacon.shape} does not broadcast against positions {positions.shape}") from None
     return _line_of_sight(positions, beacon)
-
-
-def _line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`line_of_sight` without the checks of its arguments (the filters' per-step path)."""
-    d = positions - beacon
-    r = np.hypot(d[..., 0], d[..., 1])
-    defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
-    safe = np.where(defined, r, 1.0)
-    los = d / safe[..., None]
-    return r, los, defined
 
 
 class RangeToBeacon(MeasurementModel):

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import UwtutorWarning, warn as _warn
-from .._validate import as_finite, as_float_array, as_int, as_range_array, as_rng
-from ..motion import (Track, _as_point, _as_scalar, _as_times, _readonly, circle_track, displacement_noise,
-                     s_turn_track, straight_track, turning_track)
+from .._validate import (as_finite, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar, as_times,
+                         readonly)
+from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
 from ..ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
 
 __all__ = [
@@ -130,7 +130,7 @@ class Scenario:
     outlier_mask: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        t = _as_times("times", self.times)
+        t = as_times("times", self.times)
         pos = as_finite("true_positions", self.true_positions, shape=(None, None, 2))
         m, k = pos.shape[:2]
         if k != len(t):
@@ -155,7 +155,7 @@ class Scenario:
         if not isinstance(self.description, str):
             raise TypeError(f"description must be a string; got {type(self.description).__name__}")
         for name, arr in arrays.items():
-            object.__setattr__(self, name, _readonly(arr))
+            object.__setattr__(self, name, readonly(arr))
 
     @property
     def n_runs(self) -> int:
@@ -226,11 +226,11 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
                         f"got {type(error).__name__}")
     rng = as_rng(rng)
     m = as_int("n_runs", n_runs, minimum=1)
-    sigma = _as_scalar("dr_sigma", dr_sigma, "nonnegative")
+    sigma = as_scalar("dr_sigma", dr_sigma, domain="nonnegative")
     if not isinstance(description, str):
         raise TypeError(f"description must be a string; got {type(description).__name__}")
     times, k = track.times, track.n_steps
-    beacon_xy = beacon.position_at(times) if isinstance(beacon, Track) else np.broadcast_to(_as_point("beacon", beacon),
+    beacon_xy = beacon.position_at(times) if isinstance(beacon, Track) else np.broadcast_to(as_point("beacon", beacon),
                                                                                               (k, 2))
     dr_rng, range_rng = rng.spawn(2)
     true_steps = np.diff(track.positions, axis=0, prepend=track.positions[:1])   # row 0: zeros
@@ -306,9 +306,10 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     -------
     Scenario
     """
-    times = _epochs(_as_scalar("duration", duration, "positive"), _as_scalar("interval", interval, "positive"))
+    times = _epochs(as_scalar("duration", duration, domain="positive"),
+                    as_scalar("interval", interval, domain="positive"))
     track = circle_track(times, radius, speed, center=center, start_angle=-np.pi / 2)
-    g = _as_scalar("gamma", gamma)
+    g = as_scalar("gamma", gamma)
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
     error = (GaussianNoise(noise_sigma)
@@ -369,9 +370,9 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     -------
     Scenario
     """
-    pings = _epochs(_as_scalar("duration", duration, "positive"), _as_scalar("ping_interval", ping_interval,
-                                                                            "positive"))
-    turn = _as_scalar("turn_time", turn_time)
+    pings = _epochs(as_scalar("duration", duration, domain="positive"),
+                    as_scalar("ping_interval", ping_interval, domain="positive"))
+    turn = as_scalar("turn_time", turn_time)
     psi = as_finite("headings", headings, shape=(2,))
     # A track sampled at the pings and the turn is exact under linear interpolation (straight legs between
     # samples) and beyond its end (extrapolated along the last leg): the reception-time iteration can use it.
@@ -383,7 +384,7 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     description = (f"Paper D: approach with one turn at {turn:g} s, {float(speed):g} m/s, a ping every "
                    f"{float(ping_interval):g} s; sound speed N({sound.true_speed:g}, {sound.speed_sigma:g}^2) "
                    f"converted with {sound.assumed_speed:g} m/s, range noise std {noise.sigma:g} m, "
-                   f"DR noise std {_as_scalar('dr_sigma', dr_sigma, 'nonnegative'):g} m per axis per ping")
+                   f"DR noise std {as_scalar('dr_sigma', dr_sigma, domain='nonnegative'):g} m per axis per ping")
     return make_scenario(track, (0.0, 0.0), error, rng, n_runs=n_runs, dr_sigma=dr_sigma, description=description)
 
 
@@ -432,9 +433,10 @@ def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: Any = 1, *, 
     -------
     Scenario
     """
-    times = _epochs(_as_scalar("duration", duration, "positive"), _as_scalar("interval", interval, "positive"))
-    ship_v = _as_point("ship_velocity", ship_velocity)
-    sub_v = _as_point("sub_velocity", sub_velocity)
+    times = _epochs(as_scalar("duration", duration, domain="positive"),
+                    as_scalar("interval", interval, domain="positive"))
+    ship_v = as_point("ship_velocity", ship_velocity)
+    sub_v = as_point("sub_velocity", sub_velocity)
     ship = s_turn_track(times, ship_start, np.hypot(*ship_v), np.arctan2(ship_v[1], ship_v[0]), turn_rate,
                         half_period)
     sub = straight_track(times, sub_start, np.hypot(*sub_v), np.arctan2(sub_v[1], sub_v[0]))

@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_int, as_rng
-from ..motion import Track, _as_scalar, circle_track, turning_track
+from .._validate import as_int, as_rng, as_scalar
+from ..motion import Track, circle_track, turning_track
 from ..ranging import GaussianNoise, SlowBias, SoundSpeedError
 from . import Scenario, circling_scenario, make_scenario
 
@@ -88,10 +88,10 @@ def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0
     """
     rng = as_rng(rng)
     t = np.asarray(times, dtype=float)
-    r0 = _as_scalar("radius", radius, "positive")
-    v = _as_scalar("speed", speed, "positive")
-    leg = _as_scalar("leg_time", leg_time, "positive")
-    a0 = _as_scalar("start_angle", start_angle)
+    r0 = as_scalar("radius", radius, domain="positive")
+    v = as_scalar("speed", speed, domain="positive")
+    leg = as_scalar("leg_time", leg_time, domain="positive")
+    a0 = as_scalar("start_angle", start_angle)
     turn_times = np.arange(t[0] + leg, t[-1], leg)
     start = r0 * np.array([np.cos(a0), np.sin(a0)])
     length = v * leg
@@ -162,10 +162,10 @@ class PaperAParameters:
         if self.track not in ("turns", "circle"):
             raise ValueError(f'track must be "turns" or "circle"; got {self.track!r}')
         for name in ("interval", "radius", "speed", "leg_time", "noise_variance", "bias_time_constant"):
-            _as_scalar(name, getattr(self, name), "positive")
+            as_scalar(name, getattr(self, name), domain="positive")
         for name in ("gamma_sigma", "bias_sigma", "dr_sigma"):
-            _as_scalar(name, getattr(self, name), "nonnegative")
-        g = _as_scalar("gamma", self.gamma)
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        g = as_scalar("gamma", self.gamma)
         if not -0.5 < g < 0.5:
             raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
         if self.gamma_sigma >= 0.1 / (1.0 + g):
@@ -345,12 +345,12 @@ def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParam
     >>> round(p.bias_sigma, 3), round(p.gamma_sigma * p.radius, 3)
     (10.0, 17.321)
     """
-    s = _as_scalar("bias_share", bias_share)
+    s = as_scalar("bias_share", bias_share)
     if not 0.0 <= s <= 1.0:
         raise ValueError(f"bias_share is a fraction of the variance and must lie in [0, 1]; got {s:g}")
-    total = _as_scalar("total_sigma", total_sigma, "nonnegative")
+    total = as_scalar("total_sigma", total_sigma, domain="nonnegative")
     base = PaperAParameters(bias_mean=0.0) if params is None else params
-    r_bar = base.radius if mean_range is None else _as_scalar("mean_range", mean_range, "positive")
+    r_bar = base.radius if mean_range is None else as_scalar("mean_range", mean_range, domain="positive")
     return replace(base, bias_sigma=float(np.sqrt(s) * total), gamma_sigma=float(np.sqrt(1.0 - s) * total / r_bar))
 
 
@@ -412,9 +412,9 @@ class LakeTrialParameters:
 
     def __post_init__(self) -> None:
         for name in ("range_m", "group_duration", "gap", "interval", "bias_time_constant"):
-            _as_scalar(name, getattr(self, name), "positive")
+            as_scalar(name, getattr(self, name), domain="positive")
         for name in ("receiver_speed", "sender_speed", "bias_sigma", "gnss_sigma"):
-            _as_scalar(name, getattr(self, name), "nonnegative")
+            as_scalar(name, getattr(self, name), domain="nonnegative")
         for name in ("bearings_deg", "group_bias", "group_noise"):
             if len(getattr(self, name)) != 4:
                 raise ValueError(f"{name} must hold one value per group (4); got {len(getattr(self, name))}")

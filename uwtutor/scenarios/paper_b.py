@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_rng, as_scalar, check_work
-from ..motion import (Track, _readonly, circle_track, dead_reckoning, straight_track, turning_track)
+from .._validate import as_finite, as_int, as_rng, as_scalar, check_work, readonly
+from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
 
@@ -273,7 +273,7 @@ class CooperativeScenario:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray):
-                object.__setattr__(self, f.name, _readonly(value))
+                object.__setattr__(self, f.name, readonly(value))
 
     @property
     def n_runs(self) -> int:

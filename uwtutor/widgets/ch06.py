@@ -17,8 +17,9 @@ import numpy as np
 from .._validate import as_int, as_positive
 from ..filters import GreyParticleFilter, extended_kalman_filter
 from ..models.depth import DepthSensors, DepthSpeedPitch
-from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, DepthStudy, maneuvering_depth_profile,
-                                 run_depth_study, simulate_depth_sensors)
+from ..pipelines.depth_study import DepthStudy, run_depth_study
+from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,
+                                 simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
 from ._panel import slider_panel
 

@@ -10,7 +10,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._validate import as_finite, as_int, as_nonnegative, as_positive
-from ..filters import bias_ekf, prepositioned_bias_ekf
+from ..filters import bias_ekf
+from ..pipelines import prepositioned_bias_ekf
 from ..models import paper_a_process_noise
 from ..plotting import mark_beacon, plain_log_ticks
 from ..scenarios import paper_a
@@ -76,7 +77,7 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     The ranges get an extra bias :math:`\dot\upsilon\,t` (``drift_rate``) on top of paper A's error; the filter
     keeps paper A's :math:`\mathbf Q` rule (``models.paper_a_process_noise`` with the scenario's DR noise) and
     :math:`R = 5` m². One way it starts where pre-positioning first gives :math:`\alpha <` ``max_alpha``
-    (``filters.prepositioned_bias_ekf``, :math:`P_0 = I`); the other way it starts at epoch 0 from the provisional
+    (``pipelines.prepositioned_bias_ekf``, :math:`P_0 = I`); the other way it starts at epoch 0 from the provisional
     position, ``initial_error`` metres from the truth in a random direction, with a zero bias and paper A's
     :math:`P_0 = I`.
 

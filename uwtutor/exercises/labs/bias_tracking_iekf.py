@@ -13,7 +13,8 @@ from collections.abc import Iterator
 import numpy as np
 
 from ... import lsq
-from ...filters import bias_ekf, prepositioned_bias_ekf, range_only_ekf
+from ...filters import bias_ekf, range_only_ekf
+from ...pipelines import prepositioned_bias_ekf
 from ...metrics import average_over_runs, chi2_mean_bounds, fraction_within, nees
 from ...models.bias import paper_a_process_noise
 from ..checks import check_array, check_number

@@ -1,29 +1,5 @@
-r"""Pipelines: a method that chains library stages, measurements to track, in one call.
-
-Some methods of the book are not one filter but a chain: clean the measurements, compute least-squares fixes,
-filter the fixes (or start a filter from a fix). Each stage is an ordinary library call that a chapter can also
-run on its own; a pipeline only wires them, keeps every intermediate result, and so makes the whole method one
-call for a Monte Carlo study.
-
-========================  =====================================================================================
-``or_vmlbl_kf``           paper E: range filter with outlier rejection -> virtual-beacon least squares on the
-                          last four epochs -> cascade Kalman filter on the fixes (-> RTS smoother, optional)
-``epoch_windows``         the epochs of each fix: now and ``n - 1`` earlier ones, ``spacing`` steps apart
-``vmlbl_error_budget``    paper E's Fig. 6: Monte Carlo of the fix's error against each error source, batched
-========================  =====================================================================================
-
-**Paper E's OR-VMLBL-KF** (sec. 1): the stored ranges :math:`\tilde r_k` to the mother ship are filtered by
-:func:`~uwtutor.filters.robust.robust_range_kf` (OR: outlier rejection); at every epoch :math:`k` the filtered ranges of
-epochs :math:`k - 3s, k - 2s, k - s, k`, the ship's GPS positions :math:`AB_i` and the submersible's DR positions
-:math:`P_i` there give a virtual-beacon fix (:func:`~uwtutor.lsq.virtual_beacon_lsq`; VMLBL); the fixes are
-filtered by :func:`~uwtutor.filters.robust.cascade_kf` (KF). A fix's covariance is taken as
-:math:`\tfrac12 (g\,\sigma_r)^2 I_2`, with :math:`g` its noise gain (RMS position error per metre of range noise)
-and :math:`\sigma_r^2` the range filter's mean variance over the four epochs.
-
-References
-----------
-Paper E (VMLBL for the manned submersible *Jiaolong*), sec. 1, Fig. 1 and eqs. (12)-(17).
-"""
+r"""Paper E's pipeline: outlier-rejecting range filter, virtual-beacon fixes, cascade filter (:func:`or_vmlbl_kf`);
+the epochs of each fix (:func:`epoch_windows`) and the error budget of a fix (:func:`vmlbl_error_budget`)."""
 
 from __future__ import annotations
 
@@ -32,13 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from . import lsq
-from ._validate import as_finite, as_float_array, as_int, as_nonnegative, as_rng, as_scalar
-from .errors import IllConditionedWarning, warn as _warn
-from .filters.base import FilterResult
-from .filters.robust import cascade_kf, robust_range_kf
-from .filters.smoother import SmootherResult, rts_smoother
-from .models.robust import ConstantVelocity, step_lengths
+from .. import lsq
+from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_range_array, as_rng,
+                         as_scalar)
+from ..errors import IllConditionedWarning, warn as _warn
+from ..filters.base import FilterResult
+from ..filters.robust import cascade_kf, robust_range_kf
+from ..filters.smoother import SmootherResult, rts_smoother
+from ..models.robust import ConstantVelocity, step_lengths
 
 __all__ = ["VMLBLResult", "epoch_windows", "or_vmlbl_kf", "NoUsableFixError", "ErrorBudget", "vmlbl_error_budget",
            "ERROR_SOURCES"]
@@ -196,7 +173,7 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     >>> rms(out.filtered - truth) < rms(out.fixes - truth)
     True
     """
-    r = as_float_array("ranges", ranges, ndim=(1, 2))
+    r = as_range_array("ranges", ranges, allow_nan=True, max_abs=MAX_COORDINATE, ndim=(1, 2))
     batched = r.ndim == 2
     K = r.shape[-1]
     ship = as_finite("ship_positions", ship_positions, ndim=(2, 3))

@@ -5,7 +5,7 @@ Papers A and D trust a least-squares fix only once a test passes (paper A: the p
 D: a pre-location that is stable after a turn), and then start their filter from it. The epoch of that start
 differs from run to run. :func:`filter_from_start_epochs` shifts every run so that its filter begins at step 0,
 runs any batched functional filter once over all of them, and :meth:`StaggeredRun.at_epochs` maps the results back
-to the epochs. ``uwtutor.filters.fading.ls_fading_ekf`` (paper D) and ``uwtutor.filters.bias.prepositioned_bias_ekf``
+to the epochs. ``uwtutor.pipelines.ls_fading_ekf`` (paper D) and ``uwtutor.pipelines.prepositioned_bias_ekf``
 (paper A) are built on it.
 """
 
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_float_array
-from .base import FilterResult
+from ..filters.base import FilterResult
 
 __all__ = ["StaggeredRun", "filter_from_start_epochs"]
 
@@ -110,7 +110,7 @@ def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: 
 
     >>> import numpy as np
     >>> from uwtutor.filters import range_only_ekf
-    >>> from uwtutor.filters import filter_from_start_epochs
+    >>> from uwtutor.pipelines import filter_from_start_epochs
     >>> u = np.tile([1.0, 0.0], (2, 10, 1)); truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
     >>> z = np.linalg.norm(truth, axis=-1)
     >>> run = filter_from_start_epochs(range_only_ekf, [2, 5], truth[[0, 1], [2, 5]], np.eye(2), u, z,
