@@ -1,4 +1,4 @@
-"""A real JupyterLab driven by Debian's Chromium, offline: used by ``tests/test_jupyterlab.py`` and ``run.py --browser``.
+"""A real JupyterLab driven by Debian's Chromium, offline: for ``tests/test_jupyterlab.py`` and ``run.py --browser``.
 
 ``lab_session(root, work)`` starts ``jupyter lab`` from the project's environment on 127.0.0.1 (a random token, no
 browser, its config, runtime, settings and workspaces directories under ``work``, so nothing of the user's is read
@@ -114,7 +114,7 @@ def jupyterlab_server(root: Path, work: Path) -> Iterator[tuple[str, str, Path]]
             except OSError:
                 if server.poll() is not None or time.monotonic() > deadline:
                     raise RuntimeError(f"jupyter lab did not start on port {port}; log:\n"
-                                       + log_path.read_text(encoding="utf-8", errors="replace")[-4000:])
+                                       + log_path.read_text(encoding="utf-8", errors="replace")[-4000:]) from None
                 time.sleep(0.2)
         yield base, token, log_path
     finally:

@@ -622,7 +622,8 @@ def render_table(results: dict[str, Any]) -> str:
         rows.append((f"Generic batched EKF, 3-state model (position + range bias), {sizes['ekf_runs']} runs × "
                      f"{sizes['ekf_steps']} steps: {results['generic_ekf_s']:.2f} s; speed-up over filterpy's "
                      f"3-state EKF in a loop ({results['filterpy_sample_runs']} runs timed: "
-                     f"{results['generic_filterpy_sample_s']:.2f} s, scaled: {results['generic_filterpy_scaled_s']:.1f} s)",
+                     f"{results['generic_filterpy_sample_s']:.2f} s, "
+                     f"scaled: {results['generic_filterpy_scaled_s']:.1f} s)",
                      f"{g:.0f}×", _target("generic_ekf_speedup_vs_filterpy", t, "×"),
                      _status("generic_ekf_speedup_vs_filterpy", g, t)))
     if "odometry_ekf_s" in results:

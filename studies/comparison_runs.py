@@ -26,7 +26,8 @@ from uwtutor.scenarios import suite
 
 #: The rows besides the white-noise ones: (method, scenario, condition) quoted by chapter 10.
 QUOTED = [
-    ("EKF", "circle", "sound speed"), ("IEKF", "circle", "sound speed"), ("LS pre-positioning", "circle", "sound speed"),
+    ("EKF", "circle", "sound speed"), ("IEKF", "circle", "sound speed"),
+    ("LS pre-positioning", "circle", "sound speed"),
     ("LS-ISFEKF", "turn", "sound speed"), ("EKF", "turn", "sound speed"), ("IEKF", "turn", "sound speed"),
     ("LS pre-positioning", "turn", "sound speed"),
     ("EKF", "lawnmower", "bias"), ("IEKF", "lawnmower", "bias"), ("EKF", "line", "bias"), ("IEKF", "line", "bias"),

@@ -246,7 +246,7 @@ class Mapping(Kind):
         return out
 
 
-# --- student answers and student code (exercise checkers) --------------------------------------------------------------
+# --- student answers and student code (exercise checkers) -------------------------------------------------------------
 @dataclass(frozen=True)
 class Answer(Kind):
     """A student's answer to a checker: any Python object. The checker must return a Feedback that is not

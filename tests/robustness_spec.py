@@ -139,7 +139,7 @@ _DATA = dict(data=Instance())
 _OPT_POS = Real((), "pos", optional=True)
 
 
-# --- the table ----------------------------------------------------------------------------------------------------------
+# --- the table --------------------------------------------------------------------------------------------------------
 SPECS: dict[str, Spec] = {
     # filters
     "uwtutor.filters.ekf:range_only_ekf": Spec(
@@ -147,7 +147,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.filters.fading:fading_ekf": Spec(
         lambda: dict(x0=_X0, P0=np.eye(2) * 100.0, u=_U, z=_Z, Q=np.eye(2) * 0.1, R=1.0, mu_gamma=0.98,
                      sigma_gamma=1e-3, rho=0.95, fading=True, second_moment0=np.eye(2)),
-        kinds=dict(mu_gamma=Real((), "pos", vector_ok=True), sigma_gamma=Real((), "nonneg"), rho=Real((), "open01"), fading=Flag(),
+        kinds=dict(mu_gamma=Real((), "pos", vector_ok=True), sigma_gamma=Real((), "nonneg"), rho=Real((), "open01"),
+                   fading=Flag(),
                    second_moment0=Covariance())),
     "uwtutor.filters.engine:extended_kalman_filter": Spec(
         lambda: dict(x0=_X0, P0=np.eye(2) * 100.0, u=_U, z=_Z, Q=np.eye(2) * 0.1, R=1.0), call=_ekf,
@@ -172,7 +173,8 @@ SPECS: dict[str, Spec] = {
         lambda: dict(filter_fn=__import__("uwtutor.filters", fromlist=["fading_ekf"]).fading_ekf, start=[2, 5],
                      x_start=_staggered()[1][[0, 1], [2, 5]], P_start=np.eye(2), u=_staggered()[0],
                      z=_staggered()[2], Q=np.eye(2) * 0.01, R=1.0, per_run={"mu_gamma": [1.0, 0.99]}),
-        kinds=dict(filter_fn=Func(), start=Real((2,)), x_start=Real((2, 2), nan_ok=True), P_start=Covariance(definite=True),
+        kinds=dict(filter_fn=Func(), start=Real((2,)), x_start=Real((2, 2), nan_ok=True),
+                   P_start=Covariance(definite=True),
                    # z is whatever filter_fn takes, and filter_fn checks the epochs it is given (a negative range is
                    # refused there, by the name z: tests/test_staggered.py); epochs before a run's start are unused
                    u=Real((2, 10, 2)), z=Real((2, 10), nan_ok=True),
@@ -180,12 +182,14 @@ SPECS: dict[str, Spec] = {
     # models
     "uwtutor.models.dead_reckoning:DeadReckoning": Spec(lambda: dict(Q=np.eye(2))),
     "uwtutor.models.range:RangeToBeacon": Spec(lambda: dict(beacon=(0.0, 0.0), R=1.0)),
-    "uwtutor.filters.bias:bias_model_pair": Spec(lambda: dict(Q=np.diag([0.25, 0.25, 0.01]), R=4.0, beacon=(10.0, 0.0))),
+    "uwtutor.filters.bias:bias_model_pair": Spec(
+        lambda: dict(Q=np.diag([0.25, 0.25, 0.01]), R=4.0, beacon=(10.0, 0.0))),
     "uwtutor.models.depth:PitchManeuver": Spec(
         lambda: dict(pitch_target=0.2, time_constant=2.0, T=0.05, process_std=[0.01, 0.01, 0.01]),
         kinds=dict(pitch_target=Real(()), time_constant=Real((), "pos"), T=Real((), "pos"),
                    process_std=Real((3,), "nonneg"))),
-    "uwtutor.models.depth:DepthSensors": Spec(lambda: dict(R=np.eye(3) * 0.01), kinds=dict(R=Covariance(definite=True))),
+    "uwtutor.models.depth:DepthSensors": Spec(lambda: dict(R=np.eye(3) * 0.01),
+                                              kinds=dict(R=Covariance(definite=True))),
     "uwtutor.models.linear:LinearMotion": Spec(lambda: dict(F=np.eye(2), Q=np.eye(2)), kinds=dict(F=Real((2, 2)))),
     "uwtutor.models.linear:LinearMeasurement": Spec(lambda: dict(H=[[1.0, 0.0]], R=[[1.0]]),
                                                     kinds=dict(H=Real((1, 2)))),
@@ -298,7 +302,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.scenarios.paper_b:matched_tuning": Spec(lambda: dict(position_noise=1.0, current_noise=0.001),
                                                      kinds=dict(position_noise=Real((), "pos"),
                                                                 current_noise=Real((), "pos"))),
-    "uwtutor.pipelines.vmlbl:or_vmlbl_kf": Spec(       # 200 epochs of paper E's dive: 0.6 s a call, so 3 values an argument
+    # 200 epochs of paper E's dive: 0.6 s a call, so 3 values an argument
+    "uwtutor.pipelines.vmlbl:or_vmlbl_kf": Spec(
         lambda: (lambda d: dict(ranges=d.slant_ranges[0][:200], ship_positions=d.ship_positions[0][:200],
                                 dr_positions=d.dr_positions[0][:200], depth=d.depth, spacing=20))(_paper_e()),
         kinds=dict(ranges=Real((None,), "nonneg", nan_ok=True), ship_positions=Kind(), dr_positions=Kind(),
@@ -361,7 +366,7 @@ SPECS: dict[str, Spec] = {
 }
 
 
-# --- family rules -------------------------------------------------------------------------------------------------------
+# --- family rules -----------------------------------------------------------------------------------------------------
 def _checker_spec(obj: Callable) -> Spec:
     """Every checker of a chapter: each required argument is a student answer (``func``: a student function)."""
     params = [p.name for p in inspect.signature(obj).parameters.values() if p.default is p.empty]
@@ -438,8 +443,9 @@ EXEMPT: dict[str, str] = {
                                                 "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.ch11:check_reacquired_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
                                                     "contract; answers parsed by the shared check_number",
-    "uwtutor._linalg:line_of_sight": "the unchecked kernel of uwtutor.models.range:line_of_sight (specified), on the "
-                                     "filters', least squares' and bounds' per-step path: their inputs are checked once",
+    "uwtutor._linalg:line_of_sight": "the unchecked kernel of uwtutor.models.range:line_of_sight (specified), on "
+                                     "the filters', least squares' and bounds' per-step path: their inputs are "
+                                     "checked once",
     "uwtutor.models.noise:psd_sqrt": "the models' square root of their own covariance, checked once by the model "
                                      "(documented as unchecked: a per-step kernel)",
     "uwtutor.models.noise:gaussian_noise": "the samplers' kernel: called by the models with their own checked square "

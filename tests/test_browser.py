@@ -13,7 +13,6 @@ Chromium missing: the tests are skipped, unless CI=true, where they fail.
 from __future__ import annotations
 
 import os
-import shutil
 import socket
 import subprocess
 import sys

@@ -147,7 +147,7 @@ class TestCheckNumber:
     def test_generic_relations(self, answer, fragment, hint_fragment):
         fb = check_number(answer, 1800.0, rtol=1e-4, **self.kw)
         assert not fb
-        assert fb.message.startswith(f"Not yet: your value for the range, ")
+        assert fb.message.startswith("Not yet: your value for the range, ")
         assert fragment in fb.message
         assert hint_fragment in fb.hint
 
@@ -875,8 +875,10 @@ def test_nbgrader_problems_finds_what_nbgrader_refuses():
 
     nb = nbformat.v4.new_notebook(cells=[
         nbformat.v4.new_markdown_cell("## Exercise 9.1: x"),
-        nbformat.v4.new_code_cell("x = None\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION", metadata={"tags": ["answer"]}),
-        nbformat.v4.new_code_cell("### BEGIN HIDDEN TESTS\nassert x == 1\n### END HIDDEN TESTS", metadata={"tags": ["check"]}),
+        nbformat.v4.new_code_cell("x = None\n### BEGIN SOLUTION\nx = 1\n### END SOLUTION",
+                                  metadata={"tags": ["answer"]}),
+        nbformat.v4.new_code_cell("### BEGIN HIDDEN TESTS\nassert x == 1\n### END HIDDEN TESTS",
+                                  metadata={"tags": ["check"]}),
         nbformat.v4.new_markdown_cell("### BEGIN SOLUTION\nbecause\n### END SOLUTION"),
     ])
     problems = nbgrader_problems(nb)

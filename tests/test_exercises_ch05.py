@@ -187,7 +187,7 @@ def test_fading_reference_matches_the_library_filter():
     np.testing.assert_allclose(lam, res.fading_factor, rtol=1e-9)
 
 
-# -- exercise 5.5: one ISFEKF step ---------------------------------------------------------------------------------------
+# -- exercise 5.5: one ISFEKF step -------------------------------------------------------------------------------------
 def test_isfekf_step_reference_equals_the_library_over_a_whole_run():
     from uwtutor.filters.fading import FadingEKF
     rng = np.random.default_rng(ch05.ISF_STEP_SEED)         # the checker's run, all 151 steps

@@ -165,7 +165,7 @@ def test_correlation_mistakes(value, words):
     assert not fb and words in text(fb)
 
 
-# -- exercise 6.6: one bootstrap step ------------------------------------------------------------------------------------
+# -- exercise 6.6: one bootstrap step ----------------------------------------------------------------------------------
 def test_pf_step_reference_is_the_library_filter_step():
     """With the same draws, the reference step is BootstrapParticleFilter's predict + update + resample."""
     from uwtutor.filters import BootstrapParticleFilter, DepthSpeedPitchModel

@@ -145,7 +145,8 @@ def test_source_carries_nbgrader_metadata_and_the_student_version_has_no_solutio
     for marker in ("BEGIN SOLUTION", "END SOLUTION", "HIDDEN TESTS", "assert_correct"):
         assert marker not in text
     for solution in ("(r @ d) / (d @ d)", "np.polyfit(data.times, drift, 1)", "without_scale / with_scale",
-                     "present & ~locked", "ReacquiringGate(ChiSquareGate(ch11.STRICT_PROBABILITY, per_component=True),\n",
+                     "present & ~locked",
+                     "ReacquiringGate(ChiSquareGate(ch11.STRICT_PROBABILITY, per_component=True),\n",
                      "the only information"):
         assert solution not in text, solution
     code = "\n".join(c.source for c in student.cells if c.cell_type == "code")

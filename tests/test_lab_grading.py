@@ -115,8 +115,9 @@ def test_range_error_budget_mistakes():
     c_e = ns["c_e"]
     _fails_with(lab, "B", "mean of the whole cast", c_e=float(np.mean(ns["profile_speeds"])))
     _fails_with(lab, "B", "The sign: Δc = c − c_e", delta_c=c_e - ns["c_nav"])
-    _fails_with(lab, "C", "scales the horizontal range", speed_range_error=lambda x: acoustics.sound_speed_error_range_bias(
-        np.asarray(x, dtype=float), ns["c_nav"], c_e))
+    _fails_with(lab, "C", "scales the horizontal range",
+                speed_range_error=lambda x: acoustics.sound_speed_error_range_bias(np.asarray(x, dtype=float),
+                                                                                   ns["c_nav"], c_e))
     _fails_with(lab, "D", "convert the hours to seconds",
                 clock_range_error=lambda h: c_e * ns["clock_drift"] * np.asarray(h, dtype=float))
     _fails_with(lab, "D", "An hour is 3600 s, not 60 s",
@@ -191,7 +192,9 @@ def test_depth_pf_vs_ekf_mistakes():
 
     def log_of_sum(d, sigma, p, sigma_spike):
         d = np.asarray(d, dtype=float)
-        pdf = lambda x, s: np.exp(-0.5 * (x / s) ** 2) / (s * np.sqrt(2 * np.pi))
+        def pdf(x, s):
+            return np.exp(-0.5 * (x / s) ** 2) / (s * np.sqrt(2 * np.pi))
+
         return np.log((1 - p) * pdf(d, sigma) + p * pdf(d, sigma_spike))
 
     def no_constants(d, sigma, p, sigma_spike):

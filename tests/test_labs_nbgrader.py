@@ -61,12 +61,12 @@ MISTAKES = {
                             "mu_gamma, sigma_gamma = c_e / c_nav, c_nav * sigma_c / c_e**2"),
                            6.0, "mu_gamma &gt; 1"),
     "depth_pf_vs_ekf": (("B_answer",
-                         "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",
-                         "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),
+                         "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",  # noqa: E501 (a line of the lab, verbatim)
+                         "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),  # noqa: E501 (a line of the lab, verbatim)
                         9.0, "must stay finite far out"),
-    "cooperative_current": (("A_answer", "clock_bias = owtt.clock_range_error(scenarios[\"zigzag\"].times, offset=clock_offset, "
+    "cooperative_current": (("A_answer", "clock_bias = owtt.clock_range_error(scenarios[\"zigzag\"].times, offset=clock_offset, "  # noqa: E501 (a line of the lab, verbatim)
                                          "drift=clock_drift, sound_speed=c)",
-                             "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),
+                             "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),  # noqa: E501 (a line of the lab, verbatim)
                             10.0, "the offset alone"),
     "bias_tracking_iekf": (("D_answer", "nees_bounds = chi2_mean_bounds(3, n_runs)",
                             "nees_bounds = chi2_mean_bounds(2, n_runs)"),
@@ -107,7 +107,8 @@ def _nbgrader(course: Path, *args: str) -> subprocess.CompletedProcess:
     env.pop("JUPYTER_CONFIG_DIR", None)
     result = subprocess.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
                             text=True, timeout=900)
-    assert result.returncode == 0, f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    assert result.returncode == 0, \
+        f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return result
 
 
@@ -222,7 +223,8 @@ def test_typical_wrong_answer_gets_some_points(graded, lab):
     scores = graded[lab]["scores"]["wrong"]
     expected = MISTAKES[lab][1]
     assert 0 < scores["auto"] < scores["max"]
-    assert scores["auto"] == expected, f"{lab}: the wrong answer got {scores['auto']} of {scores['max']}, not {expected}"
+    assert scores["auto"] == expected, \
+        f"{lab}: the wrong answer got {scores['auto']} of {scores['max']}, not {expected}"
 
 
 @pytest.mark.parametrize("lab", LABS)
@@ -234,7 +236,8 @@ def test_feedback_is_written_and_names_the_failure(graded, lab):
             assert page.is_file(), f"no feedback for {student}"
         wrong = (course / "feedback" / "wrong" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
         phrase = " ".join(html.unescape(MISTAKES[lab][2]).split())
-        assert phrase in _feedback_text(course, "wrong", lab, path.stem), "the feedback shows the failing test's message"
+        assert phrase in _feedback_text(course, "wrong", lab, path.stem), \
+            "the feedback shows the failing test's message"
         assert "output_error" in wrong
         solution = (course / "feedback" / "solution" / lab / f"{path.stem}.html").read_text(encoding="utf-8")
         assert "output_error" not in solution, "the solution's feedback shows an error"
@@ -328,7 +331,8 @@ def test_uwtutor_labs_writes_student_versions_and_never_clobbers(tmp_path, capsy
     capsys.readouterr()
     assert main(["labs", str(dest)]) == 0
     out = capsys.readouterr().out
-    assert f"Skipped {sum(len(nbs) for nbs in LABS.values())} notebooks" in out and "ekf_consistency/ekf_consistency.ipynb" in out
+    assert f"Skipped {sum(len(nbs) for nbs in LABS.values())} notebooks" in out
+    assert "ekf_consistency/ekf_consistency.ipynb" in out
     assert "Q_mine" in mine.read_text(encoding="utf-8"), "a student's work is never overwritten"
     assert main(["labs", str(dest), "--lab", "ekf_consistency", "--force"]) == 0
     assert "Q_mine" not in mine.read_text(encoding="utf-8")

@@ -94,7 +94,7 @@ SOURCES = sorted(p for p in PACKAGE.rglob("*.py"))
 def test_every_module_has_a_layer():
     tops = {_top(_module_name(p)) for p in SOURCES} - {ROOT}
     unplaced = sorted(t for t in tops if not any(t in members for _, members in LAYERS))
-    assert not unplaced, f"put these modules in a layer of tests/test_layers.py (and book/library_design.md): {unplaced}"
+    assert not unplaced, f"put these modules in a layer of tests/test_layers.py (and library_design.md): {unplaced}"
 
 
 def _against_the_flow(path: Path, module: str) -> list[str]:

@@ -67,7 +67,9 @@ def follower_moving_away(t):
 
 
 def test_simulation_geometry_send_versus_reception():
-    leader = lambda t: np.stack([-1.0 * np.asarray(t), 0.0 * np.asarray(t)], axis=-1)   # leader moves west
+    def leader(t):                                     # the leader moves west
+        return np.stack([-1.0 * np.asarray(t), 0.0 * np.asarray(t)], axis=-1)
+
     m = owtt.simulate_owtt([0.0, 10.0], leader, follower_moving_away)
     # the sound covers the distance between the leader at send time and the follower at reception
     d = np.linalg.norm(m.follower_positions - m.leader_positions, axis=-1)

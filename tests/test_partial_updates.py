@@ -14,7 +14,7 @@ from uwtutor.filters import (BootstrapParticleFilter, ChiSquareGate, ExtendedKal
                              RangeOnlyEKF, ReacquiringGate, bias_ekf, cooperative_ekf,
                              extended_kalman_filter, range_only_ekf)
 from uwtutor.filters.robust import SecondMomentGate
-from uwtutor.models import (BeaconRanges, DeadReckoning, DirectMeasurement, LinearMeasurement, LinearMotion,
+from uwtutor.models import (BeaconRanges, DeadReckoning, LinearMeasurement, LinearMotion,
                             MeasurementModel, OdometryMotion, RangeToBeacon)
 from uwtutor.scenarios import paper_b
 

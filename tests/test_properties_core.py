@@ -19,7 +19,6 @@ Every hypothesis test is derandomized with a bounded number of examples (reprodu
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 import warnings
@@ -199,7 +198,7 @@ def test_mutation_table_counts():
     for label, func, kwargs in CALLS:
         base = _baseline(func, kwargs)
         for arg in kwargs:
-            for name, value in HOSTILE.items():
+            for _label, value in HOSTILE.items():
                 verdict, why = _call(label, func, kwargs, arg, value, base)
                 counts["cases"] += 1
                 counts[verdict] += 1

@@ -99,7 +99,7 @@ def test_save_and_load_round_trip(tmp_path, committed):
     json.loads((tmp_path / st.STUDY_FILES["json"]).read_text())
 
 
-# -- the pieces ---------------------------------------------------------------------------------------------------------
+# -- the pieces --------------------------------------------------------------------------------------------------------
 def test_navigation_models_are_what_navigate_filters_with(P2):
     m = navigation_models(P2, [1], min_period=10.0)
     mine = extended_kalman_filter(m.motion, m.measurement, m.x0, m.P0, P2.odometry, m.z, times=P2.times,

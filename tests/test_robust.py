@@ -58,7 +58,7 @@ def test_plain_range_kf_equals_filterpy_step_by_step():
         np.testing.assert_allclose(res.P[k], kf.P, rtol=0, atol=1e-9)
 
 
-# -- paper E's test -----------------------------------------------------------------------------------------------------
+# -- paper E's test ----------------------------------------------------------------------------------------------------
 def _ctx(z, z_pred, S):
     z = np.asarray(z, float).reshape(-1, 1)
     zp = np.broadcast_to(np.asarray(z_pred, float).reshape(-1, 1), z.shape)
@@ -87,7 +87,7 @@ def test_second_moment_gate_rejects_the_prediction_itself_when_S_is_large():
     assert v.tolist() == [True, False]
 
 
-# -- outlier rates and lock-out -----------------------------------------------------------------------------------------
+# -- outlier rates and lock-out ----------------------------------------------------------------------------------------
 def _outlier_dive(n_runs, seed, count=15):
     """Paper E's dive with isolated outliers (2 %) and two patches: one-sided of ``count`` and two-sided of 10."""
     dive = _clean_dive(n_runs, seed)
@@ -165,7 +165,7 @@ def test_extrapolate_is_paper_eq_12():
     np.testing.assert_allclose(pred.x[30], pred.x_prior[30])
 
 
-# -- the protocol: hand loop, NaN, batch, covariances, errors ------------------------------------------------------------
+# -- the protocol: hand loop, NaN, batch, covariances, errors ----------------------------------------------------------
 def test_engine_with_robust_gate_run_equals_a_hand_loop_and_nan_is_predict_only():
     z = _outlier_dive(3, 7)[0][:, :400]
     z[:, 50] = np.nan

@@ -22,7 +22,7 @@ from uwtutor.filters.robust import make_test, robust_range_kf
 from uwtutor.pipelines.staggered import filter_from_start_epochs
 from uwtutor.lsq import linearized_lsq
 from uwtutor.models import DeadReckoning, RangeToBeacon, SquaredRangePair
-from uwtutor.models.base import MeasurementModel, MotionModel
+from uwtutor.models.base import MotionModel
 from uwtutor.models.cooperative import measurement_noise_map
 from uwtutor.models.depth import depth_speed_pitch_kinematics
 from uwtutor.models.range import line_of_sight
@@ -100,7 +100,7 @@ def test_a_gate_returning_a_float_does_not_count_as_true():
         _run(gate=Fuzzy())
 
 
-# --- a student's answer and a student's function -------------------------------------------------------------------------
+# --- a student's answer and a student's function ----------------------------------------------------------------------
 def test_checkers_refuse_a_complex_or_string_right_answer():
     x0, y0 = ch02.CURRENT_START
     wx, wy = ch02.CURRENT_VELOCITY
@@ -145,7 +145,7 @@ def test_run_student_catches_loops_exits_and_errors(monkeypatch):
         assert value is None and not fb.correct
 
 
-# --- the silent answers of the report, now refused by name ------------------------------------------------------------------
+# --- the silent answers of the report, now refused by name ------------------------------------------------------------
 def _raises(exc, match, fn, *args, **kwargs):
     with pytest.raises(exc, match=match):
         fn(*args, **kwargs)

@@ -29,10 +29,10 @@ Examples
 >>> from uwtutor._validate import as_finite, as_flag
 >>> as_finite("sigma", [1, 2.5])
 array([1. , 2.5])
->>> as_finite("sigma", "2.5")
+>>> as_finite("sigma", "2.5")  # doctest: +ELLIPSIS
 Traceback (most recent call last):
     ...
-TypeError: sigma must be numeric (a number or an array of numbers); got the string '2.5' (convert it with float() if you mean the number)
+TypeError: sigma must be numeric (a number or an array of numbers); got the string '2.5' (convert it with float() ...
 >>> as_flag("fading", "False")
 Traceback (most recent call last):
     ...
@@ -374,7 +374,8 @@ def as_flag(name: str, value: Any) -> bool:
     """A real bool (``numpy.bool_`` accepted). The string ``'False'`` and the integer ``0`` are refused."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
-    raise TypeError(f"{name} must be True or False (a bool); got {_describe(value) if isinstance(value, str) else repr(value)}")
+    shown = _describe(value) if isinstance(value, str) else repr(value)
+    raise TypeError(f"{name} must be True or False (a bool); got {shown}")
 
 
 def as_instance(name: str, value: Any, kind: type | tuple[type, ...], hint: str = "") -> Any:

@@ -371,7 +371,7 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     try:
         m = np.asarray(n_runs)
     except ValueError:
-        raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got a ragged list") \
+        raise ValueError("n_runs must be a positive integer (or an array of counts >= 0); got a ragged list") \
             from None
     if m.dtype.kind not in "iu" or np.any(m < 0) or (m.ndim == 0 and m < 1) or np.any(m > 10**12):
         raise ValueError(f"n_runs must be a positive integer (or an array of counts >= 0); got {n_runs!r}")

@@ -42,8 +42,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_positive, as_scalar, as_times,
-                        readonly)
+from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_positive, as_scalar,
+                        as_times, readonly)
 from .acoustics import range_from_travel_time
 from .ranging import reception_times
 

@@ -149,10 +149,11 @@ class RangeDataset:
 
     A bad field is named, with the fix:
 
-    >>> RangeDataset(times=[0.0, 1.0], odometry=[[0, 0]], ranges=np.zeros((0, 3)), beacons={})
+    >>> RangeDataset(times=[0.0, 1.0], odometry=[[0, 0]], ranges=np.zeros((0, 3)),
+    ...              beacons={})  # doctest: +ELLIPSIS
     Traceback (most recent call last):
         ...
-    ValueError: odometry must have one row per epoch, K = len(times) = 2; got 1 row(s). Row k is the motion from times[k-1] to times[k]; if your log has K - 1 steps, put a row [0, 0] first for the first epoch
+    ValueError: odometry must have one row per epoch, K = len(times) = 2; got 1 row(s). Row k is the motion from ...
     """
 
     times: np.ndarray

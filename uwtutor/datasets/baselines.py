@@ -61,7 +61,7 @@ class BaselineRun:
         The estimated positions at every epoch [m].
     result : object
         The method's own result (a :class:`~uwtutor.filters.base.FilterResult`, or a
-        :class:`~uwtutor.pipelines.VMLBLResult` for the virtual baseline), for its innovations, covariances and
+        :class:`~uwtutor.pipelines.vmlbl.VMLBLResult` for the virtual baseline), for its innovations, covariances and
         extras.
     """
 
@@ -140,7 +140,8 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     r"""Chapter 4's range-only EKF on a log: state :math:`[x, y]`, dead-reckoned displacements, ranges as logged.
 
     One beacon runs :func:`uwtutor.filters.ekf.range_only_ekf` itself; several run the generic engine on
-    :class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.BeaconRanges` (the same filter, every beacon
+    :class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.BeaconRanges` (the same
+    filter, every beacon
     heard at an epoch in one update).
 
     Parameters
@@ -260,8 +261,8 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
     x0, P0 = _start(data)
     result = fading_ekf(x0, P0, world_displacements(data), z, Q, _pos("range_sigma", range_sigma) ** 2,
                         mu_gamma=_pos("mu_gamma", mu_gamma),
-                        sigma_gamma=as_scalar("sigma_gamma", sigma_gamma, domain="nonnegative", high=1.0), rho=0.95, beta="range", beacon=data.beacons[beacon],
-                        times=data.times)
+                        sigma_gamma=as_scalar("sigma_gamma", sigma_gamma, domain="nonnegative", high=1.0),
+                        rho=0.95, beta="range", beacon=data.beacons[beacon], times=data.times)
     return BaselineRun("ISFEKF", data.times, result.x[:, :2], result)
 
 
@@ -269,7 +270,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
                  range_q: float = 30.0, fix_q: float = 1.0, range_sigma: float = RANGE_SIGMA) -> BaselineRun:
     r"""Chapter 9's OR-VMLBL-KF (paper E) on a log: the fixed beacon as the "ship", four-epoch virtual baselines.
 
-    :func:`uwtutor.pipelines.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
+    :func:`uwtutor.pipelines.vmlbl.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
     log's dead reckoning as the vehicle's, the range filter's chi-square gate (chapter 10's choice; paper E's
     relative test is tuned to 1 s epochs at hundreds of metres) and a gated cascade filter. Before the first fix
     the positions are the dead reckoning.
@@ -293,7 +294,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     Returns
     -------
     BaselineRun
-        ``result`` is the :class:`~uwtutor.pipelines.VMLBLResult`.
+        ``result`` is the :class:`~uwtutor.pipelines.vmlbl.VMLBLResult`.
     """
     import warnings
 
@@ -359,8 +360,7 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     Q = displacement_covariance(data, distance_sigma).mean(axis=0)
     x0, P0 = _start(data)
     n = as_int("n_particles", n_particles, minimum=1, maximum=1_000_000)
-    pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(Q), RangeToBeacon(np.zeros(2),
-                                                                                R=_pos("range_sigma", range_sigma) ** 2),
-                                               x0 - b, P0, n, rng, ess_threshold=0.5)
+    ranges = RangeToBeacon(np.zeros(2), R=_pos("range_sigma", range_sigma) ** 2)
+    pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(Q), ranges, x0 - b, P0, n, rng, ess_threshold=0.5)
     result = pf.run(z[:, None], world_displacements(data), times=data.times)
     return BaselineRun("particle filter", data.times, result.x[:, :2] + b, result)

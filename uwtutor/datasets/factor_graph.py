@@ -95,7 +95,8 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     beacon_ids : sequence of int, optional
         The beacons used (default: all).
     min_period : float, optional
-        At most one range per beacon every ``min_period`` seconds (as :meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs`).
+        At most one range per beacon every ``min_period`` seconds (as
+        :meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs`).
     range_scale : float, default 1
         Every range is divided by it before it enters the graph (1: the ranges as logged; the log's scale: the
         scale removed).

@@ -15,7 +15,8 @@ What it holds:
   (:func:`without_scale`, :func:`with_true_heading`): which real error each method leaves out (the virtual
   baseline's rows also hold paper E's trial statistic, :func:`fixes_within`);
 * ``sweep`` -- GTSAM's batch solution against the heading noise of its odometry factors, per beacon;
-* ``grid`` -- :func:`~uwtutor.datasets.navigate` on Plaza 2 for every beacon (and all four), range period and set of estimated states
+* ``grid`` -- :func:`~uwtutor.datasets.navigate` on Plaza 2 for every beacon (and all four), range period and set of
+  estimated states
   (chapter 11's widget), with the error, the scale estimate and the NEES, decimated to one value a second.
 
 Every number is deterministic (the particle filter draws from a fixed seed); nothing here is timed.
@@ -33,13 +34,11 @@ import numpy as np
 from .._validate import as_choice, as_finite, as_scalar
 from ._core import RangeDataset
 
-__all__ = [
-    "ACOUSTIC_PERIOD", "GRID_BEACONS", "GRID_PERIODS", "GRID_STATES", "STATE_FLAGS", "DECIMATION", "TABLE_METHODS",
-    "ABLATION_METHODS", "ABLATION_VARIANTS", "SWEEP_HEADING_NOISE", "PF_SEED",
-    "error_summary", "nees", "measured_scale", "fixes_within", "most_heard_beacon", "without_scale", "with_true_heading",
-    "navigation_run", "navigation_grid", "method_table", "ablation_table", "gtsam_sweep",
-    "RealDataStudy", "run_real_data_study", "load_real_data_study", "STUDY_FILES",
-]
+__all__ = ["ACOUSTIC_PERIOD", "GRID_BEACONS", "GRID_PERIODS", "GRID_STATES", "STATE_FLAGS", "DECIMATION",
+           "TABLE_METHODS", "ABLATION_METHODS", "ABLATION_VARIANTS", "SWEEP_HEADING_NOISE", "PF_SEED", "error_summary",
+           "nees", "measured_scale", "fixes_within", "most_heard_beacon", "without_scale", "with_true_heading",
+           "navigation_run", "navigation_grid", "method_table", "ablation_table", "gtsam_sweep", "RealDataStudy",
+           "run_real_data_study", "load_real_data_study", "STUDY_FILES"]
 
 #: One range per beacon every this many seconds, an acoustic modem's rate.
 ACOUSTIC_PERIOD = 10.0
@@ -71,7 +70,7 @@ TABLE_METHODS: tuple[str, ...] = (
 STUDY_FILES = {"json": "real_data.json", "npz": "real_data_curves.npz"}
 
 
-# -- measures -----------------------------------------------------------------------------------------------------------
+# -- measures ----------------------------------------------------------------------------------------------------------
 def error_summary(positions: Any, truth: Any, within: float = 2.0) -> dict[str, float]:
     r"""RMSE, median and final horizontal error and the fraction of epochs within ``within`` metres.
 
@@ -218,7 +217,7 @@ def with_true_heading(data: RangeDataset) -> RangeDataset:
                    notes=data.notes + ("heading changes from the truth",))
 
 
-# -- runs ----------------------------------------------------------------------------------------------------------------
+# -- runs --------------------------------------------------------------------------------------------------------------
 def _beacon_ids(data: RangeDataset, beacon: str) -> list[int]:
     return list(data.beacon_ids) if beacon == "all" else [int(beacon)]
 
@@ -458,7 +457,7 @@ def gtsam_sweep(data: RangeDataset, progress: Callable[[str], None] | None = Non
     return rows
 
 
-# -- the committed study --------------------------------------------------------------------------------------------------
+# -- the committed study -----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RealDataStudy:
     """Chapter 11's committed study (see the module docstring).

@@ -176,8 +176,8 @@ def check_psd(s: np.ndarray, R: Any) -> None:
     r_m = float(np.ravel(R)[m] if np.ndim(R) else R)
     raise IllConditionedError(
         f"the covariance lost positive semi-definiteness at a range update (run {m}: Pxx = {pxx[m]:.3g}, "
-        f"Pxy = {pxy[m]:.3g}, Pyy = {pyy[m]:.3g}, range variance R = {r_m:.3g}): the ratio of the predicted variance to "
-        "R exceeds what float64's 16 digits can carry. Start from a smaller P0 (an honest initial uncertainty, "
+        f"Pxy = {pxy[m]:.3g}, Pyy = {pyy[m]:.3g}, range variance R = {r_m:.3g}): the ratio of the predicted variance "
+        "to R exceeds what float64's 16 digits can carry. Start from a smaller P0 (an honest initial uncertainty, "
         "e.g. 1e4 to 1e6 m^2) or use a larger R")
 
 

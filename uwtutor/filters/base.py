@@ -117,7 +117,8 @@ class FilterResult:
         try:
             err = np.broadcast_to(truth, self.x.shape) - self.x
         except ValueError:
-            raise ValueError(f"truth must broadcast to the estimates' shape {self.x.shape}; got {truth.shape}") from None
+            raise ValueError(f"truth must broadcast to the estimates' shape {self.x.shape}; "
+                             f"got {truth.shape}") from None
         return quadratic_form(err, self.P, "P")
 
     def as_dict(self) -> dict[str, np.ndarray]:

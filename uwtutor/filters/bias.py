@@ -22,10 +22,10 @@ beacon :math:`\mathbf b_k` is fixed or moves (one position per epoch). The filte
 **Start.** The bias makes the filter sensitive to its initial value: paper A first computes a least-squares
 fix of position and bias on the dead-reckoned track (``uwtutor.lsq.prepositioning``) and starts the filter
 only once that fix's precision factor :math:`\alpha = \operatorname{tr}(\mathbf A^\mathsf T\mathbf A)^{-1}` is
-below 2 (:func:`prepositioned_bias_ekf`).
+below 2 (:func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf`).
 
 Forms: :func:`bias_ekf` runs one run or ``M`` runs over whole sequences in one call; :class:`BiasEKF` is the same
-filter one step at a time (the filter protocol); :func:`prepositioned_bias_ekf` is paper A's "pre-positioning,
+filter one step at a time (the filter protocol); :func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf` is paper A's "pre-positioning,
 then IEKF" for a batch of runs.
 
 References
@@ -142,7 +142,7 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     See Also
     --------
     BiasEKF : the same filter step by step.
-    prepositioned_bias_ekf : paper A's least-squares start, then this filter.
+    uwtutor.pipelines.prepositioned.prepositioned_bias_ekf : paper A's least-squares start, then this filter.
     uwtutor.filters.ekf.range_only_ekf : the plain EKF (no bias state).
 
     Examples

@@ -25,7 +25,8 @@ range-only EKF to a moving beacon).
 A lost message (a NaN range) makes the step predict only: for the pair, by default, a NaN at either end of the
 interval (``lost="step"``: paper B's measurement is the pair, and this is what chapter 8's numbers use). With
 ``lost="range"`` the pair formulations follow the engine's general rule instead: the step updates with the range
-that did arrive (the squared range at the other end, with its block of :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`).
+that did arrive (the squared range at the other end, with its block of
+:math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`).
 
 When the follower's motion relative to the leader is a straight line (a leader that keeps a parallel course), the
 ranges cannot tell the truth from a rotation of the follower about the leader together with its relative velocity,

@@ -33,15 +33,17 @@ step.
 
 Every array carries an axis of ``M`` Monte Carlo runs: one call filters a whole study. The covariances are held
 runs-last, ``(n, n, M)``, so that each matrix product is one ``einsum`` over contiguous rows of length ``M``
-(three times faster than ``@`` on stacks of small matrices); the attributes show them as ``(M, n, n)``. A NaN measurement means "no measurement": that run's step is predict only (its gain is
-zero, its innovation NaN). A *gate* (:mod:`uwtutor.filters.gates`) may reject measurements the same way, run by
-run (or component by component), and then adjust the estimate of the rejected runs; per-step values the gate
+(three times faster than ``@`` on stacks of small matrices); the attributes show them as ``(M, n, n)``. A NaN
+measurement means "no measurement": that run's step is predict only (its gain is zero, its innovation NaN). A
+*gate* (:mod:`uwtutor.filters.gates`) may reject measurements the same way, run by run (or component by component), and
+then adjust the estimate of the rejected runs; per-step values the gate
 names in its ``extra_outputs`` are recorded in the result's ``extras`` next to ``"accepted"``.
 
 Two forms:
 
 * :class:`ExtendedKalmanFilter` -- the object form of the filter protocol (``predict``, ``update``, ``run``);
-* :func:`extended_kalman_filter` -- the functional form, a whole sequence in one call; it returns the same result as the object's
+* :func:`extended_kalman_filter` -- the functional form, a whole sequence in one call; it returns the same result as the
+  object's
   ``run`` (it *is* that call).
 
 The specialised filters of the library (the range-only EKF, paper A's bias EKF, paper B's cooperative EKF, the

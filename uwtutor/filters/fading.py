@@ -86,13 +86,13 @@ plain EKF (additive noise)                     ``mu_gamma=1, sigma_gamma=0, fadi
 suboptimal fading EKF (Zhou and Xi 1990)       ``mu_gamma=1, sigma_gamma=0, beta=1.0``
 fading EKF for multiplicative noise (paper D)  ``mu_gamma, sigma_gamma, beta=1.0``
 ISFEKF (paper D)                               ``mu_gamma, sigma_gamma, beta="range"``
-LS-EKF, LS-ISFEKF (paper D)                    :func:`ls_fading_ekf` (grid-search start, then one of the above)
+LS-EKF, LS-ISFEKF (paper D)                    :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` (grid-search start, then one of the above)
 =============================================  =====================================================================
 
 Forms: :func:`fading_ekf` runs ``M`` Monte Carlo runs of ``K`` steps in one call (explicit 2x2 algebra on arrays of
 length ``M``, like ``uwtutor.filters.ekf``: 1000 runs of 151 steps take a few tens of milliseconds);
 :class:`FadingEKF` follows the filter protocol (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``)
-with the same arithmetic; :func:`ls_fading_ekf` adds paper D's least-squares pre-location
+with the same arithmetic; :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` adds paper D's least-squares pre-location
 (``uwtutor.lsq``).
 
 Notes on paper D's text (see chapter 5): its eq. (30) writes :math:`\mu_\gamma = 1 - (1470 - 1500)/1500 = 1.02`,
@@ -460,7 +460,7 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     See Also
     --------
     FadingEKF : the same filter one step at a time.
-    ls_fading_ekf : paper D's LS-ISFEKF and LS-EKF (grid-search pre-location first).
+    uwtutor.pipelines.ls_fading.ls_fading_ekf : paper D's LS-ISFEKF and LS-EKF (grid-search pre-location first).
     uwtutor.filters.ekf.range_only_ekf : the plain EKF (``mu_gamma=1, sigma_gamma=0, fading=False`` here).
 
     References

@@ -48,7 +48,8 @@ References
 Liu J., Han S., Xu J., Yang G. "An improved EKF positioning algorithm for underwater acoustic beacon" (paper A),
 sec. 1.2, eqs. (3)-(11).
 Zhu Z., Han S., Guo Z., Liu J. (2019). "Single beacon location algorithm based on nonlinear fading filter under
-multiplicative noise background". J. Electronics & Information Technology 41(1), 165-171 (paper D), sec. 3.1, eq. (6)-(7).
+multiplicative noise background". J. Electronics & Information Technology 41(1), 165-171 (paper D), sec. 3.1, eq.
+(6)-(7).
 Paper E (VMLBL for the manned submersible *Jiaolong*), sec. 1.2, eqs. (14)-(17).
 Björck, Å. (1996). *Numerical Methods for Least Squares Problems*. SIAM (conditioning of least squares).
 """

@@ -10,13 +10,13 @@ import numpy as np
 
 from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_positive
 from ..errors import IllConditionedWarning
+from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
+                     warn_conditioning)
+
 #: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
 MAX_ITERATIONS = 1000
 #: The loop stops once no run's step exceeds this fraction of the problem's size (positions and ranges).
 CONVERGED_RTOL = 1e-12
-
-from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
-                     warn_conditioning)
 
 
 @dataclass(frozen=True)
@@ -159,7 +159,7 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     n_unknowns = 3 if unknown_bias else 2
     bias = np.zeros(Mb)
     taken = 0
-    for taken in range(1, steps + 1):
+    for taken in range(1, steps + 1):  # noqa: B007 (after the loop, taken is the number of steps made)
         h, rho = unit_los(p[:, None, :], b, "the provisional position (or an iterate)")
         h = np.nan_to_num(h)                     # a run made NaN by a singular step stays singular (and NaN)
         A = np.concatenate([h, np.ones((Mb, N, 1))], axis=-1) if unknown_bias else h
@@ -203,7 +203,8 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     \dots, p^\mathrm{DR}_K` (only the differences matter). Its position at epoch :math:`i` is :math:`p + d_i`,
     :math:`d_i = p^\mathrm{DR}_i - p^\mathrm{DR}_K`, so the range of epoch :math:`i` is a range from the current
     position :math:`p` to the **virtual beacon** :math:`b^\mathrm{v}_i = b - d_i` (paper A "back-propagates the
-    provisional position to every past epoch with the DR displacements"; the two views are the same equations). The fix is then ``linearized_lsq`` on those virtual
+    provisional position to every past epoch with the DR displacements"; the two views are the same equations). The fix
+    is then ``linearized_lsq`` on those virtual
     beacons, with paper A's bias column by default.
 
     Parameters

@@ -13,7 +13,8 @@ error, so that the filter estimates it instead of mistaking it for position:
     \mathbf H_k = \Big[\frac{x_k - b_{x,k}}{r_k},\ \frac{y_k - b_{y,k}}{r_k},\ 1\Big]
 
 (paper A, eq. 1, with the beacon :math:`\mathbf b_k` at the origin there). The bias is a random walk: between
-close epochs :math:`\upsilon_k = \upsilon_{k-1}` up to the noise :math:`q_\upsilon` (paper A's :math:`\sigma_\upsilon^2`), which paper A sets to
+close epochs :math:`\upsilon_k = \upsilon_{k-1}` up to the noise :math:`q_\upsilon` (paper A's
+:math:`\sigma_\upsilon^2`), which paper A sets to
 :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` (:func:`paper_a_process_noise`).
 
 Paper A's model pair is ``uwtutor.models.DeadReckoning(Q)`` with a 3x3 ``Q`` (the bias is carried as a random

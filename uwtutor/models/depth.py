@@ -73,7 +73,8 @@ __all__ = [
 ]
 
 #: Default standard deviations of :math:`u^z, u^v, u^\phi` per step, in m, m/s and rad; illustrative values
-#: (paper C's printed process covariance is not a covariance matrix; its diagonal is in :mod:`uwtutor.scenarios.paper_c`).
+#: (paper C's printed process covariance is not a covariance matrix; its diagonal is in
+#: :mod:`uwtutor.scenarios.paper_c`).
 DEFAULT_PROCESS_STD = np.array([0.01, 0.01, 0.0035])
 DEFAULT_PROCESS_STD.flags.writeable = False
 

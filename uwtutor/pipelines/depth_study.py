@@ -104,7 +104,7 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     profile : DepthProfile
         The truth.
     measurements : array_like, shape (M, K, 3)
-        Sensor readings (:func:`simulate_depth_sensors`).
+        Sensor readings (:func:`~uwtutor.scenarios.paper_c.simulate_depth_sensors`).
     filters : sequence of str, optional
         Names from ``FILTER_NAMES``.
     n_particles : int, optional

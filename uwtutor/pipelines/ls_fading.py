@@ -94,7 +94,7 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     2. **Acceptance** (``uwtutor.lsq.prelocation_acceptance``): a heading change of more than
        ``min_heading_change``, then ``n_consecutive`` (:math:`K_\mathrm{stop}`) consecutive fixes moving less than
        ``max_shift`` (:math:`D_\mathrm{stop}`); paper D's simulation: 10 degrees, 10, 50 m.
-    3. **Filter** from the accepted epoch :math:`k_\mathrm a`: :func:`fading_ekf` with
+    3. **Filter** from the accepted epoch :math:`k_\mathrm a`: :func:`~uwtutor.filters.fading.fading_ekf` with
        :math:`\hat{\mathbf x}_{k_\mathrm a} =` the pre-location's position, covariance ``P0``, and (with
        ``mu_gamma="prelocation"``) :math:`\mu_\gamma = c / \hat c_\mathrm e`, the pre-location's range scale,
        "passing on its sound-speed error estimate". The filter processes epochs :math:`k_\mathrm a + 1, \dots`.
@@ -124,7 +124,7 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     rho : float, default 0.95
         Forgetting factor.
     beta : {"range"} or float, default "range"
-        Weakening factor (see :func:`fading_ekf`).
+        Weakening factor (see :func:`~uwtutor.filters.fading.fading_ekf`).
     fading : bool, default True
         ``False``: no fading (the filter is a multiplicative-noise EKF, or the plain EKF with ``mu_gamma=1,
         sigma_gamma=0``).

@@ -1,9 +1,10 @@
 r"""Paper A's start: a least-squares prepositioning fix of position and range bias, then the bias EKF from it
 (:func:`prepositioned_bias_ekf`).
 
-A pipeline, not a filter: the precision factor along the provisional track (:func:`uwtutor.lsq.precision_factor_history`)
+A pipeline, not a filter: the precision factor along the provisional track
+(:func:`uwtutor.lsq.precision_factor_history`)
 chooses the epoch of the fix, :func:`uwtutor.lsq.prepositioning` computes it, and
-:func:`uwtutor.filters.bias_ekf` runs from it (each run from its own epoch, :func:`filter_from_start_epochs`).
+:func:`uwtutor.filters.bias.bias_ekf` runs from it (each run from its own epoch, :func:`~uwtutor.pipelines.staggered.filter_from_start_epochs`).
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
 def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start: Any, Q: Any, R: Any, *,
                            P0: Any = None, max_alpha: Any = 2.0, beacon: Any = (0.0, 0.0), iterations: int = 3,
                            times: Any = None) -> FilterResult:
-    r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <` ``max_alpha``.
+    r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`
+    ``max_alpha``.
 
     1. **Provisional track.** ``provisional_start`` carried by the DR displacements:
        :math:`\tilde{\mathbf p}_k = \tilde{\mathbf p}_0 + \sum_{j \le k}\mathbf u_j`.
@@ -53,7 +55,7 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
        (paper A: 2) is the run's start.
     3. **Fix** at :math:`k_0`: ``uwtutor.lsq.prepositioning`` (position *and* bias, ``iterations`` Gauss-Newton
        steps from :math:`\tilde{\mathbf p}_{k_0}`) on the ranges of epochs :math:`0..k_0`.
-    4. **Filter** from :math:`k_0`: :func:`bias_ekf` from the fix with covariance ``P0``, over epochs
+    4. **Filter** from :math:`k_0`: :func:`~uwtutor.filters.bias.bias_ekf` from the fix with covariance ``P0``, over epochs
        :math:`k_0 + 1, \dots` (all runs in one call: each run's arrays are shifted to start at step 0).
 
     Parameters
@@ -88,7 +90,8 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
         Arrays of shape (M, K, ...) on the epochs: NaN before each run's start, the fix (with ``P0``) at its
         start, the filter after. ``extras``: ``"accepted"`` (M, K), True where a range was used by the filter;
         ``"started"`` (M, K), True from the start epoch on; ``"alpha"`` (M, K), the precision factor on the
-        provisional track up to the last run's start (NaN after it, where it was not needed). A run whose :math:`\alpha` never falls below ``max_alpha`` has no start (all NaN).
+        provisional track up to the last run's start (NaN after it, where it was not needed). A run whose :math:`\alpha`
+        never falls below ``max_alpha`` has no start (all NaN).
 
     Examples
     --------

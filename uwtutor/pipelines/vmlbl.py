@@ -228,7 +228,8 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
         track = _with_runs(track, usable)
         if smoothed is not None:
             smoothed = SmootherResult(times=smoothed.times, x=_spread(smoothed.x, usable, np.nan),
-                                      P=_spread(smoothed.P, usable, np.nan), gain=_spread(smoothed.gain, usable, np.nan),
+                                      P=_spread(smoothed.P, usable, np.nan),
+                                      gain=_spread(smoothed.gain, usable, np.nan),
                                       filtered=track)
 
     def out(a: Any) -> Any:

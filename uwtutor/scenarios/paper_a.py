@@ -43,8 +43,8 @@ from ..motion import Track, circle_track, turning_track
 from ..ranging import GaussianNoise, SlowBias, SoundSpeedError
 from . import Scenario, circling_scenario, make_scenario
 
-__all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters", "LakeTrial",
-           "make_lake_trial"]
+__all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
+           "LakeTrial", "make_lake_trial"]
 
 
 def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0, speed: Any = 2.0,
@@ -212,7 +212,8 @@ def _as_params(params: Any) -> PaperAParameters:
 
 def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
                     params: PaperAParameters | None = None) -> tuple[Scenario, np.ndarray]:
-    r"""Paper A's simulation and its true slowly varying bias, :math:`\upsilon_k = (\mu_\gamma - 1) r_k + \tilde\upsilon_k + \mu_\upsilon`.
+    r"""Paper A's simulation and its true slowly varying bias,
+    :math:`\upsilon_k = (\mu_\gamma - 1) r_k + \tilde\upsilon_k + \mu_\upsilon`.
 
     The scenario is the one :func:`make` returns; the second array, shape ``(M, K)``, is the part of each range
     error that the IEKF's bias state should follow (the white :math:`\eta_k` and the ping-to-ping part of
@@ -310,7 +311,8 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
 
 def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParameters | None = None,
                    mean_range: Any = None) -> PaperAParameters:
-    r"""Paper A's Fig. 6 set-up: a fixed total variance shared between :math:`(\gamma_k - 1) r_k` and :math:`\tilde\upsilon_k`.
+    r"""Paper A's Fig. 6 set-up: a fixed total variance shared between :math:`(\gamma_k - 1) r_k` and
+    :math:`\tilde\upsilon_k`.
 
     With the share :math:`s` of the random bias,
 

@@ -7,7 +7,7 @@ it with an EKF and a multiple-model particle filter (MMPF) on a lake trial. The 
 * :func:`maneuvering_depth_profile` -- the true depth, speed and pitch of a dive, a level leg and a climb, with
   a sensor noise level that changes over time; :func:`simulate_depth_sensors` -- the readings of ``M`` runs;
 * :func:`make` -- both at once: the scenario of the chapter on paper C for ``M`` runs;
-* :func:`run_depth_study` -- the experiment: the filters of the comparison (and the pieces of the GPF) on every
+* :func:`~uwtutor.pipelines.depth_study.run_depth_study` -- the experiment: the filters of the comparison (and the pieces of the GPF) on every
   run, all runs of a filter in one batched call.
 
 References
@@ -112,7 +112,7 @@ class PaperCParameters:
 #: Paper C's parameters as a dict (the fields of :class:`PaperCParameters`).
 PAPER_C: dict[str, Any] = PaperCParameters().as_dict()
 
-#: The filters :func:`run_depth_study` knows: paper C's three, and three more that take the GPF apart.
+#: The filters :func:`~uwtutor.pipelines.depth_study.run_depth_study` knows: paper C's three, and three more that take the GPF apart.
 FILTER_NAMES = ("EKF", "MMPF", "GPF", "PF", "PF + wavelet R", "EKF + wavelet R")
 
 #: Shift [rad] that moves the pitch into (0, 2) for GM(1,1).

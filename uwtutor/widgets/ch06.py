@@ -2,7 +2,8 @@
 
 Paper C's parameters, the maneuvering depth profile, the sensors and the EKF / MMPF / GPF comparison live in
 :mod:`uwtutor.scenarios.paper_c` (importable from here under their old names: ``PAPER_C``,
-``maneuvering_depth_profile``, ``simulate_depth_sensors``, ``run_depth_study``, ...). :func:`gpf_view` is the light version behind the
+``maneuvering_depth_profile``, ``simulate_depth_sensors``, ``run_depth_study``, ...). :func:`gpf_view` is the light
+version behind the
 chapter's widget (a shorter profile, fewer particles).
 """
 
@@ -17,8 +18,8 @@ import numpy as np
 from .._validate import as_int, as_positive
 from ..filters import GreyParticleFilter, extended_kalman_filter
 from ..models.depth import DepthSensors, DepthSpeedPitch
-from ..pipelines.depth_study import DepthStudy, run_depth_study
-from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,
+from ..pipelines.depth_study import DepthStudy, run_depth_study  # noqa: F401 (chapter 6 calls ch06.run_depth_study)
+from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,  # noqa: F401
                                  simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
 from ._panel import slider_panel
@@ -77,7 +78,8 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
              seed: int = 1) -> GPFView:
     """Run the EKF and the GPF on 12 s of the dive whose sensor noise changes by ``noise_change`` at 13 s.
 
-    The samples from 6 to 18 s of :func:`~uwtutor.scenarios.paper_c.maneuvering_depth_profile` (the pitch ramps to 20° at 8-11 s, the speed
+    The samples from 6 to 18 s of :func:`~uwtutor.scenarios.paper_c.maneuvering_depth_profile` (the pitch ramps to 20°
+    at 8-11 s, the speed
     rises), with the noise nominal until 13 s and ``noise_change`` times nominal after; paper C's other parameters
     (T = 0.05 s, ``L`` = 30, the diagonal Q, fixed R for the EKF). Both filters start from the first reading.
 

@@ -475,8 +475,10 @@ class BootstrapParticleFilter:
 
     x = property(lambda self: self._out(self._x), doc="Weighted mean of the particles, (n,) or (M, n).")
     P = property(lambda self: self._out(self._P), doc="Weighted covariance of the particles, (n, n) or (M, n, n).")
-    x_prior = property(lambda self: self._out(self._xp), doc="Weighted mean of the predicted particles of this step, (n,) or (M, n).")
-    P_prior = property(lambda self: self._out(self._Pp), doc="Weighted covariance of the predicted particles of this step.")
+    x_prior = property(lambda self: self._out(self._xp),
+                       doc="Weighted mean of the predicted particles of this step, (n,) or (M, n).")
+    P_prior = property(lambda self: self._out(self._Pp),
+                       doc="Weighted covariance of the predicted particles of this step.")
     y = property(lambda self: self._out(self._y), doc="Innovation of the last update, (m,) or (M, m).")
     S = property(lambda self: self._out(self._S), doc="Innovation covariance of the last update.")
 
