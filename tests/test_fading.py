@@ -34,7 +34,10 @@ def reference(x0, P0, u, z, Q, R, mu, sigma, rho, beta, fading=True, Xi0=None, b
     Xi = P + np.outer(x, x) if Xi0 is None else np.asarray(Xi0, float).copy()
     V = None
     out = {k: [] for k in ("x", "P", "lam", "beta", "y", "S")}
-    for uk, zk in zip(u, z):
+    Q_all, R_all = np.asarray(Q, float), np.asarray(R, float)
+    for k, (uk, zk) in enumerate(zip(u, z)):
+        Q = Q_all[k] if Q_all.ndim == 3 else Q_all                             # one per step, or shared
+        R = float(R_all[k]) if R_all.ndim == 1 else float(R_all)
         uk = np.asarray(uk, float)
         Xi = Xi + np.outer(m, uk) + np.outer(uk, m) + np.outer(uk, uk) + Q      # eq. (15)
         m = m + uk                                                             # eq. (14)
@@ -119,6 +122,33 @@ def test_batched_equals_literal_equations(beta, beacon):
     assert np.isnan(res.extras["fading_numerator"][np.isnan(z)]).all()
     # V is kept through a missing range
     np.testing.assert_array_equal(res.extras["innovation_power"][:, 40], res.extras["innovation_power"][:, 39])
+
+
+def test_per_step_q_and_r_equal_the_literal_equations():
+    """One Q and one R per step (a log whose steps differ): the batched filter follows eqs. (13)-(27) step by step,
+    a NaN variance where no range arrived is allowed, and constant per-step values give the shared-noise filter."""
+    x0, P0, u, z, _ = consistent_study(M=3, K=90, seed=3)
+    z[:, [4, 30]] = np.nan
+    K = z.shape[1]
+    Q = np.einsum("k,ij->kij", np.linspace(0.3, 1.5, K), Q_D)
+    Q[:, 0, 1] = Q[:, 1, 0] = 0.05
+    R = np.linspace(0.2, 1.0, K)
+    R[[4, 30]] = np.nan
+    res = fading_ekf(x0, P0, u, z, Q, R, mu_gamma=MU_D, sigma_gamma=SIGMA_D, rho=0.9)
+    assert res.fading_factor.max() > 1.0
+    for m in range(3):
+        ref = reference(x0[m], P0, u[m], z[m], Q, np.nan_to_num(R, nan=1.0), MU_D, SIGMA_D, 0.9, "range")
+        np.testing.assert_allclose(res.x[m], ref["x"], **TOL)
+        np.testing.assert_allclose(res.P[m], ref["P"], **TOL)
+        np.testing.assert_allclose(res.fading_factor[m], ref["lam"], rtol=1e-6)
+    shared = fading_ekf(x0, P0, u, z, Q_D, R_D, mu_gamma=MU_D, sigma_gamma=SIGMA_D)
+    tiled = fading_ekf(x0, P0, u, z, np.tile(Q_D, (K, 1, 1)), np.full(K, R_D), mu_gamma=MU_D, sigma_gamma=SIGMA_D)
+    np.testing.assert_array_equal(tiled.x, shared.x)
+    np.testing.assert_array_equal(tiled.P, shared.P)
+    with pytest.raises(ValueError, match="R is NaN at step 5, where a range is present"):
+        fading_ekf(x0, P0, u, z, Q_D, np.r_[np.ones(5), np.nan, np.ones(K - 6)])
+    with pytest.raises(ValueError, match=r"Q must be one 2x2 matrix shared by all runs, or one per step \(90, 2, 2\)"):
+        fading_ekf(x0, P0, u, z, np.tile(Q_D, (K + 1, 1, 1)), R_D)
 
 
 def test_batched_equals_literal_equations_with_huge_fading_factors():

@@ -25,7 +25,8 @@ only once that fix's precision factor :math:`\alpha = \operatorname{tr}(\mathbf 
 below 2 (:func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf`).
 
 Forms: :func:`bias_ekf` runs one run or ``M`` runs over whole sequences in one call; :class:`BiasEKF` is the same
-filter one step at a time (the filter protocol); :func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf` is paper A's "pre-positioning,
+filter one step at a time (the filter protocol); :func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf` is
+paper A's "pre-positioning,
 then IEKF" for a batch of runs.
 
 References

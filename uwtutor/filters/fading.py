@@ -86,7 +86,8 @@ plain EKF (additive noise)                     ``mu_gamma=1, sigma_gamma=0, fadi
 suboptimal fading EKF (Zhou and Xi 1990)       ``mu_gamma=1, sigma_gamma=0, beta=1.0``
 fading EKF for multiplicative noise (paper D)  ``mu_gamma, sigma_gamma, beta=1.0``
 ISFEKF (paper D)                               ``mu_gamma, sigma_gamma, beta="range"``
-LS-EKF, LS-ISFEKF (paper D)                    :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` (grid-search start, then one of the above)
+LS-EKF, LS-ISFEKF (paper D)                    :func:`~uwtutor.pipelines.ls_fading.ls_fading_ekf` (grid-search start,
+                                               then one of the above)
 =============================================  =====================================================================
 
 Forms: :func:`fading_ekf` runs ``M`` Monte Carlo runs of ``K`` steps in one call (explicit 2x2 algebra on arrays of
@@ -112,7 +113,7 @@ Zhou D., Xi Y. (1990). Suboptimal fading extended Kalman filtering for nonlinear
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -121,7 +122,8 @@ from ..acoustics import range_factor
 from .._validate import as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
-                      fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields,
+                      check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
+                      predict_step, result_fields,
                       runs_first, sequence_inputs, steps_and_times, update_step, x_view)
 
 __all__ = [
@@ -203,9 +205,9 @@ def _positive_scalar(name: str, value: Any) -> float:
 class _Params:
     """Validated filter parameters; ``mu``/``sigma2`` are floats or (M,) arrays, ``beta`` a float or None (range)."""
 
-    q4: np.ndarray
-    Q: np.ndarray
-    R: float
+    q4: np.ndarray                                 # (4, 1), or (K, 4, 1) one per step
+    Q: np.ndarray                                  # (2, 2), or (K, 2, 2)
+    R: Any                                         # a float, or (K,) one per step
     beacon: tuple[float, float]
     mu: Any
     sigma2: Any
@@ -285,8 +287,9 @@ def _fading_step(s: np.ndarray, mem: np.ndarray, started: np.ndarray, u: np.ndar
 # --- validation ----------------------------------------------------------------------------------------------------
 
 def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: Any, rho: Any, beta: Any,
-                       fading: Any) -> tuple[_Params, int | None]:
-    Qm, R_val, q4 = noise_parameters(Q, R)
+                       fading: Any, n_steps: int | None = None) -> tuple[_Params, int | None]:
+    """The validated parameters; with ``n_steps``, ``Q`` (K, 2, 2) and ``R`` (K,) may give one value per step."""
+    Qm, R_val, q4 = noise_parameters(Q, R, n_steps, where="fading_ekf")
     b = fixed_beacon(beacon)
     mu, m_mu = as_per_run_scalar("mu_gamma", mu_gamma, minimum=0.0, strict=True)
     sigma, m_sigma = as_per_run_scalar("sigma_gamma", sigma_gamma, minimum=0.0, strict=False)
@@ -376,8 +379,14 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     mem = mem0.copy()
     started = np.zeros(M, dtype=bool)
     s = s0
+    q_steps = p.q4.ndim == 3                       # one Q per step, (K, 2, 2)
+    r_steps = isinstance(p.R, np.ndarray)          # one R per step, (K,)
     for k in range(K):
-        applied = _fading_step(s, mem, started, u_steps[k], z_fill[k], use[k], p, prior[k], post[k], innov[k],
+        p_k = p
+        if q_steps or r_steps:
+            p_k = replace(p, Q=p.Q[k] if q_steps else p.Q, q4=p.q4[k] if q_steps else p.q4,
+                          R=float(p.R[k]) if r_steps else p.R)
+        applied = _fading_step(s, mem, started, u_steps[k], z_fill[k], use[k], p_k, prior[k], post[k], innov[k],
                                innov_var[k], diag[k])
         if applied is not use[k]:
             use[k] = applied
@@ -413,10 +422,12 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
         DR displacement from epoch ``k - 1`` to epoch ``k`` [m].
     z : array_like, shape (K,) or (M, K)
         Measured ranges [m] (finite and >= 0, NaN where missing).
-    Q : array_like, shape (2, 2)
-        DR noise covariance per step [m^2] (paper D: ``diag(0.81, 0.81)``).
-    R : float
-        Additive range noise variance [m^2] (paper D: 0.49).
+    Q : array_like, shape (2, 2) or (K, 2, 2)
+        DR noise covariance per step [m^2] (paper D: ``diag(0.81, 0.81)``); or one per step (a log whose steps
+        differ in length or in quality).
+    R : float or array_like, shape (K,)
+        Additive range noise variance [m^2] (paper D: 0.49); or one per step (NaN allowed at a step without a
+        range).
     mu_gamma : float or array_like, shape (M,), default 1
         Mean :math:`\mu_\gamma > 0` of the multiplicative factor (paper D's simulation: 0.98, see
         :func:`range_factor_moments`); one per run allowed (e.g. from a pre-location).
@@ -486,7 +497,8 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     (True, True)
     """
     x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
-    p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
+    p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading, n_steps=len(times))
+    p = replace(p, R=check_variances_where_measured(p.R, z))
     M = common_runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
     batched = M is not None
     M = M or 1

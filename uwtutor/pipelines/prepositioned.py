@@ -4,7 +4,8 @@ r"""Paper A's start: a least-squares prepositioning fix of position and range bi
 A pipeline, not a filter: the precision factor along the provisional track
 (:func:`uwtutor.lsq.precision_factor_history`)
 chooses the epoch of the fix, :func:`uwtutor.lsq.prepositioning` computes it, and
-:func:`uwtutor.filters.bias.bias_ekf` runs from it (each run from its own epoch, :func:`~uwtutor.pipelines.staggered.filter_from_start_epochs`).
+:func:`uwtutor.filters.bias.bias_ekf` runs from it (each run from its own epoch,
+:func:`~uwtutor.pipelines.staggered.filter_from_start_epochs`).
 """
 
 from __future__ import annotations
@@ -55,8 +56,8 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
        (paper A: 2) is the run's start.
     3. **Fix** at :math:`k_0`: ``uwtutor.lsq.prepositioning`` (position *and* bias, ``iterations`` Gauss-Newton
        steps from :math:`\tilde{\mathbf p}_{k_0}`) on the ranges of epochs :math:`0..k_0`.
-    4. **Filter** from :math:`k_0`: :func:`~uwtutor.filters.bias.bias_ekf` from the fix with covariance ``P0``, over epochs
-       :math:`k_0 + 1, \dots` (all runs in one call: each run's arrays are shifted to start at step 0).
+    4. **Filter** from :math:`k_0`: :func:`~uwtutor.filters.bias.bias_ekf` from the fix with covariance ``P0``,
+       over epochs :math:`k_0 + 1, \dots` (all runs in one call: each run's arrays are shifted to start at step 0).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-r"""Paper C (Li et al. 2013): its parameters, the book's maneuvering-dive scenario and the filter comparison.
+r"""Paper C (Li et al. 2013): its parameters and the book's maneuvering-dive scenario.
 
 Paper C estimates the depth, speed and pitch of a maneuvering AUV with a grey particle filter (GPF) and compares
 it with an EKF and a multiple-model particle filter (MMPF) on a lake trial. The book simulates the trial instead:
@@ -6,9 +6,10 @@ it with an EKF and a multiple-model particle filter (MMPF) on a lake trial. The 
 * :class:`PaperCParameters` -- the paper's values (:data:`PAPER_C` is the same as a plain dict);
 * :func:`maneuvering_depth_profile` -- the true depth, speed and pitch of a dive, a level leg and a climb, with
   a sensor noise level that changes over time; :func:`simulate_depth_sensors` -- the readings of ``M`` runs;
-* :func:`make` -- both at once: the scenario of the chapter on paper C for ``M`` runs;
-* :func:`~uwtutor.pipelines.depth_study.run_depth_study` -- the experiment: the filters of the comparison (and the pieces of the GPF) on every
-  run, all runs of a filter in one batched call.
+* :func:`make` -- both at once: the scenario of the chapter on paper C for ``M`` runs.
+
+The experiment -- the filters of the comparison (and the pieces of the GPF) on every run, all runs of a filter in one
+batched call -- runs filters, so it is a pipeline: :func:`~uwtutor.pipelines.depth_study.run_depth_study`.
 
 References
 ----------
@@ -112,7 +113,8 @@ class PaperCParameters:
 #: Paper C's parameters as a dict (the fields of :class:`PaperCParameters`).
 PAPER_C: dict[str, Any] = PaperCParameters().as_dict()
 
-#: The filters :func:`~uwtutor.pipelines.depth_study.run_depth_study` knows: paper C's three, and three more that take the GPF apart.
+#: The filters :func:`~uwtutor.pipelines.depth_study.run_depth_study` knows: paper C's three, and three more that take
+#: the GPF apart.
 FILTER_NAMES = ("EKF", "MMPF", "GPF", "PF", "PF + wavelet R", "EKF + wavelet R")
 
 #: Shift [rad] that moves the pitch into (0, 2) for GM(1,1).
