@@ -289,3 +289,67 @@ def slider_latency(page: Any, index: int, slider: int = 0, key: str = "ArrowRigh
     handle.press(key)
     page.wait_for_function("() => window.__uwtutorLatencyMs !== null", timeout=timeout)
     return float(page.evaluate("() => window.__uwtutorLatencyMs"))
+
+
+#: Every control of a widget panel, in the order the page shows them: slider handles, dropdowns, checkboxes.
+CONTROL_SELECTOR = ".widget-slider .noUi-handle, .widget-dropdown select, .widget-checkbox input"
+
+
+def widget_controls(page: Any, index: int) -> list[dict[str, Any]]:
+    """The controls of the widget in cell ``index``: ``kind`` ("slider", "dropdown" or "checkbox") and ``label``
+    (the description shown beside it), in page order."""
+    return page.evaluate("""([i, selector]) => {
+      const node = window.jupyterapp.shell.currentWidget.content.widgets[i].node;
+      return Array.from(node.querySelectorAll(selector)).map((el) => {
+        const box = el.closest('.widget-slider, .widget-dropdown, .widget-checkbox');
+        const kind = box.classList.contains('widget-slider') ? 'slider'
+                     : box.classList.contains('widget-dropdown') ? 'dropdown' : 'checkbox';
+        const labels = Array.from(box.querySelectorAll('.widget-label-basic, .widget-label, label'))
+                            .map((l) => l.innerText.replace(/\u200b/g, '').trim()).filter((t) => t);
+        return {kind, label: labels.length ? labels[0] : ''};
+      });
+    }""", [index, CONTROL_SELECTOR])
+
+
+def control_value(page: Any, index: int, control: int) -> str:
+    """The value of dropdown ``control`` of the widget in cell ``index`` (its option's value in the page)."""
+    return cells(page).nth(index).locator(CONTROL_SELECTOR).nth(control).evaluate("(el) => el.value")
+
+
+def control_latency(page: Any, index: int, control: int, forward: bool = True, timeout: float = 60_000,
+                    value: str | None = None) -> float:
+    """Change control ``control`` of the widget in cell ``index`` as a person would with the keyboard and return the
+    milliseconds from the key press to the first frame painted with the new figure (as ``slider_latency``).
+
+    A slider moves one step (right when ``forward``, else left); a dropdown takes its next option (the first after
+    the last), or ``value``; a checkbox is toggled with the space bar. NaN if no new figure came within ``timeout``
+    (the control does not change the view in the widget's present state).
+    """
+    element = cells(page).nth(index).locator(CONTROL_SELECTOR).nth(control)
+    element.scroll_into_view_if_needed()
+    tag = element.evaluate("(el) => el.tagName.toLowerCase() + ':' + (el.type || '')")
+    if tag.startswith("select"):
+        options, now = element.evaluate("(el) => [Array.from(el.options).map((o) => o.value), el.value]")
+        if value is None:                             # nothing chosen yet (index -1): the first option
+            value = options[(options.index(now) + 1 if now in options else 0) % len(options)]
+        page.evaluate(_ARM_LATENCY, index)
+        element.select_option(value=value)            # timed from its input event
+    else:
+        element.focus()
+        page.evaluate(_ARM_LATENCY, index)
+        element.press(" " if tag == "input:checkbox" else ("ArrowRight" if forward else "ArrowLeft"))
+    try:
+        page.wait_for_function("() => window.__uwtutorLatencyMs !== null", timeout=timeout)
+    except Exception as exc:                          # Playwright's TimeoutError
+        if "Timeout" not in type(exc).__name__:
+            raise
+        return float("nan")
+    return float(page.evaluate("() => window.__uwtutorLatencyMs"))
+
+
+def slider_room(page: Any, index: int, control: int) -> tuple[float, float]:
+    """Steps' worth of room of slider ``control`` below and above its value (from its ARIA values), as
+    (value - min, max - value)."""
+    element = cells(page).nth(index).locator(CONTROL_SELECTOR).nth(control)
+    now, low, high = (float(element.get_attribute(a)) for a in ("aria-valuenow", "aria-valuemin", "aria-valuemax"))
+    return now - low, high - now

@@ -20,7 +20,8 @@ Measured in one run, on this machine:
    bootstrap particle filter with the same odometry model pair on Plaza 2, N = 2000 (``--only pf_plaza``; skipped
    without the ``data`` extra).
 
-``--only NAME`` runs one benchmark and prints its numbers (nothing is saved).
+``--only NAME`` runs one benchmark and prints its numbers (nothing is saved); ``--only widget_latency`` (with
+``--widgets ch07`` to keep some) times every control of the widgets in JupyterLab and prints them as a table.
 
 ``--save`` writes ``benchmarks/results.json`` and regenerates the table of ``book/appendix_performance.md``
 between its marker comments, so that the committed page always shows the committed results (the book build
@@ -459,6 +460,29 @@ def legacy_panel(sliders, draw):
     return w.VBox([w.HBox(list(sliders.values())[:3]), w.HBox(list(sliders.values())[3:]), out])
 
 
+def floor():
+    # the least a widget update can cost here: one slider over a book-sized figure of one line, updated in place
+    import numpy as np
+    from uwtutor.widgets._panel import slider_panel
+
+    x = np.linspace(0.0, 1.0, 200)
+
+    def draw(fig, a):
+        fig = fig or plt.figure(figsize=(7.6, 3.6))
+        ax = fig.subplots()
+        ax.plot(x, a * x)
+        ax.set_ylim(-1.0, 1.0)
+        return fig
+
+    def update(fig, a):
+        line = fig.axes[0].lines[0]
+        line.set_ydata(a * x)
+        return [line]
+
+    return slider_panel({"a": w.FloatSlider(value=0.0, min=-1.0, max=1.0, step=0.01, description="a",
+                                            continuous_update=False)}, draw, update)
+
+
 def build(name, legacy):
     module = importlib.import_module(getattr(widgets, name).__module__)
     panel = module.slider_panel
@@ -470,14 +494,21 @@ def build(name, legacy):
 """
 
 
-def bench_widget_latency(repeats: int) -> dict[str, Any]:
-    """End-to-end latency of every widget in a real JupyterLab: slider key press -> new figure painted, in ms.
+#: Medians per control measured with the same session before the widgets were made to answer at once (the commit
+#: named in the file), printed beside today's by ``make bench``.
+LATENCY_BASELINE_FILE = ROOT / "benchmarks" / "widget_latency_baseline.json"
 
-    A notebook runs in JupyterLab (``jupyterlab_session``: a local server and Debian's Chromium, offline) with two
-    cells per widget: the widget as the library builds it and, for reference, as it was built before (see
-    ``LATENCY_SETUP``). In each, the first slider is moved one step with the keyboard (right, then left, ...), the
-    two cells taking turns so that both see the same load; one warm-up move, then ``repeats`` moves, of which the
-    median and the worst are kept. Needs Chromium and Playwright; without them the result says why.
+
+def bench_widget_latency(repeats: int, only: str | None = None) -> dict[str, Any]:
+    """End-to-end latency of every control of every widget in a real JupyterLab: key press -> new figure, in ms.
+
+    A notebook runs in JupyterLab (``jupyterlab_session``: a local server and Debian's Chromium, offline) with one
+    cell per widget, built as the library builds it (see ``LATENCY_SETUP``). Each control in turn is changed with the
+    keyboard: a slider moves one step, always the same way (towards its farther end), so that every move asks for a
+    value the widget has not shown yet and no cache flatters it; a dropdown takes its next option and a checkbox
+    toggles (their few values come round again, as they do for a reader). One warm-up move, then ``repeats`` moves,
+    of which the median and the worst are kept. ``only`` keeps the widgets whose label contains it. Needs Chromium
+    and Playwright; without them the result says why.
     """
     import statistics
     import tempfile
@@ -487,13 +518,11 @@ def bench_widget_latency(repeats: int) -> dict[str, Any]:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import jupyterlab_session as lab
 
-    factories = widget_factories()
-    code = [LATENCY_SETUP]
-    for name in factories.values():
-        code += [f"build({name!r}, legacy=False)", f"build({name!r}, legacy=True)"]
+    factories = {label: name for label, name in widget_factories().items() if not only or only in label}
+    code = [LATENCY_SETUP, "floor()"] + [f"build({name!r}, legacy=False)" for name in factories.values()]
     nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in code])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
-    out: dict[str, dict[str, float]] = {}
+    out: dict[str, dict[str, Any]] = {}
     with tempfile.TemporaryDirectory(prefix="uwtutor-bench-lab-") as tmp:
         root, work = Path(tmp, "root"), Path(tmp, "work")
         root.mkdir()
@@ -502,26 +531,68 @@ def bench_widget_latency(repeats: int) -> dict[str, Any]:
             with lab.lab_session(root, work) as session:
                 page = lab.open_notebook(session, "widgets.ipynb")
                 lab.run_cell(page, 0)
+                # the floor of this machine at this moment: a one-line figure updated in place
+                lab.run_cell(page, 1).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
+                floor_ms = [lab.control_latency(page, 1, 0) for _ in range(repeats + 1)][1:]
+                print(f"  floor (one line, in place): {statistics.median(floor_ms):.0f} ms", flush=True)
                 for k, label in enumerate(factories):
-                    ours, legacy = 1 + 2 * k, 2 + 2 * k
-                    for index in (ours, legacy):
-                        lab.run_cell(page, index).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
-                    times: dict[int, list[float]] = {ours: [], legacy: []}
-                    for move in range(repeats + 1):
-                        for index in (ours, legacy):
-                            ms = lab.slider_latency(page, index, key="ArrowRight" if move % 2 == 0 else "ArrowLeft")
-                            if move:
-                                times[index].append(ms)
-                    out[label] = {"median_ms": statistics.median(times[ours]), "max_ms": max(times[ours]),
-                                  "legacy_median_ms": statistics.median(times[legacy]),
-                                  "legacy_max_ms": max(times[legacy])}
-                    print(f"  {label}: median {out[label]['median_ms']:.0f} ms (before: "
-                          f"{out[label]['legacy_median_ms']:.0f} ms)", flush=True)
+                    index = 2 + k
+                    lab.run_cell(page, index).locator(".jp-OutputArea img").first.wait_for(timeout=120_000)
+                    controls: dict[str, dict[str, Any]] = {}
+                    for c, control in enumerate(lab.widget_controls(page, index)):
+                        forward = True
+                        if control["kind"] == "slider":
+                            below, above = lab.slider_room(page, index, c)
+                            forward = above >= below
+                        start = lab.control_value(page, index, c) if control["kind"] == "dropdown" else None
+                        times = [lab.control_latency(page, index, c, forward, timeout=30_000)
+                                 for _ in range(repeats + 1)][1:]
+                        if start and lab.control_value(page, index, c) != start:
+                            lab.control_latency(page, index, c, value=start, timeout=30_000)   # as it was
+                        times = [ms for ms in times if ms == ms] or [float("nan")]      # NaN: no new figure
+                        controls[control["label"] or f"control {c}"] = {
+                            "kind": control["kind"], "median_ms": statistics.median(times), "max_ms": max(times)}
+                    medians = [v["median_ms"] for v in controls.values()]
+                    out[label] = {"controls": controls, "median_ms": max(medians),
+                                  "max_ms": max(v["max_ms"] for v in controls.values())}
+                    print(f"  {label}: " + ", ".join(f"{name} {v['median_ms']:.0f}" for name, v in controls.items())
+                          + " ms", flush=True)
                 if session.external:
                     raise RuntimeError(f"JupyterLab requested addresses off this machine: {session.external}")
         except lab.Unavailable as exc:
             return {"widget_latency": {}, "widget_latency_note": f"not measured in JupyterLab: {exc}"}
-    return {"widget_latency": out, "widget_latency_note": ""}
+    return {"widget_latency": out, "widget_latency_note": "", "widget_latency_floor_ms": statistics.median(floor_ms)}
+
+
+def latency_baseline() -> dict[str, Any]:
+    """The committed medians per control from before (``{"commit": ..., "widgets": {label: {control: ms}}}``), or
+    an empty record."""
+    try:
+        return json.loads(LATENCY_BASELINE_FILE.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return {"commit": "", "widgets": {}}
+
+
+def render_latency_table(latency: dict[str, Any], repeats: int, baseline: dict[str, Any] | None = None,
+                         floor_ms: float | None = None) -> str:
+    """Every control of every widget: median (and worst) key press -> new figure in JupyterLab, beside the median
+    before (``baseline``), as Markdown; ``floor_ms``, the same for a one-line figure updated in place in the same
+    session (what the machine costs at that moment whatever the widget does)."""
+    baseline = latency_baseline() if baseline is None else baseline
+    before = baseline.get("widgets", {})
+    commit = baseline.get("commit", "")[:10] or "–"
+    rows = ["| Widget | Control | Median now | Worst now | Median before (" + commit + ") | ≤ 150 ms |",
+            "|:---|:---|---:|---:|---:|:---:|"]
+    limit = TARGETS["widget_latency_ms"][1]
+    for label in sorted(latency):
+        for control, v in latency[label].get("controls", {}).items():
+            old = before.get(label, {}).get(control)
+            rows.append(f"| {label} | {control} | {v['median_ms']:.0f} ms | {v['max_ms']:.0f} ms | "
+                        + (f"{old:.0f} ms" if old is not None else "–") + " | "
+                        + ("PASS" if v["median_ms"] <= limit else "MISS") + " |")
+    floor = "" if floor_ms is None else (f" The floor in the same session (a one-line figure updated in place): "
+                                         f"{floor_ms:.0f} ms.")
+    return "\n".join(rows) + f"\n\nMedians of {repeats} moves per control (after one warm-up move).{floor}"
 
 
 def _memory_probe() -> None:
@@ -581,7 +652,7 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_widgets(repeats))
     results.update(bench_widget_updates(repeats))
     if browser:
-        print("Timing every widget in JupyterLab (a minute or two)...", flush=True)
+        print("Timing every control of every widget in JupyterLab (about ten minutes)...", flush=True)
         results.update(bench_widget_latency(repeats))
     else:
         results.update({"widget_latency": {}, "widget_latency_note": "not measured in JupyterLab (--no-browser)"})
@@ -665,7 +736,14 @@ def render_table(results: dict[str, Any]) -> str:
                          _target("widget_ms", t, " ms"), _status("widget_ms", ms, t)))
     latency = results.get("widget_latency", {})
     for label, kernel_ms in sorted(results.get("widget_updates_ms", {}).items()):
-        if label in latency:
+        if label in latency and "controls" in latency[label]:          # every control measured
+            lat = latency[label]
+            for control, v in lat["controls"].items():
+                rows.append((f"Widget “{label}”, control “{control}”: key press → new figure in JupyterLab, median "
+                             f"of {results['repeats']} moves (worst {v['max_ms']:.0f} ms; first slider in the kernel "
+                             f"{kernel_ms:.0f} ms)", f"{v['median_ms']:.0f} ms", _target("widget_latency_ms", t, " ms"),
+                             _status("widget_latency_ms", v["median_ms"], t)))
+        elif label in latency:                                            # the first slider only (older results)
             lat = latency[label]
             rows.append((f"Widget “{label}”: slider → new figure in JupyterLab, median of {results['repeats']} "
                          f"moves (worst {lat['max_ms']:.0f} ms; in the kernel {kernel_ms:.0f} ms; the way before "
@@ -725,7 +803,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=5, help="timing repeats; the best is kept (default 5)")
     parser.add_argument("--no-browser", action="store_true",
                         help="skip the widget latency in JupyterLab (needs Debian's chromium and playwright)")
-    parser.add_argument("--only", choices=sorted(SINGLE_BENCHMARKS),
+    parser.add_argument("--widgets", metavar="TEXT",
+                        help="with --only widget_latency: only the widgets whose label contains TEXT (e.g. ch07)")
+    parser.add_argument("--only", choices=sorted(SINGLE_BENCHMARKS) + ["widget_latency"],
                         help="run one benchmark and print its numbers (nothing is saved)")
     parser.add_argument("--memory-probe", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -737,12 +817,26 @@ def main(argv: list[str] | None = None) -> int:
     if args.only:
         if args.save:
             parser.error("--only cannot be combined with --save (the table needs every benchmark)")
+        if args.only == "widget_latency":       # every control of every widget in JupyterLab, as a table
+            print("Timing every control of every widget in JupyterLab...", flush=True)
+            latency = bench_widget_latency(args.repeats, only=args.widgets)
+            print(json.dumps(latency, indent=2, sort_keys=True))
+            print()
+            print(latency["widget_latency_note"] or render_latency_table(latency["widget_latency"], args.repeats,
+                                                                         floor_ms=latency.get("widget_latency_floor_ms")))
+            return 0
         print(json.dumps(SINGLE_BENCHMARKS[args.only](args.repeats), indent=2, sort_keys=True))
         return 0
     print("Running the uwtutor benchmarks (about a minute)...", flush=True)
     results = run_all(args.repeats, browser=not args.no_browser)
     print()
     print(render_table(results))
+    if results.get("widget_latency"):
+        print()
+        print("Every widget control, key press -> new figure in JupyterLab (before: "
+              f"{LATENCY_BASELINE_FILE.relative_to(ROOT)}):")
+        print(render_latency_table(results["widget_latency"], results["repeats"],
+                                   floor_ms=results.get("widget_latency_floor_ms")))
     if args.save:
         RESULTS_FILE.write_text(json.dumps(results, indent=2, sort_keys=True) + "\n", encoding="utf-8")
         update_page(results)

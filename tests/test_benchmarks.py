@@ -69,3 +69,27 @@ def test_table_marks_targets(tmp_path):
     assert text.startswith("# P\n\nintro\n\n") and text.endswith("\n\nafter\n")
     with pytest.raises(ValueError, match="must contain the markers"):
         bench.page_table("no markers here")
+
+
+def test_every_control_is_reported_beside_its_time_before():
+    latency = {"ch09 w_widget": {"controls": {"size": {"kind": "slider", "median_ms": 120.0, "max_ms": 140.0},
+                                              "test": {"kind": "dropdown", "median_ms": 180.0, "max_ms": 900.0}},
+                                 "median_ms": 180.0, "max_ms": 900.0}}
+    baseline = {"commit": "0123456789abcdef", "widgets": {"ch09 w_widget": {"size": 700.0}}}
+    table = bench.render_latency_table(latency, 5, baseline)
+    size = next(row for row in table.splitlines() if "| size |" in row)
+    assert "| 120 ms | 140 ms | 700 ms | PASS |" in size
+    test = next(row for row in table.splitlines() if "| test |" in row)
+    assert "| 180 ms | 900 ms | – | MISS |" in test
+    assert "0123456789" in table and "5 moves" in table
+    results = copy.deepcopy(committed_results())
+    results["widget_updates_ms"] = {"ch09 w_widget": 30.0}
+    results["widget_latency"] = latency
+    rows = [row for row in bench.render_table(results).splitlines() if "ch09 w_widget" in row]
+    assert len(rows) == 2 and "control “size”" in rows[0] and "| 120 ms |" in rows[0] and "| MISS |" in rows[1]
+
+
+def test_the_committed_latency_baseline_names_every_widget():
+    baseline = bench.latency_baseline()
+    assert len(baseline["commit"]) == 40
+    assert set(baseline["widgets"]) == set(bench.widget_factories())

@@ -278,3 +278,69 @@ def test_search_finds_chapter_one(browser, site):
     assert not watch.console_errors, f"search page: console errors {watch.console_errors}"
     assert any(urlsplit(h).path.endswith(f"/{FIRST_CHAPTER}.html") for h in hrefs), (
         f"searching {SEARCH_WORD!r} did not list {FIRST_CHAPTER}.html; results: {hrefs}")
+
+
+# A chapter whose page shows widgets: frozen views in the HTML (book/_ext/frozen_widgets.py).
+WIDGET_PAGE = next((d for d in DOCNAMES if "ch07" in d), None)
+
+FROZEN_FACTS = """() => {
+  const views = Array.from(document.querySelectorAll('script[type="application/vnd.jupyter.widget-view+json"]'))
+                     .map(s => s.parentElement);
+  // form controls, and the sliders (noUiSlider divs: disabled by their attribute)
+  const controls = views.flatMap(v => Array.from(v.querySelectorAll('input, select, textarea, button, .noUi-target')));
+  return {
+    views: views.length,
+    frozen: views.filter(v => v.classList.contains('uwtutor-frozen')).length,
+    notes: views.map(v => { const p = v.querySelector(':scope > p.uwtutor-frozen-note');
+                            return p ? p.innerText : null; }),
+    controls: controls.length,
+    enabled: controls.filter(c => c.classList.contains('noUi-target') ? !c.hasAttribute('disabled')
+                                                                        : !c.disabled).length,
+    sliders: views.flatMap(v => Array.from(v.querySelectorAll('.widget-slider'))).length,
+    focusableHandles: views.flatMap(v => Array.from(v.querySelectorAll('.noUi-handle')))
+                           .filter(h => h.getAttribute('tabindex') !== '-1').length,
+    editableReadouts: views.flatMap(v => Array.from(v.querySelectorAll('[contenteditable="true"]'))).length,
+  };
+}"""
+
+
+def test_frozen_widgets_say_so_and_do_not_move(browser, site):
+    """In the HTML a widget is the view at its default settings: every control is disabled, a note above it says
+    where the live version runs, and neither a key press nor a drag moves a slider's readout."""
+    if WIDGET_PAGE is None:
+        pytest.skip("no chapter 7 in the table of contents")
+    context, external = browser
+    external.clear()
+    page = context.new_page()
+    watch = PageWatch(page, site)
+    try:
+        page.goto(site + f"{WIDGET_PAGE}.html", wait_until="load", timeout=60_000)
+        page.wait_for_function(
+            """() => Array.from(document.querySelectorAll(
+                 'script[type="application/vnd.jupyter.widget-view+json"]'))
+                 .every(s => s.parentElement.classList.contains('uwtutor-frozen'))""", timeout=30_000)
+        facts = page.evaluate(FROZEN_FACTS)
+        slider = page.locator(".uwtutor-frozen .widget-slider").first
+        slider.scroll_into_view_if_needed()
+        readout = slider.locator(".widget-readout")
+        before = readout.inner_text()
+        handle = slider.locator(".noUi-handle")
+        handle.focus()                                    # focus() works on any element; the keys must do nothing
+        for key in ("ArrowRight", "ArrowRight", "End"):
+            page.keyboard.press(key)
+        box = slider.locator(".noUi-target").bounding_box()
+        page.mouse.click(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2)   # a click on the track
+        after = readout.inner_text()
+        widget = page.locator(".uwtutor-frozen").first
+        widget.screenshot(path=str(_screenshot_path(f"{WIDGET_PAGE}-frozen-widget")))
+    finally:
+        page.close()
+    assert not external, f"requests left 127.0.0.1: {external}"
+    assert not watch.console_errors, f"console errors: {watch.console_errors}"
+    assert facts["views"] >= 1 and facts["frozen"] == facts["views"], facts
+    assert facts["controls"] >= 3 and facts["enabled"] == 0, f"controls left enabled: {facts}"
+    assert facts["sliders"] >= 1 and facts["focusableHandles"] == 0 and facts["editableReadouts"] == 0, facts
+    for note in facts["notes"]:
+        assert note and "frozen view" in note and "JupyterLab" in note and "make lab" in note, facts["notes"]
+    assert any("from uwtutor.widgets import bias_tracking_widget" in n for n in facts["notes"]), facts["notes"]
+    assert after == before, f"a frozen slider moved: its readout went from {before!r} to {after!r}"

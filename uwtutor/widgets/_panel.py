@@ -1,51 +1,231 @@
-"""The thin ipywidgets layer shared by every widget of the book: sliders above one figure, redrawn in place.
+"""The thin ipywidgets layer shared by every widget of the book: controls above one figure, updated in place.
 
-An update does the least a new picture needs: the compute function runs, the *same* matplotlib figure is cleared
-and drawn again by the chapter's plot function, and the PNG goes to an ``ipywidgets.Image`` as bytes (one comm
-message, no base64). The older way, a fresh figure per update shown by ``plt.show()`` inside an ``Output``
-widget, also created and destroyed a pyplot figure, laid the page out twice (``bbox_inches="tight"`` redraws the
-figure to measure it) and made JupyterLab tear down and rebuild the output area; ``make bench`` measures both
-what the kernel spends and what a person waits in JupyterLab (see the Performance appendix).
+An update does the least a new picture needs. A setting of the controls shown before is shown again from the
+pictures the panel keeps (the last ``PICTURES_KEPT``, by control values). Otherwise the chapter's compute function
+runs (each widget keeps its results in a small cache keyed by the control values). Then, where the chapter gives
+an ``update`` function, the artists of the figure already drawn take the new data in place (``set_data``,
+``set_offsets``, ``set_text``): no axes, ticks or layout are made again. The picture is then drawn *by blitting*:
+the figure without the artists that change (axes, ticks, labels, grid: the "background") is drawn once and kept as
+pixels; each update restores those pixels and draws only the changed artists on them, unless the axes themselves
+changed (limits, scale, position), which draws the background again. The PNG goes to an ``ipywidgets.Image`` as bytes
+(one comm message, no base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
+the chapter's plot function. ``make bench`` times every control of every widget in JupyterLab.
 """
 
 from __future__ import annotations
 
 import io
-from typing import Any, Callable
+from collections import OrderedDict
+from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
+import numpy as np
 
-__all__ = ["slider_panel", "figure_png"]
+__all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale"]
+
+
+def _agg_canvas(fig: Any) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    return fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+
+
+def _encode_png(canvas: Any) -> bytes:
+    """The pixels of ``canvas`` (an Agg canvas already drawn) as PNG bytes, compressed lightly (level 1: the bytes
+    go to a browser on the same machine or network, where encoding time matters more than size)."""
+    from PIL import Image
+
+    width, height = canvas.get_width_height(physical=True)
+    buffer = io.BytesIO()
+    Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB").save(
+        buffer, format="png", compress_level=1)
+    return buffer.getvalue()
 
 
 def figure_png(fig: Any) -> bytes:
     """The figure as PNG bytes at its own resolution (``fig.dpi``), drawn by an Agg canvas kept on the figure.
 
     The canvas (and so its renderer and text caches) is made once per figure rather than once per picture, as
-    ``savefig`` on an inline-backend figure would; the PNG is compressed lightly (level 1: the bytes go to a
-    browser on the same machine or network, where encoding time matters more than size).
+    ``savefig`` on an inline-backend figure would.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
-    buffer = io.BytesIO()
-    canvas.print_png(buffer, pil_kwargs={"compress_level": 1})
-    return buffer.getvalue()
+    canvas = _agg_canvas(fig)
+    canvas.draw()
+    return _encode_png(canvas)
 
 
-def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any]) -> Any:
-    """Sliders (and other controls) above one figure that is redrawn whenever a control's value changes.
+def keep(fig: Any, **artists: Any) -> Any:
+    """Remember the artists a plot function made on ``fig`` by name, for its ``update`` function; returns ``fig``."""
+    fig._uwtutor_artists = artists
+    return fig
+
+
+def kept(fig: Any) -> dict[str, Any] | None:
+    """The artists ``keep`` remembered on ``fig`` (``None`` if it has none)."""
+    return getattr(fig, "_uwtutor_artists", None)
+
+
+def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> None:
+    """Fit each axes' limits to its data again after ``set_data``, as the first drawing did, but keep the limits it
+    has while the data fits in them and spans at least ``keep_within`` of them on both axes (in log units on a log
+    axis): then the axes, and the pixels kept of them, stay as they are (see ``BlitRenderer``). When the limits do
+    change, an axis whose data outgrew them gets ``headroom`` (a fraction of the span) on each side, so that the
+    next step the same way usually fits."""
+    for ax in axes:
+        # An equal-aspect axes that fits its limits to the data ("datalim") would re-centre kept limits on the
+        # data at every draw: while its limits are kept it keeps its box instead, and fits them again after.
+        if getattr(ax, "_uwtutor_datalim", False) or (ax.get_aspect() != "auto"
+                                                      and ax.get_adjustable() == "datalim"):
+            ax._uwtutor_datalim = True
+            ax.set_adjustable("datalim")
+        old = (ax.get_xlim(), ax.get_ylim())
+        ax.relim()
+        ax.autoscale_view()
+        new = (ax.get_xlim(), ax.get_ylim())
+        scales = (ax.get_xscale(), ax.get_yscale())
+        keep, grow = True, [False, False]
+        for i, ((o0, o1), (n0, n1), scale) in enumerate(zip(old, new, scales)):
+            if scale == "log":
+                if min(o0, o1, n0, n1) <= 0:
+                    keep = False
+                    continue
+                o0, o1, n0, n1 = np.log10([o0, o1, n0, n1])
+            lo, hi = min(o0, o1), max(o0, o1)
+            inside = lo <= min(n0, n1) and max(n0, n1) <= hi
+            keep = keep and inside and abs(n1 - n0) >= keep_within * (hi - lo)
+            grow[i] = not inside
+        if keep:
+            ax.set_xlim(*old[0])
+            ax.set_ylim(*old[1])
+            if getattr(ax, "_uwtutor_datalim", False):
+                ax.set_adjustable("box")
+            continue
+        if getattr(ax, "_uwtutor_datalim", False) and scales == ("linear", "linear"):
+            ax.apply_aspect()                           # the frame a draw would give, then room on all sides
+            (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+            ax.set_xlim(x0 - headroom * (x1 - x0), x1 + headroom * (x1 - x0))
+            ax.set_ylim(y0 - headroom * (y1 - y0), y1 + headroom * (y1 - y0))
+            ax.set_adjustable("box")                    # the same ratio: the box stays where it is
+            continue
+        for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
+            if not grow[i] or (i == 0 and ax.get_autoscalex_on() is False) or \
+                    (i == 1 and ax.get_autoscaley_on() is False):
+                continue
+            if scale == "log":
+                if min(n0, n1) <= 0:
+                    continue
+                l0, l1 = np.log10([n0, n1])
+                pad = headroom * (l1 - l0)
+                limits = (10 ** (l0 - pad), 10 ** (l1 + pad))
+            elif scale == "linear":
+                pad = headroom * (n1 - n0)
+                limits = (n0 - pad, n1 + pad)
+            else:
+                continue
+            (ax.set_xlim if i == 0 else ax.set_ylim)(*limits)
+
+
+def _axes_signature(fig: Any) -> tuple:
+    """What the background of ``fig`` depends on besides its static artists: each axes' position, limits, scales
+    (after the axes' aspect is applied, as drawing does)."""
+    for ax in fig.axes:
+        ax.apply_aspect()
+    return tuple((tuple(np.round(ax.get_position().bounds, 6)), ax.get_xscale(), ax.get_yscale(),
+                  tuple(ax.get_xlim()), tuple(ax.get_ylim())) for ax in fig.axes)
+
+
+def _same_background(a: tuple | None, b: tuple, tolerance: float = 2e-3) -> bool:
+    """Whether two ``_axes_signature`` are the same picture: same axes, positions and scales, and limits that differ
+    by less than ``tolerance`` of their span (a fraction of a pixel; in decades on a log axis). An axes with an
+    equal aspect re-centres its limits by a hair when its data moves; that alone does not redraw the background."""
+    if a is None or len(a) != len(b):
+        return False
+    for (pos_a, xs_a, ys_a, *lims_a), (pos_b, xs_b, ys_b, *lims_b) in zip(a, b):
+        if pos_a != pos_b or xs_a != xs_b or ys_a != ys_b:
+            return False
+        for (a0, a1), (b0, b1), scale in zip(lims_a, lims_b, (xs_a, ys_a)):
+            if scale == "log":
+                if min(a0, a1, b0, b1) <= 0:
+                    return False
+                a0, a1, b0, b1 = np.log10([a0, a1, b0, b1])
+            span = abs(a1 - a0)
+            if not (abs(a0 - b0) <= tolerance * span and abs(a1 - b1) <= tolerance * span):
+                return False
+    return True
+
+
+class BlitRenderer:
+    """PNGs of one figure whose ``dynamic`` artists change between pictures, drawn over a kept background.
+
+    ``png(dynamic)`` marks the artists ``dynamic`` as animated (so a plain draw leaves them out), draws the rest of
+    the figure only when the axes changed since the last picture (or on the first), and otherwise restores its
+    pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew),
+    and so does a ``dynamic`` that holds the figure itself (its artists changed in place all over: colours, tick
+    labels).
+    """
+
+    def __init__(self, fig: Any) -> None:
+        self.fig = fig
+        self.canvas = _agg_canvas(fig)
+        self.background: Any = None
+        self.signature: tuple | None = None
+        self.dynamic: list[Any] = []
+
+    def png(self, dynamic: Sequence[Any] | None) -> bytes:
+        for artist in self.dynamic:                  # the last picture's dynamic artists: back to normal
+            artist.set_animated(False)
+        if dynamic is None or self.fig in dynamic:     # drawn anew, or changed all over: a full draw
+            self.background, self.signature, self.dynamic = None, None, []
+            return figure_png(self.fig)
+        self.dynamic = [a for a in dynamic if a is not None]
+        for artist in self.dynamic:
+            artist.set_animated(True)
+        signature = _axes_signature(self.fig)
+        if self.background is None or not _same_background(self.signature, signature):
+            self.canvas.draw()                      # everything but the dynamic artists
+            self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
+        else:
+            self.canvas.restore_region(self.background)
+        renderer = self.canvas.get_renderer()
+        for artist in sorted(self.dynamic, key=lambda a: a.get_zorder()):
+            if artist.get_visible():
+                artist.draw(renderer)
+        return _encode_png(self.canvas)
+
+
+#: How many pictures a panel keeps, by control values, to show again at once (about 60 kB each).
+PICTURES_KEPT = 64
+
+
+def _key(values: dict[str, Any]) -> tuple:
+    """The control values as a key of the pictures kept (unhashable values by their text)."""
+    out = []
+    for name, value in values.items():
+        try:
+            hash(value)
+        except TypeError:
+            value = repr(value)
+        out.append((name, value))
+    return tuple(out)
+
+
+def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
+                 update: Callable[..., Sequence[Any] | None] | None = None) -> Any:
+    """Sliders (and other controls) above one figure that is updated whenever a control's value changes.
 
     Parameters
     ----------
     sliders : dict of str to ipywidgets.ValueWidget
         The controls, by the name of the parameter each sets; the first three in a row, the others in a second
-        row. Sliders should have
-        ``continuous_update=False`` (an update on release, not on every pixel of a drag).
+        row. Sliders should have ``continuous_update=False`` (an update on release, not on every pixel of a drag).
     draw : callable
         ``draw(fig, **values)`` draws the view for these parameter values into ``fig`` and returns the figure.
         ``fig`` is ``None`` on the first call (``draw`` makes the figure, at the size it wants) and, after that,
-        that same figure, cleared.
+        that same figure, cleared (when there is no ``update``, or ``update`` declines).
+    update : callable, optional
+        ``update(fig, **values)`` puts the view for these values into the artists of ``fig`` as ``draw`` left them
+        and returns every artist it changed (they are drawn over the kept background, see ``BlitRenderer``; the
+        figure itself among them draws it all again, in place), or ``None`` when the figure must be made anew (the
+        panel then clears it and calls ``draw``).
 
     Returns
     -------
@@ -58,18 +238,29 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any]) -> Any:
     values = lambda: {name: s.value for name, s in sliders.items()}  # noqa: E731
     fig = draw(None, **values())
     plt.close(fig)                      # off pyplot's list: the inline backend must not show it a second time
+    renderer = BlitRenderer(fig)
     width_px = round(fig.get_figwidth() * fig.dpi)
     # Shown at its own size (a flex box would stretch it to the cell's width, blurred), narrower on a narrow screen.
-    image = w.Image(value=figure_png(fig), format="png",
+    image = w.Image(value=renderer.png(None), format="png",
                     layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))
     messages = w.Output()
     state = {"failed": False}
+    shown: OrderedDict[tuple, bytes] = OrderedDict([(_key(values()), bytes(image.value))])
 
     def refresh(_change: Any = None) -> None:
+        key = _key(values())
         try:
-            fig.clear()
-            draw(fig, **values())
-            image.value = figure_png(fig)
+            if key in shown and not state["failed"]:   # a view shown before (a dropdown's option, a slider's
+                shown.move_to_end(key)                  # earlier value): its picture again
+                image.value = shown[key]
+                return
+            dynamic = None if update is None or state["failed"] else update(fig, **values())
+            if dynamic is None:
+                fig.clear()
+                draw(fig, **values())
+            image.value = shown[key] = renderer.png(dynamic)
+            if len(shown) > PICTURES_KEPT:
+                shown.popitem(last=False)
         except Exception:
             state["failed"] = True
             with messages:              # in a kernel, the Output widget shows the traceback and swallows it

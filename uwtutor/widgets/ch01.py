@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -10,7 +11,7 @@ import numpy as np
 
 from .. import acoustics, motion, ranging
 from .._validate import as_finite, as_int, as_nonnegative, as_positive
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
     "SoundSpeedView",
@@ -99,21 +100,42 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked."""
     fig = fig or plt.figure(figsize=(7.0, 3.2))
     ax_t, ax_d = fig.subplots(1, 2)
-    ax_t.plot(view.temperatures, view.speed_vs_temperature)
-    ax_t.plot([view.temperature], [view.speed], "o", color="C3")
+    (curve_t,) = ax_t.plot(view.temperatures, view.speed_vs_temperature)
+    (point_t,) = ax_t.plot([view.temperature], [view.speed], "o", color="C3")
     ax_t.set_xlabel("temperature [°C]")
     ax_t.set_ylabel("sound speed [m/s]")
-    ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
-    ax_d.plot(view.speed_vs_depth, view.depths)
-    ax_d.plot([view.speed], [view.depth], "o", color="C3")
+    ax_t.set_title(" ", fontsize=9)
+    (curve_d,) = ax_d.plot(view.speed_vs_depth, view.depths)
+    (point_d,) = ax_d.plot([view.speed], [view.depth], "o", color="C3")
     ax_d.invert_yaxis()
     ax_d.set_xlabel("sound speed [m/s]")
     ax_d.set_ylabel("depth [m]")
-    ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
-    fig.suptitle(f"c = {view.speed:.2f} m/s;  assuming 1500 m/s costs {view.range_error_per_km:+.1f} m per km",
-                 fontsize=10)
+    ax_d.set_title(" ", fontsize=9)
+    title = fig.suptitle(" ", fontsize=10)
+    keep(fig, curve_t=curve_t, point_t=point_t, curve_d=curve_d, point_d=point_d, title=title)
+    _sound_speed_texts(view, fig)
     fig.tight_layout()
     return fig
+
+
+def _sound_speed_texts(view: SoundSpeedView, fig: Any) -> list[Any]:
+    ax_t, ax_d = fig.axes[:2]
+    ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
+    ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
+    title = kept(fig)["title"]
+    title.set_text(f"c = {view.speed:.2f} m/s;  assuming 1500 m/s costs {view.range_error_per_km:+.1f} m per km")
+    return [ax_t.title, ax_d.title, title]
+
+
+def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any]:
+    """Put another :class:`SoundSpeedView` into a figure drawn by ``plot_sound_speed_view``; returns what changed."""
+    a = kept(fig)
+    a["curve_t"].set_data(view.temperatures, view.speed_vs_temperature)
+    a["point_t"].set_data([view.temperature], [view.speed])
+    a["curve_d"].set_data(view.speed_vs_depth, view.depths)
+    a["point_d"].set_data([view.speed], [view.depth])
+    rescale(*fig.axes[:2])
+    return [a["curve_t"], a["point_t"], a["curve_d"], a["point_d"], *_sound_speed_texts(view, fig)]
 
 
 def sound_speed_widget() -> Any:
@@ -129,7 +151,9 @@ def sound_speed_widget() -> Any:
         "depth": w.FloatSlider(value=1000.0, min=0.0, max=6000.0, step=100.0, description="D [m]",
                                continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_sound_speed_view(sound_speed_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(sound_speed_view)
+    return slider_panel(sliders, lambda fig, **p: plot_sound_speed_view(view(**p), fig),
+                        lambda fig, **p: update_sound_speed_view(fig, view(**p)))
 
 
 # --- Chapter 1: range error models ----------------------------------------------------------------------------------
@@ -184,17 +208,28 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
     """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range."""
     fig = fig or plt.figure(figsize=(7.0, 3.4))
     ax_t, ax_r = fig.subplots(1, 2)
+    lines = {}
     for name, err in view.errors.items():
         if name != "total":
-            ax_t.plot(view.times, err, label=name, lw=1)
+            (lines[name],) = ax_t.plot(view.times, err, label=name, lw=1)
     ax_t.set_xlabel("time [s]")
     ax_t.set_ylabel("range error [m]")
-    ax_r.plot(view.true_ranges, view.errors["total"], ".", ms=3, color="C4")
+    (total,) = ax_r.plot(view.true_ranges, view.errors["total"], ".", ms=3, color="C4")
     ax_r.set_xlabel("true range [m]")
     ax_r.set_ylabel("total error [m]")
     fig.legend(loc="lower center", ncol=4, fontsize=8)
     fig.tight_layout(rect=(0.0, 0.08, 1.0, 1.0))
-    return fig
+    return keep(fig, lines=lines, total=total)
+
+
+def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any]:
+    """Put another :class:`RangeErrorView` into a figure drawn by ``plot_range_error_view``; returns what changed."""
+    a = kept(fig)
+    for name, line in a["lines"].items():
+        line.set_data(view.times, view.errors[name])
+    a["total"].set_data(view.true_ranges, view.errors["total"])
+    rescale(*fig.axes[:2])
+    return [*a["lines"].values(), a["total"]]
 
 
 def range_error_widget() -> Any:
@@ -214,7 +249,9 @@ def range_error_widget() -> Any:
         "outlier_amplitude": w.FloatSlider(value=80.0, min=0.0, max=200.0, step=5.0,
                                            description="outlier size [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_range_error_view(range_error_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(range_error_view)
+    return slider_panel(sliders, lambda fig, **p: plot_range_error_view(view(**p), fig),
+                        lambda fig, **p: update_range_error_view(fig, view(**p)))
 
 
 #: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).

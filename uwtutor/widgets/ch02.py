@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -12,7 +13,7 @@ import numpy as np
 from .. import motion, observability
 from .._validate import as_finite, as_positive
 from ..plotting import mark_beacon, plot_track
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
     "TRACK_CHOICES",
@@ -174,14 +175,13 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     mark_beacon(ax_map, view.beacon)
     plot_track(ax_map, view.positions, label="true track", color="black", lw=1.2)
     plot_track(ax_map, view.mirror_positions, label="mirror track", color="C3", lw=1.0, ls="--")
+    tracks = ax_map.lines[-2:]
     drawn = False
-    for k in range(_ELLIPSE_EVERY, len(view.times), _ELLIPSE_EVERY):
-        C = view.crlb[k]
-        if np.all(np.isfinite(C)):
-            pts = observability.error_ellipse(C, view.positions[k], scale=ELLIPSE_SCALE)
-            ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
-                        label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")
-            drawn = True
+    ellipses = []
+    for _k, pts in _ellipses(view):
+        ellipses.append(ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
+                                    label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")[0])
+        drawn = True
     if not drawn:
         ax_map.plot([], [], color=colors[view.state], label=f"{view.state}: no finite bound")
     # frame the tracks, not the ellipses (an early ellipse can be kilometres long)
@@ -200,9 +200,9 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
 
     t_min = view.times / 60.0
     floor = 0.1
-    ax_mis.semilogy(t_min, np.maximum(np.abs(view.mirror_misfit), floor), color="C3",
-                    label="|mirror − true range| (0 drawn at 0.1)")
-    ax_mis.axhline(view.sigma, color="gray", ls=":", label=f"range noise σ = {view.sigma:g} m")
+    (misfit,) = ax_mis.semilogy(t_min, np.maximum(np.abs(view.mirror_misfit), floor), color="C3",
+                                label="|mirror − true range| (0 drawn at 0.1)")
+    noise = ax_mis.axhline(view.sigma, color="gray", ls=":", label=f"range noise σ = {view.sigma:g} m")
     ax_mis.set_ylim(floor / 1.5, 1e4)
     ax_mis.tick_params(labelbottom=False)
     ax_mis.set_ylabel("misfit [m]", fontsize=8)
@@ -211,8 +211,9 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_mis.tick_params(labelsize=7)
     ax_mis.minorticks_off()             # hundreds of minor log ticks would slow every redraw
 
+    ranks = []
     for i, (name, r) in enumerate(view.ranks.items()):
-        ax_rank.step(t_min, r + 0.06 * (i - 1), where="post", color=colors[name],
+        ranks += ax_rank.step(t_min, r + 0.06 * (i - 1), where="post", color=colors[name],
                      label=f"{name} (full: {view.n_states[name]})")
     ax_rank.set_yticks(range(0, 5))
     ax_rank.set_ylim(0.5, 4.5)
@@ -221,10 +222,10 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_rank.legend(loc="lower right", fontsize=6.5, ncol=1)
     ax_rank.tick_params(labelsize=7)
 
-    finals = []
+    finals, bounds = [], []
     for name, e in view.rmse.items():
         shown = np.where(np.isfinite(e), e, np.nan)
-        ax_rmse.semilogy(t_min, shown, color=colors[name], label=name)
+        bounds += ax_rmse.semilogy(t_min, shown, color=colors[name], label=name)
         finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
     ax_rmse.set_xlabel("time [min]", fontsize=8)
     ax_rmse.set_ylabel("RMSE bound [m]", fontsize=8)
@@ -232,7 +233,58 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_rmse.legend(loc="upper right", fontsize=6.5)
     ax_rmse.tick_params(labelsize=7)
     ax_rmse.minorticks_off()
-    return fig
+    return keep(fig, tracks=tracks, ellipses=ellipses, state=view.state, misfit=misfit, noise=noise, ranks=ranks,
+                bounds=bounds)
+
+
+def _ellipses(view: ObservabilityView) -> list[tuple[int, np.ndarray]]:
+    """The CRLB ellipses the map shows: (epoch, points) every ``_ELLIPSE_EVERY`` epochs where the bound is finite."""
+    out = []
+    for k in range(_ELLIPSE_EVERY, len(view.times), _ELLIPSE_EVERY):
+        C = view.crlb[k]
+        if np.all(np.isfinite(C)):
+            out.append((k, observability.error_ellipse(C, view.positions[k], scale=ELLIPSE_SCALE)))
+    return out
+
+
+def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | None:
+    """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed,
+    or ``None`` when it must be drawn anew (other unknowns, or another number of finite ellipses)."""
+    a = kept(fig)
+    ellipses = _ellipses(view)
+    if view.state != a["state"] or len(ellipses) != len(a["ellipses"]) or not ellipses:
+        return None
+    ax_map, ax_mis, ax_rank, ax_rmse = fig.axes[:4]
+    a["tracks"][0].set_data(*view.positions.T)
+    a["tracks"][1].set_data(*view.mirror_positions.T)
+    for line, (_, pts) in zip(a["ellipses"], ellipses):
+        line.set_data(pts[:, 0], pts[:, 1])
+    pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
+    (x0, x1), (y0, y1) = ax_map.get_xlim(), ax_map.get_ylim()
+    if not (x0 <= lo[0] and hi[0] <= x1 and y0 <= lo[1] and hi[1] <= y1 and 2 * half >= 0.6 * (x1 - x0)):
+        half *= 1.15                    # the frame changes: with room for the next step of the same control
+        ax_map.set_xlim(center[0] - half, center[0] + half)
+        ax_map.set_ylim(center[1] - half, center[1] + half)
+    title = view.track + (f", turn {view.turn_angle_deg:+.0f}°" if view.track == "straight + turn" else "")
+    ax_map.set_title(title, fontsize=9)
+    t_min = view.times / 60.0
+    a["misfit"].set_ydata(np.maximum(np.abs(view.mirror_misfit), 0.1))
+    a["noise"].set_ydata([view.sigma, view.sigma])
+    legend = ax_mis.get_legend()
+    legend.get_texts()[1].set_text(f"range noise σ = {view.sigma:g} m")
+    ax_mis.set_title(f"mirror track: ranges off by {abs(view.mirror_misfit[-1]):.0f} m at the end", fontsize=8)
+    for i, (line, r) in enumerate(zip(a["ranks"], view.ranks.values())):
+        line.set_data(t_min, r + 0.06 * (i - 1))
+    finals = []
+    for line, e in zip(a["bounds"], view.rmse.values()):
+        line.set_data(t_min, np.where(np.isfinite(e), e, np.nan))
+        finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
+    ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
+    rescale(ax_rmse)
+    return [*a["tracks"], *a["ellipses"], ax_map.title, a["misfit"], a["noise"], legend, ax_mis.title, *a["ranks"],
+            *a["bounds"], ax_rmse.title]
 
 
 def observability_widget() -> Any:
@@ -250,7 +302,9 @@ def observability_widget() -> Any:
         "state": w.Dropdown(options=list(STATE_CHOICES), value="position", description="ellipses of",
                             style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_observability_view(observability_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(observability_view)
+    return slider_panel(sliders, lambda fig, **p: plot_observability_view(view(**p), fig),
+                        lambda fig, **p: update_observability_view(fig, view(**p)))
 
 
 #: This chapter's widget computations at their default parameters (collected by ``uwtutor.widgets``).

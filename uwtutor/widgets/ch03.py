@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -12,7 +13,7 @@ import numpy as np
 from .. import lsq, observability, scenarios
 from .._validate import as_finite, as_int, as_positive
 from ..plotting import mark_beacon
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
     "PrecisionView",
@@ -156,18 +157,19 @@ def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
     ax_a, ax_e = fig.subplots(1, 2)
     k = np.arange(1, view.n_obs + 1)
     finite = np.isfinite(view.alpha_history)
-    ax_a.semilogy(k[finite], view.alpha_history[finite], color="C0")
+    (alpha,) = ax_a.semilogy(k[finite], view.alpha_history[finite], color="C0")
     ax_a.axhline(2.0, color="C3", ls="--", lw=1, label="α = 2 (paper A)")
     ax_a.axhline(1.0, color="gray", ls=":", lw=1, label="α = 1")
     ax_a.set_xlabel("number of ranges")
     ax_a.set_ylabel("precision factor α")
     ax_a.legend(loc="upper right", fontsize=8)
-    ax_a.set_title(f"{view.n_obs} ranges over {view.turn_deg:.0f}° of bearing", fontsize=9)
+    fixes = ellipse = None
     if np.all(np.isfinite(view.errors)):
-        ax_e.plot(view.errors[:, 0], view.errors[:, 1], ".", ms=3, color="C0", alpha=0.6, label="LS fixes")
+        (fixes,) = ax_e.plot(view.errors[:, 0], view.errors[:, 1], ".", ms=3, color="C0", alpha=0.6,
+                             label="LS fixes")
         if np.all(np.isfinite(view.position_covariance)):
             ell = covariance_ellipse(view.position_covariance, 2.0)
-            ax_e.plot(ell[:, 0], ell[:, 1], color="C3", lw=1.2, label="2σ from (AᵀA)⁻¹")
+            (ellipse,) = ax_e.plot(ell[:, 0], ell[:, 1], color="C3", lw=1.2, label="2σ from (AᵀA)⁻¹")
         ax_e.set_aspect("equal", adjustable="datalim")
         ax_e.legend(loc="upper right", fontsize=8)
     else:
@@ -176,11 +178,41 @@ def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
     ax_e.axvline(0.0, color="gray", lw=0.5)
     ax_e.set_xlabel("east error [m]")
     ax_e.set_ylabel("north error [m]")
+    _precision_titles(view, ax_a, ax_e)
+    fig.tight_layout()
+    return keep(fig, alpha=alpha, fixes=fixes, ellipse=ellipse)
+
+
+def _precision_titles(view: PrecisionView, ax_a: Any, ax_e: Any) -> list[Any]:
+    ax_a.set_title(f"{view.n_obs} ranges over {view.turn_deg:.0f}° of bearing", fontsize=9)
     flag = "" if view.well_conditioned else ", ill-conditioned"
     ax_e.set_title(f"α = {view.alpha:.3g}, κ = {view.condition_number:.3g}{flag}\n"
                    f"RMS error {view.rmse:.3g} m (predicted {view.predicted_rmse:.3g} m)", fontsize=9)
-    fig.tight_layout()
-    return fig
+    return [ax_a.title, ax_e.title]
+
+
+def update_precision_view(fig: Any, view: PrecisionView) -> list[Any] | None:
+    """Put another ``PrecisionView`` into a figure drawn by ``plot_precision_view``; returns what changed, or
+    ``None`` when the figure must be drawn anew (a fix or its ellipse appears or disappears)."""
+    a = kept(fig)
+    has_fixes = bool(np.all(np.isfinite(view.errors)))
+    has_ellipse = has_fixes and bool(np.all(np.isfinite(view.position_covariance)))
+    if (a["fixes"] is not None) != has_fixes or (a["ellipse"] is not None) != has_ellipse:
+        return None
+    ax_a, ax_e = fig.axes[:2]
+    k = np.arange(1, view.n_obs + 1)
+    finite = np.isfinite(view.alpha_history)
+    a["alpha"].set_data(k[finite], view.alpha_history[finite])
+    changed = [a["alpha"]]
+    if has_fixes:
+        a["fixes"].set_data(view.errors[:, 0], view.errors[:, 1])
+        changed.append(a["fixes"])
+    if has_ellipse:
+        ell = covariance_ellipse(view.position_covariance, 2.0)
+        a["ellipse"].set_data(ell[:, 0], ell[:, 1])
+        changed.append(a["ellipse"])
+    rescale(ax_a, ax_e)
+    return changed + _precision_titles(view, ax_a, ax_e)
 
 
 def precision_widget() -> Any:
@@ -196,7 +228,9 @@ def precision_widget() -> Any:
         "noise_sigma": w.FloatSlider(value=float(np.sqrt(5.0)), min=0.5, max=10.0, step=0.1,
                                      description="σ [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_precision_view(precision_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(precision_view)
+    return slider_panel(sliders, lambda fig, **p: plot_precision_view(view(**p), fig),
+                        lambda fig, **p: update_precision_view(fig, view(**p)))
 
 
 # --- paper D's pre-location cost map ------------------------------------------------------------------------------
@@ -348,20 +382,21 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
                      vmin=float(np.min(finite)), vmax=float(np.percentile(finite, 60)))
     ax_c.grid(False)
     fig.colorbar(im, ax=ax_c, label="log₁₀ L [s²]", fraction=0.05, pad=0.02)
-    ax_c.plot(*view.truth, "o", mfc="none", mec="white", ms=9, label="truth")
-    ax_c.plot(*view.best, "x", color="C3", ms=8, mew=2, label="minimum")
+    (truth,) = ax_c.plot(*view.truth, "o", mfc="none", mec="white", ms=9, label="truth")
+    (best,) = ax_c.plot(*view.best, "x", color="C3", ms=8, mew=2, label="minimum")
+    runner = runner_track = None
     if view.runner_up is not None:
-        ax_c.plot(*view.runner_up, "+", color="C1", ms=9, mew=2, label="runner-up")
+        (runner,) = ax_c.plot(*view.runner_up, "+", color="C1", ms=9, mew=2, label="runner-up")
     ax_c.set_xlim(view.truth[0] - 60.0, view.truth[0] + 60.0)        # the whole circle is searched; zoom in
     ax_c.set_xlabel("start bearing θ [°] (zoomed)")
     ax_c.set_ylabel("effective speed c − Δc [m/s]")
     ax_c.legend(loc="lower left", fontsize=7, framealpha=0.7, frameon=True)
     ax_c.set_title(f"cost after {view.epoch + 1} epochs (t = {view.time:.0f} s)", fontsize=9)
     ax_t.plot(*view.true_track.T, color="black", lw=1, label="true track")
-    ax_t.plot(*view.estimated_track.T, color="C3", lw=1.2, label="pre-located")
+    (track,) = ax_t.plot(*view.estimated_track.T, color="C3", lw=1.2, label="pre-located")
     if view.runner_up_track is not None:
-        ax_t.plot(*view.runner_up_track.T, color="C1", lw=1, ls="--", label="runner-up")
-    ax_t.plot(*view.true_track[view.epoch], "o", color="black", ms=4)
+        (runner_track,) = ax_t.plot(*view.runner_up_track.T, color="C1", lw=1, ls="--", label="runner-up")
+    (now,) = ax_t.plot(*view.true_track[view.epoch], "o", color="black", ms=4)
     mark_beacon(ax_t)
     ax_t.set_aspect("equal", adjustable="datalim")
     ax_t.set_xlabel("x east [m]")
@@ -369,7 +404,41 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
     ax_t.legend(loc="upper left", fontsize=7)
     ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
     fig.tight_layout()
-    return fig
+    return keep(fig, image=im, best=best, runner=runner, track=track, runner_track=runner_track, now=now)
+
+
+def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None:
+    """Put another ``PrelocationView`` into a figure drawn by ``plot_prelocation_view``; returns what changed, or
+    ``None`` when it must be drawn anew (a runner-up appearing or disappearing)."""
+    a = kept(fig)
+    db, dc = view.bearing_step_deg, view.speed_step
+    if (a["runner"] is None) != (view.runner_up is None) or \
+            (a["runner_track"] is None) != (view.runner_up_track is None):
+        return None
+    ax_c, ax_t = fig.axes[:2]
+    finite = view.log_cost[np.isfinite(view.log_cost)]
+    a["image"].set_data(view.log_cost[:, ::-1].T)
+    a["image"].set_extent((view.bearings_deg[0] - db / 2, view.bearings_deg[-1] + db / 2,
+                           view.speeds[-1] - dc / 2, view.speeds[0] + dc / 2))
+    ax_c.set_xlim(view.truth[0] - 60.0, view.truth[0] + 60.0)          # set_extent fits the limits to the image
+    ax_c.set_ylim(view.speeds[-1] - dc / 2, view.speeds[0] + dc / 2)
+    # the colour scale (and its bar) kept while the new one is within a tenth of its span
+    low, high = float(np.min(finite)), float(np.percentile(finite, 60))
+    now_low, now_high = a["image"].get_clim()
+    if max(abs(low - now_low), abs(high - now_high)) > 0.1 * (now_high - now_low):
+        a["image"].set_clim(low, high)
+    a["best"].set_data([view.best[0]], [view.best[1]])
+    a["track"].set_data(*view.estimated_track.T)
+    a["now"].set_data([view.true_track[view.epoch][0]], [view.true_track[view.epoch][1]])
+    changed = [a["image"], a["best"], a["track"], a["now"]]
+    if view.runner_up is not None:
+        a["runner"].set_data([view.runner_up[0]], [view.runner_up[1]])
+        a["runner_track"].set_data(*view.runner_up_track.T)
+        changed += [a["runner"], a["runner_track"]]
+    ax_c.set_title(f"cost after {view.epoch + 1} epochs (t = {view.time:.0f} s)", fontsize=9)
+    ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
+    rescale(ax_t)
+    return changed + [ax_c.title, ax_t.title]
 
 
 def prelocation_widget() -> Any:
@@ -385,7 +454,9 @@ def prelocation_widget() -> Any:
         "epoch": w.IntSlider(value=60, min=5, max=150, step=1, description="epochs used",
                              continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_prelocation_view(prelocation_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(prelocation_view)
+    return slider_panel(sliders, lambda fig, **p: plot_prelocation_view(view(**p), fig),
+                        lambda fig, **p: update_prelocation_view(fig, view(**p)))
 
 
 #: Zero-argument callables running each chapter-3 widget's computation at its defaults (for ``make bench``).

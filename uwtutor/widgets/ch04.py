@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -13,7 +14,7 @@ from .._validate import as_finite, as_int, as_positive
 from ..filters import range_only_ekf
 from ..montecarlo import run_monte_carlo
 from ..plotting import mark_beacon, plain_log_ticks
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
     "EKFView",
@@ -145,8 +146,7 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     ax_m = fig.add_subplot(grid[:, 0])
     ax_r = fig.add_subplot(grid[0, 1])
     ax_n = fig.add_subplot(grid[1, 1], sharex=ax_r)
-    for est in view.estimates:
-        ax_m.plot(*est.T, color="C0", lw=0.6, alpha=0.7)
+    runs = [ax_m.plot(*est.T, color="C0", lw=0.6, alpha=0.7)[0] for est in view.estimates]
     ax_m.plot(*view.truth.T, color="black", lw=1.4, label="truth")
     ax_m.plot([], [], color="C0", lw=0.8, label="EKF runs")
     mark_beacon(ax_m)
@@ -154,23 +154,45 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     ax_m.set_xlabel("x east [m]")
     ax_m.set_ylabel("y north [m]")
     ax_m.legend(loc="upper left", fontsize=7)
-    ax_r.semilogy(view.times, view.rmse, color="C0")
+    (rmse,) = ax_r.semilogy(view.times, view.rmse, color="C0")
     ax_r.set_ylabel("RMSE [m]")
     plain_log_ticks(ax_r)
-    ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:g}, R×{view.r_scale:g}, "
-                   f"bias {view.bias:g} m; {view.n_runs} runs", fontsize=9)
     lo, hi = view.nees_bounds
-    ax_n.semilogy(view.times, view.mean_nees, color="C3", label="mean NEES")
+    (nees,) = ax_n.semilogy(view.times, view.mean_nees, color="C3", label="mean NEES")
     ax_n.axhspan(lo, hi, color="C2", alpha=0.25, label="95 % bounds")
     ax_n.axhline(2.0, color="gray", lw=0.6)
     ax_n.set_xlabel("time [s]")
     ax_n.set_ylabel("NEES")
     plain_log_ticks(ax_n)
     ax_n.legend(loc="upper right", fontsize=7)
-    ax_n.text(0.01, 0.04, f"{100 * view.nees_fraction_within:.0f} % of epochs inside", transform=ax_n.transAxes,
-              fontsize=8)
+    inside = ax_n.text(0.01, 0.04, " ", transform=ax_n.transAxes, fontsize=8)
+    keep(fig, runs=runs, rmse=rmse, nees=nees, inside=inside, bounds=(lo, hi))
+    _ekf_texts(view, fig)
     fig.tight_layout()
     return fig
+
+
+def _ekf_texts(view: EKFView, fig: Any) -> list[Any]:
+    ax_r = fig.axes[1]
+    # rounded as the sliders show them (three significant digits on the log sliders)
+    ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:.3g}, R×{view.r_scale:.3g}, "
+                   f"bias {view.bias:g} m; {view.n_runs} runs", fontsize=9)
+    inside = kept(fig)["inside"]
+    inside.set_text(f"{100 * view.nees_fraction_within:.0f} % of epochs inside")
+    return [ax_r.title, inside]
+
+
+def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
+    """Put another ``EKFView`` into a figure drawn by ``plot_ekf_view``; returns what changed (``None``: draw anew)."""
+    a = kept(fig)
+    if len(a["runs"]) != len(view.estimates) or a["bounds"] != tuple(view.nees_bounds):
+        return None
+    for line, est in zip(a["runs"], view.estimates):
+        line.set_data(*est.T)
+    a["rmse"].set_data(view.times, view.rmse)
+    a["nees"].set_data(view.times, view.mean_nees)
+    rescale(*fig.axes[:3])
+    return [*a["runs"], a["rmse"], a["nees"], *_ekf_texts(view, fig)]
 
 
 def ekf_widget() -> Any:
@@ -188,7 +210,9 @@ def ekf_widget() -> Any:
         "bias": w.FloatSlider(value=0.0, min=-30.0, max=30.0, step=1.0, description="range bias [m]",
                               continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_ekf_view(ekf_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(ekf_view)
+    return slider_panel(sliders, lambda fig, **p: plot_ekf_view(view(**p), fig),
+                        lambda fig, **p: update_ekf_view(fig, view(**p)))
 
 
 #: Zero-argument callables running the chapter-4 widget's computation at its defaults (for ``make bench``).

@@ -3,6 +3,7 @@ weakening factor on or off, initial error) against the additive-noise EKF."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -14,7 +15,7 @@ from .._validate import as_finite, as_int
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf
 from ..plotting import mark_beacon, plot_track
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
     "PAPER_D",
@@ -179,26 +180,54 @@ def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     plot_track(ax_map, view.truth, label="truth", color="black", lw=1.2)
     plot_track(ax_map, view.x_ekf, label="EKF (additive)", color="C0", lw=1)
     plot_track(ax_map, view.x_fading, label=name, color="C3", lw=1)
+    tracks = ax_map.lines[2:6]                      # the two estimates and their start dots
     mark_beacon(ax_map, (0.0, 0.0))
     ax_map.set_aspect("equal", adjustable="datalim")
     ax_map.legend(loc="upper left", fontsize=7)
     ax_map.set_title("run 0", fontsize=9)
     t = view.times
-    ax_err.semilogy(t, view.rmse_ekf, color="C0", label="EKF, RMS")
-    ax_err.semilogy(t, view.median_ekf, color="C0", ls="--", label="EKF, median")
-    ax_err.semilogy(t, view.rmse_fading, color="C3", label=f"{name}, RMS")
-    ax_err.semilogy(t, view.median_fading, color="C3", ls="--", label=f"{name}, median")
+    errors = [ax_err.semilogy(t, view.rmse_ekf, color="C0", label="EKF, RMS")[0],
+              ax_err.semilogy(t, view.median_ekf, color="C0", ls="--", label="EKF, median")[0],
+              ax_err.semilogy(t, view.rmse_fading, color="C3", label=f"{name}, RMS")[0],
+              ax_err.semilogy(t, view.median_fading, color="C3", ls="--", label=f"{name}, median")[0]]
     ax_err.set_ylabel("position error [m]")
-    ax_err.set_title(f"{view.n_runs} runs; steady RMS {view.steady_rmse['fading']:.1f} m "
-                     f"(EKF {view.steady_rmse['ekf']:.1f} m)", fontsize=8)
     ax_err.legend(fontsize=7, ncol=2, loc="upper right")
-    ax_lam.semilogy(t, view.fading_factor, ".", ms=3, color="C3")
+    (factor,) = ax_lam.semilogy(t, view.fading_factor, ".", ms=3, color="C3")
     ax_lam.set_ylim(0.8, None)
     ax_lam.set_xlabel("time [s]")
     ax_lam.set_ylabel("fading factor λ (run 0)")
-    ax_lam.set_title(f"λ > 1 in {100 * view.fraction_faded:.1f} % of all steps", fontsize=8)
+    _fading_titles(view, ax_err, ax_lam)
     fig.tight_layout()
-    return fig
+    return keep(fig, tracks=tracks, errors=errors, factor=factor, weakening=view.weakening)
+
+
+def _fading_titles(view: FadingView, ax_err: Any, ax_lam: Any) -> list[Any]:
+    ax_err.set_title(f"{view.n_runs} runs; steady RMS {view.steady_rmse['fading']:.1f} m "
+                     f"(EKF {view.steady_rmse['ekf']:.1f} m)", fontsize=8)
+    ax_lam.set_title(f"λ > 1 in {100 * view.fraction_faded:.1f} % of all steps", fontsize=8)
+    return [ax_err.title, ax_lam.title]
+
+
+def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
+    """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (``None`` when
+    the weakening factor is switched: the labels change, the figure is drawn anew)."""
+    a = kept(fig)
+    if a["weakening"] != view.weakening:
+        return None
+    ax_map, ax_err, ax_lam = fig.axes[:3]
+    ekf, ekf0, fading, fading0 = a["tracks"]
+    ekf.set_data(*view.x_ekf[:, :2].T)
+    ekf0.set_data([view.x_ekf[0, 0]], [view.x_ekf[0, 1]])
+    fading.set_data(*view.x_fading[:, :2].T)
+    fading0.set_data([view.x_fading[0, 0]], [view.x_fading[0, 1]])
+    for line, y in zip(a["errors"], (view.rmse_ekf, view.median_ekf, view.rmse_fading, view.median_fading)):
+        line.set_ydata(y)
+    a["factor"].set_ydata(view.fading_factor)
+    rescale(ax_map, ax_err)
+    ax_lam.relim()
+    ax_lam.autoscale_view()
+    ax_lam.set_ylim(0.8, None)
+    return [*a["tracks"], *a["errors"], a["factor"], *_fading_titles(view, ax_err, ax_lam)]
 
 
 def fading_widget() -> Any:
@@ -215,7 +244,9 @@ def fading_widget() -> Any:
         "initial_error": w.FloatLogSlider(value=150.0, base=10, min=1.0, max=3.0, step=0.1,
                                           description="initial error [m]", continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_fading_view(fading_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(fading_view)
+    return slider_panel(sliders, lambda fig, **p: plot_fading_view(view(**p), fig),
+                        lambda fig, **p: update_fading_view(fig, view(**p)))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).

@@ -9,6 +9,7 @@ chapter's widget (a shorter profile, fewer particles).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -22,7 +23,7 @@ from ..pipelines.depth_study import DepthStudy, run_depth_study  # noqa: F401 (c
 from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,  # noqa: F401
                                  simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [                   # the paper's content above is documented in uwtutor.scenarios.paper_c
     "GPFView",
@@ -74,6 +75,20 @@ class GPFView:
     n_grey: int
 
 
+@functools.lru_cache(maxsize=32)
+def _dive_and_ekf(factor: float, seed: int) -> tuple[DepthProfile, np.ndarray, Any]:
+    """The dive, its sensor readings and the EKF's run on them: what ``gpf_view`` computes that does not depend on
+    the GPF's settings (kept for the widget's next setting; never modified)."""
+    profile = maneuvering_depth_profile(noise_factors=(1.0, factor), noise_change_times=(13.0,)).between(6.0, 18.0)
+    rng = np.random.default_rng(seed)
+    z = simulate_depth_sensors(profile, 1, rng)[0]
+    R = np.diag(PAPER_C["sensor_std"] ** 2)
+    q = PAPER_C["process_std"]
+    motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
+    ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
+    return profile, z, ekf
+
+
 def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: int = 50, noise_change: float = 3.0,
              seed: int = 1) -> GPFView:
     """Run the EKF and the GPF on 12 s of the dive whose sensor noise changes by ``noise_change`` at 13 s.
@@ -103,13 +118,10 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     N = as_int("n_particles", n_particles, minimum=10)
     factor = float(as_positive("noise_change", noise_change))
     seed = as_int("seed", seed, minimum=0)
-    profile = maneuvering_depth_profile(noise_factors=(1.0, factor), noise_change_times=(13.0,)).between(6.0, 18.0)
-    rng = np.random.default_rng(seed)
-    z = simulate_depth_sensors(profile, 1, rng)[0]
+    profile, z, ekf = _dive_and_ekf(factor, seed)
     R = np.diag(PAPER_C["sensor_std"] ** 2)
     q = PAPER_C["process_std"]
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
-    ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
     gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
                                            grey_fraction=grey_fraction, noise_window=noise_window,
                                            grey_offset=[0.0, 0.0, _PITCH_OFFSET]).run(z)
@@ -127,36 +139,62 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
     ax = fig.subplots(2, 2)
     t = view.times
     a = ax[0, 0]
-    a.plot(t, np.degrees(view.measurements[:, 2]), ".", ms=1.5, color="0.7", label="pitch sensor")
+    (readings,) = a.plot(t, np.degrees(view.measurements[:, 2]), ".", ms=1.5, color="0.7", label="pitch sensor")
     a.plot(t, np.degrees(view.truth[:, 2]), color="black", lw=1, label="truth")
-    for name, color in (("EKF", "C3"), ("GPF", "C2")):
-        a.plot(t, np.degrees(view.estimates[name][:, 2]), color=color, lw=1, label=name)
+    pitch = {name: a.plot(t, np.degrees(view.estimates[name][:, 2]), color=color, lw=1, label=name)[0]
+             for name, color in (("EKF", "C3"), ("GPF", "C2"))}
     a.set_xlabel("time [s]")
     a.set_ylabel("pitch [°]")
     a.legend(fontsize=7, loc="lower right")
     a = ax[0, 1]
-    a.plot(t, view.true_noise_std[:, 0], color="black", lw=1, label="true σ (depth)")
-    a.plot(t, view.noise_std[:, 0], color="C2", lw=1, label="wavelet estimate")
+    (true_noise,) = a.plot(t, view.true_noise_std[:, 0], color="black", lw=1, label="true σ (depth)")
+    (noise,) = a.plot(t, view.noise_std[:, 0], color="C2", lw=1, label="wavelet estimate")
     a.set_xlabel("time [s]")
     a.set_ylabel("depth noise σ [m]")
     a.legend(fontsize=7)
     a = ax[1, 0]
-    a.plot(t, view.ess, color="C2", lw=1)
+    (ess,) = a.plot(t, view.ess, color="C2", lw=1)
     a.set_ylim(0, view.n_particles * 1.05)
     a.set_xlabel("time [s]")
     a.set_ylabel("ESS of the GPF")
     a.set_title(f"N = {view.n_particles}, {view.n_grey} grey", fontsize=9)
     a = ax[1, 1]
     labels = ["depth [cm]", "speed [cm/s]", "pitch [0.1°]"]
-    scale = np.array([100.0, 100.0, 10 * 180 / np.pi])
     pos = np.arange(3)
-    for i, (name, color) in enumerate((("EKF", "C3"), ("GPF", "C2"))):
-        a.bar(pos + (i - 0.5) * 0.38, view.rmse[name] * scale, width=0.38, color=color, label=name)
+    bars = {name: a.bar(pos + (i - 0.5) * 0.38, view.rmse[name] * _RMSE_SCALE, width=0.38, color=color, label=name)
+            for i, (name, color) in enumerate((("EKF", "C3"), ("GPF", "C2")))}
     a.set_xticks(pos, labels, fontsize=8)
     a.set_ylabel("RMSE")
     a.legend(fontsize=7)
     fig.tight_layout()
-    return fig
+    return keep(fig, readings=readings, pitch=pitch, true_noise=true_noise, noise=noise, ess=ess, bars=bars)
+
+
+#: The bars' units: cm, cm/s and tenths of a degree.
+_RMSE_SCALE = np.array([100.0, 100.0, 10 * 180 / np.pi])
+
+
+def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
+    """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed."""
+    a = kept(fig)
+    ax = fig.axes
+    a["readings"].set_ydata(np.degrees(view.measurements[:, 2]))
+    a["true_noise"].set_ydata(view.true_noise_std[:, 0])
+    for name, line in a["pitch"].items():
+        line.set_ydata(np.degrees(view.estimates[name][:, 2]))
+    a["noise"].set_ydata(view.noise_std[:, 0])
+    a["ess"].set_ydata(view.ess)
+    top = ax[2].get_ylim()[1]
+    if not 0.5 * top <= view.n_particles * 1.05 <= top:     # N outgrew the axis, or fills under half of it
+        ax[2].set_ylim(0, view.n_particles * 1.05 * (1.3 if view.n_particles * 1.05 > top else 1.0))
+    ax[2].set_title(f"N = {view.n_particles}, {view.n_grey} grey", fontsize=9)
+    changed = [a["readings"], *a["pitch"].values(), a["true_noise"], a["noise"], a["ess"], ax[2].title]
+    for name, bars in a["bars"].items():
+        for rect, height in zip(bars, view.rmse[name] * _RMSE_SCALE):
+            rect.set_height(height)
+            changed.append(rect)
+    rescale(ax[0], ax[1], ax[3])
+    return changed
 
 
 def gpf_widget() -> Any:
@@ -174,7 +212,9 @@ def gpf_widget() -> Any:
         "noise_change": w.FloatSlider(value=3.0, min=0.25, max=5.0, step=0.25, description="noise change ×",
                                       continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_gpf_view(gpf_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(gpf_view)
+    return slider_panel(sliders, lambda fig, **p: plot_gpf_view(view(**p), fig),
+                        lambda fig, **p: update_gpf_view(fig, view(**p)))
 
 
 #: Zero-argument callables running each widget's computation at its default parameters (timed by ``make bench``).

@@ -3,6 +3,7 @@ precision-factor threshold."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 from typing import Any, Callable
 
@@ -15,7 +16,7 @@ from ..pipelines import prepositioned_bias_ekf
 from ..models import paper_a_process_noise
 from ..plotting import mark_beacon, plain_log_ticks
 from ..scenarios import paper_a
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = ["BiasTrackingView", "bias_tracking_view", "plot_bias_tracking_view", "bias_tracking_widget",
            "COMPUTE_FUNCTIONS"]
@@ -70,6 +71,28 @@ class BiasTrackingView:
     n_runs: int
 
 
+@functools.lru_cache(maxsize=4)
+def _scenario(M: int, K: int, seed: int) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """Paper A's runs and the unit directions of the start errors: what ``bias_tracking_view`` draws that no slider
+    changes (kept for the widget's next setting; never modified)."""
+    rng = np.random.default_rng(seed)
+    params = replace(paper_a.PaperAParameters(), n_obs=K)
+    sc, bias = paper_a.make_with_truth(rng, M, params)
+    direction = rng.normal(size=(M, 2))
+    return params, sc, bias, direction / np.linalg.norm(direction, axis=1, keepdims=True)
+
+
+@functools.lru_cache(maxsize=64)
+def _from_the_start(rate: float, d0: float, M: int, K: int, seed: int) -> Any:
+    """The IEKF started at epoch 0 from the provisional start (no pre-positioning: the α threshold does not enter)."""
+    params, sc, _, direction = _scenario(M, K, seed)
+    t = np.asarray(sc.times)
+    z = np.asarray(sc.ranges) + rate * t
+    start = np.asarray(sc.true_positions[0])[0] + d0 * direction
+    return bias_ekf(np.column_stack([start, np.zeros(M)]), np.eye(3), sc.dr_displacements, z,
+                    paper_a_process_noise(params.dr_sigma), params.noise_variance, times=t)
+
+
 def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, max_alpha: float = 2.0,
                        n_runs: int = 30, n_obs: int = 2000, seed: int = 0) -> BiasTrackingView:
     r"""Run paper A's simulation (``scenarios.paper_a``) with a bias ramp, and its IEKF two ways.
@@ -105,19 +128,16 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     a_max = float(as_positive("max_alpha", max_alpha, ndim=0))
     M = as_int("n_runs", n_runs, minimum=2)
     K = as_int("n_obs", n_obs, minimum=600)
-    rng = np.random.default_rng(as_int("seed", seed))
-    params = replace(paper_a.PaperAParameters(), n_obs=K)
-    sc, bias = paper_a.make_with_truth(rng, M, params)
+    params, sc, bias, direction = _scenario(M, K, as_int("seed", seed))
     t = np.asarray(sc.times)
     z = np.asarray(sc.ranges) + rate * t
     true_bias = bias + rate * t
     truth = np.asarray(sc.true_positions[0])
-    direction = rng.normal(size=(M, 2))
-    start = truth[0] + d0 * direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    start = truth[0] + d0 * direction
     Q = paper_a_process_noise(params.dr_sigma)
     R = params.noise_variance
     pre = prepositioned_bias_ekf(z, sc.dr_displacements, start, Q, R, P0=np.eye(3), max_alpha=a_max, times=t)
-    plain = bias_ekf(np.column_stack([start, np.zeros(M)]), np.eye(3), sc.dr_displacements, z, Q, R, times=t)
+    plain = _from_the_start(rate, d0, M, K, int(seed))
     started = pre.extras["started"]
     k0 = np.where(started.any(axis=1), np.argmax(started, axis=1), K)
     sq = np.sum((pre.x[..., :2] - truth) ** 2, axis=-1)
@@ -141,31 +161,64 @@ def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
     ax_b = fig.add_subplot(grid[0, 1])
     ax_r = fig.add_subplot(grid[1, 1], sharex=ax_b)
     ax_m.plot(*view.truth.T, color="black", lw=1.0, label="truth")
-    ax_m.plot(*view.estimate[:, :2].T, color="C0", lw=0.8, label="IEKF, run 0")
+    (track,) = ax_m.plot(*view.estimate[:, :2].T, color="C0", lw=0.8, label="IEKF, run 0")
     k0 = int(view.start_epochs[0])
+    fix = None
     if k0 < len(view.times):
-        ax_m.plot(*view.estimate[k0, :2], "o", color="C3", ms=4, label="pre-positioning fix")
+        (fix,) = ax_m.plot(*view.estimate[k0, :2], "o", color="C3", ms=4, label="pre-positioning fix")
     mark_beacon(ax_m)
     ax_m.set_aspect("equal", adjustable="datalim")
     ax_m.set_xlabel("x east [m]")
     ax_m.set_ylabel("y north [m]")
     ax_m.legend(loc="upper left", fontsize=7)
     t, b, s = view.times, view.estimate[:, 2], view.bias_sigma
-    ax_b.plot(t, view.true_bias, color="black", lw=1.0, label="true bias")
-    ax_b.plot(t, b, color="C0", lw=0.8, label="estimate")
-    ax_b.fill_between(t, b - 2 * s, b + 2 * s, color="C0", alpha=0.25, lw=0, label="±2σ")
+    (true_bias,) = ax_b.plot(t, view.true_bias, color="black", lw=1.0, label="true bias")
+    (estimate,) = ax_b.plot(t, b, color="C0", lw=0.8, label="estimate")
+    band = ax_b.fill_between(t, b - 2 * s, b + 2 * s, color="C0", alpha=0.25, lw=0, label="±2σ")
     ax_b.set_ylabel("bias [m]")
     ax_b.legend(loc="lower right", fontsize=7, ncol=3)
-    ax_b.set_title(f"drift {view.drift_rate:g} m/s, start {view.initial_error:g} m off, α < {view.max_alpha:g}; "
-                   f"{view.n_runs} runs", fontsize=9)
-    ax_r.semilogy(t, view.rmse_unstarted, color="C1", lw=0.9, label="IEKF from the start, P₀ = I")
-    ax_r.semilogy(t, view.rmse, color="C0", lw=1.2, label="pre-positioning + IEKF")
+    _bias_tracking_title(view, ax_b)
+    (unstarted,) = ax_r.semilogy(t, view.rmse_unstarted, color="C1", lw=0.9, label="IEKF from the start, P₀ = I")
+    (rmse,) = ax_r.semilogy(t, view.rmse, color="C0", lw=1.2, label="pre-positioning + IEKF")
     ax_r.set_xlabel("time [s]")
     ax_r.set_ylabel("RMSE [m]")
     plain_log_ticks(ax_r)
     ax_r.legend(loc="upper right", fontsize=7)
     fig.tight_layout()
-    return fig
+    return keep(fig, track=track, fix=fix, true_bias=true_bias, estimate=estimate, band=band, unstarted=unstarted,
+                rmse=rmse)
+
+
+def _bias_tracking_title(view: BiasTrackingView, ax_b: Any) -> Any:
+    # the threshold rounded as its slider shows it (three significant digits)
+    ax_b.set_title(f"drift {view.drift_rate:.3f} m/s, start {view.initial_error:g} m off, α < {view.max_alpha:.3g}; "
+                   f"{view.n_runs} runs", fontsize=9)
+    return ax_b.title
+
+
+def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | None:
+    """Put another ``BiasTrackingView`` into a figure drawn by ``plot_bias_tracking_view``; returns what changed
+    (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears)."""
+    a = kept(fig)
+    k0 = int(view.start_epochs[0])
+    if (a["fix"] is None) != (k0 >= len(view.times)):
+        return None
+    ax_m, ax_b, ax_r = fig.axes[:3]
+    a["track"].set_data(*view.estimate[:, :2].T)
+    changed = [a["track"]]
+    if a["fix"] is not None:
+        a["fix"].set_data([view.estimate[k0, 0]], [view.estimate[k0, 1]])
+        changed.append(a["fix"])
+    t, b, s = view.times, view.estimate[:, 2], view.bias_sigma
+    a["true_bias"].set_ydata(view.true_bias)
+    a["estimate"].set_ydata(b)
+    a["band"].remove()
+    a["band"] = ax_b.fill_between(t, b - 2 * s, b + 2 * s, color="C0", alpha=0.25, lw=0)
+    a["unstarted"].set_ydata(view.rmse_unstarted)
+    a["rmse"].set_ydata(view.rmse)
+    rescale(ax_m, ax_b, ax_r)
+    return changed + [a["true_bias"], a["estimate"], a["band"], a["unstarted"], a["rmse"],
+                      _bias_tracking_title(view, ax_b)]
 
 
 def bias_tracking_widget() -> Any:
@@ -181,7 +234,9 @@ def bias_tracking_widget() -> Any:
         "max_alpha": w.FloatLogSlider(value=2.0, base=10, min=-0.5, max=1.0, step=0.1, description="α threshold",
                                       continuous_update=False, style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_bias_tracking_view(bias_tracking_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(bias_tracking_view)
+    return slider_panel(sliders, lambda fig, **p: plot_bias_tracking_view(view(**p), fig),
+                        lambda fig, **p: update_bias_tracking_view(fig, view(**p)))
 
 
 #: Zero-argument callables running the chapter-7 widget's computation at its defaults (for ``make bench``).

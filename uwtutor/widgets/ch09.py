@@ -8,6 +8,7 @@ cascade filter.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -21,7 +22,7 @@ from ..filters.robust import robust_range_kf
 from ..pipelines import or_vmlbl_kf
 from ..ranging import Outliers
 from ..scenarios import paper_e
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = ["PATTERNS", "OutlierView", "outlier_view", "plot_outlier_view", "outlier_widget", "COMPUTE_FUNCTIONS"]
 
@@ -92,6 +93,29 @@ class OutlierView:
     summary: dict[str, float]
 
 
+@functools.lru_cache(maxsize=4)
+def _dive(seed: int) -> tuple[Any, dict]:
+    """Paper E's dive for this seed and the state of the stream after it (no control changes them; kept for the
+    widget's next setting, never modified)."""
+    rng = np.random.default_rng(seed)
+    dive = paper_e.make(rng, 1, outlier_onsets=(), outlier_counts=(), outlier_two_sided=())
+    return dive, rng.bit_generator.state
+
+
+_PLAIN: dict[tuple, Any] = {}
+
+
+def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) -> Any:
+    """The standard KF on these ranges, which depend on the outliers alone (not on the test, δ, the spacing or
+    re-acquisition): kept for the last few outlier settings."""
+    key = (amplitude, pattern, seed)
+    if key not in _PLAIN:
+        if len(_PLAIN) >= 16:
+            _PLAIN.pop(next(iter(_PLAIN)))
+        _PLAIN[key] = robust_range_kf(ranges, 1.0, test="none")
+    return _PLAIN[key]
+
+
 def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float = 0.03, spacing: int = 100,
                  test: str = "paper", reacquire: bool = True, seed: int = 0) -> OutlierView:
     r"""Run paper E's OR-VMLBL-KF on one simulated dive with the chosen outliers.
@@ -133,8 +157,9 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     if not isinstance(reacquire, (bool, np.bool_)):
         raise TypeError(f"reacquire must be True or False; got {reacquire!r}")
     seed = as_int("seed", seed, minimum=0)
-    rng = np.random.default_rng(seed)
-    dive = paper_e.make(rng, 1, outlier_onsets=(), outlier_counts=(), outlier_two_sided=())
+    dive, state = _dive(seed)
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state                     # where the stream stood after the dive was drawn
     times = np.asarray(dive.times)
     truth_r = np.asarray(dive.true_slant_ranges[0])
     if pattern == "paper":
@@ -150,7 +175,7 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
         warnings.simplefilter("ignore", IllConditionedWarning)
         out = or_vmlbl_kf(ranges, dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth, spacing=s,
                           range_options=options)
-    plain = robust_range_kf(ranges, 1.0, test="none")
+    plain = _standard_kf(a, pattern, seed, ranges)
     truth = np.asarray(dive.true_positions[0])[out.now]
     fix_err = np.linalg.norm(out.fixes - truth, axis=-1)
     track_err = np.linalg.norm(out.filtered - truth, axis=-1)
@@ -178,27 +203,56 @@ def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
     fig = fig or plt.figure(figsize=(7.8, 5.0))
     ax_r, ax_p = fig.subplots(2, 1, sharex=True)
     t = view.times
-    ax_r.plot(t, view.range_error, ".", ms=2, color="0.6", label="measured")
-    ax_r.plot(t, view.plain_error, color="C0", lw=1, label="standard KF")
-    ax_r.plot(t, view.robust_error, color="C3", lw=1, label=f"KF with the {view.test} test")
-    ax_r.plot(t[view.flagged], view.range_error[view.flagged], "x", ms=3, color="k", label="flagged")
+    (measured,) = ax_r.plot(t, view.range_error, ".", ms=2, color="0.6", label="measured")
+    (plain,) = ax_r.plot(t, view.plain_error, color="C0", lw=1, label="standard KF")
+    (robust,) = ax_r.plot(t, view.robust_error, color="C3", lw=1, label=f"KF with the {view.test} test")
+    (flagged,) = ax_r.plot(t[view.flagged], view.range_error[view.flagged], "x", ms=3, color="k", label="flagged")
     lim = max(10.0, 1.3 * view.amplitude)
     ax_r.set_ylim(-lim, lim)
     ax_r.set_ylabel("range error [m]")
-    s = view.summary
-    ax_r.set_title(f"{view.pattern} outliers of {view.amplitude:g} m, δ = {view.delta:g}: "
-                   f"{100 * s['flagged']:.0f} % flagged, {100 * s['good_flagged']:.1f} % of good ranges flagged",
-                   fontsize=8)
     ax_r.legend(fontsize=6, ncol=4, loc="lower left")
-    ax_p.semilogy(view.fix_times, view.fix_error, color="0.5", lw=0.8, label="OR-VMLBL (fixes)")
-    ax_p.semilogy(view.fix_times, view.track_error, color="C3", lw=1.2, label="OR-VMLBL-KF")
+    (fixes,) = ax_p.semilogy(view.fix_times, view.fix_error, color="0.5", lw=0.8, label="OR-VMLBL (fixes)")
+    (track,) = ax_p.semilogy(view.fix_times, view.track_error, color="C3", lw=1.2, label="OR-VMLBL-KF")
     ax_p.set_xlabel("time [s]")
     ax_p.set_ylabel("position error [m]")
+    ax_p.legend(fontsize=7)
+    _outlier_titles(view, ax_r, ax_p)
+    fig.tight_layout()
+    return keep(fig, measured=measured, plain=plain, robust=robust, flagged=flagged, fixes=fixes, track=track,
+                test=view.test)
+
+
+def _outlier_titles(view: OutlierView, ax_r: Any, ax_p: Any) -> list[Any]:
+    s = view.summary
+    # δ rounded as its slider shows it (three significant digits)
+    ax_r.set_title(f"{view.pattern} outliers of {view.amplitude:g} m, δ = {view.delta:.3g}: "
+                   f"{100 * s['flagged']:.0f} % flagged, {100 * s['good_flagged']:.1f} % of good ranges flagged",
+                   fontsize=8)
     ax_p.set_title(f"epochs {view.spacing} s apart: RMS {s['rms_fix']:.1f} m → {s['rms_track']:.1f} m; within 10 %: "
                    f"{100 * s['within_10_fix']:.1f} % → {100 * s['within_10_track']:.1f} %", fontsize=8)
-    ax_p.legend(fontsize=7)
-    fig.tight_layout()
-    return fig
+    return [ax_r.title, ax_p.title]
+
+
+def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
+    """Put another ``OutlierView`` into a figure drawn by ``plot_outlier_view``; returns what changed (``None``, to
+    draw anew, when the test changes: its name is in the legend)."""
+    a = kept(fig)
+    if a["test"] != view.test:
+        return None
+    ax_r, ax_p = fig.axes[:2]
+    t = view.times
+    a["measured"].set_ydata(view.range_error)
+    a["plain"].set_ydata(view.plain_error)
+    a["robust"].set_ydata(view.robust_error)
+    a["flagged"].set_data(t[view.flagged], view.range_error[view.flagged])
+    lim = max(10.0, 1.3 * view.amplitude)
+    if ax_r.get_ylim() != (-lim, lim):
+        ax_r.set_ylim(-lim, lim)
+    a["fixes"].set_data(view.fix_times, view.fix_error)
+    a["track"].set_data(view.fix_times, view.track_error)
+    rescale(ax_p)
+    return [a["measured"], a["plain"], a["robust"], a["flagged"], a["fixes"], a["track"],
+            *_outlier_titles(view, ax_r, ax_p)]
 
 
 def outlier_widget() -> Any:
@@ -217,7 +271,9 @@ def outlier_widget() -> Any:
         "test": w.Dropdown(options=["paper", "chi2"], value="paper", description="test", style=style),
         "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
     }
-    return slider_panel(sliders, lambda fig, **p: plot_outlier_view(outlier_view(**p), fig))
+    view = functools.lru_cache(maxsize=256)(outlier_view)
+    return slider_panel(sliders, lambda fig, **p: plot_outlier_view(view(**p), fig),
+                        lambda fig, **p: update_outlier_view(fig, view(**p)))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).

@@ -9,13 +9,14 @@ posterior Cramér-Rao bound, and the median and 95th percentile of its final err
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ._panel import slider_panel
+from ._panel import keep, kept, slider_panel
 
 __all__ = ["ComparisonView", "comparison_view", "plot_comparison_view", "comparison_widget", "COMPUTE_FUNCTIONS"]
 
@@ -107,38 +108,79 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
     fig = fig or plt.figure(figsize=(7.8, 3.6))
     ax_t, ax_f = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.6, 1)})
     n = len(view.methods)
-    if method == "all":
-        colors = [plt.get_cmap("tab10")(i) if i < 10 else (0.2, 0.2, 0.2, 1.0) for i in range(n)]   # no pastels
-    else:                   # the chosen method in a strong colour, the others in grey behind it
-        colors = ["C3" if name == method else (0.75, 0.75, 0.75, 1.0) for name in view.methods]
+    colors = _comparison_colors(view, method)
+    curves = []
     for i, name in enumerate(view.methods):
         chosen = method == name
-        ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=2.0 if chosen else 1.1, label=name,
-                      zorder=3 if chosen else 2)
-    ax_t.semilogy(view.times / 60.0, view.bound, color="k", lw=2.0, ls="--", label="bound (PCRB)")
+        curves += ax_t.semilogy(view.times / 60.0, view.rmse[i], color=colors[i], lw=2.0 if chosen else 1.1,
+                                label=name, zorder=3 if chosen else 2)
+    (bound,) = ax_t.semilogy(view.times / 60.0, view.bound, color="k", lw=2.0, ls="--", label="bound (PCRB)")
     ax_t.set_xlabel("time [min]")
     ax_t.set_ylabel("RMS position error [m]")
     ax_t.set_ylim(max(0.5, 0.5 * float(np.min(view.bound))), 5e3)
     ax_t.set_title(f"{view.scenario}, {view.condition}: {view.n_runs} runs", fontsize=9)
     y = np.arange(n)
-    ax_f.barh(y, view.p95_final, color=colors, alpha=0.35)
-    ax_f.barh(y, view.median_final, color=colors)
-    ax_f.axvline(view.bound[-1], color="k", ls="--", lw=1.5)
-    for i in range(n):
-        if view.divergence[i] > 0:
-            ax_f.text(1.05 * view.p95_final[i], i, f"{100 * view.divergence[i]:.0f} % lost", va="center",
-                      fontsize=6)
+    p95 = ax_f.barh(y, view.p95_final, color=colors, alpha=0.35)
+    median = ax_f.barh(y, view.median_final, color=colors)
+    final_bound = ax_f.axvline(view.bound[-1], color="k", ls="--", lw=1.5)
+    lost = _lost_labels(view, ax_f)
     ax_f.set_xscale("log")
     ax_f.set_xlim(1.0, 2e4)
     ax_f.set_yticks(y, view.methods, fontsize=7)
     ax_f.invert_yaxis()
     ax_f.set_xlabel("final error [m]: median, 95 %")
     # no legend over the curves: the right panel's tick labels name the methods, in the curves' colours
-    for label, color in zip(ax_f.get_yticklabels(), colors):
-        label.set_color(color if method == "all" or color == "C3" else "0.45")
+    _color_tick_labels(ax_f, colors, method)
     ax_t.text(0.98, 0.97, "-- bound (PCRB)", transform=ax_t.transAxes, ha="right", va="top", fontsize=7)
     fig.tight_layout()
-    return fig
+    return keep(fig, methods=tuple(view.methods), curves=curves, bound=bound, p95=p95, median=median,
+                final_bound=final_bound, lost=lost)
+
+
+def _comparison_colors(view: ComparisonView, method: str) -> list[Any]:
+    n = len(view.methods)
+    if method == "all":
+        return [plt.get_cmap("tab10")(i) if i < 10 else (0.2, 0.2, 0.2, 1.0) for i in range(n)]   # no pastels
+    # the chosen method in a strong colour, the others in grey behind it
+    return ["C3" if name == method else (0.75, 0.75, 0.75, 1.0) for name in view.methods]
+
+
+def _lost_labels(view: ComparisonView, ax_f: Any) -> list[Any]:
+    return [ax_f.text(1.05 * view.p95_final[i], i, f"{100 * view.divergence[i]:.0f} % lost", va="center",
+                      fontsize=6) for i in range(len(view.methods)) if view.divergence[i] > 0]
+
+
+def _color_tick_labels(ax_f: Any, colors: list[Any], method: str) -> None:
+    for label, color in zip(ax_f.get_yticklabels(), colors):
+        label.set_color(color if method == "all" or color == "C3" else "0.45")
+
+
+def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") -> list[Any] | None:
+    """Put another ``ComparisonView`` (and highlight) into a figure drawn by ``plot_comparison_view``, in place;
+    returns ``[fig]`` (colours and tick labels change: the figure is drawn again, without being made anew), or
+    ``None`` when the scenario has other methods."""
+    a = kept(fig)
+    if a["methods"] != tuple(view.methods):
+        return None
+    ax_t, ax_f = fig.axes[:2]
+    colors = _comparison_colors(view, method)
+    for i, (line, name) in enumerate(zip(a["curves"], view.methods)):
+        chosen = method == name
+        line.set_ydata(view.rmse[i])
+        line.set(color=colors[i], lw=2.0 if chosen else 1.1, zorder=3 if chosen else 2)
+    a["bound"].set_ydata(view.bound)
+    ax_t.set_ylim(max(0.5, 0.5 * float(np.min(view.bound))), 5e3)
+    ax_t.set_title(f"{view.scenario}, {view.condition}: {view.n_runs} runs", fontsize=9)
+    for bars, values in ((a["p95"], view.p95_final), (a["median"], view.median_final)):
+        for rect, value, color in zip(bars, values, colors):
+            rect.set_width(value)
+            rect.set_facecolor(color)
+    a["final_bound"].set_xdata([view.bound[-1], view.bound[-1]])
+    for text in a["lost"]:
+        text.remove()
+    a["lost"] = _lost_labels(view, ax_f)
+    _color_tick_labels(ax_f, colors, method)
+    return [fig]
 
 
 def comparison_widget(table: Any = None) -> Any:
@@ -157,11 +199,19 @@ def comparison_widget(table: Any = None) -> Any:
                              description="highlight", style=style),
     }
 
-    def draw(fig: Any, scenario: str, condition: str, method: str) -> Any:
-        view = comparison_view(scenario, condition, table=t)
-        return plot_comparison_view(view, fig, method=method if method in view.methods else "all")
+    @functools.lru_cache(maxsize=64)
+    def view(scenario: str, condition: str) -> ComparisonView:
+        return comparison_view(scenario, condition, table=t)
 
-    return slider_panel(sliders, draw)
+    def draw(fig: Any, scenario: str, condition: str, method: str) -> Any:
+        v = view(scenario, condition)
+        return plot_comparison_view(v, fig, method=method if method in v.methods else "all")
+
+    def update(fig: Any, scenario: str, condition: str, method: str) -> Any:
+        v = view(scenario, condition)
+        return update_comparison_view(fig, v, method=method if method in v.methods else "all")
+
+    return slider_panel(sliders, draw, update)
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).

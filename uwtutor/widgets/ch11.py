@@ -11,6 +11,7 @@ estimate with its standard deviation against the scale measured on the truth.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -19,7 +20,7 @@ import numpy as np
 from matplotlib.ticker import NullLocator
 
 from ..datasets.study import GRID_BEACONS, GRID_PERIODS, GRID_STATES, RealDataStudy, load_real_data_study
-from ._panel import slider_panel
+from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = ["RealDataView", "real_data_view", "plot_real_data_view", "real_data_widget", "PERIOD_LABELS",
            "COMPUTE_FUNCTIONS"]
@@ -129,32 +130,30 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     ax_s = fig.add_subplot(grid[1, 1], sharex=ax_e)
     ax_t.plot(*view.dead_reckoning.T, color="0.6", lw=0.8, label="odometry alone")
     ax_t.plot(*view.truth.T, color="k", lw=1.0, label="truth")
-    ax_t.plot(*view.estimate.T, color="C3", lw=1.0, label="filter")
+    (track,) = ax_t.plot(*view.estimate.T, color="C3", lw=1.0, label="filter")
+    marks = {}
     for ident, (bx, by) in view.all_beacons.items():
         used = ident in view.beacons
-        ax_t.plot(bx, by, "^", color="C0" if used else "0.7", ms=7 if used else 5, zorder=4)
-        ax_t.annotate(str(ident), (bx, by), xytext=(4, 4), textcoords="offset points", fontsize=7,
-                      color="C0" if used else "0.5")
+        marks[ident] = (ax_t.plot(bx, by, "^", color="C0" if used else "0.7", ms=7 if used else 5, zorder=4)[0],
+                        ax_t.annotate(str(ident), (bx, by), xytext=(4, 4), textcoords="offset points", fontsize=7,
+                                      color="C0" if used else "0.5"))
     ax_t.set_aspect("equal", adjustable="datalim")
     ax_t.set_xlabel("x [m]")
     ax_t.set_ylabel("y [m]")
-    period = PERIOD_LABELS.get(view.period, f"{view.period} s")
-    who = "4 beacons" if view.beacon == "all" else f"beacon {view.beacon}"
-    ax_t.set_title(f"{who}, {period}", fontsize=8)
     ax_t.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, frameon=False)
-    ax_e.semilogy(view.times, np.maximum(view.error, 1e-3), color="C3", lw=0.9, label="filter")
-    ax_e.semilogy(view.times, np.maximum(view.error_rts, 1e-3), color="C2", lw=0.9, label="RTS smoother")
+    (error,) = ax_e.semilogy(view.times, np.maximum(view.error, 1e-3), color="C3", lw=0.9, label="filter")
+    (error_rts,) = ax_e.semilogy(view.times, np.maximum(view.error_rts, 1e-3), color="C2", lw=0.9,
+                                 label="RTS smoother")
     ax_e.set_ylim(0.05, 300.0)
     ax_e.yaxis.set_minor_locator(NullLocator())          # major ticks only: a redraw is mostly tick objects
     ax_e.set_ylabel("error [m]")
-    ax_e.set_title(f"{view.states}: RMSE {view.summary['rmse']:.2f} m (RTS {view.rts_rmse:.2f} m), "
-                   f"{100 * view.summary['within']:.0f} % within 2 m", fontsize=8)
     ax_e.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
     ax_e.tick_params(labelbottom=False)
+    band = scale = None
     if np.isfinite(view.scale).any():
-        ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma, color="C0",
-                          alpha=0.25, lw=0)
-        ax_s.plot(view.times, view.scale, color="C0", lw=1.0, label="estimate ± σ")
+        band = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
+                                 color="C0", alpha=0.25, lw=0)
+        (scale,) = ax_s.plot(view.times, view.scale, color="C0", lw=1.0, label="estimate ± σ")
     else:
         ax_s.text(0.5, 0.5, "scale not estimated (taken as 1)", transform=ax_s.transAxes, ha="center",
                   va="center", fontsize=8, color="0.4")
@@ -163,7 +162,44 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     ax_s.set_xlabel("time since the start [s]")
     ax_s.set_ylabel("range scale s")
     ax_s.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
-    return fig
+    _real_data_titles(view, ax_t, ax_e)
+    return keep(fig, track=track, marks=marks, error=error, error_rts=error_rts, band=band, scale=scale)
+
+
+def _real_data_titles(view: RealDataView, ax_t: Any, ax_e: Any) -> list[Any]:
+    period = PERIOD_LABELS.get(view.period, f"{view.period} s")
+    who = "4 beacons" if view.beacon == "all" else f"beacon {view.beacon}"
+    ax_t.set_title(f"{who}, {period}", fontsize=8)
+    ax_e.set_title(f"{view.states}: RMSE {view.summary['rmse']:.2f} m (RTS {view.rts_rmse:.2f} m), "
+                   f"{100 * view.summary['within']:.0f} % within 2 m", fontsize=8)
+    return [ax_t.title, ax_e.title]
+
+
+def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
+    """Put another ``RealDataView`` into a figure drawn by ``plot_real_data_view``; returns what changed (``None``,
+    to draw anew, when the scale starts or stops being estimated)."""
+    a = kept(fig)
+    if (a["scale"] is None) != (not np.isfinite(view.scale).any()) or set(a["marks"]) != set(view.all_beacons):
+        return None
+    ax_t, ax_e, ax_s = fig.axes[:3]
+    a["track"].set_data(*view.estimate.T)
+    changed = [a["track"]]
+    for ident, (mark, label) in a["marks"].items():
+        used = ident in view.beacons
+        mark.set(color="C0" if used else "0.7", markersize=7 if used else 5)
+        label.set_color("C0" if used else "0.5")
+        changed += [mark, label]
+    a["error"].set_data(view.times, np.maximum(view.error, 1e-3))
+    a["error_rts"].set_data(view.times, np.maximum(view.error_rts, 1e-3))
+    changed += [a["error"], a["error_rts"]]
+    if a["scale"] is not None:
+        a["band"].remove()
+        a["band"] = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
+                                      color="C0", alpha=0.25, lw=0)
+        a["scale"].set_data(view.times, view.scale)
+        changed += [a["band"], a["scale"]]
+    rescale(ax_t)
+    return changed + _real_data_titles(view, ax_t, ax_e)
 
 
 def real_data_widget(study: RealDataStudy | None = None) -> Any:
@@ -174,16 +210,20 @@ def real_data_widget(study: RealDataStudy | None = None) -> Any:
     style = {"description_width": "initial"}
     controls = {
         "beacon": w.Dropdown(options=list(GRID_BEACONS), value="5", description="beacon", style=style),
-        "period": w.Dropdown(options=[(PERIOD_LABELS[p], p) for p in GRID_PERIODS], value=None,
+        # "every" stands for None, which a Dropdown takes for "nothing chosen" (it would show an empty box)
+        "period": w.Dropdown(options=[(PERIOD_LABELS[p], "every" if p is None else p) for p in GRID_PERIODS],
+                             value="every",
                              description="ranges", style=style),
         "states": w.Dropdown(options=list(GRID_STATES), value="+ scale and gyro bias", description="states",
                              style=style),
     }
 
-    def draw(fig: Any, beacon: str, period: float | None, states: str) -> Any:
-        return plot_real_data_view(real_data_view(beacon, period, states, study=s), fig)
+    @functools.lru_cache(maxsize=128)
+    def view(beacon: str, period: float | str, states: str) -> RealDataView:
+        return real_data_view(beacon, None if period == "every" else period, states, study=s)
 
-    return slider_panel(controls, draw)
+    return slider_panel(controls, lambda fig, **p: plot_real_data_view(view(**p), fig),
+                        lambda fig, **p: update_real_data_view(fig, view(**p)))
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
