@@ -1,8 +1,9 @@
 # The two commands that do all the set-up on a fresh machine:
 #   make book   -- build the HTML book into _build/html
-#   make test   -- run every test (unit, property, exercises, nbval, strict build, browser)
+#   make test   -- run every test (unit, property, exercises, nbval, strict build, browser, PDF)
 # and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
-# make study (chapter 10's comparison table, written to uwtutor/data/), make study-real (chapter 11's study).
+# make study (chapter 10's comparison table, written to uwtutor/data/), make study-real (chapter 11's study),
+# make pdf (the PDF edition, _build/pdf/uwtutor.pdf; needs TeX Live from Debian: PDF_DEBIAN_PACKAGES below).
 
 PYTHON ?= python3
 VENV   := .venv
@@ -11,7 +12,7 @@ JB     := $(VENV)/bin/jupyter-book
 STAMP  := $(VENV)/.installed-stamp
 NODE_STAMP := node_modules/.installed-stamp
 
-.PHONY: setup book test lab bench study study-real notebooks clean
+.PHONY: setup book pdf pdf-deps test lab bench study study-real notebooks clean
 
 # The environment: the book, JupyterLab for students (the lab extra), the tests, Dask. nbgrader comes with the tests
 # (tests/test_labs_nbgrader.py) but its JupyterLab menu, sidebars and server extensions are an instructor's
@@ -23,7 +24,7 @@ NBGRADER_SERVER_EXTENSIONS := formgrader validate_assignment assignment_list cou
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade "pip>=24"
-	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,lab,test,scale,data]"
+	$(PY) -m pip install --quiet -c constraints.txt -e ".[book,pdf,lab,test,scale,data]"
 	$(PY) -m pip uninstall --quiet --yes jupytext 2>/dev/null || true
 	$(VENV)/bin/jupyter labextension disable --level=sys_prefix @jupyter/nbgrader >/dev/null 2>&1
 	for ext in $(NBGRADER_SERVER_EXTENSIONS); do \
@@ -44,9 +45,24 @@ book: setup
 	@echo
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
 
+# The PDF edition: the same sources through Jupyter Book's LaTeX builder and xelatex, with _config_pdf.yml merged
+# over _config.yml (tools/pdf_edition.py); the PDF is _build/pdf/uwtutor.pdf. About 3 minutes on 2 cores.
+# TeX Live, fonts and rsvg-convert come from Debian: `make pdf-deps` installs them (as root; .ci/run does the same).
+PDF_DEBIAN_PACKAGES := texlive-xetex texlive-latex-extra texlive-fonts-recommended texlive-lang-cjk latexmk \
+                       fonts-freefont-otf fonts-noto-cjk fonts-dejavu-core librsvg2-bin poppler-utils
+
+pdf: setup
+	@command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v rsvg-convert >/dev/null \
+	  || { echo "make pdf needs TeX Live: run 'make pdf-deps' (as root) or apt-get install $(PDF_DEBIAN_PACKAGES)"; exit 1; }
+	$(PY) tools/pdf_edition.py
+
+pdf-deps:
+	apt-get update -qq
+	DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(PDF_DEBIAN_PACKAGES)
+
 # One pytest run, so that one exit code and one summary cover everything: tests/ (unit, property,
-# exercises, the strict book build and the browser test over it), every docstring example of the library
-# (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
+# exercises, the strict book build and the browser test over it, the PDF edition), every docstring example of
+# the library (doctests), and every book notebook re-run by nbval in strict mode (text outputs compared with the
 # committed ones, after tests/nbval_sanitize.cfg; its kernels play another CPU than the one that wrote
 # the outputs, tools/cpu_variants.py). On every core (pytest-xdist); --dist loadfile keeps each file,
 # and so each notebook's cells, in one worker. PYTEST_ARGS adds options (e.g. PYTEST_ARGS="-k ekf").

@@ -71,3 +71,55 @@ def _run_book_build() -> BookBuild:
     output = _ANSI.sub("", proc.stdout)
     BUILD_LOG.write_text(output)
     return BookBuild(proc.returncode, output, seconds)
+
+
+# --- the PDF edition (tests/test_pdf.py) ------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class PdfBuild:
+    returncode: int
+    output: str  # what tools/pdf_edition.py printed: Sphinx, then latexmk and xelatex
+    seconds: float  # wall clock
+    cpu_seconds: float  # user + system time of the build and its children (xelatex)
+
+
+PDF_BUILD_TIMEOUT = 1800  # seconds
+
+
+@pytest.fixture(scope="session")
+def pdf_build(tmp_path_factory, worker_id) -> PdfBuild:
+    """Build the PDF edition once per test session (`make pdf`'s command), whichever worker asks first.
+
+    The same pattern as ``book_build``: a file lock and a record shared by the xdist workers. The PDF build has its
+    own output folder (_build/pdf/), so it may run while the HTML build runs in _build/.
+    """
+    if worker_id == "master":
+        return _run_pdf_build()
+    from filelock import FileLock
+
+    shared = tmp_path_factory.getbasetemp().parent
+    record = shared / "pdf-build.json"
+    with FileLock(str(shared / "pdf-build.lock")):
+        if record.exists():
+            return PdfBuild(**json.loads(record.read_text()))
+        build = _run_pdf_build()
+        record.write_text(json.dumps(dataclasses.asdict(build)))
+        return build
+
+
+def _run_pdf_build() -> PdfBuild:
+    import resource
+    import sys
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run([sys.executable, str(REPO / "tools" / "pdf_edition.py")], cwd=REPO,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors="replace",
+                              timeout=PDF_BUILD_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"the PDF build took more than {PDF_BUILD_TIMEOUT} s", pytrace=False)
+    seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return PdfBuild(proc.returncode, _ANSI.sub("", proc.stdout), seconds, cpu)

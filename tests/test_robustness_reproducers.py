@@ -85,6 +85,28 @@ def test_a_models_R_is_checked_and_named():
         _run(measurement=_Range(R=-1.0))
 
 
+def test_a_library_models_covariances_are_checked_once_a_subclass_that_overrides_them_every_step(monkeypatch):
+    """The library's own models check their covariances when they are made (``covariances_checked``): the engine
+    does not check them again at every step. A subclass of yours that overrides Q is checked like any user model."""
+    from uwtutor.filters import engine
+    from uwtutor.models import DeadReckoning
+
+    calls = []
+    real = engine.check_model_covariance
+    monkeypatch.setattr(engine, "check_model_covariance", lambda name, value: calls.append(name) or real(name, value))
+    K = len(Z)
+    _run(motion=DeadReckoning(np.tile(np.eye(2) * 0.1, (K, 1, 1))), measurement=RangeToBeacon((0.0, 0.0), R=1.0))
+    assert calls == []
+
+    class Wobbly(DeadReckoning):
+        def Q(self, x, u, k):
+            return np.array([[0.1, 0.0], [0.0, -0.1 if k == 5 else 0.1]])
+
+    with pytest.raises(ValueError, match=r"Wobbly\.Q returned a matrix that is not positive semi-definite"):
+        _run(motion=Wobbly(np.eye(2)))
+    assert calls.count("the motion model Wobbly.Q") == 6     # steps 0-5, each Q a new array
+
+
 def test_a_linearize_mask_must_be_bools_of_the_right_shape():
     with pytest.raises(ValueError, match=r"linearize .* shape \(1,\) or \(1, 1\); got \(3,\)"):
         _run(measurement=_Range(mask=np.ones(3, dtype=bool)))

@@ -110,13 +110,18 @@ def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
 
 class _CovarianceCheck:
     """Checks a covariance returned by a user's model (symmetric PSD) once per distinct array: a model that returns
-    the same Q at every step pays for one eigendecomposition, not one per step."""
+    the same Q at every step pays for one eigendecomposition, not one per step. A library model whose covariances
+    are checked when it is made (``covariances_checked``) is not checked again at each step -- unless a subclass of
+    yours overrides the method, whose values are then checked like any user model's."""
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str, model: Any = None, method: str = "") -> None:
         self.name, self._seen = name, None
+        own = getattr(type(model), method, None)
+        self._trusted = bool(getattr(model, "covariances_checked", False)) and own is not None and \
+            getattr(own, "__module__", "").startswith("uwtutor.")
 
     def __call__(self, value: np.ndarray) -> None:
-        if value is self._seen:
+        if self._trusted or value is self._seen:
             return
         check_model_covariance(self.name, value)
         self._seen = value
@@ -273,8 +278,8 @@ class ExtendedKalmanFilter:
         self._accepted = np.zeros(self._M, dtype=bool)
         self._eye = np.eye(n)
         self.k = -1
-        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q")
-        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R")
+        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q", motion, "Q")
+        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
         gate_outputs = tuple(getattr(gate, "extra_outputs", ())) if gate is not None else ()
         clash = set(gate_outputs) & set(dir(type(self)))
         if clash:

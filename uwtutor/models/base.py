@@ -78,6 +78,10 @@ class MotionModel:
     """
 
     n: int = 0
+    #: True for a library model whose covariances were checked when it was made (a checked schedule, or
+    #: :math:`G \Sigma G^\mathsf{T}` of checked variances): the filters do not check them again at each step. A model
+    #: of your own leaves it False, and the engine checks every new covariance it returns.
+    covariances_checked: bool = False
 
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         """The predicted states ``(M, n)`` of the states ``x`` ``(M, n)`` moved by the input ``u`` of step ``k``."""
@@ -169,6 +173,10 @@ class MeasurementModel:
 
     m: int = 1
     n: int = 0
+    #: True for a library model whose covariances were checked when it was made (a checked schedule, or
+    #: :math:`G \Sigma G^\mathsf{T}` of checked variances): the filters do not check them again at each step. A model
+    #: of your own leaves it False, and the engine checks every new covariance it returns.
+    covariances_checked: bool = False
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
         """The predicted measurements ``(M, m)`` of the states ``x`` ``(M, n)`` at step ``k``."""

@@ -48,6 +48,8 @@ class DeadReckoning(MotionModel):
     (3, array([[102.,   1.,   3.]]))
     """
 
+    covariances_checked = True      # Q is checked when the model is made (one, or one per step)
+
     def __init__(self, Q: Any) -> None:
         self._Q = as_covariance("Q", Q, allow_singular=True)
         if self._Q.ndim not in (2, 3) or self._Q.shape[-1] < 2:

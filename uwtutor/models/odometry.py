@@ -381,6 +381,8 @@ class OdometryMotion(MotionModel):
     array([[5.  , 0.  , 0.  , 0.01]])
     """
 
+    covariances_checked = True      # Q = G diag(sigma^2) G^T of the variances checked when the model is made
+
     def __init__(self, sigma_distance: Any, sigma_heading: Any, *, gyro_bias: bool = False, scale: bool = False,
                  range_bias: Any = False, times: Any = None, dt: Any = None, order: str = "turn-first",
                  gyro_bias_walk: Any = 0.0, scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:

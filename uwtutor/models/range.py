@@ -113,6 +113,8 @@ class RangeToBeacon(MeasurementModel):
     array([[[0.6, 0.8, 1. ]]])
     """
 
+    covariances_checked = True      # R is a schedule checked when the model is made
+
     m = 1
 
     def __init__(self, beacon: Any, R: Any, *, n: int = 2, bias_index: int | None = None) -> None:
@@ -456,6 +458,8 @@ class BeaconRanges(MeasurementModel):
     >>> model.H(x, 0)[0, 0].round(3)
     array([0.642, 0.856, 0.   , 5.   ])
     """
+
+    covariances_checked = True      # R is a schedule checked when the model is made
 
     def __init__(self, beacons: Any, R: Any, *, layout: Any = None, n: int | None = None,
                  scale_index: int | None = None, bias_index: Any = None) -> None:

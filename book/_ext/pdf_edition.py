@@ -1,0 +1,293 @@
+"""The PDF edition's Sphinx extension (loaded by _config_pdf.yml only; does nothing for other builders).
+
+- **Animations** (``FuncAnimation.to_jshtml()`` outputs, HTML with every frame as a PNG) print as some of their
+  frames: up to four, evenly spaced, first and last included, each labelled with its number. LaTeX cannot show
+  the HTML.
+- **Live widgets** (``application/vnd.jupyter.widget-view+json``) print as one line that names the widget's
+  controls and their starting values, and says that it runs in JupyterLab, in place of ``VBox(children=...``.
+- Any other HTML-only output is a warning (and so fails the strict build): it would vanish from the page.
+- **The Reference part** (notation, glossary, ...) becomes the appendices (``\\appendix`` before its part), and the
+  root page (book/intro) an unnumbered chapter "Introduction".
+- LaTeX set-up: fonts that have every character the book uses (DejaVu Sans Mono for code, Noto CJK for the
+  glossary's Chinese through xeCJK), the bbm.sty stand-in (book/_ext/latex/), SVG through rsvg-convert
+  (sphinxcontrib-svg2pdfconverter).
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+from docutils import nodes
+from sphinx.application import Sphinx
+from sphinx.config import Config
+from sphinx.transforms import SphinxTransform
+from sphinx.transforms.post_transforms import SphinxPostTransform
+from sphinx.util import logging
+
+__version__ = "1.0"
+logger = logging.getLogger(__name__)
+
+HERE = Path(__file__).resolve().parent
+WIDGET_VIEW = "application/vnd.jupyter.widget-view+json"
+WIDGET_STATE = "application/vnd.jupyter.widget-state+json"
+APPENDIX_PART = "Reference"  # the caption in _toc.yml of the part printed as the appendices
+ANIMATION_FRAMES = 4  # printed of each animation, each at the width of the page like any figure
+
+# xelatex: Latin, Greek and mathematical symbols from the FreeFont family (Sphinx's default) except code, in DejaVu
+# Sans Mono (FreeMono has no ✘ nor ✔). Chinese (the glossary, the papers' titles: only CJK Unified Ideographs) in Noto
+# CJK through ucharclasses (which sphinx-jupyterbook-latex loads; xeCJK needs ctex, which Debian ships only in the 98 MB texlive-lang-chinese), with a
+# line break allowed between two ideographs.
+FONTPKG = r"""
+\setmainfont{FreeSerif}[Extension=.otf, UprightFont=*, ItalicFont=*Italic, BoldFont=*Bold, BoldItalicFont=*BoldItalic]
+\setsansfont{FreeSans}[Extension=.otf, UprightFont=*, ItalicFont=*Oblique, BoldFont=*Bold, BoldItalicFont=*BoldOblique]
+\setmonofont{DejaVu Sans Mono}[Scale=0.9]
+\newfontfamily\uwtutorCJKfont{Noto Serif CJK SC}
+\PassOptionsToPackage{CJKUnifiedIdeographs}{ucharclasses}% loaded by sphinx-jupyterbook-latex's preamble
+\AtBeginDocument{\setTransitionsFor{CJKUnifiedIdeographs}{\begingroup\uwtutorCJKfont}{\endgroup}}
+\XeTeXlinebreaklocale "zh"
+\XeTeXlinebreakskip = 0pt plus 1pt
+% A character that no font has is logged (and fails tests/test_pdf.py) instead of vanishing silently.
+\tracinglostchars=2
+% Section titles with math (chapter 7's "Mis-set $\mathbf{Q}$ and $R$"): their PDF bookmarks keep the letters.
+\AtBeginDocument{\pdfstringdefDisableCommands{\def\({}\def\){}\def\mathbf#1{#1}}}
+"""
+
+
+def _is_latex(app: Sphinx) -> bool:
+    return getattr(app, "builder", None) is not None and app.builder.format == "latex"
+
+
+# --- animations and widgets --------------------------------------------------------------------------------------
+
+_FRAME = re.compile(r'frames\[(\d+)\]\s*=\s*"data:image/png;base64,([^"]*)"')
+
+
+def animation_frames(html: str) -> list[bytes]:
+    """The PNG frames of a ``to_jshtml()`` animation, in order (empty if ``html`` is not one)."""
+    found = sorted((int(i), data) for i, data in _FRAME.findall(html))
+    return [base64.b64decode(data.replace("\\n", "").replace("\n", "")) for _, data in found]
+
+
+def frame_picks(n: int, n_max: int = ANIMATION_FRAMES) -> list[int]:
+    """Up to ``n_max`` frame indices of ``n``, evenly spaced, first and last included."""
+    if n <= n_max:
+        return list(range(n))
+    return sorted({round(k * (n - 1) / (n_max - 1)) for k in range(n_max)})
+
+
+def _widget_models(app: Sphinx, docname: str) -> dict[str, Any]:
+    path = Path(app.env.doc2path(docname))
+    if path.suffix != ".ipynb":
+        return {}
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    return nb.get("metadata", {}).get("widgets", {}).get(WIDGET_STATE, {}).get("state", {})
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def widget_controls(models: dict[str, Any], model_id: str) -> list[str]:
+    """The controls of a widget view, in display order, as 'description = value' strings."""
+    controls: list[str] = []
+    seen: set[str] = set()
+
+    def walk(mid: str) -> None:
+        if mid in seen or mid not in models:
+            return
+        seen.add(mid)
+        state = models[mid].get("state", {})
+        name = models[mid].get("model_name", "")
+        desc = str(state.get("description", "")).strip()
+        if name.endswith(("SliderModel", "DropdownModel", "ToggleButtonsModel", "CheckboxModel",
+                          "RadioButtonsModel", "SelectModel", "TextModel", "FloatTextModel", "IntTextModel")):
+            if "options" in state and "index" in state and state["index"] is not None:
+                value = state.get("_options_labels", state["options"])[state["index"]]
+            else:
+                value = state.get("value")
+            controls.append(f"{desc} = {_fmt(value)}" if desc else _fmt(value))
+        for value in state.values():
+            for item in value if isinstance(value, list) else [value]:
+                if isinstance(item, str) and item.startswith("IPY_MODEL_"):
+                    walk(item[len("IPY_MODEL_"):])
+
+    walk(model_id)
+    return controls
+
+
+class PrintableOutputs(SphinxTransform):
+    """For the LaTeX builder: give animations and widget views a printable rendering in their mime bundle.
+
+    Runs while a page is read (after myst-nb has put every mime type of an output in a ``mime_bundle``), so that the
+    frames are collected as an image of the page like any other; myst-nb's SelectMimeType then picks the
+    added ``image/png`` (or ``text/plain`` note) for LaTeX, by its usual priority.
+    """
+
+    default_priority = 500
+
+    def apply(self, **kwargs: Any) -> None:
+        if not _is_latex(self.app):
+            return
+        models = None
+        for bundle in list(self.document.findall(nodes.container)):
+            if bundle.get("nb_element") != "mime_bundle":
+                continue
+            by_type = {child.get("mime_type"): child for child in bundle.children}
+            if WIDGET_VIEW in by_type:
+                if models is None:
+                    models = _widget_models(self.app, self.env.docname)
+                self._widget(bundle, by_type, models)
+            elif "text/html" in by_type and not ({"image/png", "image/jpeg", "text/latex"} & by_type.keys()):
+                html = by_type["text/html"].astext()
+                frames = animation_frames(html)
+                if frames:
+                    self._animation(bundle, by_type, frames)
+                else:
+                    logger.warning("pdf_edition: an HTML-only output has no printable form; it would vanish from "
+                                   "the PDF (give it an image/png or text/latex rendering)", location=bundle)
+
+    def _animation(self, bundle: nodes.container, by_type: dict, frames: list[bytes]) -> None:
+        out_dir = Path(self.app.outdir).parent / "pdf_fallbacks"
+        out_dir.mkdir(parents=True, exist_ok=True)
+        picks = frame_picks(len(frames))
+        container = nodes.container(mime_type="image/png")
+        container += nodes.paragraph("", "", nodes.emphasis(
+            "", f"An animation of {len(frames)} frames in the HTML book and in JupyterLab; "
+                f"{len(picks)} of them here."))
+        for i in picks:
+            name = f"frame-{hashlib.sha1(frames[i]).hexdigest()[:16]}.png"
+            (out_dir / name).write_bytes(frames[i])
+            # Sphinx reads a URI that starts with "/" as relative to the source folder (as myst-nb writes its own).
+            uri = "/" + os.path.relpath((out_dir / name).resolve(), self.app.srcdir)
+            container += nodes.image(uri=uri, alt=f"frame {i + 1} of {len(frames)}")
+            container += nodes.paragraph("", "", nodes.emphasis("", f"Frame {i + 1} of {len(frames)}."))
+        for child in list(bundle.children):
+            bundle.remove(child)
+        bundle += container
+
+    def _widget(self, bundle: nodes.container, by_type: dict, models: dict[str, Any]) -> None:
+        try:
+            model_id = json.loads(by_type[WIDGET_VIEW].astext().split(">", 1)[1].rsplit("<", 1)[0])["model_id"]
+        except (IndexError, ValueError, KeyError, TypeError):
+            model_id = ""
+        controls = widget_controls(models, model_id)
+        text = "An interactive widget: it runs in JupyterLab (make lab)"
+        text += "; its controls start at " + "; ".join(controls) + "." if controls else "."
+        note = nodes.paragraph("", "", nodes.emphasis("", text))
+        container = nodes.container(mime_type="text/plain")
+        container += note
+        for child in list(bundle.children):
+            bundle.remove(child)
+        bundle += container
+
+
+# --- long tables ---------------------------------------------------------------------------------------------------
+
+class LongTableWidths(SphinxTransform):
+    """For the LaTeX builder: give a long table (over 30 rows: a ``longtable``) columns that wrap.
+
+    Sphinx sets a longtable's columns ``l`` (one line each) unless widths are given, and the notation's and the
+    performance appendix's tables then run hundreds of points off the page. The widths given here follow the longest
+    text of each column (between 6 and 60 characters).
+    """
+
+    default_priority = 510
+
+    def apply(self, **kwargs: Any) -> None:
+        if not _is_latex(self.app):
+            return
+        for table in self.document.findall(nodes.table):
+            tgroup = table.next_node(nodes.tgroup)
+            if tgroup is None or "colwidths-given" in table["classes"]:
+                continue
+            rows = list(tgroup.findall(nodes.row))
+            colspecs = [c for c in tgroup.children if isinstance(c, nodes.colspec)]
+            if len(rows) <= 30 or not colspecs:
+                continue
+            longest = [6] * len(colspecs)
+            for row in rows:
+                for i, entry in enumerate(e for e in row.children if isinstance(e, nodes.entry)):
+                    if i < len(longest):
+                        longest[i] = max(longest[i], min(60, len(entry.astext())))
+            for colspec, width in zip(colspecs, longest):
+                colspec["colwidth"] = width
+            table["classes"].append("colwidths-given")
+
+
+# --- the Reference part as the appendices ------------------------------------------------------------------------
+
+# Sphinx numbers figures, tables, code blocks and equations with \arabic{chapter}: after \appendix, "Table D.1" and
+# not "Table 4.1" in appendix D.
+APPENDIX_LATEX = r"""\appendix
+\renewcommand{\thefigure}{\thechapter.\arabic{figure}}
+\renewcommand{\thetable}{\thechapter.\arabic{table}}
+\renewcommand{\theliteralblock}{\thechapter.\arabic{literalblock}}
+\renewcommand{\theequation}{\thechapter.\arabic{equation}}
+"""
+
+
+class ReferencePartAsAppendix(SphinxPostTransform):
+    """``\\appendix`` before the part captioned APPENDIX_PART: its chapters print as Appendix A, B, ..."""
+
+    builders = ("latex",)
+    default_priority = 800  # after sphinx-jupyterbook-latex has turned the toctree captions into parts (700)
+
+    def run(self, **kwargs: Any) -> None:
+        for node in list(self.document.findall(nodes.section)):
+            title = node.next_node(nodes.title)
+            if (node.get("docname") == APPENDIX_PART and title is not None
+                    and title.astext() == APPENDIX_PART):
+                wrapper = node.parent.parent  # compound(toctree-wrapper) > start_of_file > section
+                wrapper.parent.insert(wrapper.parent.index(wrapper), nodes.raw("", APPENDIX_LATEX, format="latex"))
+                return
+
+
+class RootAsIntroduction(SphinxPostTransform):
+    """The root page (book/intro, whose title is the book's) prints after the contents as an unnumbered chapter
+    "Introduction", listed in the contents and in the running heads (which would otherwise say CONTENTS)."""
+
+    builders = ("latex",)
+    default_priority = 800
+
+    def run(self, **kwargs: Any) -> None:
+        root = self.config.root_doc
+        for section in self.document.findall(nodes.section):
+            if section.get("docname") == root:
+                heading = "\\chapter*{Introduction}\\markboth{Introduction}{Introduction}" \
+                          "\\addcontentsline{toc}{chapter}{Introduction}\n"
+                index = next((i + 1 for i, child in enumerate(section.children)
+                              if isinstance(child, nodes.title)), 0)
+                section.insert(index, nodes.raw("", heading, format="latex"))
+                return
+
+
+# --- set-up --------------------------------------------------------------------------------------------------------
+
+def _on_config_inited(app: Sphinx, config: Config) -> None:
+    elements = dict(config.latex_elements or {})
+    elements.setdefault("fontpkg", FONTPKG)
+    elements.setdefault("papersize", "a4paper")
+    config.latex_elements = elements
+    extra = list(config.latex_additional_files or [])
+    stub = str(HERE / "latex" / "bbm.sty")
+    if stub not in extra:
+        extra.append(stub)
+    config.latex_additional_files = extra
+
+
+def setup(app: Sphinx) -> dict[str, Any]:
+    app.setup_extension("sphinxcontrib.rsvgconverter")
+    app.connect("config-inited", _on_config_inited)
+    app.add_transform(PrintableOutputs)
+    app.add_transform(LongTableWidths)
+    app.add_post_transform(ReferencePartAsAppendix)
+    app.add_post_transform(RootAsIntroduction)
+    return {"version": __version__, "parallel_read_safe": True, "parallel_write_safe": True}

@@ -1,0 +1,252 @@
+"""The PDF edition (`make pdf`, tools/pdf_edition.py): it builds with no Sphinx or LaTeX warning, and its text and
+images are the book's: every chapter, every figure, the glossary's Chinese, no raw widget text, no solutions.
+
+The PDF is built once per session (fixture ``pdf_build`` in conftest.py) into _build/pdf/; the text is read back with
+poppler's pdftotext and the images counted with pdfimages. Without TeX Live (xelatex, latexmk) or poppler the tests
+are skipped, unless CI=true, where they fail (.ci/run installs them).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from book_paths import REPO, toc_docnames
+
+sys.path.insert(0, str(REPO / "tools"))
+import pdf_edition  # noqa: E402  (tools/ is not a package)
+
+pytestmark = pytest.mark.book
+
+TOOLS = ("xelatex", "latexmk", "rsvg-convert", "pdftotext", "pdfimages")
+
+# LaTeX warnings that come from the classes and packages, not from the book, with the reason.
+LATEX_NOISE = [
+    # jupyterBook.cls loads inputenc, which xelatex does not need (its input is UTF-8 already).
+    re.compile(r"Package inputenc Warning: inputenc package ignored with utf8 based engines"),
+    # sphinx.sty loads cmap, a pdftex-only package, for every engine.
+    re.compile(r"Package cmap Warning: pdftex not detected - exiting"),
+    # jupyterBook.cls loads pgfplots without a compat level; the book draws no pgfplots.
+    re.compile(r"Package pgfplots Warning: running in backwards compatibility mode"),
+]
+LATEX_PROBLEM = re.compile(r"Warning|Missing character|^! ")
+# Text wider than the page by more than this runs visibly into the margin (a few points are invisible).
+OVERFULL_LIMIT_PT = 20.0
+
+# An object's repr where a rendering should be ("IPython" alone is legitimate: chapters import IPython.display).
+RAW_OUTPUT = ["VBox(", "HBox(", "<IPython.", "<Figure size", "<matplotlib.", "Output()"]
+
+
+def _tools_missing() -> list[str]:
+    return [tool for tool in TOOLS if shutil.which(tool) is None]
+
+
+@pytest.fixture(scope="module")
+def pdf(pdf_build):
+    missing = _tools_missing()
+    if missing:
+        reason = f"{', '.join(missing)} not installed (make pdf-deps)"
+        if os.environ.get("CI", "").lower() == "true":
+            pytest.fail(f"CI=true and {reason}: the PDF test must run in CI", pytrace=False)
+        pytest.skip(reason)
+    if pdf_build.returncode != 0 or not pdf_edition.PDF.is_file():
+        tail = "\n".join(pdf_build.output.splitlines()[-60:])
+        pytest.fail(f"`make pdf` failed (exit code {pdf_build.returncode}; log {pdf_edition.LOG}):\n{tail}",
+                    pytrace=False)
+    return pdf_build
+
+
+@functools.lru_cache(maxsize=1)
+def _text() -> str:
+    return subprocess.run(["pdftotext", "-enc", "UTF-8", str(pdf_edition.PDF), "-"], check=True,
+                          capture_output=True, text=True).stdout
+
+
+_QUOTES = str.maketrans({"’": "'", "‘": "'", "“": '"', "”": '"'})
+
+
+def _squashed(text: str) -> str:
+    """Text without whitespace or hyphenation breaks, and with plain quotes (Sphinx prints typographic ones), for
+    finding a phrase whatever the line breaks."""
+    return re.sub(r"\s+", "", text.replace("-\n", "").translate(_QUOTES))
+
+
+def _pdf_docnames() -> list[str]:
+    excluded = set(pdf_edition.yaml.safe_load((REPO / "_config_pdf.yml").read_text()).get("pdf_exclude") or [])
+    return [d for d in toc_docnames() if d not in excluded]
+
+
+def _source(docname: str):
+    for suffix in (".ipynb", ".md"):
+        path = REPO / f"{docname}{suffix}"
+        if path.exists():
+            return path
+    raise FileNotFoundError(docname)
+
+
+def _markdown_of(docname: str) -> str:
+    path = _source(docname)
+    if path.suffix == ".md":
+        return path.read_text(encoding="utf-8")
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    return "\n\n".join("".join(c["source"]) for c in nb["cells"] if c["cell_type"] == "markdown")
+
+
+def _title(docname: str) -> str:
+    m = re.search(r"^# (.+)$", _markdown_of(docname), re.M)
+    assert m, f"{docname} has no title"
+    return re.sub(r"[`*_]", "", m[1]).strip()
+
+
+# --- the build ---------------------------------------------------------------------------------------------------
+
+def test_pdf_builds_without_sphinx_warnings(pdf):
+    sphinx_part = pdf.output.split("Converting book latex into PDF")[0]
+    problems = [ln for ln in sphinx_part.splitlines() if re.search(r"\b(WARNING|ERROR|CRITICAL)\b|Traceback", ln)]
+    assert not problems, f"{len(problems)} Sphinx warning(s) in the PDF build:\n" + "\n".join(problems[:50])
+
+
+def test_latex_log_has_no_warnings(pdf):
+    log = (pdf_edition.LATEX_DIR / f"{pdf_edition.PDF_NAME}.log").read_text(encoding="utf-8", errors="replace")
+    problems = [ln for ln in log.splitlines()
+                if LATEX_PROBLEM.search(ln) and not any(p.search(ln) for p in LATEX_NOISE)]
+    assert not problems, f"LaTeX warnings (log: {pdf_edition.LATEX_DIR}/uwtutor.log):\n" + "\n".join(problems[:50])
+    overfull = [(float(m[1]), m[0]) for m in re.finditer(r"Overfull \\hbox \(([0-9.]+)pt too wide\).*", log)]
+    wide = [line for width, line in overfull if width > OVERFULL_LIMIT_PT]
+    assert not wide, f"{len(wide)} line(s) or table(s) run more than {OVERFULL_LIMIT_PT} pt off the page:\n" + \
+        "\n".join(wide[:30])
+
+
+def test_pdf_build_time_is_reported(pdf):
+    # Not a gate (the machine is shared): a record in the test output (pytest -rA) of what the PDF adds to make test.
+    print(f"PDF build: {pdf.seconds:.0f} s wall, {pdf.cpu_seconds:.0f} s CPU")
+    assert pdf.cpu_seconds < 900, f"the PDF build used {pdf.cpu_seconds:.0f} s of CPU (it took about 150 s in 2026-12)"
+
+
+# --- the content ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("docname", _pdf_docnames())
+def test_every_page_of_the_toc_is_in_the_pdf(pdf, docname):
+    title = _title(docname)
+    assert _squashed(title).lower() in _squashed(_text()).lower(), f"{docname}'s title {title!r} is not in the PDF"
+
+
+def test_api_reference_is_left_to_the_html(pdf):
+    assert "book/api" not in _pdf_docnames()
+    text = _squashed(_text())
+    assert _squashed("API reference") in text, "the PDF's introduction should say where the API reference is"
+    assert "automodule" not in text and _squashed("Generated from the docstrings") not in text
+
+
+def test_no_raw_widget_or_object_text(pdf):
+    text = _text()
+    found = {s: text.count(s) for s in RAW_OUTPUT if s in text}
+    assert not found, f"raw output text printed in the PDF (a widget or an object's repr): {found}"
+
+
+def test_every_widget_prints_its_note(pdf):
+    n_widgets = 0
+    for docname in _pdf_docnames():
+        path = _source(docname)
+        if path.suffix == ".ipynb":
+            nb = json.loads(path.read_text(encoding="utf-8"))
+            n_widgets += sum("application/vnd.jupyter.widget-view+json" in o.get("data", {})
+                             for c in nb["cells"] if c["cell_type"] == "code" for o in c.get("outputs", []))
+    assert n_widgets > 0
+    notes = _squashed(_text()).count(_squashed("An interactive widget: it runs in JupyterLab"))
+    assert notes == n_widgets, f"{n_widgets} widgets in the chapters, {notes} printed notes"
+
+
+def _image_outputs() -> tuple[int, int]:
+    """(PNG outputs, to_jshtml animations) of the chapters in the PDF, outside removed cells."""
+    pngs = animations = 0
+    for docname in _pdf_docnames():
+        path = _source(docname)
+        if path.suffix != ".ipynb":
+            continue
+        for cell in json.loads(path.read_text(encoding="utf-8"))["cells"]:
+            tags = set(cell.get("metadata", {}).get("tags", []))
+            if cell["cell_type"] != "code" or tags & {"remove-output", "remove-cell"}:
+                continue
+            for out in cell.get("outputs", []):
+                data = out.get("data", {})
+                pngs += "image/png" in data
+                animations += "image/png" not in data and "frames[0]" in "".join(data.get("text/html", ""))
+    return pngs, animations
+
+
+def test_every_figure_and_animation_is_printed(pdf):
+    listing = subprocess.run(["pdfimages", "-list", str(pdf_edition.PDF)], check=True, capture_output=True,
+                             text=True).stdout.splitlines()[2:]
+    images = [ln for ln in listing if ln.split()[2] == "image"]
+    pngs, animations = _image_outputs()
+    assert animations > 0
+    assert len(images) >= pngs + animations, (
+        f"{len(images)} images in the PDF for {pngs} figures and {animations} animations in the chapters")
+    sheets = _squashed(_text()).count(_squashed("of them here."))
+    assert sheets == animations, f"{animations} animations in the chapters, {sheets} printed as frames in the PDF"
+
+
+_SOLUTION = re.compile(r"```\{solution\}[^\n]*\n(.*?)\n```", re.S)
+
+
+def _outside_solutions(docname: str) -> str:
+    """A page's text without its solutions: prose, code and the outputs' text."""
+    path = _source(docname)
+    if path.suffix == ".md":
+        return _SOLUTION.sub("", path.read_text(encoding="utf-8"))
+    parts = []
+    for cell in json.loads(path.read_text(encoding="utf-8"))["cells"]:
+        parts.append(_SOLUTION.sub("", "".join(cell["source"])))
+        for out in cell.get("outputs", []):
+            parts.append("".join(out.get("text", "")) + "".join(out.get("data", {}).get("text/plain", "")))
+    return "\n".join(parts)
+
+
+def _solutions() -> list[str]:
+    """A plain-prose line of each solution of the chapters that is nowhere else on its page (a solution may repeat
+    a sentence that a code cell prints); roles, math and code lines are skipped."""
+    lines = []
+    for docname in _pdf_docnames():
+        elsewhere = _squashed(_outside_solutions(docname))
+        for body in _SOLUTION.findall(_markdown_of(docname)):
+            for line in body.splitlines():
+                line = line.strip()
+                if (line.startswith(":") or len(line) < 50 or re.search(r"[`$\\{}|*_\[\]]", line)
+                        or _squashed(line[:50]) in elsewhere):
+                    continue
+                lines.append(line[:50])
+                break
+    return lines
+
+
+def test_solutions_are_not_printed(pdf):
+    text = _squashed(_text())
+    solutions = _solutions()
+    assert len(solutions) >= 15, "the chapters' solutions were not found in the sources"
+    printed = [s for s in solutions if _squashed(s) in text]
+    assert not printed, f"{len(printed)} solutions printed in the PDF, e.g. {printed[:3]}"
+    assert "Solution to Exercise" not in _text()
+    assert _text().count("Exercise") >= 40
+
+
+def test_chinese_glossary_terms_extract(pdf):
+    terms = set(re.findall(r"[\u4e00-\u9fff]{2,}", (REPO / "book" / "glossary.md").read_text(encoding="utf-8")))
+    assert len(terms) > 20
+    text = _squashed(_text())
+    missing = sorted(t for t in terms if t not in text)
+    assert not missing, f"{len(missing)} Chinese terms of the glossary are not in the PDF's text: {missing[:10]}"
+
+
+def test_reference_part_prints_as_appendices(pdf):
+    text = _text()
+    for docname in ("book/notation", "book/glossary"):
+        assert re.search(r"Appendix\s+[A-F]\s*\n*\s*" + re.escape(_title(docname)), text) or \
+            re.search(r"[A-F]\s+" + re.escape(_title(docname)), text), f"{docname} is not an appendix"
