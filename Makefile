@@ -46,7 +46,7 @@ book: setup
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
 
 # The PDF edition: the same sources through Jupyter Book's LaTeX builder and xelatex, with _config_pdf.yml merged
-# over _config.yml (tools/pdf_edition.py); the PDF is _build/pdf/uwtutor.pdf. About 3 minutes on 2 cores.
+# over _config.yml (tools/build_pdf.py); the PDF is _build/pdf/uwtutor.pdf. About 3 minutes on 2 cores.
 # TeX Live, fonts and rsvg-convert come from Debian: `make pdf-deps` installs them (as root; .ci/run does the same).
 PDF_DEBIAN_PACKAGES := texlive-xetex texlive-latex-extra texlive-fonts-recommended texlive-lang-cjk latexmk \
                        fonts-freefont-otf fonts-noto-cjk fonts-dejavu-core librsvg2-bin poppler-utils
@@ -54,7 +54,7 @@ PDF_DEBIAN_PACKAGES := texlive-xetex texlive-latex-extra texlive-fonts-recommend
 pdf: setup
 	@command -v xelatex >/dev/null && command -v latexmk >/dev/null && command -v rsvg-convert >/dev/null \
 	  || { echo "make pdf needs TeX Live: run 'make pdf-deps' (as root) or apt-get install $(PDF_DEBIAN_PACKAGES)"; exit 1; }
-	$(PY) tools/pdf_edition.py
+	$(PY) tools/build_pdf.py
 
 pdf-deps:
 	apt-get update -qq

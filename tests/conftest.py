@@ -78,7 +78,7 @@ def _run_book_build() -> BookBuild:
 @dataclasses.dataclass
 class PdfBuild:
     returncode: int
-    output: str  # what tools/pdf_edition.py printed: Sphinx, then latexmk and xelatex
+    output: str  # what tools/build_pdf.py printed: Sphinx, then latexmk and xelatex
     seconds: float  # wall clock
     cpu_seconds: float  # user + system time of the build and its children (xelatex)
 
@@ -114,7 +114,7 @@ def _run_pdf_build() -> PdfBuild:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, str(REPO / "tools" / "pdf_edition.py")], cwd=REPO,
+        proc = subprocess.run([sys.executable, str(REPO / "tools" / "build_pdf.py")], cwd=REPO,
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors="replace",
                               timeout=PDF_BUILD_TIMEOUT)
     except subprocess.TimeoutExpired:

@@ -1,4 +1,4 @@
-"""The PDF edition (`make pdf`, tools/pdf_edition.py): it builds with no Sphinx or LaTeX warning, and its text and
+"""The PDF edition (`make pdf`, tools/build_pdf.py): it builds with no Sphinx or LaTeX warning, and its text and
 images are the book's: every chapter, every figure, the glossary's Chinese, no raw widget text, no solutions.
 
 The PDF is built once per session (fixture ``pdf_build`` in conftest.py) into _build/pdf/; the text is read back with
@@ -21,7 +21,7 @@ import pytest
 from book_paths import REPO, toc_docnames
 
 sys.path.insert(0, str(REPO / "tools"))
-import pdf_edition  # noqa: E402  (tools/ is not a package)
+import build_pdf as pdf_edition  # noqa: E402  (tools/ is not a package; named unlike book/_ext/pdf_edition.py)
 
 pytestmark = pytest.mark.book
 

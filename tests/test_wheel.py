@@ -341,8 +341,8 @@ import sys, nbformat
 from nbclient import NotebookClient
 nb = nbformat.read(sys.argv[1], as_version=4)
 first = next(i for i, c in enumerate(nb.cells) if "answer" in c.metadata.get("tags", []))
-nb.cells = nb.cells[:first] + [nbformat.v4.new_code_cell("import sys, uwtutor; print(sys.executable);
-print(uwtutor.__file__)")]
+probe = "import sys, uwtutor; print(sys.executable); print(uwtutor.__file__)"
+nb.cells = nb.cells[:first] + [nbformat.v4.new_code_cell(probe)]
 NotebookClient(nb, timeout=300, kernel_name="python3").execute()
 errors = [o for c in nb.cells for o in c.get("outputs", []) if o.output_type == "error"]
 assert not errors, errors

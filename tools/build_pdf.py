@@ -5,8 +5,8 @@ replaced), and its table of contents is _toc.yml without the pages _config_pdf.y
 are written to _build/pdf/, and the book is built from them into _build/pdf/_build/latex/ (its own doctrees: an HTML
 build may run at the same time in _build/). The PDF is copied to _build/pdf/uwtutor.pdf.
 
-    python tools/pdf_edition.py            # the whole build (what `make pdf` runs)
-    python tools/pdf_edition.py --config   # only write the merged configuration and table of contents
+    python tools/build_pdf.py            # the whole build (what `make pdf` runs)
+    python tools/build_pdf.py --config   # only write the merged configuration and table of contents
 
 The build is strict like the HTML one (``-W -n --keep-going``, every page re-read); LaTeX's own log is checked by
 tests/test_pdf.py.
@@ -74,7 +74,7 @@ def pdf_config() -> tuple[dict, dict]:
 def write_config() -> tuple[Path, Path]:
     config, toc = pdf_config()
     PDF_DIR.mkdir(parents=True, exist_ok=True)
-    header = "# Written by tools/pdf_edition.py from {} : do not edit.\n"
+    header = "# Written by tools/build_pdf.py from {} : do not edit.\n"
     config_path, toc_path = PDF_DIR / "_config.yml", PDF_DIR / "_toc.yml"
     config_path.write_text(header.format("_config.yml and _config_pdf.yml")
                            + yaml.safe_dump(config, sort_keys=False, allow_unicode=True), encoding="utf-8")
