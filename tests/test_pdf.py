@@ -151,6 +151,14 @@ def test_no_raw_widget_or_object_text(pdf):
     assert not found, f"raw output text printed in the PDF (a widget or an object's repr): {found}"
 
 
+def test_no_sentence_written_for_the_html_alone(pdf):
+    """A printed page has no sliders to move and is not "the HTML book": the chapters' widget sentences name the
+    edition they speak of."""
+    text = " ".join(_text().split())
+    for phrase in ("the HTML book shows", "Move the sliders", "Run the next cell in JupyterLab to get"):
+        assert phrase not in text, f"an HTML-only sentence is printed: {phrase!r}"
+
+
 def test_every_widget_prints_its_note(pdf):
     n_widgets = 0
     for docname in _pdf_docnames():
