@@ -278,10 +278,9 @@ N_PARTICLES = 500
 def particle_filter(inputs: SuiteInputs) -> FilterResult:
     """A bootstrap particle filter on the 2-D range-only problem (chapter 6's filter on chapter 4's models): the
     EKF's model pair, :class:`~uwtutor.models.dead_reckoning.DeadReckoning` with the suite's Q (the DR displacements as
-    the
-    input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is only
-    another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling
-    (systematic) when the effective sample size falls below half. It can hold both mirror solutions of a straight
+    the input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is
+    only another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling (systematic)
+    when the effective sample size falls below half. It can hold both mirror solutions of a straight
     track."""
     s = _inputs(inputs)
     rng = np.random.default_rng(s.method_seed)

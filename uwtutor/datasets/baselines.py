@@ -146,8 +146,7 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
 
     One beacon runs :func:`uwtutor.filters.ekf.range_only_ekf` itself; several run the generic engine on
     :class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.BeaconRanges` (the same
-    filter, every beacon
-    heard at an epoch in one update).
+    filter, every beacon heard at an epoch in one update).
 
     Parameters
     ----------

@@ -16,8 +16,8 @@ What it holds:
   baseline's rows also hold paper E's trial statistic, :func:`fixes_within`);
 * ``sweep`` -- GTSAM's batch solution against the heading noise of its odometry factors, per beacon;
 * ``grid`` -- :func:`~uwtutor.datasets.navigate` on Plaza 2 for every beacon (and all four), range period and set of
-  estimated states
-  (chapter 11's widget), with the error, the scale estimate and the NEES, decimated to one value a second.
+  estimated states (chapter 11's widget), with the error, the scale estimate and the NEES, decimated to one value a
+  second.
 
 Every number is deterministic (the particle filter draws from a fixed seed); nothing here is timed.
 """

@@ -24,10 +24,9 @@ fix of position and bias on the dead-reckoned track (``uwtutor.lsq.prepositionin
 only once that fix's precision factor :math:`\alpha = \operatorname{tr}(\mathbf A^\mathsf T\mathbf A)^{-1}` is
 below 2 (:func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf`).
 
-Forms: :func:`bias_ekf` runs one run or ``M`` runs over whole sequences in one call; :class:`BiasEKF` is the same
-filter one step at a time (the filter protocol); :func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf` is
-paper A's "pre-positioning,
-then IEKF" for a batch of runs.
+Forms: :func:`bias_ekf` runs one run or ``M`` runs over whole sequences in one call; :class:`BiasEKF` is the same filter
+one step at a time (the filter protocol); :func:`~uwtutor.pipelines.prepositioned.prepositioned_bias_ekf` is paper A's
+"pre-positioning, then IEKF" for a batch of runs.
 
 References
 ----------

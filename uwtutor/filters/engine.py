@@ -43,8 +43,7 @@ Two forms:
 
 * :class:`ExtendedKalmanFilter` -- the object form of the filter protocol (``predict``, ``update``, ``run``);
 * :func:`extended_kalman_filter` -- the functional form, a whole sequence in one call; it returns the same result as the
-  object's
-  ``run`` (it *is* that call).
+  object's ``run`` (it *is* that call).
 
 The specialised filters of the library (the range-only EKF, paper A's bias EKF, paper B's cooperative EKF, the
 robust range filter of paper E) are model pairs on this engine, or fast paths that must equal it

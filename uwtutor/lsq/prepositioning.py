@@ -203,13 +203,12 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
                    max_noise_gain: float = 100.0) -> LSQFix:
     r"""Paper A's pre-positioning: a least-squares fix of the *current* position from a whole DR track of ranges.
 
-    The vehicle measured :math:`r_1, \dots, r_K` at epochs where dead reckoning put it at :math:`p^\mathrm{DR}_1,
-    \dots, p^\mathrm{DR}_K` (only the differences matter). Its position at epoch :math:`i` is :math:`p + d_i`,
-    :math:`d_i = p^\mathrm{DR}_i - p^\mathrm{DR}_K`, so the range of epoch :math:`i` is a range from the current
-    position :math:`p` to the **virtual beacon** :math:`b^\mathrm{v}_i = b - d_i` (paper A "back-propagates the
-    provisional position to every past epoch with the DR displacements"; the two views are the same equations). The fix
-    is then ``linearized_lsq`` on those virtual
-    beacons, with paper A's bias column by default.
+    The vehicle measured :math:`r_1, \dots, r_K` at epochs where dead reckoning put it at :math:`p^\mathrm{DR}_1, \dots,
+    p^\mathrm{DR}_K` (only the differences matter). Its position at epoch :math:`i` is :math:`p + d_i`, :math:`d_i =
+    p^\mathrm{DR}_i - p^\mathrm{DR}_K`, so the range of epoch :math:`i` is a range from the current position :math:`p`
+    to the **virtual beacon** :math:`b^\mathrm{v}_i = b - d_i` (paper A "back-propagates the provisional position to
+    every past epoch with the DR displacements"; the two views are the same equations). The fix is then
+    ``linearized_lsq`` on those virtual beacons, with paper A's bias column by default.
 
     Parameters
     ----------

@@ -3,8 +3,7 @@
 Paper C's parameters, the maneuvering depth profile, the sensors and the EKF / MMPF / GPF comparison live in
 :mod:`uwtutor.scenarios.paper_c` (importable from here under their old names: ``PAPER_C``,
 ``maneuvering_depth_profile``, ``simulate_depth_sensors``, ``run_depth_study``, ...). :func:`gpf_view` is the light
-version behind the
-chapter's widget (a shorter profile, fewer particles).
+version behind the chapter's widget (a shorter profile, fewer particles).
 """
 
 from __future__ import annotations
@@ -94,9 +93,9 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     """Run the EKF and the GPF on 12 s of the dive whose sensor noise changes by ``noise_change`` at 13 s.
 
     The samples from 6 to 18 s of :func:`~uwtutor.scenarios.paper_c.maneuvering_depth_profile` (the pitch ramps to 20°
-    at 8-11 s, the speed
-    rises), with the noise nominal until 13 s and ``noise_change`` times nominal after; paper C's other parameters
-    (T = 0.05 s, ``L`` = 30, the diagonal Q, fixed R for the EKF). Both filters start from the first reading.
+    at 8-11 s, the speed rises), with the noise nominal until 13 s and ``noise_change`` times nominal after; paper C's
+    other parameters (T = 0.05 s, ``L`` = 30, the diagonal Q, fixed R for the EKF). Both filters start from the first
+    reading.
 
     Parameters
     ----------
