@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_float_array
+from .._validate import MAX_COORDINATE, as_covariance, as_range_array
 from ._packed import range_variances
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
@@ -171,9 +171,9 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     ... )
     (True, True)
     """
-    zz = as_float_array("z", z)
+    zz = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)      # measured ranges: >= 0, NaN missing
     motion, measurement = bias_model_pair(Q, R, beacon, zz.shape[-1] if zz.ndim else None)
-    return extended_kalman_filter(motion, measurement, x0, P0, u, z, times=times, gate=gate)
+    return extended_kalman_filter(motion, measurement, x0, P0, u, zz, times=times, gate=gate)
 
 
 class BiasEKF(ExtendedKalmanFilter):
@@ -211,6 +211,10 @@ class BiasEKF(ExtendedKalmanFilter):
     def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0)) -> None:
         motion, measurement = bias_model_pair(Q, R, beacon)
         super().__init__(motion, measurement, x0, P0)
+
+    def update(self, z: Any) -> None:
+        """Correct the estimate with the measured range ``z`` (>= 0; NaN: no reply, predict only)."""
+        super().update(as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE))
 
     @property
     def bias(self) -> np.ndarray:

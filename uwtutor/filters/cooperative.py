@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_positive, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from ..errors import UnobservableWarning, warn
 from .base import FilterResult, run_filter
@@ -121,8 +121,8 @@ def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | 
     >>> round(relative_track_deviation(u, leader), 9)
     0.0
     """
-    d = as_finite("u", u, ndim=(2, 3))
-    b = as_finite("leader", leader, ndim=(2, 3))
+    d = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    b = as_finite("leader", leader, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if d.shape[-1] != 2 or b.shape[-1] != 2 or b.shape[-2] != d.shape[-2] + 1:
         raise ValueError(f"u must have shape (..., K, 2) and leader (..., K + 1, 2); got {d.shape} and {b.shape}")
     k1 = b.shape[-2]
@@ -245,6 +245,8 @@ class CooperativeEKF:
             raise ValueError(f"lost must be one of {LOST_POLICIES} (a pair with one range lost: predict only, or "
                              f"update with the other range); got {lost!r}")
         self.lost = lost
+        if range_variance is not None:      # checked whatever the formulation (only "single_range" uses it)
+            range_variance = as_scalar("range_variance", range_variance, domain="positive")
         x, P, d, b = _check_inputs(x0, P0, u, leader, _n_runs)
         self.formulation = formulation
         self.u = d

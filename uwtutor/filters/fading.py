@@ -119,7 +119,8 @@ from typing import Any
 import numpy as np
 
 from ..acoustics import range_factor
-from .._validate import as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array
+from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar,
+                        as_range_array)
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
@@ -724,7 +725,7 @@ class FadingEKF:
         if self._pending is None:
             raise RuntimeError("call predict(u) before update(z): the fading factor scales the prediction's "
                                "covariance, so each update needs its own prediction")
-        z = as_range_array("z", z, allow_nan=True)
+        z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
         if z.size == 1 and z.ndim <= 1:
             z = np.broadcast_to(z.reshape(()), (self._M,))
         elif z.shape != (self._M,) or not self._batched:
@@ -742,7 +743,7 @@ class FadingEKF:
         """
         if self._pending is not None:
             raise RuntimeError("run() starts from an updated state: call update(z) for the pending prediction first")
-        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1))
+        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
         if z.ndim == 2 and z.shape[0] != self._M:
             raise ValueError(f"z must have shape (K,) or (M, K) with M = {self._M}; got {z.shape}")
         K = z.shape[-1]

@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .._validate import as_finite, as_float_array, as_int, as_positive, as_scalar
+from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_positive, as_scalar
 from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
@@ -171,7 +171,7 @@ def moment_gate_interval(z_pred: Any, S: Any, delta: Any = 0.03) -> tuple[np.nda
     >>> round(float(lo), 2), round(float(hi), 2)
     (-22.67, 22.34)
     """
-    zp = as_positive("z_pred", z_pred)
+    zp = as_positive("z_pred", z_pred, max_abs=MAX_COORDINATE)
     S = as_float_array("S", S)
     if not np.all(np.isfinite(S)) or np.any(S < 0):
         raise ValueError("S must be finite and >= 0 (an innovation variance)")
@@ -532,5 +532,7 @@ def cascade_kf(fixes: Any, dt: Any = 1.0, *, q: Any = 1e-4, r: Any, test: Any = 
     f = as_float_array("fixes", fixes, ndim=(2, 3))
     if f.shape[-1] != 2:
         raise ValueError(f"fixes must be horizontal positions, shape (K, 2) or (M, K, 2); got {f.shape}")
+    if np.isinf(f).any():
+        raise ValueError("fixes must be finite, or NaN where there is no fix; got an infinite value")
     return robust_track_kf(f, dt, q=q, r=r, test=test, delta=delta, probability=probability,
                            on_outlier=on_outlier, reacquire=reacquire, times=times)

@@ -42,6 +42,9 @@ from .base import MotionModel
 
 __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise"]
 
+#: Largest standard deviation accepted [m]: its square stays within the covariances' bound (1e150).
+_MAX_STD = 1e75
+
 
 def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> np.ndarray:
     r"""Paper A's process noise :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`.
@@ -72,10 +75,10 @@ def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = N
            [0.   , 0.25 , 0.   ],
            [0.   , 0.   , 0.625]])
     """
-    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0))
-    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0))
-    sb2 = (sx**2 + sy**2) / 2.0 if sigma_bias is None else float(as_nonnegative("sigma_bias", sigma_bias,
-                                                                                 ndim=0)) ** 2
+    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0, max_abs=_MAX_STD))
+    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0, max_abs=_MAX_STD))
+    sb2 = (sx**2 + sy**2) / 2.0 if sigma_bias is None else float(as_nonnegative("sigma_bias", sigma_bias, ndim=0,
+                                                                                 max_abs=_MAX_STD)) ** 2
     return np.diag([sx**2, sy**2, sb2])
 
 
@@ -111,10 +114,10 @@ def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: An
     array([[0.004167, 0.00125 ],
            [0.00125 , 0.0005  ]])
     """
-    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0))
-    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0))
-    q = float(as_nonnegative("rate_sigma", rate_sigma, ndim=0)) ** 2
-    h = float(as_positive("dt", dt, ndim=0))
+    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0, max_abs=_MAX_STD))
+    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0, max_abs=_MAX_STD))
+    q = float(as_nonnegative("rate_sigma", rate_sigma, ndim=0, max_abs=_MAX_STD)) ** 2
+    h = float(as_positive("dt", dt, ndim=0, max_abs=1e50))          # q dt^3 / 3 stays finite
     Q = np.zeros((4, 4))
     Q[0, 0], Q[1, 1] = sx**2, sy**2
     Q[2:, 2:] = q * np.array([[h**3 / 3.0, h**2 / 2.0], [h**2 / 2.0, h]])

@@ -62,7 +62,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, check_same_shape
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, as_scalar,
+                         check_same_shape)
 from .base import MeasurementModel, MotionModel
 from .range import RangeToBeacon
 
@@ -323,4 +324,7 @@ def leader_range(leader: Any, variance: Any) -> RangeToBeacon:
     array([[50.]])
     """
     b = _per_step("leader", leader, 1)
-    return RangeToBeacon(b[..., 1:, :], R=variance, n=4)
+    if b.shape[-2] < 2:
+        raise ValueError(f"leader must hold K + 1 >= 2 positions (the start, then one per ranging epoch); got shape "
+                         f"{b.shape}")
+    return RangeToBeacon(b[..., 1:, :], R=as_scalar("variance", variance, domain="positive"), n=4)

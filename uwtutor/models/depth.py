@@ -77,6 +77,8 @@ __all__ = [
 #: :mod:`uwtutor.scenarios.paper_c`).
 DEFAULT_PROCESS_STD = np.array([0.01, 0.01, 0.0035])
 DEFAULT_PROCESS_STD.flags.writeable = False
+#: Largest sampling interval and standard deviation accepted: the variances they make stay within 1e150.
+_MAX_STD = 1e75
 
 #: Default sensor noise standard deviations in m, m/s and rad, from paper C's
 #: :math:`R = \mathrm{diag}(0.2^2, 5^2, 0.5^2)` (printed without units, read as 0.2 m, 5 cm/s and 0.5 deg).
@@ -229,7 +231,8 @@ class DepthSpeedPitch(MotionModel):
     n = 3
 
     def __init__(self, T: float = 0.05, process_std: Any = None, *, process_cov: Any = None) -> None:
-        self.T = float(as_positive("T", T))
+        # T and the standard deviations up to 1e75: the variances they make stay within the covariances' 1e150
+        self.T = as_scalar("T", T, domain="positive", high=_MAX_STD)
         if process_cov is not None:
             if process_std is not None:
                 raise ValueError("give process_std or process_cov, not both")
@@ -240,7 +243,7 @@ class DepthSpeedPitch(MotionModel):
             self.process_std = np.sqrt(np.diag(cov))
         else:
             std = DEFAULT_PROCESS_STD if process_std is None else process_std
-            self.process_std = as_nonnegative("process_std", std, shape=(3,)).copy()
+            self.process_std = as_nonnegative("process_std", std, shape=(3,), max_abs=_MAX_STD).copy()
             self.process_cov = np.diag(self.process_std**2)
         diagonal = np.count_nonzero(self.process_cov - np.diag(np.diag(self.process_cov))) == 0
         self._root = None if diagonal else psd_sqrt(self.process_cov)      # L with L L^T = Q_u (correlated)

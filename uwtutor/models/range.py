@@ -294,7 +294,7 @@ class NoiseSchedule:
     """
 
     def __init__(self, name: str, R: Any, m: int) -> None:
-        self.name, self.m = name, m
+        self.name, self.m = name, as_int("m", m, minimum=1)
         arr = as_float_array(name, R)
         self.constant: np.ndarray | None = None
         self._variances: np.ndarray | None = None

@@ -10,7 +10,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_nonnegative
+from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_scalar, check_work
 from ..filters import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
                        extended_kalman_filter)
 from ..models.depth import DepthSensors, DepthSpeedPitch, PitchManeuver
@@ -151,10 +151,17 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     unknown = [f for f in filters if f not in FILTER_NAMES]
     if unknown or not filters:
         raise ValueError(f"filters must be names from {FILTER_NAMES}; got {list(filters)!r}")
+    as_instance("profile", profile, DepthProfile, "e.g. uwtutor.scenarios.paper_c.make(rng).profile")
     Z = as_finite("measurements", measurements)
     if Z.ndim != 3 or Z.shape[1:] != (profile.n_steps, 3):
         raise ValueError(f"measurements must have shape (M, {profile.n_steps}, 3); got {Z.shape}")
     N = as_int("n_particles", n_particles, minimum=10)
+    check_work("n_particles", Z.shape[0] * N * 3, "particle values")
+    # every filter's parameters are checked, whichever filters run (none is ignored silently)
+    grey_fraction = as_scalar("grey_fraction", grey_fraction, low=0.0)
+    grey_window = as_int("grey_window", grey_window, minimum=4)
+    noise_window = as_int("noise_window", noise_window, minimum=1)
+    mmpf_time_constant = as_scalar("mmpf_time_constant", mmpf_time_constant, domain="positive")
     q = PAPER_C["process_std"] if process_std is None else as_nonnegative("process_std", process_std, shape=(3,))
     seed = as_int("seed", seed, minimum=0)
     targets = as_finite("mmpf_targets_deg", mmpf_targets_deg, ndim=1)

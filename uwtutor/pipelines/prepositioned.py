@@ -163,6 +163,12 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
                                          iterations=steps, sigma=np.sqrt(R))
                 fix_state[runs] = fix.estimate
                 fix_cov[runs] = fix.covariance
+    singular = has_start & ~np.isfinite(fix_state).all(axis=1)
+    if singular.any():
+        run = int(np.flatnonzero(singular)[0])
+        raise ValueError(f"max_alpha = {a_max:g} accepted a fix that is singular (run {run}, epoch {int(start[run])}, "
+                         f"alpha = {alpha[run, start[run]]:.3g}): no start can be computed from it. Use a smaller "
+                         "max_alpha (paper A: 2)")
     P_start = fix_cov if P0 is None else np.broadcast_to(P0, (M, 3, 3))
     epochs = np.arange(K)[None, :]
     out = {name: np.full(shape, np.nan) for name, shape in

@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import lsq
 from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_range_array, as_rng,
-                         as_scalar)
+                         as_scalar, check_work)
 from ..errors import IllConditionedWarning, warn as _warn
 from ..filters.base import FilterResult
 from ..filters.robust import cascade_kf, robust_range_kf
@@ -58,6 +58,7 @@ def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.nda
     first = (n - 1) * s
     if first >= K:
         raise ValueError(f"a fix needs {n} epochs {s} steps apart, i.e. {first + 1} epochs; the run has only {K}")
+    check_work("n_steps", (K - first) * (n + 1), "epoch indices")
     now = np.arange(first, K)
     return now, now[:, None] - s * np.arange(n - 1, -1, -1)
 

@@ -84,7 +84,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_rng
+from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
+                          as_rng)
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import Resampler, systematic_resample
@@ -328,7 +329,7 @@ class BootstrapParticleFilter:
                  roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
         self._set_models(motion, measurement)
-        p = as_finite("particles", particles, ndim=(2, 3))
+        p = as_finite("particles", particles, ndim=(2, 3), max_abs=MAX_COORDINATE)
         self._batched = p.ndim == 3
         self._w = np.empty((0, 0))
         self.particles = p
@@ -344,6 +345,9 @@ class BootstrapParticleFilter:
         self.resampler = resampler
         self.ess_threshold = float(as_nonnegative("ess_threshold", ess_threshold))
         self.roughening = float(as_nonnegative("roughening", roughening))
+        if self.roughening > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
+            raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times the "
+                             f"spread of the particles); got {self.roughening:g}")
         m = self.m
         self.k = -1
         self._y = np.full((M, m), np.nan)
@@ -468,7 +472,7 @@ class BootstrapParticleFilter:
 
     @particles.setter
     def particles(self, value: Any) -> None:
-        p = as_finite("particles", value, ndim=3 if self._batched else 2)
+        p = as_finite("particles", value, ndim=3 if self._batched else 2, max_abs=MAX_COORDINATE)
         pb = p if self._batched else p[None]
         n = self.n
         if pb.shape[2] != n or pb.shape[1] < 1 or pb.shape[0] < 1:
