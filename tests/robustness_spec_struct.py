@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from robustness_kinds import Choice, Covariance, Flag, Instance, Int, Kind, Real, Rng, Seed
-from robustness_spec import _U, _X0, _Z, Spec, _models
+from robustness_kinds import Choice, Covariance, Flag, Instance, Int, Kind, Mapping, Real, Rng, Seed
+from robustness_spec import _U, _X0, _Z, Spec, _models, _small_log
 
 
 # --- using a model once ------------------------------------------------------------------------------------------
@@ -482,6 +482,27 @@ SPECS_STRUCT: dict[str, Spec] = {
         kinds=dict(ship_positions=Real((400, 2)), true_positions=Real((400, 2)), depth=_NONNEG,
                    spacing=Int(minimum=1), levels=Real((None,), "pos"), n_runs=Int(minimum=1, unbounded_work=True),
                    n_epochs=Int(minimum=3)), per_argument=4),
+    # --- real logs ---------------------------------------------------------------------------------------------------
+    "uwtutor.datasets._core:RangeDataset": Spec(
+        lambda: dict(times=_small_log().times, odometry=_small_log().odometry, ranges=_small_log().ranges[:10],
+                     beacons={3: (5.0, 12.0), 7: (-4.0, 3.0)}, truth=_small_log().truth, start=[0.0, 0.0, 0.0],
+                     start_cov=np.diag([0.01, 0.01, 3e-4]), name="square", notes=()),
+        kinds=dict(times=Real((81,)), odometry=Real((81, 2)), ranges=Real((10, 3), "nonneg"), beacons=Mapping(),
+                   truth=Real((81, 3), optional=True), start=Real((3,), optional=True),
+                   start_cov=_OptCov(), name=Kind(), notes=Kind()),
+        call=lambda **kw: (lambda d: (d.dead_reckoning(), d.ranges_on_epochs()))(
+            __import__("uwtutor.datasets", fromlist=["x"]).RangeDataset(**kw)), per_argument=5),
+    "uwtutor.datasets._plaza:plaza": Spec(
+        lambda: dict(number=1), kinds=dict(number=Int(minimum=1, maximum=2)),
+        call=lambda **kw: __import__("uwtutor.datasets", fromlist=["x"]).plaza(**kw).start),
+    "uwtutor.datasets.navigation:navigate": Spec(
+        lambda: dict(data=_small_log(), beacon_ids=[3], min_period=2.0, smooth=True, gyro_bias=True, scale=True,
+                     range_sigma=0.6, distance_sigma=(0.01, 0.02), heading_noise=1e-3, gyro_bias_prior=0.01,
+                     gyro_bias_walk=1e-4, scale_prior=0.1, scale_walk=1e-5, gate=True),
+        kinds=dict(data=Instance(), beacon_ids=Kind(), min_period=Real((), "pos", optional=True), smooth=Flag(),
+                   gyro_bias=Flag(), scale=Flag(), range_sigma=_POS, distance_sigma=Real((2,), "nonneg"),
+                   heading_noise=_POS, gyro_bias_prior=_POS, gyro_bias_walk=_POS, scale_prior=_POS,
+                   scale_walk=_POS, gate=Flag()), per_argument=4),
 }
 
 EXEMPT_STRUCT: dict[str, str] = {

@@ -149,6 +149,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     >>> bool(np.linalg.norm(result.x[-1, :2] - truth[-1, :2]) < 1.0)
     True
     """
+    smooth, gate = as_flag("smooth", smooth), as_flag("gate", gate)
     nav = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
                             range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
                             gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
