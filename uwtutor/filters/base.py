@@ -40,7 +40,22 @@ __all__ = ["Filter", "FilterResult", "run_filter"]
 
 @runtime_checkable
 class Filter(Protocol):
-    """Structural type of a uwtutor filter (see the module docstring for what each member means)."""
+    """Structural type of a uwtutor filter (see the module docstring for what each member means).
+
+    Examples
+    --------
+    A Kalman filter has every member of the protocol, so the one step loop runs it:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Filter, KalmanFilter, run_filter
+    >>> kf = KalmanFilter.constant_velocity(
+    ...     dt=1.0, q=0.01, r=4.0, x0=[0.0, 1.0], P0=np.eye(2)
+    ... )
+    >>> isinstance(kf, Filter)
+    True
+    >>> run_filter(kf, [1.2, 1.9, 3.1]).x.shape
+    (3, 2)
+    """
 
     x: np.ndarray
     P: np.ndarray
@@ -82,6 +97,27 @@ class FilterResult:
         Covariance ``S`` of each innovation; NaN where no measurement was used.
     extras : dict of ndarray
         Per-step outputs particular to a filter (e.g. ``"fading_factor"``), each with the time axis first.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> u = np.tile([1.0, 0.0], (4, 1))
+    >>> truth = np.array([10.0, 20.0]) + np.cumsum(u, axis=0)
+    >>> res = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [12.0, 18.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ... )
+    >>> res.n_steps, res.x.shape, res.P.shape, res.innovations.shape
+    (4, (4, 2), (4, 2, 2), (4, 1))
+    >>> # one NIS per step, and the measurements used
+    >>> res.nis().shape, res.extras["accepted"].tolist()
+    ((4,), [True, True, True, True])
     """
 
     times: np.ndarray

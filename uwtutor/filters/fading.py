@@ -347,6 +347,27 @@ class FadingResult(FilterResult):
     :math:`\sigma_\gamma^2 T_k` (the part of the innovation variance due to the multiplicative noise) and
     ``"updated"`` (True where a range was used). ``innovations`` are
     :math:`\tilde z_k = z_k - \mu_\gamma h(\hat{\mathbf x}^-_k)` and ``innovation_cov`` is :math:`R_\delta`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import fading_ekf
+    >>> u = np.tile([1.0, 0.0], (5, 1))
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=0)
+    >>> res = fading_ekf(
+    ...     [102.0, 48.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ...     mu_gamma=1.0,
+    ... )
+    >>> type(res).__name__, res.x.shape
+    ('FadingResult', (5, 2))
+    >>> # the fading factor lambda_k of each step (>= 1)
+    >>> bool(np.all(res.extras["fading_factor"] >= 1.0))
+    True
     """
 
     @property

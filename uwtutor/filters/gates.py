@@ -64,6 +64,34 @@ class GateContext:
         Its covariance.
     present : ndarray of bool, shape (M, m), optional
         Which components are measured (and usable); None means "every finite component of ``z``".
+
+    Examples
+    --------
+    What a gate sees at each step (here, the first step of a one-run filter):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Gate, extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> seen = []
+    >>> class Spy(Gate):
+    ...     def accept(self, ctx):
+    ...         seen.append(ctx)
+    ...         return np.ones(ctx.y.shape[0], dtype=bool)
+    >>> _ = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [3.0, 4.0],
+    ...     np.eye(2),
+    ...     np.zeros((1, 2)),
+    ...     [6.0],
+    ...     gate=Spy(),
+    ... )
+    >>> ctx = seen[0]
+    >>> ctx.k, ctx.z.tolist(), ctx.z_pred.tolist(), ctx.y.tolist()
+    (0, [[6.0]], [[5.0]], [[1.0]])
+    >>> # S = H P H^T + R
+    >>> np.round(ctx.S, 3).tolist()
+    [[[2.01]]]
     """
 
     k: int
@@ -108,6 +136,28 @@ class Gate:
 
     A gate may name per-step attributes in ``extra_outputs`` (each an array ``(M,)``, set by :meth:`accept` or
     :meth:`after_update`): the filter records them in its result's ``extras``.
+
+    Examples
+    --------
+    A gate of your own: accept a range only when it is shorter than 1000 m (one decision per run):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Gate, extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> class ShortRanges(Gate):
+    ...     def accept(self, ctx):
+    ...         return ctx.z[:, 0] < 1000.0
+    >>> res = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [100.0, 0.0],
+    ...     np.eye(2) * 25.0,
+    ...     np.zeros((3, 2)),
+    ...     [100.0, 5000.0, 101.0],
+    ...     gate=ShortRanges(),
+    ... )
+    >>> res.extras["accepted"].tolist()
+    [True, False, True]
     """
 
     extra_outputs: tuple[str, ...] = ()

@@ -186,6 +186,17 @@ def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate 
 
     ``delta`` and ``probability`` are checked whichever test uses them, so that a bad value is never silently
     ignored (``make_test("chi2", delta=nan)`` is refused).
+
+    Examples
+    --------
+    >>> from uwtutor.filters.robust import make_test
+    >>> type(make_test("paper", delta=0.03)).__name__
+    'SecondMomentGate'
+    >>> gate = make_test("chi2", probability=0.99)
+    >>> type(gate).__name__, round(gate.threshold(1), 3)
+    ('ChiSquareGate', 6.635)
+    >>> make_test("none") is None
+    True
     """
     paper, chi2 = SecondMomentGate(delta), ChiSquareGate(probability)      # both checked, whichever is used
     if isinstance(test, Gate):
@@ -228,6 +239,33 @@ class RobustGate(Gate):
         Per step, bool ``(M,)``: the run was restarted.
     cleared : list of tuple
         The ``(run, step)`` pairs of rejected measurements reclassified as good by a re-acquisition.
+
+    Examples
+    --------
+    Paper E's test on a range track with a spike at step 3: rejected, and predicted through:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.filters.robust import RobustGate, SecondMomentGate
+    >>> from uwtutor.models import ConstantVelocity, PositionMeasurement
+    >>> from uwtutor.models.robust import step_lengths
+    >>> steps = step_lengths(6)
+    >>> gate = RobustGate(SecondMomentGate(0.03), steps)
+    >>> z = np.array([1000.0, 999.0, 998.1, 1150.0, 996.0, 995.1])
+    >>> res = extended_kalman_filter(
+    ...     ConstantVelocity(1, 0.01, steps),
+    ...     PositionMeasurement(1, 2.0),
+    ...     [1000.0, -1.0],
+    ...     np.diag([2.0, 1.0]),
+    ...     None,
+    ...     z,
+    ...     gate=gate,
+    ... )
+    >>> res.extras["accepted"].tolist()
+    [True, True, True, False, True, True]
+    >>> # the spike's step: the prediction [m]
+    >>> round(float(res.x[3, 0]), 1)
+    997.1
     """
 
     def __init__(self, test: Gate | None, steps: Any, *, on_outlier: str = "predict",
@@ -377,6 +415,22 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
         The engine's result with, in ``extras`` (each ``(K,)`` or ``(M, K)``): ``"accepted"`` (measurement used),
         ``"rejected"`` (the test said no), ``"outlier"`` (rejected and not reclassified as good by a
         re-acquisition) and ``"reacquired"`` (the state was restarted at that step).
+
+    Examples
+    --------
+    A range that closes at 1.2 m/s with one wild value at step 5:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters.robust import robust_track_kf
+    >>> t = np.arange(10.0)
+    >>> z = 1800.0 - 1.2 * t
+    >>> z[5] += 80.0
+    >>> res = robust_track_kf(z[:, None], 1.0, q=0.01, r=2.0)
+    >>> np.flatnonzero(res.extras["outlier"]).tolist()
+    [5]
+    >>> # the estimated range rate [m/s]
+    >>> round(float(res.x[-1, 1]), 1)
+    -1.2
     """
     zz = as_float_array("z", z, ndim=(2, 3))
     if np.isinf(zz).any():

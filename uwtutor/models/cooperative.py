@@ -122,6 +122,16 @@ def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
     Returns
     -------
     ndarray, shape (2, 10) or (M, 2, 10)
+
+    Examples
+    --------
+    >>> from uwtutor.models.cooperative import measurement_noise_map
+    >>> L = measurement_noise_map([3.0, 4.0], [1.0, 2.0], dt=8.0)
+    >>> L.shape
+    (2, 10)
+    >>> # the first row: 2 s_k^T, then -2 s_k^T
+    >>> L[0, :4]
+    array([ 6.,  8., -6., -8.])
     """
     a = as_finite("a", a, max_abs=MAX_COORDINATE, ndim=(1, 2))
     c = as_finite("c", c, max_abs=MAX_COORDINATE, ndim=(1, 2))

@@ -37,6 +37,19 @@ class DepthStudy:
     extras : dict
         ``"GPF noise_std"`` (M, K, 3): the wavelet noise estimates the GPF used; ``"MMPF mode_probabilities"``
         (M, K, J): the posterior probabilities of the MMPF's modes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import run_depth_study
+    >>> from uwtutor.scenarios import paper_c
+    >>> sc = paper_c.make(np.random.default_rng(0), n_runs=2, duration=2.0)
+    >>> study = run_depth_study(sc.profile, sc.measurements, ("EKF",))
+    >>> list(study.estimates), study.estimates["EKF"].shape
+    (['EKF'], (2, 40, 3))
+    >>> # RMSE over the runs of depth, speed and pitch at each step [m, m/s, rad]
+    >>> study.rmse("EKF").shape
+    (40, 3)
     """
 
     profile: DepthProfile

@@ -58,6 +58,27 @@ class LSFadingResult(FilterResult):
         The filter's own run over the accepted runs (in order), in *filter time*: step ``j`` of accepted run
         ``m`` is epoch ``start_epoch[m] + 1 + j`` (steps past the last epoch are padding without ranges); see
         :func:`uwtutor.pipelines.staggered.filter_from_start_epochs`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import scenarios
+    >>> from uwtutor.pipelines import ls_fading_ekf
+    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(5), n_runs=2)
+    >>> res = ls_fading_ekf(
+    ...     sc.ranges,
+    ...     sc.dr_displacements,
+    ...     Q=np.eye(2) * 0.81,
+    ...     R=0.49,
+    ...     P0=np.eye(2) * 50.0**2,
+    ...     times=sc.times,
+    ... )
+    >>> res.x.shape, res.start_epoch.shape, res.mu_gamma.shape
+    ((2, 151, 2), (2,), (2,))
+    >>> # the filter's covariance starts after the pre-location's epoch
+    >>> k0 = int(res.start_epoch[0])
+    >>> bool(np.isnan(res.P[0, k0]).all() and np.isfinite(res.P[0, k0 + 1]).all())
+    True
     """
 
     start_epoch: np.ndarray

@@ -37,6 +37,29 @@ class StaggeredRun:
     filter_result : FilterResult
         The filter's own run over ``runs``, in *filter time*: step ``j`` of the ``i``-th filtered run is epoch
         ``start[runs[i]] + 1 + j`` (steps past the last epoch are padding without measurements).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.pipelines import filter_from_start_epochs
+    >>> u = np.tile([1.0, 0.0], (2, 6, 1))
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
+    >>> run = filter_from_start_epochs(
+    ...     range_only_ekf,
+    ...     [1, 3],
+    ...     truth[[0, 1], [1, 3]],
+    ...     np.eye(2),
+    ...     u,
+    ...     np.linalg.norm(truth, axis=-1),
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ... )
+    >>> run.start.tolist(), run.n_epochs
+    ([1, 3], 6)
+    >>> run.after_start.astype(int)
+    array([[0, 0, 1, 1, 1, 1],
+           [0, 0, 0, 0, 1, 1]])
     """
 
     start: np.ndarray

@@ -88,6 +88,26 @@ class VMLBLResult:
         The cascade filter's run on the fixes (state ``[x, y, vx, vy]``).
     smoothed : SmootherResult or None
         The RTS smoother over ``track`` (when ``smooth=True``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import or_vmlbl_kf
+    >>> from uwtutor.scenarios import paper_e
+    >>> d = paper_e.make(np.random.default_rng(3))
+    >>> res = or_vmlbl_kf(
+    ...     d.slant_ranges[0][:400],
+    ...     d.ship_positions[0][:400],
+    ...     d.dr_positions[0][:400],
+    ...     depth=d.depth,
+    ...     spacing=100,
+    ... )
+    >>> # 400 epochs; a fix at every epoch from 3 * 100 on
+    >>> res.times.shape, res.now.shape, res.fix_cov.shape
+    ((400,), (100,), (100, 2, 2))
+    >>> # the cascade filter's state [x, y, vx, vy] at each fix
+    >>> res.track.x.shape
+    (100, 4)
     """
 
     times: np.ndarray
@@ -303,6 +323,26 @@ class ErrorBudget:
         Monte Carlo runs behind each point.
     spacing : int
         Epochs between the four epochs of each fix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import vmlbl_error_budget
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(np.random.default_rng(0))
+    >>> b = vmlbl_error_budget(
+    ...     np.random.default_rng(1),
+    ...     dive.ship_positions[0],
+    ...     dive.true_positions[0],
+    ...     depth=dive.depth,
+    ...     levels=[1.0, 2.0],
+    ...     n_runs=200,
+    ... )
+    >>> b.sources
+    ('virtual beacon', 'range', 'depth')
+    >>> # an RMS and a median per source and level, a slope per source
+    >>> b.rms.shape, b.median.shape, b.slope.shape
+    ((3, 2), (3, 2), (3,))
     """
 
     sources: tuple[str, ...]
