@@ -69,6 +69,13 @@ class _OptCov(Covariance):
 
 
 
+def _fading_check(value, baseline):
+    """The fading factor's numerator and denominator are undefined (NaN) where no range was used."""
+    import robustness_kinds as rk
+    return [p for p in rk.answer_problems(value, baseline) if "fading_numerator" not in p
+            and "fading_denominator" not in p]
+
+
 def _ekf_object():
     from uwtutor.filters import ExtendedKalmanFilter
     motion, meas = _models()
@@ -213,6 +220,14 @@ def _paper_e_dive():
     return d.ship_positions[0][:400], d.true_positions[0][:400], d.depth
 
 
+@dataclass(frozen=True)
+class _NoRangesOk(Real):
+    """A dataset's range table: no range at all (shape (0, 3)) is documented as valid."""
+
+    def hostile(self, valid):
+        return [h for h in super().hostile(valid) if h.label != "empty"]
+
+
 _POS = Real((), "pos")
 _NONNEG = Real((), "nonneg")
 _COUNT = Int(minimum=1)
@@ -281,7 +296,7 @@ SPECS_STRUCT: dict[str, Spec] = {
                      dt=1.0, order="turn-first", gyro_bias_walk=1e-4, scale_walk=1e-5, range_bias_walk=0.0),
         kinds=dict(sigma_distance=Real((), "nonneg", vector_ok=True), sigma_heading=Real((), "nonneg",
                                                                                          vector_ok=True),
-                   gyro_bias=Flag(), scale=Flag(), range_bias=Kind(), dt=Real((), "pos", vector_ok=True),
+                   gyro_bias=Flag(), scale=Flag(), range_bias=Kind(), dt=Real((), "nonneg", vector_ok=True),
                    order=Choice(("turn-first", "move-first", "midpoint")), gyro_bias_walk=_NONNEG,
                    scale_walk=_NONNEG, range_bias_walk=_NONNEG),
         call=_build("uwtutor.models.odometry.OdometryMotion", x=[1.0, 2.0, 0.3, 1e-3, 1.0],
@@ -295,16 +310,16 @@ SPECS_STRUCT: dict[str, Spec] = {
                                                kinds=dict(angle=Real((None,), extra_axis_ok=True))),
     "uwtutor.models.range:BeaconRanges": Spec(
         lambda: dict(beacons=np.array([[5.0, 12.0], [-4.0, 3.0]]), R=0.36, n=3, scale_index=2),
-        kinds=dict(beacons=Real((2, 2)), R=Real((), "pos", vector_ok=True), n=Int(minimum=2),
-                   scale_index=Int(minimum=0)),
+        kinds=dict(beacons=Real((None, 2)), R=Real((), "pos", vector_ok=True), n=Int(minimum=2),
+                   scale_index=_OptInt(minimum=2)),
         call=_build("uwtutor.models.range.BeaconRanges", use=_meas_use, x=[1.0, 2.0, 1.05])),
     "uwtutor.models.range:MultiplicativeRange": Spec(
         lambda: dict(beacon=(0.0, 0.0), R=1.0, mu_gamma=1.02, sigma_gamma=1e-3, n=2),
-        kinds=dict(R=_POS, mu_gamma=_POS, sigma_gamma=_NONNEG, n=Int(minimum=2)),
+        kinds=dict(R=Real((), "pos", vector_ok=True), mu_gamma=_POS, sigma_gamma=_NONNEG, n=Int(minimum=2)),
         call=_build("uwtutor.models.range.MultiplicativeRange", use=_meas_use)),
     "uwtutor.models.range:NoiseSchedule": Spec(
         lambda: dict(name="R", R=np.array([1.0, 2.0, 3.0]), m=1),
-        kinds=dict(name=Kind(), R=Real((3,), "pos", nan_ok=True), m=Int(minimum=1)),
+        kinds=dict(name=Kind(), R=Real(None, "pos", nan_ok=True, extra_axis_ok=True), m=Int(minimum=1)),
         call=lambda **kw: np.asarray(__import__("uwtutor.models.range", fromlist=["x"]).NoiseSchedule(**kw)
                                      .at(1), dtype=float)),
     "uwtutor.models.robust:ConstantVelocity": Spec(
@@ -322,28 +337,29 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.filters.base:run_filter": Spec(
         lambda: dict(filt=_ekf_object(), z=_Z, u=_U, times=np.arange(5.0)),
         # the one step loop does not know what z measures (a range here): its kind is any real, NaN missing
-        kinds=dict(filt=Instance(), z=Real((5,), nan_ok=True), u=Real((5, 2), optional=True),
+        kinds=dict(filt=Instance(), z=Real((5,), nan_ok=True, extra_axis_ok=True), u=Real((5, 2), optional=True),
                    times=Real((5,), optional=True))),
     "uwtutor.filters.bias:BiasEKF": Spec(
         lambda: dict(x0=np.r_[_X0, 0.0], P0=np.diag([100.0, 100.0, 4.0]), Q=np.diag([0.1, 0.1, 0.01]), R=1.0,
                      beacon=(0.0, 0.0), u=_U, z=_Z),
-        kinds=dict(x0=Real((3,)), u=Real((5, 2)), z=Real((5,), "nonneg", nan_ok=True)),
+        kinds=dict(x0=Real((3,)), u=Real((5, 2), optional=True), z=Real((5,), "nonneg", nan_ok=True,
+                                                                        extra_axis_ok=True)),
         call=_run_object("uwtutor.filters.bias.BiasEKF")),
     "uwtutor.filters.bias:bias_ekf": Spec(
         lambda: dict(x0=np.r_[_X0, 0.0], P0=np.diag([100.0, 100.0, 4.0]), u=_U, z=_Z,
                      Q=np.diag([0.1, 0.1, 0.01]), R=1.0, beacon=(0.0, 0.0), times=np.arange(5.0)),
-        kinds=dict(x0=Real((3,)), u=Real((5, 2)), z=Real((5,), "nonneg", nan_ok=True),
-                   times=Real((5,), optional=True))),
+        kinds=dict(x0=Real((3,)), u=Real((5, 2), optional=True),
+                   z=Real((5,), "nonneg", nan_ok=True, extra_axis_ok=True), times=Real((5,), optional=True))),
     "uwtutor.filters.cooperative:cooperative_ekf": Spec(
         lambda: dict(_coop(), ranges=_coop_ranges(), formulation="consistent", lost="step"),
         kinds=dict(x0=Real((4,)), u=Real((4, 2)), leader=Real((5, 2)), ranges=Real((5,), "nonneg", nan_ok=True),
-                   dt=_POS, Q=Covariance(), R=Covariance(definite=True),
+                   dt=_POS, Q=Covariance(), R=Covariance(),
                    formulation=Choice(("consistent", "literal", "single_range")), lost=Choice(("step", "range"))),
         per_argument=4),
     "uwtutor.filters.cooperative:CooperativeEKF": Spec(
         lambda: dict(_coop(), formulation="consistent", range_variance=4.0, lost="range"),
         kinds=dict(x0=Real((4,)), u=Real((4, 2)), leader=Real((5, 2)), dt=_POS, Q=Covariance(),
-                   R=Covariance(definite=True), formulation=Choice(("consistent", "literal", "single_range")),
+                   R=Covariance(), formulation=Choice(("consistent", "literal", "single_range")),
                    range_variance=Real((), "pos", optional=True), lost=Choice(("step", "range"))),
         call=lambda **kw: _steps(__import__("uwtutor.filters.cooperative", fromlist=["x"]).CooperativeEKF(**kw),
                                  _coop_ranges()),
@@ -361,10 +377,11 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.filters.fading:FadingEKF": Spec(
         lambda: dict(x0=_X0, P0=np.eye(2) * 100.0, Q=np.eye(2) * 0.1, R=1.0, mu_gamma=0.98, sigma_gamma=1e-3,
                      rho=0.95, beta="range", fading=True, second_moment0=np.eye(2), beacon=(0.0, 0.0), u=_U, z=_Z),
-        kinds=dict(mu_gamma=Real((), "pos"), sigma_gamma=_NONNEG, rho=Real((), "open01"),
-                   beta=Kind(), fading=Flag(), second_moment0=_OptCov(), u=Real((5, 2)),
-                   z=Real((5,), "nonneg", nan_ok=True)),
-        call=_run_object("uwtutor.filters.fading.FadingEKF")),
+        # mu_gamma, sigma_gamma: one per run is documented (a batch of runs)
+        kinds=dict(mu_gamma=Real((), "pos", vector_ok=True), sigma_gamma=Real((), "nonneg", vector_ok=True),
+                   rho=Real((), "open01"), beta=Kind(), fading=Flag(), second_moment0=_OptCov(),
+                   u=Real((5, 2), optional=True), z=Real((5,), "nonneg", nan_ok=True)),
+        call=_run_object("uwtutor.filters.fading.FadingEKF"), check=_fading_check),
     "uwtutor.filters.fading:range_factor_moments": Spec(
         lambda: dict(assumed_speed=1470.0, effective_speed=1500.0, speed_sigma=1.0),
         kinds=dict(assumed_speed=_POS, effective_speed=_POS, speed_sigma=_NONNEG)),
@@ -375,7 +392,7 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.filters.gates:ReacquiringGate": Spec(
         lambda: dict(test=None, patience=2, factor=10.0, states=[0, 1], force=True, max_variance=1e10),
         kinds=dict(test=Instance(optional=True), patience=Int(minimum=1), factor=Real((), "pos"),
-                   states=Real((2,)), force=Flag(), max_variance=_POS),
+                   states=Real((2,), optional=True), force=Flag(), max_variance=_POS),
         call=lambda **kw: _gated(__import__("uwtutor.filters.gates", fromlist=["x"]).ReacquiringGate(**kw),
                                  offset=60.0)),
     "uwtutor.filters.kalman:KalmanFilter": Spec(
@@ -406,22 +423,24 @@ SPECS_STRUCT: dict[str, Spec] = {
                      rng=np.random.default_rng(0), grey_fraction=0.1, grey_window=4, grey_std=[0.01, 0.01, 0.01],
                      grey_offset=[0.0, 0.0, 1.0], noise_window=12, wavelet="db2", adapt_noise=True,
                      min_noise_std=[1e-3, 1e-3, 1e-3]),
-        kinds=dict(motion=Instance(), measurement=Instance(optional=True), particles=Real((20, 3)),
-                   grey_fraction=Real((), "prob"), grey_window=Int(minimum=4), grey_std=Real((3,), "nonneg"),
-                   grey_offset=Real((3,)), noise_window=Int(minimum=1), wavelet=Choice(), adapt_noise=Flag(),
-                   min_noise_std=Real((3,), "pos")),
+        kinds=dict(motion=Instance(), measurement=Instance(optional=True), particles=Real((None, 3)),
+                   grey_fraction=Real((), "prob"), grey_window=Int(minimum=4),
+                   grey_std=Real((3,), "nonneg", optional=True), grey_offset=Real((3,), optional=True),
+                   noise_window=Int(minimum=1), wavelet=Choice(), adapt_noise=Flag(),
+                   min_noise_std=Real((3,), "pos", optional=True)),
         call=_run_depth("uwtutor.filters.particle.grey.GreyParticleFilter"), per_argument=4),
     "uwtutor.filters.particle.multiple_model:MultipleModelParticleFilter": Spec(
         lambda: dict(motions=[_depth()[0], _depth()[0]], measurement=_depth()[1], particles=_depth_particles(),
                      rng=np.random.default_rng(0), transition=[[0.9, 0.1], [0.2, 0.8]], modes=None,
                      mode_probabilities=[0.5, 0.5], ess_threshold=1.0),
-        kinds=dict(motions=Instance(), measurement=Instance(optional=True), particles=Real((20, 3)),
-                   transition=Real((2, 2), "prob"), mode_probabilities=Real((2,), "prob", optional=True),
-                   ess_threshold=Real((), "prob")),
+        # mode_probabilities are normalized (documented, as the weights are); ess_threshold >= 1: always resample
+        kinds=dict(motions=Instance(), measurement=Instance(optional=True), particles=Real((None, 3)),
+                   transition=Real((2, 2), "prob"), mode_probabilities=Real((2,), "nonneg", optional=True),
+                   ess_threshold=_NONNEG),
         call=_run_depth("uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter"), per_argument=4),
     "uwtutor.filters.robust:RobustGate": Spec(
         lambda: dict(test=None, steps=np.r_[0.0, np.ones(4)], on_outlier="extrapolate", reacquire=3),
-        kinds=dict(test=Instance(optional=True), steps=Real((5,), "nonneg"),
+        kinds=dict(test=Instance(optional=True), steps=Real((None,), "nonneg"),
                    on_outlier=Choice(("predict", "extrapolate")), reacquire=_OptInt(minimum=3)),
         call=_robust_gated),
     "uwtutor.filters.robust:SecondMomentGate": Spec(
@@ -439,18 +458,20 @@ SPECS_STRUCT: dict[str, Spec] = {
         kinds=dict(z_pred=Real((), "pos", vector_ok=True), S=Real((), "nonneg", vector_ok=True))),
     "uwtutor.filters.robust:robust_track_kf": Spec(
         lambda: dict(z=_fixes(), dt=1.0, q=1e-4, r=400.0, test="paper", delta=0.03, probability=0.99,
-                     on_outlier="predict", reacquire=None, times=np.arange(8.0), x0=None, P0=None,
+                     on_outlier="predict", reacquire=None, times=np.arange(8.0),
+                     x0=np.array([-1000.0, -1000.0, 1.0, 1.0]), P0=np.diag([400.0, 400.0, 25.0, 25.0]),
                      initial_rate_sigma=5.0),
         kinds=dict(z=Real((8, 2), nan_ok=True), dt=_POS, q=_NONNEG, r=Real((), "pos", vector_ok=True),
                    test=Choice(("paper", "chi2", "none")), on_outlier=Choice(("predict", "extrapolate")),
-                   reacquire=_OptInt(minimum=3), times=Real((8,), optional=True), initial_rate_sigma=_POS)),
+                   reacquire=_OptInt(minimum=3), times=Real((8,), optional=True), x0=Real((4,), optional=True),
+                   P0=_OptCov(definite=True), initial_rate_sigma=_POS)),
     # --- pipelines ---------------------------------------------------------------------------------------------------
     "uwtutor.pipelines.depth_study:run_depth_study": Spec(
         lambda: dict(profile=_paper_c().profile, measurements=_paper_c().measurements, filters=("EKF", "GPF"),
                      n_particles=30, grey_fraction=0.1, grey_window=5, noise_window=12,
                      process_std=[0.01, 0.01, 0.0035], mmpf_targets_deg=(0.0, 20.0), mmpf_time_constant=1.0,
                      mmpf_stay=0.995, seed=0),
-        kinds=dict(profile=Instance(), measurements=Real((1, 40, 3)), filters=Kind(),
+        kinds=dict(profile=Instance(), measurements=Real((None, 40, 3)), filters=Kind(),
                    n_particles=Int(minimum=1, unbounded_work=True), grey_fraction=Real((), "prob"),
                    grey_window=Int(minimum=4), noise_window=Int(minimum=1),
                    process_std=Real((3,), "nonneg", optional=True), mmpf_targets_deg=Kind(),
@@ -487,7 +508,7 @@ SPECS_STRUCT: dict[str, Spec] = {
         lambda: dict(times=_small_log().times, odometry=_small_log().odometry, ranges=_small_log().ranges[:10],
                      beacons={3: (5.0, 12.0), 7: (-4.0, 3.0)}, truth=_small_log().truth, start=[0.0, 0.0, 0.0],
                      start_cov=np.diag([0.01, 0.01, 3e-4]), name="square", notes=()),
-        kinds=dict(times=Real((81,)), odometry=Real((81, 2)), ranges=Real((10, 3), "nonneg"), beacons=Mapping(),
+        kinds=dict(times=Real((81,)), odometry=Real((81, 2)), ranges=_NoRangesOk((10, 3), "nonneg"), beacons=Mapping(),
                    truth=Real((81, 3), optional=True), start=Real((3,), optional=True),
                    start_cov=_OptCov(), name=Kind(), notes=Kind()),
         call=lambda **kw: (lambda d: (d.dead_reckoning(), d.ranges_on_epochs()))(

@@ -320,6 +320,17 @@ def _small_log():
      lambda: _depth_study_call(mmpf_time_constant=None)),
     ("navigate smooth 'False'", TypeError, "smooth must be True or False",
      lambda: __import__("uwtutor.datasets", fromlist=["x"]).navigate(_small_log(), smooth="False")),
+    ("RobustGate NaN step", ValueError, "steps must be finite",
+     lambda: __import__("uwtutor.filters.robust", fromlist=["x"]).RobustGate(None, [0.0, np.nan, 1.0])),
+    ("robust_track_kf P0 of the wrong size", ValueError, r"P0 must be 2x2",
+     lambda: __import__("uwtutor.filters.robust", fromlist=["x"]).robust_track_kf(Z[:, None], q=0.01, r=2.0,
+                                                                                 P0=np.eye(4))),
+    ("range_factor_moments names effective_speed", ValueError, "effective_speed must lie in",
+     lambda: __import__("uwtutor.filters.fading", fromlist=["x"]).range_factor_moments(1470.0, 1e300)),
+    ("weights of other particles", ValueError, r"one weight for each of the particles",
+     lambda: __import__("uwtutor.filters", fromlist=["x"]).BootstrapParticleFilter(
+         DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), np.zeros((5, 2)), np.random.default_rng(0),
+         weights=np.ones(4))),
 ])
 def test_struct_share_silent_answers_are_refused(label, exc, match, call):
     with pytest.raises(exc, match=match):

@@ -193,7 +193,8 @@ def displacement_covariance(data: RangeDataset, distance_sigma: Any = DISTANCE_S
     ((81, 2, 2), [[0.0009, 0.0], [0.0, 0.0009]])
     """
     _check(data)
-    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
+    # standard deviations: their squares stay within the covariances' bound, 1e150
+    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,), max_abs=1e75))
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     sigma = a + c * np.abs(data.odometry[:, 0])

@@ -295,7 +295,8 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
     z = data.ranges_on_epochs(ids, min_period=min_period)
     beacons = data.beacon_positions(ids)
     sigma_r = _positive("range_sigma", range_sigma)
-    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
+    # standard deviations: their squares stay within the covariances' bound, 1e150
+    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,), max_abs=1e75))
     q_heading = _positive("heading_noise", heading_noise)
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0 (a step's distance is never exact); got {a}")

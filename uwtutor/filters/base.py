@@ -242,8 +242,8 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
         u_shared = batched and u.ndim == 2
         u_axis = 0 if u_shared else step_axis
         if u.ndim <= u_axis or u.shape[u_axis] != n_steps:
-            raise ValueError(f"u must give one input per step ({n_steps} steps along axis {u_axis}); "
-                             f"got shape {u.shape}")
+            raise ValueError(f"u must give one input per step of z ({n_steps} steps along axis {u_axis}); "
+                             f"got shape {u.shape} (z has shape {z.shape})")
     times = _sequence_times(n_steps, times)
 
     m = _measurement_size(z, batched)

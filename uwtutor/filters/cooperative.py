@@ -75,7 +75,7 @@ def range_pairs(ranges: Any) -> np.ndarray:
     array([[100., 110.],
            [110., 120.]])
     """
-    r = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2))
+    r = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if r.shape[-1] < 2:
         raise ValueError(f"ranges must hold at least two epochs (one interval); got shape {r.shape}")
     return np.stack([r[..., :-1], r[..., 1:]], axis=-1)
@@ -151,14 +151,14 @@ def _warn_straight(deviation: Any, noise: float) -> None:
 def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
                   n_runs: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate the inputs; a single x0 is repeated over the runs of any batched input."""
-    x = as_finite("x0", x0, ndim=(1, 2))
+    x = as_finite("x0", x0, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if x.shape[-1] != 4:
         raise ValueError(f"x0 must be [x, y, Ux, Uy] (last axis of length 4); got shape {x.shape}")
     P = as_covariance("P0", P0, 4)
-    d = as_finite("u", u, ndim=(2, 3))
+    d = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if d.shape[-1] != 2:
         raise ValueError(f"u must hold DR displacements [dx, dy] (last axis 2); got shape {d.shape}")
-    b = as_finite("leader", leader, ndim=(2, 3))
+    b = as_finite("leader", leader, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if b.shape[-1] != 2 or b.shape[-2] != d.shape[-2] + 1:
         raise ValueError(f"leader must have shape (..., K + 1, 2) with K = {d.shape[-2]} intervals (one position per "
                          f"ranging epoch); got {b.shape}")

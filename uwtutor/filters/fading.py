@@ -186,6 +186,8 @@ def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 150
     """
     c = _positive_scalar("assumed_speed", assumed_speed)
     ce = _positive_scalar("effective_speed", effective_speed)
+    if not 1.0 <= ce <= 1e5:          # a sound speed is a few km/s: [1, 1e5] m/s bounds every medium (and c / ce^2)
+        raise ValueError(f"effective_speed must lie in [1, 1e5] m/s (a sound speed); got {ce:g}")
     sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
     if sc < 0:
         raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
@@ -770,7 +772,7 @@ class FadingEKF:
         K = z.shape[-1]
         u = np.zeros((K, 2)) if u is None else as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
-            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2); got {u.shape}")
+            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2), one input per step of z; got {u.shape}")
         times = steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last

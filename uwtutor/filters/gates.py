@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._linalg import quadratic_form
-from .._validate import as_finite, as_flag, as_float_array, as_int, as_scalar
+from .._validate import MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_scalar
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared"]
 
@@ -128,6 +128,9 @@ def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
                          f"{S.shape}")
     if np.isinf(y).any():
         raise ValueError("y must be finite (NaN marks a missing innovation); got an infinite value")
+    if (np.abs(y) > MAX_COORDINATE).any():
+        raise ValueError(f"y must be at most {MAX_COORDINATE:.0e} in magnitude (its square overflows float64 beyond "
+                         "it); change its units")
     return quadratic_form(y, S, "S")
 
 

@@ -56,7 +56,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_positive, as_scalar
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
+                        as_positive, as_range_array, as_scalar)
 from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
@@ -277,7 +278,8 @@ class RobustGate(Gate):
         if reacquire is not None:
             reacquire = as_int("reacquire", reacquire, minimum=3)
         self.test, self.on_outlier, self.reacquire = test, on_outlier, reacquire
-        self.times = np.cumsum(as_float_array("steps", steps, ndim=1))
+        # step lengths (models.robust.step_lengths): finite, >= 0, one per epoch
+        self.times = np.cumsum(as_nonnegative("steps", steps, ndim=1, nonempty=True, max_abs=MAX_COORDINATE))
         self.rejected: list[np.ndarray] = []
         self.reacquired: list[np.ndarray] = []
         self.cleared: list[tuple[int, int]] = []
@@ -432,9 +434,15 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     >>> round(float(res.x[-1, 1]), 1)
     -1.2
     """
-    zz = as_float_array("z", z, ndim=(2, 3))
+    zz = as_float_array("z", z, ndim=(2, 3), nonempty=True)
+    if times is not None and np.size(times) != zz.shape[-2]:
+        raise ValueError(f"times must have one entry per epoch of z ({zz.shape[-2]}, its axis -2); got "
+                         f"{np.size(times)}")
     if np.isinf(zz).any():
         raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
+    if (np.abs(zz) > MAX_COORDINATE).any():
+        raise ValueError(f"z must be at most {MAX_COORDINATE:.0e} in magnitude (its square overflows float64 beyond "
+                         "it); change its units")
     batched = zz.ndim == 3
     zb = zz if batched else zz[None]
     M, K, d = zb.shape
@@ -448,12 +456,19 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     motion = ConstantVelocity(d, q, steps)
     Rk = np.asarray(measurement.R(None, 0))
     var0 = np.diagonal(Rk, axis1=-2, axis2=-1)
-    rate = float(as_positive("initial_rate_sigma", initial_rate_sigma, ndim=0))
+    # its square is a variance of P0: within [1e-150, 1e150]
+    rate = as_scalar("initial_rate_sigma", initial_rate_sigma, domain="positive", low=1e-75, high=1e75)
     x_init, P_init = _initial_state(zb, var0, rate)
     if x0 is not None:
-        x_init = np.broadcast_to(as_finite("x0", x0), (M, 2 * d))
+        x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
+        if x0.shape not in ((2 * d,), (M, 2 * d)):
+            raise ValueError(f"x0 must have shape ({2 * d},) or ({M}, {2 * d}) (positions, then rates); got {x0.shape}")
+        x_init = np.broadcast_to(x0, (M, 2 * d))
     if P0 is not None:
-        P_init = np.broadcast_to(as_finite("P0", P0), (M, 2 * d, 2 * d))
+        P0 = as_covariance("P0", P0, 2 * d)
+        if P0.shape not in ((2 * d, 2 * d), (M, 2 * d, 2 * d)):
+            raise ValueError(f"P0 must have shape ({2 * d}, {2 * d}) or ({M}, {2 * d}, {2 * d}); got {P0.shape}")
+        P_init = np.broadcast_to(P0, (M, 2 * d, 2 * d))
     gate = make_test(test, delta=delta, probability=probability)
     robust = RobustGate(gate, steps, on_outlier=on_outlier, reacquire=reacquire)
     filt = ExtendedKalmanFilter(motion, measurement, x_init, P_init, gate=robust)
@@ -532,7 +547,7 @@ def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, d
     >>> bool(np.max(np.abs(res.x[:, 0] - truth)) < 10.0)
     True
     """
-    rr = as_float_array("ranges", ranges, ndim=(1, 2))
+    rr = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), nonempty=True, max_abs=MAX_COORDINATE)
     bad = np.isfinite(rr) & (rr < 0)
     if bad.any() or np.isinf(rr).any():
         where = np.flatnonzero((bad | np.isinf(rr)).ravel())[0]
@@ -583,10 +598,14 @@ def cascade_kf(fixes: Any, dt: Any = 1.0, *, q: Any = 1e-4, r: Any, test: Any = 
     >>> rms(fixes[100:] - truth[100:]) > 5 * rms(res.x[100:, :2] - truth[100:])
     True
     """
-    f = as_float_array("fixes", fixes, ndim=(2, 3))
+    f = as_float_array("fixes", fixes, ndim=(2, 3), nonempty=True)
     if f.shape[-1] != 2:
         raise ValueError(f"fixes must be horizontal positions, shape (K, 2) or (M, K, 2); got {f.shape}")
     if np.isinf(f).any():
         raise ValueError("fixes must be finite, or NaN where there is no fix; got an infinite value")
+    if (np.abs(f) > MAX_COORDINATE).any():
+        raise ValueError(f"fixes must be at most {MAX_COORDINATE:.0e} m in magnitude; change their units")
+    if times is not None and np.size(times) != f.shape[-2]:
+        raise ValueError(f"times must have one entry per fix ({f.shape[-2]} in fixes); got {np.size(times)}")
     return robust_track_kf(f, dt, q=q, r=r, test=test, delta=delta, probability=probability,
                            on_outlier=on_outlier, reacquire=reacquire, times=times)

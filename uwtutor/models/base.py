@@ -412,10 +412,11 @@ class ModelPair:
         measurements : ndarray, shape (K, m)
             ``h(truth)`` plus noise drawn from ``R``.
         """
-        from .._validate import as_finite, as_int, as_rng
+        from .._validate import as_finite, as_int, as_rng, check_work
 
         x = as_finite("x0", x0, shape=(self.n,))[None, None, :]
         K = as_int("n_steps", n_steps, minimum=1)
+        check_work("n_steps", K * (self.n + self.m), "values of truth and measurements")
         rng = as_rng(rng)
         inputs = None if u is None else as_finite("u", u, ndim=2)
         if inputs is not None and len(inputs) != K:

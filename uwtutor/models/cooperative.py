@@ -71,7 +71,7 @@ __all__ = ["CooperativeMotion", "SquaredRangePair", "leader_range", "process_noi
 
 
 def _interval(dt: Any) -> float:
-    return float(as_positive("dt", dt, ndim=0))
+    return float(as_positive("dt", dt, ndim=0, max_abs=1e75))      # dt^2 times a variance stays finite
 
 
 def process_noise_map(dt: Any) -> np.ndarray:
@@ -154,7 +154,7 @@ def _noise_map(a: np.ndarray, c: np.ndarray, d: float) -> np.ndarray:
 
 
 def _per_step(name: str, value: Any, n_epochs_extra: int) -> np.ndarray:
-    arr = as_finite(name, value)
+    arr = as_finite(name, value, nonempty=True)
     if arr.ndim not in (2, 3) or arr.shape[-1] != 2:
         raise ValueError(f"{name} must have shape (K{'+1' if n_epochs_extra else ''}, 2) or "
                          f"(M, K{'+1' if n_epochs_extra else ''}, 2); got {arr.shape}")

@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_nonnegative, as_positive, as_scalar
+from .._validate import as_covariance, as_finite, as_nonnegative, as_scalar
 from .base import ModelPair, MotionModel
 from .linear import DirectMeasurement
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
@@ -343,8 +343,8 @@ class PitchManeuver(DepthSpeedPitch):
     def __init__(self, pitch_target: float = 0.0, time_constant: float = 2.0, T: float = 0.05,
                  process_std: Any = None, *, process_cov: Any = None) -> None:
         super().__init__(T=T, process_std=process_std, process_cov=process_cov)
-        self.pitch_target = float(as_finite("pitch_target", pitch_target))
-        self.time_constant = float(as_positive("time_constant", time_constant))
+        self.pitch_target = as_scalar("pitch_target", pitch_target)
+        self.time_constant = as_scalar("time_constant", time_constant, domain="positive")
         self._gain = -math.expm1(-self.T / self.time_constant)
 
     def _pre(self, x: np.ndarray, axis: int = -1) -> np.ndarray:

@@ -41,7 +41,7 @@ class LinearMotion(MotionModel):
     """
 
     def __init__(self, F: Any, Q: Any, B: Any = None) -> None:
-        self._F = as_finite("F", F, ndim=2)
+        self._F = as_finite("F", F, ndim=2, max_abs=1e75)     # F P F^T stays finite for P up to 1e150
         n = self._F.shape[0]
         if self._F.shape != (n, n):
             raise ValueError(f"F must be square, shape (n, n); got {self._F.shape}")

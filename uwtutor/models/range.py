@@ -235,8 +235,9 @@ class MultiplicativeRange(RangeToBeacon):
 
     def __init__(self, beacon: Any, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
         super().__init__(beacon, R, n=n)
-        mu = float(as_finite("mu_gamma", mu_gamma, ndim=0))
-        sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0))
+        # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
+        mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
+        sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0, max_abs=1e3))
         if not mu > 0.0:
             raise ValueError(f"mu_gamma must be > 0 (the mean range factor, about 1); got {mu:g}")
         if sigma < 0.0:

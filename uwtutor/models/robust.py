@@ -61,12 +61,13 @@ def step_lengths(n_steps: int, dt: Any = 1.0, times: Any = None) -> np.ndarray:
     (array([0., 2., 2., 2.]), array([0. , 1. , 2.5]))
     """
     K = as_int("n_steps", n_steps, minimum=1)
-    step = as_scalar("dt", dt, domain="positive")       # checked even when times is given: never ignored silently
+    # checked even when times is given (never ignored silently); 1e30 s bounds any clock and keeps q dt^4 finite
+    step = as_scalar("dt", dt, domain="positive", high=1e30)
     if times is None:
         check_work("n_steps", K)
         out = np.full(K, step)
     else:
-        t = as_finite("times", times, ndim=1)
+        t = as_finite("times", times, ndim=1, max_abs=1e30)
         if len(t) != K:
             raise ValueError(f"times must have one entry per epoch (n_steps = {K}); got {len(t)}")
         out = np.diff(t, prepend=t[:1])

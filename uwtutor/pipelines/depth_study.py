@@ -165,7 +165,8 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     if unknown or not filters:
         raise ValueError(f"filters must be names from {FILTER_NAMES}; got {list(filters)!r}")
     as_instance("profile", profile, DepthProfile, "e.g. uwtutor.scenarios.paper_c.make(rng).profile")
-    Z = as_finite("measurements", measurements)
+    # readings up to 1e75: the process noise (v T)^2 sigma^2 of a state read from them stays finite
+    Z = as_finite("measurements", measurements, nonempty=True, max_abs=1e75)
     if Z.ndim != 3 or Z.shape[1:] != (profile.n_steps, 3):
         raise ValueError(f"measurements must have shape (M, {profile.n_steps}, 3); got {Z.shape}")
     N = as_int("n_particles", n_particles, minimum=10)
@@ -180,7 +181,7 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     targets = as_finite("mmpf_targets_deg", mmpf_targets_deg, ndim=1)
     if targets.size < 1:
         raise ValueError("mmpf_targets_deg must hold at least one pitch target")
-    stay = float(as_finite("mmpf_stay", mmpf_stay))
+    stay = as_scalar("mmpf_stay", mmpf_stay)
     if not 0.0 < stay <= 1.0:
         raise ValueError(f"mmpf_stay must lie in (0, 1]; got {stay}")
     T = profile.T

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int, as_range_array
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int,
+                        as_range_array, as_scalar)
 from ..filters.base import FilterResult
 from ..filters._packed import steps_and_times
 from ..filters.fading import FadingResult, fading_ekf
@@ -201,8 +202,11 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     """
     from .. import lsq   # imported here: lsq is a sibling top-level module of the filters package
 
-    z = as_range_array("ranges", ranges, allow_nan=True, ndim=2)
-    u = as_finite("dr_displacements", dr_displacements, ndim=3)
+    z = as_range_array("ranges", ranges, allow_nan=True, ndim=2, nonempty=True, max_abs=MAX_COORDINATE)
+    u = as_finite("dr_displacements", dr_displacements, ndim=3, max_abs=MAX_COORDINATE)
+    as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
+    # a sound speed is a few km/s: [1, 1e5] m/s bounds every medium (and the ranges it rescales)
+    as_scalar("assumed_speed", assumed_speed, domain="positive", low=1.0, high=1e5)
     M, K = z.shape
     if u.shape != (M, K, 2):
         raise ValueError(f"dr_displacements must have shape (M, K, 2) = {(M, K, 2)} to match ranges; got {u.shape}")

@@ -118,7 +118,7 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
     >>> bool(np.sqrt(np.mean(err**2)) < 30.0)
     True
     """
-    z = as_float_array("ranges", ranges, ndim=2)
+    z = as_float_array("ranges", ranges, ndim=2, nonempty=True)
     if np.isinf(z).any() or (z < 0).any():
         raise ValueError("ranges must be finite and >= 0, or NaN where missing")
     M, K = z.shape

@@ -199,7 +199,7 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     >>> rms(out.filtered - truth) < rms(out.fixes - truth)
     True
     """
-    r = as_range_array("ranges", ranges, allow_nan=True, max_abs=MAX_COORDINATE, ndim=(1, 2))
+    r = as_range_array("ranges", ranges, allow_nan=True, max_abs=MAX_COORDINATE, ndim=(1, 2), nonempty=True)
     batched = r.ndim == 2
     K = r.shape[-1]
     ship = as_finite("ship_positions", ship_positions, ndim=(2, 3))
@@ -207,12 +207,12 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     for name, a in (("ship_positions", ship), ("dr_positions", dr)):
         if a.shape[-2:] != (K, 2):
             raise ValueError(f"{name} must have one horizontal position per range, shape ({K}, 2) or "
-                             f"(M, {K}, 2); got {a.shape}")
+                             f"(M, {K}, 2) for ranges of shape {r.shape}; got {a.shape}")
     M = r.shape[0] if batched else 1
     rb = np.broadcast_to(r, (M, K))
     shipb = np.broadcast_to(ship, (M, K, 2))
     drb = np.broadcast_to(dr, (M, K, 2))
-    h = as_scalar("depth", depth, domain="nonnegative")      # a depth below the surface: h >= 0
+    h = as_scalar("depth", depth, domain="nonnegative", high=MAX_COORDINATE)   # below the surface: h >= 0
     steps = step_lengths(K, dt, times)
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
     if preprocess:
@@ -415,11 +415,13 @@ def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_posit
     if ship.shape != truth.shape or ship.shape[1] != 2:
         raise ValueError(f"ship_positions and true_positions must both have shape (K, 2); got {ship.shape} and "
                          f"{truth.shape}")
-    h = float(as_nonnegative("depth", depth, ndim=0))
-    lv = as_finite("levels", levels, ndim=1)
+    h = float(as_nonnegative("depth", depth, ndim=0, max_abs=MAX_COORDINATE))
+    lv = as_finite("levels", levels, ndim=1, max_abs=MAX_COORDINATE)
     if lv.size == 0 or np.any(lv <= 0):
         raise ValueError("levels must be a non-empty list of error levels > 0 [m]")
     N = as_int("n_runs", n_runs, minimum=len(lv))
+    check_work("n_runs", 3 * N * (as_int("n_epochs", n_epochs, minimum=3) + 2), "values (3 sources, an epoch "
+               "window each)")
     per = N // len(lv)
     now, index = epoch_windows(len(ship), spacing, n_epochs)
     n = index.shape[1]

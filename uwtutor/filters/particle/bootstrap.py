@@ -85,7 +85,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
-                          as_rng)
+                          as_rng, as_scalar)
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import Resampler, systematic_resample
@@ -343,8 +343,8 @@ class BootstrapParticleFilter:
         if not callable(resampler):
             raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {resampler!r}")
         self.resampler = resampler
-        self.ess_threshold = float(as_nonnegative("ess_threshold", ess_threshold))
-        self.roughening = float(as_nonnegative("roughening", roughening))
+        self.ess_threshold = as_scalar("ess_threshold", ess_threshold, domain="nonnegative")
+        self.roughening = as_scalar("roughening", roughening, domain="nonnegative")
         if self.roughening > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
             raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times the "
                              f"spread of the particles); got {self.roughening:g}")
@@ -497,7 +497,11 @@ class BootstrapParticleFilter:
     @weights.setter
     def weights(self, value: Any) -> None:
         shape = self._w.shape if self._batched else self._w.shape[1:]
-        w = as_nonnegative("weights", value, shape=shape).reshape(self._w.shape)
+        w = as_nonnegative("weights", value)
+        if w.shape != shape:
+            raise ValueError(f"weights must have shape {shape} (one weight for each of the particles); got "
+                             f"{w.shape}")
+        w = w.reshape(self._w.shape)
         total = w.sum(axis=1, keepdims=True)
         if not (total > 0).all():
             raise ValueError("weights must have a positive sum (at least one particle with weight > 0) in every run")

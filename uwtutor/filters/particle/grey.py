@@ -192,7 +192,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self.adapt_noise = as_flag("adapt_noise", adapt_noise)
         sd0 = np.sqrt(np.diag(R0))
         self.min_noise_std = (0.01 * sd0 if min_noise_std is None
-                              else as_positive("min_noise_std", min_noise_std, shape=(n,)))
+                              else as_positive("min_noise_std", min_noise_std, shape=(n,), max_abs=1e75))
         self._noise_std = np.tile(sd0, (M, 1))
         # the R_k of each run: the model's R until the run's first wavelet estimate, diagonal after it
         self._R_runs = np.tile(R0, (M, 1, 1))

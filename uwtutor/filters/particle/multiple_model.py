@@ -75,7 +75,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     modes : array_like of int, shape (N,) or (M, N), optional
         Initial mode of each particle; drawn from ``mode_probabilities`` when not given.
     mode_probabilities : array_like, shape (J,), optional
-        Initial mode probabilities (equal by default); used only when ``modes`` is not given.
+        Initial mode probabilities, >= 0 (normalized here, as the weights are; equal by default); used only
+        when ``modes`` is not given.
     weights : array_like, shape (N,) or (M, N), optional
         Initial weights; equal by default.
     resampler : callable, optional
