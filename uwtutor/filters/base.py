@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
@@ -183,7 +184,7 @@ def _sequence_times(n_steps: int, times: Any) -> np.ndarray:
     return times
 
 
-def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
     """Run ``filt`` over a measurement sequence: at each step ``predict(u[k])`` then ``update(z[k])``.
 
     This is the library's one step loop: every filter's ``run`` gives the same result as this function.

@@ -40,6 +40,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
@@ -56,7 +57,7 @@ LOST_POLICIES = ("step", "range")
 
 
 
-def range_pairs(ranges: Any) -> np.ndarray:
+def range_pairs(ranges: ArrayLike) -> NDArray[np.float64]:
     r"""The measurements of paper B's steps, :math:`[r_k, r_{k+1}]` for :math:`k = 0, \dots, K - 1`.
 
     Parameters
@@ -81,7 +82,7 @@ def range_pairs(ranges: Any) -> np.ndarray:
     return np.stack([r[..., :-1], r[..., 1:]], axis=-1)
 
 
-def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | np.ndarray:
+def relative_track_deviation(u: ArrayLike, leader: ArrayLike, times: ArrayLike | None = None) -> float | np.ndarray:
     r"""How far the follower's track relative to the leader bends away from a straight line at constant speed.
 
     The filter knows the follower's DR track :math:`\mathbf{q}_k = \sum_{j < k} \mathbf{u}_j` and the leader's
@@ -236,8 +237,8 @@ class CooperativeEKF:
     ((4,), (2,))
     """
 
-    def __init__(self, x0: Any, P0: Any, u: Any, leader: Any, dt: Any, Q: Any, R: Any, *,
-                 formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, dt: Any, Q: ArrayLike,
+                 R: ArrayLike, *, formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
                  _n_runs: int | None = None) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
@@ -342,9 +343,9 @@ class CooperativeEKF:
         return run_filter(self, z, self.u if u is None else u, times)
 
 
-def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any, Q: Any, R: Any, times: Any = None,
-                    *, formulation: str = "consistent", range_variance: Any = None,
-                    lost: str = "step") -> FilterResult:
+def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, ranges: ArrayLike, dt: Any,
+                    Q: ArrayLike, R: ArrayLike, times: ArrayLike | None = None, *, formulation: str = "consistent",
+                    range_variance: Any = None, lost: str = "step") -> FilterResult:
     r"""Run paper B's cooperative EKF over a whole run (or ``M`` runs at once).
 
     Parameters

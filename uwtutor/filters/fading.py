@@ -117,6 +117,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
 from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar,
@@ -427,9 +428,10 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     return result, post[-1].copy(), mem, started
 
 
-def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-               rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-               beacon: Any = (0.0, 0.0), times: Any = None) -> FadingResult:
+def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike, *,
+               mu_gamma: ArrayLike = 1.0, sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range",
+               fading: bool = True, second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0),
+               times: ArrayLike | None = None) -> FadingResult:
     r"""Run the fading EKF for multiplicative range noise (paper D's ISFEKF by default), one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]``, computes the fading factor
@@ -637,9 +639,9 @@ class FadingEKF:
     extra_outputs = _EXTRAS + ("updated",)
     result_type = FadingResult
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-                 rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-                 beacon: Any = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
+                 sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
+                 second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
         M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,

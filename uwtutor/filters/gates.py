@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._linalg import quadratic_form
 from .._validate import MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_scalar
@@ -110,7 +111,7 @@ class GateContext:
         return np.isfinite(self.z) if self.present is None else self.present
 
 
-def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+def normalized_innovation_squared(y: ArrayLike, S: ArrayLike) -> NDArray[np.float64]:
     r""":math:`\nu = y^T S^{-1} y` over stacked innovations ``(..., m)`` and covariances ``(..., m, m)``.
 
     Examples

@@ -17,9 +17,8 @@ live in :mod:`uwtutor.models.depth`.)
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite
 from ..models.base import ModelPair
@@ -71,7 +70,8 @@ class DepthEKF(ExtendedKalmanFilter):
     True
     """
 
-    def __init__(self, x0: Any, P0: Any, Q: Any = None, R: Any = None, T: float = 0.05) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                 T: float = 0.05) -> None:
         if Q is not None:                          # named Q here (the motion model calls it process_cov)
             Q = as_covariance("Q", Q, 3, allow_singular=True)
         motion = DepthSpeedPitch(T=T) if Q is None else DepthSpeedPitch(T=T, process_cov=Q)
@@ -127,7 +127,7 @@ class LinearGaussianModel(ModelPair):
     True
     """
 
-    def __init__(self, F: Any, H: Any, Q: Any, R: Any, B: Any = None) -> None:
+    def __init__(self, F: ArrayLike, H: ArrayLike, Q: ArrayLike, R: ArrayLike, B: ArrayLike | None = None) -> None:
         motion = LinearMotion(F, Q, B)
         measurement = LinearMeasurement(H, R)
         if measurement.n != motion.n:

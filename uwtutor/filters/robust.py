@@ -54,6 +54,7 @@ import dataclasses
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
@@ -143,7 +144,8 @@ class SecondMomentGate(Gate):
             return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
 
 
-def moment_gate_interval(z_pred: Any, S: Any, delta: Any = 0.03) -> tuple[np.ndarray, np.ndarray]:
+def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
+                         delta: Any = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""The innovations :math:`y = z - \hat z` that paper E's test accepts for a scalar measurement :math:`z > 0`.
 
     .. math::
@@ -269,7 +271,7 @@ class RobustGate(Gate):
     997.1
     """
 
-    def __init__(self, test: Gate | None, steps: Any, *, on_outlier: str = "predict",
+    def __init__(self, test: Gate | None, steps: ArrayLike, *, on_outlier: str = "predict",
                  reacquire: int | None = None) -> None:
         if test is not None and not isinstance(test, Gate):
             raise TypeError(f"test must be a uwtutor.filters.Gate or None; got {type(test).__name__}")
@@ -373,9 +375,9 @@ def _initial_state(z: np.ndarray, var: np.ndarray, rate_sigma: float) -> tuple[n
     return x0, P0
 
 
-def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper", delta: Any = 0.03,
+def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: Any = "paper", delta: Any = 0.03,
                     probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = None,
-                    times: Any = None, x0: Any = None, P0: Any = None,
+                    times: ArrayLike | None = None, x0: ArrayLike | None = None, P0: ArrayLike | None = None,
                     initial_rate_sigma: Any = 5.0) -> FilterResult:
     r"""A constant-velocity Kalman filter on a sequence of ``d``-vectors, with an outlier test (paper E).
 
@@ -491,9 +493,9 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     return FilterResult(times=res.times, extras=extras, **fields)
 
 
-def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, delta: Any = 0.03,
-                    test: Any = "paper", times: Any = None, probability: Any = 0.99, on_outlier: str = "predict",
-                    reacquire: int | None = 20) -> FilterResult:
+def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, delta: Any = 0.03,
+                    test: Any = "paper", times: ArrayLike | None = None, probability: Any = 0.99,
+                    on_outlier: str = "predict", reacquire: int | None = 20) -> FilterResult:
     r"""Paper E's range preprocessing: a Kalman filter on the range sequence that rejects outliers (sec. 1.1).
 
     State :math:`[r_k, \dot r_k]`, constant velocity with acceleration variance ``q``, ranges of variance ``r``
@@ -557,7 +559,7 @@ def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, d
                            on_outlier=on_outlier, reacquire=reacquire, times=times)
 
 
-def cascade_kf(fixes: Any, dt: Any = 1.0, *, q: Any = 1e-4, r: Any, test: Any = "chi2", delta: Any = 0.03,
+def cascade_kf(fixes: ArrayLike, dt: Any = 1.0, *, q: Any = 1e-4, r: ArrayLike, test: Any = "chi2", delta: Any = 0.03,
                probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = 20,
                times: Any = None) -> FilterResult:
     r"""Paper E's cascade Kalman filter on the least-squares fixes (sec. 1.3), with an outlier test.

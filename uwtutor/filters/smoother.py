@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_covariance, as_finite
 from ..errors import IllConditionedError
@@ -92,7 +93,7 @@ class SmootherResult:
     filtered: FilterResult
 
 
-def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> SmootherResult:
+def rts_smoother(result: FilterResult, motion: MotionModel, u: ArrayLike | None = None) -> SmootherResult:
     r"""Smooth a filter run backwards with the Rauch–Tung–Striebel recursion (equations in the module docstring).
 
     Parameters

@@ -36,6 +36,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_covariance, as_nonnegative, as_positive
 from .base import MotionModel
@@ -46,7 +47,7 @@ __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_
 _MAX_STD = 1e75
 
 
-def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> np.ndarray:
+def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> NDArray[np.float64]:
     r"""Paper A's process noise :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`.
 
     :math:`\sigma_x, \sigma_y` are the DR errors per epoch; when ``sigma_bias`` is not given the bias noise follows
@@ -82,7 +83,8 @@ def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = N
     return np.diag([sx**2, sy**2, sb2])
 
 
-def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: Any, dt: Any) -> np.ndarray:
+def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: Any,
+                            dt: Any) -> NDArray[np.float64]:
     r"""Process noise of :class:`BiasRateDeadReckoning`: DR noise plus a white-noise bias *acceleration*.
 
     The bias rate :math:`\dot\upsilon` receives white noise of spectral density :math:`q = \sigma_a^2` over each
@@ -161,7 +163,7 @@ class BiasRateDeadReckoning(MotionModel):
 
     n = 4
 
-    def __init__(self, Q: Any, dt: Any) -> None:
+    def __init__(self, Q: ArrayLike, dt: Any) -> None:
         self._Q = as_covariance("Q", Q, 4, allow_singular=True)
         if self._Q.shape != (4, 4):
             raise ValueError(f"Q must be one 4x4 matrix (the same at every epoch); got shape {self._Q.shape}")

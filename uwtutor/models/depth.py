@@ -54,6 +54,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_covariance, as_finite, as_nonnegative, as_scalar
 from .base import ModelPair, MotionModel
@@ -86,7 +87,8 @@ DEFAULT_SENSOR_STD = np.array([0.2, 0.05, np.radians(0.5)])
 DEFAULT_SENSOR_STD.flags.writeable = False
 
 
-def depth_speed_pitch_kinematics(s: Any, T: float, axis: int = -1, *, out: np.ndarray | None = None) -> np.ndarray:
+def depth_speed_pitch_kinematics(s: ArrayLike, T: float, axis: int = -1, *,
+                                 out: np.ndarray | None = None) -> np.ndarray:
     r"""Paper C's kinematics :math:`g(s) = [s_z + s_v \sin(s_\phi) T,\ s_v,\ s_\phi]` of states ``s``.
 
     Parameters
@@ -140,7 +142,7 @@ def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None 
     return out
 
 
-def depth_speed_pitch_jacobian(s: Any, T: float) -> np.ndarray:
+def depth_speed_pitch_jacobian(s: ArrayLike, T: float) -> NDArray[np.float64]:
     r"""The Jacobian :math:`G = \partial g / \partial s` of :func:`depth_speed_pitch_kinematics` at states ``s``.
 
     Parameters
@@ -230,7 +232,8 @@ class DepthSpeedPitch(MotionModel):
 
     n = 3
 
-    def __init__(self, T: float = 0.05, process_std: Any = None, *, process_cov: Any = None) -> None:
+    def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, *,
+                 process_cov: ArrayLike | None = None) -> None:
         # T and the standard deviations up to 1e75: the variances they make stay within the covariances' 1e150
         self.T = as_scalar("T", T, domain="positive", high=_MAX_STD)
         if process_cov is not None:
@@ -384,7 +387,7 @@ class DepthSensors(DirectMeasurement):
     (True, array([0.2   , 0.05  , 0.0087]))
     """
 
-    def __init__(self, R: Any = None) -> None:
+    def __init__(self, R: ArrayLike | None = None) -> None:
         super().__init__(3, [0, 1, 2], np.diag(DEFAULT_SENSOR_STD**2) if R is None else R)
 
 
@@ -440,7 +443,7 @@ class DepthSpeedPitchModel(ModelPair):
     True
     """
 
-    def __init__(self, T: float = 0.05, process_std: Any = None, R: Any = None) -> None:
+    def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, R: ArrayLike | None = None) -> None:
         super().__init__(self._motion(T, process_std), DepthSensors(R))
         self._check_R()
 

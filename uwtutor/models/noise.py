@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_flag, as_int, check_work
 
@@ -74,7 +75,7 @@ def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np
     return rngs
 
 
-def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> np.ndarray:
+def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> NDArray[np.float64]:
     """Standard normal draws of shape ``(M,) + shape``; block ``m`` is exactly ``rngs[m].standard_normal(shape)``.
 
     Examples
@@ -103,7 +104,7 @@ def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[in
     return out
 
 
-def psd_sqrt(Q: Any) -> np.ndarray:
+def psd_sqrt(Q: ArrayLike) -> np.ndarray:
     r"""A square root :math:`L` of positive semi-definite matrices, :math:`L L^\mathsf{T} = Q`, ``(..., n, n)``.
 
     The Cholesky factor when every matrix of the stack is positive definite; otherwise

@@ -93,6 +93,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_choice, as_covariance, as_finite, as_flag, as_int, as_nonnegative
 from .base import MotionModel
@@ -105,7 +106,7 @@ __all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
 ORDERS = {"turn-first": 1.0, "move-first": 0.0, "midpoint": 0.5}
 
 
-def wrap_angle(angle: Any) -> np.ndarray:
+def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     r"""Angles wrapped to :math:`[-\pi, \pi)` [rad].
 
     Examples
@@ -391,9 +392,10 @@ class OdometryMotion(MotionModel):
 
     covariances_checked = True      # Q = G diag(sigma^2) G^T of the variances checked when the model is made
 
-    def __init__(self, sigma_distance: Any, sigma_heading: Any, *, gyro_bias: bool = False, scale: bool = False,
-                 range_bias: Any = False, times: Any = None, dt: Any = None, order: str = "turn-first",
-                 gyro_bias_walk: Any = 0.0, scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
+    def __init__(self, sigma_distance: ArrayLike, sigma_heading: ArrayLike, *, gyro_bias: bool = False,
+                 scale: bool = False, range_bias: Any = False, times: ArrayLike | None = None,
+                 dt: ArrayLike | None = None, order: str = "turn-first", gyro_bias_walk: Any = 0.0,
+                 scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
         self.order = as_choice("order", order, ORDERS)
         self._c = ORDERS[order]
         self.layout = StateLayout.odometry(gyro_bias=gyro_bias, scale=scale, range_bias=range_bias)

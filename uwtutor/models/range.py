@@ -28,6 +28,7 @@ import copy
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import line_of_sight as _line_of_sight
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
@@ -117,7 +118,7 @@ class RangeToBeacon(MeasurementModel):
 
     m = 1
 
-    def __init__(self, beacon: Any, R: Any, *, n: int = 2, bias_index: int | None = None) -> None:
+    def __init__(self, beacon: ArrayLike, R: ArrayLike, *, n: int = 2, bias_index: int | None = None) -> None:
         if isinstance(beacon, dict):
             raise TypeError("beacon must be one beacon's position [x, y] (or its path); got a dict of beacons. For "
                             "ranges to several beacons at once use uwtutor.models.BeaconRanges(beacons, R)")
@@ -233,7 +234,7 @@ class MultiplicativeRange(RangeToBeacon):
     (array([[4900.]]), array([[[11.60111111]]]))
     """
 
-    def __init__(self, beacon: Any, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
+    def __init__(self, beacon: ArrayLike, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
         super().__init__(beacon, R, n=n)
         # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
         mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
@@ -294,7 +295,7 @@ class NoiseSchedule:
            [0., 4.]])
     """
 
-    def __init__(self, name: str, R: Any, m: int) -> None:
+    def __init__(self, name: str, R: ArrayLike, m: int) -> None:
         self.name, self.m = name, as_int("m", m, minimum=1)
         arr = as_float_array(name, R)
         self.constant: np.ndarray | None = None
@@ -462,7 +463,7 @@ class BeaconRanges(MeasurementModel):
 
     covariances_checked = True      # R is a schedule checked when the model is made
 
-    def __init__(self, beacons: Any, R: Any, *, layout: Any = None, n: int | None = None,
+    def __init__(self, beacons: Any, R: ArrayLike, *, layout: Any = None, n: int | None = None,
                  scale_index: int | None = None, bias_index: Any = None) -> None:
         self.beacon_ids, self.beacons = _beacon_table(beacons)
         B = len(self.beacons)

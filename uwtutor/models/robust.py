@@ -30,6 +30,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (MAX_COVARIANCE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
                          as_scalar, check_finite_result, check_work)
@@ -38,7 +39,7 @@ from .base import MeasurementModel, MotionModel
 __all__ = ["ConstantVelocity", "PositionMeasurement", "step_lengths"]
 
 
-def step_lengths(n_steps: int, dt: Any = 1.0, times: Any = None) -> np.ndarray:
+def step_lengths(n_steps: int, dt: Any = 1.0, times: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""The step lengths :math:`\Delta_k` of a run, shape ``(K,)``, with :math:`\Delta_0 = 0`.
 
     Parameters
@@ -100,7 +101,7 @@ class ConstantVelocity(MotionModel):
            [1. , 2. ]]))
     """
 
-    def __init__(self, d: int, q: Any, steps: Any) -> None:
+    def __init__(self, d: int, q: Any, steps: ArrayLike) -> None:
         self.d = as_int("d", d, minimum=1)
         self.n = 2 * self.d
         self.q = float(as_nonnegative("q", q, ndim=0, max_abs=MAX_COVARIANCE))
@@ -149,7 +150,7 @@ class PositionMeasurement(MeasurementModel):
     (array([[3., 4.]]), 4.0)
     """
 
-    def __init__(self, d: int, R: Any) -> None:
+    def __init__(self, d: int, R: ArrayLike) -> None:
         self.d = self.m = as_int("d", d, minimum=1)
         self.n = 2 * self.d
         R = as_float_array("R", R)

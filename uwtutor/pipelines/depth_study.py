@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_scalar, check_work
 from ..filters import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
@@ -82,9 +83,9 @@ def _mmpf_transition(stay: float, J: int) -> np.ndarray:
     return np.full((J, J), off) + np.eye(J) * (stay - off)
 
 
-def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[str] = ("EKF", "MMPF", "GPF"), *,
+def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Sequence[str] = ("EKF", "MMPF", "GPF"), *,
                     n_particles: int = 1000, grey_fraction: float = 0.1, grey_window: int = 30,
-                    noise_window: int = 50, process_std: Any = None,
+                    noise_window: int = 50, process_std: ArrayLike | None = None,
                     mmpf_targets_deg: Sequence[float] = (0.0, 20.0, -20.0), mmpf_time_constant: float = 1.0,
                     mmpf_stay: float = 0.995, seed: int = 0) -> DepthStudy:
     """Run the filters of paper C's comparison on every Monte Carlo run of a depth profile.

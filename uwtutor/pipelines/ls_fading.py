@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int,
                         as_range_array, as_scalar)
@@ -104,11 +105,12 @@ class LSFadingResult(FilterResult):
         return self.start_epoch < len(self.times)
 
 
-def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *, mu_gamma: Any = "prelocation",
-                  sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
-                  assumed_speed: Any = 1470.0, beacon: Any = (0.0, 0.0), times: Any = None,
-                  n_consecutive: int = 10, max_shift: Any = 50.0, min_heading_change: Any = np.deg2rad(10.0),
-                  prelocation: Any = None, acceptance: Any = None) -> LSFadingResult:
+def ls_fading_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, Q: ArrayLike, R: Any, P0: ArrayLike, *,
+                  mu_gamma: Any = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
+                  fading: bool = True, assumed_speed: Any = 1470.0, beacon: ArrayLike = (0.0, 0.0),
+                  times: ArrayLike | None = None, n_consecutive: int = 10, max_shift: Any = 50.0,
+                  min_heading_change: Any = np.deg2rad(10.0), prelocation: Any = None,
+                  acceptance: Any = None) -> LSFadingResult:
     r"""Paper D's LS-ISFEKF (and LS-EKF): grid-search pre-location, then a fading EKF started from it.
 
     1. **Pre-location** (``uwtutor.lsq.grid_prelocation``): at every epoch, the start bearing and sound-speed

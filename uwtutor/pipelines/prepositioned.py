@@ -14,6 +14,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
@@ -43,9 +44,9 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
     return alpha
 
 
-def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start: Any, Q: Any, R: Any, *,
-                           P0: Any = None, max_alpha: Any = 2.0, beacon: Any = (0.0, 0.0), iterations: int = 3,
-                           times: Any = None) -> FilterResult:
+def prepositioned_bias_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, provisional_start: ArrayLike, Q: ArrayLike,
+                           R: Any, *, P0: ArrayLike | None = None, max_alpha: Any = 2.0, beacon: ArrayLike = (0.0, 0.0),
+                           iterations: int = 3, times: ArrayLike | None = None) -> FilterResult:
     r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`
     ``max_alpha``.
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_float_array
 from ..filters.base import FilterResult
@@ -91,8 +92,8 @@ class StaggeredRun:
         return out
 
 
-def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: Any, u: Any, z: Any, *,
-                             per_run: dict[str, Any] | None = None, **kwargs: Any) -> StaggeredRun:
+def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLike, P_start: ArrayLike, u: ArrayLike,
+                             z: ArrayLike, *, per_run: dict[str, Any] | None = None, **kwargs: Any) -> StaggeredRun:
     r"""Run a batched filter in every run from its own start epoch, all runs in one call.
 
     Papers A and D start their filters only when a least-squares fix can be trusted (paper A: the precision

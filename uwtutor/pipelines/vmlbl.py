@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq
 from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_range_array, as_rng,
@@ -135,8 +136,8 @@ class VMLBLResult:
         return self.track.x[..., :2]
 
 
-def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: Any, dt: Any = 1.0,
-                times: Any = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
+def or_vmlbl_kf(ranges: ArrayLike, ship_positions: ArrayLike, dr_positions: ArrayLike, *, depth: Any, dt: Any = 1.0,
+                times: ArrayLike | None = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
                 range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
                 fix_options: dict[str, Any] | None = None, smooth: bool = False) -> VMLBLResult:
     r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.
@@ -354,8 +355,8 @@ class ErrorBudget:
     spacing: int
 
 
-def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_positions: Any, *, depth: Any,
-                       spacing: Any = 100, levels: Any = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
+def vmlbl_error_budget(rng: np.random.Generator, ship_positions: ArrayLike, true_positions: ArrayLike, *, depth: Any,
+                       spacing: Any = 100, levels: ArrayLike = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
                        n_runs: Any = 50_000, n_epochs: Any = 4) -> ErrorBudget:
     r"""Paper E's error budget (Fig. 6): the virtual-beacon fix's error against each error source alone.
 

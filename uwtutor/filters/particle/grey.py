@@ -30,6 +30,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..._validate import as_finite, as_flag, as_int, as_nonnegative, as_positive, as_scalar
 from ...models.base import MeasurementModel, MotionModel
@@ -149,11 +150,11 @@ class GreyParticleFilter(BootstrapParticleFilter):
     def _can_split(self) -> bool:
         return self._R_diag and super()._can_split()      # whitening vectors of one shape in every block
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
-                 grey_fraction: float = 0.1, grey_window: int = 30, grey_std: Any = None, grey_offset: Any = None,
-                 noise_window: int = 50, wavelet: str = "db6", adapt_noise: bool = True,
-                 min_noise_std: Any = None, resampler: Resampler = systematic_resample,
-                 weights: Any = None) -> None:
+    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+                 grey_fraction: float = 0.1, grey_window: int = 30, grey_std: ArrayLike | None = None,
+                 grey_offset: ArrayLike | None = None, noise_window: int = 50, wavelet: str = "db6",
+                 adapt_noise: bool = True, min_noise_std: ArrayLike | None = None,
+                 resampler: Resampler = systematic_resample, weights: ArrayLike | None = None) -> None:
         motion, measurement, (particles, rng) = self._split_models(motion, measurement, (particles, rng))
         _check_model("motion", motion, MotionModel)
         _check_model("measurement", measurement, MeasurementModel)
