@@ -345,3 +345,21 @@ def test_prepositioned_start_names_a_max_alpha_that_accepts_a_singular_fix():
     assert np.isfinite(prepositioned_bias_ekf(*args, max_alpha=2.0).x[:, -1]).all()
     with pytest.raises(ValueError, match="max_alpha = 1e\\+300 accepted a fix that is singular"):
         prepositioned_bias_ekf(*args, max_alpha=1e300)
+
+
+def test_the_engine_refuses_a_negative_range_of_a_range_model():
+    """A model that measures ranges (``nonnegative = True``: RangeToBeacon, BeaconRanges, and a model of yours that
+    sets it) gets no negative range through the engine, as range_only_ekf does not; a model of other measurements
+    may take negative values."""
+    from uwtutor.filters import ExtendedKalmanFilter
+    from uwtutor.models import LinearMeasurement, LinearMotion
+    z = Z.copy()
+    z[2] = -1.0
+    with pytest.raises(ValueError, match=r"z must be >= 0 \(RangeToBeacon measures ranges; .*\); got -1 at index 2"):
+        extended_kalman_filter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), TRACK[0], np.eye(2), U, z)
+    filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), TRACK[0], np.eye(2))
+    with pytest.raises(ValueError, match="z must be >= 0"):
+        filt.run(z, U)
+    res = extended_kalman_filter(LinearMotion(F=[[1.0]], Q=[[1.0]]), LinearMeasurement(H=[[1.0]], R=1.0), [0.0],
+                                 [[1.0]], None, [-1.0, -2.0, np.nan])
+    assert np.isfinite(res.x).all()

@@ -533,6 +533,8 @@ class ExtendedKalmanFilter:
         ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
         measurements; ``u`` has shape (K, p) or (M, K, p), or is None.
         """
+        z = as_float_array("z", z)
+        _check_nonnegative(self.measurement, z)
         return run_filter(self, z, u, times)
 
 
@@ -629,3 +631,13 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
             u = np.broadcast_to(u, (M,) + u.shape)
     filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate)
     return filt.run(z, u, times)
+
+
+def _check_nonnegative(measurement: MeasurementModel, z: np.ndarray) -> None:
+    """Refuse a negative measurement of a model that measures ranges (``measurement.nonnegative``), by name."""
+    if getattr(measurement, "nonnegative", False):
+        negative = z < 0                                         # NaN (a missing range) compares False
+        if negative.any():
+            where = tuple(int(i) for i in np.argwhere(negative)[0])
+            raise ValueError(f"z must be >= 0 ({type(measurement).__name__} measures ranges; NaN marks a missing "
+                             f"one); got {z[where]:g} at index {where if len(where) > 1 else where[0]}")

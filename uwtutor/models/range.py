@@ -114,6 +114,8 @@ class RangeToBeacon(MeasurementModel):
     array([[[0.6, 0.8, 1. ]]])
     """
 
+    nonnegative = True          # measured ranges: the engine refuses a negative one
+
     covariances_checked = True      # R is a schedule checked when the model is made
 
     m = 1
@@ -460,6 +462,8 @@ class BeaconRanges(MeasurementModel):
     >>> model.H(x, 0)[0, 0].round(3)
     array([0.642, 0.856, 0.   , 5.   ])
     """
+
+    nonnegative = True          # measured ranges: the engine refuses a negative one
 
     covariances_checked = True      # R is a schedule checked when the model is made
 
