@@ -108,7 +108,11 @@ def positive_definite(covariances: Any) -> np.ndarray:
     >>> positive_definite(np.array([np.eye(2), np.zeros((2, 2))])).tolist()
     [True, False]
     """
-    return _positive_definite(np.asarray(covariances, dtype=float))
+    cov = as_float_array("covariances", covariances, nonempty=True)
+    if cov.ndim < 2 or cov.shape[-1] != cov.shape[-2]:
+        raise ValueError(f"covariances must be a square matrix or a stack of them, shape (..., n, n); got shape "
+                         f"{cov.shape}")
+    return _positive_definite(cov)
 
 
 def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:

@@ -229,6 +229,9 @@ def resolve_travel_time(wrapped: Any, predicted_range: Any, sound_speed: Any = 1
     c = as_scalar("sound_speed", sound_speed, domain="positive")
     if np.isinf(w).any() or np.isinf(r).any():
         raise ValueError("wrapped and predicted_range must not be infinite; use NaN for a lost message")
+    if w.ndim and r.ndim and w.shape != r.shape:      # a scalar broadcasts; two arrays must match (no (K, 1) x (K,))
+        raise ValueError(f"wrapped and predicted_range must have the same shape (or one of them be a single number); "
+                         f"got shapes {w.shape} and {r.shape}")
     bad = np.isfinite(w) & ((w < 0) | (w >= T))
     if bad.any():
         raise ValueError(f"wrapped must lie in [0, period) = [0, {T:g}); got {w[bad].flat[0]:g}")
@@ -353,6 +356,8 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     c = as_scalar("sound_speed", sound_speed, domain="positive")
     c_a = c if assumed_sound_speed is None else as_scalar("assumed_sound_speed", assumed_sound_speed, domain="positive")
     T = None if period is None else float(as_positive("period", period, ndim=0))
+    clock_offset = as_scalar("clock_offset", clock_offset)
+    clock_drift = as_scalar("clock_drift", clock_drift)
     t_r, true_ranges = reception_times(ts, leader_at, follower_at, c)
     tau = t_r - ts
     measured = tau + np.asarray(clock_error(t_r, clock_offset, clock_drift), dtype=float)

@@ -12,6 +12,8 @@ import re
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ._validate import as_float_array, as_instance, as_point
+
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
            "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below"]
 
@@ -49,13 +51,18 @@ def use_book_style() -> None:
 
 def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
     """Draw a beacon as a black triangle at ``position`` (x east, y north, metres)."""
-    x, y = np.asarray(position, dtype=float)
+    x, y = as_point("position", position)
     ax.plot([x], [y], marker="^", color="black", markersize=9, linestyle="none", label=label)
 
 
 def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) -> None:
     """Plot a 2-D track given as an array of shape (K, 2), with a dot at its start, on equal axes."""
-    p = np.asarray(positions, dtype=float)
+    p = as_float_array("positions", positions, ndim=2, nonempty=True)
+    if p.shape[1] != 2:
+        raise ValueError(f"positions must have shape (K, 2) (one [x, y] per row); got {p.shape}")
+    if np.isinf(p).any():
+        raise ValueError("positions must be finite (NaN, which leaves a gap in the line, is allowed); got an "
+                         "infinite value")
     (line,) = ax.plot(p[:, 0], p[:, 1], label=label, **style)
     ax.plot(p[0, 0], p[0, 1], "o", color=line.get_color(), markersize=4)
     ax.set_aspect("equal", adjustable="datalim")
@@ -200,7 +207,9 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
         The player, ready to be the last expression of a notebook cell.
     """
     from IPython.display import HTML
+    from matplotlib.animation import Animation
 
+    as_instance("animation", animation, Animation, "e.g. a matplotlib.animation.FuncAnimation")
     if default_mode not in ("loop", "once", "reflect"):
         raise ValueError(f"default_mode must be 'loop', 'once' or 'reflect'; got {default_mode!r}")
     return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))

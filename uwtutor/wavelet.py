@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 import pywt
 
-from ._validate import as_finite, as_float_array, as_int
+from ._validate import as_finite, as_float_array, as_index, as_int
 
 __all__ = [
     "MAD_TO_SIGMA",
@@ -85,6 +85,9 @@ def as_wavelet(wavelet: Any) -> pywt.Wavelet:
     """
     if isinstance(wavelet, pywt.Wavelet):
         return wavelet
+    if not isinstance(wavelet, str):
+        raise TypeError(f"wavelet must be the name of a discrete wavelet of PyWavelets (a str such as 'db6') or a "
+                        f"pywt.Wavelet; got {type(wavelet).__name__}")
     try:
         w = pywt.Wavelet(wavelet)
     except (ValueError, TypeError):
@@ -138,7 +141,10 @@ def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
     1.0378
     """
     d = as_float_array("coefficients", coefficients)
-    if d.ndim == 0 or d.shape[axis] == 0:
+    if d.ndim == 0:
+        raise ValueError("coefficients must hold at least one coefficient; got a single number (pass a list)")
+    axis = as_index("axis", axis, d.ndim)
+    if d.shape[axis] == 0:
         raise ValueError(f"coefficients must hold at least one coefficient along axis {axis}; got shape {d.shape}")
     if not np.isfinite(np.add.reduce(d, axis=None)):
         raise ValueError("coefficients must be finite (no NaN or infinite value)")

@@ -1,0 +1,154 @@
+"""The robustness specifications of the core share (issue 26): methods, lsq, observability, metrics, reporting,
+plotting, _linalg, grey, wavelet, acoustics, resampling, owtt and motion.
+
+Merged into ``robustness_spec.SPECS`` / ``EXEMPT`` by the two lines at the end of ``robustness_spec.py``.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+
+from robustness_kinds import Choice, Covariance, Flag, Func, Instance, Int, Kind, Real, Rng
+from robustness_spec import _BEACONS, _RANGES, _TRACK, Spec
+
+
+# --- helpers ----------------------------------------------------------------------------------------------------------
+def _on_axes(fn, *, log: bool = False):
+    """Call a figure helper on fresh Agg axes (closed afterwards): the axes are the helper's, the data the user's."""
+    def call(**kw):
+        import matplotlib
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots()
+        try:
+            if log:
+                ax.semilogy([1.0, 2.0, 3.0], [3.0, 30.0, 300.0])
+            return fn(ax, **kw)
+        finally:
+            plt.close(fig)
+    return call
+
+
+def _plotting(name: str):
+    import uwtutor.plotting as p
+    return getattr(p, name)
+
+
+@functools.lru_cache(maxsize=1)
+def _tiny_animation():
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation
+    fig, ax = plt.subplots(figsize=(1.0, 1.0), dpi=20)
+    (line,) = ax.plot([0.0, 1.0], [0.0, 1.0])
+    anim = FuncAnimation(fig, lambda i: (line.set_ydata([0.0, float(i)]),), frames=2, blit=False)
+    plt.close(fig)
+    return anim
+
+
+_WEIGHTS = np.array([0.1, 0.0, 0.5, 0.4])
+_SIGNAL = np.sin(np.arange(40) / 5.0) + 0.01 * np.cos(np.arange(40) * 7.0)
+_SERIES = np.array([10.0, 11.0, 12.5, 13.0, 14.2, 15.1])
+_FOLLOWER = np.array([1500.0, 0.0])
+_W = dict(weights=Real((None,), "nonneg"))
+
+
+SPECS_CORE: dict[str, Spec] = {
+    # resampling
+    "uwtutor.resampling:multinomial_resample": Spec(lambda: dict(weights=_WEIGHTS, rng=np.random.default_rng(0)),
+                                                    kinds=_W),
+    "uwtutor.resampling:stratified_resample": Spec(lambda: dict(weights=_WEIGHTS, rng=np.random.default_rng(0)),
+                                                   kinds=_W),
+    "uwtutor.resampling:systematic_resample": Spec(lambda: dict(weights=_WEIGHTS, rng=np.random.default_rng(0)),
+                                                   kinds=_W),
+    "uwtutor.resampling:residual_resample": Spec(lambda: dict(weights=_WEIGHTS, rng=np.random.default_rng(0)),
+                                                 kinds=_W),
+    "uwtutor.resampling:effective_sample_size": Spec(lambda: dict(weights=_WEIGHTS), kinds=_W),
+    # wavelet (paper C's noise estimate)
+    "uwtutor.wavelet:as_wavelet": Spec(lambda: dict(wavelet="db2"), kinds=dict(wavelet=Choice())),
+    "uwtutor.wavelet:mad_sigma": Spec(lambda: dict(coefficients=np.array([0.5, -1.0, 0.2, 2.0, -0.7]), axis=-1),
+                                      kinds=dict(coefficients=Real((None,), extra_axis_ok=True), axis=Int())),
+    "uwtutor.wavelet:detail_matrix": Spec(lambda: dict(n_samples=8, wavelet="db2"),
+                                          kinds=dict(n_samples=Int(minimum=4, unbounded_work=True),
+                                                     wavelet=Choice())),
+    "uwtutor.wavelet:detail_coefficients": Spec(lambda: dict(signal=_SIGNAL, wavelet="db2", mode="valid"),
+                                                kinds=dict(signal=Real((None,)), wavelet=Choice(), mode=Choice())),
+    "uwtutor.wavelet:noise_sigma": Spec(lambda: dict(signal=_SIGNAL, wavelet="db2", mode="valid"),
+                                        kinds=dict(signal=Real((None,)), wavelet=Choice(), mode=Choice())),
+    "uwtutor.wavelet:sliding_noise_sigma": Spec(
+        lambda: dict(signal=_SIGNAL, window=10, wavelet="db2", mode="valid"),
+        # a window longer than the signal is allowed (every entry NaN, as documented): the work is that of the signal
+        kinds=dict(signal=Real((None,), nan_ok=True), window=Int(minimum=4), wavelet=Choice(),
+                   mode=Choice())),
+    # one-way travel time ranging
+    "uwtutor.owtt:clock_error": Spec(lambda: dict(times=2.0, offset=1e-3, drift=1e-6),
+                                     kinds=dict(times=Real((), vector_ok=True), offset=Real(()), drift=Real(()))),
+    "uwtutor.owtt:clock_range_error": Spec(lambda: dict(times=2.0, offset=1e-3, drift=1e-6, sound_speed=1500.0),
+                                           kinds=dict(times=Real((), vector_ok=True), offset=Real(()),
+                                                      drift=Real(()))),
+    "uwtutor.owtt:ambiguity_range": Spec(lambda: dict(sound_speed=1500.0, period=1.0),
+                                         kinds=dict(period=Real((), "pos"))),
+    "uwtutor.owtt:wrap_travel_time": Spec(lambda: dict(travel_times=np.array([0.5, 1.25, 2.0]), period=1.0),
+                                          kinds=dict(travel_times=Real((None,), "nonneg"), period=Real((), "pos"))),
+    "uwtutor.owtt:resolve_travel_time": Spec(
+        lambda: dict(wrapped=np.array([0.25, 0.5]), predicted_range=np.array([2700.0, 800.0]), sound_speed=1500.0,
+                     period=1.0),
+        kinds=dict(wrapped=Real((2,), "nonneg", nan_ok=True), predicted_range=Real((2,), "nonneg", nan_ok=True),
+                   period=Real((), "pos"))),
+    "uwtutor.owtt:simulate_owtt": Spec(
+        lambda: dict(send_times=np.arange(3.0), leader_position_at=(0.0, 0.0), follower_position_at=_FOLLOWER,
+                     sound_speed=1500.0, assumed_sound_speed=1480.0, clock_offset=1e-3, clock_drift=1e-6,
+                     period=1.0),
+        kinds=dict(send_times=Real((None,)), leader_position_at=Real((2,)), follower_position_at=Real((2,)),
+                   assumed_sound_speed=Real((), "pos", optional=True), clock_offset=Real(()), clock_drift=Real(()),
+                   period=Real((), "pos", optional=True))),
+    # numbers for the text
+    "uwtutor.reporting:as_shown": Spec(lambda: dict(value=184.2023, fmt=".1f"),
+                                       kinds=dict(value=Real((), inf_ok=True, nan_ok=True), fmt=Choice()),
+                                       # NaN and infinities are returned unchanged (documented): only they may be
+                                       check=lambda v, b: [] if isinstance(v, float) else ["not a float"]),
+    "uwtutor.reporting:below_or_value": Spec(lambda: dict(value=7.08e-13, bound=1e-9, fmt=".3g"),
+                                             kinds=dict(value=Real((), inf_ok=True, nan_ok=True),
+                                                        bound=Real((), "pos"), fmt=Choice())),
+    # acoustics
+    "uwtutor.acoustics:effective_sound_speed": Spec(
+        lambda: dict(profile_depths=np.array([0.0, 500.0, 1000.0]), profile_speeds=np.array([1500.0, 1490.0, 1520.0]),
+                     source_depth=10.0, receiver_depth=900.0),
+        kinds=dict(profile_depths=Real((3,)), profile_speeds=Real((3,), "pos"), source_depth=Real((), vector_ok=True),
+                   receiver_depth=Real((), vector_ok=True))),
+    "uwtutor.acoustics:sound_speed_error_range_bias": Spec(
+        lambda: dict(true_range=1000.0, assumed_speed=1470.0, true_speed=1500.0),
+        kinds=dict(true_range=Real((), "nonneg", vector_ok=True), assumed_speed=Real((), "pos", vector_ok=True),
+                   true_speed=Real((), "pos", vector_ok=True))),
+    # metrics
+    "uwtutor.metrics:positive_definite": Spec(
+        lambda: dict(covariances=np.array([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]])),
+        kinds=dict(covariances=Real((None, 2, 2), nan_ok=True, inf_ok=True))),
+    # figure helpers that draw the user's data on the user's axes (here fresh Agg axes)
+    "uwtutor.plotting:mark_beacon": Spec(lambda: dict(position=(0.0, 0.0), label="beacon"),
+                                         call=_on_axes(_plotting("mark_beacon")),
+                                         kinds=dict(position=Real((2,)))),
+    "uwtutor.plotting:plot_track": Spec(lambda: dict(positions=_TRACK, label="track"),
+                                        call=_on_axes(_plotting("plot_track")),
+                                        kinds=dict(positions=Real((None, 2), nan_ok=True))),
+    "uwtutor.plotting:plain_log_ticks": Spec(lambda: dict(axis="y"), call=_on_axes(_plotting("plain_log_ticks"),
+                                                                                   log=True),
+                                             kinds=dict(axis=Choice())),
+    "uwtutor.plotting:animation_html": Spec(lambda: dict(animation=_tiny_animation(), default_mode="once"),
+                                            kinds=dict(animation=Instance(), default_mode=Choice()),
+                                            check=lambda v, b: []),
+}
+
+EXEMPT_CORE: dict[str, str] = {
+    "uwtutor._linalg:positive_definite": "the unchecked kernel of uwtutor.metrics:positive_definite (specified), on "
+                                         "the scores' and gates' per-step path: their inputs are checked once",
+    "uwtutor._linalg:quadratic_form": "the unchecked kernel of the NEES, NIS and gates (metrics.nees, metrics.nis, "
+                                      "filters.gates: specified), called with their checked arrays",
+    "uwtutor._linalg:psd_violations": "the filter engine's per-step check of its own covariances (runs-last arrays "
+                                      "the engine builds), never called with user data",
+    "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
+}
