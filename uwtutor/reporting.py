@@ -17,8 +17,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-
 from ._validate import as_float_array
 
 __all__ = ["as_shown", "below_or_value"]
