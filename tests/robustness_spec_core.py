@@ -141,9 +141,24 @@ SPECS_CORE: dict[str, Spec] = {
     "uwtutor.plotting:animation_html": Spec(lambda: dict(animation=_tiny_animation(), default_mode="once"),
                                             kinds=dict(animation=Instance(), default_mode=Choice()),
                                             check=lambda v, b: []),
+    # grey models (paper C)
+    "uwtutor.grey:level_ratio_test": Spec(lambda: dict(series=_SERIES), kinds=dict(series=Real((None,), "pos"))),
+    "uwtutor.grey:fit_gm11": Spec(lambda: dict(series=_SERIES, background_weight=0.5),
+                                  kinds=dict(series=Real((None,), "pos"), background_weight=Real((), "prob"))),
+    "uwtutor.grey:gm11_coefficients": Spec(lambda: dict(series=_SERIES, background_weight=0.5),
+                                           kinds=dict(series=Real((None,), "pos", extra_axis_ok=False),
+                                                      background_weight=Real((), "prob"))),
+    "uwtutor.grey:gm11_forecast": Spec(lambda: dict(series=_SERIES, steps=2, background_weight=0.5),
+                                       kinds=dict(series=Real((None,), "pos"), steps=Int(minimum=1, unbounded_work=True),
+                                                  background_weight=Real((), "prob"))),
+    "uwtutor.grey:rolling_gm11_forecast": Spec(
+        lambda: dict(series=np.r_[_SERIES, _SERIES + 5.0], window=4, offset=0.0, background_weight=0.5),
+        kinds=dict(series=Real((None,)), window=Int(minimum=4), offset=Real(()), background_weight=Real((), "prob"))),
 }
 
 EXEMPT_CORE: dict[str, str] = {
+    "uwtutor.grey:GM11": "a result container fit_gm11 builds (specified)",
+    "uwtutor.grey:LevelRatioTest": "a result container level_ratio_test builds (specified)",
     "uwtutor._linalg:positive_definite": "the unchecked kernel of uwtutor.metrics:positive_definite (specified), on "
                                          "the scores' and gates' per-step path: their inputs are checked once",
     "uwtutor._linalg:quadratic_form": "the unchecked kernel of the NEES, NIS and gates (metrics.nees, metrics.nis, "

@@ -67,7 +67,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_float_array, as_int
+from ._validate import as_finite, as_float_array, as_int, as_scalar, check_finite_result, check_work
 
 __all__ = [
     "GM11",
@@ -86,7 +86,7 @@ _MIN_LENGTH = 4          # the usual minimum of the grey-systems literature (2 u
 # --- validation -------------------------------------------------------------------------------------------------
 
 def _background_weight(value: Any) -> float:
-    w = float(as_finite("background_weight", value))
+    w = as_scalar("background_weight", value)
     if not 0.0 <= w <= 1.0:
         raise ValueError(f"background_weight must lie in [0, 1] (0.5 is the usual choice); got {w}")
     return w
@@ -249,7 +249,9 @@ class GM11:
         if (k < 0).any():
             raise ValueError("k must be >= 0 (steps after the first value of the series)")
         x1 = self.series[0]
-        return x1 + (self.b - self.a * x1) * k * _expm1_over(-self.a * k)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = x1 + (self.b - self.a * x1) * k * _expm1_over(-self.a * k)
+        return check_finite_result(out, "k", what="the GM(1,1) time response")
 
     def forecast(self, steps: int = 1) -> np.ndarray:
         r"""The next ``steps`` values :math:`\hat x^{(0)}(n+1), \dots, \hat x^{(0)}(n+\text{steps})`.
@@ -264,8 +266,11 @@ class GM11:
         ndarray, shape (steps,)
         """
         steps = as_int("steps", steps, minimum=1)
+        check_work("steps", steps, "forecasts")
         k = np.arange(self.n, self.n + steps, dtype=float)
-        return _restored(np.asarray(self.series[0]), np.asarray(self.a), np.asarray(self.b), k)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = _restored(np.asarray(self.series[0]), np.asarray(self.a), np.asarray(self.b), k)
+        return check_finite_result(out, "steps", what="the GM(1,1) forecast")
 
 
 # --- public functions ---------------------------------------------------------------------------------------------
@@ -420,9 +425,12 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     alpha = _background_weight(background_weight)
     steps = as_int("steps", steps, minimum=1)
     x0 = _positive_series("series", series)
+    check_work("steps", steps * (x0.size // x0.shape[-1]), "forecasts")
     a, b = _coefficients(x0, alpha)
     n = x0.shape[-1]
-    return _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
+    return check_finite_result(out, "series", "steps", what="the GM(1,1) forecast")
 
 
 def gm11_next(series: Any) -> np.ndarray:
