@@ -7,12 +7,24 @@ Merged into ``robustness_spec.SPECS`` / ``EXEMPT`` by the two lines at the end o
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from robustness_kinds import Choice, Covariance, Flag, Func, Instance, Int, Kind, Real, Rng
 from robustness_spec import _BEACONS, _RANGES, _TRACK, Spec
+
+
+@dataclass(frozen=True)
+class OptionalInt(Int):
+    """An integer whose documented default is ``None`` (``n_runs=None``: no runs axis)."""
+
+    def hostile(self, valid: Any):
+        return [h for h in super().hostile(valid) if h.value is not None]
+
+
+_N_RUNS = OptionalInt(minimum=1, unbounded_work=True)
 
 
 # --- helpers ----------------------------------------------------------------------------------------------------------
@@ -55,6 +67,11 @@ _SIGNAL = np.sin(np.arange(40) / 5.0) + 0.01 * np.cos(np.arange(40) * 7.0)
 _SERIES = np.array([10.0, 11.0, 12.5, 13.0, 14.2, 15.1])
 _FOLLOWER = np.array([1500.0, 0.0])
 _W = dict(weights=Real((None,), "nonneg"))
+
+
+def _track():
+    from uwtutor.motion import straight_track
+    return straight_track(np.arange(6.0), (0.0, 0.0), 2.0, 0.3)
 
 
 SPECS_CORE: dict[str, Spec] = {
@@ -154,9 +171,38 @@ SPECS_CORE: dict[str, Spec] = {
     "uwtutor.grey:rolling_gm11_forecast": Spec(
         lambda: dict(series=np.r_[_SERIES, _SERIES + 5.0], window=4, offset=0.0, background_weight=0.5),
         kinds=dict(series=Real((None,)), window=Int(minimum=4), offset=Real(()), background_weight=Real((), "prob"))),
+    # tracks and dead reckoning
+    "uwtutor.motion:Track": Spec(lambda: dict(times=np.arange(6.0), positions=_TRACK, velocities=np.diff(_TRACK, axis=0,
+                                                                                                      prepend=0.0)),
+                                 kinds=dict(times=Real((6,)), positions=Real((6, 2)), velocities=Real((6, 2)))),
+    "uwtutor.motion:turning_track": Spec(
+        lambda: dict(times=np.arange(6.0), start=(0.0, 0.0), speed=2.0, headings=[0.0, 1.0], turn_times=[2.5]),
+        kinds=dict(start=Real((2,)), speed=Real((), "nonneg"), headings=Real((2,)), turn_times=Real((1,)))),
+    "uwtutor.motion:s_turn_track": Spec(
+        lambda: dict(times=np.arange(6.0), start=(0.0, 0.0), speed=2.0, heading=0.3, turn_rate=0.1, half_period=2.0),
+        kinds=dict(start=Real((2,)), speed=Real((), "nonneg"), heading=Real(()), turn_rate=Real(()),
+                   half_period=Real((), "pos"))),
+    "uwtutor.motion:lawnmower_track": Spec(
+        lambda: dict(times=np.arange(6.0), start=(0.0, 0.0), speed=2.0, leg_length=4.0, spacing=3.0, heading=0.2),
+        kinds=dict(start=Real((2,)), speed=Real((), "nonneg"), leg_length=Real((), "pos"), spacing=Real(()),
+                   heading=Real(()))),
+    "uwtutor.motion:with_current": Spec(lambda: dict(track=_track(), current=(0.1, -0.2)),
+                                        kinds=dict(track=Instance(), current=Real((2,)))),
+    "uwtutor.motion:dead_reckoning": Spec(
+        lambda: dict(track=_track(), rng=np.random.default_rng(0), speed_sigma=0.05, heading_sigma=0.01,
+                     heading_bias=0.02, speed_scale=1.01, n_runs=2),
+        kinds=dict(track=Instance(), speed_sigma=Real((), "nonneg"), heading_sigma=Real((), "nonneg"),
+                   heading_bias=Real(()), speed_scale=Real((), "pos"), n_runs=_N_RUNS)),
+    "uwtutor.motion:displacement_noise": Spec(
+        lambda: dict(displacements=np.diff(_TRACK, axis=0), rng=np.random.default_rng(0), sigma=0.1, n_runs=2),
+        kinds=dict(displacements=Real((5, 2)), sigma=Real((), "nonneg"), n_runs=_N_RUNS)),
+    "uwtutor.motion:integrate_odometry": Spec(
+        lambda: dict(start=[0.0, 0.0, 0.1], odometry=[[0.0, 0.0], [1.0, 0.1], [1.0, -0.2]]),
+        kinds=dict(start=Real((3,)), odometry=Real((3, 2)))),
 }
 
 EXEMPT_CORE: dict[str, str] = {
+    "uwtutor.motion:DeadReckoning": "a result container dead_reckoning builds (specified)",
     "uwtutor.grey:GM11": "a result container fit_gm11 builds (specified)",
     "uwtutor.grey:LevelRatioTest": "a result container level_ratio_test builds (specified)",
     "uwtutor._linalg:positive_definite": "the unchecked kernel of uwtutor.metrics:positive_definite (specified), on "

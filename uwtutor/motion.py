@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import (as_flag, as_finite, as_n_runs, as_point, as_rng, as_scalar,
-                        as_times, check_same_length, readonly, with_runs)
+                        as_times, check_same_length, check_work, readonly, with_runs)
 
 __all__ = [
     "Track",
@@ -473,6 +473,7 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
     scale = as_scalar("speed_scale", speed_scale, domain="positive")
     n = as_n_runs(n_runs)
     m = 1 if n is None else n
+    check_work("n_runs", 2 * m * track.n_steps, "values (runs x epochs x 2)")
 
     d = np.diff(track.positions, axis=0)                     # (K-1, 2) true steps
     dt = np.diff(track.times)
@@ -521,7 +522,10 @@ def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any,
         raise ValueError(f"displacements must have 2 components ([dx, dy]) on its last axis; got shape {d.shape}")
     rng = as_rng(rng)
     s = as_scalar("sigma", sigma, domain="nonnegative")
-    batch, single = with_runs("displacements", d, as_n_runs(n_runs), core_ndim=2)
+    n = as_n_runs(n_runs)
+    if n is not None and d.ndim == 2:
+        check_work("n_runs", n * d.size, "values (runs x epochs x 2)")
+    batch, single = with_runs("displacements", d, n, core_ndim=2)
     noise = s * rng.standard_normal(batch.shape)
     noise[:, 0] = 0.0
     out = batch + noise
