@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from robustness_kinds import Choice, Covariance, Flag, Func, Instance, Int, Kind, Real, Rng
-from robustness_spec import _BEACONS, _RANGES, _TRACK, Spec
+from robustness_spec import _BEACONS, _RANGES, _TRACK, Spec, _models
 
 
 @dataclass(frozen=True)
@@ -69,6 +69,11 @@ _FOLLOWER = np.array([1500.0, 0.0])
 _W = dict(weights=Real((None,), "nonneg"))
 
 
+def _nan_means_lost(value: Any, baseline: Any) -> list[str]:
+    """resolve_travel_time: a NaN input (a lost message) gives NaN, as documented; an infinity never."""
+    return ["an infinite travel time"] if np.isinf(value).any() else []
+
+
 def _track():
     from uwtutor.motion import straight_track
     return straight_track(np.arange(6.0), (0.0, 0.0), 2.0, 0.3)
@@ -99,7 +104,7 @@ SPECS_CORE: dict[str, Spec] = {
     "uwtutor.wavelet:sliding_noise_sigma": Spec(
         lambda: dict(signal=_SIGNAL, window=10, wavelet="db2", mode="valid"),
         # a window longer than the signal is allowed (every entry NaN, as documented): the work is that of the signal
-        kinds=dict(signal=Real((None,), nan_ok=True), window=Int(minimum=4), wavelet=Choice(),
+        kinds=dict(signal=Real((None,), nan_ok=True, extra_axis_ok=True), window=Int(minimum=4), wavelet=Choice(),
                    mode=Choice())),
     # one-way travel time ranging
     "uwtutor.owtt:clock_error": Spec(lambda: dict(times=2.0, offset=1e-3, drift=1e-6),
@@ -109,13 +114,15 @@ SPECS_CORE: dict[str, Spec] = {
                                                       drift=Real(()))),
     "uwtutor.owtt:ambiguity_range": Spec(lambda: dict(sound_speed=1500.0, period=1.0),
                                          kinds=dict(period=Real((), "pos"))),
-    "uwtutor.owtt:wrap_travel_time": Spec(lambda: dict(travel_times=np.array([0.5, 1.25, 2.0]), period=1.0),
-                                          kinds=dict(travel_times=Real((None,), "nonneg"), period=Real((), "pos"))),
+    "uwtutor.owtt:wrap_travel_time": Spec(lambda: dict(travel_times=1.25, period=1.0),
+                                          kinds=dict(travel_times=Real((), "nonneg", vector_ok=True),
+                                                     period=Real((), "pos"))),
     "uwtutor.owtt:resolve_travel_time": Spec(
         lambda: dict(wrapped=np.array([0.25, 0.5]), predicted_range=np.array([2700.0, 800.0]), sound_speed=1500.0,
                      period=1.0),
         kinds=dict(wrapped=Real((2,), "nonneg", nan_ok=True), predicted_range=Real((2,), "nonneg", nan_ok=True),
-                   period=Real((), "pos"))),
+                   period=Real((), "pos")),
+        check=_nan_means_lost),
     "uwtutor.owtt:simulate_owtt": Spec(
         lambda: dict(send_times=np.arange(3.0), leader_position_at=(0.0, 0.0), follower_position_at=_FOLLOWER,
                      sound_speed=1500.0, assumed_sound_speed=1480.0, clock_offset=1e-3, clock_drift=1e-6,
@@ -170,7 +177,7 @@ SPECS_CORE: dict[str, Spec] = {
                                                   background_weight=Real((), "prob"))),
     "uwtutor.grey:rolling_gm11_forecast": Spec(
         lambda: dict(series=np.r_[_SERIES, _SERIES + 5.0], window=4, offset=0.0, background_weight=0.5),
-        kinds=dict(series=Real((None,)), window=Int(minimum=4), offset=Real(()), background_weight=Real((), "prob"))),
+        kinds=dict(series=Real((None,), extra_axis_ok=True), window=Int(minimum=4), offset=Real(()), background_weight=Real((), "prob"))),
     # tracks and dead reckoning
     "uwtutor.motion:Track": Spec(lambda: dict(times=np.arange(6.0), positions=_TRACK, velocities=np.diff(_TRACK, axis=0,
                                                                                                       prepend=0.0)),
@@ -195,10 +202,53 @@ SPECS_CORE: dict[str, Spec] = {
                    heading_bias=Real(()), speed_scale=Real((), "pos"), n_runs=_N_RUNS)),
     "uwtutor.motion:displacement_noise": Spec(
         lambda: dict(displacements=np.diff(_TRACK, axis=0), rng=np.random.default_rng(0), sigma=0.1, n_runs=2),
-        kinds=dict(displacements=Real((5, 2)), sigma=Real((), "nonneg"), n_runs=_N_RUNS)),
+        kinds=dict(displacements=Real((None, 2)), sigma=Real((), "nonneg"), n_runs=_N_RUNS)),
     "uwtutor.motion:integrate_odometry": Spec(
         lambda: dict(start=[0.0, 0.0, 0.1], odometry=[[0.0, 0.0], [1.0, 0.1], [1.0, -0.2]]),
-        kinds=dict(start=Real((3,)), odometry=Real((3, 2)))),
+        kinds=dict(start=Real((3,)), odometry=Real((None, 2)))),
+    # observability and bounds
+    "uwtutor.observability:squared_range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
+    "uwtutor.observability:beacons_at_bearings": Spec(
+        lambda: dict(position=[30.0, -40.0], bearings=[0.0, 1.0, 2.5], distances=1000.0),
+        kinds=dict(bearings=Real((None,)), distances=Real((), "pos", vector_ok=True))),
+    "uwtutor.observability:virtual_beacons": Spec(lambda: dict(beacon=(0.0, 0.0), positions=_TRACK, reference=-1),
+                                                  kinds=dict(reference=Int())),
+    "uwtutor.observability:precision_factor": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
+                                                                unknown_bias=True),
+                                                   kinds=dict(unknown_bias=Flag())),
+    "uwtutor.observability:track_jacobian": Spec(
+        lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), times=np.arange(6.0), unknown_bias=True,
+                     unknown_current=True, reference=-1),
+        kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
+                   reference=Int())),
+    "uwtutor.observability:track_fisher_information": Spec(
+        lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), sigma=1.0, times=np.arange(6.0), unknown_bias=True,
+                     unknown_current=False, cumulative=True),
+        kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), sigma=Real((), "pos", vector_ok=True),
+                   unknown_bias=Flag(), unknown_current=Flag(), cumulative=Flag())),
+    "uwtutor.observability:track_crlb": Spec(
+        lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), sigma=1.0, times=np.arange(6.0), unknown_bias=False,
+                     unknown_current=False, rtol=1e-6),
+        kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), sigma=Real((), "pos", vector_ok=True),
+                   unknown_bias=Flag(), unknown_current=Flag(), rtol=Real((), "open01"))),
+    "uwtutor.observability:observability_rank": Spec(
+        lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), times=np.arange(6.0), unknown_bias=True,
+                     unknown_current=False, cumulative=True, rtol=1e-6),
+        kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
+                   cumulative=Flag(), rtol=Real((), "open01"))),
+    "uwtutor.observability:numerical_rank": Spec(lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
+                                                 kinds=dict(matrix=Real((None, 2), extra_axis_ok=True), rtol=Real((), "open01"))),
+    "uwtutor.observability:two_range_fix": Spec(
+        lambda: dict(beacon=(0.0, 0.0), ranges=[100.0, 104.0], displacement=[10.0, 0.0]),
+        kinds=dict(ranges=Real((2,), "nonneg"), displacement=Real((2,)))),
+    "uwtutor.observability:mirror_point": Spec(
+        lambda: dict(point=[30.0, -40.0], beacon=(0.0, 0.0), direction=[1.0, 0.5]),
+        kinds=dict(point=Real((2,)), direction=Real((2,)))),
+    "uwtutor.observability:model_posterior_crlb": Spec(
+        lambda: dict(motion=_models()[0], measurement=_models()[1], x0=_TRACK[0], P0=np.eye(2) * 100.0,
+                     truth=_TRACK[1:], u=np.diff(_TRACK, axis=0), measured=np.ones(5, dtype=bool), full=True),
+        kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)), u=Real((5, 2), optional=True),
+                   measured=Kind(), full=Flag())),
 }
 
 EXEMPT_CORE: dict[str, str] = {

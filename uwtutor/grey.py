@@ -139,6 +139,17 @@ def _coefficients(x0: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]
     return a, b
 
 
+def _fitted_coefficients(x0: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_coefficients` of a user's series, refused by name when float64 cannot fit it (values that span
+    more orders of magnitude than float64 resolves, e.g. 1e300 next to 10: the accumulated series is flat)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        a, b = _coefficients(x0, alpha)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError("series cannot be fitted by GM(1,1) in float64: its values span too many orders of magnitude "
+                         "(its accumulated series does not grow in floating point). Rescale or split it")
+    return a, b
+
+
 def _expm1_over(a: np.ndarray) -> np.ndarray:
     """``(e^a - 1) / a``, equal to 1 at ``a = 0`` (no division by zero)."""
     a = np.asarray(a, dtype=float)
@@ -349,7 +360,7 @@ def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
     """
     alpha = _background_weight(background_weight)
     x0 = _positive_series("series", series, ndim=1)
-    a_arr, b_arr = _coefficients(x0, alpha)
+    a_arr, b_arr = _fitted_coefficients(x0, alpha)
     a, b = float(a_arr), float(b_arr)
     x1 = np.cumsum(x0)
     z = alpha * x1[1:] + (1.0 - alpha) * x1[:-1]
@@ -387,7 +398,7 @@ def gm11_coefficients(series: Any, *, background_weight: float = 0.5) -> tuple[n
     """
     alpha = _background_weight(background_weight)
     x0 = _positive_series("series", series)
-    return _coefficients(x0, alpha)
+    return _fitted_coefficients(x0, alpha)
 
 
 def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5) -> np.ndarray:
@@ -426,7 +437,7 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     steps = as_int("steps", steps, minimum=1)
     x0 = _positive_series("series", series)
     check_work("steps", steps * (x0.size // x0.shape[-1]), "forecasts")
-    a, b = _coefficients(x0, alpha)
+    a, b = _fitted_coefficients(x0, alpha)
     n = x0.shape[-1]
     with np.errstate(over="ignore", invalid="ignore"):
         out = _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
@@ -508,8 +519,10 @@ def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,
     x = as_finite("series", series)
     if x.ndim == 0:
         raise ValueError("series must be an array of values along its last axis; got a scalar")
+    if x.shape[-1] == 0:
+        raise ValueError(f"series must hold at least one value along its last axis; got shape {x.shape}")
     L = as_int("window", window, minimum=_MIN_LENGTH)
-    c = float(as_finite("offset", offset))
+    c = as_scalar("offset", offset)
     K = x.shape[-1]
     out = np.full(x.shape, np.nan)
     if K <= L:

@@ -33,7 +33,7 @@ import numpy as np
 from scipy import stats
 
 from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
-from ._validate import SYMMETRY_RTOL, as_finite, as_float_array
+from ._validate import MAX_COORDINATE, SYMMETRY_RTOL, as_finite, as_float_array
 
 __all__ = [
     "estimation_errors",
@@ -56,7 +56,13 @@ def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[n
         x = x[None]
     if x.size == 0:
         raise ValueError(f"estimates is empty (shape {x.shape}): there is nothing to score")
-    t = as_finite("truth", truth, ndim=(1, 2, 3))
+    with np.errstate(invalid="ignore"):
+        big = np.abs(x) > MAX_COORDINATE          # also inf; NaN (no estimate, e.g. before a filter starts) is fine
+    if big.any():
+        raise ValueError(f"estimates must be finite (NaN where there is no estimate) and at most {MAX_COORDINATE:.0e} "
+                         f"in magnitude (beyond it the squared errors overflow float64); got {x[big].flat[0]:.3g}. "
+                         "Change their units")
+    t = as_finite("truth", truth, ndim=(1, 2, 3), max_abs=MAX_COORDINATE)
     if t.ndim == 1 and x.shape[-1] == 1:          # (K,) for a scalar state
         t = t[:, None]
     # only the runs axis is shared (one truth for every run); nothing else is broadcast: a (K, 1) truth against
@@ -261,7 +267,12 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
                          f"got {P.shape}")
     e = _without_covariance(t - x, P)
     _check_used_covariances("covariances", P, np.isfinite(e).all(axis=-1))
-    return _quadratic_form(e, P, "covariances")
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _quadratic_form(e, P, "covariances")
+    if np.isinf(out).any():
+        raise ValueError("estimates, truth and covariances give a NEES that overflows float64 (errors near 1e154, "
+                         "or a variance near 0): change their units")
+    return out
 
 
 def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
@@ -286,6 +297,8 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
         NIS values, NaN where the innovation is NaN.
     """
     y = as_float_array("innovations", innovations, ndim=(2, 3))
+    if np.isinf(y).any():
+        raise ValueError("innovations must be finite (a NaN row: no measurement at that step); got an infinite value")
     if y.ndim == 2:
         y = y[None]
     S = as_float_array("innovation_cov", innovation_cov, ndim=(3, 4))
@@ -325,6 +338,8 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
         :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
     """
     v = as_float_array("values", values, ndim=2, nonempty=True)
+    if np.isinf(v).any():
+        raise ValueError("values must be finite (NaN where a run has no value at that step); got an infinite value")
     ok = ~np.isnan(v)
     counts = ok.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -406,6 +421,7 @@ def fraction_within(values: Any, lower: Any, upper: Any) -> float:
     lo, hi = bounds
     ok = ~np.isnan(v) & ~np.isnan(lo) & ~np.isnan(hi)
     if not ok.any():
-        raise ValueError("values must contain at least one entry that is not NaN (with finite bounds)")
+        raise ValueError("values, lower and upper must share at least one entry where none of them is NaN (a NaN "
+                         "bound, from a step without runs, leaves that value out)")
     inside = (v[ok] >= lo[ok]) & (v[ok] <= hi[ok])
     return float(inside.mean())

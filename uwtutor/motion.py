@@ -517,7 +517,7 @@ def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any,
     ndarray, shape (K, 2) or (M, K, 2)
         Noisy displacements.
     """
-    d = as_finite("displacements", displacements, ndim=(2, 3))
+    d = as_finite("displacements", displacements, ndim=(2, 3), nonempty=True)
     if d.shape[-1] != 2:
         raise ValueError(f"displacements must have 2 components ([dx, dy]) on its last axis; got shape {d.shape}")
     rng = as_rng(rng)

@@ -70,8 +70,8 @@ from typing import Any
 import numpy as np
 
 from ._linalg import line_of_sight as _line_of_sight
-from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
-                        as_information, as_int, as_points, as_positive)
+from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
+                        as_in_range, as_information, as_int, as_points, as_positive, as_scalar)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.base import MeasurementModel, MotionModel
 
@@ -121,7 +121,7 @@ def _warn(message: str) -> None:
 # validation helpers
 # ---------------------------------------------------------------------------------------------------------------------
 def _as_rtol(rtol: Any) -> float:
-    r = float(as_positive("rtol", rtol))
+    r = as_scalar("rtol", rtol, domain="positive")
     if r >= 1:
         raise ValueError(f"rtol must be < 1 (a relative tolerance such as 1e-6); got {r}")
     return r
@@ -188,7 +188,7 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
            [ 0.,  1.]])
     """
     p = as_points("position", position)
-    b = as_points("beacons", beacons)
+    b = as_points("beacons", beacons, nonempty=True)
     p, b = _broadcast("position", p, "beacons", b)
     _, los, defined = _line_of_sight(p, b)
     if not defined.all():
@@ -221,7 +221,7 @@ def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
         :math:`2 (p - b_i)` [m].
     """
     p = as_points("position", position)
-    b = as_points("beacons", beacons)
+    b = as_points("beacons", beacons, nonempty=True)
     p, b = _broadcast("position", p, "beacons", b)
     return 2.0 * (p - b)
 
@@ -253,8 +253,8 @@ def beacons_at_bearings(position: Any, bearings: Any, distances: Any = 1000.0) -
     p = as_points("position", position)
     if p.shape != (2,):
         raise ValueError(f"position must have shape (2,); got {p.shape}")
-    beta = as_finite("bearings", bearings, ndim=1)
-    rho = as_positive("distances", distances)
+    beta = as_finite("bearings", bearings, ndim=1, nonempty=True)
+    rho = as_positive("distances", distances, max_abs=MAX_COORDINATE)
     if rho.ndim > 1 or (rho.ndim == 1 and rho.shape != beta.shape):
         raise ValueError(f"distances must be a number or have one entry per bearing ({beta.size}); got shape "
                          f"{rho.shape}")
@@ -296,9 +296,9 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
     if b.shape not in ((2,), p.shape):
         raise ValueError(f"beacon must have shape (2,) or {p.shape} (one position per epoch); got {b.shape}")
     k = len(p)
-    if not isinstance(reference, (int, np.integer)) or not -k <= reference < k:
-        raise ValueError(f"reference must be an epoch index in [{-k}, {k - 1}]; got {reference!r}")
-    return b - (p - p[reference])
+    if k == 0:
+        raise ValueError("positions must hold at least one epoch, shape (K, 2) with K >= 1; got shape (0, 2)")
+    return b - (p - p[_as_reference(reference, k)])
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -642,7 +642,7 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
 
-    b = as_points("beacons", beacons, min_ndim=2)
+    b = as_points("beacons", beacons, min_ndim=2, nonempty=True)
     p = as_points("position", position)
     h = range_jacobian(p[..., None, :], b)
     X = np.concatenate([h, np.ones(h.shape[:-1] + (1,))], axis=-1) if unknown_bias else h
@@ -674,11 +674,11 @@ def _track_inputs(positions: Any, beacon: Any, times: Any, unknown_current: bool
                              "U (t_k - t_ref)")
         t = as_finite("times", times, ndim=1)
         if len(t) != len(p):
-            raise ValueError(f"times must have one entry per position ({len(p)}); got {len(t)}")
+            raise ValueError(f"times must have one entry per row of positions ({len(p)}); got {len(t)}")
     elif times is not None:
         t = as_finite("times", times, ndim=1)
         if len(t) != len(p):
-            raise ValueError(f"times must have one entry per position ({len(p)}); got {len(t)}")
+            raise ValueError(f"times must have one entry per row of positions ({len(p)}); got {len(t)}")
     return p, b, t
 
 
@@ -931,7 +931,7 @@ def numerical_rank(matrix: Any, *, rtol: float = DEFAULT_RTOL) -> int | np.ndarr
     int or ndarray of int
         The rank(s).
     """
-    A = as_finite("matrix", matrix)
+    A = as_finite("matrix", matrix, nonempty=True)
     if A.ndim < 2:
         raise ValueError(f"matrix must have at least 2 dimensions, shape (..., m, n); got {A.shape}")
     rtol = _as_rtol(rtol)
@@ -991,10 +991,10 @@ def two_range_fix(beacon: Any, ranges: Any, displacement: Any) -> np.ndarray:
     b = as_points("beacon", beacon)
     if b.shape != (2,):
         raise ValueError(f"beacon must have shape (2,); got {b.shape}")
-    r = as_finite("ranges", ranges, shape=(2,))
+    r = as_finite("ranges", ranges, shape=(2,), max_abs=MAX_COORDINATE)     # squared below: kept within float64
     if np.any(r < 0):
         raise ValueError(f"ranges must be >= 0; got {r.tolist()}")
-    u = as_finite("displacement", displacement, shape=(2,))
+    u = as_finite("displacement", displacement, shape=(2,), max_abs=MAX_COORDINATE)
     dist = float(np.hypot(*u))
     if dist == 0.0:
         _warn("the displacement is zero: both ranges are from the same point, so the position is only known "
@@ -1562,6 +1562,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
         raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
     if not isinstance(measurement, MeasurementModel):
         raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
+    full = as_flag("full", full)
     n, m = motion.n, measurement.m
     if measurement.n != n:
         raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's state "
