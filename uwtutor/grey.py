@@ -478,13 +478,14 @@ def gm11_next(series: Any) -> np.ndarray:
     if not np.minimum.reduce(x0, axis=None) > 0.0:          # also False for NaN
         raise ValueError("series must be finite and > 0 for GM(1,1) (shift it by a constant first); got a value "
                          "<= 0 or NaN")
-    a, b = _coefficients(x0, 0.5)
     n = x0.shape[-1]
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        a, b = _coefficients(x0, 0.5)
         out = _restored(x0[..., 0], a, b, np.array([float(n)]))[..., 0]
     if not np.all(np.isfinite(out)):
-        raise ValueError("series gives a GM(1,1) forecast that overflows float64 (values near 1e308, or a series "
-                         "that grows too fast for its length): rescale the series")
+        raise ValueError("series gives a GM(1,1) forecast that overflows float64 (values near 1e308, a series "
+                         "that grows too fast for its length, or values that span too many orders of magnitude): "
+                         "rescale the series")
     return out
 
 
