@@ -74,6 +74,18 @@ def _nan_means_lost(value: Any, baseline: Any) -> list[str]:
     return ["an infinite travel time"] if np.isinf(value).any() else []
 
 
+# a vehicle that drives east then turns north, 8 epochs, beacon at the origin (paper D's pre-location, paper A's
+# pre-positioning, paper E's virtual baseline on the same small geometry)
+_LEG = np.array([[400.0 + 50.0 * k, -300.0] for k in range(5)] + [[600.0, -300.0 + 50.0 * k] for k in range(1, 4)])
+_DR = np.vstack([np.zeros(2), np.diff(_LEG, axis=0)])
+_TAU = np.linalg.norm(_LEG, axis=1) / 1500.0
+_SHIP = np.array([[0.0, 0.0], [400.0, 100.0], [700.0, 400.0], [800.0, 800.0]])
+_SUB = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0], [-750.0, -950.0]])
+_SLANT = np.sqrt(np.sum((_SHIP - _SUB) ** 2, axis=1) + 1000.0**2)
+_PHI = np.radians([0.0, 90.0, 180.0, 270.0])
+_DESIGN = np.column_stack([np.cos(_PHI), np.sin(_PHI), np.ones(4)])
+
+
 def _track():
     from uwtutor.motion import straight_track
     return straight_track(np.arange(6.0), (0.0, 0.0), 2.0, 0.3)
@@ -249,9 +261,55 @@ SPECS_CORE: dict[str, Spec] = {
                      truth=_TRACK[1:], u=np.diff(_TRACK, axis=0), measured=np.ones(5, dtype=bool), full=True),
         kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)), u=Real((5, 2), optional=True),
                    measured=Kind(), full=Flag())),
+    # least squares
+    "uwtutor.lsq:precision_factor": Spec(lambda: dict(A=_DESIGN), kinds=dict(A=Real((None, 3), extra_axis_ok=True))),
+    "uwtutor.lsq:condition_number": Spec(lambda: dict(A=_DESIGN), kinds=dict(A=Real((None, 3), extra_axis_ok=True))),
+    "uwtutor.lsq:precision_factor_history": Spec(lambda: dict(positions=_LEG, beacon=(0.0, 0.0), unknown_bias=True),
+                                                 kinds=dict(positions=Real((None, 2)), unknown_bias=Flag())),
+    "uwtutor.lsq:grid_prelocation": Spec(
+        lambda: dict(travel_times=_TAU, dr_displacements=_DR, bearing_grid=np.linspace(-np.pi, np.pi, 12,
+                                                                                        endpoint=False),
+                     speed_error_grid=[-20.0, 0.0, 20.0], assumed_speed=1470.0, beacon=(0.0, 0.0)),
+        kinds=dict(travel_times=Real((8,), "nonneg"), dr_displacements=Real((8, 2)), bearing_grid=Real((None,), optional=True),
+                   speed_error_grid=Real((None,), optional=True), assumed_speed=Real((), "pos"), beacon=Real((2,)))),
+    "uwtutor.lsq:prelocation_cost": Spec(
+        lambda: dict(ranges=_TAU * 1470.0, dr_displacements=_DR, bearing_grid=np.linspace(-np.pi, np.pi, 12,
+                                                                                           endpoint=False),
+                     speed_error_grid=[-20.0, 0.0, 20.0], assumed_speed=1470.0, beacon=(0.0, 0.0)),
+        kinds=dict(ranges=Real((8,), "nonneg"), dr_displacements=Real((8, 2)), bearing_grid=Real((None,), optional=True),
+                   speed_error_grid=Real((None,), optional=True), assumed_speed=Real((), "pos"), beacon=Real((2,)))),
+    "uwtutor.lsq:prelocation_acceptance": Spec(
+        lambda: dict(starts=np.tile([400.0, -300.0], (8, 1)) + 1.0, dr_displacements=_DR, min_heading_change=0.17,
+                     n_consecutive=2, max_shift=50.0, heading_window=2),
+        kinds=dict(starts=Real((8, 2)), dr_displacements=Real((8, 2)), min_heading_change=Real((), "pos"),
+                   n_consecutive=Int(minimum=1), max_shift=Real((), "pos"), heading_window=Int(minimum=1))),
+    "uwtutor.lsq:nonlinear_lsq": Spec(
+        lambda: dict(ranges=_RANGES, beacons=_BEACONS, initial=[0.0, 0.0, 0.0], unknown_bias=True, sigma=1.0,
+                     max_condition=1e3, max_noise_gain=100.0),
+        kinds=dict(ranges=Real((4,), "nonneg"), initial=Real((3,)), unknown_bias=Flag(),
+                   sigma=Real((), "pos", optional=True, vector_ok=True), max_condition=Real((), "pos"),
+                   max_noise_gain=Real((), "pos"))),
+    "uwtutor.lsq:prepositioning": Spec(
+        lambda: dict(ranges=np.linalg.norm(_LEG, axis=1) + 2.0, dr_positions=np.cumsum(_DR, axis=0),
+                     provisional=[610.0, -160.0], beacon=(0.0, 0.0), unknown_bias=True, iterations=2, sigma=1.0,
+                     max_condition=1e3, max_noise_gain=100.0),
+        kinds=dict(ranges=Real((8,), "nonneg"), dr_positions=Real((8, 2)), provisional=Real((2,)),
+                   beacon=Real((2,)), unknown_bias=Flag(), iterations=Int(minimum=1),
+                   sigma=Real((), "pos", optional=True, vector_ok=True), max_condition=Real((), "pos"),
+                   max_noise_gain=Real((), "pos"))),
+    "uwtutor.lsq:virtual_beacon_lsq": Spec(
+        lambda: dict(ranges=_SLANT, beacon_positions=_SHIP, dr_positions=_SUB, depth=1000.0, beacon_depths=0.0,
+                     max_condition=1e3, max_noise_gain=100.0),
+        kinds=dict(ranges=Real((4,), "nonneg"), beacon_positions=Real((4, 2)), dr_positions=Real((4, 2)),
+                   depth=Real(()), beacon_depths=Real((), vector_ok=True), max_condition=Real((), "pos"),
+                   max_noise_gain=Real((), "pos"))),
 }
 
 EXEMPT_CORE: dict[str, str] = {
+    "uwtutor.lsq:LSQFix": "a result container linearized_lsq, nonlinear_lsq and prepositioning build (specified)",
+    "uwtutor.lsq:Prelocation": "a result container grid_prelocation builds (specified)",
+    "uwtutor.lsq:PrelocationAcceptance": "a result container prelocation_acceptance builds (specified)",
+    "uwtutor.lsq:VirtualBeaconFix": "a result container virtual_beacon_lsq builds (specified)",
     "uwtutor.motion:DeadReckoning": "a result container dead_reckoning builds (specified)",
     "uwtutor.grey:GM11": "a result container fit_gm11 builds (specified)",
     "uwtutor.grey:LevelRatioTest": "a result container level_ratio_test builds (specified)",

@@ -16,7 +16,7 @@ SINGULAR_RTOL = 1e-7
 
 
 def as_design(A: Any) -> np.ndarray:
-    A = as_finite("A", A)
+    A = as_finite("A", A, max_abs=MAX_COORDINATE)
     if A.ndim < 2:
         raise ValueError(f"A must be a design matrix of shape (N, p) or a stack (..., N, p); got shape {A.shape}")
     if A.shape[-2] < 1 or A.shape[-1] < 1:
@@ -122,7 +122,14 @@ def sigma_and_cov(sigma: Any, residuals: np.ndarray, n_unknowns: int,
             s = np.sqrt(np.sum(residuals**2, axis=-1) / (n - n_unknowns)) if n > n_unknowns \
                 else np.full(residuals.shape[:-1], np.nan)
     else:
-        s = np.broadcast_to(as_positive("sigma", sigma), residuals.shape[:-1]).astype(float)
+        s_in = as_positive("sigma", sigma)
+        if np.any((s_in < 1e-150) | (s_in > 1e150)):     # sigma^2 times the inverse normal matrix stays finite
+            raise ValueError(f"sigma must lie between 1e-150 and 1e150 (its square scales the covariance); got "
+                             f"{s_in[(s_in < 1e-150) | (s_in > 1e150)].flat[0]:g}. Change its units")
+        if s_in.shape not in ((), residuals.shape[:-1]):
+            raise ValueError(f"sigma must be a number or one value per run, shape {residuals.shape[:-1]}; got shape "
+                             f"{s_in.shape}")
+        s = np.broadcast_to(s_in, residuals.shape[:-1]).astype(float)
     with np.errstate(invalid="ignore"):
         cov = s[..., None, None] ** 2 * inv_normal
     return s, cov

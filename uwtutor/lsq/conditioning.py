@@ -98,7 +98,7 @@ def precision_factor_history(positions: Any, beacon: Any = (0.0, 0.0), unknown_b
         no change of bearing yet).
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
-    p = as_finite("positions", positions, ndim=(2, 3))
+    p = as_finite("positions", positions, ndim=(2, 3), nonempty=True)
     if p.shape[-1] != 2:
         raise ValueError(f"positions must have shape (K, 2) or (M, K, 2); got {p.shape}")
     b = as_finite("beacon", beacon)

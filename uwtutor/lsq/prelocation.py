@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_float_array, as_int, as_positive
+from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_positive
 from ._common import runs_of
 
 
@@ -86,11 +86,13 @@ def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, b
     else:
         tau = as_float_array("travel_times", travel_times, ndim=(1, 2))
         name = "travel_times"
+    if tau.shape[-1] == 0:
+        raise ValueError(f"{name} must hold at least one epoch; got shape {tau.shape}")
     if np.isinf(tau).any() or np.any(tau < 0):
         raise ValueError(f"{name} must be finite and >= 0 (NaN marks a missing epoch)")
     if np.isnan(tau[..., 0]).any():
         raise ValueError(f"{name} must be present (not NaN) at epoch 0: the first travel time fixes the start ring")
-    u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3))
+    u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if u.shape[-1] != 2:
         raise ValueError(f"dr_displacements must have shape (K, 2) or (M, K, 2); got {u.shape}")
     if u.shape[-2] != tau.shape[-1]:
@@ -103,7 +105,13 @@ def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, b
     if np.any(dc >= c):
         raise ValueError(f"speed_error_grid must stay below assumed_speed ({c:g} m/s): the effective speed "
                          f"c - dc must be > 0; got {dc.max():g}")
-    b = as_finite("beacon", beacon, shape=(2,))
+    with np.errstate(invalid="ignore"):
+        reach = float(np.nanmax(tau)) * float(np.max(c - dc))       # the largest ring radius c_e tau searched
+    if not reach <= MAX_COORDINATE:
+        raise ValueError(f"{name}, assumed_speed and speed_error_grid give ranges c_e tau up to {reach:.3g} m, "
+                         f"beyond {MAX_COORDINATE:.0e} (the cost's squares overflow float64): check their units "
+                         "(seconds, m/s, metres)")
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
     M = runs_of(travel_times=tau.shape[0] if tau.ndim == 2 else None,
                  dr_displacements=u.shape[0] if u.ndim == 3 else None)
     batched = M is not None

@@ -243,10 +243,15 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
         As ``linearized_lsq``: typically in the first epochs, before the bearing to the beacon has changed.
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
-    P = as_finite("dr_positions", dr_positions, ndim=(2, 3))
+    # the virtual beacons b - (P - P[-1]) stay within MAX_COORDINATE
+    P = as_finite("dr_positions", dr_positions, ndim=(2, 3), max_abs=MAX_COORDINATE / 4)
     if P.shape[-1] != 2:
         raise ValueError(f"dr_positions must have shape (N, 2) or (M, N, 2); got {P.shape}")
-    b = as_finite("beacon", beacon, shape=(2,))
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE / 4)
+    n_ranges = np.shape(ranges)[-1] if np.ndim(ranges) else None
+    if n_ranges is not None and P.shape[-2] != n_ranges:
+        raise ValueError(f"dr_positions must give one DR position per range: {P.shape[-2]} rows of dr_positions for "
+                         f"{n_ranges} ranges")
     mc, mg = as_thresholds(max_condition, max_noise_gain)
     with warnings.catch_warnings():
         # judged again below, so that the warning names this problem and points at the caller
