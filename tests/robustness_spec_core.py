@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from robustness_kinds import Choice, Covariance, Flag, Func, Instance, Int, Kind, Real, Rng
+from robustness_kinds import Choice, Flag, Hostile, Instance, Int, Kind, Real, Rng, Seed
 from robustness_spec import _BEACONS, _RANGES, _TRACK, Spec, _models
 
 
@@ -25,6 +25,17 @@ class OptionalInt(Int):
 
 
 _N_RUNS = OptionalInt(minimum=1, unbounded_work=True)
+
+
+@dataclass(frozen=True)
+class Names(Kind):
+    """An optional list of registry names (methods, scenarios, conditions): a bare string, an unknown name, an empty
+    list and things that are not lists of strings are refused."""
+
+    def hostile(self, valid: Any):
+        return [Hostile("bare string", valid[0], True), Hostile("unknown name", ["no-such-name"], True),
+                Hostile("int", 1, True), Hostile("list with an int", [1], True), Hostile("empty list", [], True),
+                Hostile("list with None", [None], True)]
 
 
 # --- helpers ----------------------------------------------------------------------------------------------------------
@@ -84,6 +95,18 @@ _SUB = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0], [-750.
 _SLANT = np.sqrt(np.sum((_SHIP - _SUB) ** 2, axis=1) + 1000.0**2)
 _PHI = np.radians([0.0, 90.0, 180.0, 270.0])
 _DESIGN = np.column_stack([np.cos(_PHI), np.sin(_PHI), np.ones(4)])
+
+
+@functools.lru_cache(maxsize=2)
+def _suite_inputs(scenario: str = "circle"):
+    """One run of a suite scenario under white noise: what every method of the registry takes."""
+    from uwtutor.scenarios import suite
+    rng = np.random.default_rng(0)
+    return suite.CONDITIONS["white"](rng, suite.SCENARIOS[scenario](rng, 1))[0]
+
+
+def _method(name: str, scenario: str = "circle") -> Spec:
+    return Spec(lambda: dict(inputs=_suite_inputs(scenario)), kinds=dict(inputs=Instance()))
 
 
 def _track():
@@ -185,11 +208,13 @@ SPECS_CORE: dict[str, Spec] = {
                                            kinds=dict(series=Real((None,), "pos", extra_axis_ok=False),
                                                       background_weight=Real((), "prob"))),
     "uwtutor.grey:gm11_forecast": Spec(lambda: dict(series=_SERIES, steps=2, background_weight=0.5),
-                                       kinds=dict(series=Real((None,), "pos"), steps=Int(minimum=1, unbounded_work=True),
+                                       kinds=dict(series=Real((None,), "pos"),
+                                                  steps=Int(minimum=1, unbounded_work=True),
                                                   background_weight=Real((), "prob"))),
     "uwtutor.grey:rolling_gm11_forecast": Spec(
         lambda: dict(series=np.r_[_SERIES, _SERIES + 5.0], window=4, offset=0.0, background_weight=0.5),
-        kinds=dict(series=Real((None,), extra_axis_ok=True), window=Int(minimum=4), offset=Real(()), background_weight=Real((), "prob"))),
+        kinds=dict(series=Real((None,), extra_axis_ok=True), window=Int(minimum=4), offset=Real(()),
+                   background_weight=Real((), "prob"))),
     # tracks and dead reckoning
     "uwtutor.motion:Track": Spec(lambda: dict(times=np.arange(6.0), positions=_TRACK, velocities=np.diff(_TRACK, axis=0,
                                                                                                       prepend=0.0)),
@@ -249,7 +274,8 @@ SPECS_CORE: dict[str, Spec] = {
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
                    cumulative=Flag(), rtol=Real((), "open01"))),
     "uwtutor.observability:numerical_rank": Spec(lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
-                                                 kinds=dict(matrix=Real((None, 2), extra_axis_ok=True), rtol=Real((), "open01"))),
+                                                 kinds=dict(matrix=Real((None, 2), extra_axis_ok=True),
+                                                            rtol=Real((), "open01"))),
     "uwtutor.observability:two_range_fix": Spec(
         lambda: dict(beacon=(0.0, 0.0), ranges=[100.0, 104.0], displacement=[10.0, 0.0]),
         kinds=dict(ranges=Real((2,), "nonneg"), displacement=Real((2,)))),
@@ -259,7 +285,8 @@ SPECS_CORE: dict[str, Spec] = {
     "uwtutor.observability:model_posterior_crlb": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], x0=_TRACK[0], P0=np.eye(2) * 100.0,
                      truth=_TRACK[1:], u=np.diff(_TRACK, axis=0), measured=np.ones(5, dtype=bool), full=True),
-        kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)), u=Real((5, 2), optional=True),
+        kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)),
+                   u=Real((5, 2), optional=True),
                    measured=Kind(), full=Flag())),
     # least squares
     "uwtutor.lsq:precision_factor": Spec(lambda: dict(A=_DESIGN), kinds=dict(A=Real((None, 3), extra_axis_ok=True))),
@@ -270,13 +297,15 @@ SPECS_CORE: dict[str, Spec] = {
         lambda: dict(travel_times=_TAU, dr_displacements=_DR, bearing_grid=np.linspace(-np.pi, np.pi, 12,
                                                                                         endpoint=False),
                      speed_error_grid=[-20.0, 0.0, 20.0], assumed_speed=1470.0, beacon=(0.0, 0.0)),
-        kinds=dict(travel_times=Real((8,), "nonneg"), dr_displacements=Real((8, 2)), bearing_grid=Real((None,), optional=True),
+        kinds=dict(travel_times=Real((8,), "nonneg"), dr_displacements=Real((8, 2)),
+                   bearing_grid=Real((None,), optional=True),
                    speed_error_grid=Real((None,), optional=True), assumed_speed=Real((), "pos"), beacon=Real((2,)))),
     "uwtutor.lsq:prelocation_cost": Spec(
         lambda: dict(ranges=_TAU * 1470.0, dr_displacements=_DR, bearing_grid=np.linspace(-np.pi, np.pi, 12,
                                                                                            endpoint=False),
                      speed_error_grid=[-20.0, 0.0, 20.0], assumed_speed=1470.0, beacon=(0.0, 0.0)),
-        kinds=dict(ranges=Real((8,), "nonneg"), dr_displacements=Real((8, 2)), bearing_grid=Real((None,), optional=True),
+        kinds=dict(ranges=Real((8,), "nonneg"), dr_displacements=Real((8, 2)),
+                   bearing_grid=Real((None,), optional=True),
                    speed_error_grid=Real((None,), optional=True), assumed_speed=Real((), "pos"), beacon=Real((2,)))),
     "uwtutor.lsq:prelocation_acceptance": Spec(
         lambda: dict(starts=np.tile([400.0, -300.0], (8, 1)) + 1.0, dr_displacements=_DR, min_heading_change=0.17,
@@ -303,9 +332,33 @@ SPECS_CORE: dict[str, Spec] = {
         kinds=dict(ranges=Real((4,), "nonneg"), beacon_positions=Real((4, 2)), dr_positions=Real((4, 2)),
                    depth=Real(()), beacon_depths=Real((), vector_ok=True), max_condition=Real((), "pos"),
                    max_noise_gain=Real((), "pos"))),
+    # the registry of methods (chapter 10): each method on one run of a suite scenario
+    **{f"uwtutor.methods:{fn}": _method(fn) for fn in (
+        "ls_prepositioning", "grid_prelocation", "prelocate", "ekf", "iekf", "prepositioned_iekf", "sfekf", "isfekf",
+        "ls_isfekf", "or_vmlbl", "particle_filter")},
+    "uwtutor.methods:cooperative": _method("cooperative", "moving beacon"),
+    "uwtutor.methods:get": Spec(lambda: dict(name="EKF"), kinds=dict(name=Choice())),
+    "uwtutor.methods:run": Spec(
+        lambda: dict(name="EKF", scenario="circle", condition="white", rng=np.random.default_rng(0), n_runs=1),
+        kinds=dict(name=Choice(), scenario=Choice(), condition=Choice(), rng=Rng(),
+                   n_runs=Int(minimum=1, unbounded_work=True))),
+    "uwtutor.methods:suite_bounds": Spec(lambda: dict(scenarios=["circle"], conditions=["white"]),
+                                         kinds=dict(scenarios=Names(), conditions=Names())),
+    "uwtutor.methods:compare_suite": Spec(
+        lambda: dict(n_runs=2, seed=1, methods=["EKF"], scenarios=["circle"], conditions=["white"], chunk_size=1000,
+                     measure_cost=False, timing_runs=2),
+        kinds=dict(n_runs=Int(minimum=1, unbounded_work=True), seed=Seed(), methods=Names(), scenarios=Names(),
+                   conditions=Names(), chunk_size=Int(minimum=1), measure_cost=Flag(), timing_runs=Int(minimum=1)),
+        check=lambda v, b: [], per_argument=4),
 }
 
 EXEMPT_CORE: dict[str, str] = {
+    "uwtutor.owtt:OWTTMeasurements": "a result container simulate_owtt builds (specified)",
+    "uwtutor.methods:Method": "a registry entry (REGISTRY) the library builds; calling it calls its method, "
+                              "specified with the methods",
+    "uwtutor.methods:names": "no arguments: the registered method names",
+    "uwtutor.methods:claims": "no arguments: the scenarios each registered method runs on",
+    "uwtutor.methods:load_comparison": "no arguments: reads the committed comparison of chapter 10",
     "uwtutor.lsq:LSQFix": "a result container linearized_lsq, nonlinear_lsq and prepositioning build (specified)",
     "uwtutor.lsq:Prelocation": "a result container grid_prelocation builds (specified)",
     "uwtutor.lsq:PrelocationAcceptance": "a result container prelocation_acceptance builds (specified)",

@@ -30,7 +30,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ._validate import as_int, as_rng
+from ._validate import as_choice, as_flag, as_int, as_rng
 from .errors import IllConditionedWarning
 from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf,
                       range_only_ekf)
@@ -45,8 +45,8 @@ __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds"
 
 def _inputs(inputs: Any) -> SuiteInputs:
     if not isinstance(inputs, SuiteInputs):
-        raise TypeError("a method takes the SuiteInputs of a condition of uwtutor.scenarios.suite (the first item "
-                        f"of condition(rng, runs)); got {type(inputs).__name__}")
+        raise TypeError("inputs must be the SuiteInputs of a condition of uwtutor.scenarios.suite (the first item "
+                        f"of condition(rng, runs)): every method takes them; got {type(inputs).__name__}")
     return inputs
 
 
@@ -356,8 +356,8 @@ def names() -> list[str]:
 
 def get(name: str) -> Method:
     """The :class:`Method` called ``name`` (a ValueError listing the names otherwise)."""
-    if name not in REGISTRY:
-        raise ValueError(f"no method called {name!r}; the methods are {names()}")
+    if not isinstance(name, str) or name not in REGISTRY:
+        raise ValueError(f"no method called {name!r}: name must be one of {names()}")
     return REGISTRY[name]
 
 
@@ -390,27 +390,72 @@ def run(name: str, scenario: str, condition: str, rng: Any, n_runs: int = 1) -> 
     True
     """
     method = get(name)
-    if scenario not in SCENARIOS:
-        raise ValueError(f"scenario must be one of {list(SCENARIOS)}; got {scenario!r}")
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {list(CONDITIONS)}; got {condition!r}")
+    scenario = as_choice("scenario", scenario, SCENARIOS)
+    condition = as_choice("condition", condition, CONDITIONS)
     if not method.runs_on(scenario):
         raise ValueError(f"{name} needs a {method.needs}; it does not run on the scenario {scenario!r}")
     rng = as_rng(rng)
     n_runs = as_int("n_runs", n_runs, minimum=1)
-    inputs, truth = CONDITIONS[condition](rng, SCENARIOS[scenario](rng, n_runs))
+    try:
+        drawn = SCENARIOS[scenario](rng, n_runs)
+    except ValueError as exc:              # rng and n_runs are checked: the scenario refuses the number of runs
+        raise ValueError(f"n_runs = {n_runs} is too many runs for one call: {exc}") from None
+    inputs, truth = CONDITIONS[condition](rng, drawn)
     return method(inputs), truth
+
+
+def _names(name: str, value: Any, known: Any) -> list[str]:
+    """A list of names from ``known`` (``None``: all of them); a bare string, an unknown name or an empty list is
+    refused by the argument's name."""
+    if value is None:
+        return list(known)
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a list of names, e.g. [{value!r}]; got the bare string {value!r}")
+    try:
+        chosen = list(value)
+    except TypeError:
+        raise TypeError(f"{name} must be a list of names from {list(known)}; got {type(value).__name__}") from None
+    unknown = [x for x in chosen if not isinstance(x, str) or x not in known]
+    if unknown:
+        raise ValueError(f"{name} must be names from {list(known)}; got {unknown}")
+    if not chosen:
+        raise ValueError(f"{name} must name at least one of {list(known)} (or be None for all of them)")
+    return chosen
 
 
 def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[str, str], np.ndarray]:
     r"""The RMSE bound :math:`B_k = \sqrt{\operatorname{tr} J_k^{-1}}` (position block of the posterior CRLB) of
-    every (scenario, condition) of the suite, from :func:`uwtutor.scenarios.suite.crlb_inputs`."""
+    every (scenario, condition) of the suite, from :func:`uwtutor.scenarios.suite.crlb_inputs`.
+
+    Parameters
+    ----------
+    scenarios, conditions : list of str, optional
+        Names from :data:`~uwtutor.scenarios.suite.SCENARIOS` and :data:`~uwtutor.scenarios.suite.CONDITIONS`
+        (all of them by default).
+
+    Returns
+    -------
+    dict
+        ``(scenario, condition) -> B_k``, an array of shape ``(K,)`` [m].
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> bounds = methods.suite_bounds(["circle"], ["white"])
+    >>> B = bounds["circle", "white"]
+    >>> B.shape, bool(B[-1] < B[0])
+    ((150,), True)
+    """
     from .observability import posterior_crlb, rmse_bound
     from .scenarios.suite import crlb_inputs
 
     return {(s, c): rmse_bound(posterior_crlb(**crlb_inputs(s, c)))
-            for s in (SCENARIOS if scenarios is None else scenarios)
-            for c in (CONDITIONS if conditions is None else conditions)}
+            for s in _names("scenarios", scenarios, SCENARIOS)
+            for c in _names("conditions", conditions, CONDITIONS)}
+
+
+#: Most runs per row :func:`compare_suite` accepts (the book's table has 1000; a million takes about a day).
+MAX_STUDY_RUNS = 10**6
 
 
 def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any = None, scenarios: Any = None,
@@ -439,15 +484,12 @@ def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any 
     """
     from .montecarlo import compare
 
-    chosen = names() if methods is None else list(methods)
-    for m in chosen:
-        get(m)
-    scen = list(SCENARIOS) if scenarios is None else list(scenarios)
-    cond = list(CONDITIONS) if conditions is None else list(conditions)
-    for name, pick, known in (("scenarios", scen, SCENARIOS), ("conditions", cond, CONDITIONS)):
-        unknown = [x for x in pick if x not in known]
-        if unknown:
-            raise ValueError(f"{name} must be names from {list(known)}; got {unknown}")
+    chosen = _names("methods", methods, REGISTRY)
+    scen = _names("scenarios", scenarios, SCENARIOS)
+    cond = _names("conditions", conditions, CONDITIONS)
+    n_runs = as_int("n_runs", n_runs, minimum=1, maximum=MAX_STUDY_RUNS)
+    timing_runs = as_int("timing_runs", timing_runs, minimum=1)
+    measure_cost = as_flag("measure_cost", measure_cost)
     only = {m: [s for s in scen if get(m).runs_on(s)] for m in chosen}
     keep = [m for m in chosen if only[m]]
     if not keep:
