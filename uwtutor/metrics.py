@@ -138,6 +138,16 @@ def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.
     -------
     ndarray, shape (M, K)
         Error norms (``M = 1`` for a single run).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import estimation_errors
+    >>> # M = 2 runs, K = 2 steps, truth at the origin
+    >>> est = np.array([[[3.0, 4.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 2.0]]])
+    >>> estimation_errors(est, np.zeros((2, 2)))
+    array([[5., 1.],
+           [0., 2.]])
     """
     x, t = _estimates_and_truth(estimates, truth, components)
     return np.linalg.norm(x - t, axis=-1)
@@ -187,6 +197,16 @@ def final_errors(estimates: Any, truth: Any, components: Any = None, step: int =
     -------
     ndarray, shape (M,)
         One error norm per run.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import final_errors
+    >>> est = np.array([[[3.0, 4.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 2.0]]])
+    >>> final_errors(est, np.zeros((2, 2)))
+    array([1., 2.])
+    >>> final_errors(est, np.zeros((2, 2)), step=0)
+    array([5., 0.])
     """
     err = estimation_errors(estimates, truth, components)
     K = err.shape[1]
@@ -257,6 +277,15 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
     See Also
     --------
     chi2_mean_bounds : the acceptance interval of their mean over runs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import nees
+    >>> # one run, two steps, covariance 4 I: (9 + 16) / 4 and 1 / 4
+    >>> est = np.array([[3.0, 4.0], [1.0, 0.0]])
+    >>> nees(est, np.tile(np.eye(2) * 4.0, (2, 1, 1)), np.zeros((2, 2)))
+    array([[6.25, 0.25]])
     """
     x, t = _estimates_and_truth(estimates, truth, None)
     P = as_float_array("covariances", covariances, ndim=(3, 4))
@@ -295,6 +324,14 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     -------
     ndarray, shape (M, K)
         NIS values, NaN where the innovation is NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import nis
+    >>> # a range innovation of 2 m with S = 4 m^2, then no measurement
+    >>> nis(np.array([[2.0], [np.nan]]), np.array([[[4.0]], [[4.0]]]))
+    array([[ 1., nan]])
     """
     y = as_float_array("innovations", innovations, ndim=(2, 3))
     if np.isinf(y).any():
@@ -336,6 +373,15 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
         Mean over the runs (NaN at a step where every run is NaN).
     counts : ndarray of int, shape (K,)
         :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import average_over_runs
+    >>> # the first run has no value at step 2
+    >>> mean, counts = average_over_runs(np.array([[1.0, np.nan], [3.0, 2.0]]))
+    >>> mean, counts
+    (array([2., 2.]), array([2, 1]))
     """
     v = as_float_array("values", values, ndim=2, nonempty=True)
     if np.isinf(v).any():
@@ -409,6 +455,14 @@ def fraction_within(values: Any, lower: Any, upper: Any) -> float:
     """Fraction of the (non-NaN) ``values`` that lie within ``[lower, upper]`` (bounds broadcast).
 
     With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import fraction_within
+    >>> # the NaN is left out: 2 of the 3 values lie in [0.2, 2]
+    >>> round(fraction_within([0.5, 1.2, 3.0, np.nan], 0.2, 2.0), 3)
+    0.667
     """
     v = as_float_array("values", values)
     bounds = []
