@@ -180,6 +180,15 @@ class LevelRatioTest:
         :math:`e^{2/(n+1)}`.
     passed : bool
         Whether every ratio lies strictly between ``lower`` and ``upper``.
+
+    Examples
+    --------
+    >>> from uwtutor.grey import level_ratio_test
+    >>> test = level_ratio_test([2.874, 3.278, 3.337, 3.390, 3.679])
+    >>> test.ratios.round(3), round(test.lower, 3), round(test.upper, 3)
+    (array([0.877, 0.982, 0.984, 0.921]), 0.717, 1.396)
+    >>> bool(test)
+    True
     """
 
     ratios: np.ndarray
@@ -222,6 +231,15 @@ class GM11:
         :math:`p_\mathrm{g}`, the share of residuals with :math:`|e_\mathrm{g}(k) - \bar e_\mathrm{g}| < 0.6745\, S_x`.
     level_ratio : LevelRatioTest
         The level-ratio test of the series.
+
+    Examples
+    --------
+    >>> from uwtutor.grey import fit_gm11
+    >>> m = fit_gm11([2.874, 3.278, 3.337, 3.390, 3.679])
+    >>> m.n, round(m.posterior_variance_ratio, 3), round(m.small_error_probability, 2)
+    (5, 0.212, 1.0)
+    >>> float(m.time_response(0.0)), m.level_ratio.passed
+    (2.874, True)
     """
 
     series: np.ndarray
@@ -395,6 +413,16 @@ def gm11_coefficients(series: Any, *, background_weight: float = 0.5) -> tuple[n
         Development coefficients.
     b : ndarray, shape (...)
         Grey inputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.grey import gm11_coefficients
+    >>> a, b = gm11_coefficients(
+    ...     np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [1.0, 2.0, 3.0, 4.0, 5.0]])
+    ... )
+    >>> a.round(4), b.round(4)
+    (array([-0.0372, -0.2811]), array([3.0654, 1.6024]))
     """
     alpha = _background_weight(background_weight)
     x0 = _positive_series("series", series)
@@ -516,6 +544,14 @@ def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,
     ------
     ValueError
         If a window (after the offset) holds a value <= 0 or a non-finite value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.grey import rolling_gm11_forecast
+    >>> s = np.array([10.0, 11.0, 12.5, 13.0, 14.2, 15.1, 16.3])
+    >>> rolling_gm11_forecast(s, window=4).round(2)
+    array([  nan,   nan,   nan,   nan, 14.27, 15.04, 16.32])
     """
     x = as_finite("series", series)
     if x.ndim == 0:

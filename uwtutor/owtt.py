@@ -278,6 +278,17 @@ class OWTTMeasurements:
         The :math:`c` the follower converts with [m/s].
     period : float or None
         :math:`T_\mathrm{s}` [s] when the travel times are wrapped.
+
+    Examples
+    --------
+    A follower 3100 m from a fixed leader, travel times reported modulo one second:
+
+    >>> from uwtutor.owtt import simulate_owtt
+    >>> m = simulate_owtt([0.0, 10.0], (0.0, 0.0), (3100.0, 0.0), period=1.0)
+    >>> m.travel_times.round(4), m.measured_travel_times.round(4)
+    (array([2.0667, 2.0667]), array([0.0667, 0.0667]))
+    >>> m.ranges.round(1), m.period
+    (array([100., 100.]), 1.0)
     """
 
     send_times: np.ndarray
