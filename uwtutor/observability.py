@@ -219,6 +219,13 @@ def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     -------
     ndarray, shape (..., 2)
         :math:`2 (p - b_i)` [m].
+
+    Examples
+    --------
+    >>> from uwtutor.observability import squared_range_jacobian
+    >>> squared_range_jacobian([3.0, 4.0], [[1000.0, 0.0], [0.0, 1000.0]])
+    array([[-1994.,     8.],
+           [    6., -1992.]])
     """
     p = as_points("position", position)
     b = as_points("beacons", beacons, nonempty=True)
@@ -288,6 +295,16 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
     -------
     ndarray, shape (K, 2)
         Virtual beacon positions [m]; the one of the reference epoch is the beacon itself.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import virtual_beacons
+    >>> # a vehicle moving east 10 m per epoch: the beacon seen from its last position
+    >>> virtual_beacons((0.0, 0.0), np.array([[0.0, 100.0], [10.0, 100.0], [20.0, 100.0]]))
+    array([[20.,  0.],
+           [10.,  0.],
+           [ 0.,  0.]])
     """
     p = as_points("positions", positions, min_ndim=2)
     if p.ndim != 2:
@@ -457,6 +474,14 @@ def cramer_rao_bound(information: Any, *, rtol: float = DEFAULT_RTOL) -> np.ndar
     -------
     ndarray, shape (..., n, n)
         The bounds (covariances).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import cramer_rao_bound
+    >>> cramer_rao_bound(np.diag([4.0, 0.25]))
+    array([[0.25, 0.  ],
+           [0.  , 4.  ]])
     """
     J = as_information("information", information)     # finite, square, symmetric, PSD (indefinite: refused)
     rtol = _as_rtol(rtol)
@@ -539,6 +564,16 @@ def rmse_bound(covariance: Any) -> float | np.ndarray:
     -------
     float or ndarray, shape (...)
         The RMSE bound [m]; infinite where either position variance is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import rmse_bound
+    >>> # the position block of a [x, y, bias] covariance: sqrt(4 + 9)
+    >>> round(rmse_bound(np.diag([4.0, 9.0, 0.5])), 4)
+    3.6056
+    >>> rmse_bound(np.array([np.eye(2), 4.0 * np.eye(2)])).round(4)
+    array([1.4142, 2.8284])
     """
     C = as_float_array("covariance", covariance)
     if C.ndim < 2 or C.shape[-1] != C.shape[-2] or C.shape[-1] < 2:
@@ -586,6 +621,14 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     -------
     float or ndarray, shape (...)
         The GDOP (dimensionless).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import gdop
+    >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
+    >>> round(gdop(beacons, [0.0, 0.0]), 3), round(gdop(beacons, [0.0, 0.0], unknown_bias=True), 3)
+    (1.0, 1.118)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, 1.0, unknown_bias)
@@ -737,6 +780,17 @@ def track_jacobian(positions: Any, beacon: Any, *, times: Any = None, unknown_bi
     -------
     ndarray, shape (K, n)
         :math:`H`, ``n`` = 2, 3, 4 or 5.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import track_jacobian
+    >>> theta = np.linspace(0.0, np.pi / 2, 3)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> track_jacobian(arc, (0.0, 0.0), unknown_bias=True).round(3)
+    array([[1.   , 0.   , 1.   ],
+           [0.707, 0.707, 1.   ],
+           [0.   , 1.   , 1.   ]])
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -779,6 +833,18 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     -------
     ndarray, shape (n, n) or (K, n, n)
         Information matrices, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import track_fisher_information
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> track_fisher_information(arc, (0.0, 0.0), sigma=1.0).round(3)
+    array([[2.5  , 1.207],
+           [1.207, 2.5  ]])
+    >>> track_fisher_information(arc, (0.0, 0.0), sigma=1.0, cumulative=True).shape
+    (5, 2, 2)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -837,6 +903,21 @@ def track_crlb(positions: Any, beacon: Any, sigma: Any, *, times: Any = None, un
     -------
     ndarray, shape (K, n, n)
         Covariance bounds, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
+
+    Examples
+    --------
+    The bound along a quarter circle about the beacon: infinite after one range, then shrinking.
+
+    >>> import numpy as np
+    >>> from uwtutor.observability import rmse_bound, track_crlb
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     bound = track_crlb(arc, (0.0, 0.0), sigma=1.0)
+    >>> bound.shape, rmse_bound(bound).round(3)
+    ((5, 2, 2), array([  inf, 3.696, 1.945, 1.321, 1.021]))
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -890,6 +971,17 @@ def observability_rank(positions: Any, beacon: Any, *, times: Any = None, unknow
     -------
     int or ndarray of int, shape (K,)
         The rank(s), between 0 and ``n``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import observability_rank
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> observability_rank(arc, (0.0, 0.0), unknown_bias=True)
+    array([1, 2, 3, 3, 3])
+    >>> observability_rank(arc, (0.0, 0.0), unknown_bias=True, cumulative=False)
+    3
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -930,6 +1022,13 @@ def numerical_rank(matrix: Any, *, rtol: float = DEFAULT_RTOL) -> int | np.ndarr
     -------
     int or ndarray of int
         The rank(s).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import numerical_rank
+    >>> numerical_rank([[1.0, 2.0], [2.0, 4.0], [0.0, 0.0]]), numerical_rank(np.eye(3))
+    (1, 3)
     """
     A = as_finite("matrix", matrix, nonempty=True)
     if A.ndim < 2:
@@ -1054,6 +1153,13 @@ def mirror_point(point: Any, beacon: Any, direction: Any) -> np.ndarray:
     -------
     ndarray, shape (..., 2)
         The reflected points [m].
+
+    Examples
+    --------
+    >>> from uwtutor.observability import mirror_point
+    >>> # across the east-west line through the beacon
+    >>> mirror_point([3.0, 4.0], (0.0, 0.0), (1.0, 0.0))
+    array([ 3., -4.])
     """
     p = as_points("point", point)
     b = as_points("beacon", beacon)
@@ -1090,6 +1196,15 @@ def error_ellipse(covariance: Any, center: Any = (0.0, 0.0), scale: float = 1.0,
     -------
     ndarray, shape (n_points, 2)
         The ellipse [m].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import error_ellipse
+    >>> # standard deviations 2 m east and 1 m north, drawn at two sigma
+    >>> e = error_ellipse(np.diag([4.0, 1.0]), center=(10.0, 0.0), scale=2.0)
+    >>> e.shape, e.min(axis=0).round(3), e.max(axis=0).round(3)
+    ((73, 2), array([ 6., -2.]), array([14.,  2.]))
     """
     C = as_covariance("covariance", as_finite("covariance", covariance, shape=(2, 2)), 2, allow_singular=True)
     c = as_finite("center", center, shape=(2,))
