@@ -50,6 +50,16 @@ class Prelocation:
         The sound-speed errors searched [m/s].
     assumed_speed : float
         The speed :math:`c` the travel times would be converted with [m/s].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> pre.n_steps, pre.cost_map.shape, float(pre.effective_speed[-1])
+    (10, (180, 3), 1500.0)
     """
 
     bearing: np.ndarray
@@ -186,6 +196,21 @@ def prelocation_cost(travel_times: Any = None, dr_displacements: Any = None, bea
     -------
     ndarray, shape (B, C) or (M, B, C)
         :math:`L` [s²] on the grid (bearings along the first grid axis).
+
+    Examples
+    --------
+    A vehicle 500 m south of the beacon drives east, then turns north; the travel times are at 1500 m/s, converted
+    with 1470 m/s:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import prelocation_cost
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> bearings = np.radians(np.arange(-180.0, 180.0, 2.0))
+    >>> cost = prelocation_cost(np.linalg.norm(track, axis=1) / 1500.0, dr, bearings, [-30.0, 0.0, 30.0])
+    >>> i, j = np.unravel_index(np.argmin(cost), cost.shape)
+    >>> cost.shape, float(np.degrees(bearings[i])), [-30.0, 0.0, 30.0][j]
+    ((180, 3), -90.0, -30.0)
     """
     pre = grid_prelocation(travel_times, dr_displacements, bearing_grid, speed_error_grid, ranges=ranges,
                            assumed_speed=assumed_speed, beacon=beacon)
@@ -325,6 +350,17 @@ class PrelocationAcceptance:
         :math:`\Delta d_k`, the move of the estimated start between epochs ``k - 1`` and ``k`` [m] (NaN at 0).
     heading_change : ndarray, shape (K,) or (M, K)
         DR heading change since the start [rad] (NaN for the first ``heading_window`` epochs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
+    (True, 6, 8)
     """
 
     accepted: np.ndarray
@@ -369,6 +405,22 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
     Returns
     -------
     PrelocationAcceptance
+
+    Examples
+    --------
+    Before the turn north the grid picks the mirror start (north of the beacon); the turn (seen at epoch 6, with
+    headings over two displacements) moves it to the true one, and two estimates that stay put accept it:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
+    (True, 6, 8)
+    >>> pre.position[accepted.epoch].round(1)
+    array([ 250., -350.])
     """
     s = as_finite("starts", starts, ndim=(2, 3))
     u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3))

@@ -55,6 +55,18 @@ class LSQFix:
     well_conditioned : ndarray
         Boolean, shape () or (M,): :math:`\kappa \le` ``max_condition`` and noise gain :math:`\le`
         ``max_noise_gain``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import linearized_lsq
+    >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
+    >>> r = np.linalg.norm(np.array([30.0, -40.0]) - beacons, axis=1) + 5.0
+    >>> fix = linearized_lsq(r, beacons, provisional=[10.0, -30.0], iterations=3)
+    >>> fix.estimate.round(3), fix.covariance.shape, fix.iterations
+    (array([ 30., -40.,   5.]), (3, 3), 3)
+    >>> bool(fix.well_conditioned), bool(fix.trusted())
+    (True, True)
     """
 
     estimate: np.ndarray
@@ -241,6 +253,22 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     -----
     IllConditionedWarning
         As ``linearized_lsq``: typically in the first epochs, before the bearing to the beacon has changed.
+
+    Examples
+    --------
+    Ranges with a 2 m bias along half a circle of 300 m about the beacon; dead reckoning knows only the
+    displacements, and the provisional current position is 9 m off:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import prepositioning
+    >>> theta = np.linspace(0.0, np.pi, 12)
+    >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> r = np.linalg.norm(track, axis=1) + 2.0
+    >>> fix = prepositioning(r, track - track[0], provisional=track[-1] + [8.0, -5.0], iterations=3)
+    >>> bool(np.allclose(fix.position, track[-1], atol=1e-6)), round(float(fix.bias), 3)
+    (True, 2.0)
+    >>> round(float(fix.alpha), 3), bool(fix.trusted())
+    (1.147, True)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     # the virtual beacons b - (P - P[-1]) stay within MAX_COORDINATE

@@ -40,6 +40,19 @@ class VirtualBeaconFix:
         :math:`r_i - \lVert (\hat x, \hat y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert` [m].
     well_conditioned : ndarray
         Boolean, shape () or (M,): condition number and noise gain below their limits.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import virtual_beacon_lsq
+    >>> ship = np.array([[0.0, 0.0], [400.0, 100.0], [700.0, 400.0], [800.0, 800.0]])
+    >>> sub = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0], [-750.0, -950.0]])
+    >>> r = np.sqrt(np.sum((ship - sub) ** 2, axis=1) + 1000.0**2)
+    >>> fix = virtual_beacon_lsq(r, ship, sub, depth=1000.0)
+    >>> fix.virtual_beacons.shape, fix.design.shape, bool(fix.well_conditioned)
+    ((4, 2), (4, 2), True)
+    >>> round(float(fix.condition_number), 2), bool(np.abs(fix.residuals).max() < 1e-6)
+    (3.54, True)
     """
 
     position: np.ndarray
