@@ -103,6 +103,20 @@ def ls_prepositioning(inputs: SuiteInputs) -> FilterResult:
     accepted one (from the initial guess before the first). Covariance: the fix's
     :math:`\sigma_r^2 (A^\mathsf T A)^{-1}`. The fix ignores the DR error accumulated over the track, which
     grows with its length: that is the method's limit (chapter 7).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ls_prepositioning(inputs)
+    >>> result.x.shape, result.extras["fixed"].shape
+    ((2, 150, 2), (2, 150))
+    >>> # three unknowns: no fix before the fourth range
+    >>> bool(result.extras["fixed"][:, :3].any())
+    False
     """
     from . import lsq
 
@@ -142,7 +156,19 @@ SPEED_ERROR_GRID = 1470.0 - np.arange(1550.0, 1419.0, -10.0)
 
 def prelocate(inputs: SuiteInputs) -> Any:
     """Paper D's grid search (``uwtutor.lsq.grid_prelocation``) on the suite's inputs, on the grid
-    ``SPEED_ERROR_GRID``: what :func:`grid_prelocation` and :func:`ls_isfekf` start from."""
+    ``SPEED_ERROR_GRID``: what :func:`grid_prelocation` and :func:`ls_isfekf` start from.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> pre = methods.prelocate(inputs)
+    >>> type(pre).__name__, pre.position.shape, pre.cost_map.shape[0]
+    ('Prelocation', (2, 150, 2), 2)
+    """
     from . import lsq
 
     s = _inputs(inputs)
@@ -152,7 +178,19 @@ def prelocate(inputs: SuiteInputs) -> Any:
 
 def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
     """Paper D's grid-search pre-location on its own: the best (start bearing, sound-speed error) cell at every
-    epoch, from all the ranges so far. It has no covariance: ``P`` is NaN."""
+    epoch, from all the ranges so far. It has no covariance: ``P`` is NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.grid_prelocation(inputs)
+    >>> result.x.shape, bool(np.isnan(result.P).all())
+    ((2, 150, 2), True)
+    """
     s = _inputs(inputs)
     pre = prelocate(s)
     n, K = s.n_runs, s.n_epochs
@@ -161,7 +199,19 @@ def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
 
 
 def ekf(inputs: SuiteInputs) -> FilterResult:
-    """The range-only EKF of chapter 4 (Joseph form), told the suite's Q and R."""
+    """The range-only EKF of chapter 4 (Joseph form), told the suite's Q and R.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ekf(inputs)
+    >>> result.x.shape, result.P.shape, truth.shape
+    ((2, 150, 2), (2, 150, 2, 2), (2, 150, 2))
+    """
     s = _inputs(inputs)
     return range_only_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, beacon=s.beacon, times=s.times)
 
@@ -174,7 +224,20 @@ def _bias_noise(s: SuiteInputs) -> tuple[np.ndarray, np.ndarray]:
 
 
 def iekf(inputs: SuiteInputs) -> FilterResult:
-    """Paper A's IEKF: the state carries the range bias, a random walk (chapter 7), from bias 0."""
+    """Paper A's IEKF: the state carries the range bias, a random walk (chapter 7), from bias 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.iekf(inputs)
+    >>> # [x, y, range bias]
+    >>> result.x.shape
+    (2, 150, 3)
+    """
     s = _inputs(inputs)
     Q3, P3 = _bias_noise(s)
     x0 = np.concatenate([s.x0, np.zeros((s.n_runs, 1))], axis=1)
@@ -183,7 +246,22 @@ def iekf(inputs: SuiteInputs) -> FilterResult:
 
 def prepositioned_iekf(inputs: SuiteInputs) -> FilterResult:
     """Paper A's pre-positioning, then its IEKF (chapter 7): the filter starts once the precision factor of the
-    least-squares fix is below 2; dead reckoning from the initial guess until then."""
+    least-squares fix is below 2; dead reckoning from the initial guess until then.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.prepositioned_iekf(inputs)
+    >>> result.x.shape, result.extras["started"].shape
+    ((2, 150, 3), (2, 150))
+    >>> # dead reckoning from the initial guess before the start: no range bias estimated there
+    >>> bool(np.isnan(result.x[..., 2][~result.extras["started"]]).all())
+    True
+    """
     s = _inputs(inputs)
     Q3, _ = _bias_noise(s)
     res = prepositioned_bias_ekf(s.z, s.u, s.x0, Q3, s.R, beacon=s.fixed_beacon, times=s.times)
@@ -198,18 +276,54 @@ def _fading(s: SuiteInputs, beta: Any) -> FilterResult:
 
 def sfekf(inputs: SuiteInputs) -> FilterResult:
     """The suboptimal fading EKF (constant weakening factor 1) for multiplicative noise (chapter 5), told the
-    assumed sound speed is right (mean factor 1) with paper D's ping-to-ping scatter."""
+    assumed sound speed is right (mean factor 1) with paper D's ping-to-ping scatter.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.sfekf(inputs)
+    >>> result.x.shape, "fading_factor" in result.extras
+    ((2, 150, 2), True)
+    """
     return _fading(_inputs(inputs), 1.0)
 
 
 def isfekf(inputs: SuiteInputs) -> FilterResult:
-    """Paper D's ISFEKF: the fading EKF with the range-dependent weakening factor (chapter 5)."""
+    """Paper D's ISFEKF: the fading EKF with the range-dependent weakening factor (chapter 5).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.isfekf(inputs)
+    >>> result.x.shape, "weakening_factor" in result.extras
+    ((2, 150, 2), True)
+    """
     return _fading(_inputs(inputs), "range")
 
 
 def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
     """Paper D's LS-ISFEKF: grid pre-location, accepted after a turn and 10 stable fixes, then the ISFEKF with its
-    speed estimate; dead reckoning from the initial guess until the start (chapter 5)."""
+    speed estimate; dead reckoning from the initial guess until the start (chapter 5).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ls_isfekf(inputs)
+    >>> result.x.shape, result.extras["started"].shape
+    ((2, 150, 2), (2, 150))
+    """
     s = _inputs(inputs)
     pre = prelocate(s)
     res = ls_fading_ekf(s.z, s.u, s.Q, s.R, np.eye(2) * 50.0**2, sigma_gamma=s.parameters.speed_factor_sigma,
@@ -222,7 +336,20 @@ def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
 def cooperative(inputs: SuiteInputs) -> FilterResult:
     r"""Paper B's cooperative EKF (chapter 8): state :math:`[x, y, U_x, U_y]` with the current, updated with pairs
     of consecutive ranges to the leader, which broadcasts its position; tuned to the suite's noise (the
-    "consistent" formulation, each range's information counted once)."""
+    "consistent" formulation, each range's information counted once).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["moving beacon"](rng, 2))
+    >>> result = methods.cooperative(inputs)
+    >>> # [x, y, Ux, Uy]: the position and the current
+    >>> result.x.shape
+    (2, 150, 4)
+    """
     s = _inputs(inputs)
     p = s.parameters
     dr, cu = p.dr_sigma, 1e-3
@@ -249,7 +376,19 @@ def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
     """Paper E's OR-VMLBL-KF (chapter 9): ranges cleaned by the robust range filter (its chi-square gate: the
     paper's relative test is tuned to 1 s epochs), four-epoch virtual long-baseline fixes ``VMLBL_SPACING``
     epochs apart, a gated constant-velocity filter on the fixes (``VMLBL_FIX_Q``); dead reckoning from the
-    initial guess until the first fix."""
+    initial guess until the first fix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.or_vmlbl(inputs)
+    >>> result.x.shape, bool(result.extras["started"][:, 0].any())
+    ((2, 150, 2), False)
+    """
     from .pipelines import NoUsableFixError, or_vmlbl_kf
 
     s = _inputs(inputs)
@@ -281,7 +420,19 @@ def particle_filter(inputs: SuiteInputs) -> FilterResult:
     the input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is
     only another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling (systematic)
     when the effective sample size falls below half. It can hold both mirror solutions of a straight
-    track."""
+    track.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.particle_filter(inputs)
+    >>> result.x.shape, sorted(result.extras)
+    ((2, 150, 2), ['ess', 'resampled'])
+    """
     s = _inputs(inputs)
     rng = np.random.default_rng(s.method_seed)
     pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(s.Q), RangeToBeacon(s.beacon, R=s.R), s.x0, s.P0,
@@ -310,6 +461,13 @@ class Method:
         ``"any"``, ``"fixed beacon"`` or ``"leader"`` (a beacon that moves and broadcasts its position).
     summary : str
         One line on what it is.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> m = methods.get("IEKF")
+    >>> m.paper, m.chapter, m.needs, m.runs_on("moving beacon")
+    ('A', 7, 'any', True)
     """
 
     name: str
@@ -350,19 +508,44 @@ REGISTRY: dict[str, Method] = {m.name: m for m in _METHODS}
 
 
 def names() -> list[str]:
-    """The registered method names, in order."""
+    """The registered method names, in order.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.names()[:3]
+    ['LS pre-positioning', 'grid pre-location', 'EKF']
+    """
     return list(REGISTRY)
 
 
 def get(name: str) -> Method:
-    """The :class:`Method` called ``name`` (a ValueError listing the names otherwise)."""
+    """The :class:`Method` called ``name`` (a ValueError listing the names otherwise).
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.get("EKF").summary
+    'range-only extended Kalman filter'
+    >>> methods.get("EKF2")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    ValueError: no method called 'EKF2': name must be one of [...]
+    """
     if not isinstance(name, str) or name not in REGISTRY:
         raise ValueError(f"no method called {name!r}: name must be one of {names()}")
     return REGISTRY[name]
 
 
 def claims() -> dict[str, list[str]]:
-    """``method name -> the scenarios it runs on``: the ``only`` argument of :func:`uwtutor.montecarlo.compare`."""
+    """``method name -> the scenarios it runs on``: the ``only`` argument of :func:`uwtutor.montecarlo.compare`.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.claims()["cooperative EKF"]
+    ['moving beacon']
+    """
     return {m.name: [s for s in SCENARIOS if m.runs_on(s)] for m in _METHODS}
 
 
