@@ -30,6 +30,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
@@ -106,7 +107,7 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
                          "is not (negative variances, or a correlation beyond +-1)")
 
 
-def positive_definite(covariances: Any) -> np.ndarray:
+def positive_definite(covariances: ArrayLike) -> NDArray[np.bool_]:
     """Which of the matrices ``(..., n, n)`` are positive definite, by the test the scores apply (Sylvester's
     criterion for n <= 2, a Cholesky factorization for larger ones; a NaN or infinite matrix is not).
 
@@ -121,7 +122,8 @@ def positive_definite(covariances: Any) -> np.ndarray:
     return _positive_definite(cov)
 
 
-def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+def estimation_errors(estimates: ArrayLike, truth: ArrayLike,
+                      components: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""Euclidean estimation error of every run and step, :math:`\lVert \hat x_{j,k} - x_{j,k} \rVert`.
 
     Parameters
@@ -153,7 +155,7 @@ def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.
     return np.linalg.norm(x - t, axis=-1)
 
 
-def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+def rmse_over_time(estimates: ArrayLike, truth: ArrayLike, components: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""Root mean square error over the Monte Carlo runs, at each step.
 
     .. math::
@@ -183,7 +185,8 @@ def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.nda
     return np.sqrt(np.mean(err**2, axis=0))
 
 
-def final_errors(estimates: Any, truth: Any, components: Any = None, step: int = -1) -> np.ndarray:
+def final_errors(estimates: ArrayLike, truth: ArrayLike, components: ArrayLike | None = None,
+                 step: int = -1) -> NDArray[np.float64]:
     """Error norm of every run at one step (the last by default): the sample of the final-error distribution.
 
     Parameters
@@ -215,7 +218,7 @@ def final_errors(estimates: Any, truth: Any, components: Any = None, step: int =
     return err[:, step]
 
 
-def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
+def error_cdf(errors: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""Empirical cumulative distribution function of a sample of errors.
 
     Sorting the ``M`` finite values :math:`e_{(1)} \le \dots \le e_{(M)}` gives
@@ -250,7 +253,7 @@ def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
     return e, np.arange(1, e.size + 1) / e.size
 
 
-def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
+def nees(estimates: ArrayLike, covariances: ArrayLike, truth: ArrayLike) -> NDArray[np.float64]:
     r"""Normalized estimation error squared of every run and step.
 
     .. math::
@@ -304,7 +307,7 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
     return out
 
 
-def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
+def nis(innovations: ArrayLike, innovation_cov: ArrayLike) -> NDArray[np.float64]:
     r"""Normalized innovation squared of every run and step (NaN where no measurement was used).
 
     .. math::
@@ -355,7 +358,7 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     return out
 
 
-def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
+def average_over_runs(values: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
     r"""Mean over the Monte Carlo runs of NEES or NIS values, step by step, ignoring NaN entries.
 
     .. math::
@@ -393,7 +396,8 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.where(counts > 0, mean, np.nan), counts
 
 
-def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[Any, Any]:
+def chi2_mean_bounds(dof: int, n_runs: ArrayLike,
+                     confidence: float = 0.95) -> tuple[float | NDArray[np.float64], float | NDArray[np.float64]]:
     r"""Two-sided chi-square acceptance interval for the mean of ``n_runs`` NEES or NIS values.
 
     If each value is :math:`\chi^2_d` (``d = dof``, the state size for the NEES, the measurement size for the
@@ -451,7 +455,7 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     return lower, upper
 
 
-def fraction_within(values: Any, lower: Any, upper: Any) -> float:
+def fraction_within(values: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
     """Fraction of the (non-NaN) ``values`` that lie within ``[lower, upper]`` (bounds broadcast).
 
     With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
