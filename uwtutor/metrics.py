@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
-from ._validate import MAX_COORDINATE, SYMMETRY_RTOL, as_finite, as_float_array
+from ._validate import MAX_COORDINATE, SYMMETRY_RTOL, as_finite, as_float_array, as_scalar
 
 __all__ = [
     "estimation_errors",
@@ -435,7 +435,7 @@ def chi2_mean_bounds(dof: int, n_runs: ArrayLike,
     """
     if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or not 1 <= dof <= 10**6:
         raise ValueError(f"dof must be a positive integer (state or measurement size, at most 1e6); got {dof!r}")
-    conf = float(as_finite("confidence", confidence, ndim=0))
+    conf = as_scalar("confidence", confidence)
     if not 0.0 < conf < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
     try:

@@ -1208,7 +1208,7 @@ def error_ellipse(covariance: Any, center: Any = (0.0, 0.0), scale: float = 1.0,
     """
     C = as_covariance("covariance", as_finite("covariance", covariance, shape=(2, 2)), 2, allow_singular=True)
     c = as_finite("center", center, shape=(2,))
-    s = float(as_positive("scale", scale, ndim=0))
+    s = as_scalar("scale", scale, domain="positive")
     n_points = as_int("n_points", n_points, minimum=3, maximum=10**6)
     lam, vec = np.linalg.eigh(C)            # C is symmetric (checked): eigh reads its lower triangle
     # eigenvalues within as_covariance's stated tolerance below 0 are round-off: their axis has length 0

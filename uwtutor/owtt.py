@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_positive, as_scalar,
+from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_scalar,
                         as_times, readonly)
 from .acoustics import range_from_travel_time
 from .ranging import reception_times
@@ -366,7 +366,7 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     follower_at = as_position_function("follower_position_at", follower_position_at)
     c = as_scalar("sound_speed", sound_speed, domain="positive")
     c_a = c if assumed_sound_speed is None else as_scalar("assumed_sound_speed", assumed_sound_speed, domain="positive")
-    T = None if period is None else float(as_positive("period", period, ndim=0))
+    T = None if period is None else as_scalar("period", period, domain="positive")
     clock_offset = as_scalar("clock_offset", clock_offset)
     clock_drift = as_scalar("clock_drift", clock_drift)
     t_r, true_ranges = reception_times(ts, leader_at, follower_at, c)

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_finite, as_positive
+from .._validate import MAX_COORDINATE, as_finite, as_positive, as_scalar
 from ..errors import IllConditionedWarning, warn
 from .._linalg import line_of_sight as _line_of_sight
 
@@ -51,8 +51,8 @@ def unit_los(positions: np.ndarray, beacons: np.ndarray, name: str) -> tuple[np.
 
 
 def as_thresholds(max_condition: Any, max_noise_gain: Any) -> tuple[float, float]:
-    mc = float(as_positive("max_condition", max_condition, ndim=0))
-    mg = float(as_positive("max_noise_gain", max_noise_gain, ndim=0))
+    mc = as_scalar("max_condition", max_condition, domain="positive")
+    mg = as_scalar("max_noise_gain", max_noise_gain, domain="positive")
     if mc < 1.0:
         raise ValueError(f"max_condition must be >= 1 (a condition number is never below 1); got {mc:g}")
     return mc, mg

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_positive
+from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_scalar
 from ._common import runs_of
 
 
@@ -83,7 +83,7 @@ class Prelocation:
 def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, bearing_grid: Any,
                         speed_error_grid: Any, assumed_speed: Any,
                         beacon: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, bool]:
-    c = float(as_positive("assumed_speed", assumed_speed, ndim=0))
+    c = as_scalar("assumed_speed", assumed_speed, domain="positive")
     if dr_displacements is None:
         raise TypeError("dr_displacements is required: the DR displacement between consecutive epochs, "
                         "shape (K, 2) or (M, K, 2)")
@@ -288,7 +288,7 @@ def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bea
     ... )
     (True, True)
     """
-    c = float(as_positive("assumed_speed", assumed_speed, ndim=0))
+    c = as_scalar("assumed_speed", assumed_speed, domain="positive")
     default_b, default_c = _default_grids(c)
     tau, u, theta, dc, c, b, batched = _prelocation_inputs(
         travel_times, ranges, dr_displacements, default_b if bearing_grid is None else bearing_grid,
@@ -430,9 +430,9 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
     if s.shape[-2] != u.shape[-2]:
         raise ValueError(f"starts and dr_displacements must have the same number of epochs; got {s.shape[-2]} "
                          f"and {u.shape[-2]}")
-    turn = float(as_positive("min_heading_change", min_heading_change, ndim=0))
+    turn = as_scalar("min_heading_change", min_heading_change, domain="positive")
     n_ok = as_int("n_consecutive", n_consecutive, minimum=1)
-    dmax = float(as_positive("max_shift", max_shift, ndim=0))
+    dmax = as_scalar("max_shift", max_shift, domain="positive")
     w = as_int("heading_window", heading_window, minimum=1)
     M = runs_of(starts=s.shape[0] if s.ndim == 3 else None, dr_displacements=u.shape[0] if u.ndim == 3 else None)
     batched = M is not None

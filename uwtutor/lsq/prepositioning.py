@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_positive
+from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar
 from ..errors import IllConditionedWarning
 from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
                      warn_conditioning)
@@ -84,7 +84,7 @@ class LSQFix:
 
     def trusted(self, max_alpha: float = 2.0) -> np.ndarray:
         r"""Paper A's acceptance test :math:`\alpha <` ``max_alpha`` (2 in the paper), per run."""
-        return np.asarray(self.alpha < float(as_positive("max_alpha", max_alpha)))
+        return np.asarray(self.alpha < as_scalar("max_alpha", max_alpha, domain="positive"))
 
 
 def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias: bool = True, iterations: int = 1,
