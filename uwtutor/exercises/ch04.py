@@ -281,7 +281,7 @@ def check_nees_bounds(answer: Any) -> Feedback:
 
 # -- exercise 4.5: diagnosis ------------------------------------------------------------------------------------------
 def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
-    """The three Monte Carlo studies of exercise 4.5, keyed by letter.
+    r"""The three Monte Carlo studies of exercise 4.5, keyed by letter.
 
     Each runs the range-only EKF over the same ``n_runs`` draws of paper D's approach (DR noise variance 0.81 m²,
     white range noise variance 0.49 m², a 30 m initial error per axis) with the ``q_scale`` and ``r_scale`` of
