@@ -363,7 +363,7 @@ EXEMPT_CORE: dict[str, str] = {
     "uwtutor.lsq:Prelocation": "a result container grid_prelocation builds (specified)",
     "uwtutor.lsq:PrelocationAcceptance": "a result container prelocation_acceptance builds (specified)",
     "uwtutor.lsq:VirtualBeaconFix": "a result container virtual_beacon_lsq builds (specified)",
-    "uwtutor.motion:DeadReckoning": "a result container dead_reckoning builds (specified)",
+    "uwtutor.motion:DeadReckoningResult": "a result container dead_reckoning builds (specified)",
     "uwtutor.grey:GM11": "a result container fit_gm11 builds (specified)",
     "uwtutor.grey:LevelRatioTest": "a result container level_ratio_test builds (specified)",
     "uwtutor._linalg:positive_definite": "the unchecked kernel of uwtutor.metrics:positive_definite (specified), on "

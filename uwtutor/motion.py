@@ -38,7 +38,7 @@ __all__ = [
     "s_turn_track",
     "lawnmower_track",
     "with_current",
-    "DeadReckoning",
+    "DeadReckoningResult",
     "dead_reckoning",
     "displacement_noise",
     "integrate_odometry",
@@ -468,7 +468,7 @@ def _check_track(name: str, track: Any) -> None:
 # dead reckoning
 
 @dataclass(frozen=True, eq=False)
-class DeadReckoning:
+class DeadReckoningResult:
     """Result of ``dead_reckoning``.
 
     Parameters
@@ -499,7 +499,7 @@ class DeadReckoning:
 
 
 def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any = 0.0, heading_sigma: Any = 0.0,
-                   heading_bias: Any = 0.0, speed_scale: Any = 1.0, n_runs: Any = None) -> DeadReckoning:
+                   heading_bias: Any = 0.0, speed_scale: Any = 1.0, n_runs: Any = None) -> DeadReckoningResult:
     r"""Dead-reckon a true track with speed-log and compass errors.
 
     For each step :math:`k` (from epoch :math:`k-1` to :math:`k`, duration :math:`\Delta t_k`) with true
@@ -536,7 +536,7 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
 
     Returns
     -------
-    DeadReckoning
+    DeadReckoningResult
         ``displacements`` and ``positions`` of shape ``(K, 2)``, or ``(M, K, 2)`` with ``n_runs``.
 
     Notes
@@ -583,7 +583,7 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
     pos = track.positions[0] + np.cumsum(disp, axis=1)
     if n is None:
         disp, pos = disp[0], pos[0]
-    return DeadReckoning(track.times, disp, pos)
+    return DeadReckoningResult(track.times, disp, pos)
 
 
 def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any, n_runs: Any = None) -> np.ndarray:
