@@ -17,7 +17,8 @@ The rules, in one place:
   :func:`as_finite` with ``max_abs``.
 * **shapes and batches** -- ``ndim``/``shape`` keywords, :func:`check_same_length`, :func:`check_same_shape`
   (no silent broadcasting of ``(K, 1)`` against ``(K, 2)``), ``nonempty`` (a sequence of length 0, ``M = 0`` runs,
-  a 0x0 matrix are errors, not empty answers).
+  a 0x0 matrix are errors, not empty answers); :func:`common_runs`, the one rule for the leading runs axis ``M``
+  that several inputs of one call may carry.
 * **covariances** -- :func:`as_covariance`: square, symmetric to ``SYMMETRY_RTOL`` (relative), eigenvalues
   ``>= -PSD_RTOL * max|P|`` (semi-definite) or ``> 0`` (definite), entries ``<= MAX_COVARIANCE`` in magnitude
   (beyond it their products overflow float64). :func:`as_information` for information matrices.
@@ -42,6 +43,7 @@ TypeError: fading must be True or False (a bool); got the string 'False'
 from __future__ import annotations
 
 import numbers
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -70,6 +72,7 @@ __all__ = [
     "check_finite_result",
     "check_same_length",
     "check_same_shape",
+    "common_runs",
     "MAX_WORK",
     "SYMMETRY_RTOL",
     "PSD_RTOL",
@@ -403,6 +406,33 @@ def check_same_shape(**arrays: np.ndarray) -> tuple[int, ...]:
         described = ", ".join(f"{name} has shape {s}" for name, s in shapes.items())
         raise ValueError(f"the arrays must have the same shape (nothing is broadcast): {described}")
     return next(iter(shapes.values()))
+
+
+def common_runs(sizes: Mapping[str, int | None], *, broadcast_one: bool = False) -> int | None:
+    """The number of runs ``M`` shared by the inputs of one call that carry a leading runs axis.
+
+    ``sizes`` maps each input's name to the length of its runs axis, or to ``None`` where the input has none (one
+    value shared by every run). The inputs that have one must agree; the result is ``None`` when none has one.
+    With ``broadcast_one``, a runs axis of length 1 stands for every run (it broadcasts, as in numpy) and ``M`` is
+    the largest length.
+
+    >>> common_runs({"x0": None, "z": 4})
+    4
+    >>> common_runs({"x0": 1, "z": 4}, broadcast_one=True)
+    4
+    >>> common_runs({"x0": 3, "z": 4})
+    Traceback (most recent call last):
+        ...
+    ValueError: the inputs with a leading runs axis disagree on the number of runs M: x0 has 3, z has 4
+    """
+    given = {name: m for name, m in sizes.items() if m is not None}
+    if not given:
+        return None
+    distinct = set(given.values()) - ({1} if broadcast_one else set())
+    if len(distinct) > 1:
+        described = ", ".join(f"{name} has {m}" for name, m in given.items())
+        raise ValueError(f"the inputs with a leading runs axis disagree on the number of runs M: {described}")
+    return max(given.values())
 
 
 def as_scalar(name: str, value: Any, *, domain: str = "finite", low: float | None = None,
