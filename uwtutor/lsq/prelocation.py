@@ -352,14 +352,17 @@ class PrelocationAcceptance:
 
     Examples
     --------
+    On a straight track the estimated start stops moving at once, but with no turn it may be the mirror start: the
+    pre-location is never accepted (``prelocation_acceptance`` shows the accepted case):
+
     >>> import numpy as np
     >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
-    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(10)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
     >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
-    >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
-    >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
-    (True, 6, 8)
+    >>> verdict = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> float(verdict.shifts[-1]), bool(verdict.accepted), int(verdict.turn_epoch), int(verdict.epoch)
+    (0.0, False, -1, -1)
     """
 
     accepted: np.ndarray
