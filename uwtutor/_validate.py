@@ -274,6 +274,17 @@ def as_range_array(name: str, value: Any, *, allow_nan: bool = False, max_abs: f
     return arr
 
 
+def _check_square(name: str, M: np.ndarray, n: int | None, *, empty: str = "", size: str = "") -> None:
+    """``M`` is a non-empty stack ``(..., n, n)`` of square matrices (any size when ``n`` is None); ``empty`` and
+    ``size`` end the messages of an empty stack and of a wrong size."""
+    if M.ndim < 2 or M.shape[-1] != M.shape[-2]:
+        raise ValueError(f"{name} must be a square matrix; got shape {M.shape}")
+    if M.size == 0:
+        raise ValueError(f"{name} is empty (shape {M.shape}){empty}")
+    if n is not None and M.shape[-1] != n:
+        raise ValueError(f"{name} must be {n}x{n}{size}; got {M.shape[-2]}x{M.shape[-1]}")
+
+
 def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular: bool = False) -> np.ndarray:
     """A symmetric positive-definite (or, with ``allow_singular``, semi-definite) ``(n, n)`` matrix.
 
@@ -284,12 +295,7 @@ def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular
     P = as_finite(name, value)
     if P.ndim == 0:
         P = P.reshape(1, 1)
-    if P.ndim < 2 or P.shape[-1] != P.shape[-2]:
-        raise ValueError(f"{name} must be a square matrix; got shape {P.shape}")
-    if P.size == 0:
-        raise ValueError(f"{name} is empty (shape {P.shape}); a covariance needs at least one row (and one run)")
-    if n is not None and P.shape[-1] != n:
-        raise ValueError(f"{name} must be {n}x{n} to match the state; got {P.shape[-2]}x{P.shape[-1]}")
+    _check_square(name, P, n, empty="; a covariance needs at least one row (and one run)", size=" to match the state")
     peak = float(np.max(np.abs(P)))
     if peak > MAX_COVARIANCE:
         raise ValueError(f"{name} has an entry of {peak:.3g}, above {MAX_COVARIANCE:.0e}: the filter's products of "
@@ -315,12 +321,7 @@ def as_information(name: str, value: Any, n: int | None = None) -> np.ndarray:
     the entries.
     """
     J = as_finite(name, value)
-    if J.ndim < 2 or J.shape[-1] != J.shape[-2]:
-        raise ValueError(f"{name} must be a square matrix; got shape {J.shape}")
-    if J.size == 0:
-        raise ValueError(f"{name} is empty (shape {J.shape})")
-    if n is not None and J.shape[-1] != n:
-        raise ValueError(f"{name} must be {n}x{n}; got {J.shape[-2]}x{J.shape[-1]}")
+    _check_square(name, J, n)
     scale = max(1.0, float(np.max(np.abs(J))))
     if not np.allclose(J, np.swapaxes(J, -1, -2), rtol=SYMMETRY_RTOL, atol=1e-12 * scale):
         raise ValueError(f"{name} must be symmetric (an information matrix is); use (J + J.T) / 2 if it is only "
