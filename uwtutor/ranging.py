@@ -31,7 +31,7 @@ import numpy as np
 
 from .errors import UwtutorWarning, warn as _warn
 from ._validate import (as_finite, as_flag, as_int, as_n_runs, as_points, as_position_function,
-                        as_positive, as_range_array, as_rng, as_scalar, as_times, with_runs)
+                        as_positive, as_range_array, as_rng, as_scalar, as_times, check_work, with_runs)
 from .acoustics import range_factor
 
 __all__ = [
@@ -57,7 +57,10 @@ def _prepare(true_ranges: Any, times: Any, rng: Any, n_runs: Any) -> tuple[np.nd
         raise ValueError(f"true_ranges must have one range per epoch along its last axis: it has {r.shape[-1]}, "
                          f"times has {len(t)}")
     rng = as_rng(rng)
-    batch, single = with_runs("true_ranges", r, as_n_runs(n_runs), core_ndim=1)
+    m = as_n_runs(n_runs)
+    if m is not None:
+        check_work("n_runs", m * r.shape[-1], "range errors (n_runs x the epochs)")
+    batch, single = with_runs("true_ranges", r, m, core_ndim=1)
     return batch, t, rng, single
 
 
@@ -139,6 +142,9 @@ class CompositeError(RangeErrorModel):
     parts: tuple[RangeErrorModel, ...]
 
     def __post_init__(self) -> None:
+        if isinstance(self.parts, RangeErrorModel) or not isinstance(self.parts, (tuple, list)):
+            raise TypeError("parts must be a tuple of range error models, e.g. (GaussianNoise(1.0), SlowBias(5.0, "
+                            f"3.0, 600.0)); got {type(self.parts).__name__}")
         parts = tuple(self.parts)
         if not parts:
             raise ValueError("parts must hold at least one error model")
@@ -591,7 +597,12 @@ def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_a
     pb = beacon_at(tp)
 
     def travelled(t_r: np.ndarray) -> np.ndarray:
-        d = vehicle_at(t_r) - pb
+        try:
+            d = vehicle_at(t_r) - pb
+        except ValueError as exc:        # e.g. positions beyond 1e150 m at times far in the future
+            raise ValueError(f"{exc} (at the reception times the iteration reached from ping_times, "
+                             f"{np.min(tp, initial=0.0):.3g} to {np.max(tp, initial=0.0):.3g} s: check the units of "
+                             "ping_times, sound_speed and the position functions)") from None
         return np.hypot(d[..., 0], d[..., 1])
 
     t_r = tp
