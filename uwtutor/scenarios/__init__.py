@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import UwtutorWarning, warn as _warn
-from .._validate import (as_finite, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar, as_times,
-                         readonly)
+from .._validate import (as_finite, as_flag, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar,
+                         as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
 from ..ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
 
@@ -47,6 +47,16 @@ def _as_measured(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
     if np.isinf(r).any():
         raise ValueError(f"{name} must not be infinite; use NaN for a missing range")
     return r
+
+
+def _as_list(name: str, value: Any) -> list:
+    """A sequence (tuple, list or 1-D array) as a list; anything else refused by name."""
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        return list(value)
+    if not isinstance(value, (tuple, list, range)):
+        raise TypeError(f"{name} must be a sequence (a tuple or a list, one entry per patch of outliers); got "
+                        f"{type(value).__name__}")
+    return list(value)
 
 
 def _dr_positions(true_positions: np.ndarray, dr_displacements: np.ndarray) -> np.ndarray:
@@ -230,6 +240,7 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     if not isinstance(description, str):
         raise TypeError(f"description must be a string; got {type(description).__name__}")
     times, k = track.times, track.n_steps
+    check_work("n_runs", 8 * m * k, "floats (n_runs x the epochs x DR, ranges and errors)")
     beacon_xy = beacon.position_at(times) if isinstance(beacon, Track) else np.broadcast_to(as_point("beacon", beacon),
                                                                                               (k, 2))
     dr_rng, range_rng = rng.spawn(2)
@@ -256,9 +267,11 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
                     outlier_mask=mask)
 
 
-def _epochs(duration: float, interval: float) -> np.ndarray:
+def _epochs(duration: float, interval: float, interval_name: str = "interval") -> np.ndarray:
     """0, interval, 2 interval, ... up to and including ``duration`` (when it is a multiple)."""
-    n = int(np.floor(duration / interval + 1e-9)) + 1
+    count = duration / interval + 1e-9
+    check_work(f"duration / {interval_name}", count, "epochs")
+    n = int(np.floor(count)) + 1
     return interval * np.arange(n)
 
 
@@ -312,9 +325,10 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     g = as_scalar("gamma", gamma)
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
-    error = (GaussianNoise(noise_sigma)
+    error = (GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
              + SoundSpeedError(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
-             + SlowBias(bias_mean, bias_sigma, bias_time_constant))
+             + SlowBias(as_scalar("bias_mean", bias_mean), as_scalar("bias_sigma", bias_sigma, domain="nonnegative"),
+                        as_scalar("bias_time_constant", bias_time_constant, domain="positive")))
     bias = error.parts[-1]
     description = (f"Paper A: circling a buoy, R = {float(radius):g} m at {float(speed):g} m/s, a range every "
                    f"{float(interval):g} s; range error N(0, {float(noise_sigma):.3g}^2) + {g:g} r + slow bias "
@@ -371,8 +385,10 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     Scenario
     """
     pings = _epochs(as_scalar("duration", duration, domain="positive"),
-                    as_scalar("ping_interval", ping_interval, domain="positive"))
+                    as_scalar("ping_interval", ping_interval, domain="positive"), "ping_interval")
     turn = as_scalar("turn_time", turn_time)
+    true_speed = as_scalar("true_speed", true_speed, domain="positive")
+    noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
     psi = as_finite("headings", headings, shape=(2,))
     # A track sampled at the pings and the turn is exact under linear interpolation (straight legs between
     # samples) and beyond its end (extrapolated along the last leg): the reception-time iteration can use it.
@@ -437,18 +453,20 @@ def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: Any = 1, *, 
                     as_scalar("interval", interval, domain="positive"))
     ship_v = as_point("ship_velocity", ship_velocity)
     sub_v = as_point("sub_velocity", sub_velocity)
-    ship = s_turn_track(times, ship_start, np.hypot(*ship_v), np.arctan2(ship_v[1], ship_v[0]), turn_rate,
-                        half_period)
-    sub = straight_track(times, sub_start, np.hypot(*sub_v), np.arctan2(sub_v[1], sub_v[0]))
+    ship = s_turn_track(times, as_point("ship_start", ship_start), np.hypot(*ship_v), np.arctan2(ship_v[1], ship_v[0]),
+                        turn_rate, half_period)
+    sub = straight_track(times, as_point("sub_start", sub_start), np.hypot(*sub_v), np.arctan2(sub_v[1], sub_v[0]))
     onsets = as_finite("outlier_onsets", outlier_onsets, ndim=1)
-    counts = list(outlier_counts)
-    sides = list(outlier_two_sided)
+    counts = _as_list("outlier_counts", outlier_counts)
+    sides = _as_list("outlier_two_sided", outlier_two_sided)
     if not len(onsets) == len(counts) == len(sides):
         raise ValueError("outlier_onsets, outlier_counts and outlier_two_sided must have the same length; got "
                          f"{len(onsets)}, {len(counts)} and {len(sides)}")
-    error: RangeErrorModel = GaussianNoise(noise_sigma)
-    for onset, count, two_sided in zip(onsets, counts, sides):
-        error = error + Outliers((onset,), count, outlier_amplitude, two_sided=two_sided)
+    amplitude = as_scalar("outlier_amplitude", outlier_amplitude, domain="nonnegative")
+    error: RangeErrorModel = GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
+    for i, (onset, count, two_sided) in enumerate(zip(onsets, counts, sides)):
+        error = error + Outliers((onset,), as_int(f"outlier_counts[{i}]", count, minimum=1), amplitude,
+                                 two_sided=as_flag(f"outlier_two_sided[{i}]", two_sided))
     patches = ", ".join(f"{c} {'two' if s else 'one'}-sided at {o:g} s" for o, c, s in zip(onsets, counts, sides))
     description = (f"Paper E: submersible ranging to an S-turning ship every {float(interval):g} s for "
                    f"{float(duration):g} s; range noise std {float(noise_sigma):.3g} m; outliers of "
