@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_rng, as_scalar, check_work, readonly
+from .._validate import (as_finite, as_flag, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar,
+                         check_work, readonly)
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
@@ -111,10 +112,27 @@ class PaperBParameters:
                              f"{self.interval:g} and {self.dr_step:g}")
         if self.leader_pattern not in LEADER_PATTERNS:
             raise ValueError(f"leader_pattern must be one of {LEADER_PATTERNS}; got {self.leader_pattern!r}")
-        if not 0.0 <= self.packet_loss < 1.0:
+        if not 0.0 <= as_scalar("packet_loss", self.packet_loss) < 1.0:
             raise ValueError(f"packet_loss must lie in [0, 1); got {self.packet_loss!r}")
-        for name in ("range_sigma", "leader_sigma", "dr_speed_sigma", "dr_heading_sigma"):
+        for name in ("range_sigma", "leader_sigma", "dr_speed_sigma", "dr_heading_sigma", "depth"):
             as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("leg_duration", "circle_radius"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("follower_heading", "zigzag_angle", "clock_offset", "clock_drift"):
+            as_scalar(name, getattr(self, name))
+        for name in ("current", "follower_start", "leader_start", "leader_drift"):
+            as_finite(name, getattr(self, name), shape=(2,))
+        as_finite("initial_estimate", self.initial_estimate, shape=(4,))
+        as_positive("initial_covariance_diag", self.initial_covariance_diag, shape=(4,))
+        as_nonnegative("process_noise_diag", self.process_noise_diag, shape=(6,))
+        as_positive("measurement_noise_diag", self.measurement_noise_diag, shape=(10,))
+        as_flag("owtt", self.owtt)
+        if self.current_after is not None:
+            as_finite("current_after", self.current_after, shape=(2,))
+        if self.change_time is not None:
+            as_scalar("change_time", self.change_time)
+        if self.ambiguity_period is not None:
+            as_scalar("ambiguity_period", self.ambiguity_period, domain="positive")
         if (self.current_after is None) != (self.change_time is None):
             raise ValueError("give both current_after and change_time (or neither)")
         if self.ambiguity_period is not None and not self.owtt:
@@ -175,7 +193,7 @@ def paper_tuning(params: PaperBParameters | None = None) -> FilterTuning:
     >>> paper_b.paper_tuning().range_variance
     200.0
     """
-    p = PAPER_B if params is None else params
+    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
     return FilterTuning(p.P1, p.Q, p.R, float(p.R[0, 0] + p.R[2, 2]))
 
 
@@ -202,7 +220,7 @@ def matched_tuning(params: PaperBParameters | None = None, *, position_noise: fl
     >>> tu.range_variance, np.sqrt(tu.Q[2, 2]).round(3)
     (50.0, np.float64(0.141))
     """
-    p = PAPER_B if params is None else params
+    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
     n = p.interval / p.dr_step
     dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
     q = as_scalar("position_noise", position_noise, domain="positive") ** 2
@@ -473,6 +491,9 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
     """
     M = as_int("n_runs", n_runs, minimum=1)
     p = _params(params, changes)
+    if not isinstance(followers, (list, tuple)):
+        raise TypeError("followers must be a list of (start, heading) pairs, e.g. [((0.0, 0.0), 0.0)]; got "
+                        f"{type(followers).__name__}")
     fl = []
     for i, item in enumerate(followers):
         try:
