@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import as_in_range, as_int, as_scalar
 from ..acoustics import range_factor
 from . import Scenario, approach_with_turn_scenario
 
@@ -66,6 +67,14 @@ class PaperD:
     ping_interval: float = 10.0
     duration: float = 1500.0
     n_runs: int = 1000
+
+    def __post_init__(self) -> None:
+        for name in ("Q", "R", "speed_sigma"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("true_speed", "assumed_speed", "ping_interval", "duration"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        as_in_range("rho", as_scalar("rho", self.rho), 0.0, 1.0, closed=(False, True))
+        as_int("n_runs", self.n_runs, minimum=1)
 
     @property
     def mu_gamma_true(self) -> float:

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_int
+from .._validate import as_finite, as_flag, as_in_range, as_int, as_point, as_scalar
 from . import Scenario, ship_and_submersible_scenario
 
 __all__ = ["PaperE", "PARAMETERS", "Dive", "make"]
@@ -101,6 +101,29 @@ class PaperE:
     depth: float = 1000.0
     spacing: float = 100.0
     dr_sigma: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in ("duration", "interval", "q", "r", "half_period", "spacing"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("range_noise_variance", "outlier_amplitude", "depth", "dr_sigma"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        as_scalar("turn_rate_deg", self.turn_rate_deg)
+        for name in ("ship_velocity", "sub_velocity", "ship_start", "sub_start"):
+            as_point(name, getattr(self, name))
+        as_in_range("delta", as_scalar("delta", self.delta), 0.0, 1.0, closed=(False, False))
+        as_int("budget_runs", self.budget_runs, minimum=1)
+        onsets = as_finite("outlier_onsets", self.outlier_onsets, ndim=1)
+        for name in ("outlier_counts", "outlier_two_sided"):
+            value = getattr(self, name)
+            if not isinstance(value, (tuple, list)):
+                raise TypeError(f"{name} must be a tuple with one entry per patch of outliers; got "
+                                f"{type(value).__name__}")
+            if len(value) != len(onsets):
+                raise ValueError(f"outlier_onsets, outlier_counts and outlier_two_sided must have the same length; "
+                                 f"{name} has {len(value)}, outlier_onsets {len(onsets)}")
+        for i, (count, two_sided) in enumerate(zip(self.outlier_counts, self.outlier_two_sided)):
+            as_int(f"outlier_counts[{i}]", count, minimum=1)
+            as_flag(f"outlier_two_sided[{i}]", two_sided)
 
 
 #: Paper E's parameters (``PaperE()``).
@@ -205,8 +228,6 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
             raise TypeError(f"unknown PaperE field(s) {unknown}; see paper_e.PaperE for the names")
         p = PaperE(**{**p.__dict__, **changes})
     m = as_int("n_runs", n_runs, minimum=1)
-    if not (np.isfinite(p.depth) and p.depth >= 0):
-        raise ValueError(f"depth must be a finite number >= 0 (metres below the surface); got {p.depth!r}")
     sc = ship_and_submersible_scenario(
         rng, m, duration=p.duration, interval=p.interval, ship_start=p.ship_start, ship_velocity=p.ship_velocity,
         turn_rate=-np.deg2rad(p.turn_rate_deg), half_period=p.half_period, sub_start=p.sub_start,
