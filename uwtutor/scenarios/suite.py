@@ -34,7 +34,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .._validate import as_choice, as_int, as_rng, as_seed, check_work
+from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
+                         check_work)
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
 from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError
 
@@ -109,6 +110,20 @@ class SuiteParameters:
     outlier_patch_length: int = 10
     current_velocity: tuple[float, float] = (0.1 * 0.5**0.5, 0.1 * 0.5**0.5)
     current_sigma: float = 0.2
+
+    def __post_init__(self) -> None:
+        n = as_int("n_epochs", self.n_epochs, minimum=1)
+        check_work("n_epochs", n, "epochs")
+        for name in ("interval", "speed", "range_sigma", "start_sigma", "true_speed", "assumed_speed",
+                     "bias_time_constant", "current_sigma"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("dr_sigma", "speed_sigma", "bias_sigma", "outlier_amplitude"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("bias_mean", "outlier_patch_time"):
+            as_scalar(name, getattr(self, name))
+        as_in_range("outlier_probability", as_scalar("outlier_probability", self.outlier_probability), 0.0, 1.0)
+        as_int("outlier_patch_length", self.outlier_patch_length, minimum=1)
+        as_finite("current_velocity", self.current_velocity, shape=(2,))
 
     @property
     def times(self) -> np.ndarray:
@@ -275,6 +290,11 @@ class SuiteInputs:
 # ---------------------------------------------------------------------------------------------------------------------
 # scenarios: the geometries (deterministic; rng unused, kept for the draw signature)
 # ---------------------------------------------------------------------------------------------------------------------
+def _params(params: Any) -> SuiteParameters:
+    """The suite's numbers: ``SUITE`` for None, else a SuiteParameters (anything else refused by name)."""
+    return SUITE if params is None else as_instance("params", params, SuiteParameters)
+
+
 def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: str,
           p: SuiteParameters) -> SuiteRuns:
     n = as_int("n", n, minimum=1)
@@ -299,7 +319,7 @@ def circle(rng: np.random.Generator, n: int, params: SuiteParameters | None = No
     >>> runs.positions.shape, runs.planned.shape, runs.moving
     ((3, 151, 2), (151, 2), False)
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     return _runs("circle", rng, n, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
                  "circling the beacon at 1 km", p)
 
@@ -313,7 +333,7 @@ def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     >>> float(np.linalg.norm(runs.planned[0]))
     2236.06797749979
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = turning_track(p.times, (-2000.0, -1000.0), p.speed, np.deg2rad([0.0, 60.0]), [p.times[-1] / 2])
     return _runs("turn", rng, n, track, (0.0, 0.0), "approach with one turn", p)
 
@@ -326,7 +346,7 @@ def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     >>> runs.planned[[0, -1]].tolist()
     [[-1500.0, 300.0], [1500.0, 300.0]]
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = straight_track(p.times, (-1500.0, 300.0), p.speed, 0.0)
     return _runs("line", rng, n, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
 
@@ -339,7 +359,7 @@ def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None =
     >>> runs.planned[0].tolist()
     [-375.0, -600.0]
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = lawnmower_track(p.times, (-375.0, -600.0), p.speed, 750.0, 300.0)
     return _runs("lawnmower", rng, n, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
 
@@ -357,7 +377,7 @@ def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | No
     >>> runs.moving, runs.beacon[0, 0].tolist()
     (True, [-2200.0, 600.0])
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = straight_track(p.times, (-1500.0, 0.0), p.speed, 0.0)
     period = 600.0                              # s: a zigzag of +-600 m across the vehicle's track
     phase = (p.times / period) % 1.0
@@ -487,7 +507,7 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     as_choice("condition", condition, CONDITIONS)
     seed = as_seed("seed", seed)                  # None would draw OS entropy: a different bound every call
     n_tracks = as_int("n_tracks", n_tracks, minimum=1)
-    p = SUITE if params is None else params
+    p = _params(params)
     try:
         runs = SCENARIOS[scenario](np.random.default_rng(seed), n_tracks, p)
     except ValueError as exc:                      # the scenario names its count "n": say which argument it was
