@@ -83,6 +83,11 @@ def _outliers(**kw):
     return Outliers(**kw)
 
 
+def _add_errors(true_ranges, errors):
+    from uwtutor.ranging import add_range_errors
+    return add_range_errors(true_ranges, errors)
+
+
 def _parts():
     from uwtutor.ranging import GaussianNoise, SlowBias
     return (GaussianNoise(1.0), SlowBias(2.0, 1.0, 100.0))
@@ -111,8 +116,11 @@ SPECS_SCEN: dict[str, Spec] = {
         kinds=dict(onset_times=Real((), vector_ok=True), count=Int(minimum=1), amplitude=Real((), "nonneg"),
                    two_sided=Flag(), probability=Real((), "prob", optional=True))),
     "uwtutor.ranging:measure_ranges": Spec(
-        lambda: dict(true_ranges=_R, times=_T, error=_parts()[0], rng=_rng(), n_runs=2),
-        kinds=dict(true_ranges=_RANGES, times=_TIMES, error=_OPT, n_runs=_N_RUNS_OPT)),
+        lambda: dict(true_ranges=_R, times=_T, error=_parts()[0], rng=_rng(), n_runs=2, return_errors=True),
+        kinds=dict(true_ranges=_RANGES, times=_TIMES, error=_OPT, n_runs=_N_RUNS_OPT, return_errors=Flag())),
+    "uwtutor.ranging:add_range_errors": Spec(
+        lambda: dict(true_ranges=_R[:3], errors=np.array([1.5, np.nan, -8.0])), call=_add_errors,
+        kinds=dict(true_ranges=Real((3,), "nonneg"), errors=Real((3,), nan_ok=True))),
     "uwtutor.ranging:reception_times": Spec(
         lambda: dict(ping_times=np.arange(4.0) * 10.0, beacon_position_at=(0.0, 0.0),
                      vehicle_position_at=lambda t: np.stack([1500.0 + 2.0 * t, 0.0 * t], axis=-1),

@@ -18,7 +18,8 @@ errors, each part drawing its randomness from the same ``rng`` in turn.
 
 ``sample_with_mask`` returns the error together with a boolean mask of the epochs hit by an outlier, from the
 *same* random draw, so that an outlier detector can be scored against the truth (the mask is all False for
-models without outliers). ``measure_ranges`` adds the errors to true ranges; ``horizontal_range``,
+models without outliers). ``measure_ranges`` adds the errors to true ranges (a negative sum is read as
+its magnitude: the library's one policy for measured ranges, shared by ``add_range_errors``); ``horizontal_range``,
 ``slant_range`` and ``reception_times`` compute the true geometry.
 """
 
@@ -29,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import UwtutorWarning, warn as _warn
-from ._validate import (as_finite, as_flag, as_int, as_n_runs, as_points, as_position_function,
-                        as_positive, as_range_array, as_rng, as_scalar, as_times, check_work, with_runs)
+from ._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_n_runs, as_points,
+                        as_position_function, as_positive, as_range_array, as_rng, as_scalar, as_times, check_work,
+                        with_runs)
 from .acoustics import range_factor
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "SlowBias",
     "Outliers",
     "measure_ranges",
+    "add_range_errors",
     "horizontal_range",
     "slant_range",
     "reception_times",
@@ -422,12 +424,20 @@ class Outliers(RangeErrorModel):
 
 
 def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, rng: np.random.Generator,
-                   n_runs: Any = None) -> np.ndarray:
-    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = r^\mathrm{true}_k + e_k`.
+                   n_runs: Any = None, *, return_errors: Any = False) -> Any:
+    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = |r^\mathrm{true}_k + e_k|`.
 
-    Measured ranges are *not* clipped at zero: clipping would silently bias the errors. A negative measured
-    range can only come from an error larger than the range itself (e.g. a two-sided outlier close to the
-    beacon); it is kept and a ``UserWarning`` says how many there are, since the filters reject negative ranges.
+    This is the library's one maker of measured ranges: every scenario draws its ranges here, or, when it draws
+    the errors of several sources from separate streams, adds them with :func:`add_range_errors`, which applies
+    the same policy.
+
+    **The policy for a negative sum.** A measured range is a length, the sound speed times a travel time, so it is
+    never negative. When an error is larger than the range and of opposite sign (a two-sided outlier close to the
+    beacon, absurd noise levels), the sum :math:`r^\mathrm{true}_k + e_k` is negative and the measurement is read
+    as its magnitude. This keeps the size of the error (a 50 m error at 10 m gives 40 m, not 0 m) and never
+    produces a value that no ranging system can report and every filter refuses. Clipping at zero is not used:
+    it piles such measurements at exactly zero, as if the vehicle sat on the beacon. Whenever the sum is
+    non-negative (every epoch of realistic ranges) the measured range is exactly :math:`r^\mathrm{true}_k + e_k`.
 
     Parameters
     ----------
@@ -438,14 +448,20 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     error : RangeErrorModel or None
         Error model (``None``: error-free ranges).
     rng : numpy.random.Generator
-        Source of randomness.
+        Source of randomness (the draws are those of ``error.sample_with_mask`` with the same generator).
     n_runs : int, optional
         Number of Monte Carlo runs ``M`` (see ``RangeErrorModel.sample``).
+    return_errors : bool, default False
+        Also return the drawn errors and the outlier mask.
 
     Returns
     -------
-    ndarray, shape (K,) or (M, K)
-        Measured ranges [m].
+    ranges : ndarray, shape (K,) or (M, K)
+        Measured ranges [m], >= 0.
+    errors : ndarray, same shape
+        Only with ``return_errors``: the errors :math:`e_k` drawn from ``error`` (zeros for ``None``).
+    outlier_mask : ndarray of bool, same shape
+        Only with ``return_errors``: the epochs hit by an ``Outliers`` component.
 
     Examples
     --------
@@ -461,23 +477,89 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     >>> # 1470/1500 of the true range on average
     >>> bool(abs(r.mean() - 1960.0) < 1.0)
     True
+
+    A two-sided outlier of 50 m at a true range of 10 m gives 60 m or 40 m, never a negative range:
+
+    >>> from uwtutor.ranging import Outliers
+    >>> r, e, hit = measure_ranges(
+    ...     np.full(4, 10.0),
+    ...     np.arange(4.0),
+    ...     Outliers((0.0,), 4, 50.0, two_sided=True),
+    ...     np.random.default_rng(0),
+    ...     return_errors=True,
+    ... )
+    >>> e.tolist(), r.tolist()
+    ([50.0, -50.0, -50.0, -50.0], [60.0, 40.0, 40.0, 40.0])
     """
     if error is not None and not isinstance(error, RangeErrorModel):
         raise TypeError(f"error must be a range error model (e.g. GaussianNoise(1.0)) or None; "
                         f"got {type(error).__name__}")
+    full = as_flag("return_errors", return_errors)
     r, t, rng, single = _prepare(true_ranges, times, rng, n_runs)
-    err = np.zeros(r.shape) if error is None else error._draw(r, t, rng)[0]
-    measured = r + err
-    _warn_negative(measured)
-    return measured[0] if single else measured
+    if error is None:
+        err, mask = np.zeros(r.shape), np.zeros(r.shape, dtype=bool)
+    else:
+        err, mask = error._draw(r, t, rng)
+    measured = _fold(r + err)
+    if single:
+        measured, err, mask = measured[0], err[0], mask[0]
+    return (measured, err, mask) if full else measured
 
 
-def _warn_negative(measured: np.ndarray) -> None:
-    n_neg = int(np.count_nonzero(measured < 0))
-    if n_neg:
-        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
-                      "unclipped, but filters reject negative ranges: mark them NaN or reduce the errors",
-                      UwtutorWarning)
+def _fold(total: np.ndarray) -> np.ndarray:
+    """The policy of :func:`measure_ranges`: a negative sum of a true range and its errors is read as its size."""
+    return np.abs(total)
+
+
+def add_range_errors(true_ranges: Any, *errors: Any) -> np.ndarray:
+    r"""Measured ranges from true ranges and errors drawn elsewhere, with the policy of :func:`measure_ranges`.
+
+    :math:`r_k = |(\ldots((r^\mathrm{true}_k + e^{(1)}_k) + e^{(2)}_k) \ldots)|`: the errors are added in the order
+    given, then a negative sum is read as its magnitude (see :func:`measure_ranges` for why). For a scenario that
+    draws the parts of its range error from separate random streams (paper A's three parts, paper B's clock
+    error and noise) or adds its errors to another geometry (paper E's slant ranges).
+
+    Parameters
+    ----------
+    true_ranges : array_like
+        True ranges [m], finite and >= 0.
+    *errors : array_like
+        One or more range errors [m], each of the shape of ``true_ranges`` or broadcasting into it (``(K,)``
+        against ``(M, K)`` runs, or the other way round). NaN marks an epoch without a measurement and stays NaN.
+
+    Returns
+    -------
+    ndarray
+        Measured ranges [m], >= 0 (NaN where an error is NaN), of the broadcast shape.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import add_range_errors
+    >>> add_range_errors([100.0, 20.0, 5.0], [1.5, np.nan, -8.0]).tolist()
+    [101.5, nan, 3.0]
+    """
+    total = as_range_array("true_ranges", true_ranges, max_abs=MAX_COORDINATE)
+    if not errors:
+        raise TypeError("add_range_errors needs at least one array of errors after true_ranges")
+    for i, value in enumerate(errors):
+        name = "errors" if len(errors) == 1 else f"errors[{i}]"
+        e = as_float_array(name, value)
+        if np.isinf(e).any():
+            raise ValueError(f"{name} must be finite (NaN marks a missing measurement); got an infinity")
+        big = np.abs(e) > MAX_COORDINATE
+        if big.any():
+            raise ValueError(f"{name} must be at most {MAX_COORDINATE:.0e} m in magnitude; got "
+                             f"{e[big].flat[0]:.3g}. Change its units")
+        try:
+            shape = np.broadcast_shapes(total.shape, e.shape)
+        except ValueError:
+            shape = None
+        if shape not in (total.shape, e.shape):     # (K,) against (M, K) is a batch; (K, 1) against (K,) is not
+            raise ValueError(f"{name} of shape {e.shape} does not match true_ranges of shape {total.shape} "
+                             "(one error per range, or a batch of runs (M, K) of them)")
+        total = total + e
+    return _fold(total)
 
 
 def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:

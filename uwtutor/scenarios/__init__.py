@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import UwtutorWarning, warn as _warn
 from .._validate import (as_finite, as_flag, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar,
                          as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
+from ..ranging import (GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, measure_ranges,
+                       reception_times)
 
 __all__ = [
     "Scenario",
@@ -41,8 +41,8 @@ __all__ = [
 
 
 def _as_measured(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
-    """Measured ranges: no infinities; NaN marks a missing measurement and, after absurd errors, a range may be
-    negative (see ``ranging.measure_ranges``)."""
+    """Measured ranges of a scenario built or edited by hand: no infinities; NaN marks a missing measurement (the
+    builders' ranges come from ``ranging.measure_ranges`` and are never negative; the filters check the sign)."""
     r = as_float_array(name, value, shape=shape)
     if np.isinf(r).any():
         raise ValueError(f"{name} must not be infinite; use NaN for a missing range")
@@ -112,8 +112,9 @@ class Scenario:
     true_ranges
         True horizontal ranges [m], shape ``(M, K)``.
     ranges
-        Measured ranges, ``true_ranges + range_errors``, shape ``(M, K)``. In a hand-built or edited scenario
-        (``dataclasses.replace``) NaN may mark a missing range.
+        Measured ranges, ``|true_ranges + range_errors|`` (``ranging.measure_ranges``: the sum itself whenever
+        it is non-negative), shape ``(M, K)``. In a hand-built or edited scenario (``dataclasses.replace``) NaN
+        may mark a missing range.
     range_errors
         The errors drawn from the error model, shape ``(M, K)``.
     description
@@ -204,9 +205,10 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
         u_k = (p_k - p_{k-1}) + w_k, \quad w_k \sim N(0, \sigma_{DR}^2 I_2), \qquad
         r_k = \|p_k - b_k\| + e_k,
 
-    :math:`e_k` from ``error``. Ranges are horizontal and geometric at the epoch times (a moving beacon is taken
-    at the same instant as the vehicle; use ``ranging.reception_times`` to build the epochs from the acoustic
-    travel time, as ``approach_with_turn_scenario`` does).
+    :math:`e_k` from ``error`` (``ranging.measure_ranges``: a negative sum is read as its magnitude). Ranges are
+    horizontal and geometric at the epoch times (a moving beacon is taken at the same instant as the vehicle; use
+    ``ranging.reception_times`` to build the epochs from the acoustic travel time, as
+    ``approach_with_turn_scenario`` does).
 
     Parameters
     ----------
@@ -247,15 +249,7 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     true_steps = np.diff(track.positions, axis=0, prepend=track.positions[:1])   # row 0: zeros
     dr = displacement_noise(true_steps, dr_rng, sigma, n_runs=m)
     true_ranges = np.hypot(*(track.positions - beacon_xy).T)
-    if error is None:
-        errors, mask = np.zeros((m, k)), np.zeros((m, k), dtype=bool)
-    else:
-        errors, mask = error.sample_with_mask(true_ranges, times, range_rng, n_runs=m)
-    ranges = true_ranges + errors
-    n_neg = int(np.count_nonzero(ranges < 0))
-    if n_neg:
-        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
-                      "unclipped, but filters reject negative ranges", UwtutorWarning)
+    ranges, errors, mask = measure_ranges(true_ranges, times, error, range_rng, n_runs=m, return_errors=True)
     return Scenario(times=times,
                     true_positions=np.broadcast_to(track.positions, (m, k, 2)),
                     dr_displacements=dr,

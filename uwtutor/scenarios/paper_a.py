@@ -40,7 +40,7 @@ import numpy as np
 
 from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
 from ..motion import Track, circle_track, turning_track
-from ..ranging import GaussianNoise, SlowBias, SoundSpeedError
+from ..ranging import GaussianNoise, SlowBias, SoundSpeedError, add_range_errors
 from . import Scenario, circling_scenario, make_scenario
 
 __all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
@@ -271,7 +271,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
                    f"{p.interval:g} s; range error N(0, {p.noise_variance:g}) + N({p.gamma:g}, "
                    f"{p.gamma_sigma:.3g}^2) r + slow bias (mean {p.bias_mean:g} m, std {p.bias_sigma:.3g} m, tau "
                    f"{p.bias_time_constant:g} s); DR noise {p.dr_sigma:g} m per axis")
-    scenario = replace(base, ranges=true_r + errors, range_errors=errors, description=description)
+    scenario = replace(base, ranges=add_range_errors(true_r, errors), range_errors=errors, description=description)
     return scenario, bias
 
 
@@ -565,4 +565,4 @@ def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
     err = np.asarray(p.group_bias)[gi] + bias + noise
     err = np.where(group > 0, err, np.nan)
     return LakeTrial(times=times, receiver=receiver, sender=sender, receiver_gnss=rec_gnss, sender_gnss=snd_gnss,
-                     ranges=true_r + err, range_errors=err, group=group)
+                     ranges=add_range_errors(true_r, err), range_errors=err, group=group)

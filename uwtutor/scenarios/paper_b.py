@@ -34,6 +34,7 @@ from .._validate import (as_finite, as_flag, as_instance, as_int, as_nonnegative
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
+from ..ranging import add_range_errors
 
 __all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
            "FilterTuning", "paper_tuning", "matched_tuning"]
@@ -388,8 +389,7 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
             dr_at = dr_grid[:, send_idx]
             at_send, leader_rx = true_pos, leader_true
         noise = p.range_sigma * rng_range.standard_normal((M, len(times)))
-        ranges = true_r + clock + noise
-        ranges = np.abs(ranges)            # a range cannot be negative (only matters for absurd noise levels)
+        ranges = add_range_errors(true_r, clock, noise)      # |true + clock + noise|: never negative
         travel = np.asarray(travel_time_from_range(ranges, p.sound_speed), dtype=float)
         if p.ambiguity_period is not None:
             travel = np.asarray(wrap_travel_time(travel, p.ambiguity_period), dtype=float)

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_finite, as_flag, as_in_range, as_int, as_point, as_scalar
+from ..ranging import add_range_errors
 from . import Scenario, ship_and_submersible_scenario
 
 __all__ = ["PaperE", "PARAMETERS", "Dive", "make"]
@@ -235,7 +236,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
         outlier_amplitude=p.outlier_amplitude, outlier_onsets=p.outlier_onsets, outlier_counts=p.outlier_counts,
         outlier_two_sided=p.outlier_two_sided, dr_sigma=p.dr_sigma)
     true_slant = np.hypot(np.asarray(sc.true_ranges), float(p.depth))
-    slant = true_slant + np.asarray(sc.range_errors)
+    slant = add_range_errors(true_slant, sc.range_errors)
     for a in (true_slant, slant):
         a.setflags(write=False)
     return Dive(scenario=sc, depth=float(p.depth), true_slant_ranges=true_slant, slant_ranges=slant, parameters=p)

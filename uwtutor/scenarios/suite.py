@@ -37,7 +37,7 @@ import numpy as np
 from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
                          check_work)
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError
+from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError, measure_ranges
 
 __all__ = [
     "SuiteParameters", "SUITE", "SuiteRuns", "SuiteInputs",
@@ -414,8 +414,7 @@ def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *
         truth = truth + np.asarray(water_current, dtype=float) * (runs.times - runs.times[0])[:, None]
     u = np.broadcast_to(np.diff(runs.planned, axis=0), (n, K, 2))
     true_ranges = np.linalg.norm(truth - runs.beacon, axis=-1)
-    errors, _ = error.sample_with_mask(true_ranges, runs.times, range_rng, n_runs=n)
-    z = np.abs(true_ranges + errors)        # a range is a length: an absurd negative one is read as its size
+    z = measure_ranges(true_ranges, runs.times, error, range_rng, n_runs=n)   # a negative sum: read as its size
     inputs = SuiteInputs(scenario=runs.name, condition=name, times=runs.times[1:], interval=float(p.interval),
                          x0=np.broadcast_to(runs.planned[0], (n, 2)), P0=p.P0, u=u, z=z[:, 1:], z0=z[:, 0],
                          beacon=runs.beacon[:, 1:], beacon0=runs.beacon[:, 0], moving=runs.moving, Q=p.Q, R=p.R,
