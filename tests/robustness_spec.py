@@ -494,4 +494,4 @@ def kinds_of(spec: Spec, valid: dict[str, Any]) -> dict[str, Kind]:
     """The kind of every argument of the valid call (the spec's own, else ``KIND_BY_NAME``; unknown: no mutation)."""
     return {name: spec.kinds.get(name, KIND_BY_NAME.get(name, Kind())) for name in valid}
 from robustness_spec_scen import SPECS_SCEN, EXEMPT_SCEN  # noqa: E402
-SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)
+SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)  # noqa: E702

@@ -44,7 +44,7 @@ _N_RUNS = Int(minimum=1, unbounded_work=True)
 _OPT = Instance(optional=True)
 
 
-# --- ranging --------------------------------------------------------------------------------------------------------
+# --- ranging -------------------------------------------------------------------------------------------------------
 def _sample(model_factory):
     """Build an error model from the keyword arguments and draw its errors for six epochs of three runs."""
     def call(**kw):
@@ -136,7 +136,7 @@ def _add(key: str, spec: Spec) -> None:
     SPECS_SCEN[key] = spec
 
 
-# --- scenarios (the package) -----------------------------------------------------------------------------------------
+# --- scenarios (the package) ----------------------------------------------------------------------------------------
 def _track():
     from uwtutor.motion import straight_track
     return straight_track(_T, (-500.0, 200.0), 2.0, 0.0)
@@ -204,7 +204,7 @@ _add("uwtutor.scenarios:ship_and_submersible_scenario", Spec(
                dr_sigma=Real((), "nonneg")), per_argument=4))
 
 
-# --- paper A -----------------------------------------------------------------------------------------------------------
+# --- paper A ----------------------------------------------------------------------------------------------------------
 def _paper_a_params(**kw):
     from uwtutor.scenarios.paper_a import PaperAParameters
     return PaperAParameters(**{**dict(n_obs=20, leg_time=30.0), **kw})
@@ -250,7 +250,7 @@ EXEMPT_SCEN["uwtutor.scenarios.paper_a:LakeTrial"] = ("the result container make
                                                       "LakeTrialParameters")
 
 
-# --- paper B -----------------------------------------------------------------------------------------------------------
+# --- paper B ----------------------------------------------------------------------------------------------------------
 def _paper_b_params(**kw):
     from uwtutor.scenarios.paper_b import PaperBParameters
     return PaperBParameters(**{**dict(duration=40.0), **kw})
@@ -287,7 +287,7 @@ EXEMPT_SCEN["uwtutor.scenarios.paper_b:FilterTuning"] = ("the tuning paper_tunin
                                                          "cooperative_ekf checks the P0, Q and R it hands on")
 
 
-# --- paper C -----------------------------------------------------------------------------------------------------------
+# --- paper C ----------------------------------------------------------------------------------------------------------
 _add("uwtutor.scenarios.paper_c:PaperCParameters", Spec(
     lambda: dict(T=0.05, n_particles=1000, n_grey=100, grey_window=30, noise_window=50, polynomial_order=5,
                  wavelet="db6", sensor_std=np.array([0.2, 0.05, 0.0087]), process_std=np.array([0.2, 0.01, 0.0087]),
@@ -318,7 +318,7 @@ EXEMPT_SCEN["uwtutor.scenarios.paper_c:DepthProfile"] = "the profile maneuvering
 EXEMPT_SCEN["uwtutor.scenarios.paper_c:PaperCScenario"] = "the result container paper_c.make builds"
 
 
-# --- papers D and E ----------------------------------------------------------------------------------------------------
+# --- papers D and E ---------------------------------------------------------------------------------------------------
 _add("uwtutor.scenarios.paper_d:PaperD", Spec(
     lambda: dict(Q=0.81, R=0.49, rho=0.95, true_speed=1500.0, speed_sigma=1.0, assumed_speed=1470.0,
                  ping_interval=10.0, duration=1500.0, n_runs=1000),
@@ -347,7 +347,7 @@ _add("uwtutor.scenarios.paper_e:make", Spec(
 EXEMPT_SCEN["uwtutor.scenarios.paper_e:Dive"] = "the result container paper_e.make builds"
 
 
-# --- the suite of chapter 10 -------------------------------------------------------------------------------------------
+# --- the suite of chapter 10 ------------------------------------------------------------------------------------------
 def _suite_params(**kw):
     from uwtutor.scenarios.suite import SuiteParameters
     return SuiteParameters(**{**dict(n_epochs=8), **kw})
