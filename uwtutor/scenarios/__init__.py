@@ -70,6 +70,15 @@ class ScenarioRun:
     The fields have the names and meanings of the ``Scenario`` fields, with shapes ``(K,)`` for ``times``,
     ``true_ranges``, ``ranges``, ``range_errors`` and ``outlier_mask``, and ``(K, 2)`` for ``true_positions``,
     ``dr_displacements`` and ``beacon_positions``; ``index`` is the number of the run in its batch.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import circling_scenario
+    >>> sc = circling_scenario(np.random.default_rng(0), n_runs=3, duration=100.0)
+    >>> run = sc.run(-1)
+    >>> run.index, run.n_steps, run.ranges.shape, run.dr_positions.shape
+    (2, 21, (21,), (21, 2))
     """
 
     times: np.ndarray
@@ -128,6 +137,19 @@ class Scenario:
     The arrays are read-only; the deterministic ones (e.g. a true track shared by all runs) may be broadcast
     views that take no memory per run. Copy an array (``np.array(...)``) before editing it.
     ``run(i)`` returns a ``ScenarioRun`` holding run ``i`` without the runs axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.motion import straight_track
+    >>> from uwtutor.ranging import GaussianNoise
+    >>> from uwtutor.scenarios import make_scenario
+    >>> track = straight_track(np.arange(0.0, 100.0, 10.0), (-500.0, 200.0), 2.0, 0.0)
+    >>> sc = make_scenario(
+    ...     track, (0.0, 0.0), GaussianNoise(1.0), np.random.default_rng(0), n_runs=3
+    ... )
+    >>> sc.n_runs, sc.n_steps, sc.ranges.shape, sc.dr_positions.shape
+    (3, 10, (3, 10), (3, 10, 2))
     """
 
     times: np.ndarray
@@ -230,6 +252,23 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.motion import straight_track
+    >>> from uwtutor.ranging import GaussianNoise
+    >>> from uwtutor.scenarios import make_scenario
+    >>> track = straight_track(np.arange(0.0, 100.0, 10.0), (-500.0, 200.0), 2.0, 0.0)
+    >>> sc = make_scenario(
+    ...     track, (0.0, 0.0), GaussianNoise(1.0), np.random.default_rng(0), n_runs=3,
+    ...     dr_sigma=0.5,
+    ... )
+    >>> sc.ranges.shape, sc.dr_displacements.shape
+    ((3, 10), (3, 10, 2))
+    >>> # the errors are those of the ranges
+    >>> bool(np.allclose(sc.ranges - sc.true_ranges, sc.range_errors))
+    True
     """
     if not isinstance(track, Track):
         raise TypeError(f"track must be a uwtutor.motion.Track; got {type(track).__name__}")
@@ -312,6 +351,17 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import circling_scenario
+    >>> sc = circling_scenario(np.random.default_rng(0), n_runs=2, duration=500.0)
+    >>> sc.ranges.shape
+    (2, 101)
+    >>> # the circle is centred on the buoy: the true range stays 1500 m
+    >>> bool(np.allclose(sc.true_ranges, 1500.0))
+    True
     """
     times = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("interval", interval, domain="positive"))
@@ -377,6 +427,17 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import approach_with_turn_scenario
+    >>> sc = approach_with_turn_scenario(np.random.default_rng(0), n_runs=2)
+    >>> sc.ranges.shape
+    (2, 151)
+    >>> # pings every 10 s, each heard a travel time later (2.2 s for the first)
+    >>> round(float(sc.times[0]), 2), round(float(sc.times[1] - sc.times[0]), 3)
+    (2.23, 9.987)
     """
     pings = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("ping_interval", ping_interval, domain="positive"), "ping_interval")
@@ -442,6 +503,14 @@ def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: Any = 1, *, 
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import ship_and_submersible_scenario
+    >>> sc = ship_and_submersible_scenario(np.random.default_rng(0))
+    >>> sc.ranges.shape, int(sc.outlier_mask.sum())
+    ((1, 1201), 30)
     """
     times = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("interval", interval, domain="positive"))

@@ -144,6 +144,16 @@ class PaperAParameters:
         :math:`T_\upsilon`, its correlation time [s] (not given; chosen 3000 s).
     dr_sigma : float
         DR noise per axis per epoch [m] (not given; chosen 1 m).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from uwtutor.scenarios.paper_a import PaperAParameters
+    >>> p = PaperAParameters()
+    >>> p.n_obs, float(p.times[-1]), round(p.noise_sigma, 3)
+    (3000, 14995.0, 2.236)
+    >>> replace(p, n_obs=100, track="circle").times.shape
+    (100,)
     """
 
     n_obs: int = 3000
@@ -409,6 +419,15 @@ class LakeTrialParameters:
         Its correlation time [s].
     gnss_sigma : float
         GNSS position noise per fix [m]; the displacements are differences of noisy fixes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_a import LakeTrialParameters
+    >>> p = LakeTrialParameters(group_duration=60.0, gap=30.0)
+    >>> trial = p.make(np.random.default_rng(0), n_runs=2)
+    >>> trial.ranges.shape
+    (2, 166)
     """
 
     range_m: float = 800.0
@@ -460,6 +479,18 @@ class LakeTrial:
         The errors (NaN between groups).
     group : ndarray of int, shape (K,)
         Group number 1-4 of each epoch, 0 between groups.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_a import make_lake_trial
+    >>> trial = make_lake_trial(np.random.default_rng(0), n_runs=2)
+    >>> relative, u = trial.relative()
+    >>> relative.shape, u.shape, trial.n_runs
+    ((781, 2), (2, 781, 2), 2)
+    >>> # no range between the groups
+    >>> bool(np.isnan(trial.ranges[:, trial.group == 0]).all())
+    True
     """
 
     times: np.ndarray

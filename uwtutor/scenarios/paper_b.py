@@ -69,6 +69,13 @@ class PaperBParameters:
     leader at send time to the follower at reception, and the epochs are the reception times), with the follower's
     ``clock_offset`` [s] and ``clock_drift`` [s/s], ``sound_speed`` [m/s] and ``ambiguity_period`` (travel times
     known modulo it).
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_b import PaperBParameters
+    >>> p = PaperBParameters()
+    >>> p.n_epochs, p.x1.tolist(), p.Q.shape, p.R.shape
+    (313, [10.0, -100.0, 0.0, 0.0], (6, 6), (10, 10))
     """
 
     speed: float = 2.0
@@ -172,7 +179,15 @@ PAPER_B = PaperBParameters()
 @dataclass(frozen=True)
 class FilterTuning:
     r"""The noise a cooperative EKF is told about: :math:`\mathbf{P}_1` (4x4), paper B's :math:`\mathbf{Q}` (6x6)
-    and :math:`\mathbf{R}` (10x10), and the range variance of the single-range variant [m²]."""
+    and :math:`\mathbf{R}` (10x10), and the range variance of the single-range variant [m²].
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios import paper_b
+    >>> tuning = paper_b.paper_tuning()
+    >>> sorted(tuning.as_kwargs()), tuning.P1.shape
+    (['P0', 'Q', 'R', 'range_variance'], (4, 4))
+    """
 
     P1: np.ndarray
     Q: np.ndarray
@@ -270,6 +285,14 @@ class CooperativeScenario:
         ``leader_positions``.
     params : PaperBParameters
     description : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_b
+    >>> sc = paper_b.make(np.random.default_rng(0), n_runs=2, duration=80.0)
+    >>> sc.n_runs, sc.n_steps, sc.true_states.shape, sc.initial_estimate().tolist()
+    (2, 10, (10, 4), [10.0, -100.0, 0.0, 0.0])
     """
 
     times: np.ndarray
@@ -488,6 +511,20 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
     -------
     list of CooperativeScenario
         One per follower, sharing ``leader_positions`` and ``leader_broadcast`` (the same draws).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_b
+    >>> first, second = paper_b.make_followers(
+    ...     np.random.default_rng(0), 2, [((0.0, 0.0), 0.0), ((0.0, 200.0), 0.0)],
+    ...     duration=80.0,
+    ... )
+    >>> # the same broadcasts heard by both
+    >>> bool(np.array_equal(first.leader_broadcast, second.leader_broadcast))
+    True
+    >>> second.true_positions[0].tolist()
+    [0.0, 200.0]
     """
     M = as_int("n_runs", n_runs, minimum=1)
     p = _params(params, changes)

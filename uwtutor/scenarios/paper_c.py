@@ -167,6 +167,15 @@ class DepthProfile:
         Named time intervals ``(start, end)`` [s] of the profile: the legs and the noise periods.
     T : float
         Sampling interval [s].
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_c import maneuvering_depth_profile
+    >>> profile = maneuvering_depth_profile(duration=6.0)
+    >>> profile.n_steps, profile.truth.shape, sorted(profile.segments)[:3]
+    (120, (120, 3), ['climb', 'dive', 'level'])
+    >>> profile.between(0.0, 3.0).n_steps
+    59
     """
 
     times: np.ndarray
@@ -325,6 +334,14 @@ class PaperCScenario:
         The readings of the depth, speed and pitch sensors of every run.
     parameters : PaperCParameters
         The paper's parameters the scenario was made with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_c
+    >>> scenario = paper_c.make(np.random.default_rng(0), n_runs=2, duration=6.0)
+    >>> scenario.n_runs, scenario.truth.shape, scenario.measurements.shape
+    (2, (120, 3), (2, 120, 3))
     """
 
     profile: DepthProfile

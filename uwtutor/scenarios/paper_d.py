@@ -56,6 +56,16 @@ class PaperD:
         Time span of the pings [s].
     n_runs : int
         Number of Monte Carlo runs of the paper's figures.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_d import PaperD
+    >>> p = PaperD(R=1.0)
+    >>> p.mu_gamma_true, p.as_dict()["R"]
+    (0.98, 1.0)
+    >>> p.make(np.random.default_rng(0), n_runs=2, duration=100.0).ranges.shape
+    (2, 11)
     """
 
     Q: float = 0.81
@@ -99,5 +109,14 @@ PARAMETERS = PaperD()
 
 
 def make(rng: np.random.Generator, n_runs: Any = 1, **overrides: Any) -> Scenario:
-    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperD`)."""
+    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperD`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_d
+    >>> sc = paper_d.make(np.random.default_rng(0), n_runs=2, duration=100.0)
+    >>> sc.ranges.shape, sc.dr_displacements.shape
+    ((2, 11), (2, 11, 2))
+    """
     return PARAMETERS.make(rng, n_runs, **overrides)

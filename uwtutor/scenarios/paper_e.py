@@ -80,6 +80,13 @@ class PaperE:
         Time between the four epochs of a virtual-beacon fix [s], 100 (chosen; chapter 3 measures its effect).
     dr_sigma : float
         DR noise per axis per epoch [m], 0.1 (chosen).
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_e import PaperE
+    >>> p = PaperE()
+    >>> p.duration, p.depth, p.outlier_counts
+    (1200.0, 1000.0, (10, 20))
     """
 
     duration: float = 1200.0
@@ -148,6 +155,20 @@ class Dive:
         Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m].
     parameters : PaperE
         The parameters the dives were drawn with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(
+    ...     np.random.default_rng(0), 2, duration=60.0, outlier_onsets=(),
+    ...     outlier_counts=(), outlier_two_sided=(),
+    ... )
+    >>> dive.n_runs, dive.times.shape, dive.ship_positions.shape
+    (2, (61,), (2, 61, 2))
+    >>> # slant ranges from 1000 m below the ship
+    >>> bool((dive.true_slant_ranges > dive.depth).all())
+    True
     """
 
     scenario: Scenario

@@ -90,6 +90,14 @@ class SuiteParameters:
     current_sigma : float
         Prior standard deviation of a current state [m/s] per axis (0.2), for the filters that carry one and for
         the bound.
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.suite import SUITE, SuiteParameters
+    >>> SUITE.n_epochs, SUITE.R, SUITE.P0.tolist()
+    (150, 4.0, [[10000.0, 0.0], [0.0, 10000.0]])
+    >>> float(SuiteParameters(n_epochs=10).times[-1])
+    100.0
     """
 
     n_epochs: int = 150
@@ -183,6 +191,14 @@ class SuiteRuns:
         Whether the beacon moves (a ship or a leader broadcasting its position).
     parameters : SuiteParameters
     description : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, line
+    >>> runs = line(np.random.default_rng(0), 2, SuiteParameters(n_epochs=10))
+    >>> runs.name, runs.n_runs, runs.n_epochs, runs.positions.shape
+    ('line', 2, 10, (2, 11, 2))
     """
 
     name: str
@@ -241,6 +257,17 @@ class SuiteInputs:
     method_seed : int
         A seed for a method that draws random numbers (a particle filter), drawn from the condition's stream.
     parameters : SuiteParameters
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, line, white
+    >>> runs = line(np.random.default_rng(0), 2, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = white(np.random.default_rng(1), runs)
+    >>> inputs.z.shape, inputs.u.shape, truth.shape, inputs.dr_track().shape
+    ((2, 10), (2, 10, 2), (2, 10, 2), (2, 10, 2))
+    >>> inputs.fixed_beacon.tolist()
+    [0.0, 0.0]
     """
 
     scenario: str
@@ -423,28 +450,76 @@ def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *
 
 
 def white(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """White Gaussian range noise :math:`\\sigma_r` only: the model every filter assumes."""
+    """White Gaussian range noise :math:`\\sigma_r` only: the model every filter assumes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, white
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = white(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # sigma_r = 2 m
+    >>> bool(abs(error.std() - 2.0) < 0.1)
+    True
+    """
     runs = _checked(runs)
     return _measure("white", rng, runs, GaussianNoise(runs.parameters.range_sigma))
 
 
 def sound_speed(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """A wrong sound speed (paper D): ranges scaled by :math:`\\gamma_k = c/c_{\\mathrm e,k}` (about 0.98), plus
-    white noise."""
+    white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, sound_speed
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = sound_speed(np.random.default_rng(1), runs)
+    >>> ratio = inputs.z / np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # 1470 / 1500 on average
+    >>> round(float(ratio.mean()), 3)
+    0.98
+    """
     p = _checked(runs).parameters
     error = SoundSpeedError(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
     return _measure("sound speed", rng, runs, error)
 
 
 def bias(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """A slowly varying range bias (paper A): 5 ± 5 m, 3000 s correlation, plus white noise."""
+    """A slowly varying range bias (paper A): 5 ± 5 m, 3000 s correlation, plus white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, bias
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = bias(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # a mean of 5 m
+    >>> bool(abs(error.mean() - 5.0) < 1.0)
+    True
+    """
     p = _checked(runs).parameters
     error = SlowBias(p.bias_mean, p.bias_sigma, p.bias_time_constant) + GaussianNoise(p.range_sigma)
     return _measure("bias", rng, runs, error)
 
 
 def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """Outliers (paper E): isolated 80 m ones (3 % of the epochs) and a patch of 10 from 600 s, plus white noise."""
+    """Outliers (paper E): isolated 80 m ones (3 % of the epochs) and a patch of 10 from 600 s, plus white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, outliers
+    >>> runs = circle(np.random.default_rng(0), 20, SuiteParameters(n_epochs=100))
+    >>> inputs, truth = outliers(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # the patch of 10 from 600 s (epochs 60 to 69), then about 3 % of the rest
+    >>> bool((np.abs(error[:, 59:69]) > 60.0).all()), bool(np.mean(np.abs(error) > 60.0) < 0.2)
+    (True, True)
+    """
     p = _checked(runs).parameters
     error = (Outliers((p.outlier_patch_time,), p.outlier_patch_length, p.outlier_amplitude, two_sided=True,
                       probability=p.outlier_probability) + GaussianNoise(p.range_sigma))
@@ -452,7 +527,19 @@ def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np
 
 
 def current(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """An unknown current (paper B): the vehicle drifts with it, its DR (through the water) does not see it."""
+    """An unknown current (paper B): the vehicle drifts with it, its DR (through the water) does not see it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, current, line
+    >>> runs = line(np.random.default_rng(0), 1, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = current(np.random.default_rng(1), runs)
+    >>> # the current has carried the vehicle 0.1 m/s x 100 s away from its dead reckoning
+    >>> drift = truth[0, -1] - runs.positions[0, -1]
+    >>> np.round(drift, 2).tolist()
+    [7.07, 7.07]
+    """
     p = _checked(runs).parameters
     return _measure("current", rng, runs, GaussianNoise(p.range_sigma), water_current=p.current_velocity)
 
