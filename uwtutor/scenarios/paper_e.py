@@ -152,7 +152,8 @@ class Dive:
     true_slant_ranges : ndarray, shape (M, K)
         :math:`\sqrt{\lVert p_k - AB_k\rVert^2 + h^2}` [m].
     slant_ranges : ndarray, shape (M, K)
-        Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m].
+        Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m], added
+        by ``ranging.add_range_errors`` (a negative sum would be read as its magnitude).
     parameters : PaperE
         The parameters the dives were drawn with.
 
