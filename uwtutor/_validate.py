@@ -504,10 +504,7 @@ def as_position_function(name: str, value: Any) -> Any:
         def at(t: np.ndarray) -> np.ndarray:
             return as_points(f"the output of {name}", value(t), nonempty=True)
         return at
-    fixed = as_points(name, value)
-    if fixed.shape != (2,):
-        raise ValueError(f"{name} must be a function of time or one 2-D point [x, y], shape (2,); got shape "
-                         f"{fixed.shape}")
+    fixed = as_finite(name, value, shape=(2,), max_abs=MAX_COORDINATE)
     return lambda t: np.broadcast_to(fixed, np.shape(t) + (2,))
 
 
