@@ -543,3 +543,5 @@ def kinds_of(spec: Spec, valid: dict[str, Any]) -> dict[str, Kind]:
     return {name: spec.kinds.get(name, KIND_BY_NAME.get(name, Kind())) for name in valid}
 from robustness_spec_core import SPECS_CORE, EXEMPT_CORE  # noqa: E402
 SPECS.update(SPECS_CORE); EXEMPT.update(EXEMPT_CORE)  # noqa: E702
+from robustness_spec_scen import SPECS_SCEN, EXEMPT_SCEN  # noqa: E402
+SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)  # noqa: E702
