@@ -639,5 +639,6 @@ def _check_nonnegative(measurement: MeasurementModel, z: np.ndarray) -> None:
         negative = z < 0                                         # NaN (a missing range) compares False
         if negative.any():
             where = tuple(int(i) for i in np.argwhere(negative)[0])
+            at = "the value" if not where else f"index {where if len(where) > 1 else where[0]}"
             raise ValueError(f"z must be >= 0 ({type(measurement).__name__} measures ranges; NaN marks a missing "
-                             f"one); got {z[where]:g} at index {where if len(where) > 1 else where[0]}")
+                             f"one); got {z[where]:g} at {at}")
