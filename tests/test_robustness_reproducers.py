@@ -390,3 +390,30 @@ def test_the_engine_refuses_a_negative_range_of_a_range_model():
     res = extended_kalman_filter(LinearMotion(F=[[1.0]], Q=[[1.0]]), LinearMeasurement(H=[[1.0]], R=1.0), [0.0],
                                  [[1.0]], None, [-1.0, -2.0, np.nan])
     assert np.isfinite(res.x).all()
+
+
+@pytest.mark.parametrize("f, F, exc, match", [
+    (lambda x, u: x + u + 1j, None, TypeError, r"the model's f must return real numbers; .*complex128 \(complex"),
+    (None, "abc", TypeError, r"the model's F must return real numbers; got an array of dtype <U3"),
+    (lambda x, u: np.array([[None, 1.0]], dtype=object), None, TypeError, "it returned NoneType None"),
+])
+def test_what_a_motion_model_returns_is_real(f, F, exc, match):
+    """A complex f is refused (numpy would drop its imaginary part with a warning), a string F by the model's name
+    for it, not by numpy's conversion error."""
+    class Odd(_Motion):
+        def f(self, x, u, k):
+            return x + u if f is None else f(x, u)
+
+        def F(self, x, u, k):
+            return np.eye(2) if F is None else F
+    with pytest.raises(exc, match=match):
+        _run(motion=Odd(np.eye(2) * 0.1))
+
+
+def test_a_measurement_of_the_wrong_size_is_named():
+    class Twice(_Range):
+        def linearize(self, x, k):
+            z, H, defined = super().linearize(x, k)
+            return np.hstack([z, z]), H, defined
+    with pytest.raises(ValueError, match=r"the measurement model's h must return shape \(1, 1\); got \(1, 2\)"):
+        _run(measurement=Twice())

@@ -79,9 +79,26 @@ def _check_model(name: str, model: Any, kind: type) -> None:
                         f"got {type(model).__name__}")
 
 
+def _real(name: str, value: Any) -> np.ndarray:
+    """What a model returned, as a float array: real numbers only (a complex value is refused, not cut to its real
+    part; a string or an object by name, not by numpy's conversion error)."""
+    arr = np.asarray(value)
+    kind = arr.dtype.kind
+    if kind == "O":                                  # numbers held as objects: converted when they all are real
+        for v in arr.flat:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise TypeError(f"the model's {name} must return real numbers; it returned {type(v).__name__} "
+                                f"{v!r}")
+        return arr.astype(float)
+    if kind not in "fiu":
+        raise TypeError(f"the model's {name} must return real numbers; got an array of dtype {arr.dtype}"
+                        + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
+    return arr.astype(float, copy=False)
+
+
 def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np.ndarray:
     """A model's matrix as ``(M,) + shape`` (broadcast when shared by every run)."""
-    arr = np.asarray(value, dtype=float)
+    arr = _real(name, value)
     if arr.shape == shape:
         return arr
     if arr.shape == (M,) + shape:
@@ -373,7 +390,7 @@ class ExtendedKalmanFilter:
         x_new, F, Q = self.motion.linearize(x, u, k)
         F = _batched_matrix("F", F, M, (n, n))
         Q = _batched_matrix("Q", Q, M, (n, n))
-        x_new = np.asarray(x_new, dtype=float)
+        x_new = _real("f", x_new)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
         for method, value in (("f", x_new), ("F", F), ("Q", Q)):
@@ -417,8 +434,11 @@ class ExtendedKalmanFilter:
         M, n, m = self._M, self.n, self.m
         x, P = self._x, self._P
         z_pred, H, defined = self.measurement.linearize(x, k)
-        z_pred = np.asarray(z_pred, dtype=float).reshape(M, m)
-        H = np.asarray(H, dtype=float)
+        z_pred = _real("h", z_pred)
+        if z_pred.size != M * m:
+            raise ValueError(f"the measurement model's h must return shape ({M}, {m}); got {z_pred.shape}")
+        z_pred = z_pred.reshape(M, m)
+        H = _real("H", H)
         if H.shape != (M, m, n):
             raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
         R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
