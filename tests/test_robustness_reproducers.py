@@ -417,3 +417,32 @@ def test_a_measurement_of_the_wrong_size_is_named():
             return np.hstack([z, z]), H, defined
     with pytest.raises(ValueError, match=r"the measurement model's h must return shape \(1, 1\); got \(1, 2\)"):
         _run(measurement=Twice())
+
+
+@pytest.mark.parametrize("returned, exc, match", [
+    (lambda x, P: (x, -P), ValueError, r"the gate Odd\.after_update \(its P\) returned a matrix that is not positive"),
+    (lambda x, P: (x * np.nan, P), ValueError, r"the gate Odd\.after_update returned a non-finite x"),
+    (lambda x, P: (x, P + 0j), TypeError, r"the gate Odd\.after_update \(its P\) must return real numbers"),
+    (lambda x, P: None, TypeError, r"the gate Odd\.after_update must return the pair \(x, P\); got NoneType"),
+])
+def test_what_a_gate_after_update_returns_is_checked(returned, exc, match):
+    """A gate of yours that changes the estimate: its new P is checked (not blamed on R at the next update), its x
+    (not blamed on the motion model), its dtype and the pair itself."""
+    class Odd(Gate):
+        def after_update(self, x, P, accepted, k):
+            return returned(x, P)
+    with pytest.raises(exc, match=match):
+        _run(gate=Odd())
+
+
+def test_a_composed_test_gate_returning_a_float_does_not_count_as_true():
+    from uwtutor.filters import ReacquiringGate
+    from uwtutor.filters.robust import RobustGate
+
+    class Fuzzy(Gate):
+        def accept(self, ctx):
+            return np.full(ctx.y.shape[0], 0.3)
+    with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
+        _run(gate=ReacquiringGate(Fuzzy()))
+    with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
+        _run(gate=RobustGate(Fuzzy(), np.r_[0.0, np.ones(K - 1)]))

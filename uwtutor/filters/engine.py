@@ -87,13 +87,36 @@ def _real(name: str, value: Any) -> np.ndarray:
     if kind == "O":                                  # numbers held as objects: converted when they all are real
         for v in arr.flat:
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise TypeError(f"the model's {name} must return real numbers; it returned {type(v).__name__} "
-                                f"{v!r}")
+                raise TypeError(f"{_owner(name)} must return real numbers; it returned {type(v).__name__} {v!r}")
         return arr.astype(float)
     if kind not in "fiu":
-        raise TypeError(f"the model's {name} must return real numbers; got an array of dtype {arr.dtype}"
+        raise TypeError(f"{_owner(name)} must return real numbers; got an array of dtype {arr.dtype}"
                         + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
     return arr.astype(float, copy=False)
+
+
+def _owner(name: str) -> str:
+    """``"the model's F"`` for a model's method, the name itself when it already says whose value it is."""
+    return name if name.startswith("the ") else f"the model's {name}"
+
+
+def _gate_estimate(gate: Any, out: Any, x_in: np.ndarray, P_in: np.ndarray, M: int, n: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """What a gate's ``after_update`` returned, checked: a pair of real arrays of the filter's shapes; a new x must be
+    finite and a new P symmetric positive semi-definite (the same arrays back, or a library gate's, are trusted)."""
+    name = f"the gate {type(gate).__name__}.after_update"
+    if not (isinstance(out, tuple) and len(out) == 2):
+        raise TypeError(f"{name} must return the pair (x, P); got {type(out).__name__}")
+    x_out, P_out = out
+    x, P = _real(f"{name} (its x)", x_out), _real(f"{name} (its P)", P_out)
+    if x.shape != (M, n) or P.shape != (M, n, n):
+        raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
+    if not getattr(gate, "estimates_checked", False):
+        if x_out is not x_in and not np.isfinite(x).all():
+            raise ValueError(f"{name} returned a non-finite x")
+        if P_out is not P_in:
+            check_model_covariance(f"{name} (its P)", P)
+    return x, P
 
 
 def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np.ndarray:
@@ -505,11 +528,10 @@ class ExtendedKalmanFilter:
         _refuse_lost_psd(P_post, Rc, k)
         S = _runs_first(S)
         if self.gate is not None:
-            x_post, P_first = self.gate.after_update(x_post, _runs_first(P_post), use.copy(), k)
-            x_post = np.asarray(x_post, dtype=float)
-            P_post = _runs_last(np.asarray(P_first, dtype=float))
-            if x_post.shape != (M, n) or P_post.shape != (n, n, M):
-                raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
+            P_in = _runs_first(P_post)
+            x_post, P_first = _gate_estimate(self.gate, self.gate.after_update(x_post, P_in, use.copy(), k), x_post,
+                                             P_in, M, n)
+            P_post = _runs_last(P_first)
         self._x, self._P = x_post, P_post
         if not masked:
             self._y = np.where(use[:, None], y, np.nan)

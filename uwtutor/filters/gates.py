@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._linalg import quadratic_form
-from .._validate import MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_scalar
+from .._validate import MAX_COORDINATE, as_bool_array, as_finite, as_flag, as_float_array, as_int, as_scalar
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared"]
 
@@ -165,6 +165,10 @@ class Gate:
     """
 
     extra_outputs: tuple[str, ...] = ()
+    #: True for a library gate whose :meth:`after_update` keeps the covariance symmetric positive semi-definite by
+    #: construction (it scales it by positive factors, or restarts from a fit): the engine does not check what it
+    #: returns. A gate of your own leaves it False, and a new ``x`` or ``P`` it returns is checked.
+    estimates_checked: bool = False
 
     def accept(self, ctx: GateContext) -> np.ndarray:
         """A bool array ``(M,)`` -- True where the run's measurement is to be used -- or ``(M, m)``, component by
@@ -340,6 +344,8 @@ class ReacquiringGate(Gate):
     (True, True)
     """
 
+    estimates_checked = True      # P scaled by positive factors only: it stays positive semi-definite
+
     extra_outputs = ("rejected", "inflated", "forced")
 
     def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: Any = 10.0,
@@ -381,7 +387,8 @@ class ReacquiringGate(Gate):
             self._reset(M)
         present = ctx.present_mask()
         has = present.any(axis=-1)
-        verdict = np.asarray(self.test.accept(ctx), dtype=bool)
+        verdict = as_bool_array(f"the gate {type(self.test).__name__}.accept", self.test.accept(ctx),
+                                ((M,), present.shape))
         forced = self._due & has
         if forced.any():
             verdict = verdict | (forced[:, None] & present if verdict.shape == present.shape else forced)

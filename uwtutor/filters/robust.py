@@ -57,8 +57,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
-from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
-                        as_positive, as_range_array, as_scalar)
+from .._validate import (MAX_COORDINATE, as_bool_array, as_covariance, as_finite, as_float_array, as_int,
+                        as_nonnegative, as_positive, as_range_array, as_scalar)
 from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
@@ -271,6 +271,8 @@ class RobustGate(Gate):
     997.1
     """
 
+    estimates_checked = True      # the engine's own estimate, extrapolated or restarted from a fit
+
     def __init__(self, test: Gate | None, steps: ArrayLike, *, on_outlier: str = "predict",
                  reacquire: int | None = None) -> None:
         if test is not None and not isinstance(test, Gate):
@@ -299,7 +301,8 @@ class RobustGate(Gate):
         if ctx.k == 0 or not hasattr(self, "_count") or self._count.shape[0] != M:
             self._reset(M, d)
         has = np.isfinite(ctx.z).all(axis=-1)
-        verdict = np.ones(M, dtype=bool) if self.test is None else np.asarray(self.test.accept(ctx), dtype=bool)
+        verdict = (np.ones(M, dtype=bool) if self.test is None else
+                   as_bool_array(f"the gate {type(self.test).__name__}.accept", self.test.accept(ctx), ((M,),)))
         self._pending = (ctx.k, has & ~verdict, np.array(ctx.z), np.asarray(ctx.R))
         return verdict
 
