@@ -493,3 +493,6 @@ def lookup(key: str, obj: Callable) -> tuple[str, Any]:
 def kinds_of(spec: Spec, valid: dict[str, Any]) -> dict[str, Kind]:
     """The kind of every argument of the valid call (the spec's own, else ``KIND_BY_NAME``; unknown: no mutation)."""
     return {name: spec.kinds.get(name, KIND_BY_NAME.get(name, Kind())) for name in valid}
+
+from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
+SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702
