@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from robustness_kinds import Choice, Covariance, Flag, Instance, Int, Mapping, Real
-from robustness_spec import Spec
+from robustness_spec import Spec, _checker_spec
 
 _RUNS = Int(minimum=1, unbounded_work=True)
 
@@ -29,15 +29,28 @@ def _ch05_study_arrays() -> dict:
     return dict(estimates=estimates, truth=truth)
 
 
+def _bound_check(value, baseline) -> list[str]:
+    """An RMSE bound: a float >= 0, ``inf`` for a track that does not turn (the current is unobservable)."""
+    ok = isinstance(value, float) and not np.isnan(value) and value >= 0.0
+    return [] if ok else [f"the bound is {value!r}, not a number >= 0 (or inf)"]
+
+
 SPECS_EX: dict[str, Spec] = {
     # exercises: the helpers a student calls in the notebooks
     "uwtutor.exercises.ch02:turn_track": Spec(lambda: dict(turn_deg=20.0), kinds=dict(turn_deg=Real(()))),
-    "uwtutor.exercises.ch02:turn_rmse_bound": Spec(lambda: dict(turn_deg=20.0), kinds=dict(turn_deg=Real(()))),
+    "uwtutor.exercises.ch02:turn_rmse_bound": Spec(lambda: dict(turn_deg=20.0), kinds=dict(turn_deg=Real(())),
+                                                   check=_bound_check),
     "uwtutor.exercises.ch04:diagnosis_studies": Spec(lambda: dict(n_runs=2, seed=4),
                                                      kinds=dict(n_runs=Int(minimum=2, unbounded_work=True)),
                                                      per_argument=4),
+    # the hostile values change the first epoch, which is not read (NaN where a filter has not started); a NaN at
+    # the last epoch is refused: tests/test_robustness_reproducers.py
     "uwtutor.exercises.ch05:final_rmse": Spec(_ch05_study_arrays,
-                                              kinds=dict(estimates=Real((3, 4, 2)), truth=Real((3, 4, 2)))),
+                                              kinds=dict(estimates=Real((3, 4, 2), nan_ok=True, inf_ok=True),
+                                                         truth=Real((3, 4, 2)))),
+    # the checker reads the letters before it runs its study (7 s): every hostile answer is refused at once
+    "uwtutor.exercises.ch07:check_bias_diagnosis": _checker_spec(
+        __import__("uwtutor.exercises.ch07", fromlist=["check_bias_diagnosis"]).check_bias_diagnosis),
     "uwtutor.exercises.ch05:threshold_innovation": Spec(
         lambda: dict(beta=2.0, steady=_steady()),
         kinds=dict(beta=Real((), "nonneg"),

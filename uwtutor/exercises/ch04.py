@@ -28,7 +28,7 @@ import numpy as np
 from scipy import stats
 
 from ..filters import RangeOnlyEKF
-from .checks import Case, check_array, check_function, check_number, not_answered, read_letter
+from .checks import Case, _check_nees_letters, _row_as_vector, check_array, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -90,8 +90,7 @@ def check_range_jacobian(answer: Any) -> Feedback:
     p = np.array(JACOBIAN_POSITION)
     d = p - b
     expected = d / np.linalg.norm(d)
-    if answer is not None and np.shape(answer) == (1, 2):
-        answer = np.asarray(answer)[0]
+    answer = _row_as_vector(answer, 2)
     mistakes = [
         (-expected, "The range grows when the vehicle moves away from the beacon: H points from the beacon to the "
                     "vehicle, (x − b)/‖x − b‖."),
@@ -330,28 +329,15 @@ def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
     Feedback
         The verdict, with a hint on how to read a NEES curve.
     """
-    right_c, right_o, right_u = _classify(diagnosis_studies())
-    chosen = {}
-    for name, value in (("consistent", consistent), ("overconfident", overconfident)):
-        chosen[name], problem = read_letter(value, sorted(DIAGNOSIS_FILTERS), name=f"the {name} filter",
-                                            example=name)
-        if problem is not None:
-            return problem
-    c, o = chosen["consistent"], chosen["overconfident"]
-    read = ("A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
-            "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
-            "(underconfident).")
-    if c == right_c and o == right_o:
-        over, under = DIAGNOSIS_FILTERS[right_o], DIAGNOSIS_FILTERS[right_u]
-        return Feedback(True, f"Correct: {c} is consistent and {o} overconfident (its Q is {over['q_scale']:g} "
-                              f"times the true DR noise); {right_u} is underconfident (its Q and R are "
-                              f"{under['q_scale']:g} and {under['r_scale']:g} times the true ones).")
-    if c == o:
-        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
-    if o == right_u:
-        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident (its P is larger "
-                               "than its errors), not overconfident.", hint=read)
-    if c != right_c:
-        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the "
-                               "band.", hint=read)
-    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)
+    def correct(c: str, o: str, u: str) -> str:
+        over, under = DIAGNOSIS_FILTERS[o], DIAGNOSIS_FILTERS[u]
+        return (f"Correct: {c} is consistent and {o} overconfident (its Q is {over['q_scale']:g} times the true DR "
+                f"noise); {u} is underconfident (its Q and R are {under['q_scale']:g} and {under['r_scale']:g} "
+                "times the true ones).")
+
+    return _check_nees_letters(
+        consistent, overconfident, sorted(DIAGNOSIS_FILTERS), lambda: _classify(diagnosis_studies()),
+        read="A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
+             "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
+             "(underconfident).",
+        correct=correct, underconfident=" (its P is larger than its errors)")

@@ -1269,3 +1269,75 @@ def run_student(func: Any, *args: Any, name: str = "your function", time_limit_s
     except Exception as exc:  # noqa: BLE001 - the student's code failed: feedback, never a crash
         return None, Feedback(False, f"{_NOT_YET}`{name}` raised {type(exc).__name__}: {exc}.",
                               hint=_exception_hint(exc), details={"exception": exc})
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Shared by the chapters' checkers (private to the exercises: each chapter module imports what it needs)
+# ---------------------------------------------------------------------------------------------------------------------
+def _row_as_vector(answer: Any, n: int) -> Any:
+    """A ``(1, n)`` row (a Jacobian written as a 1 x n matrix) as its ``(n,)`` vector; any other answer unchanged.
+
+    The answer is read by :func:`parse_real_array`, so that a ragged list, an object whose ``__array__`` fails or
+    a string never crashes the probe: the checker's own parser then explains what is wrong with it.
+    """
+    if _is_unanswered(answer):
+        return answer
+    arr, _ = parse_real_array(answer, "the answer")
+    return arr[0] if arr is not None and arr.shape == (1, n) else answer
+
+
+def _answer_shape(answer: Any) -> tuple[int, ...] | None:
+    """The shape of an answer that reads as an array of real numbers (:func:`parse_real_array`), else ``None``."""
+    if _is_unanswered(answer):
+        return None
+    arr, _ = parse_real_array(answer, "the answer")
+    return None if arr is None else arr.shape
+
+
+def _probe_student(func: Any, args: Sequence[Any], name: str) -> tuple[np.ndarray | None, Feedback | None]:
+    """Run a student's function once, before :func:`check_function`, to recognise a known mistake from its result.
+
+    Returns ``(result, None)`` with the result read as a real array (``None`` when it is not one, or when the
+    function raised: ``check_function`` then reports that case by case), or ``(None, feedback)`` when the function
+    ran past the time limit or called ``sys.exit()``: a loop is not run again on every case. The arrays among
+    ``args`` are copied, so the function cannot change the checker's own.
+    """
+    copies = [np.copy(a) if isinstance(a, np.ndarray) else a for a in args]
+    value, stopped = run_student(func, *copies, name=name)
+    if stopped is not None:
+        if "timeout" in stopped.details or isinstance(stopped.details.get("exception"), SystemExit):
+            return None, stopped
+        return None, None
+    got, _ = parse_real_array(value, "the result")
+    return got, None
+
+
+def _check_nees_letters(consistent: Any, overconfident: Any, letters: Sequence[str],
+                        classify: Callable[[], tuple[str, str, str]], *, read: str,
+                        correct: Callable[[str, str, str], str], underconfident: str = "") -> Feedback:
+    """Check which of the filters of a NEES study is consistent and which overconfident (exercises 4.5 and 7.5).
+
+    The letters are read first (:func:`read_letter`), so that an answer that is no letter, or the same letter
+    twice, is explained without running the study; ``classify()`` then gives the right letters
+    ``(consistent, overconfident, underconfident)``. ``read`` is the hint on how to read a NEES curve,
+    ``correct(c, o, u)`` the message of the right answer, ``underconfident`` what the underconfident filter's
+    curve means (appended to "it is underconfident").
+    """
+    chosen = {}
+    for role, value in (("consistent", consistent), ("overconfident", overconfident)):
+        chosen[role], problem = read_letter(value, letters, name=f"the {role} filter", example=role)
+        if problem is not None:
+            return problem
+    c, o = chosen["consistent"], chosen["overconfident"]
+    if c == o:
+        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
+    right_c, right_o, right_u = classify()
+    if c == right_c and o == right_o:
+        return Feedback(True, correct(right_c, right_o, right_u))
+    if o == right_u:
+        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident{underconfident}, "
+                               "not overconfident.", hint=read)
+    if c != right_c:
+        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the band.",
+                        hint=read)
+    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)
