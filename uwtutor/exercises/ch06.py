@@ -34,7 +34,7 @@ import numpy as np
 
 from ..grey import fit_gm11
 from ..wavelet import MAD_TO_SIGMA, detail_coefficients, noise_sigma
-from .checks import Case, check_array, check_function, check_number, not_answered
+from .checks import Case, _as_scalar, check_array, check_function, check_number, not_answered
 from .feedback import Feedback
 
 __all__ = [
@@ -73,10 +73,10 @@ Q_PRINTED = np.array([[0.2**2, 0.8**2, 0.6**2], [0.8**2, 1.0**2, 0.0], [0.6**2, 
 
 
 def _both_numbers(a: Any, b: Any) -> tuple[float, float] | None:
-    try:
-        return float(np.asarray(a, dtype=float).reshape(())), float(np.asarray(b, dtype=float).reshape(()))
-    except (TypeError, ValueError):
-        return None
+    """Both answers as floats when both read as real numbers (the shared parser: never coerced, never a crash)."""
+    x, problem_a = _as_scalar(a, "a", "a")
+    y, problem_b = _as_scalar(b, "b", "b")
+    return (x, y) if x is not None and y is not None and problem_a is None and problem_b is None else None
 
 
 def _lstsq_ab(z: np.ndarray, y: np.ndarray, sign: float = -1.0) -> tuple[float, float]:
