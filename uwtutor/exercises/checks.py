@@ -150,6 +150,14 @@ def not_answered(what: str) -> Feedback:
     -------
     Feedback
         Not correct, with a message that asks for the answer and a hint on where to write it.
+
+    Examples
+    --------
+    >>> fb = not_answered("the two-way range in metres (a number)")
+    >>> fb.correct
+    False
+    >>> print(fb.message)
+    No answer yet: replace `None` with the two-way range in metres (a number).
     """
     return Feedback(False, f"No answer yet: replace `None` with {what}.",
                     hint="Write your code in the answer cell above (where it says `# YOUR CODE HERE`), delete the "
@@ -890,7 +898,9 @@ class Case:
 
     Examples
     --------
-    >>> Case((np.array([1.0, 2.0]), 5.0), label="two ranges")  # doctest: +SKIP
+    >>> case = Case((np.array([1.0, 2.0]), 5.0), label="two ranges", hint="Use both ranges.")
+    >>> len(case.args), case.label
+    (2, 'two ranges')
     """
 
     args: tuple = ()
@@ -1085,6 +1095,21 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     ------
     ValueError
         If there are no cases (a bug in the checker).
+
+    Examples
+    --------
+    >>> def reference(x):
+    ...     return 2.0 * x
+    >>> check_function(lambda x: x + x, reference, [(1.0,), (2.5,)], name="double")
+    ✔ Correct: `double` passes all 2 test cases.
+    >>> fb = check_function(
+    ...     lambda x: 3.0 * x, reference, [Case((1.0,), label="one")], name="double"
+    ... )
+    >>> print(fb.message)
+    Not yet: case 1 of 1 (one) fails: your value for the result, 3, is 50 % too large.
+    Inputs: x = 1
+    Expected: 2
+    Got: 3
     """
     case_list = [_as_case(c) for c in cases]
     if time_limit_s is None:
