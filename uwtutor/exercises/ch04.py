@@ -28,7 +28,8 @@ import numpy as np
 from scipy import stats
 
 from ..filters import RangeOnlyEKF
-from .checks import Case, _check_nees_letters, _row_as_vector, check_array, check_function, check_number
+from .checks import (Case, _answer_shape, _check_nees_letters, _row_as_vector, check_array, check_function,
+                     check_number)
 from .feedback import Feedback
 
 __all__ = [
@@ -156,14 +157,14 @@ def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedba
         return Feedback(False, "Not yet: the function should return two things, `x_new, P_new`.",
                         hint="End it with `return x_new, P_new`.")
     x_new, P_new = got
-    if np.shape(x_new) in ((2, 1), (1, 2)):
-        x_new = np.ravel(x_new)
+    if _answer_shape(x_new) in ((2, 1), (1, 2)):          # read by the shared parser: a ragged list is explained
+        x_new = np.ravel(np.asarray(x_new, dtype=float))
     fb = check_array(x_new, expected[0], rtol=1e-9, atol=1e-9, name="the updated position", units="m")
     if not fb:
         return fb
     fb = check_array(P_new, expected[1], rtol=1e-8, atol=1e-9, name="the updated covariance", units="m²",
                      common_mistakes=[])
-    if fb or np.shape(P_new) != np.shape(expected[1]):
+    if fb or _answer_shape(P_new) != expected[1].shape:
         return fb
     # The position is right, so the innovation and the gain are: only the covariance step is wrong.
     P_arr = np.asarray(P_new, dtype=float)
