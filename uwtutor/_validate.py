@@ -504,7 +504,7 @@ def as_position_function(name: str, value: Any) -> Any:
         def at(t: np.ndarray) -> np.ndarray:
             return as_points(f"the output of {name}", value(t), nonempty=True)
         return at
-    fixed = as_finite(name, value, shape=(2,))
+    fixed = as_finite(name, value, shape=(2,), max_abs=MAX_COORDINATE)
     return lambda t: np.broadcast_to(fixed, np.shape(t) + (2,))
 
 

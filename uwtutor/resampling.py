@@ -181,6 +181,13 @@ def stratified_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     -------
     ndarray of int, shape (N,) or (M, N)
         Indices of the selected particles, in increasing order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.resampling import stratified_resample
+    >>> stratified_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(1))
+    array([0, 0, 1, 2])
     """
     w = _check_weights(weights)
     rng = as_rng(rng)
@@ -260,6 +267,14 @@ def residual_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     ndarray of int, shape (N,) or (M, N)
         The deterministic copies in increasing order, then the ``R`` multinomial draws in draw order
         (the layout of filterpy's ``residual_resample``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.resampling import residual_resample
+    >>> # floor(4 w) = 2, 1, 0, 0 copies, then one multinomial draw from the residual weights
+    >>> residual_resample([0.5, 0.3, 0.2, 0.0], np.random.default_rng(1))
+    array([0, 0, 1, 2])
     """
     w = _check_weights(weights)
     rng = as_rng(rng)
@@ -281,6 +296,14 @@ def effective_sample_size(weights: Any) -> float | np.ndarray:
     Returns
     -------
     float or ndarray of shape (M,)
+
+    Examples
+    --------
+    >>> from uwtutor.resampling import effective_sample_size
+    >>> effective_sample_size([0.25, 0.25, 0.25, 0.25])
+    4.0
+    >>> round(effective_sample_size([0.7, 0.1, 0.1, 0.1]), 3)
+    1.923
     """
     w = _check_weights(weights)
     ess = 1.0 / np.sum(w * w, axis=-1)
