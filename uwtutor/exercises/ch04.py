@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from .._validate import as_int, as_seed, check_work
 from ..filters import RangeOnlyEKF
 from .checks import (Case, _answer_shape, _check_nees_letters, _row_as_vector, check_array, check_function,
                      check_number)
@@ -290,9 +291,9 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     Parameters
     ----------
     n_runs : int, default 50
-        Monte Carlo runs per filter.
+        Monte Carlo runs per filter (>= 2).
     seed : int, default 4
-        Seed (the same draws for the three filters).
+        Seed (the same draws for the three filters), a non-negative integer.
 
     Returns
     -------
@@ -303,6 +304,9 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     from ..filters import range_only_ekf
     from ..montecarlo import run_monte_carlo
 
+    n_runs = as_int("n_runs", n_runs, minimum=2)                 # a NEES mean and its interval need two runs
+    check_work("n_runs", 10 * n_runs * 151, "floats (n_runs x the approach's 151 epochs x 10)")
+    seed = as_seed("seed", seed)
     dr_variance, range_variance, initial_error = 0.81, 0.49, 30.0
     studies = {}
     for letter, tuning in DIAGNOSIS_FILTERS.items():
