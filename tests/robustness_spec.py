@@ -454,8 +454,6 @@ EXEMPT: dict[str, str] = {
                                                 "inputs are the checker's own",
     "uwtutor.exercises.ch10:pcrb_reference": "the reference recursion exercise 10.4's checker compares with; its "
                                              "inputs are the checker's own",
-    "uwtutor.exercises.ch08:check_unobservable_pattern": "computes a cached study first (8 s): too slow for the "
-                                                         "contract; answers parsed by the shared check_choice",
     "uwtutor.exercises.ch10:check_final_bound": "computes a cached bound first (5 s): too slow for the contract; "
                                                 "answers parsed by the shared check_number",
     "uwtutor.exercises.ch10:check_first_ratio": "computes a cached study first (8 s): too slow for the contract; "

@@ -214,6 +214,17 @@ def test_the_nees_letter_checkers_read_the_letters_before_the_study(monkeypatch)
             assert not check(*answers).correct
 
 
+def test_the_pattern_checker_reads_any_answer_before_its_study(monkeypatch):
+    """ch08.check_unobservable_pattern tested `answer in LEADER_PATTERNS` after an 8 s study: an array answer
+    crashed it (an elementwise ==), hidden by its exemption from the contract; now it is read first."""
+    def no_study():
+        raise AssertionError("the study ran")
+    monkeypatch.setattr(ch08, "_study", no_study)
+    for answer in (np.ones(3), np.zeros(0), "Zigzag", 1, ["straight"]):
+        fb = ch08.check_unobservable_pattern(answer)
+        assert not fb.correct and "is not a leader pattern" in fb.message
+
+
 def test_final_rmse_refuses_a_run_that_diverged():
     from uwtutor.exercises import ch05
     truth = np.zeros((3, 4, 2))

@@ -35,7 +35,7 @@ from ..filters.cooperative import cooperative_ekf
 from ..models.cooperative import SquaredRangePair
 from ..owtt import clock_range_error, resolve_travel_time
 from ..scenarios import paper_b
-from .checks import Case, _probe_student, check_array, check_function, check_number
+from .checks import Case, _a_type, _probe_student, check_array, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -342,12 +342,15 @@ def check_unobservable_pattern(answer: Any) -> Feedback:
     -------
     Feedback
     """
-    flagged = [p for p, (_, warned) in _study().items() if warned]
-    if answer is None:
+    # the answer is read before the study runs (8 s the first time): a name that is no pattern is answered at once
+    if answer is None or answer is Ellipsis:
         return Feedback(False, "No answer yet: set `unobservable` to the name of a pattern.")
-    if answer not in paper_b.LEADER_PATTERNS:
-        return Feedback(False, f"{answer!r} is not a leader pattern; choose one of "
-                               f"{', '.join(paper_b.LEADER_PATTERNS)}.")
+    if not isinstance(answer, str) or answer not in paper_b.LEADER_PATTERNS:   # never `in` on any object: an
+        shown = repr(answer) if isinstance(answer, str) else _a_type(answer)      # array's == is elementwise
+        return Feedback(False, f"{shown} is not a leader pattern; choose one of "
+                               f"{', '.join(paper_b.LEADER_PATTERNS)}.",
+                        hint='Give the name in quotes, e.g. `unobservable = "' + paper_b.LEADER_PATTERNS[0] + '"`.')
+    flagged = [p for p, (_, warned) in _study().items() if warned]
     if answer in flagged:
         return Feedback(True, f"Correct: with a {answer} leader the relative track is straight (here a point), the "
                               "rank of the information stays at 2 and the filter emits an UnobservableWarning.")
