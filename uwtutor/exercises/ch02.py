@@ -375,7 +375,8 @@ def check_straight_current_rank(answer: Any) -> Feedback:
 
 
 def check_unobservable_direction(answer: Any) -> Feedback:
-    r"""Check a direction :math:`\Delta x = [\delta x_0, \delta y_0, \delta U_x, \delta U_y]` with :math:`H \Delta x = 0` (ex. 2.4).
+    r"""Check a direction :math:`\Delta x = [\delta x_0, \delta y_0, \delta U_x, \delta U_y]` with
+    :math:`H \Delta x = 0` (ex. 2.4).
 
     Any non-zero multiple of the rotation direction is right: turn the start point about the beacon and the
     ground velocity :math:`\dot p` with it (through the current), :math:`\Delta x \propto [-y_0, x_0, -\dot y, \dot x]`.

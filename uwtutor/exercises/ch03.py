@@ -56,7 +56,7 @@ RANGE_INTERVAL = 5.0
 ALPHA_THRESHOLD = 2.0
 
 
-# -- exercise 3.1: the precision factor by hand -------------------------------------------------------------------------
+# -- exercise 3.1: the precision factor by hand ------------------------------------------------------------------------
 def _design(bearings_deg: Any, bias: bool = True, radians: bool = True) -> np.ndarray:
     phi = np.radians(bearings_deg) if radians else np.asarray(bearings_deg, dtype=float)
     cols = [np.cos(phi), np.sin(phi)] + ([np.ones_like(phi)] if bias else [])

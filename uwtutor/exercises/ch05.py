@@ -520,7 +520,7 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
                     details={"expected": expected})
 
 
-# -- exercise 5.5: one ISFEKF step, written by the student --------------------------------------------------------------
+# -- exercise 5.5: one ISFEKF step, written by the student -------------------------------------------------------------
 #: Exercise 5.5: the filter constants (paper D's simulation; beacon at the origin) ...
 ISF_STEP_CONSTANTS: dict[str, float] = {"mu_gamma": 0.98, "sigma_gamma": 1.0 / 1500.0, "rho": 0.95, "R": 0.49,
                                         "q": 0.81}

@@ -397,11 +397,11 @@ def check_q_correlation(value: Any) -> Feedback:
     }
     return check_number(value, expected, rtol=1e-3, name="the depth-speed correlation", common_mistakes=mistakes,
                         hint="ρ = Q[0, 1] / sqrt(Q[0, 0] · Q[1, 1]).",
-                        explanation="A correlation must lie between −1 and 1, and it has no units, so no reading of the "
-                                    "paper's units can make this Q valid.")
+                        explanation="A correlation must lie between −1 and 1, and it has no units, so no reading "
+                                    "of the paper's units can make this Q valid.")
 
 
-# -- exercise 6.6: one bootstrap particle-filter step, written by the student --------------------------------------------
+# -- exercise 6.6: one bootstrap particle-filter step, written by the student ------------------------------------------
 #: Exercise 6.6: the sampling interval (s) and the sensor covariance (paper C's R, SI units) of the step ...
 PF_STEP_T = 0.05
 PF_STEP_R = np.diag([0.2, 0.05, math.radians(0.5)]) ** 2

@@ -98,7 +98,8 @@ def straight_track(n: int = 40) -> np.ndarray:
 
 # -- exercise 7.1: Q ---------------------------------------------------------------------------------------------------
 def check_bias_noise(answer: Any) -> Feedback:
-    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`, :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`.
+    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`,
+    :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`.
 
     Parameters
     ----------

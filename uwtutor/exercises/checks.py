@@ -455,7 +455,8 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
 # check_choice
 # ---------------------------------------------------------------------------------------------------------------------
 def read_letter(answer: Any, letters: Sequence[str], *, name: str = "the answer",
-                options: Mapping[str, str] | None = None, example: str = "choice") -> tuple[str | None, Feedback | None]:
+                options: Mapping[str, str] | None = None,
+                example: str = "choice") -> tuple[str | None, Feedback | None]:
     """Read an answer that must be one of the capital ``letters``, as the question asks.
 
     Surrounding spaces are ignored. Anything else is not accepted, but explained, without saying whether the choice
@@ -1079,8 +1080,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     allow_mutation : bool
         Whether the function may modify its input arrays in place (default: no).
     time_limit_s : float, optional
-        Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading of what it returned) may take on one case before it is
-        stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
+        Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading
+        of what it returned) may take on one case before it is stopped and reported as too slow (an endless loop);
+        ``sys.exit()`` in the student's code is reported too.
     reveal_expected : bool
         ``False`` for a graded (hidden) test: a failing case then shows its inputs and what the function returned,
         but not the expected result (the default comparison also keeps it out of its message).
@@ -1160,8 +1162,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                             details={**base_details, "exception": exc})
         except NotImplementedError:
             return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
-                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run that "
-                                 "cell, then this one.",
+                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
+                                 "that cell, then this one.",
                             details={**base_details, "answered": False})
         except Exception as exc:  # the student's code failed: report it, never crash the checker
             where = _where(exc)

@@ -161,17 +161,17 @@ def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
         except UnicodeDecodeError:
             raise ExerciseSourceError(f"{label} is not a notebook: it is not UTF-8 text") from None
         except json.JSONDecodeError as exc:
-            raise ExerciseSourceError(f"{label} is not a notebook: its JSON is invalid ({exc.msg}, line {exc.lineno})") \
-                from None
+            raise ExerciseSourceError(f"{label} is not a notebook: its JSON is invalid ({exc.msg}, line "
+                                      f"{exc.lineno})") from None
     elif isinstance(source_nb, dict):
         data, label = copy.deepcopy(source_nb), "the notebook"
     else:
         raise TypeError(f"source_nb must be a notebook (nbformat.NotebookNode) or a path; got "
                         f"{type(source_nb).__name__}")
     if not isinstance(data, dict) or not isinstance(data.get("cells"), list):
-        kind = type(data).__name__ if not isinstance(data, dict) else "an object without a list of 'cells'"
-        raise ExerciseSourceError(f"{label} is not a notebook: its JSON is {'a ' + kind if not isinstance(data, dict) else kind}"
-                                  "; a notebook is an object with 'cells', 'metadata', 'nbformat'")
+        kind = "a " + type(data).__name__ if not isinstance(data, dict) else "an object without a list of 'cells'"
+        raise ExerciseSourceError(f"{label} is not a notebook: its JSON is {kind}; a notebook is an object with "
+                                  "'cells', 'metadata', 'nbformat'")
     try:
         nb = nbformat.reads(json.dumps(data), as_version=4)
         nbformat.validate(nb)
@@ -192,12 +192,12 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
     Returns
     -------
     nbformat.NotebookNode
-        A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
-        and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
-        TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
-        execution counts cleared; notebook metadata reduced to ``kernelspec`` and ``language_info`` (for Python, as
-        JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so that opening the notebook does not
-        mark it modified), cell metadata to ``tags``.
+        A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE
+        HERE`` and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every
+        ``### BEGIN HIDDEN TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that
+        dropped; outputs and execution counts cleared; notebook metadata reduced to ``kernelspec`` and
+        ``language_info`` (for Python, as JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so
+        that opening the notebook does not mark it modified), cell metadata to ``tags``.
 
     Raises
     ------
