@@ -12,7 +12,13 @@ A filter holds its estimate in attributes that mean the same thing in every filt
 * ``extra_outputs`` -- the names of further per-step attributes the filter records (fading factors, outlier
   flags, effective sample sizes...);
 
-and moves it with two methods,
+One rule holds for all of them: what a filter shows is **read-only** (writing into ``f.x`` raises, so a change is
+never silently lost or slipped past the checks), and it does not change with later steps (keep it as a snapshot). A
+Kalman-family filter takes a new estimate by assignment, ``f.x = ...`` or ``f.P = ...``, checked like its
+constructor's ``x0`` and ``P0`` (the fading filter between steps only); a particle filter's ``x`` and ``P`` are the
+moments of its particles, so a new state is given as ``f.particles = ...`` (or ``f.weights``), and they follow.
+
+It moves its estimate with two methods,
 
 * ``predict(u=None)`` -- propagate the estimate one step with the motion model and the input ``u``
   (for single-beacon navigation: the dead-reckoned displacement since the last step);

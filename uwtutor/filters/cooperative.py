@@ -269,13 +269,21 @@ class CooperativeEKF:
     # -- the protocol's state, read from the engine ---------------------------------------------------------------
     @property
     def x(self) -> np.ndarray:
-        """Current estimate, shape (4,) or (M, 4)."""
+        """Current estimate, shape (4,) or (M, 4) (read-only; assign a new one to set it)."""
         return self._engine.x
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        self._engine.x = value
 
     @property
     def P(self) -> np.ndarray:
-        """Its covariance, shape (4, 4) or (M, 4, 4)."""
+        """Its covariance, shape (4, 4) or (M, 4, 4) (read-only; assign a new one to set it)."""
         return self._engine.P
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        self._engine.P = value
 
     @property
     def x_prior(self) -> np.ndarray:

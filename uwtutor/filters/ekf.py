@@ -62,7 +62,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, readonly
 from ..errors import BeaconSingularityWarning
 from .base import FilterResult
 from .gates import Gate
@@ -323,23 +323,25 @@ class RangeOnlyEKF:
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def x(self) -> np.ndarray:
-        """Current position estimate, shape (2,) or (M, 2); a view of the filter's state until the next step."""
+        """Current position estimate, shape (2,) or (M, 2) (read-only; assign a new one to set it)."""
         return self._out(x_view(self._s))
 
     @x.setter
     def x(self, value: Any) -> None:
-        x = as_finite("x", value)
+        x = as_finite("x", value, max_abs=MAX_COORDINATE)
         if x.shape not in ((2,), (self._M, 2)):
             self._bad_shape("x", x.shape, "(2,)")
-        x_view(self._s)[...] = x
+        self._s = pack(np.broadcast_to(x, (self._M, 2)), P_view(self._s))
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance, shape (2, 2) or (M, 2, 2); a view of the filter's state until the next step."""
+        """Current covariance, shape (2, 2) or (M, 2, 2) (read-only; assign a new one to set it)."""
         return self._out(P_view(self._s))
 
     @P.setter
@@ -351,13 +353,13 @@ class RangeOnlyEKF:
 
     @property
     def x_prior(self) -> np.ndarray:
-        """The prediction of the current step, shape (2,) or (M, 2) (a copy)."""
-        return self._out(x_view(self._prior)).copy()
+        """The prediction of the current step, shape (2,) or (M, 2) (read-only)."""
+        return self._out(x_view(self._prior))
 
     @property
     def P_prior(self) -> np.ndarray:
-        """Its covariance ``P + Q``, shape (2, 2) or (M, 2, 2) (a copy)."""
-        return self._out(P_view(self._prior)).copy()
+        """Its covariance ``P + Q``, shape (2, 2) or (M, 2, 2) (read-only)."""
+        return self._out(P_view(self._prior))
 
     def _bad_shape(self, name: str, shape: tuple[int, ...], single: str) -> np.ndarray:
         raise ValueError(f"{name} must have shape {single} or (M, ...) with M = {self._M}; got {shape}")

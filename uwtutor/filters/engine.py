@@ -63,7 +63,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance
+from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, readonly
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -336,7 +336,9 @@ class ExtendedKalmanFilter:
 
     # -- state access (views of the filter's arrays; assignment is validated) --
     def _out(self, a: np.ndarray) -> np.ndarray:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def n_runs(self) -> int:

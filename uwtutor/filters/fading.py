@@ -120,8 +120,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
-from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar,
-                        as_range_array)
+from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
+                        readonly)
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
@@ -677,28 +677,52 @@ class FadingEKF:
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def x(self) -> np.ndarray:
-        """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2)."""
-        return self._out(x_view(self._shown)).copy()
+        """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2) (read-only;
+        assign a new one between steps to set it)."""
+        return self._out(x_view(self._shown))
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        x = as_finite("x", value, max_abs=MAX_COORDINATE)
+        if x.shape not in ((2,), (self._M, 2)):
+            raise ValueError(f"x must have shape (2,) or (M, 2) with M = {self._M}; got {x.shape}")
+        self._set_state(np.broadcast_to(x, (self._M, 2)), P_view(self._s), "x")
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2)."""
-        return self._out(P_view(self._shown)).copy()
+        """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2) (read-only;
+        assign a new one between steps to set it)."""
+        return self._out(P_view(self._shown))
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        P = as_covariance("P", value, 2)
+        if P.shape not in ((2, 2), (self._M, 2, 2)):
+            raise ValueError(f"P must have shape (2, 2) or (M, 2, 2) with M = {self._M}; got {P.shape}")
+        self._set_state(x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)), "P")
+
+    def _set_state(self, x: np.ndarray, P: np.ndarray, name: str) -> None:
+        if self._pending is not None:
+            raise RuntimeError(f"{name} can be set before predict or after update, not between them: the fading "
+                               "factor is computed at the update from the estimate the step started with")
+        self._s = self._shown = pack(x, P)
 
     @property
     def x_prior(self) -> np.ndarray:
-        """The prediction of the current step, shape (2,) or (M, 2)."""
-        return self._out(x_view(self._prior)).copy()
+        """The prediction of the current step, shape (2,) or (M, 2) (read-only)."""
+        return self._out(x_view(self._prior))
 
     @property
     def P_prior(self) -> np.ndarray:
         r"""Its covariance as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until the update has
-        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2)."""
-        return self._out(P_view(self._prior)).copy()
+        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2) (read-only)."""
+        return self._out(P_view(self._prior))
 
     def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
         self.y = y[:, None] if self._batched else y[:1].copy()

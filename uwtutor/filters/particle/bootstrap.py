@@ -85,7 +85,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
-                          as_rng, as_scalar)
+                          as_rng, as_scalar, readonly)
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import Resampler, systematic_resample
@@ -445,7 +445,9 @@ class BootstrapParticleFilter:
     # --- shapes: runs axis inside, removed for a single run outside ------------------------------------------------
 
     def _out(self, a: np.ndarray) -> Any:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (the moments follow the particles: set those)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def n_runs(self) -> int:
@@ -487,6 +489,8 @@ class BootstrapParticleFilter:
             M, N = pb.shape[:2]
             self._w = np.full((M, N), 1.0 / N)
             self._uniform = np.ones(M, dtype=bool)
+        if hasattr(self, "_x"):                       # made (not in __init__): x and P follow the new particles
+            self._set_estimate()
 
     @property
     def weights(self) -> np.ndarray:
@@ -510,8 +514,25 @@ class BootstrapParticleFilter:
         self._prior_moments = False
         self._set_estimate()                          # x and P follow the new weights
 
-    x = property(lambda self: self._out(self._x), doc="Weighted mean of the particles, (n,) or (M, n).")
-    P = property(lambda self: self._out(self._P), doc="Weighted covariance of the particles, (n, n) or (M, n, n).")
+    @property
+    def x(self) -> np.ndarray:
+        """Weighted mean of the particles, (n,) or (M, n) (read-only: it follows ``particles`` and ``weights``)."""
+        return self._out(self._x)
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        raise AttributeError("a particle filter's x is the weighted mean of its particles: assign particles (or "
+                             "weights) instead, e.g. f.particles = f.particles + shift")
+
+    @property
+    def P(self) -> np.ndarray:
+        """Weighted covariance of the particles, (n, n) or (M, n, n) (read-only: it follows the particles)."""
+        return self._out(self._P)
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        raise AttributeError("a particle filter's P is the weighted covariance of its particles: assign particles "
+                             "(or weights) instead")
     x_prior = property(lambda self: self._out(self._xp),
                        doc="Weighted mean of the predicted particles of this step, (n,) or (M, n).")
     P_prior = property(lambda self: self._out(self._Pp),
