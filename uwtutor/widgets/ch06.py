@@ -60,6 +60,12 @@ class GPFView:
         ``N``.
     n_grey : int
         Grey particles per step.
+
+    Examples
+    --------
+    >>> view = gpf_view(n_particles=100, seed=1)
+    >>> view.times.shape, view.truth.shape, view.n_grey          # 12 s at 20 Hz; depth, speed, pitch
+    ((240,), (240, 3), 10)
     """
 
     times: np.ndarray
@@ -113,6 +119,15 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     Returns
     -------
     GPFView
+
+    Examples
+    --------
+    >>> view = gpf_view(n_particles=200, noise_change=3.0, seed=1)    # the noise triples at 13 s
+    >>> ekf, gpf = view.rmse["EKF"], view.rmse["GPF"]       # RMSE of depth [m], speed [m/s], pitch [rad]
+    >>> round(float(ekf[0]), 1), bool(gpf[0] < ekf[0])      # the GPF follows the new noise, the EKF does not
+    (0.3, True)
+    >>> bool(view.ess.min() >= 1.0), bool(view.ess.max() <= view.n_particles)
+    (True, True)
     """
     N = as_int("n_particles", n_particles, minimum=10)
     check_work("n_particles", 30 * N, "floats (n_particles x 3 states x the filter's working arrays)")
@@ -139,7 +154,16 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
 
 
 def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
-    """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars."""
+    """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_gpf_view(gpf_view(n_particles=100))
+    >>> len(fig.axes)                      # pitch, noise estimate, ESS, RMSE bars
+    4
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.6, 5.0))
     ax = fig.subplots(2, 2)
     t = view.times
@@ -203,7 +227,14 @@ def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
 
 
 def gpf_widget() -> Any:
-    """Sliders for the GPF's particle count, grey share and wavelet window, and the change of the sensor noise."""
+    """Sliders for the GPF's particle count, grey share and wavelet window, and the change of the sensor noise.
+
+    Examples
+    --------
+    >>> panel = gpf_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['particles N', 'grey share', 'wavelet window', 'noise change ×']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}
