@@ -180,7 +180,8 @@ def bench_ekf(repeats: int) -> dict[str, Any]:
 
 def interleaved_best(first: Callable[[], Any], second: Callable[[], Any], repeats: int) -> tuple[float, float]:
     """Best wall times of ``first`` and ``second`` called in turn ``repeats`` times each, so that both see the
-    same load of the machine."""
+    same load of the machine (a ratio of the two is then steadier than either time; the ratio benchmarks take
+    three times ``--repeats``)."""
     best = [float("inf"), float("inf")]
     for _ in range(repeats):
         for i, fn in enumerate((first, second)):
@@ -214,7 +215,7 @@ def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
     args = [inputs[k] for k in ("x0", "P0", "u", "z", "Q", "R")]
     max_rel = plain.assert_ekf_agrees(range_only_ekf(**inputs), plain.range_only_ekf(*args))   # also a warm-up
     ours, theirs = interleaved_best(lambda: range_only_ekf(**inputs), lambda: plain.range_only_ekf(*args),
-                                    max(repeats, 5))
+                                    3 * repeats)
     return {"ekf_vs_numpy_s": ours, "ekf_numpy_s": theirs, "ekf_vs_numpy_ratio": ours / theirs,
             "ekf_vs_numpy_max_rel_diff": max_rel}
 
@@ -242,7 +243,7 @@ def bench_pf_vs_numpy(repeats: int) -> dict[str, Any]:
                                   model.motion.T, model.motion.process_std, model.R)
 
     max_rel = plain.assert_pf_agrees(ours(), theirs())
-    ours_s, theirs_s = interleaved_best(ours, theirs, max(repeats, 5))
+    ours_s, theirs_s = interleaved_best(ours, theirs, 3 * repeats)
     return {"pf_vs_numpy_s": ours_s, "pf_numpy_s": theirs_s, "pf_vs_numpy_ratio": ours_s / theirs_s,
             "pf_vs_numpy_max_rel_diff": max_rel}
 

@@ -18,6 +18,8 @@ from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
 N_ROWS = 6
 
+_min = np.minimum.reduce                              # a.min() without numpy's Python wrapper (run once per step)
+
 
 
 
@@ -54,22 +56,25 @@ def predict_step(s: np.ndarray, u: np.ndarray, q4: np.ndarray, out: np.ndarray) 
     np.add(s[ROW_PXX:], q4, out=out[ROW_PXX:])
 
 
-def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon: tuple[float, float],
-                 out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray) -> np.ndarray:
+def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: tuple[Any, Any] | None,
+                out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray) -> np.ndarray:
     """Range update of the predicted packed states ``s`` (6, M); the posterior is written into ``out``.
 
     ``z`` (M,) holds the ranges with missing ones replaced by any finite value and ``use`` (M,) is 1.0 where
     the range is to be used and 0.0 where it is missing: a zero gain leaves those runs exactly at their
-    prediction. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
+    prediction. ``beacon`` is ``(bx, by)``, floats or arrays (M,)/(1,) for a moving beacon, or None for the
+    origin. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
     Returns the ``use`` array actually applied (runs whose prediction is on the beacon removed).
     """
-    xp, yp = s[ROW_X], s[ROW_Y]
-    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]
-    bx, by = beacon                                  # floats, or arrays (M,)/(1,) for a moving beacon
-    dx = xp - bx if (np.ndim(bx) or bx) else xp
-    dy = yp - by if (np.ndim(by) or by) else yp
+    xp, yp, pxx, pxy, _, pyy = s                     # the rows (views)
+    if beacon is None:                               # the origin
+        dx, dy = xp, yp
+    else:
+        bx, by = beacon                              # floats, or arrays (M,)/(1,) for a moving beacon
+        dx = xp - bx if (np.ndim(bx) or bx) else xp
+        dy = yp - by if (np.ndim(by) or by) else yp
     r = np.sqrt(dx * dx + dy * dy)                   # predicted range h(x-)
-    if r.min() == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
+    if _min(r) == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
         on_beacon = r == 0.0
         if (use[on_beacon] != 0.0).any():
             warn("the predicted position is exactly on the beacon, where the range Jacobian is "
@@ -107,7 +112,7 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon:
     out[ROW_PYX] = nxy
     det = nxx * nyy
     det -= nxy * nxy
-    if not (det.min() >= 0.0 and nxx.min() >= 0.0 and nyy.min() >= 0.0):   # also False for a NaN
+    if not (_min(det) >= 0.0 and _min(out[ROW_PXX::3], axis=None) >= 0.0):   # rows Pxx, Pyy; False for a NaN
         _los_update(s, hx, hy, ax, ay, a_los, g, use, R, out)
         # a+ >= 0 and b+^2 <= a+ c+ hold there by construction; what remains to refuse is a prediction that was
         # not PSD (a < 0), a value that overflowed, or round-off of the rotation beyond the stated tolerance

@@ -102,15 +102,17 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
     s = s0
     q_steps = q4.ndim == 3
     R_steps = isinstance(R, np.ndarray)
+    fixed = isinstance(beacon, tuple)
+    if fixed and beacon == (0.0, 0.0):
+        beacon = None                               # the update's shortcut for the origin
     for k in range(K):
-        predict_step(s, u_steps[k], q4[k] if q_steps else q4, prior[k])
-        use_k = use[k]
-        b_k = beacon if isinstance(beacon, tuple) else (beacon[k, 0], beacon[k, 1])
-        applied = update_step(prior[k], z_fill[k], use_k, float(R[k]) if R_steps else R, b_k, post[k], innov[k],
-                              innov_var[k])
+        p, use_k = prior[k], use[k]
+        predict_step(s, u_steps[k], q4[k] if q_steps else q4, p)
+        s = post[k]
+        applied = update_step(p, z_fill[k], use_k, float(R[k]) if R_steps else R,
+                              beacon if fixed else (beacon[k, 0], beacon[k, 1]), s, innov[k], innov_var[k])
         if applied is not use_k:                    # a prediction fell on the beacon
             use[k] = applied
-        s = post[k]
     unused = use == 0.0
     innov[unused] = np.nan
     innov_var[unused] = np.nan
