@@ -287,7 +287,7 @@ class DepthSpeedPitch(MotionModel):
         x = np.asarray(x, dtype=float)
         if x.ndim == 2:
             return self.sample(x[:, None, :], None, k, rng)[:, 0, :]
-        return np.swapaxes(self.sample_rows(np.swapaxes(self._pre(x), -1, -2), rng), -1, -2)
+        return self.sample_rows(self._pre(x).swapaxes(-1, -2), rng).swapaxes(-1, -2)
 
 
 class PitchManeuver(DepthSpeedPitch):

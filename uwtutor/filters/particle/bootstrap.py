@@ -87,7 +87,7 @@ import numpy as np
 from ..._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_rng
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
-from ...resampling import Resampler, systematic_resample
+from ...resampling import Resampler, _systematic_trusted, systematic_resample
 from ..base import FilterResult
 
 __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
@@ -136,14 +136,22 @@ def _split_pair(first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, An
 
 
 def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
-                            diagonal: bool) -> np.ndarray:
+                            diagonal: bool, complete: bool = False) -> np.ndarray:
     r""":math:`-\tfrac12 (z - h)^T R^{-1} (z - h)` for every particle of every run, ``(M, N)``: the fast path of
     the Gaussian likelihood, with the whitening computed once for an ``R`` that does not change.
 
     ``hx_rows`` (M, m, N); ``z`` (M, m), NaN entries missing; ``R`` (m, m) or (M, m, m); ``whiten`` the
     reciprocal standard deviations (m,) or (M, m) when ``diagonal``, else :math:`W` (m, m) or (M, m, m) with
     :math:`W^T = L^{-1}`, :math:`L L^T = R`. A run with every entry missing gets 0 (its weights do not change).
+    ``complete`` says that the caller knows ``z`` has no NaN entry.
     """
+    if diagonal and hx_rows.shape[0] == 1 and (complete or _all(z == z)):   # one run, nothing missing: 2-D
+        d = hx_rows[0] - z[0][:, None]
+        d *= whiten.reshape(-1)[:, None]
+        d *= d
+        out = np.add.reduce(d, axis=0)
+        out *= -0.5
+        return out[None]
     missing = np.isnan(z)
     if not _any(missing):              # rows (M, m, N): contiguous per component
         d = hx_rows - z[..., None]
@@ -351,6 +359,7 @@ class BootstrapParticleFilter:
         self._ess = 1.0 / np.einsum("ij,ij->i", self._w, self._w)
         self._resampled = np.zeros(M, dtype=bool)
         self._prior_moments = False
+        self._complete = False                  # whether the measurement of the current update has no NaN
         self._white_key: bytes | None = None
         self._set_estimate()
         self._xp, self._Pp = self._x, self._P
@@ -548,7 +557,7 @@ class BootstrapParticleFilter:
         return self.motion.normalize(ref[:, 0, :] + mean_d), cov
 
     def _set_estimate(self) -> None:
-        self._x, self._P = self._state_moments(self._rows_p)
+        self._x, self._P = self._state_moments(self._rows_p) if self._circular else self._moments(self._rows_p)
 
     def _set_prior(self) -> None:
         self._set_estimate()
@@ -573,12 +582,12 @@ class BootstrapParticleFilter:
     def _sample(self, motion: MotionModel, rows: np.ndarray, u: Any, k: int, rngs: Sequence[np.random.Generator],
                 name: str = "motion") -> np.ndarray:
         """Move ``rows`` (R, n, count) with ``motion.sample`` (one Generator per run); returns new rows."""
-        x = _rows(rows)
+        x = rows.swapaxes(-1, -2)
         new = motion.sample(x, u, k, rngs)
         if getattr(new, "shape", None) != x.shape:
             raise ValueError(f"{name} model's sample ({type(motion).__name__}) must return particles of shape "
                              f"{x.shape}; got {np.shape(new)}")
-        out = _rows(new)
+        out = new.swapaxes(-1, -2)
         return out if out.flags.c_contiguous else np.ascontiguousarray(out)
 
     def predict(self, u: Any = None) -> None:
@@ -623,7 +632,8 @@ class BootstrapParticleFilter:
             if key != self._white_key:
                 self._white, self._white_diag = _whitening(R)
                 self._white_key = key
-            return _whitened_log_likelihood(_rows(hx), z, R, self._white, self._white_diag)
+            return _whitened_log_likelihood(hx.swapaxes(-1, -2), z, R, self._white, self._white_diag,
+                                            self._complete)
         return gaussian_log_likelihood(hx, z, R)
 
     def _update(self, z: np.ndarray) -> None:
@@ -634,7 +644,8 @@ class BootstrapParticleFilter:
         reuse = self._prior_moments
         self._prior_moments = False
         self._resampled = np.zeros(M, dtype=bool)
-        if not _any(missing):
+        self._complete = not _any(missing)                # for the likelihood: no component missing
+        if self._complete:
             none = None
         else:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
@@ -644,9 +655,9 @@ class BootstrapParticleFilter:
                 return
 
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
-        view = _rows(self._rows_p)
+        view = self._rows_p.swapaxes(-1, -2)
         hx = self.measurement.h(view, k)
-        if getattr(hx, "shape", None) != view.shape[:-1] + (m,):
+        if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
             raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
                              f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
         hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
@@ -670,8 +681,11 @@ class BootstrapParticleFilter:
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
         top = np.maximum.reduce(logw, axis=1, keepdims=True)
-        lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
-        if _any(lost):
+        if none is None and _all(np.isfinite(top)):        # every run has a particle with a likelihood
+            lost = None
+        else:
+            lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
+        if lost is not None and _any(lost):
             which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
             raise ParticleDegeneracyError(
                 f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
@@ -702,9 +716,11 @@ class BootstrapParticleFilter:
         """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
         to ``1/N``."""
         runs = range(self.n_runs) if runs is None else runs
-        N = self.n_particles
+        N = self._rows_p.shape[2]
+        # the default resampler on the filter's own weights (checked and normalized by the update) needs no check
+        resample = _systematic_trusted if self.resampler is systematic_resample else self.resampler
         for r in runs:
-            idx = self.resampler(self._w[r], self.rngs[r])
+            idx = resample(self._w[r], self.rngs[r])
             self._take(r, idx)
             self._w[r].fill(1.0 / N)
             self._uniform[r] = True
