@@ -147,7 +147,7 @@ def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
     """
     if diagonal and hx_rows.shape[0] == 1 and (complete or _all(z == z)):   # one run, nothing missing: 2-D
         d = hx_rows[0] - z[0][:, None]
-        d *= whiten.reshape(-1)[:, None]
+        d *= whiten.reshape(-1, 1)
         d *= d
         out = np.add.reduce(d, axis=0)
         out *= -0.5
@@ -719,10 +719,10 @@ class BootstrapParticleFilter:
         N = self._rows_p.shape[2]
         # the default resampler on the filter's own weights (checked and normalized by the update) needs no check
         resample = _systematic_trusted if self.resampler is systematic_resample else self.resampler
+        w, rngs = self._w, self.rngs
         for r in runs:
-            idx = resample(self._w[r], self.rngs[r])
-            self._take(r, idx)
-            self._w[r].fill(1.0 / N)
+            self._take(r, resample(w[r], rngs[r]))
+            w[r].fill(1.0 / N)
             self._uniform[r] = True
             self._resampled[r] = True
             if self.roughening > 0.0:
@@ -848,13 +848,16 @@ class BootstrapParticleFilter:
             # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
             f = self if len(blocks) == 1 else self._block(block)
             values: dict[str, list[np.ndarray]] = {name: [] for name in names}
+            # the block's slices of the inputs and histories, (K, runs of the block, ...), made once
+            zb, xb, Pb, xpb, Ppb = z_steps[:, block], x[:, block], P[:, block], xp[:, block], Pp[:, block]
+            yb, Sb, essb, resb = y[:, block], S[:, block], ess[:, block], resampled[:, block]
             for k in range(K):
                 uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
                 f._predict(uk)
-                f._update(z_steps[k][block])
-                x[k, block], P[k, block], xp[k, block], Pp[k, block] = f._x, f._P, f._xp, f._Pp
-                y[k, block], S[k, block] = f._y, f._S
-                ess[k, block], resampled[k, block] = f._ess, f._resampled
+                f._update(zb[k])
+                xb[k], Pb[k], xpb[k], Ppb[k] = f._x, f._P, f._xp, f._Pp
+                yb[k], Sb[k] = f._y, f._S
+                essb[k], resb[k] = f._ess, f._resampled
                 for name in names:
                     values[name].append(np.array(getattr(f, name), copy=True))
             for name in names:
