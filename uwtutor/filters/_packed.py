@@ -19,6 +19,7 @@ ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
 N_ROWS = 6
 
 _min = np.minimum.reduce                              # a.min() without numpy's Python wrapper (run once per step)
+_all = np.logical_and.reduce
 
 
 
@@ -57,7 +58,7 @@ def predict_step(s: np.ndarray, u: np.ndarray, q4: np.ndarray, out: np.ndarray) 
 
 
 def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: tuple[Any, Any] | None,
-                out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray) -> np.ndarray:
+                out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray, guard: bool = True) -> np.ndarray:
     """Range update of the predicted packed states ``s`` (6, M); the posterior is written into ``out``.
 
     ``z`` (M,) holds the ranges with missing ones replaced by any finite value and ``use`` (M,) is 1.0 where
@@ -65,6 +66,10 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: t
     prediction. ``beacon`` is ``(bx, by)``, floats or arrays (M,)/(1,) for a moving beacon, or None for the
     origin. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
     Returns the ``use`` array actually applied (runs whose prediction is on the beacon removed).
+
+    ``guard=False`` leaves out the test for a prediction on the beacon and the test of the posterior: for a
+    caller that tests the posteriors of many steps at once (:func:`first_unsound`; a prediction on the beacon
+    makes its posterior NaN) and redoes, with ``guard=True``, the steps from the first that fails.
     """
     xp, yp, pxx, pxy, _, pyy = s                     # the rows (views)
     if beacon is None:                               # the origin
@@ -74,7 +79,7 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: t
         dx = xp - bx if (np.ndim(bx) or bx) else xp
         dy = yp - by if (np.ndim(by) or by) else yp
     r = np.sqrt(dx * dx + dy * dy)                   # predicted range h(x-)
-    if _min(r) == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
+    if guard and _min(r) == 0.0:                     # H = (x - b)^T / |x - b| is 0/0 there
         on_beacon = r == 0.0
         if (use[on_beacon] != 0.0).any():
             warn("the predicted position is exactly on the beacon, where the range Jacobian is "
@@ -110,6 +115,8 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: t
     nxy = np.subtract(bxy, vx * ky, out=out[ROW_PXY])
     nyy = np.subtract(byy, vy * ky, out=out[ROW_PYY])
     out[ROW_PYX] = nxy
+    if not guard:
+        return use
     det = nxx * nyy
     det -= nxy * nxy
     if not (_min(det) >= 0.0 and _min(out[ROW_PXX::3], axis=None) >= 0.0):   # rows Pxx, Pyy; False for a NaN
@@ -118,6 +125,24 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: t
         # not PSD (a < 0), a value that overflowed, or round-off of the rotation beyond the stated tolerance
         check_psd(out, R)
     return use
+
+
+def first_unsound(post: np.ndarray) -> int | None:
+    """The first of the packed posteriors ``post`` (B, 6, M) of consecutive steps that :func:`update_step`'s test
+    refuses (a variance or the determinant below 0, or NaN, in any run), or None.
+
+    The determinant is computed as in the step, so that a step passes here exactly when it passes there.
+    """
+    pxx, pxy, pyy = post[:, ROW_PXX], post[:, ROW_PXY], post[:, ROW_PYY]
+    det = pxx * pyy
+    det -= pxy * pxy
+    low = np.minimum(pxx, pyy)
+    np.minimum(low, det, out=low)
+    least = _min(low, axis=1)                        # (B,): NaN where any entry is NaN
+    ok = least >= 0.0
+    if _all(ok):
+        return None
+    return int(np.argmin(ok))
 
 
 def _los_update(s: np.ndarray, hx: np.ndarray, hy: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_los: np.ndarray,
