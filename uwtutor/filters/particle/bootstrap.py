@@ -360,6 +360,7 @@ class BootstrapParticleFilter:
         self._resampled = np.zeros(M, dtype=bool)
         self._prior_moments = False
         self._complete = False                  # whether the measurement of the current update has no NaN
+        self._sequence_complete = False         # set by run() for a sequence without NaN
         self._white_key: bytes | None = None
         self._set_estimate()
         self._xp, self._Pp = self._x, self._P
@@ -640,11 +641,14 @@ class BootstrapParticleFilter:
         """:meth:`update` for a measurement already checked: shape (M, m), no infinite entry."""
         M, m = z.shape
         k = max(self.k, 0)
-        missing = np.isnan(z)
         reuse = self._prior_moments
         self._prior_moments = False
         self._resampled = np.zeros(M, dtype=bool)
-        self._complete = not _any(missing)                # for the likelihood: no component missing
+        if self._sequence_complete:                       # run() found no NaN in the whole sequence
+            missing, self._complete = None, True
+        else:
+            missing = np.isnan(z)
+            self._complete = not _any(missing)            # for the likelihood: no component missing
         if self._complete:
             none = None
         else:
@@ -700,7 +704,7 @@ class BootstrapParticleFilter:
         self._w = w
         self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
-        ess = np.array([1.0 / float(w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
+        ess = np.array([1.0 / (w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
@@ -843,26 +847,30 @@ class BootstrapParticleFilter:
         others: dict[str, list[np.ndarray]] = {name: [] for name in names}      # one (K, ...) stack per block
         blocks = self._blocks()
         parts = []
-        for block in blocks:
-            # the runs are independent: a block of them goes through every step before the next block, so that
-            # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
-            f = self if len(blocks) == 1 else self._block(block)
-            values: dict[str, list[np.ndarray]] = {name: [] for name in names}
-            # the block's slices of the inputs and histories, (K, runs of the block, ...), made once
-            zb, xb, Pb, xpb, Ppb = z_steps[:, block], x[:, block], P[:, block], xp[:, block], Pp[:, block]
-            yb, Sb, essb, resb = y[:, block], S[:, block], ess[:, block], resampled[:, block]
-            for k in range(K):
-                uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
-                f._predict(uk)
-                f._update(zb[k])
-                xb[k], Pb[k], xpb[k], Ppb[k] = f._x, f._P, f._xp, f._Pp
-                yb[k], Sb[k] = f._y, f._S
-                essb[k], resb[k] = f._ess, f._resampled
+        self._sequence_complete = not _any(np.isnan(zs))     # then no step needs to look for missing values
+        try:
+            for block in blocks:
+                # the runs are independent: a block of them goes through every step before the next block, so that
+                # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
+                f = self if len(blocks) == 1 else self._block(block)
+                values: dict[str, list[np.ndarray]] = {name: [] for name in names}
+                # the block's slices of the inputs and histories, (K, runs of the block, ...), made once
+                zb, xb, Pb, xpb, Ppb = z_steps[:, block], x[:, block], P[:, block], xp[:, block], Pp[:, block]
+                yb, Sb, essb, resb = y[:, block], S[:, block], ess[:, block], resampled[:, block]
+                for k in range(K):
+                    uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
+                    f._predict(uk)
+                    f._update(zb[k])
+                    xb[k], Pb[k], xpb[k], Ppb[k] = f._x, f._P, f._xp, f._Pp
+                    yb[k], Sb[k] = f._y, f._S
+                    essb[k], resb[k] = f._ess, f._resampled
+                    for name in names:
+                        values[name].append(np.array(getattr(f, name), copy=True))
                 for name in names:
-                    values[name].append(np.array(getattr(f, name), copy=True))
-            for name in names:
-                others[name].append(np.stack(values[name]))
-            parts.append(f)
+                    others[name].append(np.stack(values[name]))
+                parts.append(f)
+        finally:
+            self._sequence_complete = False
         if len(blocks) > 1:
             self._join(parts)
 
