@@ -235,7 +235,7 @@ def _systematic_trusted(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     if abs(total - 1.0) > WEIGHT_SUM_TOL:         # as _check_weights: normalize what is not (yet)
         w = w / total
     N = w.shape[-1]
-    points = _arange(N) + rng.random((1,))[0]
+    points = _arange(N) + rng.random()           # the draw of rng.random((1,)), as a float
     points /= N
     c = np.add.accumulate(w)
     if w[-1] > 0.0:                               # _cumulative's exact 1 at the end, inline

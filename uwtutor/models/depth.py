@@ -129,6 +129,12 @@ def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None 
     elif out is not s:
         out[...] = s
     ax = axis % s.ndim
+    if ax == 1 and s.ndim == 3:                                  # (M, 3, N): the particle filters' rows
+        dz = np.sin(s[:, 2])
+        dz *= s[:, 1]
+        dz *= T
+        out[:, 0] += dz
+        return out
 
     lead = (slice(None),) * ax                                   # index component i as lead + (i,)
     dz = np.sin(s[lead + (2,)])
