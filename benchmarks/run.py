@@ -178,17 +178,21 @@ def bench_ekf(repeats: int) -> dict[str, Any]:
             "filterpy_scaled_s": filterpy_full, "ekf_speedup_vs_filterpy": filterpy_full / batched}
 
 
-def interleaved_best(first: Callable[[], Any], second: Callable[[], Any], repeats: int) -> tuple[float, float]:
+def interleaved_best(first: Callable[[], Any], second: Callable[[], Any],
+                     repeats: int) -> tuple[float, float, float, float]:
     """Best wall times of ``first`` and ``second`` called in turn ``repeats`` times each, so that both see the
     same load of the machine (a ratio of the two is then steadier than either time; the ratio benchmarks take
-    three times ``--repeats``)."""
-    best = [float("inf"), float("inf")]
+    three times ``--repeats``), then the best CPU times of this process for each (which other processes disturb
+    less than the wall time)."""
+    wall = [float("inf"), float("inf")]
+    cpu = [float("inf"), float("inf")]
     for _ in range(repeats):
         for i, fn in enumerate((first, second)):
-            t0 = time.perf_counter()
+            c0, t0 = time.process_time(), time.perf_counter()
             fn()
-            best[i] = min(best[i], time.perf_counter() - t0)
-    return best[0], best[1]
+            wall[i] = min(wall[i], time.perf_counter() - t0)
+            cpu[i] = min(cpu[i], time.process_time() - c0)
+    return wall[0], wall[1], cpu[0], cpu[1]
 
 
 def _plain_numpy() -> Any:
@@ -214,10 +218,10 @@ def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
     inputs = ekf_study_inputs()
     args = [inputs[k] for k in ("x0", "P0", "u", "z", "Q", "R")]
     max_rel = plain.assert_ekf_agrees(range_only_ekf(**inputs), plain.range_only_ekf(*args))   # also a warm-up
-    ours, theirs = interleaved_best(lambda: range_only_ekf(**inputs), lambda: plain.range_only_ekf(*args),
-                                    3 * repeats)
+    ours, theirs, ours_cpu, theirs_cpu = interleaved_best(lambda: range_only_ekf(**inputs),
+                                                          lambda: plain.range_only_ekf(*args), 3 * repeats)
     return {"ekf_vs_numpy_s": ours, "ekf_numpy_s": theirs, "ekf_vs_numpy_ratio": ours / theirs,
-            "ekf_vs_numpy_max_rel_diff": max_rel}
+            "ekf_vs_numpy_cpu_ratio": ours_cpu / theirs_cpu, "ekf_vs_numpy_max_rel_diff": max_rel}
 
 
 def bench_pf_vs_numpy(repeats: int) -> dict[str, Any]:
@@ -243,9 +247,9 @@ def bench_pf_vs_numpy(repeats: int) -> dict[str, Any]:
                                   model.motion.T, model.motion.process_std, model.R)
 
     max_rel = plain.assert_pf_agrees(ours(), theirs())
-    ours_s, theirs_s = interleaved_best(ours, theirs, 3 * repeats)
+    ours_s, theirs_s, ours_cpu, theirs_cpu = interleaved_best(ours, theirs, 3 * repeats)
     return {"pf_vs_numpy_s": ours_s, "pf_numpy_s": theirs_s, "pf_vs_numpy_ratio": ours_s / theirs_s,
-            "pf_vs_numpy_max_rel_diff": max_rel}
+            "pf_vs_numpy_cpu_ratio": ours_cpu / theirs_cpu, "pf_vs_numpy_max_rel_diff": max_rel}
 
 
 def bench_generic_ekf(repeats: int) -> dict[str, Any]:
@@ -761,6 +765,12 @@ def _agreement(max_rel_diff: float) -> str:
     return f"outputs within {max_rel_diff:.0e} relative"
 
 
+def _cpu(results: dict[str, Any], name: str) -> str:
+    """The ratio of the CPU times beside that of the wall times, when it was measured."""
+    ratio = results.get(f"{name}_vs_numpy_cpu_ratio")
+    return "" if ratio is None else f" (CPU time {ratio:.2f}×)"
+
+
 def render_table(results: dict[str, Any]) -> str:
     """The benchmark table as Markdown (deterministic: the same results always give the same text)."""
     t = results["targets"]
@@ -800,14 +810,14 @@ def render_table(results: dict[str, Any]) -> str:
         r = results["ekf_vs_numpy_ratio"]
         rows.append((f"Range-only EKF study against the same EKF in plain numpy (benchmarks/plain_numpy.py: the "
                      f"same arithmetic, no checks), in turn in one process: {results['ekf_vs_numpy_s']:.3f} s "
-                     f"against {results['ekf_numpy_s']:.3f} s; {_agreement(results['ekf_vs_numpy_max_rel_diff'])})",
-                     f"{r:.2f}×",
+                     f"against {results['ekf_numpy_s']:.3f} s{_cpu(results, 'ekf')}; "
+                     f"{_agreement(results['ekf_vs_numpy_max_rel_diff'])}", f"{r:.2f}×",
                      _target("ekf_vs_numpy_ratio", t, "×"), _status("ekf_vs_numpy_ratio", r, t)))
     if "pf_vs_numpy_ratio" in results:
         r = results["pf_vs_numpy_ratio"]
         rows.append((f"Bootstrap PF above against the same PF in plain numpy on the same random stream, in turn in "
-                     f"one process: {results['pf_vs_numpy_s']:.3f} s against {results['pf_numpy_s']:.3f} s; "
-                     f"{_agreement(results['pf_vs_numpy_max_rel_diff'])})", f"{r:.2f}×",
+                     f"one process: {results['pf_vs_numpy_s']:.3f} s against {results['pf_numpy_s']:.3f} s"
+                     f"{_cpu(results, 'pf')}; {_agreement(results['pf_vs_numpy_max_rel_diff'])}", f"{r:.2f}×",
                      _target("pf_vs_numpy_ratio", t, "×"), _status("pf_vs_numpy_ratio", r, t)))
     if "pf_plaza2_s" in results:
         p = results["pf_plaza2_s"]
