@@ -135,6 +135,30 @@ def _small_log():
                         ranges=np.column_stack([np.arange(1.0, K), ids, r]), beacons=beacons, truth=truth)
 
 
+def _batched_ekf(x0, z):
+    """The range-only EKF on the small circle, batched over the runs of ``x0`` and ``z`` (a user's filter_fn)."""
+    from uwtutor.filters import range_only_ekf
+    return range_only_ekf(x0, np.eye(2) * 100.0, _U, z, np.eye(2) * 0.1, 1.0)
+
+
+def _study_draw(rng, n):
+    """``n`` runs of the small circle with noisy ranges: a user's draw(rng, n) -> (inputs, truth)."""
+    z = _Z + rng.normal(0.0, 1.0, (n, len(_Z)))
+    return dict(x0=np.tile(_X0, (n, 1)), z=np.abs(z)), _TRACK[1:]
+
+
+def _study_estimate(inputs):
+    return _batched_ekf(inputs["x0"], inputs["z"])
+
+
+def _compare_scenario(rng, n):
+    return n
+
+
+def _compare_condition(rng, n):
+    return _study_draw(rng, n)
+
+
 _DATA = dict(data=Instance())
 _OPT_POS = Real((), "pos", optional=True)
 
@@ -228,6 +252,27 @@ SPECS: dict[str, Spec] = {
         lambda: dict(func=None), kinds=dict(func=StudentFunc(returns_ok=True)),
         check=lambda v, b: _feedback_check(v[1], b[1]) if v[1] is not None else [],
         refused=lambda v: v[1] is not None, crash_is_obscure=True),
+    # Monte Carlo studies (the filter and the draws are the user's functions)
+    "uwtutor.montecarlo:run_monte_carlo": Spec(
+        lambda: dict(filter_fn=_batched_ekf, truth=np.broadcast_to(_TRACK[1:], (3, 5, 2)),
+                     x0=np.tile(_X0, (3, 1)), z=np.tile(_Z, (3, 1)), components=[0, 1], confidence=0.95),
+        call=lambda filter_fn, truth, **kw: __import__("uwtutor.montecarlo", fromlist=["x"]).run_monte_carlo(
+            filter_fn, truth, **kw),
+        kinds=dict(filter_fn=Func(), truth=Real((3, 5, 2)), x0=Real((3, 2)), z=Real((3, 5), "nonneg", nan_ok=True),
+                   components=Real((2,)))),
+    "uwtutor.montecarlo:run_study": Spec(
+        lambda: dict(draw=_study_draw, estimate=_study_estimate, n_runs=4, seed=1, chunk_size=2, executor=None,
+                     components=[0, 1], confidence=0.95),
+        kinds=dict(draw=Func(), estimate=Func(), chunk_size=Int(minimum=1), executor=Instance(optional=True),
+                   components=Real((2,)))),
+    "uwtutor.montecarlo:scenario_draw": Spec(
+        lambda: dict(scenario=_study_draw, condition=lambda rng, runs: runs),
+        kinds=dict(scenario=Func(), condition=Func()), check=lambda v, b: []),
+    "uwtutor.montecarlo:compare": Spec(
+        lambda: dict(methods={"ekf": _study_estimate}, scenarios={"circle": _compare_scenario},
+                     conditions={"gauss": _compare_condition}, n_runs=4, seed=1, chunk_size=2),
+        kinds=dict(methods=Mapping({"ekf": 3}), scenarios=Mapping({"circle": "abc"}),
+                   conditions=Mapping({"gauss": None}), chunk_size=Int(minimum=1))),
     # metrics
     "uwtutor.metrics:nees": Spec(lambda: dict(estimates=_TRACK[1:] + 1.0, covariances=np.tile(np.eye(2) * 4, (5, 1, 1)),
                                               truth=_TRACK[1:]),
@@ -436,6 +481,9 @@ EXEMPT: dict[str, str] = {
                                            "in tests/test_real_data_study.py",
     "uwtutor.datasets.study:RealDataStudy": "the committed study's container, built by run_real_data_study or load",
     "uwtutor.datasets.baselines:BaselineRun": "a result container the baselines build",
+    "uwtutor.montecarlo:MonteCarloResult": "a result container run_monte_carlo builds (its scores are checked there)",
+    "uwtutor.montecarlo:StudyResult": "a result container run_study builds (its scores are checked there)",
+    "uwtutor.montecarlo:ComparisonTable": "the table container compare builds (and from_csv reads back)",
     "uwtutor.datasets.factor_graph:GraphSolution": "a result container gtsam_map builds",
     "uwtutor.datasets.navigation:NavigationModels": "a container navigation_models builds",
     "uwtutor.widgets.ch11:RealDataView": "a view container real_data_view builds",
@@ -493,3 +541,7 @@ def lookup(key: str, obj: Callable) -> tuple[str, Any]:
 def kinds_of(spec: Spec, valid: dict[str, Any]) -> dict[str, Kind]:
     """The kind of every argument of the valid call (the spec's own, else ``KIND_BY_NAME``; unknown: no mutation)."""
     return {name: spec.kinds.get(name, KIND_BY_NAME.get(name, Kind())) for name in valid}
+from robustness_spec_core import SPECS_CORE, EXEMPT_CORE  # noqa: E402
+SPECS.update(SPECS_CORE); EXEMPT.update(EXEMPT_CORE)  # noqa: E702
+from robustness_spec_scen import SPECS_SCEN, EXEMPT_SCEN  # noqa: E402
+SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)  # noqa: E702

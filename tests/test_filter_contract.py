@@ -17,7 +17,7 @@ from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, F
 from uwtutor.filters import CooperativeEKF, cooperative_ekf
 from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
-from uwtutor.filters import ReacquiringGate
+from uwtutor.filters import DepthEKF, ReacquiringGate
 from uwtutor.models import (BeaconRanges, DeadReckoning, DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel,
                             OdometryMotion, PitchManeuver, RangeToBeacon)
 from uwtutor.scenarios import paper_b
@@ -177,6 +177,7 @@ def _depth_cases():
     x0 = np.array([10.0, 1.5, 0.1]) + rng.normal(0.0, [0.2, 0.05, 0.01], (M, 3))
     return [Case("ExtendedKalmanFilter-depth-speed-pitch", lambda b: ExtendedKalmanFilter(
                 DepthSpeedPitch(process_std=std), DepthSensors(R), _pick(x0, b), R), z, None),
+            Case("DepthEKF", lambda b: DepthEKF(_pick(x0, b), R, Q=np.diag(std**2), R=R), z, None),
             Case("ExtendedKalmanFilter-pitch-maneuver", lambda b: ExtendedKalmanFilter(
                 PitchManeuver(pitch_target=0.3, time_constant=1.0, process_std=std), DepthSensors(R), _pick(x0, b),
                 R), z, None)]

@@ -39,10 +39,7 @@ LAYERS: list[tuple[str, frozenset[str]]] = [
 #: the top's siblings): an exercise checker computes its reference with the library, never through a widget.
 SEPARATE = {("exercises", "widgets")}
 #: Imports against the flow that are known and not yet mended, each with its reason. The list may only shrink.
-KNOWN: dict[tuple[str, str], str] = {
-    ("uwtutor.exercises.ch04", "uwtutor.widgets.ch04"): "exercise 4.5's reference is the chapter widget's own Monte "
-    "Carlo study (ekf_view); it moves below both when the widget's study is split from its view",
-}
+KNOWN: dict[tuple[str, str], str] = {}
 #: The package root only exposes the version and the subpackages; it is not a layer.
 ROOT = "__init__"
 

@@ -140,3 +140,53 @@ def test_a_truth_that_only_broadcasts_is_refused():
     with pytest.raises(ValueError, match="truth must have shape"):
         run_monte_carlo(range_only_ekf, np.zeros((K, 1)), x0=np.full((3, 2), 100.0), P0=np.eye(2), u=u, z=z,
                         Q=np.eye(2) * 0.1, R=1.0)
+
+
+# --- one scoring for both studies (issue 27): run_monte_carlo and run_study score a result with the same code -------
+def _fixed_result(x, P):
+    from types import SimpleNamespace
+    return SimpleNamespace(x=x, P=P, times=np.arange(x.shape[1], dtype=float))
+
+
+def _both_studies(x, P, truth):
+    """Score the same fixed result with run_monte_carlo and with a one-chunk run_study."""
+    from uwtutor.montecarlo import run_study
+
+    def draw(rng, n):
+        return None, truth
+
+    mc = run_monte_carlo(lambda: _fixed_result(x, P), truth)
+    st = run_study(draw, lambda inputs: _fixed_result(x, P), x.shape[0], seed=0, chunk_size=x.shape[0])
+    return mc, st
+
+
+def test_both_studies_give_the_same_scores():
+    truth, inputs = ekf_draws(M=6, K=30)
+    res = range_only_ekf(**inputs)
+    mc, st = _both_studies(res.x, res.P, truth)
+    np.testing.assert_allclose(st.rmse, mc.rmse, rtol=1e-14)
+    np.testing.assert_allclose(st.mean_nees, mc.mean_nees, rtol=1e-14)
+    np.testing.assert_array_equal(st.final_errors, mc.final_errors)
+    assert st.nees_bounds == mc.nees_bounds
+
+
+def test_a_collapsed_covariance_gives_an_infinite_nees_in_both_studies():
+    """A zero covariance (a particle cloud reduced to one particle) is a result: NEES = inf, not an exception."""
+    x = np.ones((3, 4, 2))
+    P = np.broadcast_to(np.eye(2), (3, 4, 2, 2)).copy()
+    P[1, 2] = 0.0
+    mc, st = _both_studies(x, P, np.zeros((4, 2)))
+    assert np.isinf(mc.nees[1, 2]) and np.isfinite(np.delete(mc.nees.ravel(), 1 * 4 + 2)).all()
+    assert np.isinf(mc.mean_nees[2]) and np.isinf(st.mean_nees[2])
+    np.testing.assert_array_equal(np.delete(mc.mean_nees, 2), np.delete(st.mean_nees, 2))
+
+
+def test_a_diverged_run_makes_the_mean_nees_nan_in_both_studies():
+    """A NaN estimate is not hidden by leaving its run out of the mean."""
+    x = np.ones((3, 4, 2))
+    x[0, 3] = np.nan
+    P = np.broadcast_to(np.eye(2), (3, 4, 2, 2)).copy()
+    mc, st = _both_studies(x, P, np.zeros((4, 2)))
+    assert np.isnan(mc.mean_nees[3]) and np.isnan(st.mean_nees[3])
+    assert np.isnan(mc.rmse[3]) and np.isnan(st.rmse[3])
+    np.testing.assert_array_equal(mc.mean_nees[:3], np.full(3, 2.0))

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from uwtutor.motion import (DeadReckoning, Track, circle_track, dead_reckoning, displacement_noise,
+from uwtutor.motion import (DeadReckoningResult, Track, circle_track, dead_reckoning, displacement_noise,
                             lawnmower_track, s_turn_track, straight_track, turning_track, with_current)
 
 T = np.arange(0.0, 101.0)
@@ -199,7 +199,7 @@ def test_generators_reject_bad_input(call, name):
 def test_dead_reckoning_without_noise_is_exact():
     tr = circle_track(T, 200.0, 2.0)
     dr = dead_reckoning(tr, np.random.default_rng(0))
-    assert isinstance(dr, DeadReckoning)
+    assert isinstance(dr, DeadReckoningResult)
     np.testing.assert_allclose(dr.displacements[0], 0.0)
     np.testing.assert_allclose(dr.displacements[1:], np.diff(tr.positions, axis=0), atol=1e-12)
     np.testing.assert_allclose(dr.positions, tr.positions, atol=1e-9)

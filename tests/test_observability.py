@@ -221,7 +221,7 @@ def test_inputs_are_validated_with_clear_errors():
         ob.fisher_information(np.zeros((0, 2)), [0.0, 0.0], 1.0)
     with pytest.raises(ValueError, match="times are needed"):
         ob.track_jacobian([[0.0, 1.0], [1.0, 1.0]], [0.0, 0.0], unknown_current=True)
-    with pytest.raises(ValueError, match="one entry per position"):
+    with pytest.raises(ValueError, match="one entry per row of positions"):
         ob.track_jacobian([[0.0, 1.0], [1.0, 1.0]], [0.0, 0.0], times=[0.0], unknown_current=True)
     with pytest.raises(ValueError, match="reference must be an epoch index"):
         ob.track_jacobian([[0.0, 1.0], [1.0, 1.0]], [0.0, 0.0], reference=5)

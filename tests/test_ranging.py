@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from uwtutor.motion import straight_track
 from uwtutor.ranging import (CompositeError, GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError,
-                             horizontal_range, measure_ranges, reception_times, slant_range)
+                             add_range_errors, horizontal_range, measure_ranges, reception_times, slant_range)
 
 K = 50
 TIMES = np.arange(float(K))
@@ -267,11 +267,41 @@ def test_measure_ranges_adds_the_errors():
     np.testing.assert_array_equal(measure_ranges(RANGES, TIMES, None, np.random.default_rng(0)), RANGES)
 
 
-def test_measure_ranges_keeps_negative_ranges_with_a_warning():
-    with pytest.warns(UserWarning, match="negative"):
-        measured = measure_ranges(np.full(5, 10.0), np.arange(5.0), Outliers((0.0,), 5, 50.0, two_sided=True),
-                                  np.random.default_rng(0), n_runs=10)
-    assert measured.min() == pytest.approx(-40.0)
+def test_measure_ranges_reads_a_negative_sum_as_its_magnitude():
+    # issue 27: one policy for every measured range of the library -- |true range + error|, never negative
+    model = Outliers((0.0,), 5, 50.0, two_sided=True)
+    measured, errors, hit = measure_ranges(np.full(5, 10.0), np.arange(5.0), model, np.random.default_rng(0),
+                                           n_runs=10, return_errors=True)
+    drawn, mask = model.sample_with_mask(np.full(5, 10.0), np.arange(5.0), np.random.default_rng(0), n_runs=10)
+    np.testing.assert_array_equal(errors, drawn)
+    np.testing.assert_array_equal(hit, mask)
+    assert (drawn < -10.0).any() and measured.min() == pytest.approx(40.0)
+    np.testing.assert_array_equal(measured, np.abs(10.0 + drawn))
+    # the same draws as without return_errors
+    np.testing.assert_array_equal(measure_ranges(np.full(5, 10.0), np.arange(5.0), model,
+                                                 np.random.default_rng(0), n_runs=10), measured)
+
+
+def test_add_range_errors_applies_the_same_policy_in_the_order_given():
+    true = np.array([100.0, 20.0, 5.0])
+    clock = np.array([0.1, 0.2, 0.3])
+    noise = np.array([[1.5, np.nan, -8.0], [-0.5, 2.0, 1.0]])
+    r = add_range_errors(true, clock, noise)
+    np.testing.assert_array_equal(r, np.abs(true + clock + noise))
+    assert np.isnan(r[0, 1]) and r[0, 2] == pytest.approx(2.7)
+
+
+@pytest.mark.parametrize("args, exc, name", [
+    (([1.0, -2.0], [0.0, 0.0]), ValueError, "true_ranges"),
+    (([1.0, 2.0], [0.0, np.inf]), ValueError, "errors"),
+    (([1.0, 2.0], [0.0, 0.0, 0.0]), ValueError, "errors"),
+    (([1.0, 2.0], [[0.0], [0.0]]), ValueError, "errors"),
+    (([1.0, 2.0], [0.0, 0.0], "abc"), TypeError, r"errors\[1\]"),
+    (([1.0, 2.0],), TypeError, "at least one"),
+])
+def test_add_range_errors_names_bad_input(args, exc, name):
+    with pytest.raises(exc, match=name):
+        add_range_errors(*args)
 
 
 @pytest.mark.parametrize("ranges, error, name, exc", [

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from uwtutor import acoustics, observability as ob
+from uwtutor import acoustics, grey, metrics, motion, observability as ob, owtt, reporting, wavelet
 from uwtutor.errors import IllConditionedError, UwtutorWarning
 from uwtutor.exercises import ch02, ch07, ch08, checks
 from uwtutor.filters import extended_kalman_filter, fading_ekf, rts_smoother
@@ -227,6 +227,33 @@ def _raises(exc, match, fn, *args, **kwargs):
      lambda: paper_b.make(np.random.default_rng(0), 1, interval=[8.0])),
     ("suite unbounded work", ValueError, r"n asks for .* use fewer, or run them in chunks",
      lambda: suite.circle(np.random.default_rng(0), 10**8)),
+    ("metrics 1e300 estimate", ValueError, "estimates must be finite .* and at most",
+     lambda: metrics.rmse_over_time(TRACK + [1e300, 0.0], TRACK)),
+    ("metrics 1e300 truth", ValueError, "truth must be at most",
+     lambda: metrics.estimation_errors(TRACK, TRACK * 1e300)),
+    ("NEES overflow", ValueError, "NEES that overflows",
+     lambda: metrics.nees(TRACK + 1e100, np.tile(np.eye(2) * 1e-150, (K + 1, 1, 1)), TRACK)),
+    ("gm11_next 1e300 beside 11", ValueError, "series gives a GM\\(1,1\\) forecast that overflows",
+     lambda: grey.gm11_next([1e300, 11.0, 12.5, 13.0, 14.2])),
+    ("gm11 coefficients 1e-300 beside 1e300", ValueError, "series cannot be fitted by GM\\(1,1\\) in float64",
+     lambda: grey.gm11_coefficients([1e300, 11.0, 12.5, 13.0, 1e-300])),
+    ("gm11 forecast overflow", ValueError, "the GM\\(1,1\\) forecast overflows float64",
+     lambda: grey.gm11_forecast([1.0, 10.0, 100.0, 1e3, 1e4], 4000)),
+    ("gm11 one-element background_weight", ValueError, "background_weight must be a single number",
+     lambda: grey.fit_gm11([10.0, 11.0, 12.5, 13.0], background_weight=[0.5])),
+    ("observability one-element rtol", ValueError, "rtol must be a single number",
+     lambda: ob.numerical_rank(np.eye(2), rtol=[1e-6])),
+    ("two_range_fix overflow", ValueError, "displacement must be at most",
+     lambda: ob.two_range_fix([0.0, 0.0], [100.0, 104.0], [1e300, 0.0])),
+    ("owtt clock offset named", TypeError, "clock_offset must be numeric",
+     lambda: owtt.simulate_owtt([0.0, 1.0], (0.0, 0.0), (1500.0, 0.0), clock_offset="abc")),
+    ("dead reckoning unbounded runs", ValueError, "n_runs asks for",
+     lambda: motion.dead_reckoning(motion.straight_track(np.arange(5.0), (0.0, 0.0), 1.0, 0.0),
+                                   np.random.default_rng(0), n_runs=10**12)),
+    ("wavelet as an int", TypeError, "wavelet must be the name of a discrete wavelet",
+     lambda: wavelet.noise_sigma(np.ones(20), wavelet=6)),
+    ("below_or_value bad fmt", ValueError, "fmt must be a float format",
+     lambda: reporting.below_or_value(1e-12, fmt="no-such")),
 ])
 def test_reported_silent_answers_are_refused(label, exc, match, call):
     with pytest.raises(exc, match=match):

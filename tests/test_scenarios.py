@@ -68,12 +68,14 @@ def test_make_scenario_separates_dr_and_range_streams():
     np.testing.assert_array_equal(a.range_errors, b.range_errors)
 
 
-def test_make_scenario_warns_on_negative_ranges():
+def test_make_scenario_measures_its_ranges_with_the_one_policy():
+    # issue 27: an error larger than the range gives |true + error|, as ranging.measure_ranges does
     track = straight_track(np.arange(0.0, 10.0), (5.0, 0.0), 0.1, 0.0)
-    with pytest.warns(UserWarning, match="negative"):
-        sc = make_scenario(track, (0.0, 0.0), Outliers((0.0,), 10, 50.0, two_sided=True), np.random.default_rng(0),
-                           n_runs=5)
-    assert (sc.ranges < 0).any()
+    sc = make_scenario(track, (0.0, 0.0), Outliers((0.0,), 10, 50.0, two_sided=True), np.random.default_rng(0),
+                       n_runs=5)
+    assert (sc.true_ranges + sc.range_errors < 0).any()
+    assert (sc.ranges >= 0).all()
+    np.testing.assert_array_equal(sc.ranges, np.abs(sc.true_ranges + sc.range_errors))
 
 
 @pytest.mark.parametrize("kwargs, exc, name", [

@@ -9,7 +9,16 @@ __all__ = ["quadratic_form", "positive_definite", "psd_violations", "line_of_sig
 
 def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ranges, unit lines of sight and where they are defined, without checks: the per-step path of the filters,
-    least squares and bounds (:func:`uwtutor.models.range.line_of_sight` is the checked public form)."""
+    least squares and bounds (:func:`uwtutor.models.range.line_of_sight` is the checked public form).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor._linalg import line_of_sight
+    >>> r, los, defined = line_of_sight(np.array([[3.0, 4.0], [0.0, 0.0]]), np.zeros(2))
+    >>> r, los[0], defined
+    (array([5., 0.]), array([0.6, 0.8]), array([ True, False]))
+    """
     d = positions - beacon
     r = np.hypot(d[..., 0], d[..., 1])
     defined = r != 0.0                   # a NaN position stays NaN (it is not "on the beacon")
@@ -21,7 +30,15 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
 def positive_definite(cov: np.ndarray) -> np.ndarray:
     """Which of the stacked matrices ``(..., n, n)`` are positive definite, by the test of :func:`quadratic_form`:
     Sylvester's criterion (:math:`C_{00} > 0`, :math:`C_{00}C_{11} - C_{01}^2 > 0`) for n <= 2, a Cholesky
-    factorization for larger ones. A NaN or infinite matrix is not."""
+    factorization for larger ones. A NaN or infinite matrix is not.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor._linalg import positive_definite
+    >>> positive_definite(np.array([np.eye(2), [[1.0, 2.0], [2.0, 1.0]]]))
+    array([ True, False])
+    """
     cov = np.asarray(cov, dtype=float)
     n = cov.shape[-1]
     if n <= 2:

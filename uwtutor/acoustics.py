@@ -175,6 +175,14 @@ def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = F
     -------
     float or ndarray
         Travel time [s]; a float for scalar inputs. ``range_from_travel_time`` is the inverse.
+
+    Examples
+    --------
+    >>> from uwtutor.acoustics import travel_time_from_range
+    >>> travel_time_from_range(1500.0, 1500.0)
+    1.0
+    >>> travel_time_from_range(1500.0, 1500.0, two_way=True)
+    2.0
     """
     two_way = as_flag("two_way", two_way)
     r = as_range_array("slant_range", slant_range)

@@ -67,7 +67,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import as_finite, as_float_array, as_int
+from ._validate import as_finite, as_float_array, as_int, as_scalar, check_finite_result, check_work
 
 __all__ = [
     "GM11",
@@ -86,7 +86,7 @@ _MIN_LENGTH = 4          # the usual minimum of the grey-systems literature (2 u
 # --- validation -------------------------------------------------------------------------------------------------
 
 def _background_weight(value: Any) -> float:
-    w = float(as_finite("background_weight", value))
+    w = as_scalar("background_weight", value)
     if not 0.0 <= w <= 1.0:
         raise ValueError(f"background_weight must lie in [0, 1] (0.5 is the usual choice); got {w}")
     return w
@@ -139,6 +139,17 @@ def _coefficients(x0: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]
     return a, b
 
 
+def _fitted_coefficients(x0: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_coefficients` of a user's series, refused by name when float64 cannot fit it (values that span
+    more orders of magnitude than float64 resolves, e.g. 1e300 next to 10: the accumulated series is flat)."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        a, b = _coefficients(x0, alpha)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError("series cannot be fitted by GM(1,1) in float64: its values span too many orders of magnitude "
+                         "(its accumulated series does not grow in floating point). Rescale or split it")
+    return a, b
+
+
 def _expm1_over(a: np.ndarray) -> np.ndarray:
     """``(e^a - 1) / a``, equal to 1 at ``a = 0`` (no division by zero)."""
     a = np.asarray(a, dtype=float)
@@ -169,6 +180,15 @@ class LevelRatioTest:
         :math:`e^{2/(n+1)}`.
     passed : bool
         Whether every ratio lies strictly between ``lower`` and ``upper``.
+
+    Examples
+    --------
+    >>> from uwtutor.grey import level_ratio_test
+    >>> test = level_ratio_test([2.874, 3.278, 3.337, 3.390, 3.679])
+    >>> test.ratios.round(3), round(test.lower, 3), round(test.upper, 3)
+    (array([0.877, 0.982, 0.984, 0.921]), 0.717, 1.396)
+    >>> bool(test)
+    True
     """
 
     ratios: np.ndarray
@@ -211,6 +231,15 @@ class GM11:
         :math:`p_\mathrm{g}`, the share of residuals with :math:`|e_\mathrm{g}(k) - \bar e_\mathrm{g}| < 0.6745\, S_x`.
     level_ratio : LevelRatioTest
         The level-ratio test of the series.
+
+    Examples
+    --------
+    >>> from uwtutor.grey import fit_gm11
+    >>> m = fit_gm11([2.874, 3.278, 3.337, 3.390, 3.679])
+    >>> m.n, round(m.posterior_variance_ratio, 3), round(m.small_error_probability, 2)
+    (5, 0.212, 1.0)
+    >>> float(m.time_response(0.0)), m.level_ratio.passed
+    (2.874, True)
     """
 
     series: np.ndarray
@@ -249,7 +278,9 @@ class GM11:
         if (k < 0).any():
             raise ValueError("k must be >= 0 (steps after the first value of the series)")
         x1 = self.series[0]
-        return x1 + (self.b - self.a * x1) * k * _expm1_over(-self.a * k)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = x1 + (self.b - self.a * x1) * k * _expm1_over(-self.a * k)
+        return check_finite_result(out, "k", what="the GM(1,1) time response")
 
     def forecast(self, steps: int = 1) -> np.ndarray:
         r"""The next ``steps`` values :math:`\hat x^{(0)}(n+1), \dots, \hat x^{(0)}(n+\text{steps})`.
@@ -264,8 +295,11 @@ class GM11:
         ndarray, shape (steps,)
         """
         steps = as_int("steps", steps, minimum=1)
+        check_work("steps", steps, "forecasts")
         k = np.arange(self.n, self.n + steps, dtype=float)
-        return _restored(np.asarray(self.series[0]), np.asarray(self.a), np.asarray(self.b), k)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = _restored(np.asarray(self.series[0]), np.asarray(self.a), np.asarray(self.b), k)
+        return check_finite_result(out, "steps", what="the GM(1,1) forecast")
 
 
 # --- public functions ---------------------------------------------------------------------------------------------
@@ -344,7 +378,7 @@ def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
     """
     alpha = _background_weight(background_weight)
     x0 = _positive_series("series", series, ndim=1)
-    a_arr, b_arr = _coefficients(x0, alpha)
+    a_arr, b_arr = _fitted_coefficients(x0, alpha)
     a, b = float(a_arr), float(b_arr)
     x1 = np.cumsum(x0)
     z = alpha * x1[1:] + (1.0 - alpha) * x1[:-1]
@@ -379,10 +413,20 @@ def gm11_coefficients(series: Any, *, background_weight: float = 0.5) -> tuple[n
         Development coefficients.
     b : ndarray, shape (...)
         Grey inputs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.grey import gm11_coefficients
+    >>> a, b = gm11_coefficients(
+    ...     np.array([[2.874, 3.278, 3.337, 3.390, 3.679], [1.0, 2.0, 3.0, 4.0, 5.0]])
+    ... )
+    >>> a.round(4), b.round(4)
+    (array([-0.0372, -0.2811]), array([3.0654, 1.6024]))
     """
     alpha = _background_weight(background_weight)
     x0 = _positive_series("series", series)
-    return _coefficients(x0, alpha)
+    return _fitted_coefficients(x0, alpha)
 
 
 def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5) -> np.ndarray:
@@ -420,9 +464,12 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     alpha = _background_weight(background_weight)
     steps = as_int("steps", steps, minimum=1)
     x0 = _positive_series("series", series)
-    a, b = _coefficients(x0, alpha)
+    check_work("steps", steps * (x0.size // x0.shape[-1]), "forecasts")
+    a, b = _fitted_coefficients(x0, alpha)
     n = x0.shape[-1]
-    return _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
+    return check_finite_result(out, "series", "steps", what="the GM(1,1) forecast")
 
 
 def gm11_next(series: Any) -> np.ndarray:
@@ -459,13 +506,14 @@ def gm11_next(series: Any) -> np.ndarray:
     if not np.minimum.reduce(x0, axis=None) > 0.0:          # also False for NaN
         raise ValueError("series must be finite and > 0 for GM(1,1) (shift it by a constant first); got a value "
                          "<= 0 or NaN")
-    a, b = _coefficients(x0, 0.5)
     n = x0.shape[-1]
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        a, b = _coefficients(x0, 0.5)
         out = _restored(x0[..., 0], a, b, np.array([float(n)]))[..., 0]
     if not np.all(np.isfinite(out)):
-        raise ValueError("series gives a GM(1,1) forecast that overflows float64 (values near 1e308, or a series "
-                         "that grows too fast for its length): rescale the series")
+        raise ValueError("series gives a GM(1,1) forecast that overflows float64 (values near 1e308, a series "
+                         "that grows too fast for its length, or values that span too many orders of magnitude): "
+                         "rescale the series")
     return out
 
 
@@ -496,12 +544,22 @@ def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,
     ------
     ValueError
         If a window (after the offset) holds a value <= 0 or a non-finite value.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.grey import rolling_gm11_forecast
+    >>> s = np.array([10.0, 11.0, 12.5, 13.0, 14.2, 15.1, 16.3])
+    >>> rolling_gm11_forecast(s, window=4).round(2)
+    array([  nan,   nan,   nan,   nan, 14.27, 15.04, 16.32])
     """
     x = as_finite("series", series)
     if x.ndim == 0:
         raise ValueError("series must be an array of values along its last axis; got a scalar")
+    if x.shape[-1] == 0:
+        raise ValueError(f"series must hold at least one value along its last axis; got shape {x.shape}")
     L = as_int("window", window, minimum=_MIN_LENGTH)
-    c = float(as_finite("offset", offset))
+    c = as_scalar("offset", offset)
     K = x.shape[-1]
     out = np.full(x.shape, np.nan)
     if K <= L:

@@ -30,7 +30,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ._validate import as_int, as_rng
+from ._validate import as_choice, as_flag, as_int, as_rng
 from .errors import IllConditionedWarning
 from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf,
                       range_only_ekf)
@@ -45,8 +45,8 @@ __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds"
 
 def _inputs(inputs: Any) -> SuiteInputs:
     if not isinstance(inputs, SuiteInputs):
-        raise TypeError("a method takes the SuiteInputs of a condition of uwtutor.scenarios.suite (the first item "
-                        f"of condition(rng, runs)); got {type(inputs).__name__}")
+        raise TypeError("inputs must be the SuiteInputs of a condition of uwtutor.scenarios.suite (the first item "
+                        f"of condition(rng, runs)): every method takes them; got {type(inputs).__name__}")
     return inputs
 
 
@@ -103,6 +103,20 @@ def ls_prepositioning(inputs: SuiteInputs) -> FilterResult:
     accepted one (from the initial guess before the first). Covariance: the fix's
     :math:`\sigma_r^2 (A^\mathsf T A)^{-1}`. The fix ignores the DR error accumulated over the track, which
     grows with its length: that is the method's limit (chapter 7).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ls_prepositioning(inputs)
+    >>> result.x.shape, result.extras["fixed"].shape
+    ((2, 150, 2), (2, 150))
+    >>> # three unknowns: no fix before the fourth range
+    >>> bool(result.extras["fixed"][:, :3].any())
+    False
     """
     from . import lsq
 
@@ -142,7 +156,19 @@ SPEED_ERROR_GRID = 1470.0 - np.arange(1550.0, 1419.0, -10.0)
 
 def prelocate(inputs: SuiteInputs) -> Any:
     """Paper D's grid search (``uwtutor.lsq.grid_prelocation``) on the suite's inputs, on the grid
-    ``SPEED_ERROR_GRID``: what :func:`grid_prelocation` and :func:`ls_isfekf` start from."""
+    ``SPEED_ERROR_GRID``: what :func:`grid_prelocation` and :func:`ls_isfekf` start from.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> pre = methods.prelocate(inputs)
+    >>> type(pre).__name__, pre.position.shape, pre.cost_map.shape[0]
+    ('Prelocation', (2, 150, 2), 2)
+    """
     from . import lsq
 
     s = _inputs(inputs)
@@ -152,7 +178,19 @@ def prelocate(inputs: SuiteInputs) -> Any:
 
 def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
     """Paper D's grid-search pre-location on its own: the best (start bearing, sound-speed error) cell at every
-    epoch, from all the ranges so far. It has no covariance: ``P`` is NaN."""
+    epoch, from all the ranges so far. It has no covariance: ``P`` is NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.grid_prelocation(inputs)
+    >>> result.x.shape, bool(np.isnan(result.P).all())
+    ((2, 150, 2), True)
+    """
     s = _inputs(inputs)
     pre = prelocate(s)
     n, K = s.n_runs, s.n_epochs
@@ -161,7 +199,19 @@ def grid_prelocation(inputs: SuiteInputs) -> FilterResult:
 
 
 def ekf(inputs: SuiteInputs) -> FilterResult:
-    """The range-only EKF of chapter 4 (Joseph form), told the suite's Q and R."""
+    """The range-only EKF of chapter 4 (Joseph form), told the suite's Q and R.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ekf(inputs)
+    >>> result.x.shape, result.P.shape, truth.shape
+    ((2, 150, 2), (2, 150, 2, 2), (2, 150, 2))
+    """
     s = _inputs(inputs)
     return range_only_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, beacon=s.beacon, times=s.times)
 
@@ -174,7 +224,20 @@ def _bias_noise(s: SuiteInputs) -> tuple[np.ndarray, np.ndarray]:
 
 
 def iekf(inputs: SuiteInputs) -> FilterResult:
-    """Paper A's IEKF: the state carries the range bias, a random walk (chapter 7), from bias 0."""
+    """Paper A's IEKF: the state carries the range bias, a random walk (chapter 7), from bias 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.iekf(inputs)
+    >>> # [x, y, range bias]
+    >>> result.x.shape
+    (2, 150, 3)
+    """
     s = _inputs(inputs)
     Q3, P3 = _bias_noise(s)
     x0 = np.concatenate([s.x0, np.zeros((s.n_runs, 1))], axis=1)
@@ -183,7 +246,22 @@ def iekf(inputs: SuiteInputs) -> FilterResult:
 
 def prepositioned_iekf(inputs: SuiteInputs) -> FilterResult:
     """Paper A's pre-positioning, then its IEKF (chapter 7): the filter starts once the precision factor of the
-    least-squares fix is below 2; dead reckoning from the initial guess until then."""
+    least-squares fix is below 2; dead reckoning from the initial guess until then.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.prepositioned_iekf(inputs)
+    >>> result.x.shape, result.extras["started"].shape
+    ((2, 150, 3), (2, 150))
+    >>> # dead reckoning from the initial guess before the start: no range bias estimated there
+    >>> bool(np.isnan(result.x[..., 2][~result.extras["started"]]).all())
+    True
+    """
     s = _inputs(inputs)
     Q3, _ = _bias_noise(s)
     res = prepositioned_bias_ekf(s.z, s.u, s.x0, Q3, s.R, beacon=s.fixed_beacon, times=s.times)
@@ -198,18 +276,54 @@ def _fading(s: SuiteInputs, beta: Any) -> FilterResult:
 
 def sfekf(inputs: SuiteInputs) -> FilterResult:
     """The suboptimal fading EKF (constant weakening factor 1) for multiplicative noise (chapter 5), told the
-    assumed sound speed is right (mean factor 1) with paper D's ping-to-ping scatter."""
+    assumed sound speed is right (mean factor 1) with paper D's ping-to-ping scatter.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.sfekf(inputs)
+    >>> result.x.shape, "fading_factor" in result.extras
+    ((2, 150, 2), True)
+    """
     return _fading(_inputs(inputs), 1.0)
 
 
 def isfekf(inputs: SuiteInputs) -> FilterResult:
-    """Paper D's ISFEKF: the fading EKF with the range-dependent weakening factor (chapter 5)."""
+    """Paper D's ISFEKF: the fading EKF with the range-dependent weakening factor (chapter 5).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.isfekf(inputs)
+    >>> result.x.shape, "weakening_factor" in result.extras
+    ((2, 150, 2), True)
+    """
     return _fading(_inputs(inputs), "range")
 
 
 def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
     """Paper D's LS-ISFEKF: grid pre-location, accepted after a turn and 10 stable fixes, then the ISFEKF with its
-    speed estimate; dead reckoning from the initial guess until the start (chapter 5)."""
+    speed estimate; dead reckoning from the initial guess until the start (chapter 5).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.ls_isfekf(inputs)
+    >>> result.x.shape, result.extras["started"].shape
+    ((2, 150, 2), (2, 150))
+    """
     s = _inputs(inputs)
     pre = prelocate(s)
     res = ls_fading_ekf(s.z, s.u, s.Q, s.R, np.eye(2) * 50.0**2, sigma_gamma=s.parameters.speed_factor_sigma,
@@ -222,7 +336,20 @@ def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
 def cooperative(inputs: SuiteInputs) -> FilterResult:
     r"""Paper B's cooperative EKF (chapter 8): state :math:`[x, y, U_x, U_y]` with the current, updated with pairs
     of consecutive ranges to the leader, which broadcasts its position; tuned to the suite's noise (the
-    "consistent" formulation, each range's information counted once)."""
+    "consistent" formulation, each range's information counted once).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["moving beacon"](rng, 2))
+    >>> result = methods.cooperative(inputs)
+    >>> # [x, y, Ux, Uy]: the position and the current
+    >>> result.x.shape
+    (2, 150, 4)
+    """
     s = _inputs(inputs)
     p = s.parameters
     dr, cu = p.dr_sigma, 1e-3
@@ -249,7 +376,19 @@ def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
     """Paper E's OR-VMLBL-KF (chapter 9): ranges cleaned by the robust range filter (its chi-square gate: the
     paper's relative test is tuned to 1 s epochs), four-epoch virtual long-baseline fixes ``VMLBL_SPACING``
     epochs apart, a gated constant-velocity filter on the fixes (``VMLBL_FIX_Q``); dead reckoning from the
-    initial guess until the first fix."""
+    initial guess until the first fix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.or_vmlbl(inputs)
+    >>> result.x.shape, bool(result.extras["started"][:, 0].any())
+    ((2, 150, 2), False)
+    """
     from .pipelines import NoUsableFixError, or_vmlbl_kf
 
     s = _inputs(inputs)
@@ -281,7 +420,19 @@ def particle_filter(inputs: SuiteInputs) -> FilterResult:
     the input ``u``) and :class:`~uwtutor.models.range.RangeToBeacon` with each run's beacon path (a moving beacon is
     only another measurement model input); ``N_PARTICLES`` particles from :math:`N(x_0, P_0)`, resampling (systematic)
     when the effective sample size falls below half. It can hold both mirror solutions of a straight
-    track."""
+    track.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.particle_filter(inputs)
+    >>> result.x.shape, sorted(result.extras)
+    ((2, 150, 2), ['ess', 'resampled'])
+    """
     s = _inputs(inputs)
     rng = np.random.default_rng(s.method_seed)
     pf = BootstrapParticleFilter.from_gaussian(DeadReckoning(s.Q), RangeToBeacon(s.beacon, R=s.R), s.x0, s.P0,
@@ -310,6 +461,13 @@ class Method:
         ``"any"``, ``"fixed beacon"`` or ``"leader"`` (a beacon that moves and broadcasts its position).
     summary : str
         One line on what it is.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> m = methods.get("IEKF")
+    >>> m.paper, m.chapter, m.needs, m.runs_on("moving beacon")
+    ('A', 7, 'any', True)
     """
 
     name: str
@@ -350,19 +508,44 @@ REGISTRY: dict[str, Method] = {m.name: m for m in _METHODS}
 
 
 def names() -> list[str]:
-    """The registered method names, in order."""
+    """The registered method names, in order.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.names()[:3]
+    ['LS pre-positioning', 'grid pre-location', 'EKF']
+    """
     return list(REGISTRY)
 
 
 def get(name: str) -> Method:
-    """The :class:`Method` called ``name`` (a ValueError listing the names otherwise)."""
-    if name not in REGISTRY:
-        raise ValueError(f"no method called {name!r}; the methods are {names()}")
+    """The :class:`Method` called ``name`` (a ValueError listing the names otherwise).
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.get("EKF").summary
+    'range-only extended Kalman filter'
+    >>> methods.get("EKF2")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+        ...
+    ValueError: no method called 'EKF2': name must be one of [...]
+    """
+    if not isinstance(name, str) or name not in REGISTRY:
+        raise ValueError(f"no method called {name!r}: name must be one of {names()}")
     return REGISTRY[name]
 
 
 def claims() -> dict[str, list[str]]:
-    """``method name -> the scenarios it runs on``: the ``only`` argument of :func:`uwtutor.montecarlo.compare`."""
+    """``method name -> the scenarios it runs on``: the ``only`` argument of :func:`uwtutor.montecarlo.compare`.
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> methods.claims()["cooperative EKF"]
+    ['moving beacon']
+    """
     return {m.name: [s for s in SCENARIOS if m.runs_on(s)] for m in _METHODS}
 
 
@@ -390,27 +573,72 @@ def run(name: str, scenario: str, condition: str, rng: Any, n_runs: int = 1) -> 
     True
     """
     method = get(name)
-    if scenario not in SCENARIOS:
-        raise ValueError(f"scenario must be one of {list(SCENARIOS)}; got {scenario!r}")
-    if condition not in CONDITIONS:
-        raise ValueError(f"condition must be one of {list(CONDITIONS)}; got {condition!r}")
+    scenario = as_choice("scenario", scenario, SCENARIOS)
+    condition = as_choice("condition", condition, CONDITIONS)
     if not method.runs_on(scenario):
         raise ValueError(f"{name} needs a {method.needs}; it does not run on the scenario {scenario!r}")
     rng = as_rng(rng)
     n_runs = as_int("n_runs", n_runs, minimum=1)
-    inputs, truth = CONDITIONS[condition](rng, SCENARIOS[scenario](rng, n_runs))
+    try:
+        drawn = SCENARIOS[scenario](rng, n_runs)
+    except ValueError as exc:              # rng and n_runs are checked: the scenario refuses the number of runs
+        raise ValueError(f"n_runs = {n_runs} is too many runs for one call: {exc}") from None
+    inputs, truth = CONDITIONS[condition](rng, drawn)
     return method(inputs), truth
+
+
+def _names(name: str, value: Any, known: Any) -> list[str]:
+    """A list of names from ``known`` (``None``: all of them); a bare string, an unknown name or an empty list is
+    refused by the argument's name."""
+    if value is None:
+        return list(known)
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a list of names, e.g. [{value!r}]; got the bare string {value!r}")
+    try:
+        chosen = list(value)
+    except TypeError:
+        raise TypeError(f"{name} must be a list of names from {list(known)}; got {type(value).__name__}") from None
+    unknown = [x for x in chosen if not isinstance(x, str) or x not in known]
+    if unknown:
+        raise ValueError(f"{name} must be names from {list(known)}; got {unknown}")
+    if not chosen:
+        raise ValueError(f"{name} must name at least one of {list(known)} (or be None for all of them)")
+    return chosen
 
 
 def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[str, str], np.ndarray]:
     r"""The RMSE bound :math:`B_k = \sqrt{\operatorname{tr} J_k^{-1}}` (position block of the posterior CRLB) of
-    every (scenario, condition) of the suite, from :func:`uwtutor.scenarios.suite.crlb_inputs`."""
+    every (scenario, condition) of the suite, from :func:`uwtutor.scenarios.suite.crlb_inputs`.
+
+    Parameters
+    ----------
+    scenarios, conditions : list of str, optional
+        Names from :data:`~uwtutor.scenarios.suite.SCENARIOS` and :data:`~uwtutor.scenarios.suite.CONDITIONS`
+        (all of them by default).
+
+    Returns
+    -------
+    dict
+        ``(scenario, condition) -> B_k``, an array of shape ``(K,)`` [m].
+
+    Examples
+    --------
+    >>> from uwtutor import methods
+    >>> bounds = methods.suite_bounds(["circle"], ["white"])
+    >>> B = bounds["circle", "white"]
+    >>> B.shape, bool(B[-1] < B[0])
+    ((150,), True)
+    """
     from .observability import posterior_crlb, rmse_bound
     from .scenarios.suite import crlb_inputs
 
     return {(s, c): rmse_bound(posterior_crlb(**crlb_inputs(s, c)))
-            for s in (SCENARIOS if scenarios is None else scenarios)
-            for c in (CONDITIONS if conditions is None else conditions)}
+            for s in _names("scenarios", scenarios, SCENARIOS)
+            for c in _names("conditions", conditions, CONDITIONS)}
+
+
+#: Most runs per row :func:`compare_suite` accepts (the book's table has 1000; a million takes about a day).
+MAX_STUDY_RUNS = 10**6
 
 
 def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any = None, scenarios: Any = None,
@@ -439,15 +667,12 @@ def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any 
     """
     from .montecarlo import compare
 
-    chosen = names() if methods is None else list(methods)
-    for m in chosen:
-        get(m)
-    scen = list(SCENARIOS) if scenarios is None else list(scenarios)
-    cond = list(CONDITIONS) if conditions is None else list(conditions)
-    for name, pick, known in (("scenarios", scen, SCENARIOS), ("conditions", cond, CONDITIONS)):
-        unknown = [x for x in pick if x not in known]
-        if unknown:
-            raise ValueError(f"{name} must be names from {list(known)}; got {unknown}")
+    chosen = _names("methods", methods, REGISTRY)
+    scen = _names("scenarios", scenarios, SCENARIOS)
+    cond = _names("conditions", conditions, CONDITIONS)
+    n_runs = as_int("n_runs", n_runs, minimum=1, maximum=MAX_STUDY_RUNS)
+    timing_runs = as_int("timing_runs", timing_runs, minimum=1)
+    measure_cost = as_flag("measure_cost", measure_cost)
     only = {m: [s for s in scen if get(m).runs_on(s)] for m in chosen}
     keep = [m for m in chosen if only[m]]
     if not keep:

@@ -30,10 +30,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from ._linalg import positive_definite as _positive_definite, quadratic_form as _quadratic_form
-from ._validate import SYMMETRY_RTOL, as_finite, as_float_array
+from ._validate import MAX_COORDINATE, SYMMETRY_RTOL, as_finite, as_float_array, as_scalar
 
 __all__ = [
     "estimation_errors",
@@ -56,7 +57,13 @@ def _estimates_and_truth(estimates: Any, truth: Any, components: Any) -> tuple[n
         x = x[None]
     if x.size == 0:
         raise ValueError(f"estimates is empty (shape {x.shape}): there is nothing to score")
-    t = as_finite("truth", truth, ndim=(1, 2, 3))
+    with np.errstate(invalid="ignore"):
+        big = np.abs(x) > MAX_COORDINATE          # also inf; NaN (no estimate, e.g. before a filter starts) is fine
+    if big.any():
+        raise ValueError(f"estimates must be finite (NaN where there is no estimate) and at most {MAX_COORDINATE:.0e} "
+                         f"in magnitude (beyond it the squared errors overflow float64); got {x[big].flat[0]:.3g}. "
+                         "Change their units")
+    t = as_finite("truth", truth, ndim=(1, 2, 3), max_abs=MAX_COORDINATE)
     if t.ndim == 1 and x.shape[-1] == 1:          # (K,) for a scalar state
         t = t[:, None]
     # only the runs axis is shared (one truth for every run); nothing else is broadcast: a (K, 1) truth against
@@ -100,7 +107,26 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
                          "is not (negative variances, or a correlation beyond +-1)")
 
 
-def positive_definite(covariances: Any) -> np.ndarray:
+def _normalized_squares(name: str, covariances: Any, vectors: np.ndarray,
+                        what: str) -> tuple[np.ndarray, np.ndarray]:
+    """:math:`v^T C^{-1} v` of every run and step, the NEES and the NIS alike.
+
+    ``vectors`` (M, K, n) are validated ``what``; ``covariances`` (M, K, n, n) or (K, n, n) are validated here,
+    under ``name``. Returns the vectors with NaN where there is no covariance, and the quadratic forms (M, K).
+    """
+    C = as_float_array(name, covariances, ndim=(3, 4))
+    if C.ndim == 3:
+        C = C[None]
+    if C.shape != vectors.shape + (vectors.shape[-1],):
+        raise ValueError(f"{name} must have shape {vectors.shape + (vectors.shape[-1],)} to match the {what}; "
+                         f"got {C.shape}")
+    v = _without_covariance(vectors, C)
+    _check_used_covariances(name, C, np.isfinite(v).all(axis=-1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        return v, _quadratic_form(v, C, name)
+
+
+def positive_definite(covariances: ArrayLike) -> NDArray[np.bool_]:
     """Which of the matrices ``(..., n, n)`` are positive definite, by the test the scores apply (Sylvester's
     criterion for n <= 2, a Cholesky factorization for larger ones; a NaN or infinite matrix is not).
 
@@ -108,10 +134,15 @@ def positive_definite(covariances: Any) -> np.ndarray:
     >>> positive_definite(np.array([np.eye(2), np.zeros((2, 2))])).tolist()
     [True, False]
     """
-    return _positive_definite(np.asarray(covariances, dtype=float))
+    cov = as_float_array("covariances", covariances, nonempty=True)
+    if cov.ndim < 2 or cov.shape[-1] != cov.shape[-2]:
+        raise ValueError(f"covariances must be a square matrix or a stack of them, shape (..., n, n); got shape "
+                         f"{cov.shape}")
+    return _positive_definite(cov)
 
 
-def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+def estimation_errors(estimates: ArrayLike, truth: ArrayLike,
+                      components: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""Euclidean estimation error of every run and step, :math:`\lVert \hat x_{j,k} - x_{j,k} \rVert`.
 
     Parameters
@@ -128,12 +159,22 @@ def estimation_errors(estimates: Any, truth: Any, components: Any = None) -> np.
     -------
     ndarray, shape (M, K)
         Error norms (``M = 1`` for a single run).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import estimation_errors
+    >>> # M = 2 runs, K = 2 steps, truth at the origin
+    >>> est = np.array([[[3.0, 4.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 2.0]]])
+    >>> estimation_errors(est, np.zeros((2, 2)))
+    array([[5., 1.],
+           [0., 2.]])
     """
     x, t = _estimates_and_truth(estimates, truth, components)
     return np.linalg.norm(x - t, axis=-1)
 
 
-def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.ndarray:
+def rmse_over_time(estimates: ArrayLike, truth: ArrayLike, components: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""Root mean square error over the Monte Carlo runs, at each step.
 
     .. math::
@@ -163,7 +204,8 @@ def rmse_over_time(estimates: Any, truth: Any, components: Any = None) -> np.nda
     return np.sqrt(np.mean(err**2, axis=0))
 
 
-def final_errors(estimates: Any, truth: Any, components: Any = None, step: int = -1) -> np.ndarray:
+def final_errors(estimates: ArrayLike, truth: ArrayLike, components: ArrayLike | None = None,
+                 step: int = -1) -> NDArray[np.float64]:
     """Error norm of every run at one step (the last by default): the sample of the final-error distribution.
 
     Parameters
@@ -177,6 +219,16 @@ def final_errors(estimates: Any, truth: Any, components: Any = None, step: int =
     -------
     ndarray, shape (M,)
         One error norm per run.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import final_errors
+    >>> est = np.array([[[3.0, 4.0], [1.0, 0.0]], [[0.0, 0.0], [0.0, 2.0]]])
+    >>> final_errors(est, np.zeros((2, 2)))
+    array([1., 2.])
+    >>> final_errors(est, np.zeros((2, 2)), step=0)
+    array([5., 0.])
     """
     err = estimation_errors(estimates, truth, components)
     K = err.shape[1]
@@ -185,7 +237,7 @@ def final_errors(estimates: Any, truth: Any, components: Any = None, step: int =
     return err[:, step]
 
 
-def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
+def error_cdf(errors: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""Empirical cumulative distribution function of a sample of errors.
 
     Sorting the ``M`` finite values :math:`e_{(1)} \le \dots \le e_{(M)}` gives
@@ -220,7 +272,7 @@ def error_cdf(errors: Any) -> tuple[np.ndarray, np.ndarray]:
     return e, np.arange(1, e.size + 1) / e.size
 
 
-def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
+def nees(estimates: ArrayLike, covariances: ArrayLike, truth: ArrayLike) -> NDArray[np.float64]:
     r"""Normalized estimation error squared of every run and step.
 
     .. math::
@@ -247,20 +299,25 @@ def nees(estimates: Any, covariances: Any, truth: Any) -> np.ndarray:
     See Also
     --------
     chi2_mean_bounds : the acceptance interval of their mean over runs.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import nees
+    >>> # one run, two steps, covariance 4 I: (9 + 16) / 4 and 1 / 4
+    >>> est = np.array([[3.0, 4.0], [1.0, 0.0]])
+    >>> nees(est, np.tile(np.eye(2) * 4.0, (2, 1, 1)), np.zeros((2, 2)))
+    array([[6.25, 0.25]])
     """
     x, t = _estimates_and_truth(estimates, truth, None)
-    P = as_float_array("covariances", covariances, ndim=(3, 4))
-    if P.ndim == 3:
-        P = P[None]
-    if P.shape != x.shape + (x.shape[-1],):
-        raise ValueError(f"covariances must have shape {x.shape + (x.shape[-1],)} to match the estimates; "
-                         f"got {P.shape}")
-    e = _without_covariance(t - x, P)
-    _check_used_covariances("covariances", P, np.isfinite(e).all(axis=-1))
-    return _quadratic_form(e, P, "covariances")
+    _, out = _normalized_squares("covariances", covariances, t - x, "estimates")
+    if np.isinf(out).any():
+        raise ValueError("estimates, truth and covariances give a NEES that overflows float64 (errors near 1e154, "
+                         "or a variance near 0): change their units")
+    return out
 
 
-def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
+def nis(innovations: ArrayLike, innovation_cov: ArrayLike) -> NDArray[np.float64]:
     r"""Normalized innovation squared of every run and step (NaN where no measurement was used).
 
     .. math::
@@ -280,20 +337,21 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     -------
     ndarray, shape (M, K)
         NIS values, NaN where the innovation is NaN.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import nis
+    >>> # a range innovation of 2 m with S = 4 m^2, then no measurement
+    >>> nis(np.array([[2.0], [np.nan]]), np.array([[[4.0]], [[4.0]]]))
+    array([[ 1., nan]])
     """
     y = as_float_array("innovations", innovations, ndim=(2, 3))
+    if np.isinf(y).any():
+        raise ValueError("innovations must be finite (a NaN row: no measurement at that step); got an infinite value")
     if y.ndim == 2:
         y = y[None]
-    S = as_float_array("innovation_cov", innovation_cov, ndim=(3, 4))
-    if S.ndim == 3:
-        S = S[None]
-    if S.shape != y.shape + (y.shape[-1],):
-        raise ValueError(f"innovation_cov must have shape {y.shape + (y.shape[-1],)} to match the innovations; "
-                         f"got {S.shape}")
-    y = _without_covariance(y, S)
-    _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
-    with np.errstate(over="ignore", invalid="ignore"):
-        out = _quadratic_form(y, S, "innovation_cov")
+    y, out = _normalized_squares("innovation_cov", innovation_cov, y, "innovations")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
     if np.isinf(out).any():
         raise ValueError("innovations and innovation_cov give a NIS that overflows float64 (innovations near "
@@ -301,7 +359,7 @@ def nis(innovations: Any, innovation_cov: Any) -> np.ndarray:
     return out
 
 
-def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
+def average_over_runs(values: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
     r"""Mean over the Monte Carlo runs of NEES or NIS values, step by step, ignoring NaN entries.
 
     .. math::
@@ -319,8 +377,19 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
         Mean over the runs (NaN at a step where every run is NaN).
     counts : ndarray of int, shape (K,)
         :math:`M_k`, the number of runs that entered each mean: pass it to :func:`chi2_mean_bounds`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import average_over_runs
+    >>> # the first run has no value at step 2
+    >>> mean, counts = average_over_runs(np.array([[1.0, np.nan], [3.0, 2.0]]))
+    >>> mean, counts
+    (array([2., 2.]), array([2, 1]))
     """
     v = as_float_array("values", values, ndim=2, nonempty=True)
+    if np.isinf(v).any():
+        raise ValueError("values must be finite (NaN where a run has no value at that step); got an infinite value")
     ok = ~np.isnan(v)
     counts = ok.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -328,7 +397,8 @@ def average_over_runs(values: Any) -> tuple[np.ndarray, np.ndarray]:
     return np.where(counts > 0, mean, np.nan), counts
 
 
-def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[Any, Any]:
+def chi2_mean_bounds(dof: int, n_runs: ArrayLike,
+                     confidence: float = 0.95) -> tuple[float | NDArray[np.float64], float | NDArray[np.float64]]:
     r"""Two-sided chi-square acceptance interval for the mean of ``n_runs`` NEES or NIS values.
 
     If each value is :math:`\chi^2_d` (``d = dof``, the state size for the NEES, the measurement size for the
@@ -366,7 +436,7 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     """
     if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or not 1 <= dof <= 10**6:
         raise ValueError(f"dof must be a positive integer (state or measurement size, at most 1e6); got {dof!r}")
-    conf = float(as_finite("confidence", confidence, ndim=0))
+    conf = as_scalar("confidence", confidence)
     if not 0.0 < conf < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
     try:
@@ -386,10 +456,18 @@ def chi2_mean_bounds(dof: int, n_runs: Any, confidence: float = 0.95) -> tuple[A
     return lower, upper
 
 
-def fraction_within(values: Any, lower: Any, upper: Any) -> float:
+def fraction_within(values: ArrayLike, lower: ArrayLike, upper: ArrayLike) -> float:
     """Fraction of the (non-NaN) ``values`` that lie within ``[lower, upper]`` (bounds broadcast).
 
     With 95 % bounds on the mean NEES of each step, a consistent filter keeps about 95 % of the steps inside.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.metrics import fraction_within
+    >>> # the NaN is left out: 2 of the 3 values lie in [0.2, 2]
+    >>> round(fraction_within([0.5, 1.2, 3.0, np.nan], 0.2, 2.0), 3)
+    0.667
     """
     v = as_float_array("values", values)
     bounds = []
@@ -402,6 +480,7 @@ def fraction_within(values: Any, lower: Any, upper: Any) -> float:
     lo, hi = bounds
     ok = ~np.isnan(v) & ~np.isnan(lo) & ~np.isnan(hi)
     if not ok.any():
-        raise ValueError("values must contain at least one entry that is not NaN (with finite bounds)")
+        raise ValueError("values, lower and upper must share at least one entry where none of them is NaN (a NaN "
+                         "bound, from a step without runs, leaves that value out)")
     inside = (v[ok] >= lo[ok]) & (v[ok] <= hi[ok])
     return float(inside.mean())

@@ -32,7 +32,7 @@ from ._validate import as_int, as_positive
 from .filters.base import FilterResult
 
 __all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "compare",
-           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD"]
+           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD", "MAX_STUDY_RUNS"]
 
 
 class _StudyStatistics:
@@ -62,6 +62,97 @@ class _StudyStatistics:
         return metrics.fraction_within(self.mean_nis, *self.nis_bounds)
 
 
+def _as_confidence(confidence: Any) -> float:
+    """The probability of the chi-square intervals, strictly between 0 and 1."""
+    conf = float(as_finite("confidence", confidence))
+    if not 0.0 < conf < 1.0:
+        raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
+    return conf
+
+
+def _as_components(components: Any) -> tuple[int, ...] | None:
+    """``components`` as a tuple of distinct state indices >= 0 (``None``: all of them)."""
+    if components is None:
+        return None
+    idx = np.atleast_1d(np.asarray(components))
+    if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or idx.min() < 0 \
+            or len(set(idx.tolist())) != idx.size:
+        raise ValueError(f"components must be a non-empty list of distinct state indices >= 0; got {components!r}")
+    return tuple(int(i) for i in idx)
+
+
+@dataclass(frozen=True)
+class _RunScores:
+    """The per-run scores of one batch of runs: what both studies reduce (see :func:`_score_runs`)."""
+
+    truth: np.ndarray            # (M, K, d) the scored components of the truth, broadcast to every run
+    components: tuple[int, ...]  # the scored state components (d of them)
+    errors: np.ndarray           # (M, K) error norms
+    nees: np.ndarray             # (M, K) NEES (inf where the covariance collapsed, NaN where the estimate is NaN)
+    nis: np.ndarray | None       # (M, K) NIS (NaN where no measurement was used), None without innovations
+    nis_dof: int                 # measurement size (0 without innovations)
+
+
+def _score_runs(result: Any, truth: Any, components: tuple[int, ...] | None, *, producer: str, output: str,
+                truth_name: str, n_runs: int | None = None) -> _RunScores:
+    """Validate a batched filter's result against the truth and score every run and step, once for both studies.
+
+    ``producer`` names the function that made the result in errors (``"filter_fn"``, ``"estimate"``),
+    ``output`` the result itself (``"filter_fn(**inputs)"``), ``truth_name`` the truth; ``n_runs`` is the
+    number of runs the result must hold (``None``: any). The truth holds every state component or only the
+    scored ones on its last axis, shared ``(K, d)`` or per run ``(M, K, d)``.
+    """
+    if not (hasattr(result, "x") and hasattr(result, "P")):
+        raise TypeError(f"{producer} must return a FilterResult (or an object with arrays x and P); got "
+                        f"{type(result).__name__}")
+    x = as_float_array(f"{output}.x", result.x, ndim=(2, 3))
+    P = as_float_array(f"{output}.P", result.P, ndim=(3, 4))
+    if x.ndim == 2:
+        x, P = x[None], P[None]
+    if n_runs is not None and x.shape[0] != n_runs:
+        raise ValueError(f"{producer} must return the {n_runs} runs that were drawn (x of shape ({n_runs}, K, "
+                         f"n_state)); got x of shape {x.shape}")
+    n_state = x.shape[-1]
+    if P.shape != x.shape + (n_state,):
+        raise ValueError(f"{output}.P must have shape {x.shape + (n_state,)} to match its x; got {P.shape}")
+    comps = tuple(range(n_state)) if components is None else components
+    if max(comps) >= n_state:
+        raise ValueError(f"components must be state indices in 0..{n_state - 1}: {list(comps)} names one beyond "
+                         f"the {n_state} of the filter's state")
+    sel = list(comps)
+    t = as_finite(truth_name, truth, ndim=(2, 3))
+    if t.shape[-1] == n_state:
+        t = t[..., sel]
+    elif t.shape[-1] != len(sel):
+        raise ValueError(f"{truth_name} must have shape (K, d) or (M, K, d) and hold the {n_state} state "
+                         f"components or the {len(sel)} scored ones on its last axis (d); got shape {t.shape}")
+    if t.shape[:-1] not in ((x.shape[1],), x.shape[:-1]):     # broadcast over runs only: never (K, 1) against (K, 2)
+        raise ValueError(f"{truth_name} must have shape (K, n) or (M, K, n) matching the filter's estimates "
+                         f"{x.shape}; got {np.shape(truth)}")
+    t = np.broadcast_to(t, x.shape[:-1] + (len(sel),))
+    xs = x[..., sel]
+    Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
+    errors = metrics.estimation_errors(xs, t)
+    # A covariance that has collapsed (a particle cloud reduced to one particle: zero variance) is a result, not
+    # bad input: the filter claims a certainty it does not have, so that run's NEES at that step is infinite.
+    finite = np.isfinite(Ps).all(axis=(-1, -2))
+    collapsed = finite & ~metrics.positive_definite(np.where(finite[..., None, None], Ps, np.eye(Ps.shape[-1])))
+    nees = metrics.nees(xs, np.where(collapsed[..., None, None], np.nan, Ps), t)
+    nees[collapsed & np.isfinite(errors)] = np.inf
+    nis = None
+    nis_dof = 0
+    y = getattr(result, "innovations", None)
+    S = getattr(result, "innovation_cov", None)
+    if y is not None and S is not None:
+        y = as_float_array(f"{output}.innovations", y)
+        S = as_float_array(f"{output}.innovation_cov", S)
+        if y.ndim == 2 and x.shape[0] == 1:
+            y, S = y[None], S[None]
+        nis = metrics.nis(y, S)
+        nis_dof = int(y.shape[-1])
+    return _RunScores(truth=t, components=comps, errors=errors, nees=nees, nis=nis, nis_dof=nis_dof)
+
+
 @dataclass(frozen=True)
 class MonteCarloResult(_StudyStatistics):
     r"""The trajectories and the scores of a Monte Carlo study (see :func:`run_monte_carlo`).
@@ -87,7 +178,7 @@ class MonteCarloResult(_StudyStatistics):
     nees : ndarray, shape (M, K)
         NEES of every run and step over the scored components.
     mean_nees : ndarray, shape (K,)
-        NEES averaged over the runs.
+        NEES averaged over the runs (NaN at a step where a run's estimate is NaN).
     nees_bounds : tuple of float
         Two-sided chi-square acceptance interval ``(lower, upper)`` of ``mean_nees`` (``n`` degrees of freedom
         per run).
@@ -173,14 +264,19 @@ def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, co
     * the same for the NIS when the result carries innovations (the runs without a measurement at a step are
       left out of that step's mean and bounds).
 
+    The scores are those of :func:`run_study`, computed by the same code: a run whose estimate is NaN makes the
+    RMSE and the mean NEES NaN (divergence is not hidden), and a covariance that has collapsed (not positive
+    definite, e.g. a particle cloud reduced to one particle) gives that run an infinite NEES at that step.
+
     Parameters
     ----------
     filter_fn : callable
         A batched filter: ``filter_fn(**inputs)`` returns a :class:`~uwtutor.filters.base.FilterResult` (or
         any object with ``x`` (M, K, n_state) and ``P`` (M, K, n_state, n_state), and optionally
         ``innovations`` and ``innovation_cov``). A result without a runs axis counts as one run.
-    truth : array_like, shape (K, n_state) or (M, K, n_state)
-        The true states; ``(K, n_state)`` when every draw shares the same true trajectory.
+    truth : array_like, shape (K, d) or (M, K, d)
+        The true states; ``(K, d)`` when every draw shares the same true trajectory. ``d`` is the state size
+        ``n_state`` or the number of scored ``components``.
     components : sequence of int, optional
         State components to score (errors and NEES), e.g. ``[0, 1]`` for the position of a state that also
         holds a bias. All of them by default.
@@ -239,61 +335,32 @@ def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, co
     """
     if not callable(filter_fn):
         raise TypeError(f"filter_fn must be a batched filter function; got {filter_fn!r}")
+    comps = _as_components(components)
+    conf = _as_confidence(confidence)
     result = filter_fn(**inputs)
-    if not (hasattr(result, "x") and hasattr(result, "P")):
-        raise TypeError("filter_fn must return a FilterResult (or an object with arrays x and P); "
-                        f"got {type(result).__name__}")
-    x = as_float_array("result.x", result.x, ndim=(2, 3))
-    P = as_float_array("result.P", result.P, ndim=(3, 4))
-    if x.ndim == 2:
-        x, P = x[None], P[None]
-    n_state = x.shape[-1]
-    if P.shape != x.shape + (n_state,):
-        raise ValueError(f"the filter's P must have shape {x.shape + (n_state,)} to match its x; got {P.shape}")
-    if components is None:
-        comps = tuple(range(n_state))
-    else:
-        idx = np.atleast_1d(np.asarray(components))
-        if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or idx.min() < 0 or idx.max() >= n_state:
-            raise ValueError(f"components must be a non-empty list of state indices in 0..{n_state - 1}; "
-                             f"got {components!r}")
-        comps = tuple(int(i) for i in idx)
-    t = as_finite("truth", truth, ndim=(2, 3))
-    if t.shape not in (x.shape, x.shape[1:]):       # broadcast over runs only: (K, 1) against (K, 2) is an error
-        raise ValueError(f"truth must have shape (K, n) or (M, K, n) matching the filter's estimates {x.shape}; "
-                         f"got {t.shape}")
-    t = np.broadcast_to(t, x.shape)
-    sel = list(comps)
-    xs, ts = x[..., sel], t[..., sel]
-    Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
-
-    errors = metrics.estimation_errors(xs, ts)
-    nees = metrics.nees(xs, Ps, ts)
-    mean_nees, _ = metrics.average_over_runs(nees)
-    nees_bounds = metrics.chi2_mean_bounds(len(sel), x.shape[0], confidence)
-
-    nis = mean_nis = nis_bounds = None
-    y = getattr(result, "innovations", None)
-    S = getattr(result, "innovation_cov", None)
-    if y is not None and S is not None:
-        y = as_float_array("result.innovations", y)
-        S = as_float_array("result.innovation_cov", S)
-        if y.ndim == 2 and x.shape[0] == 1:
-            y, S = y[None], S[None]
-        nis = metrics.nis(y, S)
-        mean_nis, counts = metrics.average_over_runs(nis)
-        nis_bounds = metrics.chi2_mean_bounds(y.shape[-1], counts, confidence)
-
+    scores = _score_runs(result, truth, comps, producer="filter_fn", output="filter_fn(**inputs)",
+                         truth_name="truth")
+    mean_nis = nis_bounds = None
+    if scores.nis is not None:
+        mean_nis, counts = metrics.average_over_runs(scores.nis)
+        nis_bounds = metrics.chi2_mean_bounds(scores.nis_dof, counts, conf)
+    errors = scores.errors
     return MonteCarloResult(
-        result=result, truth=ts, components=comps, errors=errors, rmse=np.sqrt(np.mean(errors**2, axis=0)),
-        final_errors=errors[:, -1], nees=nees, mean_nees=mean_nees, nees_bounds=nees_bounds, nis=nis,
-        mean_nis=mean_nis, nis_bounds=nis_bounds, confidence=float(confidence),
+        result=result, truth=scores.truth, components=scores.components, errors=errors,
+        rmse=np.sqrt(np.mean(errors**2, axis=0)), final_errors=errors[:, -1], nees=scores.nees,
+        mean_nees=scores.nees.mean(axis=0),
+        nees_bounds=metrics.chi2_mean_bounds(len(scores.components), errors.shape[0], conf), nis=scores.nis,
+        mean_nis=mean_nis, nis_bounds=nis_bounds, confidence=conf,
     )
 
 
 # ---------------------------------------------------------------------------------------------------------------------
 # studies that scale out: chunk by chunk from one seed, on any executor
 # ---------------------------------------------------------------------------------------------------------------------
+#: The most runs :func:`run_study` takes: it keeps each run's final error (8 bytes a run, 0.8 GB at the limit).
+MAX_STUDY_RUNS = 10**8
+
+
 @dataclass(frozen=True)
 class _ChunkSums:
     """What one chunk of a study contributes: sums over its runs (never the runs themselves) and its final errors."""
@@ -317,60 +384,18 @@ def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_se
         raise TypeError(f"draw(rng, n) must return a pair (inputs, truth); got {type(drawn).__name__}")
     inputs, truth = drawn
     result = estimate(inputs)
-    if not (hasattr(result, "x") and hasattr(result, "P")):
-        raise TypeError("estimate(inputs) must return a FilterResult (or an object with arrays x and P); got "
-                        f"{type(result).__name__}")
-    x = as_float_array("estimate(inputs).x", result.x, ndim=(2, 3))
-    P = as_float_array("estimate(inputs).P", result.P, ndim=(3, 4))
-    if x.ndim == 2:
-        x, P = x[None], P[None]
-    if x.shape[0] != n:
-        raise ValueError(f"estimate(inputs) must return the {n} runs that draw(rng, {n}) made (x of shape "
-                         f"({n}, K, n_state)); got x of shape {x.shape}")
-    n_state = x.shape[-1]
-    if P.shape != x.shape + (n_state,):
-        raise ValueError(f"estimate(inputs).P must have shape {x.shape + (n_state,)} to match its x; got {P.shape}")
-    comps = tuple(range(n_state)) if components is None else components
-    if max(comps) >= n_state:
-        raise ValueError(f"components {list(comps)} name state indices beyond the {n_state} of the filter's state")
-    sel = list(comps)
-    t = as_finite("truth (from draw)", truth, ndim=(2, 3))
-    if t.shape[-1] == n_state:
-        t = t[..., sel]
-    elif t.shape[-1] != len(sel):
-        raise ValueError(f"truth (from draw) must hold the {n_state} state components or the {len(sel)} scored "
-                         f"ones on its last axis; got shape {t.shape}")
-    if t.shape[:-1] not in ((x.shape[1],), x.shape[:-1]):     # broadcast over runs only
-        raise ValueError(f"truth (from draw) must have shape (K, d) or ({n}, K, d) with K = {x.shape[1]}; got "
-                         f"{np.shape(truth)}")
-    t = np.broadcast_to(t, x.shape[:-1] + (len(sel),))
-    xs = x[..., sel]
-    Ps = P[..., sel, :][..., :, sel] if len(sel) < n_state else P
-    errors = metrics.estimation_errors(xs, t)
-    # A covariance that has collapsed (a particle cloud reduced to one particle: zero variance) is a result, not
-    # bad input: the filter claims a certainty it does not have, so that run's NEES at that step is infinite.
-    finite = np.isfinite(Ps).all(axis=(-1, -2))
-    collapsed = finite & ~metrics.positive_definite(np.where(finite[..., None, None], Ps, np.eye(Ps.shape[-1])))
-    nees = metrics.nees(xs, np.where(collapsed[..., None, None], np.nan, Ps), t)
-    nees[collapsed & np.isfinite(errors)] = np.inf
+    scores = _score_runs(result, truth, components, producer="estimate", output="estimate(inputs)",
+                         truth_name="truth (from draw)", n_runs=n)
     nis_sum = nis_counts = None
-    nis_dof = 0
-    y = getattr(result, "innovations", None)
-    S = getattr(result, "innovation_cov", None)
-    if y is not None and S is not None:
-        y = as_float_array("estimate(inputs).innovations", y)
-        S = as_float_array("estimate(inputs).innovation_cov", S)
-        if y.ndim == 2:
-            y, S = y[None], S[None]
-        nis = metrics.nis(y, S)
-        used = ~np.isnan(nis)
-        nis_sum = np.where(used, nis, 0.0).sum(axis=0)
+    if scores.nis is not None:
+        used = ~np.isnan(scores.nis)
+        nis_sum = np.where(used, scores.nis, 0.0).sum(axis=0)
         nis_counts = used.sum(axis=0)
-        nis_dof = int(y.shape[-1])
-    times = np.asarray(getattr(result, "times", np.arange(x.shape[1], dtype=float)), dtype=float)
-    return _ChunkSums(times=times, sq_errors=(errors**2).sum(axis=0), nees=nees.sum(axis=0), nees_dof=len(sel),
-                      nis=nis_sum,
-                      nis_counts=nis_counts, nis_dof=nis_dof, final_errors=errors[:, -1].copy())
+    K = scores.errors.shape[1]
+    times = np.asarray(getattr(result, "times", np.arange(K, dtype=float)), dtype=float)
+    return _ChunkSums(times=times, sq_errors=(scores.errors**2).sum(axis=0), nees=scores.nees.sum(axis=0),
+                      nees_dof=len(scores.components), nis=nis_sum, nis_counts=nis_counts, nis_dof=scores.nis_dof,
+                      final_errors=scores.errors[:, -1].copy())
 
 
 def _versions() -> dict[str, str]:
@@ -583,19 +608,14 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
     if not callable(estimate):
         raise TypeError(f"estimate must be a function estimate(inputs) -> FilterResult; got {estimate!r}")
     n_runs = as_int("n_runs", n_runs, minimum=1)
+    if n_runs > MAX_STUDY_RUNS:
+        raise ValueError(f"n_runs must be at most {MAX_STUDY_RUNS:.0e}: the study keeps every run's final error "
+                         f"({8 * n_runs / 1e9:.3g} GB for {n_runs} runs); got {n_runs}. Split it into studies with "
+                         "other seeds")
     chunk_size = as_int("chunk_size", chunk_size, minimum=1)
     seed = as_int("seed", seed, minimum=0)
-    conf = float(as_finite("confidence", confidence))
-    if not 0.0 < conf < 1.0:
-        raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
-    comps = None
-    if components is not None:
-        idx = np.atleast_1d(np.asarray(components))
-        if idx.dtype.kind not in "iu" or idx.ndim != 1 or idx.size == 0 or idx.min() < 0 \
-                or len(set(idx.tolist())) != idx.size:
-            raise ValueError(f"components must be a non-empty list of distinct state indices >= 0; got "
-                             f"{components!r}")
-        comps = tuple(int(i) for i in idx)
+    conf = _as_confidence(confidence)
+    comps = _as_components(components)
     executor = _as_executor(executor)
     _check_picklable(executor, draw=draw, estimate=estimate)
 

@@ -70,8 +70,8 @@ from typing import Any
 import numpy as np
 
 from ._linalg import line_of_sight as _line_of_sight
-from ._validate import (PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array, as_in_range,
-                        as_information, as_int, as_points, as_positive)
+from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
+                        as_in_range, as_information, as_int, as_points, as_positive, as_scalar, common_runs)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.base import MeasurementModel, MotionModel
 
@@ -121,7 +121,7 @@ def _warn(message: str) -> None:
 # validation helpers
 # ---------------------------------------------------------------------------------------------------------------------
 def _as_rtol(rtol: Any) -> float:
-    r = float(as_positive("rtol", rtol))
+    r = as_scalar("rtol", rtol, domain="positive")
     if r >= 1:
         raise ValueError(f"rtol must be < 1 (a relative tolerance such as 1e-6); got {r}")
     return r
@@ -188,7 +188,7 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
            [ 0.,  1.]])
     """
     p = as_points("position", position)
-    b = as_points("beacons", beacons)
+    b = as_points("beacons", beacons, nonempty=True)
     p, b = _broadcast("position", p, "beacons", b)
     _, los, defined = _line_of_sight(p, b)
     if not defined.all():
@@ -219,9 +219,16 @@ def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     -------
     ndarray, shape (..., 2)
         :math:`2 (p - b_i)` [m].
+
+    Examples
+    --------
+    >>> from uwtutor.observability import squared_range_jacobian
+    >>> squared_range_jacobian([3.0, 4.0], [[1000.0, 0.0], [0.0, 1000.0]])
+    array([[-1994.,     8.],
+           [    6., -1992.]])
     """
     p = as_points("position", position)
-    b = as_points("beacons", beacons)
+    b = as_points("beacons", beacons, nonempty=True)
     p, b = _broadcast("position", p, "beacons", b)
     return 2.0 * (p - b)
 
@@ -253,8 +260,8 @@ def beacons_at_bearings(position: Any, bearings: Any, distances: Any = 1000.0) -
     p = as_points("position", position)
     if p.shape != (2,):
         raise ValueError(f"position must have shape (2,); got {p.shape}")
-    beta = as_finite("bearings", bearings, ndim=1)
-    rho = as_positive("distances", distances)
+    beta = as_finite("bearings", bearings, ndim=1, nonempty=True)
+    rho = as_positive("distances", distances, max_abs=MAX_COORDINATE)
     if rho.ndim > 1 or (rho.ndim == 1 and rho.shape != beta.shape):
         raise ValueError(f"distances must be a number or have one entry per bearing ({beta.size}); got shape "
                          f"{rho.shape}")
@@ -288,6 +295,16 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
     -------
     ndarray, shape (K, 2)
         Virtual beacon positions [m]; the one of the reference epoch is the beacon itself.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import virtual_beacons
+    >>> # a vehicle moving east 10 m per epoch: the beacon seen from its last position
+    >>> virtual_beacons((0.0, 0.0), np.array([[0.0, 100.0], [10.0, 100.0], [20.0, 100.0]]))
+    array([[20.,  0.],
+           [10.,  0.],
+           [ 0.,  0.]])
     """
     p = as_points("positions", positions, min_ndim=2)
     if p.ndim != 2:
@@ -296,9 +313,9 @@ def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndar
     if b.shape not in ((2,), p.shape):
         raise ValueError(f"beacon must have shape (2,) or {p.shape} (one position per epoch); got {b.shape}")
     k = len(p)
-    if not isinstance(reference, (int, np.integer)) or not -k <= reference < k:
-        raise ValueError(f"reference must be an epoch index in [{-k}, {k - 1}]; got {reference!r}")
-    return b - (p - p[reference])
+    if k == 0:
+        raise ValueError("positions must hold at least one epoch, shape (K, 2) with K >= 1; got shape (0, 2)")
+    return b - (p - p[_as_reference(reference, k)])
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -457,6 +474,14 @@ def cramer_rao_bound(information: Any, *, rtol: float = DEFAULT_RTOL) -> np.ndar
     -------
     ndarray, shape (..., n, n)
         The bounds (covariances).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import cramer_rao_bound
+    >>> cramer_rao_bound(np.diag([4.0, 0.25]))
+    array([[0.25, 0.  ],
+           [0.  , 4.  ]])
     """
     J = as_information("information", information)     # finite, square, symmetric, PSD (indefinite: refused)
     rtol = _as_rtol(rtol)
@@ -539,6 +564,16 @@ def rmse_bound(covariance: Any) -> float | np.ndarray:
     -------
     float or ndarray, shape (...)
         The RMSE bound [m]; infinite where either position variance is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import rmse_bound
+    >>> # the position block of a [x, y, bias] covariance: sqrt(4 + 9)
+    >>> round(rmse_bound(np.diag([4.0, 9.0, 0.5])), 4)
+    3.6056
+    >>> rmse_bound(np.array([np.eye(2), 4.0 * np.eye(2)])).round(4)
+    array([1.4142, 2.8284])
     """
     C = as_float_array("covariance", covariance)
     if C.ndim < 2 or C.shape[-1] != C.shape[-2] or C.shape[-1] < 2:
@@ -586,6 +621,14 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     -------
     float or ndarray, shape (...)
         The GDOP (dimensionless).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import gdop
+    >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
+    >>> round(gdop(beacons, [0.0, 0.0]), 3), round(gdop(beacons, [0.0, 0.0], unknown_bias=True), 3)
+    (1.0, 1.118)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     J = fisher_information(beacons, position, 1.0, unknown_bias)
@@ -642,7 +685,7 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     from . import lsq        # a sibling of the same layer; imported here to keep the import graph one-way
 
-    b = as_points("beacons", beacons, min_ndim=2)
+    b = as_points("beacons", beacons, min_ndim=2, nonempty=True)
     p = as_points("position", position)
     h = range_jacobian(p[..., None, :], b)
     X = np.concatenate([h, np.ones(h.shape[:-1] + (1,))], axis=-1) if unknown_bias else h
@@ -674,11 +717,11 @@ def _track_inputs(positions: Any, beacon: Any, times: Any, unknown_current: bool
                              "U (t_k - t_ref)")
         t = as_finite("times", times, ndim=1)
         if len(t) != len(p):
-            raise ValueError(f"times must have one entry per position ({len(p)}); got {len(t)}")
+            raise ValueError(f"times must have one entry per row of positions ({len(p)}); got {len(t)}")
     elif times is not None:
         t = as_finite("times", times, ndim=1)
         if len(t) != len(p):
-            raise ValueError(f"times must have one entry per position ({len(p)}); got {len(t)}")
+            raise ValueError(f"times must have one entry per row of positions ({len(p)}); got {len(t)}")
     return p, b, t
 
 
@@ -737,6 +780,17 @@ def track_jacobian(positions: Any, beacon: Any, *, times: Any = None, unknown_bi
     -------
     ndarray, shape (K, n)
         :math:`H`, ``n`` = 2, 3, 4 or 5.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import track_jacobian
+    >>> theta = np.linspace(0.0, np.pi / 2, 3)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> track_jacobian(arc, (0.0, 0.0), unknown_bias=True).round(3)
+    array([[1.   , 0.   , 1.   ],
+           [0.707, 0.707, 1.   ],
+           [0.   , 1.   , 1.   ]])
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -779,6 +833,18 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     -------
     ndarray, shape (n, n) or (K, n, n)
         Information matrices, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import track_fisher_information
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> track_fisher_information(arc, (0.0, 0.0), sigma=1.0).round(3)
+    array([[2.5  , 1.207],
+           [1.207, 2.5  ]])
+    >>> track_fisher_information(arc, (0.0, 0.0), sigma=1.0, cumulative=True).shape
+    (5, 2, 2)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -837,6 +903,21 @@ def track_crlb(positions: Any, beacon: Any, sigma: Any, *, times: Any = None, un
     -------
     ndarray, shape (K, n, n)
         Covariance bounds, state order ``[x, y, bias, Ux, Uy]`` (the blocks asked for).
+
+    Examples
+    --------
+    The bound along a quarter circle about the beacon: infinite after one range, then shrinking.
+
+    >>> import numpy as np
+    >>> from uwtutor.observability import rmse_bound, track_crlb
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> import warnings
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("ignore")
+    ...     bound = track_crlb(arc, (0.0, 0.0), sigma=1.0)
+    >>> bound.shape, rmse_bound(bound).round(3)
+    ((5, 2, 2), array([  inf, 3.696, 1.945, 1.321, 1.021]))
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -890,6 +971,17 @@ def observability_rank(positions: Any, beacon: Any, *, times: Any = None, unknow
     -------
     int or ndarray of int, shape (K,)
         The rank(s), between 0 and ``n``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import observability_rank
+    >>> theta = np.linspace(0.0, np.pi / 2, 5)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> observability_rank(arc, (0.0, 0.0), unknown_bias=True)
+    array([1, 2, 3, 3, 3])
+    >>> observability_rank(arc, (0.0, 0.0), unknown_bias=True, cumulative=False)
+    3
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
     unknown_current = as_flag("unknown_current", unknown_current)
@@ -930,8 +1022,15 @@ def numerical_rank(matrix: Any, *, rtol: float = DEFAULT_RTOL) -> int | np.ndarr
     -------
     int or ndarray of int
         The rank(s).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import numerical_rank
+    >>> numerical_rank([[1.0, 2.0], [2.0, 4.0], [0.0, 0.0]]), numerical_rank(np.eye(3))
+    (1, 3)
     """
-    A = as_finite("matrix", matrix)
+    A = as_finite("matrix", matrix, nonempty=True)
     if A.ndim < 2:
         raise ValueError(f"matrix must have at least 2 dimensions, shape (..., m, n); got {A.shape}")
     rtol = _as_rtol(rtol)
@@ -991,10 +1090,10 @@ def two_range_fix(beacon: Any, ranges: Any, displacement: Any) -> np.ndarray:
     b = as_points("beacon", beacon)
     if b.shape != (2,):
         raise ValueError(f"beacon must have shape (2,); got {b.shape}")
-    r = as_finite("ranges", ranges, shape=(2,))
+    r = as_finite("ranges", ranges, shape=(2,), max_abs=MAX_COORDINATE)     # squared below: kept within float64
     if np.any(r < 0):
         raise ValueError(f"ranges must be >= 0; got {r.tolist()}")
-    u = as_finite("displacement", displacement, shape=(2,))
+    u = as_finite("displacement", displacement, shape=(2,), max_abs=MAX_COORDINATE)
     dist = float(np.hypot(*u))
     if dist == 0.0:
         _warn("the displacement is zero: both ranges are from the same point, so the position is only known "
@@ -1054,6 +1153,13 @@ def mirror_point(point: Any, beacon: Any, direction: Any) -> np.ndarray:
     -------
     ndarray, shape (..., 2)
         The reflected points [m].
+
+    Examples
+    --------
+    >>> from uwtutor.observability import mirror_point
+    >>> # across the east-west line through the beacon
+    >>> mirror_point([3.0, 4.0], (0.0, 0.0), (1.0, 0.0))
+    array([ 3., -4.])
     """
     p = as_points("point", point)
     b = as_points("beacon", beacon)
@@ -1090,10 +1196,19 @@ def error_ellipse(covariance: Any, center: Any = (0.0, 0.0), scale: float = 1.0,
     -------
     ndarray, shape (n_points, 2)
         The ellipse [m].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.observability import error_ellipse
+    >>> # standard deviations 2 m east and 1 m north, drawn at two sigma
+    >>> e = error_ellipse(np.diag([4.0, 1.0]), center=(10.0, 0.0), scale=2.0)
+    >>> e.shape, e.min(axis=0).round(3), e.max(axis=0).round(3)
+    ((73, 2), array([ 6., -2.]), array([14.,  2.]))
     """
     C = as_covariance("covariance", as_finite("covariance", covariance, shape=(2, 2)), 2, allow_singular=True)
     c = as_finite("center", center, shape=(2,))
-    s = float(as_positive("scale", scale, ndim=0))
+    s = as_scalar("scale", scale, domain="positive")
     n_points = as_int("n_points", n_points, minimum=3, maximum=10**6)
     lam, vec = np.linalg.eigh(C)            # C is symmetric (checked): eigh reads its lower triangle
     # eigenvalues within as_covariance's stated tolerance below 0 are round-off: their axis has length 0
@@ -1350,15 +1465,13 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
         labels = ", ".join(_state_labels(n, bias, current))
         raise ValueError(f"P0 must be ({n}, {n}) or (M, {n}, {n}), the covariance of [{labels}] before the first "
                          f"step; got shape {P0_arr.shape}")
-    # the runs axis: from positions, beacon, sigma and P0
-    run_sizes = {name: shape[0] for name, shape in (("positions", p.shape[:-2]), ("beacon", b.shape[:-2]),
-                                                    ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))
-                 if len(shape) == 1}
-    if len(set(run_sizes.values()) - {1}) > 1:
-        described = ", ".join(f"{name} has {m}" for name, m in run_sizes.items())
-        raise ValueError(f"the inputs disagree on the number of runs M: {described}")
-    M = max(run_sizes.values(), default=1)
-    batched = bool(run_sizes)
+    # the runs axis: from positions, beacon, sigma and P0 (one of length 1 broadcasts)
+    runs = common_runs({name: shape[0] if len(shape) == 1 else None
+                        for name, shape in (("positions", p.shape[:-2]), ("beacon", b.shape[:-2]),
+                                            ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))},
+                       broadcast_one=True)
+    M = 1 if runs is None else runs
+    batched = runs is not None
     if np.ndim(s_in) > 2:
         raise ValueError(f"sigma must be a number, shape ({K},) or (M, {K}); got shape {np.shape(s_in)}")
     info_scale = _pcrb_sigma(s_in, (M, K))                                   # 1 / sigma^2, (M, K)
@@ -1562,6 +1675,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
         raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
     if not isinstance(measurement, MeasurementModel):
         raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
+    full = as_flag("full", full)
     n, m = motion.n, measurement.m
     if measurement.n != n:
         raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's state "
@@ -1579,17 +1693,12 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
         u = as_finite("u", u, ndim=(2, 3))
         if u.shape[-2] != K:
             raise ValueError(f"u must give one input per step ({K} steps, as truth); got shape {u.shape}")
-    sizes = {name: size for name, size in (("x0", _runs_axis("x0", x0, 1)), ("truth", _runs_axis("truth", truth, 2)),
-                                           ("P0", _runs_axis("P0", P0, 2)),
-                                           ("u", None if u is None else _runs_axis("u", u, 2)))
-             if size is not None}
-    if measured is not None and np.ndim(measured) == 3:
-        sizes["measured"] = np.shape(measured)[0]
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{name} has {size}" for name, size in sizes.items())
-        raise ValueError(f"the inputs disagree on the number of runs M: {described}")
-    M = next(iter(sizes.values()), 1)
-    batched = bool(sizes)
+    runs = common_runs({"x0": _runs_axis("x0", x0, 1), "truth": _runs_axis("truth", truth, 2),
+                        "P0": _runs_axis("P0", P0, 2), "u": None if u is None else _runs_axis("u", u, 2),
+                        "measured": np.shape(measured)[0] if measured is not None and np.ndim(measured) == 3
+                        else None})
+    M = 1 if runs is None else runs
+    batched = runs is not None
     xs = np.broadcast_to(truth, (M, K, n))
     x_prev = np.array(np.broadcast_to(x0, (M, n)))
     uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))

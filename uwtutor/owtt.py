@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_positive, as_scalar,
+from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_scalar,
                         as_times, readonly)
 from .acoustics import range_from_travel_time
 from .ranging import reception_times
@@ -229,6 +229,9 @@ def resolve_travel_time(wrapped: Any, predicted_range: Any, sound_speed: Any = 1
     c = as_scalar("sound_speed", sound_speed, domain="positive")
     if np.isinf(w).any() or np.isinf(r).any():
         raise ValueError("wrapped and predicted_range must not be infinite; use NaN for a lost message")
+    if w.ndim and r.ndim and w.shape != r.shape:      # a scalar broadcasts; two arrays must match (no (K, 1) x (K,))
+        raise ValueError(f"wrapped and predicted_range must have the same shape (or one of them be a single number); "
+                         f"got shapes {w.shape} and {r.shape}")
     bad = np.isfinite(w) & ((w < 0) | (w >= T))
     if bad.any():
         raise ValueError(f"wrapped must lie in [0, period) = [0, {T:g}); got {w[bad].flat[0]:g}")
@@ -275,6 +278,17 @@ class OWTTMeasurements:
         The :math:`c` the follower converts with [m/s].
     period : float or None
         :math:`T_\mathrm{s}` [s] when the travel times are wrapped.
+
+    Examples
+    --------
+    A follower 3100 m from a fixed leader, travel times reported modulo one second:
+
+    >>> from uwtutor.owtt import simulate_owtt
+    >>> m = simulate_owtt([0.0, 10.0], (0.0, 0.0), (3100.0, 0.0), period=1.0)
+    >>> m.travel_times.round(4), m.measured_travel_times.round(4)
+    (array([2.0667, 2.0667]), array([0.0667, 0.0667]))
+    >>> m.ranges.round(1), m.period
+    (array([100., 100.]), 1.0)
     """
 
     send_times: np.ndarray
@@ -352,7 +366,9 @@ def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at
     follower_at = as_position_function("follower_position_at", follower_position_at)
     c = as_scalar("sound_speed", sound_speed, domain="positive")
     c_a = c if assumed_sound_speed is None else as_scalar("assumed_sound_speed", assumed_sound_speed, domain="positive")
-    T = None if period is None else float(as_positive("period", period, ndim=0))
+    T = None if period is None else as_scalar("period", period, domain="positive")
+    clock_offset = as_scalar("clock_offset", clock_offset)
+    clock_drift = as_scalar("clock_drift", clock_drift)
     t_r, true_ranges = reception_times(ts, leader_at, follower_at, c)
     tau = t_r - ts
     measured = tau + np.asarray(clock_error(t_r, clock_offset, clock_drift), dtype=float)

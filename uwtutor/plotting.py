@@ -12,6 +12,8 @@ import re
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ._validate import as_float_array, as_instance, as_point
+
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
            "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below"]
 
@@ -43,19 +45,57 @@ OTHERS_COLOR = "0.78"
 
 
 def use_book_style() -> None:
-    """Apply :data:`BOOK_STYLE` to matplotlib (call once at the top of a chapter)."""
+    """Apply :data:`BOOK_STYLE` to matplotlib (call once at the top of a chapter).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from uwtutor.plotting import use_book_style
+    >>> with plt.rc_context():
+    ...     use_book_style()
+    ...     plt.rcParams["figure.figsize"]
+    [7.0, 3.6]
+    """
     plt.rcParams.update(BOOK_STYLE)
 
 
 def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
-    """Draw a beacon as a black triangle at ``position`` (x east, y north, metres)."""
-    x, y = np.asarray(position, dtype=float)
+    """Draw a beacon as a black triangle at ``position`` (x east, y north, metres).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from uwtutor.plotting import mark_beacon
+    >>> fig, ax = plt.subplots()
+    >>> mark_beacon(ax, (100.0, 50.0))
+    >>> ax.lines[0].get_xydata().tolist(), ax.lines[0].get_label()
+    ([[100.0, 50.0]], 'beacon')
+    >>> plt.close(fig)
+    """
+    x, y = as_point("position", position)
     ax.plot([x], [y], marker="^", color="black", markersize=9, linestyle="none", label=label)
 
 
 def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) -> None:
-    """Plot a 2-D track given as an array of shape (K, 2), with a dot at its start, on equal axes."""
-    p = np.asarray(positions, dtype=float)
+    """Plot a 2-D track given as an array of shape (K, 2), with a dot at its start, on equal axes.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from uwtutor.plotting import plot_track
+    >>> fig, ax = plt.subplots()
+    >>> plot_track(ax, np.array([[0.0, 0.0], [10.0, 5.0], [20.0, 0.0]]), label="truth")
+    >>> len(ax.lines), ax.get_xlabel()
+    (2, 'x east [m]')
+    >>> plt.close(fig)
+    """
+    p = as_float_array("positions", positions, ndim=2, nonempty=True)
+    if p.shape[1] != 2:
+        raise ValueError(f"positions must have shape (K, 2) (one [x, y] per row); got {p.shape}")
+    if np.isinf(p).any():
+        raise ValueError("positions must be finite (NaN, which leaves a gap in the line, is allowed); got an "
+                         "infinite value")
     (line,) = ax.plot(p[:, 0], p[:, 1], label=label, **style)
     ax.plot(p[0, 0], p[0, 1], "o", color=line.get_color(), markersize=4)
     ax.set_aspect("equal", adjustable="datalim")
@@ -154,6 +194,13 @@ def method_legend(n_others: int, highlight: dict[str, str] | None = None,
     -------
     handles, labels
         For ``ax.legend(handles, labels)`` or ``fig.legend(handles, labels)``.
+
+    Examples
+    --------
+    >>> from uwtutor.plotting import method_legend
+    >>> handles, labels = method_legend(3, highlight={"EKF": "C3"})
+    >>> labels
+    ['EKF', 'the three others']
     """
     from matplotlib.lines import Line2D
 
@@ -175,6 +222,17 @@ def legend_below(ax: Any, ncol: int = 1, drop: float = 0.45, **kwargs: Any) -> A
     labels and the x label). Draw the figure with ``layout="constrained"`` (or ``bbox_inches="tight"``, as the
     notebook's PNGs are) so that the legend is kept inside the image. ``kwargs`` go to ``ax.legend``; the font is
     :data:`MIN_FONT_SIZE` unless given.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from uwtutor.plotting import legend_below
+    >>> fig, ax = plt.subplots(layout="constrained")
+    >>> _ = ax.plot([0, 1], [0, 1], label="a line")
+    >>> legend = legend_below(ax, ncol=2)
+    >>> [t.get_text() for t in legend.get_texts()]
+    ['a line']
+    >>> plt.close(fig)
     """
     from matplotlib.transforms import ScaledTranslation
 
@@ -198,9 +256,24 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     -------
     IPython.display.HTML
         The player, ready to be the last expression of a notebook cell.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from matplotlib.animation import FuncAnimation
+    >>> from uwtutor.plotting import animation_html
+    >>> fig, ax = plt.subplots(figsize=(1.0, 1.0), dpi=20)
+    >>> (line,) = ax.plot([0.0, 1.0], [0.0, 0.0])
+    >>> anim = FuncAnimation(fig, lambda i: line.set_ydata([0.0, float(i)]), frames=2)
+    >>> html = animation_html(anim, default_mode="once")
+    >>> plt.close(fig)
+    >>> "<img" in html.data, "font-awesome" in html.data
+    (True, False)
     """
     from IPython.display import HTML
+    from matplotlib.animation import Animation
 
+    as_instance("animation", animation, Animation, "e.g. a matplotlib.animation.FuncAnimation")
     if default_mode not in ("loop", "once", "reflect"):
         raise ValueError(f"default_mode must be 'loop', 'once' or 'reflect'; got {default_mode!r}")
     return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))

@@ -18,7 +18,8 @@ errors, each part drawing its randomness from the same ``rng`` in turn.
 
 ``sample_with_mask`` returns the error together with a boolean mask of the epochs hit by an outlier, from the
 *same* random draw, so that an outlier detector can be scored against the truth (the mask is all False for
-models without outliers). ``measure_ranges`` adds the errors to true ranges; ``horizontal_range``,
+models without outliers). ``measure_ranges`` adds the errors to true ranges (a negative sum is read as
+its magnitude: the library's one policy for measured ranges, shared by ``add_range_errors``); ``horizontal_range``,
 ``slant_range`` and ``reception_times`` compute the true geometry.
 """
 
@@ -29,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from .errors import UwtutorWarning, warn as _warn
-from ._validate import (as_finite, as_flag, as_int, as_n_runs, as_points, as_position_function,
-                        as_positive, as_range_array, as_rng, as_scalar, as_times, with_runs)
+from ._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_n_runs, as_points,
+                        as_position_function, as_positive, as_range_array, as_rng, as_scalar, as_times, check_work,
+                        with_runs)
 from .acoustics import range_factor
 
 __all__ = [
@@ -42,6 +43,7 @@ __all__ = [
     "SlowBias",
     "Outliers",
     "measure_ranges",
+    "add_range_errors",
     "horizontal_range",
     "slant_range",
     "reception_times",
@@ -57,7 +59,10 @@ def _prepare(true_ranges: Any, times: Any, rng: Any, n_runs: Any) -> tuple[np.nd
         raise ValueError(f"true_ranges must have one range per epoch along its last axis: it has {r.shape[-1]}, "
                          f"times has {len(t)}")
     rng = as_rng(rng)
-    batch, single = with_runs("true_ranges", r, as_n_runs(n_runs), core_ndim=1)
+    m = as_n_runs(n_runs)
+    if m is not None:
+        check_work("n_runs", m * r.shape[-1], "range errors (n_runs x the epochs)")
+    batch, single = with_runs("true_ranges", r, m, core_ndim=1)
     return batch, t, rng, single
 
 
@@ -66,6 +71,19 @@ class RangeErrorModel:
 
     A subclass implements ``_draw(true_ranges, times, rng)`` for validated ``(M, K)`` ranges and returns
     ``(errors, outlier_mask)``, both ``(M, K)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import GaussianNoise, RangeErrorModel
+    >>> model = GaussianNoise(1.0)
+    >>> isinstance(model, RangeErrorModel)
+    True
+    >>> e, hit = model.sample_with_mask(
+    ...     np.full(4, 500.0), np.arange(4.0), np.random.default_rng(0)
+    ... )
+    >>> e.shape, bool(hit.any())
+    ((4,), False)
     """
 
     def sample(self, true_ranges: Any, times: Any, rng: np.random.Generator, n_runs: Any = None) -> np.ndarray:
@@ -134,11 +152,28 @@ class CompositeError(RangeErrorModel):
     parts : tuple of RangeErrorModel
         The components; each draws from the shared ``rng`` in this order. The outlier mask is the union of the
         components' masks.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import CompositeError, GaussianNoise, SlowBias
+    >>> model = GaussianNoise(1.0) + SlowBias(5.0, 3.0, 600.0)
+    >>> isinstance(model, CompositeError), len(model.parts)
+    (True, 2)
+    >>> e = model.sample(
+    ...     np.full(50, 1000.0), 10.0 * np.arange(50), np.random.default_rng(0), n_runs=400
+    ... )
+    >>> # the bias's mean, 5 m
+    >>> bool(abs(e.mean() - 5.0) < 0.5)
+    True
     """
 
     parts: tuple[RangeErrorModel, ...]
 
     def __post_init__(self) -> None:
+        if isinstance(self.parts, RangeErrorModel) or not isinstance(self.parts, (tuple, list)):
+            raise TypeError("parts must be a tuple of range error models, e.g. (GaussianNoise(1.0), SlowBias(5.0, "
+                            f"3.0, 600.0)); got {type(self.parts).__name__}")
         parts = tuple(self.parts)
         if not parts:
             raise ValueError("parts must hold at least one error model")
@@ -224,6 +259,15 @@ class SoundSpeedError(RangeErrorModel):
     speed_sigma : float, default 1
         Ping-to-ping standard deviation :math:`\sigma_c` of the true speed [m/s], >= 0 and below a tenth of
         ``true_speed`` (so that a drawn speed is never near zero).
+
+    Examples
+    --------
+    >>> from uwtutor.ranging import SoundSpeedError
+    >>> model = SoundSpeedError()
+    >>> round(model.scale_error, 3), round(model.mean_error(1000.0), 1)
+    (-0.02, -20.0)
+    >>> round(model.error_std(1000.0), 3)
+    0.653
     """
 
     true_speed: float = 1500.0
@@ -296,6 +340,20 @@ class SlowBias(RangeErrorModel):
     -----
     The recursion loops over epochs (vectorized across runs); a 1000-run, 2000-epoch batch takes a few
     milliseconds.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import SlowBias
+    >>> b = SlowBias(mean=5.0, sigma=3.0, time_constant=600.0).sample(
+    ...     np.full(20, 1000.0), 10.0 * np.arange(20), np.random.default_rng(1), n_runs=2000
+    ... )
+    >>> # stationary: mean 5 m and std 3 m at every epoch
+    >>> bool(abs(b.mean() - 5.0) < 0.3), bool(abs(b[:, -1].std() - 3.0) < 0.3)
+    (True, True)
+    >>> # consecutive epochs 10 s apart: correlation exp(-10/600)
+    >>> round(float(np.corrcoef(b[:, 9], b[:, 10])[0, 1]), 2)
+    0.98
     """
 
     mean: float
@@ -353,6 +411,17 @@ class Outliers(RangeErrorModel):
     Which epochs were hit is returned by ``sample_with_mask``. ``outlier_mask(times, rng, n_runs)`` gives the
     same mask on its own: it makes the same draws, in the same order (the hit epochs first, then the signs), so
     it reproduces the mask of ``sample_with_mask`` called with a generator in the same state.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import Outliers
+    >>> model = Outliers((300.0,), 10, 80.0)
+    >>> e, hit = model.sample_with_mask(
+    ...     np.full(600, 1500.0), np.arange(600.0), np.random.default_rng(0)
+    ... )
+    >>> int(hit.sum()), np.unique(e).tolist(), int(np.argmax(hit))
+    (10, [0.0, 80.0], 300)
     """
 
     onset_times: tuple[float, ...]
@@ -416,12 +485,20 @@ class Outliers(RangeErrorModel):
 
 
 def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, rng: np.random.Generator,
-                   n_runs: Any = None) -> np.ndarray:
-    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = r^\mathrm{true}_k + e_k`.
+                   n_runs: Any = None, *, return_errors: Any = False) -> Any:
+    r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = |r^\mathrm{true}_k + e_k|`.
 
-    Measured ranges are *not* clipped at zero: clipping would silently bias the errors. A negative measured
-    range can only come from an error larger than the range itself (e.g. a two-sided outlier close to the
-    beacon); it is kept and a ``UserWarning`` says how many there are, since the filters reject negative ranges.
+    This is the library's one maker of measured ranges: every scenario draws its ranges here, or, when it draws
+    the errors of several sources from separate streams, adds them with :func:`add_range_errors`, which applies
+    the same policy.
+
+    **The policy for a negative sum.** A measured range is a length, the sound speed times a travel time, so it is
+    never negative. When an error is larger than the range and of opposite sign (a two-sided outlier close to the
+    beacon, absurd noise levels), the sum :math:`r^\mathrm{true}_k + e_k` is negative and the measurement is read
+    as its magnitude. This keeps the size of the error (a 50 m error at 10 m gives 40 m, not 0 m) and never
+    produces a value that no ranging system can report and every filter refuses. Clipping at zero is not used:
+    it piles such measurements at exactly zero, as if the vehicle sat on the beacon. Whenever the sum is
+    non-negative (every epoch of realistic ranges) the measured range is exactly :math:`r^\mathrm{true}_k + e_k`.
 
     Parameters
     ----------
@@ -432,14 +509,20 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     error : RangeErrorModel or None
         Error model (``None``: error-free ranges).
     rng : numpy.random.Generator
-        Source of randomness.
+        Source of randomness (the draws are those of ``error.sample_with_mask`` with the same generator).
     n_runs : int, optional
         Number of Monte Carlo runs ``M`` (see ``RangeErrorModel.sample``).
+    return_errors : bool, default False
+        Also return the drawn errors and the outlier mask.
 
     Returns
     -------
-    ndarray, shape (K,) or (M, K)
-        Measured ranges [m].
+    ranges : ndarray, shape (K,) or (M, K)
+        Measured ranges [m], >= 0.
+    errors : ndarray, same shape
+        Only with ``return_errors``: the errors :math:`e_k` drawn from ``error`` (zeros for ``None``).
+    outlier_mask : ndarray of bool, same shape
+        Only with ``return_errors``: the epochs hit by an ``Outliers`` component.
 
     Examples
     --------
@@ -455,23 +538,89 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     >>> # 1470/1500 of the true range on average
     >>> bool(abs(r.mean() - 1960.0) < 1.0)
     True
+
+    A two-sided outlier of 50 m at a true range of 10 m gives 60 m or 40 m, never a negative range:
+
+    >>> from uwtutor.ranging import Outliers
+    >>> r, e, hit = measure_ranges(
+    ...     np.full(4, 10.0),
+    ...     np.arange(4.0),
+    ...     Outliers((0.0,), 4, 50.0, two_sided=True),
+    ...     np.random.default_rng(0),
+    ...     return_errors=True,
+    ... )
+    >>> e.tolist(), r.tolist()
+    ([50.0, -50.0, -50.0, -50.0], [60.0, 40.0, 40.0, 40.0])
     """
     if error is not None and not isinstance(error, RangeErrorModel):
         raise TypeError(f"error must be a range error model (e.g. GaussianNoise(1.0)) or None; "
                         f"got {type(error).__name__}")
+    full = as_flag("return_errors", return_errors)
     r, t, rng, single = _prepare(true_ranges, times, rng, n_runs)
-    err = np.zeros(r.shape) if error is None else error._draw(r, t, rng)[0]
-    measured = r + err
-    _warn_negative(measured)
-    return measured[0] if single else measured
+    if error is None:
+        err, mask = np.zeros(r.shape), np.zeros(r.shape, dtype=bool)
+    else:
+        err, mask = error._draw(r, t, rng)
+    measured = _fold(r + err)
+    if single:
+        measured, err, mask = measured[0], err[0], mask[0]
+    return (measured, err, mask) if full else measured
 
 
-def _warn_negative(measured: np.ndarray) -> None:
-    n_neg = int(np.count_nonzero(measured < 0))
-    if n_neg:
-        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
-                      "unclipped, but filters reject negative ranges: mark them NaN or reduce the errors",
-                      UwtutorWarning)
+def _fold(total: np.ndarray) -> np.ndarray:
+    """The policy of :func:`measure_ranges`: a negative sum of a true range and its errors is read as its size."""
+    return np.abs(total)
+
+
+def add_range_errors(true_ranges: Any, *errors: Any) -> np.ndarray:
+    r"""Measured ranges from true ranges and errors drawn elsewhere, with the policy of :func:`measure_ranges`.
+
+    :math:`r_k = |(\ldots((r^\mathrm{true}_k + e^{(1)}_k) + e^{(2)}_k) \ldots)|`: the errors are added in the order
+    given, then a negative sum is read as its magnitude (see :func:`measure_ranges` for why). For a scenario that
+    draws the parts of its range error from separate random streams (paper A's three parts, paper B's clock
+    error and noise) or adds its errors to another geometry (paper E's slant ranges).
+
+    Parameters
+    ----------
+    true_ranges : array_like
+        True ranges [m], finite and >= 0.
+    *errors : array_like
+        One or more range errors [m], each of the shape of ``true_ranges`` or broadcasting into it (``(K,)``
+        against ``(M, K)`` runs, or the other way round). NaN marks an epoch without a measurement and stays NaN.
+
+    Returns
+    -------
+    ndarray
+        Measured ranges [m], >= 0 (NaN where an error is NaN), of the broadcast shape.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.ranging import add_range_errors
+    >>> add_range_errors([100.0, 20.0, 5.0], [1.5, np.nan, -8.0]).tolist()
+    [101.5, nan, 3.0]
+    """
+    total = as_range_array("true_ranges", true_ranges, max_abs=MAX_COORDINATE)
+    if not errors:
+        raise TypeError("add_range_errors needs at least one array of errors after true_ranges")
+    for i, value in enumerate(errors):
+        name = "errors" if len(errors) == 1 else f"errors[{i}]"
+        e = as_float_array(name, value)
+        if np.isinf(e).any():
+            raise ValueError(f"{name} must be finite (NaN marks a missing measurement); got an infinity")
+        big = np.abs(e) > MAX_COORDINATE
+        if big.any():
+            raise ValueError(f"{name} must be at most {MAX_COORDINATE:.0e} m in magnitude; got "
+                             f"{e[big].flat[0]:.3g}. Change its units")
+        try:
+            shape = np.broadcast_shapes(total.shape, e.shape)
+        except ValueError:
+            shape = None
+        if shape not in (total.shape, e.shape):     # (K,) against (M, K) is a batch; (K, 1) against (K,) is not
+            raise ValueError(f"{name} of shape {e.shape} does not match true_ranges of shape {total.shape} "
+                             "(one error per range, or a batch of runs (M, K) of them)")
+        total = total + e
+    return _fold(total)
 
 
 def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
@@ -488,6 +637,14 @@ def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
     -------
     float or ndarray, shape (...)
         Ranges [m]; a float for a single position.
+
+    Examples
+    --------
+    >>> from uwtutor.ranging import horizontal_range
+    >>> horizontal_range([[3.0, 4.0], [6.0, 8.0]], (0.0, 0.0)).tolist()
+    [5.0, 10.0]
+    >>> horizontal_range([3.0, 4.0], (0.0, 0.0))
+    5.0
     """
     p = as_points("positions", positions, nonempty=True)
     b = as_points("beacon", beacon, nonempty=True)
@@ -516,6 +673,12 @@ def slant_range(positions: Any, beacon: Any, depth_difference: Any) -> float | n
     -------
     float or ndarray
         Slant ranges [m].
+
+    Examples
+    --------
+    >>> from uwtutor.ranging import slant_range
+    >>> slant_range([3.0, 4.0], (0.0, 0.0), 12.0)
+    13.0
     """
     h = np.asarray(horizontal_range(positions, beacon))
     dz = as_finite("depth_difference", depth_difference)
@@ -591,7 +754,12 @@ def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_a
     pb = beacon_at(tp)
 
     def travelled(t_r: np.ndarray) -> np.ndarray:
-        d = vehicle_at(t_r) - pb
+        try:
+            d = vehicle_at(t_r) - pb
+        except ValueError as exc:        # e.g. positions beyond 1e150 m at times far in the future
+            raise ValueError(f"{exc} (at the reception times the iteration reached from ping_times, "
+                             f"{np.min(tp, initial=0.0):.3g} to {np.max(tp, initial=0.0):.3g} s: check the units of "
+                             "ping_times, sound_speed and the position functions)") from None
         return np.hypot(d[..., 0], d[..., 1])
 
     t_r = tp

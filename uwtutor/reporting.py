@@ -17,16 +17,27 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
+from ._validate import as_float_array
 
 __all__ = ["as_shown", "below_or_value"]
 
 
 def _real(name: str, value: Any) -> float:
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "biuf" or arr.size != 1:
+    arr = as_float_array(name, value)           # strings, bools, complex and None refused by name
+    if arr.size != 1:
         raise TypeError(f"{name} must be one real number; got {value!r}")
     return float(arr.reshape(()))
+
+
+def _format(name: str, number: float, fmt: Any) -> str:
+    """``format(number, fmt)``, with an error naming ``name`` when ``fmt`` is not a float format."""
+    if not isinstance(fmt, str):
+        raise TypeError(f"{name} must be a format specification string such as '.3g'; got {type(fmt).__name__}")
+    try:
+        return format(number, fmt)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{name} must be a float format specification such as '.3g' or '.1f'; got {fmt!r} "
+                         f"({exc})") from None
 
 
 def as_shown(value: Any, fmt: str) -> float:
@@ -70,7 +81,7 @@ def as_shown(value: Any, fmt: str) -> float:
                          f"got {fmt!r}")
     if not math.isfinite(number):
         return number
-    text = format(number, fmt)
+    text = _format("fmt", number, fmt)
     if fmt.endswith("%"):
         return float(text[:-1]) / 100.0
     return float(text)
@@ -107,6 +118,7 @@ def below_or_value(value: Any, bound: float = 1e-9, fmt: str = ".3g") -> str:
     limit = _real("bound", bound)
     if not (math.isfinite(limit) and limit > 0):
         raise ValueError(f"bound must be a finite positive number; got {bound!r}")
+    text = _format("fmt", number, fmt)          # checked even when the bound is printed instead
     if math.isfinite(number) and abs(number) < limit:
         return f"< {limit:.0e}"
-    return format(number, fmt)
+    return text

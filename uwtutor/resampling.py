@@ -112,6 +112,22 @@ def _arange(N: int) -> np.ndarray:
     return a
 
 
+def _strata(weights: Any, rng: Any, *, one_offset: bool) -> np.ndarray:
+    """Indices drawn at the points ``(j + U_j)/N``, ``j = 0 .. N-1``: one point in each of ``N`` equal strata of
+    ``[0, 1)``, with an independent uniform per stratum (stratified) or ``one_offset`` shared by all (systematic)."""
+    w = _check_weights(weights)
+    rng = as_rng(rng)
+    N = w.shape[-1]
+    if one_offset:
+        offsets = rng.random(w.shape[:-1] + (1,))
+        points = _arange(N) + (offsets if w.ndim == 2 else offsets[0])
+    else:
+        points = rng.random(w.shape)
+        points += _arange(N)
+    points /= N
+    return _search(w, points)
+
+
 def _cumulative(w: np.ndarray) -> np.ndarray:
     """Cumulative sum of normalized 1-D weights, exactly 1 from the last positive weight on."""
     c = np.add.accumulate(w)
@@ -181,14 +197,15 @@ def stratified_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     -------
     ndarray of int, shape (N,) or (M, N)
         Indices of the selected particles, in increasing order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.resampling import stratified_resample
+    >>> stratified_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(1))
+    array([0, 0, 1, 2])
     """
-    w = _check_weights(weights)
-    rng = as_rng(rng)
-    N = w.shape[-1]
-    points = rng.random(w.shape)
-    points += _arange(N)
-    points /= N
-    return _search(w, points)
+    return _strata(weights, rng, one_offset=False)
 
 
 def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
@@ -218,13 +235,7 @@ def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     >>> systematic_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(1))
     array([0, 0, 1, 2])
     """
-    w = _check_weights(weights)
-    rng = as_rng(rng)
-    N = w.shape[-1]
-    offsets = rng.random(w.shape[:-1] + (1,))
-    points = _arange(N) + (offsets if w.ndim == 2 else offsets[0])
-    points /= N
-    return _search(w, points)
+    return _strata(weights, rng, one_offset=True)
 
 
 def _systematic_trusted(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
@@ -278,6 +289,14 @@ def residual_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     ndarray of int, shape (N,) or (M, N)
         The deterministic copies in increasing order, then the ``R`` multinomial draws in draw order
         (the layout of filterpy's ``residual_resample``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.resampling import residual_resample
+    >>> # floor(4 w) = 2, 1, 0, 0 copies, then one multinomial draw from the residual weights
+    >>> residual_resample([0.5, 0.3, 0.2, 0.0], np.random.default_rng(1))
+    array([0, 0, 1, 2])
     """
     w = _check_weights(weights)
     rng = as_rng(rng)
@@ -299,6 +318,14 @@ def effective_sample_size(weights: Any) -> float | np.ndarray:
     Returns
     -------
     float or ndarray of shape (M,)
+
+    Examples
+    --------
+    >>> from uwtutor.resampling import effective_sample_size
+    >>> effective_sample_size([0.25, 0.25, 0.25, 0.25])
+    4.0
+    >>> round(effective_sample_size([0.7, 0.1, 0.1, 0.1]), 3)
+    1.923
     """
     w = _check_weights(weights)
     ess = 1.0 / np.sum(w * w, axis=-1)

@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 import pywt
 
-from ._validate import as_finite, as_float_array, as_int
+from ._validate import as_finite, as_float_array, as_index, as_int, check_work
 
 __all__ = [
     "MAD_TO_SIGMA",
@@ -85,6 +85,9 @@ def as_wavelet(wavelet: Any) -> pywt.Wavelet:
     """
     if isinstance(wavelet, pywt.Wavelet):
         return wavelet
+    if not isinstance(wavelet, str):
+        raise TypeError(f"wavelet must be the name of a discrete wavelet of PyWavelets (a str such as 'db6') or a "
+                        f"pywt.Wavelet; got {type(wavelet).__name__}")
     try:
         w = pywt.Wavelet(wavelet)
     except (ValueError, TypeError):
@@ -138,7 +141,10 @@ def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
     1.0378
     """
     d = as_float_array("coefficients", coefficients)
-    if d.ndim == 0 or d.shape[axis] == 0:
+    if d.ndim == 0:
+        raise ValueError("coefficients must hold at least one coefficient; got a single number (pass a list)")
+    axis = as_index("axis", axis, d.ndim)
+    if d.shape[axis] == 0:
         raise ValueError(f"coefficients must hold at least one coefficient along axis {axis}; got shape {d.shape}")
     if not np.isfinite(np.add.reduce(d, axis=None)):
         raise ValueError("coefficients must be finite (no NaN or infinite value)")
@@ -183,6 +189,7 @@ def detail_matrix(n_samples: int, wavelet: Any = "db6") -> np.ndarray:
     """
     w = as_wavelet(wavelet)
     n = as_int("n_samples", n_samples, minimum=w.dec_len)
+    check_work("n_samples", n * n, "matrix entries")
     return _valid_details(np.eye(n), w)[:, w.dec_len % 2::2]
 
 
@@ -312,6 +319,8 @@ def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mod
     x = as_float_array("signal", signal)
     if x.ndim == 0:
         raise ValueError("signal must be an array with time along its last axis; got a scalar")
+    if x.shape[-1] == 0:
+        raise ValueError(f"signal must hold at least one sample along its last axis; got shape {x.shape}")
     if np.isinf(x).any():
         raise ValueError("signal must be finite, or NaN for a missing sample; got an infinite value")
     n = as_int("window", window, minimum=w.dec_len)

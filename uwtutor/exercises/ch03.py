@@ -170,7 +170,9 @@ def vmlbl_system_reference(ranges: Any, virtual_beacons: Any, depth: float,
 
     Rows :math:`i = 1..N` pair epoch :math:`i` with :math:`j = i + 1` (cyclically, the last with the first):
     :math:`A_i = [x_j - x_i, y_j - y_i]`,
-    :math:`B_i = (r_i^2 - r_j^2 + d_j^2 - d_i^2)/2 - h (z_j - z_i)`, :math:`d_i^2 = x_i^2 + y_i^2 + z_i^2`.
+    :math:`B_i = (r_i^2 - r_j^2 + d_j^2 - d_i^2)/2 - z (z^\mathrm{a}_j - z^\mathrm{a}_i)`,
+    :math:`d_i^2 = x_i^2 + y_i^2 + (z^\mathrm{a}_i)^2`, with the vehicle at depth :math:`z` and the ship's transducer
+    at depth :math:`z^\mathrm{a}_i` (the book's notation).
 
     Parameters
     ----------
@@ -179,9 +181,9 @@ def vmlbl_system_reference(ranges: Any, virtual_beacons: Any, depth: float,
     virtual_beacons : array_like, shape (N, 2)
         Horizontal positions of the virtual beacons [m].
     depth : float
-        Vehicle depth h [m].
+        Vehicle depth z [m].
     beacon_depths : array_like, shape (N,)
-        Depths of the virtual beacons [m].
+        Depths of the ship's transducer at the virtual beacons, z^a_i [m].
 
     Returns
     -------

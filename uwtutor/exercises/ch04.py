@@ -281,7 +281,11 @@ def check_nees_bounds(answer: Any) -> Feedback:
 
 # -- exercise 4.5: diagnosis ------------------------------------------------------------------------------------------
 def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
-    """The three Monte Carlo studies of exercise 4.5 (``uwtutor.widgets.ch04.ekf_view``), keyed by letter.
+    r"""The three Monte Carlo studies of exercise 4.5, keyed by letter.
+
+    Each runs the range-only EKF over the same ``n_runs`` draws of paper D's approach (DR noise variance 0.81 m²,
+    white range noise variance 0.49 m², a 30 m initial error per axis) with the ``q_scale`` and ``r_scale`` of
+    ``DIAGNOSIS_FILTERS`` on its assumed :math:`\mathbf Q` and :math:`R` (chapter 4's widget, at those settings).
 
     Parameters
     ----------
@@ -293,17 +297,32 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``{"A": EKFView, "B": ..., "C": ...}``.
+        ``{"A": MonteCarloResult, "B": ..., "C": ...}`` (:func:`uwtutor.montecarlo.run_monte_carlo`).
     """
-    from ..widgets.ch04 import ekf_view
+    from .. import scenarios
+    from ..filters import range_only_ekf
+    from ..montecarlo import run_monte_carlo
 
-    return {k: ekf_view(n_runs=n_runs, seed=seed, **kw) for k, kw in DIAGNOSIS_FILTERS.items()}
+    dr_variance, range_variance, initial_error = 0.81, 0.49, 30.0
+    studies = {}
+    for letter, tuning in DIAGNOSIS_FILTERS.items():
+        rng = np.random.default_rng(seed)
+        runs = scenarios.approach_with_turn_scenario(rng, n_runs=n_runs, assumed_speed=1500.0, speed_sigma=0.0,
+                                                     noise_sigma=np.sqrt(range_variance),
+                                                     dr_sigma=np.sqrt(dr_variance))
+        truth = np.array(runs.true_positions[0])
+        start = truth[0] + initial_error * rng.standard_normal((n_runs, 2))
+        studies[letter] = run_monte_carlo(range_only_ekf, truth, x0=start, P0=np.eye(2) * initial_error**2,
+                                          u=runs.dr_displacements, z=np.maximum(runs.ranges, 0.0),
+                                          Q=np.eye(2) * tuning["q_scale"] * dr_variance,
+                                          R=tuning["r_scale"] * range_variance, times=runs.times)
+    return studies
 
 
 def _classify(studies: dict[str, Any]) -> tuple[str, str, str]:
     mean = {k: float(np.nanmean(v.mean_nees)) for k, v in studies.items()}
     lo, hi = next(iter(studies.values())).nees_bounds
-    consistent = max(studies, key=lambda k: studies[k].nees_fraction_within)
+    consistent = max(studies, key=lambda k: studies[k].nees_fraction_within())
     overconfident = max(mean, key=lambda k: mean[k])
     underconfident = min(mean, key=lambda k: mean[k])
     if not (mean[overconfident] > hi and mean[underconfident] < lo):

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_finite, as_positive
+from .._validate import MAX_COORDINATE, as_finite, as_positive, as_scalar
 from ..errors import IllConditionedWarning, warn
 from .._linalg import line_of_sight as _line_of_sight
 
@@ -16,7 +16,7 @@ SINGULAR_RTOL = 1e-7
 
 
 def as_design(A: Any) -> np.ndarray:
-    A = as_finite("A", A)
+    A = as_finite("A", A, max_abs=MAX_COORDINATE)
     if A.ndim < 2:
         raise ValueError(f"A must be a design matrix of shape (N, p) or a stack (..., N, p); got shape {A.shape}")
     if A.shape[-2] < 1 or A.shape[-1] < 1:
@@ -51,8 +51,8 @@ def unit_los(positions: np.ndarray, beacons: np.ndarray, name: str) -> tuple[np.
 
 
 def as_thresholds(max_condition: Any, max_noise_gain: Any) -> tuple[float, float]:
-    mc = float(as_positive("max_condition", max_condition, ndim=0))
-    mg = float(as_positive("max_noise_gain", max_noise_gain, ndim=0))
+    mc = as_scalar("max_condition", max_condition, domain="positive")
+    mg = as_scalar("max_noise_gain", max_noise_gain, domain="positive")
     if mc < 1.0:
         raise ValueError(f"max_condition must be >= 1 (a condition number is never below 1); got {mc:g}")
     return mc, mg
@@ -106,14 +106,6 @@ def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.nda
     return r, b
 
 
-def runs_of(**shapes: int | None) -> int | None:
-    sizes = {k: v for k, v in shapes.items() if v is not None}
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{k} has {v}" for k, v in sizes.items())
-        raise ValueError(f"the arguments with a leading runs axis disagree on the number of runs M: {described}")
-    return next(iter(sizes.values()), None)
-
-
 def sigma_and_cov(sigma: Any, residuals: np.ndarray, n_unknowns: int,
                    inv_normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = residuals.shape[-1]
@@ -122,7 +114,14 @@ def sigma_and_cov(sigma: Any, residuals: np.ndarray, n_unknowns: int,
             s = np.sqrt(np.sum(residuals**2, axis=-1) / (n - n_unknowns)) if n > n_unknowns \
                 else np.full(residuals.shape[:-1], np.nan)
     else:
-        s = np.broadcast_to(as_positive("sigma", sigma), residuals.shape[:-1]).astype(float)
+        s_in = as_positive("sigma", sigma)
+        if np.any((s_in < 1e-150) | (s_in > 1e150)):     # sigma^2 times the inverse normal matrix stays finite
+            raise ValueError(f"sigma must lie between 1e-150 and 1e150 (its square scales the covariance); got "
+                             f"{s_in[(s_in < 1e-150) | (s_in > 1e150)].flat[0]:g}. Change its units")
+        if s_in.shape not in ((), residuals.shape[:-1]):
+            raise ValueError(f"sigma must be a number or one value per run, shape {residuals.shape[:-1]}; got shape "
+                             f"{s_in.shape}")
+        s = np.broadcast_to(s_in, residuals.shape[:-1]).astype(float)
     with np.errstate(invalid="ignore"):
         cov = s[..., None, None] ** 2 * inv_normal
     return s, cov

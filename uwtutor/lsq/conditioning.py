@@ -65,6 +65,17 @@ def condition_number(A: Any) -> float | np.ndarray:
     -------
     float or ndarray, shape (...)
         :math:`\kappa(A) \ge 1`; ``inf`` where :math:`A` is singular (see ``SINGULAR_RTOL``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import condition_number
+    >>> phi = np.radians([0.0, 90.0, 180.0, 270.0])
+    >>> round(condition_number(np.column_stack([np.cos(phi), np.sin(phi), np.ones(4)])), 4)
+    1.4142
+    >>> # two nearly parallel lines of sight
+    >>> round(condition_number(np.array([[1.0, 0.0], [1.0, 1e-3]])), 1)
+    2000.0
     """
     A = as_design(A)
     s = np.linalg.svd(A, compute_uv=False)
@@ -96,9 +107,19 @@ def precision_factor_history(positions: Any, beacon: Any = (0.0, 0.0), unknown_b
     ndarray, shape (K,) or (M, K)
         :math:`\alpha_k`; ``inf`` while the rows do not yet determine every unknown (fewer epochs than unknowns, or
         no change of bearing yet).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import precision_factor_history
+    >>> theta = np.linspace(0.0, np.pi / 2, 6)
+    >>> arc = 100.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> # position and bias: infinite until three ranges, then falling as the bearing turns
+    >>> precision_factor_history(arc).round(1)
+    array([   inf,    inf, 1217.7,  203.8,   58.7,   22.3])
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
-    p = as_finite("positions", positions, ndim=(2, 3))
+    p = as_finite("positions", positions, ndim=(2, 3), nonempty=True)
     if p.shape[-1] != 2:
         raise ValueError(f"positions must have shape (K, 2) or (M, K, 2); got {p.shape}")
     b = as_finite("beacon", beacon)

@@ -7,8 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_float_array, as_int, as_positive
-from ._common import runs_of
+from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_scalar, common_runs
 
 
 #: Largest elements of one intermediate array of the grid search (runs are processed in chunks below it).
@@ -50,6 +49,16 @@ class Prelocation:
         The sound-speed errors searched [m/s].
     assumed_speed : float
         The speed :math:`c` the travel times would be converted with [m/s].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> pre.n_steps, pre.cost_map.shape, float(pre.effective_speed[-1])
+    (10, (180, 3), 1500.0)
     """
 
     bearing: np.ndarray
@@ -73,7 +82,7 @@ class Prelocation:
 def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, bearing_grid: Any,
                         speed_error_grid: Any, assumed_speed: Any,
                         beacon: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, bool]:
-    c = float(as_positive("assumed_speed", assumed_speed, ndim=0))
+    c = as_scalar("assumed_speed", assumed_speed, domain="positive")
     if dr_displacements is None:
         raise TypeError("dr_displacements is required: the DR displacement between consecutive epochs, "
                         "shape (K, 2) or (M, K, 2)")
@@ -86,11 +95,13 @@ def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, b
     else:
         tau = as_float_array("travel_times", travel_times, ndim=(1, 2))
         name = "travel_times"
+    if tau.shape[-1] == 0:
+        raise ValueError(f"{name} must hold at least one epoch; got shape {tau.shape}")
     if np.isinf(tau).any() or np.any(tau < 0):
         raise ValueError(f"{name} must be finite and >= 0 (NaN marks a missing epoch)")
     if np.isnan(tau[..., 0]).any():
         raise ValueError(f"{name} must be present (not NaN) at epoch 0: the first travel time fixes the start ring")
-    u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3))
+    u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if u.shape[-1] != 2:
         raise ValueError(f"dr_displacements must have shape (K, 2) or (M, K, 2); got {u.shape}")
     if u.shape[-2] != tau.shape[-1]:
@@ -103,9 +114,15 @@ def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, b
     if np.any(dc >= c):
         raise ValueError(f"speed_error_grid must stay below assumed_speed ({c:g} m/s): the effective speed "
                          f"c - dc must be > 0; got {dc.max():g}")
-    b = as_finite("beacon", beacon, shape=(2,))
-    M = runs_of(travel_times=tau.shape[0] if tau.ndim == 2 else None,
-                 dr_displacements=u.shape[0] if u.ndim == 3 else None)
+    with np.errstate(invalid="ignore"):
+        reach = float(np.nanmax(tau)) * float(np.max(c - dc))       # the largest ring radius c_e tau searched
+    if not reach <= MAX_COORDINATE:
+        raise ValueError(f"{name}, assumed_speed and speed_error_grid give ranges c_e tau up to {reach:.3g} m, "
+                         f"beyond {MAX_COORDINATE:.0e} (the cost's squares overflow float64): check their units "
+                         "(seconds, m/s, metres)")
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
+    M = common_runs(dict(travel_times=tau.shape[0] if tau.ndim == 2 else None,
+                         dr_displacements=u.shape[0] if u.ndim == 3 else None))
     batched = M is not None
     K = tau.shape[-1]
     tau = np.broadcast_to(tau, (M or 1, K))
@@ -178,6 +195,21 @@ def prelocation_cost(travel_times: Any = None, dr_displacements: Any = None, bea
     -------
     ndarray, shape (B, C) or (M, B, C)
         :math:`L` [s²] on the grid (bearings along the first grid axis).
+
+    Examples
+    --------
+    A vehicle 500 m south of the beacon drives east, then turns north; the travel times are at 1500 m/s, converted
+    with 1470 m/s:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import prelocation_cost
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> bearings = np.radians(np.arange(-180.0, 180.0, 2.0))
+    >>> cost = prelocation_cost(np.linalg.norm(track, axis=1) / 1500.0, dr, bearings, [-30.0, 0.0, 30.0])
+    >>> i, j = np.unravel_index(np.argmin(cost), cost.shape)
+    >>> cost.shape, float(np.degrees(bearings[i])), [-30.0, 0.0, 30.0][j]
+    ((180, 3), -90.0, -30.0)
     """
     pre = grid_prelocation(travel_times, dr_displacements, bearing_grid, speed_error_grid, ranges=ranges,
                            assumed_speed=assumed_speed, beacon=beacon)
@@ -255,7 +287,7 @@ def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bea
     ... )
     (True, True)
     """
-    c = float(as_positive("assumed_speed", assumed_speed, ndim=0))
+    c = as_scalar("assumed_speed", assumed_speed, domain="positive")
     default_b, default_c = _default_grids(c)
     tau, u, theta, dc, c, b, batched = _prelocation_inputs(
         travel_times, ranges, dr_displacements, default_b if bearing_grid is None else bearing_grid,
@@ -317,6 +349,20 @@ class PrelocationAcceptance:
         :math:`\Delta d_k`, the move of the estimated start between epochs ``k - 1`` and ``k`` [m] (NaN at 0).
     heading_change : ndarray, shape (K,) or (M, K)
         DR heading change since the start [rad] (NaN for the first ``heading_window`` epochs).
+
+    Examples
+    --------
+    On a straight track the estimated start stops moving at once, but with no turn it may be the mirror start: the
+    pre-location is never accepted (``prelocation_acceptance`` shows the accepted case):
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(10)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> verdict = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> float(verdict.shifts[-1]), bool(verdict.accepted), int(verdict.turn_epoch), int(verdict.epoch)
+    (0.0, False, -1, -1)
     """
 
     accepted: np.ndarray
@@ -361,6 +407,22 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
     Returns
     -------
     PrelocationAcceptance
+
+    Examples
+    --------
+    Before the turn north the grid picks the mirror start (north of the beacon); the turn (seen at epoch 6, with
+    headings over two displacements) moves it to the true one, and two estimates that stay put accept it:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
+    (True, 6, 8)
+    >>> pre.position[accepted.epoch].round(1)
+    array([ 250., -350.])
     """
     s = as_finite("starts", starts, ndim=(2, 3))
     u = as_finite("dr_displacements", dr_displacements, ndim=(2, 3))
@@ -370,11 +432,12 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
     if s.shape[-2] != u.shape[-2]:
         raise ValueError(f"starts and dr_displacements must have the same number of epochs; got {s.shape[-2]} "
                          f"and {u.shape[-2]}")
-    turn = float(as_positive("min_heading_change", min_heading_change, ndim=0))
+    turn = as_scalar("min_heading_change", min_heading_change, domain="positive")
     n_ok = as_int("n_consecutive", n_consecutive, minimum=1)
-    dmax = float(as_positive("max_shift", max_shift, ndim=0))
+    dmax = as_scalar("max_shift", max_shift, domain="positive")
     w = as_int("heading_window", heading_window, minimum=1)
-    M = runs_of(starts=s.shape[0] if s.ndim == 3 else None, dr_displacements=u.shape[0] if u.ndim == 3 else None)
+    M = common_runs(dict(starts=s.shape[0] if s.ndim == 3 else None,
+                         dr_displacements=u.shape[0] if u.ndim == 3 else None))
     batched = M is not None
     Mb = M or 1
     K = s.shape[-2]

@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_positive
+from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar, common_runs
 from ..errors import IllConditionedWarning
-from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
+from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, sigma_and_cov, unit_los,
                      warn_conditioning)
 
 #: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
@@ -55,6 +55,18 @@ class LSQFix:
     well_conditioned : ndarray
         Boolean, shape () or (M,): :math:`\kappa \le` ``max_condition`` and noise gain :math:`\le`
         ``max_noise_gain``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import linearized_lsq
+    >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
+    >>> r = np.linalg.norm(np.array([30.0, -40.0]) - beacons, axis=1) + 5.0
+    >>> fix = linearized_lsq(r, beacons, provisional=[10.0, -30.0], iterations=3)
+    >>> fix.estimate.round(3), fix.covariance.shape, fix.iterations
+    (array([ 30., -40.,   5.]), (3, 3), 3)
+    >>> bool(fix.well_conditioned), bool(fix.trusted())
+    (True, True)
     """
 
     estimate: np.ndarray
@@ -72,7 +84,7 @@ class LSQFix:
 
     def trusted(self, max_alpha: float = 2.0) -> np.ndarray:
         r"""Paper A's acceptance test :math:`\alpha <` ``max_alpha`` (2 in the paper), per run."""
-        return np.asarray(self.alpha < float(as_positive("max_alpha", max_alpha)))
+        return np.asarray(self.alpha < as_scalar("max_alpha", max_alpha, domain="positive"))
 
 
 def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias: bool = True, iterations: int = 1,
@@ -152,8 +164,8 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
         raise ValueError(f"provisional must be a position [x, y], shape (2,) or (M, 2); got {p0.shape}")
     steps = as_int("iterations", iterations, minimum=1, maximum=MAX_ITERATIONS)
     mc, mg = as_thresholds(max_condition, max_noise_gain)
-    M = runs_of(ranges=r.shape[0] if r.ndim == 2 else None, beacons=b.shape[0] if b.ndim == 3 else None,
-                 provisional=p0.shape[0] if p0.ndim == 2 else None)
+    M = common_runs(dict(ranges=r.shape[0] if r.ndim == 2 else None, beacons=b.shape[0] if b.ndim == 3 else None,
+                         provisional=p0.shape[0] if p0.ndim == 2 else None))
     batched = M is not None
     Mb = M or 1
     N = r.shape[-1]
@@ -241,12 +253,33 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     -----
     IllConditionedWarning
         As ``linearized_lsq``: typically in the first epochs, before the bearing to the beacon has changed.
+
+    Examples
+    --------
+    Ranges with a 2 m bias along half a circle of 300 m about the beacon; dead reckoning knows only the
+    displacements, and the provisional current position is 9 m off:
+
+    >>> import numpy as np
+    >>> from uwtutor.lsq import prepositioning
+    >>> theta = np.linspace(0.0, np.pi, 12)
+    >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> r = np.linalg.norm(track, axis=1) + 2.0
+    >>> fix = prepositioning(r, track - track[0], provisional=track[-1] + [8.0, -5.0], iterations=3)
+    >>> bool(np.allclose(fix.position, track[-1], atol=1e-6)), round(float(fix.bias), 3)
+    (True, 2.0)
+    >>> round(float(fix.alpha), 3), bool(fix.trusted())
+    (1.147, True)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)
-    P = as_finite("dr_positions", dr_positions, ndim=(2, 3))
+    # the virtual beacons b - (P - P[-1]) stay within MAX_COORDINATE
+    P = as_finite("dr_positions", dr_positions, ndim=(2, 3), max_abs=MAX_COORDINATE / 4)
     if P.shape[-1] != 2:
         raise ValueError(f"dr_positions must have shape (N, 2) or (M, N, 2); got {P.shape}")
-    b = as_finite("beacon", beacon, shape=(2,))
+    b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE / 4)
+    n_ranges = np.shape(ranges)[-1] if np.ndim(ranges) else None
+    if n_ranges is not None and P.shape[-2] != n_ranges:
+        raise ValueError(f"dr_positions must give one DR position per range: {P.shape[-2]} rows of dr_positions for "
+                         f"{n_ranges} ranges")
     mc, mg = as_thresholds(max_condition, max_noise_gain)
     with warnings.catch_warnings():
         # judged again below, so that the warning names this problem and points at the caller

@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite
-from ._common import as_thresholds, batched_lstsq, runs_of, warn_conditioning
+from .._validate import MAX_COORDINATE, as_finite, common_runs
+from ._common import as_thresholds, batched_lstsq, warn_conditioning
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,19 @@ class VirtualBeaconFix:
         :math:`r_i - \lVert (\hat x, \hat y, z) - (b^\mathrm{v}_i, z^\mathrm{a}_i)\rVert` [m].
     well_conditioned : ndarray
         Boolean, shape () or (M,): condition number and noise gain below their limits.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.lsq import virtual_beacon_lsq
+    >>> ship = np.array([[0.0, 0.0], [400.0, 100.0], [700.0, 400.0], [800.0, 800.0]])
+    >>> sub = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0], [-750.0, -950.0]])
+    >>> r = np.sqrt(np.sum((ship - sub) ** 2, axis=1) + 1000.0**2)
+    >>> fix = virtual_beacon_lsq(r, ship, sub, depth=1000.0)
+    >>> fix.virtual_beacons.shape, fix.design.shape, bool(fix.well_conditioned)
+    ((4, 2), (4, 2), True)
+    >>> round(float(fix.condition_number), 2), bool(np.abs(fix.residuals).max() < 1e-6)
+    (3.54, True)
     """
 
     position: np.ndarray
@@ -129,27 +142,27 @@ def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *,
     >>> np.round(fix.position, 6)
     array([-750., -950.])
     """
-    r = as_finite("ranges", ranges, ndim=(1, 2))
+    r = as_finite("ranges", ranges, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if np.any(r < 0):
         raise ValueError(f"ranges must be >= 0; got {r[r < 0].flat[0]:g}")
     N = r.shape[-1]
     if N < 3:
         raise ValueError(f"virtual_beacon_lsq needs ranges at N >= 3 epochs (paper E uses 4); got {N}")
-    ab = as_finite("beacon_positions", beacon_positions, ndim=(2, 3))
-    P = as_finite("dr_positions", dr_positions, ndim=(2, 3))
+    ab = as_finite("beacon_positions", beacon_positions, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    P = as_finite("dr_positions", dr_positions, ndim=(2, 3), max_abs=MAX_COORDINATE)
     for name, arr in (("beacon_positions", ab), ("dr_positions", P)):
         if arr.shape[-2:] != (N, 2):
-            raise ValueError(f"{name} must have shape ({N}, 2) or (M, {N}, 2), one position per range; "
-                             f"got {arr.shape}")
-    h = float(as_finite("depth", depth, ndim=0))
-    z = as_finite("beacon_depths", beacon_depths, ndim=(0, 1))
+            raise ValueError(f"{name} must have shape ({N}, 2) or (M, {N}, 2), one position per entry of ranges "
+                             f"({N}); got {arr.shape}")
+    h = float(as_finite("depth", depth, ndim=0, max_abs=MAX_COORDINATE))
+    z = as_finite("beacon_depths", beacon_depths, ndim=(0, 1), max_abs=MAX_COORDINATE)
     if z.ndim == 1 and z.shape != (N,):
         raise ValueError(f"beacon_depths must be a number or have shape ({N},); got {z.shape}")
     z = np.broadcast_to(z, (N,))
     mc, mg = as_thresholds(max_condition, max_noise_gain)
-    M = runs_of(ranges=r.shape[0] if r.ndim == 2 else None,
-                 beacon_positions=ab.shape[0] if ab.ndim == 3 else None,
-                 dr_positions=P.shape[0] if P.ndim == 3 else None)
+    M = common_runs(dict(ranges=r.shape[0] if r.ndim == 2 else None,
+                         beacon_positions=ab.shape[0] if ab.ndim == 3 else None,
+                         dr_positions=P.shape[0] if P.ndim == 3 else None))
     batched = M is not None
     Mb = M or 1
     r = np.broadcast_to(r, (Mb, N))

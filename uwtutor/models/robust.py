@@ -99,6 +99,10 @@ class ConstantVelocity(MotionModel):
            [1. , 2. ]]))
     """
 
+    #: Q is positive semi-definite by construction (q >= 0 times a Gram matrix of the steps), so the filter does not
+    #: check it again at each step.
+    covariances_checked = True
+
     def __init__(self, d: int, q: Any, steps: Any) -> None:
         self.d = as_int("d", d, minimum=1)
         self.n = 2 * self.d
@@ -145,6 +149,8 @@ class PositionMeasurement(MeasurementModel):
     >>> pm.h(np.array([[3.0, 4.0, 1.0, 0.0]]), 1), float(pm.R(None, 1)[0, 0])
     (array([[3., 4.]]), 4.0)
     """
+
+    covariances_checked = True      # R is checked (symmetric positive definite) when the model is made
 
     def __init__(self, d: int, R: Any) -> None:
         self.d = self.m = as_int("d", d, minimum=1)

@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import UwtutorWarning, warn as _warn
-from .._validate import (as_finite, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar, as_times,
-                         readonly)
+from .._validate import (as_finite, as_flag, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar,
+                         as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, reception_times
+from ..ranging import (GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, measure_ranges,
+                       reception_times)
 
 __all__ = [
     "Scenario",
@@ -41,12 +41,22 @@ __all__ = [
 
 
 def _as_measured(name: str, value: Any, shape: tuple[int, int]) -> np.ndarray:
-    """Measured ranges: no infinities; NaN marks a missing measurement and, after absurd errors, a range may be
-    negative (see ``ranging.measure_ranges``)."""
+    """Measured ranges of a scenario built or edited by hand: no infinities; NaN marks a missing measurement (the
+    builders' ranges come from ``ranging.measure_ranges`` and are never negative; the filters check the sign)."""
     r = as_float_array(name, value, shape=shape)
     if np.isinf(r).any():
         raise ValueError(f"{name} must not be infinite; use NaN for a missing range")
     return r
+
+
+def _as_list(name: str, value: Any) -> list:
+    """A sequence (tuple, list or 1-D array) as a list; anything else refused by name."""
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        return list(value)
+    if not isinstance(value, (tuple, list, range)):
+        raise TypeError(f"{name} must be a sequence (a tuple or a list, one entry per patch of outliers); got "
+                        f"{type(value).__name__}")
+    return list(value)
 
 
 def _dr_positions(true_positions: np.ndarray, dr_displacements: np.ndarray) -> np.ndarray:
@@ -60,6 +70,15 @@ class ScenarioRun:
     The fields have the names and meanings of the ``Scenario`` fields, with shapes ``(K,)`` for ``times``,
     ``true_ranges``, ``ranges``, ``range_errors`` and ``outlier_mask``, and ``(K, 2)`` for ``true_positions``,
     ``dr_displacements`` and ``beacon_positions``; ``index`` is the number of the run in its batch.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import circling_scenario
+    >>> sc = circling_scenario(np.random.default_rng(0), n_runs=3, duration=100.0)
+    >>> run = sc.run(-1)
+    >>> run.index, run.n_steps, run.ranges.shape, run.dr_positions.shape
+    (2, 21, (21,), (21, 2))
     """
 
     times: np.ndarray
@@ -102,8 +121,9 @@ class Scenario:
     true_ranges
         True horizontal ranges [m], shape ``(M, K)``.
     ranges
-        Measured ranges, ``true_ranges + range_errors``, shape ``(M, K)``. In a hand-built or edited scenario
-        (``dataclasses.replace``) NaN may mark a missing range.
+        Measured ranges, ``|true_ranges + range_errors|`` (``ranging.measure_ranges``: the sum itself whenever
+        it is non-negative), shape ``(M, K)``. In a hand-built or edited scenario (``dataclasses.replace``) NaN
+        may mark a missing range.
     range_errors
         The errors drawn from the error model, shape ``(M, K)``.
     description
@@ -117,6 +137,19 @@ class Scenario:
     The arrays are read-only; the deterministic ones (e.g. a true track shared by all runs) may be broadcast
     views that take no memory per run. Copy an array (``np.array(...)``) before editing it.
     ``run(i)`` returns a ``ScenarioRun`` holding run ``i`` without the runs axis.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.motion import straight_track
+    >>> from uwtutor.ranging import GaussianNoise
+    >>> from uwtutor.scenarios import make_scenario
+    >>> track = straight_track(np.arange(0.0, 100.0, 10.0), (-500.0, 200.0), 2.0, 0.0)
+    >>> sc = make_scenario(
+    ...     track, (0.0, 0.0), GaussianNoise(1.0), np.random.default_rng(0), n_runs=3
+    ... )
+    >>> sc.n_runs, sc.n_steps, sc.ranges.shape, sc.dr_positions.shape
+    (3, 10, (3, 10), (3, 10, 2))
     """
 
     times: np.ndarray
@@ -194,9 +227,10 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
         u_k = (p_k - p_{k-1}) + w_k, \quad w_k \sim N(0, \sigma_{DR}^2 I_2), \qquad
         r_k = \|p_k - b_k\| + e_k,
 
-    :math:`e_k` from ``error``. Ranges are horizontal and geometric at the epoch times (a moving beacon is taken
-    at the same instant as the vehicle; use ``ranging.reception_times`` to build the epochs from the acoustic
-    travel time, as ``approach_with_turn_scenario`` does).
+    :math:`e_k` from ``error`` (``ranging.measure_ranges``: a negative sum is read as its magnitude). Ranges are
+    horizontal and geometric at the epoch times (a moving beacon is taken at the same instant as the vehicle; use
+    ``ranging.reception_times`` to build the epochs from the acoustic travel time, as
+    ``approach_with_turn_scenario`` does).
 
     Parameters
     ----------
@@ -218,6 +252,23 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.motion import straight_track
+    >>> from uwtutor.ranging import GaussianNoise
+    >>> from uwtutor.scenarios import make_scenario
+    >>> track = straight_track(np.arange(0.0, 100.0, 10.0), (-500.0, 200.0), 2.0, 0.0)
+    >>> sc = make_scenario(
+    ...     track, (0.0, 0.0), GaussianNoise(1.0), np.random.default_rng(0), n_runs=3,
+    ...     dr_sigma=0.5,
+    ... )
+    >>> sc.ranges.shape, sc.dr_displacements.shape
+    ((3, 10), (3, 10, 2))
+    >>> # the errors are those of the ranges
+    >>> bool(np.allclose(sc.ranges - sc.true_ranges, sc.range_errors))
+    True
     """
     if not isinstance(track, Track):
         raise TypeError(f"track must be a uwtutor.motion.Track; got {type(track).__name__}")
@@ -230,21 +281,14 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     if not isinstance(description, str):
         raise TypeError(f"description must be a string; got {type(description).__name__}")
     times, k = track.times, track.n_steps
+    check_work("n_runs", 8 * m * k, "floats (n_runs x the epochs x DR, ranges and errors)")
     beacon_xy = beacon.position_at(times) if isinstance(beacon, Track) else np.broadcast_to(as_point("beacon", beacon),
                                                                                               (k, 2))
     dr_rng, range_rng = rng.spawn(2)
     true_steps = np.diff(track.positions, axis=0, prepend=track.positions[:1])   # row 0: zeros
     dr = displacement_noise(true_steps, dr_rng, sigma, n_runs=m)
     true_ranges = np.hypot(*(track.positions - beacon_xy).T)
-    if error is None:
-        errors, mask = np.zeros((m, k)), np.zeros((m, k), dtype=bool)
-    else:
-        errors, mask = error.sample_with_mask(true_ranges, times, range_rng, n_runs=m)
-    ranges = true_ranges + errors
-    n_neg = int(np.count_nonzero(ranges < 0))
-    if n_neg:
-        _warn(f"{n_neg} measured range(s) are negative (an error larger than the range); they are kept "
-                      "unclipped, but filters reject negative ranges", UwtutorWarning)
+    ranges, errors, mask = measure_ranges(true_ranges, times, error, range_rng, n_runs=m, return_errors=True)
     return Scenario(times=times,
                     true_positions=np.broadcast_to(track.positions, (m, k, 2)),
                     dr_displacements=dr,
@@ -256,9 +300,11 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
                     outlier_mask=mask)
 
 
-def _epochs(duration: float, interval: float) -> np.ndarray:
+def _epochs(duration: float, interval: float, interval_name: str = "interval") -> np.ndarray:
     """0, interval, 2 interval, ... up to and including ``duration`` (when it is a multiple)."""
-    n = int(np.floor(duration / interval + 1e-9)) + 1
+    count = duration / interval + 1e-9
+    check_work(f"duration / {interval_name}", count, "epochs")
+    n = int(np.floor(count)) + 1
     return interval * np.arange(n)
 
 
@@ -305,6 +351,17 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import circling_scenario
+    >>> sc = circling_scenario(np.random.default_rng(0), n_runs=2, duration=500.0)
+    >>> sc.ranges.shape
+    (2, 101)
+    >>> # the circle is centred on the buoy: the true range stays 1500 m
+    >>> bool(np.allclose(sc.true_ranges, 1500.0))
+    True
     """
     times = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("interval", interval, domain="positive"))
@@ -312,9 +369,10 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     g = as_scalar("gamma", gamma)
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
-    error = (GaussianNoise(noise_sigma)
+    error = (GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
              + SoundSpeedError(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
-             + SlowBias(bias_mean, bias_sigma, bias_time_constant))
+             + SlowBias(as_scalar("bias_mean", bias_mean), as_scalar("bias_sigma", bias_sigma, domain="nonnegative"),
+                        as_scalar("bias_time_constant", bias_time_constant, domain="positive")))
     bias = error.parts[-1]
     description = (f"Paper A: circling a buoy, R = {float(radius):g} m at {float(speed):g} m/s, a range every "
                    f"{float(interval):g} s; range error N(0, {float(noise_sigma):.3g}^2) + {g:g} r + slow bias "
@@ -369,10 +427,23 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import approach_with_turn_scenario
+    >>> sc = approach_with_turn_scenario(np.random.default_rng(0), n_runs=2)
+    >>> sc.ranges.shape
+    (2, 151)
+    >>> # pings every 10 s, each heard a travel time later (2.2 s for the first)
+    >>> round(float(sc.times[0]), 2), round(float(sc.times[1] - sc.times[0]), 3)
+    (2.23, 9.987)
     """
     pings = _epochs(as_scalar("duration", duration, domain="positive"),
-                    as_scalar("ping_interval", ping_interval, domain="positive"))
+                    as_scalar("ping_interval", ping_interval, domain="positive"), "ping_interval")
     turn = as_scalar("turn_time", turn_time)
+    true_speed = as_scalar("true_speed", true_speed, domain="positive")
+    noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
     psi = as_finite("headings", headings, shape=(2,))
     # A track sampled at the pings and the turn is exact under linear interpolation (straight legs between
     # samples) and beyond its end (extrapolated along the last leg): the reception-time iteration can use it.
@@ -432,23 +503,33 @@ def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: Any = 1, *, 
     Returns
     -------
     Scenario
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import ship_and_submersible_scenario
+    >>> sc = ship_and_submersible_scenario(np.random.default_rng(0))
+    >>> sc.ranges.shape, int(sc.outlier_mask.sum())
+    ((1, 1201), 30)
     """
     times = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("interval", interval, domain="positive"))
     ship_v = as_point("ship_velocity", ship_velocity)
     sub_v = as_point("sub_velocity", sub_velocity)
-    ship = s_turn_track(times, ship_start, np.hypot(*ship_v), np.arctan2(ship_v[1], ship_v[0]), turn_rate,
-                        half_period)
-    sub = straight_track(times, sub_start, np.hypot(*sub_v), np.arctan2(sub_v[1], sub_v[0]))
+    ship = s_turn_track(times, as_point("ship_start", ship_start), np.hypot(*ship_v), np.arctan2(ship_v[1], ship_v[0]),
+                        turn_rate, half_period)
+    sub = straight_track(times, as_point("sub_start", sub_start), np.hypot(*sub_v), np.arctan2(sub_v[1], sub_v[0]))
     onsets = as_finite("outlier_onsets", outlier_onsets, ndim=1)
-    counts = list(outlier_counts)
-    sides = list(outlier_two_sided)
+    counts = _as_list("outlier_counts", outlier_counts)
+    sides = _as_list("outlier_two_sided", outlier_two_sided)
     if not len(onsets) == len(counts) == len(sides):
         raise ValueError("outlier_onsets, outlier_counts and outlier_two_sided must have the same length; got "
                          f"{len(onsets)}, {len(counts)} and {len(sides)}")
-    error: RangeErrorModel = GaussianNoise(noise_sigma)
-    for onset, count, two_sided in zip(onsets, counts, sides):
-        error = error + Outliers((onset,), count, outlier_amplitude, two_sided=two_sided)
+    amplitude = as_scalar("outlier_amplitude", outlier_amplitude, domain="nonnegative")
+    error: RangeErrorModel = GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
+    for i, (onset, count, two_sided) in enumerate(zip(onsets, counts, sides)):
+        error = error + Outliers((onset,), as_int(f"outlier_counts[{i}]", count, minimum=1), amplitude,
+                                 two_sided=as_flag(f"outlier_two_sided[{i}]", two_sided))
     patches = ", ".join(f"{c} {'two' if s else 'one'}-sided at {o:g} s" for o, c, s in zip(onsets, counts, sides))
     description = (f"Paper E: submersible ranging to an S-turning ship every {float(interval):g} s for "
                    f"{float(duration):g} s; range noise std {float(noise_sigma):.3g} m; outliers of "

@@ -38,9 +38,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_int, as_rng, as_scalar
+from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
 from ..motion import Track, circle_track, turning_track
-from ..ranging import GaussianNoise, SlowBias, SoundSpeedError
+from ..ranging import GaussianNoise, SlowBias, SoundSpeedError, add_range_errors
 from . import Scenario, circling_scenario, make_scenario
 
 __all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
@@ -89,11 +89,12 @@ def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0
     True
     """
     rng = as_rng(rng)
-    t = np.asarray(times, dtype=float)
+    t = as_times("times", times)
     r0 = as_scalar("radius", radius, domain="positive")
     v = as_scalar("speed", speed, domain="positive")
     leg = as_scalar("leg_time", leg_time, domain="positive")
     a0 = as_scalar("start_angle", start_angle)
+    check_work("leg_time", (t[-1] - t[0]) / leg, "legs (the span of times / leg_time)")
     turn_times = np.arange(t[0] + leg, t[-1], leg)
     start = r0 * np.array([np.cos(a0), np.sin(a0)])
     length = v * leg
@@ -143,6 +144,16 @@ class PaperAParameters:
         :math:`T_\upsilon`, its correlation time [s] (not given; chosen 3000 s).
     dr_sigma : float
         DR noise per axis per epoch [m] (not given; chosen 1 m).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from uwtutor.scenarios.paper_a import PaperAParameters
+    >>> p = PaperAParameters()
+    >>> p.n_obs, float(p.times[-1]), round(p.noise_sigma, 3)
+    (3000, 14995.0, 2.236)
+    >>> replace(p, n_obs=100, track="circle").times.shape
+    (100,)
     """
 
     n_obs: int = 3000
@@ -167,6 +178,7 @@ class PaperAParameters:
             as_scalar(name, getattr(self, name), domain="positive")
         for name in ("gamma_sigma", "bias_sigma", "dr_sigma"):
             as_scalar(name, getattr(self, name), domain="nonnegative")
+        as_scalar("bias_mean", self.bias_mean)
         g = as_scalar("gamma", self.gamma)
         if not -0.5 < g < 0.5:
             raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
@@ -247,6 +259,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
     p = _as_params(params)
     rng = as_rng(rng)
     m = as_int("n_runs", n_runs, minimum=1)
+    check_work("n_runs", 12 * m * p.n_obs, "floats (n_runs x params.n_obs x the DR, the ranges and three error parts)")
     geometry_rng, dr_rng, error_rng = rng.spawn(3)
     if p.track == "circle":
         # the geometry and the DR noise of scenarios.circling_scenario; the errors are drawn below, by part
@@ -268,7 +281,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
                    f"{p.interval:g} s; range error N(0, {p.noise_variance:g}) + N({p.gamma:g}, "
                    f"{p.gamma_sigma:.3g}^2) r + slow bias (mean {p.bias_mean:g} m, std {p.bias_sigma:.3g} m, tau "
                    f"{p.bias_time_constant:g} s); DR noise {p.dr_sigma:g} m per axis")
-    scenario = replace(base, ranges=true_r + errors, range_errors=errors, description=description)
+    scenario = replace(base, ranges=add_range_errors(true_r, errors), range_errors=errors, description=description)
     return scenario, bias
 
 
@@ -355,7 +368,7 @@ def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParam
     if not 0.0 <= s <= 1.0:
         raise ValueError(f"bias_share is a fraction of the variance and must lie in [0, 1]; got {s:g}")
     total = as_scalar("total_sigma", total_sigma, domain="nonnegative")
-    base = PaperAParameters(bias_mean=0.0) if params is None else params
+    base = PaperAParameters(bias_mean=0.0) if params is None else _as_params(params)
     r_bar = base.radius if mean_range is None else as_scalar("mean_range", mean_range, domain="positive")
     return replace(base, bias_sigma=float(np.sqrt(s) * total), gamma_sigma=float(np.sqrt(1.0 - s) * total / r_bar))
 
@@ -363,6 +376,11 @@ def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParam
 # ---------------------------------------------------------------------------------------------------------------
 # the lake trial
 # ---------------------------------------------------------------------------------------------------------------
+
+def _per_group(name: str, values: np.ndarray) -> None:
+    if values.shape != (4,):
+        raise ValueError(f"{name} must hold one value per group (4); got {values.size}")
+
 
 @dataclass(frozen=True)
 class LakeTrialParameters:
@@ -401,6 +419,15 @@ class LakeTrialParameters:
         Its correlation time [s].
     gnss_sigma : float
         GNSS position noise per fix [m]; the displacements are differences of noisy fixes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_a import LakeTrialParameters
+    >>> p = LakeTrialParameters(group_duration=60.0, gap=30.0)
+    >>> trial = p.make(np.random.default_rng(0), n_runs=2)
+    >>> trial.ranges.shape
+    (2, 166)
     """
 
     range_m: float = 800.0
@@ -421,11 +448,9 @@ class LakeTrialParameters:
             as_scalar(name, getattr(self, name), domain="positive")
         for name in ("receiver_speed", "sender_speed", "bias_sigma", "gnss_sigma"):
             as_scalar(name, getattr(self, name), domain="nonnegative")
-        for name in ("bearings_deg", "group_bias", "group_noise"):
-            if len(getattr(self, name)) != 4:
-                raise ValueError(f"{name} must hold one value per group (4); got {len(getattr(self, name))}")
-        if min(self.group_noise) <= 0:
-            raise ValueError(f"group_noise must be > 0 in every group; got {self.group_noise}")
+        for name in ("bearings_deg", "group_bias"):
+            _per_group(name, as_finite(name, getattr(self, name), ndim=1))
+        _per_group("group_noise", as_positive("group_noise", self.group_noise, ndim=1))
 
     def make(self, rng: np.random.Generator, n_runs: Any = 1) -> LakeTrial:
         """Simulate ``n_runs`` runs (see :func:`make_lake_trial`)."""
@@ -454,6 +479,18 @@ class LakeTrial:
         The errors (NaN between groups).
     group : ndarray of int, shape (K,)
         Group number 1-4 of each epoch, 0 between groups.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_a import make_lake_trial
+    >>> trial = make_lake_trial(np.random.default_rng(0), n_runs=2)
+    >>> relative, u = trial.relative()
+    >>> relative.shape, u.shape, trial.n_runs
+    ((781, 2), (2, 781, 2), 2)
+    >>> # no range between the groups
+    >>> bool(np.isnan(trial.ranges[:, trial.group == 0]).all())
+    True
     """
 
     times: np.ndarray
@@ -530,6 +567,9 @@ def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
     m = as_int("n_runs", n_runs, minimum=1)
     period = p.group_duration + p.gap
     t_end = 4 * p.group_duration + 3 * p.gap
+    check_work("params", t_end / p.interval, "epochs (4 group_duration + 3 gap, over interval)")
+    check_work("n_runs", 8.0 * m * (t_end / p.interval + 1), "floats (n_runs x the epochs x GNSS fixes, ranges "
+               "and errors)")
     times = np.arange(0.0, t_end + 1e-9, p.interval)
     g_index = np.floor(times / period).astype(int)
     in_group = (times - g_index * period) < p.group_duration
@@ -556,4 +596,4 @@ def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
     err = np.asarray(p.group_bias)[gi] + bias + noise
     err = np.where(group > 0, err, np.nan)
     return LakeTrial(times=times, receiver=receiver, sender=sender, receiver_gnss=rec_gnss, sender_gnss=snd_gnss,
-                     ranges=true_r + err, range_errors=err, group=group)
+                     ranges=add_range_errors(true_r, err), range_errors=err, group=group)

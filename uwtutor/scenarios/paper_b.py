@@ -29,10 +29,12 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_rng, as_scalar, check_work, readonly
+from .._validate import (as_finite, as_flag, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar,
+                         check_work, readonly)
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
+from ..ranging import add_range_errors
 
 __all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
            "FilterTuning", "paper_tuning", "matched_tuning"]
@@ -67,6 +69,13 @@ class PaperBParameters:
     leader at send time to the follower at reception, and the epochs are the reception times), with the follower's
     ``clock_offset`` [s] and ``clock_drift`` [s/s], ``sound_speed`` [m/s] and ``ambiguity_period`` (travel times
     known modulo it).
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_b import PaperBParameters
+    >>> p = PaperBParameters()
+    >>> p.n_epochs, p.x1.tolist(), p.Q.shape, p.R.shape
+    (313, [10.0, -100.0, 0.0, 0.0], (6, 6), (10, 10))
     """
 
     speed: float = 2.0
@@ -111,10 +120,27 @@ class PaperBParameters:
                              f"{self.interval:g} and {self.dr_step:g}")
         if self.leader_pattern not in LEADER_PATTERNS:
             raise ValueError(f"leader_pattern must be one of {LEADER_PATTERNS}; got {self.leader_pattern!r}")
-        if not 0.0 <= self.packet_loss < 1.0:
+        if not 0.0 <= as_scalar("packet_loss", self.packet_loss) < 1.0:
             raise ValueError(f"packet_loss must lie in [0, 1); got {self.packet_loss!r}")
-        for name in ("range_sigma", "leader_sigma", "dr_speed_sigma", "dr_heading_sigma"):
+        for name in ("range_sigma", "leader_sigma", "dr_speed_sigma", "dr_heading_sigma", "depth"):
             as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("leg_duration", "circle_radius"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("follower_heading", "zigzag_angle", "clock_offset", "clock_drift"):
+            as_scalar(name, getattr(self, name))
+        for name in ("current", "follower_start", "leader_start", "leader_drift"):
+            as_finite(name, getattr(self, name), shape=(2,))
+        as_finite("initial_estimate", self.initial_estimate, shape=(4,))
+        as_positive("initial_covariance_diag", self.initial_covariance_diag, shape=(4,))
+        as_nonnegative("process_noise_diag", self.process_noise_diag, shape=(6,))
+        as_positive("measurement_noise_diag", self.measurement_noise_diag, shape=(10,))
+        as_flag("owtt", self.owtt)
+        if self.current_after is not None:
+            as_finite("current_after", self.current_after, shape=(2,))
+        if self.change_time is not None:
+            as_scalar("change_time", self.change_time)
+        if self.ambiguity_period is not None:
+            as_scalar("ambiguity_period", self.ambiguity_period, domain="positive")
         if (self.current_after is None) != (self.change_time is None):
             raise ValueError("give both current_after and change_time (or neither)")
         if self.ambiguity_period is not None and not self.owtt:
@@ -153,7 +179,15 @@ PAPER_B = PaperBParameters()
 @dataclass(frozen=True)
 class FilterTuning:
     r"""The noise a cooperative EKF is told about: :math:`\mathbf{P}_1` (4x4), paper B's :math:`\mathbf{Q}` (6x6)
-    and :math:`\mathbf{R}` (10x10), and the range variance of the single-range variant [m²]."""
+    and :math:`\mathbf{R}` (10x10), and the range variance of the single-range variant [m²].
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios import paper_b
+    >>> tuning = paper_b.paper_tuning()
+    >>> sorted(tuning.as_kwargs()), tuning.P1.shape
+    (['P0', 'Q', 'R', 'range_variance'], (4, 4))
+    """
 
     P1: np.ndarray
     Q: np.ndarray
@@ -175,7 +209,7 @@ def paper_tuning(params: PaperBParameters | None = None) -> FilterTuning:
     >>> paper_b.paper_tuning().range_variance
     200.0
     """
-    p = PAPER_B if params is None else params
+    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
     return FilterTuning(p.P1, p.Q, p.R, float(p.R[0, 0] + p.R[2, 2]))
 
 
@@ -202,7 +236,7 @@ def matched_tuning(params: PaperBParameters | None = None, *, position_noise: fl
     >>> tu.range_variance, np.sqrt(tu.Q[2, 2]).round(3)
     (50.0, np.float64(0.141))
     """
-    p = PAPER_B if params is None else params
+    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
     n = p.interval / p.dr_step
     dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
     q = as_scalar("position_noise", position_noise, domain="positive") ** 2
@@ -251,6 +285,14 @@ class CooperativeScenario:
         ``leader_positions``.
     params : PaperBParameters
     description : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_b
+    >>> sc = paper_b.make(np.random.default_rng(0), n_runs=2, duration=80.0)
+    >>> sc.n_runs, sc.n_steps, sc.true_states.shape, sc.initial_estimate().tolist()
+    (2, 10, (10, 4), [10.0, -100.0, 0.0, 0.0])
     """
 
     times: np.ndarray
@@ -370,8 +412,7 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
             dr_at = dr_grid[:, send_idx]
             at_send, leader_rx = true_pos, leader_true
         noise = p.range_sigma * rng_range.standard_normal((M, len(times)))
-        ranges = true_r + clock + noise
-        ranges = np.abs(ranges)            # a range cannot be negative (only matters for absurd noise levels)
+        ranges = add_range_errors(true_r, clock, noise)      # |true + clock + noise|: never negative
         travel = np.asarray(travel_time_from_range(ranges, p.sound_speed), dtype=float)
         if p.ambiguity_period is not None:
             travel = np.asarray(wrap_travel_time(travel, p.ambiguity_period), dtype=float)
@@ -470,9 +511,26 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
     -------
     list of CooperativeScenario
         One per follower, sharing ``leader_positions`` and ``leader_broadcast`` (the same draws).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_b
+    >>> first, second = paper_b.make_followers(
+    ...     np.random.default_rng(0), 2, [((0.0, 0.0), 0.0), ((0.0, 200.0), 0.0)],
+    ...     duration=80.0,
+    ... )
+    >>> # the same broadcasts heard by both
+    >>> bool(np.array_equal(first.leader_broadcast, second.leader_broadcast))
+    True
+    >>> second.true_positions[0].tolist()
+    [0.0, 200.0]
     """
     M = as_int("n_runs", n_runs, minimum=1)
     p = _params(params, changes)
+    if not isinstance(followers, (list, tuple)):
+        raise TypeError("followers must be a list of (start, heading) pairs, e.g. [((0.0, 0.0), 0.0)]; got "
+                        f"{type(followers).__name__}")
     fl = []
     for i, item in enumerate(followers):
         try:

@@ -25,7 +25,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_nonnegative, as_positive, as_rng
+from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar, check_work
+from ..wavelet import as_wavelet
 
 __all__ = [
     "PaperCParameters",
@@ -95,6 +96,24 @@ class PaperCParameters:
     Q_as_printed: np.ndarray = field(default_factory=lambda: _readonly(
         [[0.2**2, 0.8**2, 0.6**2], [0.8**2, 1.0**2, 0.0], [0.6**2, 0.0, 0.5**2]]))
 
+    def __post_init__(self) -> None:
+        as_scalar("T", self.T, domain="positive")
+        n = as_int("n_particles", self.n_particles, minimum=1)
+        as_int("n_grey", self.n_grey, minimum=0, maximum=n)
+        as_int("grey_window", self.grey_window, minimum=4)
+        as_int("noise_window", self.noise_window, minimum=1)
+        as_int("polynomial_order", self.polynomial_order, minimum=0)
+        if not isinstance(self.wavelet, str):
+            raise TypeError(f"wavelet must be the name of a PyWavelets wavelet, e.g. 'db6'; got "
+                            f"{type(self.wavelet).__name__}")
+        as_wavelet(self.wavelet)
+        # stored as read-only float arrays (the defaults already are; a list given by a user becomes one)
+        object.__setattr__(self, "sensor_std", _readonly(as_positive("sensor_std", self.sensor_std, shape=(3,))))
+        object.__setattr__(self, "process_std",
+                           _readonly(as_nonnegative("process_std", self.process_std, shape=(3,))))
+        object.__setattr__(self, "Q_as_printed", _readonly(as_finite("Q_as_printed", self.Q_as_printed,
+                                                                     shape=(3, 3))))
+
     @property
     def R(self) -> np.ndarray:
         """The sensor noise covariance ``diag(sensor_std**2)``."""
@@ -148,6 +167,15 @@ class DepthProfile:
         Named time intervals ``(start, end)`` [s] of the profile: the legs and the noise periods.
     T : float
         Sampling interval [s].
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_c import maneuvering_depth_profile
+    >>> profile = maneuvering_depth_profile(duration=6.0)
+    >>> profile.n_steps, profile.truth.shape, sorted(profile.segments)[:3]
+    (120, (120, 3), ['climb', 'dive', 'level'])
+    >>> profile.between(0.0, 3.0).n_steps
+    59
     """
 
     times: np.ndarray
@@ -224,8 +252,11 @@ def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitc
     ... )
     (1200, 20.0, 22.8)
     """
-    duration = float(as_positive("duration", duration))
-    T = float(as_positive("T", T))
+    duration = as_scalar("duration", duration, domain="positive")
+    T = as_scalar("T", T, domain="positive")
+    dive = as_scalar("dive_pitch_deg", dive_pitch_deg)
+    climb = as_scalar("climb_pitch_deg", climb_pitch_deg)
+    check_work("duration / T", duration / T, "samples")
     K = int(round(duration / T))
     if K < 20:
         raise ValueError(f"duration must cover at least 20 samples of T = {T} s; got {duration} s")
@@ -242,7 +273,7 @@ def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitc
     s = duration / 60.0                                   # the profile is designed for 60 s
     t = np.arange(1, K + 1) * T
     pitch_ramps = [(8 * s, 11 * s), (24 * s, 27 * s), (35 * s, 38 * s), (50 * s, 53 * s)]
-    pitch = _ramps(t, pitch_ramps, np.radians([0.0, dive_pitch_deg, 0.0, climb_pitch_deg, 0.0]))
+    pitch = _ramps(t, pitch_ramps, np.radians([0.0, dive, 0.0, climb, 0.0]))
     speed = _ramps(t, [(8 * s, 16 * s), (27 * s, 31 * s), (53 * s, 57 * s)], [1.5, 2.5, 2.0, 1.5])
     depth = 10.0 + np.cumsum(speed * np.sin(pitch)) * T
     factor = factors[np.searchsorted(changes * s, t, side="right")]
@@ -284,7 +315,9 @@ def simulate_depth_sensors(profile: DepthProfile, n_runs: int, rng: np.random.Ge
     >>> simulate_depth_sensors(p, 3, np.random.default_rng(0)).shape
     (3, 120, 3)
     """
+    profile = as_instance("profile", profile, DepthProfile, "from maneuvering_depth_profile")
     M = as_int("n_runs", n_runs, minimum=1)
+    check_work("n_runs", 3 * M * profile.n_steps, "readings (n_runs x the samples x 3 sensors)")
     rng = as_rng(rng)
     return profile.truth + rng.standard_normal((M, profile.n_steps, 3)) * profile.sensor_std
 
@@ -301,6 +334,14 @@ class PaperCScenario:
         The readings of the depth, speed and pitch sensors of every run.
     parameters : PaperCParameters
         The paper's parameters the scenario was made with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_c
+    >>> scenario = paper_c.make(np.random.default_rng(0), n_runs=2, duration=6.0)
+    >>> scenario.n_runs, scenario.truth.shape, scenario.measurements.shape
+    (2, (120, 3), (2, 120, 3))
     """
 
     profile: DepthProfile

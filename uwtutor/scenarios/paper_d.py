@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import as_in_range, as_int, as_scalar
 from ..acoustics import range_factor
 from . import Scenario, approach_with_turn_scenario
 
@@ -55,6 +56,16 @@ class PaperD:
         Time span of the pings [s].
     n_runs : int
         Number of Monte Carlo runs of the paper's figures.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.paper_d import PaperD
+    >>> p = PaperD(R=1.0)
+    >>> p.mu_gamma_true, p.as_dict()["R"]
+    (0.98, 1.0)
+    >>> p.make(np.random.default_rng(0), n_runs=2, duration=100.0).ranges.shape
+    (2, 11)
     """
 
     Q: float = 0.81
@@ -66,6 +77,14 @@ class PaperD:
     ping_interval: float = 10.0
     duration: float = 1500.0
     n_runs: int = 1000
+
+    def __post_init__(self) -> None:
+        for name in ("Q", "R", "speed_sigma"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("true_speed", "assumed_speed", "ping_interval", "duration"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        as_in_range("rho", as_scalar("rho", self.rho), 0.0, 1.0, closed=(False, True))
+        as_int("n_runs", self.n_runs, minimum=1)
 
     @property
     def mu_gamma_true(self) -> float:
@@ -90,5 +109,14 @@ PARAMETERS = PaperD()
 
 
 def make(rng: np.random.Generator, n_runs: Any = 1, **overrides: Any) -> Scenario:
-    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperD`)."""
+    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperD`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_d
+    >>> sc = paper_d.make(np.random.default_rng(0), n_runs=2, duration=100.0)
+    >>> sc.ranges.shape, sc.dr_displacements.shape
+    ((2, 11), (2, 11, 2))
+    """
     return PARAMETERS.make(rng, n_runs, **overrides)

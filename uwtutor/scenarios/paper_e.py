@@ -27,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_int
+from .._validate import as_finite, as_flag, as_in_range, as_int, as_point, as_scalar
+from ..ranging import add_range_errors
 from . import Scenario, ship_and_submersible_scenario
 
 __all__ = ["PaperE", "PARAMETERS", "Dive", "make"]
@@ -79,6 +80,13 @@ class PaperE:
         Time between the four epochs of a virtual-beacon fix [s], 100 (chosen; chapter 3 measures its effect).
     dr_sigma : float
         DR noise per axis per epoch [m], 0.1 (chosen).
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.paper_e import PaperE
+    >>> p = PaperE()
+    >>> p.duration, p.depth, p.outlier_counts
+    (1200.0, 1000.0, (10, 20))
     """
 
     duration: float = 1200.0
@@ -102,6 +110,29 @@ class PaperE:
     spacing: float = 100.0
     dr_sigma: float = 0.1
 
+    def __post_init__(self) -> None:
+        for name in ("duration", "interval", "q", "r", "half_period", "spacing"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("range_noise_variance", "outlier_amplitude", "depth", "dr_sigma"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        as_scalar("turn_rate_deg", self.turn_rate_deg)
+        for name in ("ship_velocity", "sub_velocity", "ship_start", "sub_start"):
+            as_point(name, getattr(self, name))
+        as_in_range("delta", as_scalar("delta", self.delta), 0.0, 1.0, closed=(False, False))
+        as_int("budget_runs", self.budget_runs, minimum=1)
+        onsets = as_finite("outlier_onsets", self.outlier_onsets, ndim=1)
+        for name in ("outlier_counts", "outlier_two_sided"):
+            value = getattr(self, name)
+            if not isinstance(value, (tuple, list)):
+                raise TypeError(f"{name} must be a tuple with one entry per patch of outliers; got "
+                                f"{type(value).__name__}")
+            if len(value) != len(onsets):
+                raise ValueError(f"outlier_onsets, outlier_counts and outlier_two_sided must have the same length; "
+                                 f"{name} has {len(value)}, outlier_onsets {len(onsets)}")
+        for i, (count, two_sided) in enumerate(zip(self.outlier_counts, self.outlier_two_sided)):
+            as_int(f"outlier_counts[{i}]", count, minimum=1)
+            as_flag(f"outlier_two_sided[{i}]", two_sided)
+
 
 #: Paper E's parameters (``PaperE()``).
 PARAMETERS = PaperE()
@@ -121,9 +152,24 @@ class Dive:
     true_slant_ranges : ndarray, shape (M, K)
         :math:`\sqrt{\lVert p_k - AB_k\rVert^2 + h^2}` [m].
     slant_ranges : ndarray, shape (M, K)
-        Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m].
+        Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m], added
+        by ``ranging.add_range_errors`` (a negative sum would be read as its magnitude).
     parameters : PaperE
         The parameters the dives were drawn with.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(
+    ...     np.random.default_rng(0), 2, duration=60.0, outlier_onsets=(),
+    ...     outlier_counts=(), outlier_two_sided=(),
+    ... )
+    >>> dive.n_runs, dive.times.shape, dive.ship_positions.shape
+    (2, (61,), (2, 61, 2))
+    >>> # slant ranges from 1000 m below the ship
+    >>> bool((dive.true_slant_ranges > dive.depth).all())
+    True
     """
 
     scenario: Scenario
@@ -205,8 +251,6 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
             raise TypeError(f"unknown PaperE field(s) {unknown}; see paper_e.PaperE for the names")
         p = PaperE(**{**p.__dict__, **changes})
     m = as_int("n_runs", n_runs, minimum=1)
-    if not (np.isfinite(p.depth) and p.depth >= 0):
-        raise ValueError(f"depth must be a finite number >= 0 (metres below the surface); got {p.depth!r}")
     sc = ship_and_submersible_scenario(
         rng, m, duration=p.duration, interval=p.interval, ship_start=p.ship_start, ship_velocity=p.ship_velocity,
         turn_rate=-np.deg2rad(p.turn_rate_deg), half_period=p.half_period, sub_start=p.sub_start,
@@ -214,7 +258,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
         outlier_amplitude=p.outlier_amplitude, outlier_onsets=p.outlier_onsets, outlier_counts=p.outlier_counts,
         outlier_two_sided=p.outlier_two_sided, dr_sigma=p.dr_sigma)
     true_slant = np.hypot(np.asarray(sc.true_ranges), float(p.depth))
-    slant = true_slant + np.asarray(sc.range_errors)
+    slant = add_range_errors(true_slant, sc.range_errors)
     for a in (true_slant, slant):
         a.setflags(write=False)
     return Dive(scenario=sc, depth=float(p.depth), true_slant_ranges=true_slant, slant_ranges=slant, parameters=p)

@@ -34,9 +34,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .._validate import as_choice, as_int, as_rng, as_seed, check_work
+from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
+                         check_work)
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError
+from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError, measure_ranges
 
 __all__ = [
     "SuiteParameters", "SUITE", "SuiteRuns", "SuiteInputs",
@@ -89,6 +90,14 @@ class SuiteParameters:
     current_sigma : float
         Prior standard deviation of a current state [m/s] per axis (0.2), for the filters that carry one and for
         the bound.
+
+    Examples
+    --------
+    >>> from uwtutor.scenarios.suite import SUITE, SuiteParameters
+    >>> SUITE.n_epochs, SUITE.R, SUITE.P0.tolist()
+    (150, 4.0, [[10000.0, 0.0], [0.0, 10000.0]])
+    >>> float(SuiteParameters(n_epochs=10).times[-1])
+    100.0
     """
 
     n_epochs: int = 150
@@ -109,6 +118,20 @@ class SuiteParameters:
     outlier_patch_length: int = 10
     current_velocity: tuple[float, float] = (0.1 * 0.5**0.5, 0.1 * 0.5**0.5)
     current_sigma: float = 0.2
+
+    def __post_init__(self) -> None:
+        n = as_int("n_epochs", self.n_epochs, minimum=1)
+        check_work("n_epochs", n, "epochs")
+        for name in ("interval", "speed", "range_sigma", "start_sigma", "true_speed", "assumed_speed",
+                     "bias_time_constant", "current_sigma"):
+            as_scalar(name, getattr(self, name), domain="positive")
+        for name in ("dr_sigma", "speed_sigma", "bias_sigma", "outlier_amplitude"):
+            as_scalar(name, getattr(self, name), domain="nonnegative")
+        for name in ("bias_mean", "outlier_patch_time"):
+            as_scalar(name, getattr(self, name))
+        as_in_range("outlier_probability", as_scalar("outlier_probability", self.outlier_probability), 0.0, 1.0)
+        as_int("outlier_patch_length", self.outlier_patch_length, minimum=1)
+        as_finite("current_velocity", self.current_velocity, shape=(2,))
 
     @property
     def times(self) -> np.ndarray:
@@ -168,6 +191,14 @@ class SuiteRuns:
         Whether the beacon moves (a ship or a leader broadcasting its position).
     parameters : SuiteParameters
     description : str
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, line
+    >>> runs = line(np.random.default_rng(0), 2, SuiteParameters(n_epochs=10))
+    >>> runs.name, runs.n_runs, runs.n_epochs, runs.positions.shape
+    ('line', 2, 10, (2, 11, 2))
     """
 
     name: str
@@ -226,6 +257,17 @@ class SuiteInputs:
     method_seed : int
         A seed for a method that draws random numbers (a particle filter), drawn from the condition's stream.
     parameters : SuiteParameters
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, line, white
+    >>> runs = line(np.random.default_rng(0), 2, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = white(np.random.default_rng(1), runs)
+    >>> inputs.z.shape, inputs.u.shape, truth.shape, inputs.dr_track().shape
+    ((2, 10), (2, 10, 2), (2, 10, 2), (2, 10, 2))
+    >>> inputs.fixed_beacon.tolist()
+    [0.0, 0.0]
     """
 
     scenario: str
@@ -275,6 +317,11 @@ class SuiteInputs:
 # ---------------------------------------------------------------------------------------------------------------------
 # scenarios: the geometries (deterministic; rng unused, kept for the draw signature)
 # ---------------------------------------------------------------------------------------------------------------------
+def _params(params: Any) -> SuiteParameters:
+    """The suite's numbers: ``SUITE`` for None, else a SuiteParameters (anything else refused by name)."""
+    return SUITE if params is None else as_instance("params", params, SuiteParameters)
+
+
 def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: str,
           p: SuiteParameters) -> SuiteRuns:
     n = as_int("n", n, minimum=1)
@@ -299,7 +346,7 @@ def circle(rng: np.random.Generator, n: int, params: SuiteParameters | None = No
     >>> runs.positions.shape, runs.planned.shape, runs.moving
     ((3, 151, 2), (151, 2), False)
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     return _runs("circle", rng, n, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
                  "circling the beacon at 1 km", p)
 
@@ -313,7 +360,7 @@ def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     >>> float(np.linalg.norm(runs.planned[0]))
     2236.06797749979
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = turning_track(p.times, (-2000.0, -1000.0), p.speed, np.deg2rad([0.0, 60.0]), [p.times[-1] / 2])
     return _runs("turn", rng, n, track, (0.0, 0.0), "approach with one turn", p)
 
@@ -326,7 +373,7 @@ def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     >>> runs.planned[[0, -1]].tolist()
     [[-1500.0, 300.0], [1500.0, 300.0]]
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = straight_track(p.times, (-1500.0, 300.0), p.speed, 0.0)
     return _runs("line", rng, n, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
 
@@ -339,7 +386,7 @@ def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None =
     >>> runs.planned[0].tolist()
     [-375.0, -600.0]
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = lawnmower_track(p.times, (-375.0, -600.0), p.speed, 750.0, 300.0)
     return _runs("lawnmower", rng, n, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
 
@@ -357,7 +404,7 @@ def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | No
     >>> runs.moving, runs.beacon[0, 0].tolist()
     (True, [-2200.0, 600.0])
     """
-    p = SUITE if params is None else params
+    p = _params(params)
     track = straight_track(p.times, (-1500.0, 0.0), p.speed, 0.0)
     period = 600.0                              # s: a zigzag of +-600 m across the vehicle's track
     phase = (p.times / period) % 1.0
@@ -394,8 +441,7 @@ def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *
         truth = truth + np.asarray(water_current, dtype=float) * (runs.times - runs.times[0])[:, None]
     u = np.broadcast_to(np.diff(runs.planned, axis=0), (n, K, 2))
     true_ranges = np.linalg.norm(truth - runs.beacon, axis=-1)
-    errors, _ = error.sample_with_mask(true_ranges, runs.times, range_rng, n_runs=n)
-    z = np.abs(true_ranges + errors)        # a range is a length: an absurd negative one is read as its size
+    z = measure_ranges(true_ranges, runs.times, error, range_rng, n_runs=n)   # a negative sum: read as its size
     inputs = SuiteInputs(scenario=runs.name, condition=name, times=runs.times[1:], interval=float(p.interval),
                          x0=np.broadcast_to(runs.planned[0], (n, 2)), P0=p.P0, u=u, z=z[:, 1:], z0=z[:, 0],
                          beacon=runs.beacon[:, 1:], beacon0=runs.beacon[:, 0], moving=runs.moving, Q=p.Q, R=p.R,
@@ -404,28 +450,76 @@ def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *
 
 
 def white(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """White Gaussian range noise :math:`\\sigma_r` only: the model every filter assumes."""
+    """White Gaussian range noise :math:`\\sigma_r` only: the model every filter assumes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, white
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = white(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # sigma_r = 2 m
+    >>> bool(abs(error.std() - 2.0) < 0.1)
+    True
+    """
     runs = _checked(runs)
     return _measure("white", rng, runs, GaussianNoise(runs.parameters.range_sigma))
 
 
 def sound_speed(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
     """A wrong sound speed (paper D): ranges scaled by :math:`\\gamma_k = c/c_{\\mathrm e,k}` (about 0.98), plus
-    white noise."""
+    white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, sound_speed
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = sound_speed(np.random.default_rng(1), runs)
+    >>> ratio = inputs.z / np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # 1470 / 1500 on average
+    >>> round(float(ratio.mean()), 3)
+    0.98
+    """
     p = _checked(runs).parameters
     error = SoundSpeedError(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
     return _measure("sound speed", rng, runs, error)
 
 
 def bias(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """A slowly varying range bias (paper A): 5 ± 5 m, 3000 s correlation, plus white noise."""
+    """A slowly varying range bias (paper A): 5 ± 5 m, 3000 s correlation, plus white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, bias
+    >>> runs = circle(np.random.default_rng(0), 200, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = bias(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # a mean of 5 m
+    >>> bool(abs(error.mean() - 5.0) < 1.0)
+    True
+    """
     p = _checked(runs).parameters
     error = SlowBias(p.bias_mean, p.bias_sigma, p.bias_time_constant) + GaussianNoise(p.range_sigma)
     return _measure("bias", rng, runs, error)
 
 
 def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """Outliers (paper E): isolated 80 m ones (3 % of the epochs) and a patch of 10 from 600 s, plus white noise."""
+    """Outliers (paper E): isolated 80 m ones (3 % of the epochs) and a patch of 10 from 600 s, plus white noise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, circle, outliers
+    >>> runs = circle(np.random.default_rng(0), 20, SuiteParameters(n_epochs=100))
+    >>> inputs, truth = outliers(np.random.default_rng(1), runs)
+    >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
+    >>> # the patch of 10 from 600 s (epochs 60 to 69), then about 3 % of the rest
+    >>> bool((np.abs(error[:, 59:69]) > 60.0).all()), bool(np.mean(np.abs(error) > 60.0) < 0.2)
+    (True, True)
+    """
     p = _checked(runs).parameters
     error = (Outliers((p.outlier_patch_time,), p.outlier_patch_length, p.outlier_amplitude, two_sided=True,
                       probability=p.outlier_probability) + GaussianNoise(p.range_sigma))
@@ -433,7 +527,19 @@ def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np
 
 
 def current(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np.ndarray]:
-    """An unknown current (paper B): the vehicle drifts with it, its DR (through the water) does not see it."""
+    """An unknown current (paper B): the vehicle drifts with it, its DR (through the water) does not see it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.scenarios.suite import SuiteParameters, current, line
+    >>> runs = line(np.random.default_rng(0), 1, SuiteParameters(n_epochs=10))
+    >>> inputs, truth = current(np.random.default_rng(1), runs)
+    >>> # the current has carried the vehicle 0.1 m/s x 100 s away from its dead reckoning
+    >>> drift = truth[0, -1] - runs.positions[0, -1]
+    >>> np.round(drift, 2).tolist()
+    [7.07, 7.07]
+    """
     p = _checked(runs).parameters
     return _measure("current", rng, runs, GaussianNoise(p.range_sigma), water_current=p.current_velocity)
 
@@ -487,7 +593,7 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     as_choice("condition", condition, CONDITIONS)
     seed = as_seed("seed", seed)                  # None would draw OS entropy: a different bound every call
     n_tracks = as_int("n_tracks", n_tracks, minimum=1)
-    p = SUITE if params is None else params
+    p = _params(params)
     try:
         runs = SCENARIOS[scenario](np.random.default_rng(seed), n_tracks, p)
     except ValueError as exc:                      # the scenario names its count "n": say which argument it was
