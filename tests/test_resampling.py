@@ -199,7 +199,7 @@ def test_the_filters_systematic_resampler_is_the_public_one():
     """The particle filters resample their own (checked, normalized) weights with a private copy of
     systematic_resample that skips the checks: the same indices and the same use of the generator, also for
     trailing zero weights and for weights whose sum is off by more than the tolerance."""
-    from uwtutor.resampling import _systematic_trusted
+    from uwtutor.filters.particle.bootstrap import _systematic_own_weights as _systematic_trusted
 
     rng = np.random.default_rng(11)
     for N in (1, 2, 7, 1000):

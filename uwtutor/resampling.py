@@ -238,24 +238,6 @@ def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     return _strata(weights, rng, one_offset=True)
 
 
-def _systematic_trusted(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """:func:`systematic_resample` of the 1-D weights of a particle filter, which the filter made (finite, >= 0,
-    normalized by its update) and so need no check: the same draw from ``rng`` and the same indices, for weights
-    that :func:`systematic_resample` accepts. Used by the filters at every step in place of the public function."""
-    total = float(np.add.reduce(w))
-    if abs(total - 1.0) > WEIGHT_SUM_TOL:         # as _check_weights: normalize what is not (yet)
-        w = w / total
-    N = w.shape[-1]
-    points = _arange(N) + rng.random()           # the draw of rng.random((1,)), as a float
-    points /= N
-    c = np.add.accumulate(w)
-    if w[-1] > 0.0:                               # _cumulative's exact 1 at the end, inline
-        c[-1] = 1.0
-    else:
-        c = _cumulative(w)
-    return c.searchsorted(points, side="right")
-
-
 def _residual_1d(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     N = w.size
     scaled = N * w

@@ -87,7 +87,7 @@ import numpy as np
 from ..._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_rng
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
-from ...resampling import Resampler, _systematic_trusted, systematic_resample
+from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
 from ..base import FilterResult
 
 __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
@@ -177,6 +177,32 @@ def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
     out = np.add.reduce(d, axis=1)
     out *= -0.5
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _strata(N: int) -> np.ndarray:
+    """A read-only ``0.0, 1.0, ..., N - 1`` (the strata of systematic resampling), cached."""
+    a = np.arange(N, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _systematic_own_weights(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """:func:`uwtutor.resampling.systematic_resample` of a filter's own 1-D weights, which its update made finite,
+    >= 0 and normalized, so that they need no check at every step: the same draw from ``rng`` and the same indices
+    (``tests/test_resampling.py`` holds the two together)."""
+    total = float(np.add.reduce(w))
+    if abs(total - 1.0) > WEIGHT_SUM_TOL:         # normalize what is not, as the public function does
+        w = w / total
+    N = w.shape[-1]
+    points = _strata(N) + rng.random()           # the draw of rng.random((1,)), as a float
+    points /= N
+    c = np.add.accumulate(w)
+    if w[-1] > 0.0:                               # exactly 1 from the last positive weight on
+        c[-1] = 1.0
+    else:
+        c[N - 1 - int(np.argmax(w[::-1] > 0.0)):] = 1.0
+    return c.searchsorted(points, side="right")
 
 
 def _whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -722,7 +748,7 @@ class BootstrapParticleFilter:
         runs = range(self.n_runs) if runs is None else runs
         N = self._rows_p.shape[2]
         # the default resampler on the filter's own weights (checked and normalized by the update) needs no check
-        resample = _systematic_trusted if self.resampler is systematic_resample else self.resampler
+        resample = _systematic_own_weights if self.resampler is systematic_resample else self.resampler
         w, rngs = self._w, self.rngs
         for r in runs:
             self._take(r, resample(w[r], rngs[r]))
