@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 from typing import Any, Sequence
 
 import numpy as np
@@ -95,6 +96,10 @@ __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
 
 class ParticleDegeneracyError(RuntimeError):
     """Every particle got zero likelihood: the particle cloud has lost the measurement."""
+
+
+_LOST = ("every particle has zero likelihood for this measurement{which}: the particles have lost the track. Use more "
+         "particles, a larger process noise, or check the measurement and R")
 
 
 #: Particles per block of runs that ``run`` moves through all steps together (a block stays in cache).
@@ -710,23 +715,29 @@ class BootstrapParticleFilter:
         if not _all(self._uniform):
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
-        top = np.maximum.reduce(logw, axis=1, keepdims=True)
-        if none is None and _all(np.isfinite(top)):        # every run has a particle with a likelihood
-            lost = None
+        if M == 1 and none is None:                       # one run: the same arithmetic on its row
+            top1 = np.maximum.reduce(logw[0])
+            if not math.isfinite(top1):
+                raise ParticleDegeneracyError(_LOST.format(which=""))
+            w = logw - top1                               # a new array: the model's output is left alone
+            np.exp(w, out=w)
+            w /= np.add.reduce(w[0])
         else:
-            lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
-        if lost is not None and _any(lost):
-            which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
-            raise ParticleDegeneracyError(
-                f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
-                "track. Use more particles, a larger process noise, or check the measurement and R")
-        if none is not None:
-            top = np.where(none[:, None], 0.0, top)
-        w = logw - top                                    # a new array: the model's output is left alone
-        np.exp(w, out=w)
-        w /= np.add.reduce(w, axis=1, keepdims=True)
-        if none is not None:                              # nothing measured: weights as they were
-            w[none] = self._w[none]
+            top = np.maximum.reduce(logw, axis=1, keepdims=True)
+            if none is None and _all(np.isfinite(top)):    # every run has a particle with a likelihood
+                lost = None
+            else:
+                lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
+            if lost is not None and _any(lost):
+                which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
+                raise ParticleDegeneracyError(_LOST.format(which=which))
+            if none is not None:
+                top = np.where(none[:, None], 0.0, top)
+            w = logw - top                                # a new array: the model's output is left alone
+            np.exp(w, out=w)
+            w /= np.add.reduce(w, axis=1, keepdims=True)
+            if none is not None:                          # nothing measured: weights as they were
+                w[none] = self._w[none]
         self._w = w
         self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
