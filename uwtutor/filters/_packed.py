@@ -53,8 +53,14 @@ def predict_step(s: np.ndarray, u: np.ndarray, q4: np.ndarray, out: np.ndarray) 
 
     ``u`` has shape (2, M) or (2, 1); ``q4`` is ``[Qxx, Qxy, Qxy, Qyy]`` as a (4, 1) column.
     """
-    np.add(s[ROW_X:ROW_Y + 1], u, out=out[ROW_X:ROW_Y + 1])
-    np.add(s[ROW_PXX:], q4, out=out[ROW_PXX:])
+    add = np.add                                     # row by row: cheaper than one broadcast over the block
+    add(s[ROW_X], u[0], out=out[ROW_X])
+    add(s[ROW_Y], u[1], out=out[ROW_Y])
+    qxx, qxy, qyx, qyy = q4[:, 0]
+    add(s[ROW_PXX], qxx, out=out[ROW_PXX])
+    add(s[ROW_PXY], qxy, out=out[ROW_PXY])
+    add(s[ROW_PYX], qyx, out=out[ROW_PYX])
+    add(s[ROW_PYY], qyy, out=out[ROW_PYY])
 
 
 def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: tuple[Any, Any] | None,
