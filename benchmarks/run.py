@@ -212,7 +212,7 @@ def _plain_numpy() -> Any:
 def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
     """The study of ``bench_ekf`` (1000 runs x 1500 steps) with ``range_only_ekf`` and with the plain-numpy EKF of
     ``plain_numpy.py`` (the same arithmetic, no checks), in turn in this process; their outputs must agree to 1e-9
-    (relative). The ratio is what the library's validation, guards and generality cost."""
+    (relative). The ratio of the CPU times is what the library's validation, guards and generality cost."""
     from uwtutor.filters import range_only_ekf
 
     plain = _plain_numpy()
