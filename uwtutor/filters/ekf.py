@@ -444,7 +444,7 @@ class RangeOnlyEKF:
             u = np.zeros((K, 2))
         u = as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
-            self._bad_shape("u", u.shape, f"({K}, 2)")
+            self._bad_shape("u", u.shape, f"({K}, 2), one input per step of z")
         times = steps_and_times(K, times)
         result, self._s = _run(self._s, u, z, self._q4, self.R, (float(self.beacon[0]), float(self.beacon[1])),
                                times, self._batched)

@@ -117,9 +117,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
-from .._validate import as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array
+from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar,
+                        as_range_array)
 from .base import FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
@@ -185,6 +187,8 @@ def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 150
     """
     c = _positive_scalar("assumed_speed", assumed_speed)
     ce = _positive_scalar("effective_speed", effective_speed)
+    if not 1.0 <= ce <= 1e5:          # a sound speed is a few km/s: [1, 1e5] m/s bounds every medium (and c / ce^2)
+        raise ValueError(f"effective_speed must lie in [1, 1e5] m/s (a sound speed); got {ce:g}")
     sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
     if sc < 0:
         raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
@@ -346,6 +350,27 @@ class FadingResult(FilterResult):
     :math:`\sigma_\gamma^2 T_k` (the part of the innovation variance due to the multiplicative noise) and
     ``"updated"`` (True where a range was used). ``innovations`` are
     :math:`\tilde z_k = z_k - \mu_\gamma h(\hat{\mathbf x}^-_k)` and ``innovation_cov`` is :math:`R_\delta`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import fading_ekf
+    >>> u = np.tile([1.0, 0.0], (5, 1))
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=0)
+    >>> res = fading_ekf(
+    ...     [102.0, 48.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ...     mu_gamma=1.0,
+    ... )
+    >>> type(res).__name__, res.x.shape
+    ('FadingResult', (5, 2))
+    >>> # the fading factor lambda_k of each step (>= 1)
+    >>> bool(np.all(res.extras["fading_factor"] >= 1.0))
+    True
     """
 
     @property
@@ -403,9 +428,10 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     return result, post[-1].copy(), mem, started
 
 
-def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-               rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-               beacon: Any = (0.0, 0.0), times: Any = None) -> FadingResult:
+def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike, *,
+               mu_gamma: ArrayLike = 1.0, sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range",
+               fading: bool = True, second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0),
+               times: ArrayLike | None = None) -> FadingResult:
     r"""Run the fading EKF for multiplicative range noise (paper D's ISFEKF by default), one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]``, computes the fading factor
@@ -613,9 +639,9 @@ class FadingEKF:
     extra_outputs = _EXTRAS + ("updated",)
     result_type = FadingResult
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-                 rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-                 beacon: Any = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
+                 sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
+                 second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
         M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
@@ -724,7 +750,7 @@ class FadingEKF:
         if self._pending is None:
             raise RuntimeError("call predict(u) before update(z): the fading factor scales the prediction's "
                                "covariance, so each update needs its own prediction")
-        z = as_range_array("z", z, allow_nan=True)
+        z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
         if z.size == 1 and z.ndim <= 1:
             z = np.broadcast_to(z.reshape(()), (self._M,))
         elif z.shape != (self._M,) or not self._batched:
@@ -742,13 +768,13 @@ class FadingEKF:
         """
         if self._pending is not None:
             raise RuntimeError("run() starts from an updated state: call update(z) for the pending prediction first")
-        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1))
+        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
         if z.ndim == 2 and z.shape[0] != self._M:
             raise ValueError(f"z must have shape (K,) or (M, K) with M = {self._M}; got {z.shape}")
         K = z.shape[-1]
         u = np.zeros((K, 2)) if u is None else as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
-            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2); got {u.shape}")
+            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2), one input per step of z; got {u.shape}")
         times = steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last

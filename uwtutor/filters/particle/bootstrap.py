@@ -85,7 +85,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative, as_rng
+from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
+                          as_rng, as_scalar)
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
@@ -367,7 +368,7 @@ class BootstrapParticleFilter:
                  roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
         self._set_models(motion, measurement)
-        p = as_finite("particles", particles, ndim=(2, 3))
+        p = as_finite("particles", particles, ndim=(2, 3), max_abs=MAX_COORDINATE)
         self._batched = p.ndim == 3
         self._w = np.empty((0, 0))
         self.particles = p
@@ -381,8 +382,11 @@ class BootstrapParticleFilter:
         if not callable(resampler):
             raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {resampler!r}")
         self.resampler = resampler
-        self.ess_threshold = float(as_nonnegative("ess_threshold", ess_threshold))
-        self.roughening = float(as_nonnegative("roughening", roughening))
+        self.ess_threshold = as_scalar("ess_threshold", ess_threshold, domain="nonnegative")
+        self.roughening = as_scalar("roughening", roughening, domain="nonnegative")
+        if self.roughening > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
+            raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times the "
+                             f"spread of the particles); got {self.roughening:g}")
         m = self.m
         self.k = -1
         self._y = np.full((M, m), np.nan)
@@ -509,7 +513,7 @@ class BootstrapParticleFilter:
 
     @particles.setter
     def particles(self, value: Any) -> None:
-        p = as_finite("particles", value, ndim=3 if self._batched else 2)
+        p = as_finite("particles", value, ndim=3 if self._batched else 2, max_abs=MAX_COORDINATE)
         pb = p if self._batched else p[None]
         n = self.n
         if pb.shape[2] != n or pb.shape[1] < 1 or pb.shape[0] < 1:
@@ -534,7 +538,11 @@ class BootstrapParticleFilter:
     @weights.setter
     def weights(self, value: Any) -> None:
         shape = self._w.shape if self._batched else self._w.shape[1:]
-        w = as_nonnegative("weights", value, shape=shape).reshape(self._w.shape)
+        w = as_nonnegative("weights", value)
+        if w.shape != shape:
+            raise ValueError(f"weights must have shape {shape} (one weight for each of the particles); got "
+                             f"{w.shape}")
+        w = w.reshape(self._w.shape)
         total = w.sum(axis=1, keepdims=True)
         if not (total > 0).all():
             raise ValueError("weights must have a positive sum (at least one particle with weight > 0) in every run")
