@@ -308,7 +308,7 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
                      times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
     """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
-    ``common_runs``, the size of each input's runs axis (None where it has none)."""
+    ``_validate.common_runs``, the size of each input's runs axis (None where it has none)."""
     x0, P0 = initial_state(x0, P0)
     u = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if u.ndim == 3 and u.shape[0] == 0:
@@ -322,15 +322,6 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
     run_sizes = dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
                      u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None)
     return x0, P0, u, z, steps_and_times(K, times), run_sizes
-
-
-def common_runs(**batched: int | None) -> int | None:
-    """The common number of runs among the arguments that have a runs axis (None if none has)."""
-    sizes = {name: m for name, m in batched.items() if m is not None}
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{name} has {m}" for name, m in sizes.items())
-        raise ValueError(f"the arguments with a leading runs axis disagree on the number of runs M: {described}")
-    return next(iter(sizes.values()), None)
 
 
 

@@ -66,11 +66,11 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, readonly
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, common_runs, readonly
 from ..errors import BeaconSingularityWarning
 from .base import FilterResult
 from .gates import Gate
-from ._packed import (N_ROWS, P_view, beacon_path, check_variances_where_measured, common_runs, first_unsound,
+from ._packed import (N_ROWS, P_view, beacon_path, check_variances_where_measured, first_unsound,
                       fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields, runs_first,
                       sequence_inputs, steps_and_times, update_step, x_view)
 
@@ -251,7 +251,7 @@ def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any
     if gate is not None:
         return _gated(x0, P0, u, z, Q_arr, R_val, beacon, times, gate)
     b, run_sizes["beacon"] = beacon_path(beacon, len(times))
-    M = common_runs(**run_sizes)
+    M = common_runs(run_sizes)
     batched = M is not None
     M = M or 1
     s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
@@ -336,7 +336,7 @@ class RangeOnlyEKF:
         x0, P0 = initial_state(x0, P0)
         self.Q, self.R, self._q4 = noise_parameters(Q, R)
         self.beacon = np.array(fixed_beacon(beacon))
-        M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None)
+        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
         self._batched = M is not None
         self._M = M or 1
         self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
