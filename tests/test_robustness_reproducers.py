@@ -531,3 +531,17 @@ def test_a_composed_test_gate_returning_a_float_does_not_count_as_true():
         _run(gate=ReacquiringGate(Fuzzy()))
     with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
         _run(gate=RobustGate(Fuzzy(), np.r_[0.0, np.ones(K - 1)]))
+
+
+def test_a_squared_range_pair_whose_paths_disagree_on_the_runs_is_refused():
+    """Per-run leader and displacement paths of different run counts: refused when the model is made (its n_runs
+    read None, 'shared by every run', before)."""
+    import numpy as np
+    import pytest
+
+    from uwtutor.models import SquaredRangePair
+
+    K = 5
+    with pytest.raises(ValueError, match="runs M: leader has 3, displacements has 4"):
+        SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((4, K, 2)), 8.0, np.eye(10))
+    assert SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((K, 2)), 8.0, np.eye(10)).n_runs == 3
