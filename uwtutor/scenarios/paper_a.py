@@ -40,7 +40,7 @@ import numpy as np
 
 from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
 from ..motion import Track, circle_track, turning_track
-from ..ranging import GaussianNoise, SlowBias, SoundSpeedError, add_range_errors
+from ..ranging import GaussianNoise, SlowBias, SoundSpeedMismatch, add_range_errors
 from . import Scenario, circling_scenario, make_scenario
 
 __all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
@@ -199,17 +199,17 @@ class PaperAParameters:
         r""":math:`\sigma_r` [m]."""
         return float(np.sqrt(self.noise_variance))
 
-    def error_parts(self) -> tuple[GaussianNoise, SoundSpeedError, SlowBias]:
+    def error_parts(self) -> tuple[GaussianNoise, SoundSpeedMismatch, SlowBias]:
         r"""The three parts of the range error as ``ranging`` error models: :math:`\eta_k`, :math:`\gamma_k r_k`,
         :math:`\tilde\upsilon_k + \mu_\upsilon`.
 
-        :math:`(\gamma_k - 1) r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`\mu_\gamma` times the
+        :math:`(\gamma_k - 1) r_k` is a ``SoundSpeedMismatch`` whose assumed speed is :math:`\mu_\gamma` times the
         true mean, with a ping-to-ping speed scatter that gives :math:`\sigma_\gamma` to first order.
         """
         c = 1500.0
         assumed = c * (1.0 + self.gamma)
         return (GaussianNoise(self.noise_sigma),
-                SoundSpeedError(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed),
+                SoundSpeedMismatch(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed),
                 SlowBias(self.bias_mean, self.bias_sigma, self.bias_time_constant))
 
     def make(self, rng: np.random.Generator, n_runs: Any = 1) -> Scenario:

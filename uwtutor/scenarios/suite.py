@@ -37,7 +37,7 @@ import numpy as np
 from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
                          check_work)
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError, measure_ranges
+from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedMismatch, measure_ranges
 
 __all__ = [
     "SuiteParameters", "SUITE", "SuiteRuns", "SuiteInputs",
@@ -483,7 +483,7 @@ def sound_speed(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs,
     0.98
     """
     p = _checked(runs).parameters
-    error = SoundSpeedError(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
+    error = SoundSpeedMismatch(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
     return _measure("sound speed", rng, runs, error)
 
 

@@ -1,0 +1,60 @@
+"""The names renamed by issue 27 ("Names") still import for one release, with a DeprecationWarning naming the new one.
+
+Each old name is read the two ways a user's code reads it (``module.OLD`` and ``from module import OLD``); it must
+warn, name its replacement, and give the new object. The old names are not in the modules' ``__all__``, and a name
+that never existed still raises AttributeError.
+"""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+
+import pytest
+
+#: (module, old name, new name): the old name gives the very object of the new one.
+RENAMED = [
+    ("uwtutor.ranging", "SoundSpeedError", "SoundSpeedMismatch"),
+    ("uwtutor.ranging", "CompositeError", "RangeErrorSum"),
+    ("uwtutor.scenarios.paper_d", "PaperD", "PaperDParameters"),
+    ("uwtutor.scenarios.paper_e", "PaperE", "PaperEParameters"),
+]
+
+
+def _read(module_name: str, old: str):
+    module = importlib.import_module(module_name)
+    with pytest.warns(DeprecationWarning) as caught:
+        value = getattr(module, old)
+    return value, [str(w.message) for w in caught]
+
+
+@pytest.mark.parametrize("module_name, old, new", RENAMED)
+def test_old_name_warns_and_is_the_new_object(module_name, old, new):
+    module = importlib.import_module(module_name)
+    value, messages = _read(module_name, old)
+    assert value is getattr(module, new)
+    assert any(f"{module_name}.{old} is deprecated" in m and f"use {module_name}.{new}" in m for m in messages)
+    assert old not in module.__all__ and new in module.__all__
+
+
+@pytest.mark.parametrize("module_name, old, new", RENAMED)
+def test_from_import_of_an_old_name_warns(module_name, old, new):
+    namespace: dict = {}
+    with pytest.warns(DeprecationWarning, match=f"use {module_name}.{new}"):
+        exec(f"from {module_name} import {old}", namespace)
+    assert namespace[old] is getattr(importlib.import_module(module_name), new)
+
+
+@pytest.mark.parametrize("module_name", sorted({m for m, _, _ in RENAMED}))
+def test_an_unknown_name_is_still_an_attribute_error(module_name):
+    module = importlib.import_module(module_name)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(AttributeError, match="has no attribute 'NoSuchName'"):
+            module.NoSuchName  # noqa: B018
+
+
+def test_the_warning_points_at_the_callers_line():
+    with pytest.warns(DeprecationWarning) as caught:
+        importlib.import_module("uwtutor.ranging").SoundSpeedError  # noqa: B018
+    assert caught[0].filename == __file__
