@@ -18,6 +18,8 @@ RENAMED = [
     ("uwtutor.ranging", "CompositeError", "RangeErrorSum"),
     ("uwtutor.scenarios.paper_d", "PaperD", "PaperDParameters"),
     ("uwtutor.scenarios.paper_e", "PaperE", "PaperEParameters"),
+    ("uwtutor.scenarios.paper_b", "PAPER_B", "PARAMETERS"),
+    ("uwtutor.scenarios.suite", "SUITE", "PARAMETERS"),
 ]
 
 
@@ -58,3 +60,47 @@ def test_the_warning_points_at_the_callers_line():
     with pytest.warns(DeprecationWarning) as caught:
         importlib.import_module("uwtutor.ranging").SoundSpeedError  # noqa: B018
     assert caught[0].filename == __file__
+
+
+@pytest.mark.parametrize("module_name", ["uwtutor.scenarios.paper_c", "uwtutor.widgets.ch06"])
+def test_paper_c_dict_is_the_parameters_as_a_dict(module_name):
+    """``PAPER_C`` was a dict made by ``as_dict()``: the old name still gives that dict (a fresh copy)."""
+    import numpy as np
+
+    from uwtutor.scenarios import paper_c
+
+    value, messages = _read(module_name, "PAPER_C")
+    assert any("use uwtutor.scenarios.paper_c.PARAMETERS.as_dict()" in m for m in messages)
+    expected = paper_c.PARAMETERS.as_dict()
+    assert isinstance(value, dict) and set(value) == set(expected)
+    for name, v in expected.items():
+        np.testing.assert_array_equal(value[name], v)
+    value["sensor_std"][0] = -1.0                           # a copy: the parameters themselves stay the paper's
+    assert paper_c.PARAMETERS.sensor_std[0] == 0.2
+
+
+def test_paper_c_make_parameters_keyword_is_params():
+    import numpy as np
+
+    from uwtutor.scenarios import paper_c
+
+    p = paper_c.PaperCParameters(T=0.1)
+    with pytest.warns(DeprecationWarning, match="use params="):
+        old = paper_c.make(np.random.default_rng(0), 1, parameters=p, duration=6.0)
+    new = paper_c.make(np.random.default_rng(0), 1, params=p, duration=6.0)
+    assert old.parameters is new.parameters is p
+    np.testing.assert_array_equal(old.measurements, new.measurements)
+    with pytest.raises(TypeError, match="give the parameters once"):
+        paper_c.make(np.random.default_rng(0), 1, params=p, parameters=p)
+
+
+@pytest.mark.parametrize("module_name, cls", [
+    ("uwtutor.scenarios.paper_a", "PaperAParameters"), ("uwtutor.scenarios.paper_b", "PaperBParameters"),
+    ("uwtutor.scenarios.paper_c", "PaperCParameters"), ("uwtutor.scenarios.paper_d", "PaperDParameters"),
+    ("uwtutor.scenarios.paper_e", "PaperEParameters"), ("uwtutor.scenarios.suite", "SuiteParameters"),
+])
+def test_every_scenario_module_calls_its_default_set_parameters(module_name, cls):
+    """The naming scheme: a ``<Name>Parameters`` class and its default instance ``PARAMETERS``, both public."""
+    module = importlib.import_module(module_name)
+    assert isinstance(module.PARAMETERS, getattr(module, cls))
+    assert {"PARAMETERS", cls} <= set(module.__all__)

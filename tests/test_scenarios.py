@@ -257,3 +257,18 @@ def test_paper_d_make_takes_a_parameter_set_as_params():
                                   paper_d.make(np.random.default_rng(1), 2, paper_d.PARAMETERS, duration=200.0).ranges)
     with pytest.raises(TypeError, match="params must be a uwtutor.scenarios.paper_d.PaperDParameters"):
         paper_d.make(np.random.default_rng(0), 1, params={"R": 0.0})
+
+
+def test_suite_geometries_count_their_runs_as_n_runs():
+    from uwtutor.scenarios import suite
+
+    for name, scenario in suite.SCENARIOS.items():
+        by_position = scenario(np.random.default_rng(3), 2)
+        by_keyword = scenario(np.random.default_rng(3), n_runs=2, params=suite.PARAMETERS)
+        assert by_position.n_runs == 2, name
+        np.testing.assert_array_equal(by_position.positions, by_keyword.positions)
+    with pytest.raises(ValueError, match="n_runs must be"):
+        suite.circle(np.random.default_rng(0), 0)
+    # crlb_inputs passes its n_tracks as the scenario's n_runs, and names its own argument when it is too many
+    with pytest.raises(ValueError, match="n_tracks asks for"):
+        suite.crlb_inputs("circle", "white", n_tracks=10**8)

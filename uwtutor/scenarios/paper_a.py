@@ -16,6 +16,7 @@ choices, marked as such) with a ``make(rng, n_runs)``:
   book's :math:`\mu_\gamma - 1`, is a constant sound-speed error (:math:`\sigma_\gamma = 0`); its Fig. 6
   also needs a random multiplicative part, :math:`\sigma_\gamma > 0` (:func:`variance_split`).
   ``track="circle"`` replaces the random turns by the exact circle of ``scenarios.circling_scenario``.
+  :data:`PARAMETERS` is the default set (``PaperAParameters()``).
 * :class:`LakeTrialParameters` -- the structure of paper A's 2018 lake trial: a receiving boat and a sending boat,
   both on GNSS, four groups of pings from two directions about 90 degrees apart. The sender is a *moving beacon*;
   paper A turns it into a fixed one with the relative displacement :math:`\mathbf u_k = \mathbf u_{r,k} -
@@ -43,8 +44,8 @@ from ..motion import Track, circle_track, turning_track
 from ..ranging import GaussianNoise, SlowBias, SoundSpeedMismatch, add_range_errors
 from . import Scenario, circling_scenario, make_scenario
 
-__all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
-           "LakeTrial", "make_lake_trial"]
+__all__ = ["PaperAParameters", "PARAMETERS", "make", "make_with_truth", "random_turn_track", "variance_split",
+           "LakeTrialParameters", "LakeTrial", "make_lake_trial"]
 
 
 def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0, speed: Any = 2.0,
@@ -217,8 +218,12 @@ class PaperAParameters:
         return make(rng, n_runs, self)
 
 
+#: Paper A's parameters (``PaperAParameters()``: the paper's values and the book's choices).
+PARAMETERS = PaperAParameters()
+
+
 def _as_params(params: Any) -> PaperAParameters:
-    p = PaperAParameters() if params is None else params
+    p = PARAMETERS if params is None else params
     if not isinstance(p, PaperAParameters):
         raise TypeError(f"params must be a PaperAParameters; got {type(p).__name__}")
     return p
@@ -240,7 +245,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
     n_runs : int, default 1
         Number of Monte Carlo runs.
     params : PaperAParameters, optional
-        Default ``PaperAParameters()``.
+        Default :data:`PARAMETERS`.
 
     Returns
     -------
@@ -299,7 +304,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
     n_runs : int, default 1
         Number of Monte Carlo runs (paper A's Fig. 6: 300).
     params : PaperAParameters, optional
-        The parameters (default ``PaperAParameters()``); change some with ``dataclasses.replace``.
+        The parameters (default :data:`PARAMETERS`); change some with ``dataclasses.replace``.
 
     Returns
     -------
