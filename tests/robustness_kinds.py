@@ -51,6 +51,16 @@ class _NoFloat:
         return "<object without __float__>"
 
 
+class _NoArray:
+    """An answer numpy cannot read: its ``__array__`` raises (a checker must explain it, never crash on it)."""
+
+    def __array__(self, *args, **kwargs):
+        raise RuntimeError("no array")
+
+    def __repr__(self) -> str:
+        return "<object whose __array__ raises>"
+
+
 def _pick(key: str, values: Sequence[Hostile], k: int) -> list[Hostile]:
     """A deterministic sample of ``k`` values (seeded by ``key``): every must-refuse value is tried at least as
     often as the others, and the order does not depend on Python's hash seed."""
@@ -259,6 +269,7 @@ class Answer(Kind):
             ("nan", math.nan), ("inf", math.inf), ("10**400", 10**400), ("ragged", [[1.0, 2.0], [3.0]]),
             ("dict", {"a": 1}), ("function", len), ("bool", True), ("empty", np.zeros(0)),
             ("string array", np.array(["1", "2"])), ("huge", 1e300), ("object array", np.array([1, "a"], object)),
+            ("unreadable __array__", _NoArray()), ("tuple of ragged arrays", (np.ones(2), np.ones(3))),
         ]]
 
 

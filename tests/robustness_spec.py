@@ -454,18 +454,6 @@ EXEMPT: dict[str, str] = {
                                                 "inputs are the checker's own",
     "uwtutor.exercises.ch10:pcrb_reference": "the reference recursion exercise 10.4's checker compares with; its "
                                              "inputs are the checker's own",
-    "uwtutor.exercises.ch07:check_bias_diagnosis": "runs a Monte Carlo study on every call (7 s): too slow for the "
-                                                   "contract; it parses answers with the shared _as_scalar",
-    "uwtutor.exercises.ch08:check_unobservable_pattern": "computes a cached study first (8 s): too slow for the "
-                                                         "contract; answers parsed by the shared check_choice",
-    "uwtutor.exercises.ch10:check_final_bound": "computes a cached bound first (5 s): too slow for the contract; "
-                                                "answers parsed by the shared check_number",
-    "uwtutor.exercises.ch10:check_first_ratio": "computes a cached study first (8 s): too slow for the contract; "
-                                                "answers parsed by the shared check_number",
-    "uwtutor.exercises.ch09:check_good_rejected": "computes a cached study first (6 s): too slow for the contract; "
-                                                  "answers parsed by the shared check_number",
-    "uwtutor.exercises.ch09:check_within_ten_percent": "computes a cached study first (11 s): too slow for the "
-                                                       "contract; answers parsed by the shared check_number",
     "uwtutor.exercises.feedback:Feedback": "the verdict object the checkers build (library-internal values)",
     # chapter 11: the study over the Plaza logs (minutes; tests/test_real_data_study.py re-runs a sample), its
     # containers, the exercises' data and the slow checkers
@@ -490,12 +478,6 @@ EXEMPT: dict[str, str] = {
     "uwtutor.exercises.ch11:scale_variants": "no arguments: the data of exercise 11.1 (covered by its tests)",
     "uwtutor.exercises.ch11:drift_variants": "no arguments: the data of exercise 11.2 (covered by its tests)",
     "uwtutor.exercises.ch11:lockout_runs": "no arguments: the runs of exercise 11.4 (covered by its tests)",
-    "uwtutor.exercises.ch11:check_rejected": "runs two filters over Plaza 2 first (5 s): too slow for the contract; "
-                                             "answers parsed by the shared check_number",
-    "uwtutor.exercises.ch11:check_locked_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
-                                                "contract; answers parsed by the shared check_number",
-    "uwtutor.exercises.ch11:check_reacquired_rmse": "runs two filters over Plaza 2 first (5 s): too slow for the "
-                                                    "contract; answers parsed by the shared check_number",
     "uwtutor._linalg:line_of_sight": "the unchecked kernel of uwtutor.models.range:line_of_sight (specified), on "
                                      "the filters', least squares' and bounds' per-step path: their inputs are "
                                      "checked once",
@@ -545,3 +527,5 @@ from robustness_spec_core import SPECS_CORE, EXEMPT_CORE  # noqa: E402
 SPECS.update(SPECS_CORE); EXEMPT.update(EXEMPT_CORE)  # noqa: E702
 from robustness_spec_scen import SPECS_SCEN, EXEMPT_SCEN  # noqa: E402
 SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)  # noqa: E702
+from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
+SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702

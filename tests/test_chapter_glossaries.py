@@ -34,6 +34,8 @@ def test_adds_one_removed_cell_with_the_cited_terms_and_is_idempotent(tmp_path):
     path = tmp_path / CHAPTER.name
     shutil.copy(CHAPTER, path)
     original = nbformat.read(path, as_version=4)
+    original.cells = [c for c in original.cells if c.metadata.get("uwtutor") != tool.MARK]   # the chapter without it
+    nbformat.write(original, path)
     assert tool.main([str(path)]) == 0
     nb = nbformat.read(path, as_version=4)
     assert len(nb.cells) == len(original.cells) + 1
@@ -57,3 +59,32 @@ def test_adds_one_removed_cell_with_the_cited_terms_and_is_idempotent(tmp_path):
     assert tool.main([str(path)]) == 0
     again = nbformat.read(path, as_version=4)
     assert len(again.cells) == len(nb.cells) and "\nlong baseline\n" not in again.cells[-1].source
+
+
+CHAPTERS = sorted((REPO / "book").glob("ch[0-9][0-9]_*.ipynb"))
+
+
+def test_every_chapter_carries_the_entries_of_the_terms_it_cites():
+    """Issue 25: in JupyterLab every {term} of a chapter resolves to an entry in the chapter itself (no console error,
+    a live link); in the HTML book the cell is removed and the roles link to the glossary page as before."""
+    assert len(CHAPTERS) >= 10
+    assert tool.main(["--check", *map(str, CHAPTERS)]) == 0, "run tools/chapter_glossaries.py book/ch*.ipynb"
+    with_terms = 0
+    for path in CHAPTERS:
+        nb = nbformat.read(path, as_version=4)
+        generated = [i for i, c in enumerate(nb.cells) if c.metadata.get("uwtutor") == tool.MARK]
+        cited = tool._targets(nb)
+        if not cited:
+            assert not generated, f"{path.name} cites no term but has a glossary cell"
+            continue
+        with_terms += 1
+        assert generated == [len(nb.cells) - 1], f"{path.name}: one glossary cell, the last"
+        cell = nb.cells[-1]
+        assert cell.cell_type == "markdown" and "remove-cell" in cell.metadata["tags"], \
+            "the HTML book must not show the cell (nor see a second definition of a term)"
+        listed = {tool._key(line) for line in cell.source.split("```{glossary}")[1].split("\n")
+                  if line and not line.startswith((":", " ", "`"))}
+        assert listed == set(cited), path.name
+        # the chapter's own text keeps its roles: the HTML still links each term to the glossary page
+        assert any("{term}`" in c.source for c in nb.cells[:-1] if c.cell_type == "markdown")
+    assert with_terms >= 7

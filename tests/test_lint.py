@@ -36,3 +36,15 @@ def test_the_rules_apply():
     assert proc.returncode == 1
     for rule in ("F401", "NPY002", "E501"):
         assert rule in proc.stdout, f"{rule} is not checked:\n{proc.stdout}"
+
+
+def test_every_library_module_is_checked():
+    """The book's and the exercises' folders are left out (notebooks), but not the library's own ``exercises`` and
+    ``widgets`` packages: an exclude by folder name once hid ``uwtutor/exercises`` from the check."""
+    proc = _ruff("--show-files")
+    assert proc.returncode == 0, proc.stderr
+    shown = {Path(line.strip()).resolve() for line in proc.stdout.splitlines() if line.strip().endswith(".py")}
+    library = {p.resolve() for p in (REPO / "uwtutor").rglob("*.py")}
+    missing = sorted(str(p.relative_to(REPO)) for p in library - shown)
+    assert not missing, "library modules ruff does not check (see extend-exclude in pyproject.toml): " + \
+        ", ".join(missing)

@@ -167,6 +167,91 @@ def test_run_student_catches_loops_exits_and_errors(monkeypatch):
         assert value is None and not fb.correct
 
 
+def test_the_isfekf_step_checker_refuses_a_complex_or_text_right_answer():
+    """It read the student's x, P, V... with np.asarray(dtype=float): a complex x and a P of strings passed."""
+    from uwtutor.exercises import ch05
+    ref = ch05.isfekf_step_reference
+
+    def returning(index, change):
+        def step(*args):
+            out = list(ref(*args))
+            out[index] = change(out[index])
+            return tuple(out)
+        return step
+    assert ch05.check_isfekf_step(ref).correct
+    for index, change, word in ((0, lambda x: x + 5j, "complex"),
+                                (1, lambda P: np.asarray(P).astype(str), "not a number"), (4, complex, "complex")):
+        fb = ch05.check_isfekf_step(returning(index, change))
+        assert not fb.correct and word in fb.message
+
+
+def test_the_jacobian_checkers_explain_a_ragged_or_unreadable_answer():
+    """Their probe for a (1, n) row called np.shape(answer), which raises on a ragged list."""
+    from uwtutor.exercises import ch04
+
+    class Unreadable:
+        def __array__(self, *args, **kwargs):
+            raise RuntimeError("no array")
+    for check in (ch04.check_range_jacobian, ch07.check_augmented_jacobian, ch07.check_bias_noise):
+        for answer in ([[1.0, 2.0], [3.0]], [[1.0, [2.0], 3.0]], (np.ones(2), np.ones(3)), Unreadable()):
+            fb = check(answer)
+            assert not fb.correct and fb.message
+    # a (1, n) row is still read as the vector
+    p, b = np.array(ch04.JACOBIAN_POSITION), np.array(ch04.JACOBIAN_BEACON)
+    assert ch04.check_range_jacobian([(p - b) / np.linalg.norm(p - b)]).correct
+
+
+def test_the_nees_letter_checkers_read_the_letters_before_the_study(monkeypatch):
+    """One shared checker for exercises 4.5 and 7.5: an answer that is no letter never runs the Monte Carlo study."""
+    from uwtutor.exercises import ch04
+
+    def no_study(*args, **kwargs):
+        raise AssertionError("the study ran")
+    monkeypatch.setattr(ch04, "diagnosis_studies", no_study)
+    monkeypatch.setattr(ch07, "bias_diagnosis_studies", no_study)
+    for check in (ch04.check_diagnosis, ch07.check_bias_diagnosis):
+        for answers in ((None, "A"), ("A", 1 + 2j), ("a", "B"), ("B", "B"), ("A", "D")):
+            assert not check(*answers).correct
+
+
+def test_the_pattern_checker_reads_any_answer_before_its_study(monkeypatch):
+    """ch08.check_unobservable_pattern tested `answer in LEADER_PATTERNS` after an 8 s study: an array answer
+    crashed it (an elementwise ==), hidden by its exemption from the contract; now it is read first."""
+    def no_study():
+        raise AssertionError("the study ran")
+    monkeypatch.setattr(ch08, "_study", no_study)
+    for answer in (np.ones(3), np.zeros(0), "Zigzag", 1, ["straight"]):
+        fb = ch08.check_unobservable_pattern(answer)
+        assert not fb.correct and "is not a leader pattern" in fb.message
+
+
+def test_final_rmse_refuses_a_run_that_diverged():
+    from uwtutor.exercises import ch05
+    truth = np.zeros((3, 4, 2))
+    est = truth + 1.0
+    assert ch05.final_rmse(est, truth) == pytest.approx(np.sqrt(2.0))
+    est[1, -1, 0] = np.nan
+    with pytest.raises(ValueError, match="estimates hold NaN or infinity at the last epoch in 1 run"):
+        ch05.final_rmse(est, truth)
+    est[1, -1, 0] = 1.0
+    est[1, 0, 0] = np.nan                            # before the last epoch: not read (a filter not started yet)
+    assert ch05.final_rmse(est, truth) == pytest.approx(np.sqrt(2.0))
+    with pytest.raises(ValueError, match="truth must have shape"):
+        ch05.final_rmse(est, truth[..., :1])
+
+
+def test_threshold_innovation_names_beta_and_the_steady_terms():
+    from uwtutor.exercises import ch05
+    with pytest.raises(ValueError, match="beta must be finite"):
+        ch05.threshold_innovation(np.inf)
+    with pytest.raises(ValueError, match="steady must have exactly the keys"):
+        ch05.threshold_innovation(1.0, {"rho": 0.95})
+    with pytest.raises(ValueError, match=r"steady\['rho'\] must lie in \(0, 1\]"):
+        ch05.threshold_innovation(1.0, dict(ch05.STEADY, rho=1.5))
+    # a weakening factor so small that every innovation makes lambda > 1: the threshold is 0, not a math error
+    assert ch05.threshold_innovation(0.0, dict(ch05.STEADY, R=100.0)) == 0.0
+
+
 # --- the silent answers of the report, now refused by name ------------------------------------------------------------
 def _raises(exc, match, fn, *args, **kwargs):
     with pytest.raises(exc, match=match):

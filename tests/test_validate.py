@@ -43,6 +43,23 @@ def test_shapes():
         v.check_same_length(times=np.zeros(3), ranges=np.zeros(2))
 
 
+def test_common_runs_agrees_or_names_every_runs_axis():
+    # no input has a runs axis: no runs axis in the answer either
+    assert v.common_runs({}) is None
+    assert v.common_runs({"x0": None, "z": None}) is None
+    # the inputs without one are shared by every run; those with one must agree
+    assert v.common_runs({"x0": None, "P0": 5, "z": 5}) == 5
+    with pytest.raises(ValueError, match="disagree on the number of runs M: x0 has 3, z has 4$"):
+        v.common_runs({"x0": 3, "u": None, "z": 4})
+    # a runs axis of length 1 is a run of its own unless it may broadcast
+    with pytest.raises(ValueError, match="P0 has 1, z has 4"):
+        v.common_runs({"P0": 1, "z": 4})
+    assert v.common_runs({"P0": 1, "z": 4, "sigma": 1}, broadcast_one=True) == 4
+    assert v.common_runs({"P0": 1, "sigma": 1}, broadcast_one=True) == 1
+    with pytest.raises(ValueError, match="positions has 2, beacon has 1, P0 has 3"):
+        v.common_runs({"positions": 2, "beacon": 1, "P0": 3}, broadcast_one=True)
+
+
 def test_covariance_checks():
     assert v.as_covariance("R", 4.0, 1).shape == (1, 1)
     with pytest.raises(ValueError, match="P must be a square matrix"):

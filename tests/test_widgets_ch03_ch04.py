@@ -35,8 +35,12 @@ def test_precision_view_reports_poor_geometry():
 def test_precision_view_rejects_bad_input():
     with pytest.raises(ValueError, match="n_obs must be >= 1"):
         ch03.precision_view(n_obs=0)
-    with pytest.raises(ValueError, match="turn_deg must be > 0"):
-        ch03.precision_view(turn_deg=0.0)
+    with pytest.raises(ValueError, match="turn_deg must be >= 1"):
+        ch03.precision_view(turn_deg=1e-300)          # an arc of no width: no fix, not a NaN view
+    with pytest.raises(ValueError, match="bias must be above -radius"):
+        ch03.precision_view(radius=100.0, bias=-100.0)
+    with pytest.raises(ValueError, match="radius must be <= 1e"):
+        ch03.precision_view(radius=1e300)
 
 
 def test_prelocation_view_before_and_after_the_turn():
@@ -75,8 +79,12 @@ def test_ekf_view_is_consistent_when_tuned_and_not_otherwise():
 
 
 def test_ekf_view_rejects_bad_input():
-    with pytest.raises(ValueError, match="initial_error must be > 0"):
-        ch04.ekf_view(initial_error=0.0)
+    with pytest.raises(ValueError, match="initial_error must be >= 0.001"):
+        ch04.ekf_view(initial_error=1e-300)           # P0 would underflow to 0
+    with pytest.raises(ValueError, match="r_scale must be <= 1e"):
+        ch04.ekf_view(r_scale=1e300)                  # R would overflow the filter's products
+    with pytest.raises(ValueError, match="n_runs asks for"):
+        ch04.ekf_view(n_runs=10**12)
     with pytest.raises(ValueError, match="n_runs must be >= 2"):
         ch04.ekf_view(n_runs=1)
 

@@ -100,8 +100,10 @@ def test_gpf_view_at_its_defaults():
     w = ch06.gpf_view()
     np.testing.assert_array_equal(v.estimates["GPF"], w.estimates["GPF"])
     assert v.rmse["GPF"][0] < v.rmse["EKF"][0]
-    with pytest.raises(ValueError, match="noise_change must be > 0"):
+    with pytest.raises(ValueError, match="noise_change must be >= 0.001"):
         ch06.gpf_view(noise_change=0.0)
+    with pytest.raises(ValueError, match="noise_window must be at most the dive's 240 samples"):
+        ch06.gpf_view(noise_window=10**12)
     with pytest.raises(ValueError, match="n_particles must be >= 10"):
         ch06.gpf_view(n_particles=5)
 

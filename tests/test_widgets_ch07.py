@@ -64,6 +64,10 @@ def test_a_fast_drift_and_a_strict_threshold_do_what_the_chapter_says():
     (dict(max_alpha=0.0), "max_alpha must be > 0"),
     (dict(n_runs=1), "n_runs must be >= 2"),
     (dict(n_obs=100), "n_obs must be >= 600"),
+    (dict(drift_rate=5.0), "drift_rate must be <= 1"),
+    (dict(drift_rate=-0.5, n_runs=2, n_obs=2000), "drift_rate = -0.5 m/s makes the measured range negative"),
+    (dict(initial_error=1e300), "initial_error must be <= 1e"),
+    (dict(n_runs=10**12), "n_runs asks for"),
 ])
 def test_bad_parameters(kw, match):
     with pytest.raises(ValueError, match=match):

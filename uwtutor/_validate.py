@@ -17,7 +17,8 @@ The rules, in one place:
   :func:`as_finite` with ``max_abs``.
 * **shapes and batches** -- ``ndim``/``shape`` keywords, :func:`check_same_length`, :func:`check_same_shape`
   (no silent broadcasting of ``(K, 1)`` against ``(K, 2)``), ``nonempty`` (a sequence of length 0, ``M = 0`` runs,
-  a 0x0 matrix are errors, not empty answers).
+  a 0x0 matrix are errors, not empty answers); :func:`common_runs`, the one rule for the leading runs axis ``M``
+  that several inputs of one call may carry.
 * **covariances** -- :func:`as_covariance`: square, symmetric to ``SYMMETRY_RTOL`` (relative), eigenvalues
   ``>= -PSD_RTOL * max|P|`` (semi-definite) or ``> 0`` (definite), entries ``<= MAX_COVARIANCE`` in magnitude
   (beyond it their products overflow float64). :func:`as_information` for information matrices.
@@ -42,6 +43,7 @@ TypeError: fading must be True or False (a bool); got the string 'False'
 from __future__ import annotations
 
 import numbers
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -70,6 +72,7 @@ __all__ = [
     "check_finite_result",
     "check_same_length",
     "check_same_shape",
+    "common_runs",
     "MAX_WORK",
     "SYMMETRY_RTOL",
     "PSD_RTOL",
@@ -271,6 +274,17 @@ def as_range_array(name: str, value: Any, *, allow_nan: bool = False, max_abs: f
     return arr
 
 
+def _check_square(name: str, M: np.ndarray, n: int | None, *, empty: str = "", size: str = "") -> None:
+    """``M`` is a non-empty stack ``(..., n, n)`` of square matrices (any size when ``n`` is None); ``empty`` and
+    ``size`` end the messages of an empty stack and of a wrong size."""
+    if M.ndim < 2 or M.shape[-1] != M.shape[-2]:
+        raise ValueError(f"{name} must be a square matrix; got shape {M.shape}")
+    if M.size == 0:
+        raise ValueError(f"{name} is empty (shape {M.shape}){empty}")
+    if n is not None and M.shape[-1] != n:
+        raise ValueError(f"{name} must be {n}x{n}{size}; got {M.shape[-2]}x{M.shape[-1]}")
+
+
 def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular: bool = False) -> np.ndarray:
     """A symmetric positive-definite (or, with ``allow_singular``, semi-definite) ``(n, n)`` matrix.
 
@@ -281,12 +295,7 @@ def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular
     P = as_finite(name, value)
     if P.ndim == 0:
         P = P.reshape(1, 1)
-    if P.ndim < 2 or P.shape[-1] != P.shape[-2]:
-        raise ValueError(f"{name} must be a square matrix; got shape {P.shape}")
-    if P.size == 0:
-        raise ValueError(f"{name} is empty (shape {P.shape}); a covariance needs at least one row (and one run)")
-    if n is not None and P.shape[-1] != n:
-        raise ValueError(f"{name} must be {n}x{n} to match the state; got {P.shape[-2]}x{P.shape[-1]}")
+    _check_square(name, P, n, empty="; a covariance needs at least one row (and one run)", size=" to match the state")
     peak = float(np.max(np.abs(P)))
     if peak > MAX_COVARIANCE:
         raise ValueError(f"{name} has an entry of {peak:.3g}, above {MAX_COVARIANCE:.0e}: the filter's products of "
@@ -312,12 +321,7 @@ def as_information(name: str, value: Any, n: int | None = None) -> np.ndarray:
     the entries.
     """
     J = as_finite(name, value)
-    if J.ndim < 2 or J.shape[-1] != J.shape[-2]:
-        raise ValueError(f"{name} must be a square matrix; got shape {J.shape}")
-    if J.size == 0:
-        raise ValueError(f"{name} is empty (shape {J.shape})")
-    if n is not None and J.shape[-1] != n:
-        raise ValueError(f"{name} must be {n}x{n}; got {J.shape[-2]}x{J.shape[-1]}")
+    _check_square(name, J, n)
     scale = max(1.0, float(np.max(np.abs(J))))
     if not np.allclose(J, np.swapaxes(J, -1, -2), rtol=SYMMETRY_RTOL, atol=1e-12 * scale):
         raise ValueError(f"{name} must be symmetric (an information matrix is); use (J + J.T) / 2 if it is only "
@@ -403,6 +407,33 @@ def check_same_shape(**arrays: np.ndarray) -> tuple[int, ...]:
         described = ", ".join(f"{name} has shape {s}" for name, s in shapes.items())
         raise ValueError(f"the arrays must have the same shape (nothing is broadcast): {described}")
     return next(iter(shapes.values()))
+
+
+def common_runs(sizes: Mapping[str, int | None], *, broadcast_one: bool = False) -> int | None:
+    """The number of runs ``M`` shared by the inputs of one call that carry a leading runs axis.
+
+    ``sizes`` maps each input's name to the length of its runs axis, or to ``None`` where the input has none (one
+    value shared by every run). The inputs that have one must agree; the result is ``None`` when none has one.
+    With ``broadcast_one``, a runs axis of length 1 stands for every run (it broadcasts, as in numpy) and ``M`` is
+    the largest length.
+
+    >>> common_runs({"x0": None, "z": 4})
+    4
+    >>> common_runs({"x0": 1, "z": 4}, broadcast_one=True)
+    4
+    >>> common_runs({"x0": 3, "z": 4})
+    Traceback (most recent call last):
+        ...
+    ValueError: the inputs with a leading runs axis disagree on the number of runs M: x0 has 3, z has 4
+    """
+    given = {name: m for name, m in sizes.items() if m is not None}
+    if not given:
+        return None
+    distinct = set(given.values()) - ({1} if broadcast_one else set())
+    if len(distinct) > 1:
+        described = ", ".join(f"{name} has {m}" for name, m in given.items())
+        raise ValueError(f"the inputs with a leading runs axis disagree on the number of runs M: {described}")
+    return max(given.values())
 
 
 def as_scalar(name: str, value: Any, *, domain: str = "finite", low: float | None = None,

@@ -107,6 +107,25 @@ def _check_used_covariances(name: str, P: np.ndarray, used: np.ndarray) -> None:
                          "is not (negative variances, or a correlation beyond +-1)")
 
 
+def _normalized_squares(name: str, covariances: Any, vectors: np.ndarray,
+                        what: str) -> tuple[np.ndarray, np.ndarray]:
+    """:math:`v^T C^{-1} v` of every run and step, the NEES and the NIS alike.
+
+    ``vectors`` (M, K, n) are validated ``what``; ``covariances`` (M, K, n, n) or (K, n, n) are validated here,
+    under ``name``. Returns the vectors with NaN where there is no covariance, and the quadratic forms (M, K).
+    """
+    C = as_float_array(name, covariances, ndim=(3, 4))
+    if C.ndim == 3:
+        C = C[None]
+    if C.shape != vectors.shape + (vectors.shape[-1],):
+        raise ValueError(f"{name} must have shape {vectors.shape + (vectors.shape[-1],)} to match the {what}; "
+                         f"got {C.shape}")
+    v = _without_covariance(vectors, C)
+    _check_used_covariances(name, C, np.isfinite(v).all(axis=-1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        return v, _quadratic_form(v, C, name)
+
+
 def positive_definite(covariances: ArrayLike) -> NDArray[np.bool_]:
     """Which of the matrices ``(..., n, n)`` are positive definite, by the test the scores apply (Sylvester's
     criterion for n <= 2, a Cholesky factorization for larger ones; a NaN or infinite matrix is not).
@@ -291,16 +310,7 @@ def nees(estimates: ArrayLike, covariances: ArrayLike, truth: ArrayLike) -> NDAr
     array([[6.25, 0.25]])
     """
     x, t = _estimates_and_truth(estimates, truth, None)
-    P = as_float_array("covariances", covariances, ndim=(3, 4))
-    if P.ndim == 3:
-        P = P[None]
-    if P.shape != x.shape + (x.shape[-1],):
-        raise ValueError(f"covariances must have shape {x.shape + (x.shape[-1],)} to match the estimates; "
-                         f"got {P.shape}")
-    e = _without_covariance(t - x, P)
-    _check_used_covariances("covariances", P, np.isfinite(e).all(axis=-1))
-    with np.errstate(over="ignore", invalid="ignore"):
-        out = _quadratic_form(e, P, "covariances")
+    _, out = _normalized_squares("covariances", covariances, t - x, "estimates")
     if np.isinf(out).any():
         raise ValueError("estimates, truth and covariances give a NEES that overflows float64 (errors near 1e154, "
                          "or a variance near 0): change their units")
@@ -341,16 +351,7 @@ def nis(innovations: ArrayLike, innovation_cov: ArrayLike) -> NDArray[np.float64
         raise ValueError("innovations must be finite (a NaN row: no measurement at that step); got an infinite value")
     if y.ndim == 2:
         y = y[None]
-    S = as_float_array("innovation_cov", innovation_cov, ndim=(3, 4))
-    if S.ndim == 3:
-        S = S[None]
-    if S.shape != y.shape + (y.shape[-1],):
-        raise ValueError(f"innovation_cov must have shape {y.shape + (y.shape[-1],)} to match the innovations; "
-                         f"got {S.shape}")
-    y = _without_covariance(y, S)
-    _check_used_covariances("innovation_cov", S, np.isfinite(y).all(axis=-1))
-    with np.errstate(over="ignore", invalid="ignore"):
-        out = _quadratic_form(y, S, "innovation_cov")
+    y, out = _normalized_squares("innovation_cov", innovation_cov, y, "innovations")
     out[~np.isfinite(y).all(axis=-1)] = np.nan
     if np.isinf(out).any():
         raise ValueError("innovations and innovation_cov give a NIS that overflows float64 (innovations near "

@@ -65,6 +65,12 @@ def _arc(heading0: Any, rate: Any, speed: float, duration: Any) -> np.ndarray:
     return length[..., None] * _unit(np.asarray(heading0) + half_turn)
 
 
+def _times_start_speed(times: Any, start: Any, speed: Any) -> tuple[np.ndarray, np.ndarray, float]:
+    """The arguments every track that leaves a start point shares: its epoch times, start and speed (>= 0)."""
+    return (as_times("times", times), as_point("start", start),
+            as_scalar("speed", speed, domain="nonnegative"))
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # tracks
 
@@ -232,9 +238,7 @@ def straight_track(times: Any, start: Any, speed: Any, heading: Any) -> Track:
            [2., 0.],
            [4., 0.]])
     """
-    t = as_times("times", times)
-    p0 = as_point("start", start)
-    v = as_scalar("speed", speed, domain="nonnegative")
+    t, p0, v = _times_start_speed(times, start, speed)
     psi = as_scalar("heading", heading)
     u = _unit(np.asarray(psi))
     return Track(t, p0 + v * (t - t[0])[:, None] * u, np.broadcast_to(v * u, (len(t), 2)))
@@ -284,9 +288,7 @@ def turning_track(times: Any, start: Any, speed: Any, headings: Any, turn_times:
            [2., 1.],
            [2., 2.]])
     """
-    t = as_times("times", times)
-    p0 = as_point("start", start)
-    v = as_scalar("speed", speed, domain="nonnegative")
+    t, p0, v = _times_start_speed(times, start, speed)
     psi = as_finite("headings", headings, ndim=1)
     turns = as_finite("turn_times", turn_times, ndim=1)
     if psi.size == 0:
@@ -342,9 +344,7 @@ def s_turn_track(times: Any, start: Any, speed: Any, heading: Any, turn_rate: An
     >>> track.headings.round(2)
     array([0. , 0.4, 0.8, 0.4, 0. ])
     """
-    t = as_times("times", times)
-    p0 = as_point("start", start)
-    v = as_scalar("speed", speed, domain="nonnegative")
+    t, p0, v = _times_start_speed(times, start, speed)
     psi0 = as_scalar("heading", heading)
     w = as_scalar("turn_rate", turn_rate)
     T = as_scalar("half_period", half_period, domain="positive")
@@ -396,9 +396,7 @@ def lawnmower_track(times: Any, start: Any, speed: Any, leg_length: Any, spacing
     >>> track.positions.round(2).tolist()
     [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0], [4.0, 2.0], [3.0, 3.0], [1.0, 3.0], [0.0, 4.0], [0.0, 6.0]]
     """
-    t = as_times("times", times)
-    p0 = as_point("start", start)
-    v = as_scalar("speed", speed, domain="nonnegative")
+    t, p0, v = _times_start_speed(times, start, speed)
     L = as_scalar("leg_length", leg_length, domain="positive")
     spacing = as_scalar("spacing", spacing)
     psi = as_scalar("heading", heading)

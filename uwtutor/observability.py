@@ -71,7 +71,7 @@ import numpy as np
 
 from ._linalg import line_of_sight as _line_of_sight
 from ._validate import (MAX_COORDINATE, PSD_RTOL, SYMMETRY_RTOL, as_covariance, as_finite, as_flag, as_float_array,
-                        as_in_range, as_information, as_int, as_points, as_positive, as_scalar)
+                        as_in_range, as_information, as_int, as_points, as_positive, as_scalar, common_runs)
 from .errors import IllConditionedError, UnobservableWarning, warn
 from .models.base import MeasurementModel, MotionModel
 
@@ -1465,15 +1465,13 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
         labels = ", ".join(_state_labels(n, bias, current))
         raise ValueError(f"P0 must be ({n}, {n}) or (M, {n}, {n}), the covariance of [{labels}] before the first "
                          f"step; got shape {P0_arr.shape}")
-    # the runs axis: from positions, beacon, sigma and P0
-    run_sizes = {name: shape[0] for name, shape in (("positions", p.shape[:-2]), ("beacon", b.shape[:-2]),
-                                                    ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))
-                 if len(shape) == 1}
-    if len(set(run_sizes.values()) - {1}) > 1:
-        described = ", ".join(f"{name} has {m}" for name, m in run_sizes.items())
-        raise ValueError(f"the inputs disagree on the number of runs M: {described}")
-    M = max(run_sizes.values(), default=1)
-    batched = bool(run_sizes)
+    # the runs axis: from positions, beacon, sigma and P0 (one of length 1 broadcasts)
+    runs = common_runs({name: shape[0] if len(shape) == 1 else None
+                        for name, shape in (("positions", p.shape[:-2]), ("beacon", b.shape[:-2]),
+                                            ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))},
+                       broadcast_one=True)
+    M = 1 if runs is None else runs
+    batched = runs is not None
     if np.ndim(s_in) > 2:
         raise ValueError(f"sigma must be a number, shape ({K},) or (M, {K}); got shape {np.shape(s_in)}")
     info_scale = _pcrb_sigma(s_in, (M, K))                                   # 1 / sigma^2, (M, K)
@@ -1695,17 +1693,12 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
         u = as_finite("u", u, ndim=(2, 3))
         if u.shape[-2] != K:
             raise ValueError(f"u must give one input per step ({K} steps, as truth); got shape {u.shape}")
-    sizes = {name: size for name, size in (("x0", _runs_axis("x0", x0, 1)), ("truth", _runs_axis("truth", truth, 2)),
-                                           ("P0", _runs_axis("P0", P0, 2)),
-                                           ("u", None if u is None else _runs_axis("u", u, 2)))
-             if size is not None}
-    if measured is not None and np.ndim(measured) == 3:
-        sizes["measured"] = np.shape(measured)[0]
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{name} has {size}" for name, size in sizes.items())
-        raise ValueError(f"the inputs disagree on the number of runs M: {described}")
-    M = next(iter(sizes.values()), 1)
-    batched = bool(sizes)
+    runs = common_runs({"x0": _runs_axis("x0", x0, 1), "truth": _runs_axis("truth", truth, 2),
+                        "P0": _runs_axis("P0", P0, 2), "u": None if u is None else _runs_axis("u", u, 2),
+                        "measured": np.shape(measured)[0] if measured is not None and np.ndim(measured) == 3
+                        else None})
+    M = 1 if runs is None else runs
+    batched = runs is not None
     xs = np.broadcast_to(truth, (M, K, n))
     x_prev = np.array(np.broadcast_to(x0, (M, n)))
     uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))

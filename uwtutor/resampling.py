@@ -112,6 +112,22 @@ def _arange(N: int) -> np.ndarray:
     return a
 
 
+def _strata(weights: Any, rng: Any, *, one_offset: bool) -> np.ndarray:
+    """Indices drawn at the points ``(j + U_j)/N``, ``j = 0 .. N-1``: one point in each of ``N`` equal strata of
+    ``[0, 1)``, with an independent uniform per stratum (stratified) or ``one_offset`` shared by all (systematic)."""
+    w = _check_weights(weights)
+    rng = as_rng(rng)
+    N = w.shape[-1]
+    if one_offset:
+        offsets = rng.random(w.shape[:-1] + (1,))
+        points = _arange(N) + (offsets if w.ndim == 2 else offsets[0])
+    else:
+        points = rng.random(w.shape)
+        points += _arange(N)
+    points /= N
+    return _search(w, points)
+
+
 def _cumulative(w: np.ndarray) -> np.ndarray:
     """Cumulative sum of normalized 1-D weights, exactly 1 from the last positive weight on."""
     c = np.add.accumulate(w)
@@ -189,13 +205,7 @@ def stratified_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     >>> stratified_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(1))
     array([0, 0, 1, 2])
     """
-    w = _check_weights(weights)
-    rng = as_rng(rng)
-    N = w.shape[-1]
-    points = rng.random(w.shape)
-    points += _arange(N)
-    points /= N
-    return _search(w, points)
+    return _strata(weights, rng, one_offset=False)
 
 
 def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
@@ -225,13 +235,7 @@ def systematic_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     >>> systematic_resample([0.5, 0.25, 0.25, 0.0], np.random.default_rng(1))
     array([0, 0, 1, 2])
     """
-    w = _check_weights(weights)
-    rng = as_rng(rng)
-    N = w.shape[-1]
-    offsets = rng.random(w.shape[:-1] + (1,))
-    points = _arange(N) + (offsets if w.ndim == 2 else offsets[0])
-    points /= N
-    return _search(w, points)
+    return _strata(weights, rng, one_offset=True)
 
 
 def _residual_1d(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -35,6 +35,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .. import motion, observability
+from .._validate import as_scalar
 from .checks import _as_scalar, _is_unanswered, check_array, check_number, not_answered, parse_real_array
 from .feedback import Feedback
 
@@ -246,13 +247,21 @@ def check_mirror_solutions(answer: Any) -> Feedback:
 
 # -- exercise 2.3: the turn that halves the bound ----------------------------------------------------------------------
 def turn_track(turn_deg: float) -> motion.Track:
-    """The track of exercise 2.3: due east from ``TURN_START`` at 2 m/s, turning left by ``turn_deg`` at 600 s."""
+    """The track of exercise 2.3: due east from ``TURN_START`` at 2 m/s, turning left by ``turn_deg`` at 600 s.
+
+    ``turn_deg`` is a single finite number of degrees (negative: a turn to the right).
+    """
+    turn = as_scalar("turn_deg", turn_deg)
     return motion.turning_track(TURN_TIMES, start=TURN_START, speed=TURN_SPEED,
-                                headings=[0.0, math.radians(turn_deg)], turn_times=[TURN_TIME])
+                                headings=[0.0, math.radians(turn)], turn_times=[TURN_TIME])
 
 
 def turn_rmse_bound(turn_deg: float) -> float:
-    """RMSE bound (m) on the final position of ``turn_track(turn_deg)`` with an unknown constant current."""
+    """RMSE bound (m) on the final position of ``turn_track(turn_deg)`` with an unknown constant current.
+
+    The bound is ``inf`` for a track that does not turn (``turn_deg`` 0, or a multiple of 360): a straight track
+    cannot see the current.
+    """
     track = turn_track(turn_deg)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", observability.UnobservableWarning)
@@ -366,7 +375,8 @@ def check_straight_current_rank(answer: Any) -> Feedback:
 
 
 def check_unobservable_direction(answer: Any) -> Feedback:
-    r"""Check a direction :math:`\Delta x = [\delta x_0, \delta y_0, \delta U_x, \delta U_y]` with :math:`H \Delta x = 0` (ex. 2.4).
+    r"""Check a direction :math:`\Delta x = [\delta x_0, \delta y_0, \delta U_x, \delta U_y]` with
+    :math:`H \Delta x = 0` (ex. 2.4).
 
     Any non-zero multiple of the rotation direction is right: turn the start point about the beacon and the
     ground velocity :math:`\dot p` with it (through the current), :math:`\Delta x \propto [-y_0, x_0, -\dot y, \dot x]`.

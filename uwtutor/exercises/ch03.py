@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .. import lsq, motion
-from .checks import Case, check_array, check_function, check_number
+from .checks import Case, _answer_shape, check_array, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -56,7 +56,7 @@ RANGE_INTERVAL = 5.0
 ALPHA_THRESHOLD = 2.0
 
 
-# -- exercise 3.1: the precision factor by hand -------------------------------------------------------------------------
+# -- exercise 3.1: the precision factor by hand ------------------------------------------------------------------------
 def _design(bearings_deg: Any, bias: bool = True, radians: bool = True) -> np.ndarray:
     phi = np.radians(bearings_deg) if radians else np.asarray(bearings_deg, dtype=float)
     cols = [np.cos(phi), np.sin(phi)] + ([np.ones_like(phi)] if bias else [])
@@ -227,7 +227,7 @@ def _compare_system(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedba
                         hint="End it with `return A, B`.")
     A, B = got
     A_exp, B_exp = expected
-    if np.shape(A) == (A_exp.shape[0] - 1, 2) or np.shape(B) == (B_exp.shape[0] - 1,):
+    if _answer_shape(A) == (A_exp.shape[0] - 1, 2) or _answer_shape(B) == (B_exp.shape[0] - 1,):
         return Feedback(False, f"Not yet: one equation short ({A_exp.shape[0] - 1} rows instead of "
                                f"{A_exp.shape[0]}).",
                         hint="Paper E closes the cycle: the last row pairs the last epoch with the first "

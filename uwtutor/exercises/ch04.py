@@ -27,8 +27,10 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from .._validate import as_int, as_seed, check_work
 from ..filters import RangeOnlyEKF
-from .checks import Case, check_array, check_function, check_number, not_answered, read_letter
+from .checks import (Case, _answer_shape, _check_nees_letters, _row_as_vector, check_array, check_function,
+                     check_number)
 from .feedback import Feedback
 
 __all__ = [
@@ -90,8 +92,7 @@ def check_range_jacobian(answer: Any) -> Feedback:
     p = np.array(JACOBIAN_POSITION)
     d = p - b
     expected = d / np.linalg.norm(d)
-    if answer is not None and np.shape(answer) == (1, 2):
-        answer = np.asarray(answer)[0]
+    answer = _row_as_vector(answer, 2)
     mistakes = [
         (-expected, "The range grows when the vehicle moves away from the beacon: H points from the beacon to the "
                     "vehicle, (x − b)/‖x − b‖."),
@@ -157,14 +158,14 @@ def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedba
         return Feedback(False, "Not yet: the function should return two things, `x_new, P_new`.",
                         hint="End it with `return x_new, P_new`.")
     x_new, P_new = got
-    if np.shape(x_new) in ((2, 1), (1, 2)):
-        x_new = np.ravel(x_new)
+    if _answer_shape(x_new) in ((2, 1), (1, 2)):          # read by the shared parser: a ragged list is explained
+        x_new = np.ravel(np.asarray(x_new, dtype=float))
     fb = check_array(x_new, expected[0], rtol=1e-9, atol=1e-9, name="the updated position", units="m")
     if not fb:
         return fb
     fb = check_array(P_new, expected[1], rtol=1e-8, atol=1e-9, name="the updated covariance", units="m²",
                      common_mistakes=[])
-    if fb or np.shape(P_new) != np.shape(expected[1]):
+    if fb or _answer_shape(P_new) != expected[1].shape:
         return fb
     # The position is right, so the innovation and the gain are: only the covariance step is wrong.
     P_arr = np.asarray(P_new, dtype=float)
@@ -290,9 +291,9 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     Parameters
     ----------
     n_runs : int, default 50
-        Monte Carlo runs per filter.
+        Monte Carlo runs per filter (>= 2).
     seed : int, default 4
-        Seed (the same draws for the three filters).
+        Seed (the same draws for the three filters), a non-negative integer.
 
     Returns
     -------
@@ -303,6 +304,9 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     from ..filters import range_only_ekf
     from ..montecarlo import run_monte_carlo
 
+    n_runs = as_int("n_runs", n_runs, minimum=2)                 # a NEES mean and its interval need two runs
+    check_work("n_runs", 10 * n_runs * 151, "floats (n_runs x the approach's 151 epochs x 10)")
+    seed = as_seed("seed", seed)
     dr_variance, range_variance, initial_error = 0.81, 0.49, 30.0
     studies = {}
     for letter, tuning in DIAGNOSIS_FILTERS.items():
@@ -349,28 +353,15 @@ def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
     Feedback
         The verdict, with a hint on how to read a NEES curve.
     """
-    right_c, right_o, right_u = _classify(diagnosis_studies())
-    chosen = {}
-    for name, value in (("consistent", consistent), ("overconfident", overconfident)):
-        chosen[name], problem = read_letter(value, sorted(DIAGNOSIS_FILTERS), name=f"the {name} filter",
-                                            example=name)
-        if problem is not None:
-            return problem
-    c, o = chosen["consistent"], chosen["overconfident"]
-    read = ("A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
-            "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
-            "(underconfident).")
-    if c == right_c and o == right_o:
-        over, under = DIAGNOSIS_FILTERS[right_o], DIAGNOSIS_FILTERS[right_u]
-        return Feedback(True, f"Correct: {c} is consistent and {o} overconfident (its Q is {over['q_scale']:g} "
-                              f"times the true DR noise); {right_u} is underconfident (its Q and R are "
-                              f"{under['q_scale']:g} and {under['r_scale']:g} times the true ones).")
-    if c == o:
-        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
-    if o == right_u:
-        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident (its P is larger "
-                               "than its errors), not overconfident.", hint=read)
-    if c != right_c:
-        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the "
-                               "band.", hint=read)
-    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)
+    def correct(c: str, o: str, u: str) -> str:
+        over, under = DIAGNOSIS_FILTERS[o], DIAGNOSIS_FILTERS[u]
+        return (f"Correct: {c} is consistent and {o} overconfident (its Q is {over['q_scale']:g} times the true DR "
+                f"noise); {u} is underconfident (its Q and R are {under['q_scale']:g} and {under['r_scale']:g} "
+                "times the true ones).")
+
+    return _check_nees_letters(
+        consistent, overconfident, sorted(DIAGNOSIS_FILTERS), lambda: _classify(diagnosis_studies()),
+        read="A consistent filter's mean NEES stays inside the green band (about 2 for a 2-state filter); far above "
+             "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
+             "(underconfident).",
+        correct=correct, underconfident=" (its P is larger than its errors)")

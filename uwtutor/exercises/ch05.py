@@ -32,14 +32,17 @@ Zhou D., Xi Y. (1990). Suboptimal fading extended Kalman filtering for nonlinear
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
 from .. import scenarios
+from .._validate import as_scalar
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf, range_factor_moments
-from .checks import Case, check_array, check_function, check_number, run_student
+from ..metrics import final_errors
+from .checks import Case, _probe_student, check_array, check_function, check_number, parse_real_array, run_student
 from .feedback import Feedback
 
 __all__ = [
@@ -281,14 +284,9 @@ def check_fading_factors(func: Any) -> Feedback:
     if callable(func):
         # the slip λ = V/N − s passes some cases and fails with the hint of another: recognise it first
         args = (np.array([12.0, 3.0]), np.array([0.5, 0.8]), np.array([2.5, 1.5]), 0.95)
-        value, stopped = run_student(func, *(a.copy() if isinstance(a, np.ndarray) else a for a in args),
-                                     name="fading_factors")
-        if stopped is not None and "exception" not in (stopped.details or {}):
+        got, stopped = _probe_student(func, args, "fading_factors")
+        if stopped is not None:
             return stopped                         # a loop or sys.exit(), stopped within the time limit
-        try:
-            got = None if stopped is not None else np.asarray(value, dtype=float)
-        except (TypeError, ValueError):  # the full check below reports an answer that is not numbers
-            got = None
         if (got is not None and got.shape == (2,)
                 and np.allclose(got, _fading_factors_slip(*args), rtol=1e-9)
                 and not np.allclose(got, fading_factors_reference(*args), rtol=1e-9)):
@@ -322,16 +320,32 @@ def threshold_innovation(beta: float, steady: dict[str, float] | None = None) ->
     beta : float
         Weakening factor (>= 0).
     steady : dict, optional
-        The terms (default ``STEADY``).
+        The terms (default ``STEADY``): ``N`` > 0, ``CQC`` >= 0, ``mult`` >= 0, ``R`` > 0 [m²] and ``rho`` in
+        (0, 1].
 
     Returns
     -------
     float
-        The threshold [m].
+        The threshold [m]; 0 when the right-hand side is negative (a weakening factor so small that every
+        innovation makes :math:`\lambda_k > 1`).
     """
-    st = STEADY if steady is None else steady
+    b = as_scalar("beta", beta, domain="nonnegative")
+    st = STEADY if steady is None else _steady_terms(steady)
     vbar = st["N"] + st["CQC"] + st["mult"] + st["R"]
-    return math.sqrt(vbar + (1.0 + st["rho"]) * (beta - 1.0) * st["R"])
+    return math.sqrt(max(vbar + (1.0 + st["rho"]) * (b - 1.0) * st["R"], 0.0))
+
+
+def _steady_terms(steady: Any) -> dict[str, float]:
+    """``steady`` as a dict of the five terms of ``STEADY``, each checked under its name (``steady['R']``...)."""
+    if not isinstance(steady, Mapping):
+        raise TypeError(f"steady must be a dict with the keys {list(STEADY)}; got {type(steady).__name__}")
+    if set(steady) != set(STEADY):
+        raise ValueError(f"steady must have exactly the keys {list(STEADY)}; got {list(steady)}")
+    domains = {"N": "positive", "CQC": "nonnegative", "mult": "nonnegative", "R": "positive", "rho": "positive"}
+    out = {key: as_scalar(f"steady[{key!r}]", steady[key], domain=domain) for key, domain in domains.items()}
+    if out["rho"] > 1.0:
+        raise ValueError(f"steady['rho'] must lie in (0, 1]; got {out['rho']:g}")
+    return out
 
 
 def _threshold_mistakes(beta: float) -> dict[float, str]:
@@ -416,8 +430,31 @@ def study() -> dict[str, Any]:
 
 
 def final_rmse(estimates: Any, truth: Any) -> float:
-    """RMS over the runs of the position error at the last epoch [m]."""
-    err = np.linalg.norm(np.asarray(estimates)[:, -1] - np.asarray(truth)[:, -1], axis=-1)
+    r"""RMS over the runs of the position error at the last epoch [m].
+
+    Parameters
+    ----------
+    estimates : array_like, shape (M, K, 2) or (K, 2)
+        Filter estimates of ``M`` runs (or one run); only the last epoch is read (NaN before it, where a filter
+        has not started, is fine).
+    truth : array_like, shape (M, K, 2) or (K, 2)
+        True positions (a ``(K, 2)`` truth is shared by every run).
+
+    Returns
+    -------
+    float
+        :math:`\sqrt{\frac{1}{M}\sum_j \lVert \hat x_{j,K} - x_{j,K} \rVert^2}`.
+
+    Raises
+    ------
+    ValueError
+        If an estimate at the last epoch is NaN or infinite (a run that diverged has no final error).
+    """
+    err = final_errors(estimates, truth)
+    if not np.all(np.isfinite(err)):
+        bad = np.flatnonzero(~np.isfinite(err))
+        raise ValueError(f"estimates hold NaN or infinity at the last epoch in {bad.size} run(s) (the first: run "
+                         f"{bad[0]}): a run that diverged has no final error; look at that run")
     return float(np.sqrt(np.mean(err**2)))
 
 
@@ -483,7 +520,7 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
                     details={"expected": expected})
 
 
-# -- exercise 5.5: one ISFEKF step, written by the student --------------------------------------------------------------
+# -- exercise 5.5: one ISFEKF step, written by the student -------------------------------------------------------------
 #: Exercise 5.5: the filter constants (paper D's simulation; beacon at the origin) ...
 ISF_STEP_CONSTANTS: dict[str, float] = {"mu_gamma": 0.98, "sigma_gamma": 1.0 / 1500.0, "rho": 0.95, "R": 0.49,
                                         "q": 0.81}
@@ -626,12 +663,12 @@ def check_isfekf_step(func: Any) -> Feedback:
                     "P": lib.P, "x": lib.x}
         got = dict(zip(("x", "P", "m", "Xi", "V", "lam"), out))
         for name in ("m", "Xi", "V", "lam", "P", "x"):
-            try:
-                g = np.asarray(got[name], dtype=float)
-            except (TypeError, ValueError):
-                return Feedback(False, f"Not yet: {name} should be numbers; got {got[name]!r} at step {k}.",
-                                hint=hints[name])
             e = np.asarray(expected[name], dtype=float)
+            # complex numbers, text, None inside or the wrong shape: refused by name, never coerced
+            g, refusal = parse_real_array(got[name], name, e.shape)
+            if refusal is not None:
+                return Feedback(False, f"{refusal.message} (at step {k})", hint=refusal.hint,
+                                details={"step": k, "quantity": name})
             if g.shape != e.shape or not np.allclose(g, e, rtol=1e-4, atol=1e-8 * max(1.0, float(np.max(np.abs(e))))):
                 return Feedback(False, f"Not yet: at step {k} your {name} is {np.round(g, 4).tolist()}, the library's "
                                        f"{np.round(e, 4).tolist()} (steps before it agree).",

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..grey import fit_gm11
 from ..wavelet import MAD_TO_SIGMA, detail_coefficients, noise_sigma
-from .checks import Case, check_array, check_function, check_number, not_answered
+from .checks import Case, _as_scalar, check_array, check_function, check_number, not_answered
 from .feedback import Feedback
 
 __all__ = [
@@ -73,10 +73,10 @@ Q_PRINTED = np.array([[0.2**2, 0.8**2, 0.6**2], [0.8**2, 1.0**2, 0.0], [0.6**2, 
 
 
 def _both_numbers(a: Any, b: Any) -> tuple[float, float] | None:
-    try:
-        return float(np.asarray(a, dtype=float).reshape(())), float(np.asarray(b, dtype=float).reshape(()))
-    except (TypeError, ValueError):
-        return None
+    """Both answers as floats when both read as real numbers (the shared parser: never coerced, never a crash)."""
+    x, problem_a = _as_scalar(a, "a", "a")
+    y, problem_b = _as_scalar(b, "b", "b")
+    return (x, y) if x is not None and y is not None and problem_a is None and problem_b is None else None
 
 
 def _lstsq_ab(z: np.ndarray, y: np.ndarray, sign: float = -1.0) -> tuple[float, float]:
@@ -397,11 +397,11 @@ def check_q_correlation(value: Any) -> Feedback:
     }
     return check_number(value, expected, rtol=1e-3, name="the depth-speed correlation", common_mistakes=mistakes,
                         hint="ρ = Q[0, 1] / sqrt(Q[0, 0] · Q[1, 1]).",
-                        explanation="A correlation must lie between −1 and 1, and it has no units, so no reading of the "
-                                    "paper's units can make this Q valid.")
+                        explanation="A correlation must lie between −1 and 1, and it has no units, so no reading "
+                                    "of the paper's units can make this Q valid.")
 
 
-# -- exercise 6.6: one bootstrap particle-filter step, written by the student --------------------------------------------
+# -- exercise 6.6: one bootstrap particle-filter step, written by the student ------------------------------------------
 #: Exercise 6.6: the sampling interval (s) and the sensor covariance (paper C's R, SI units) of the step ...
 PF_STEP_T = 0.05
 PF_STEP_R = np.diag([0.2, 0.05, math.radians(0.5)]) ** 2

@@ -28,11 +28,13 @@ from typing import Any
 import numpy as np
 
 from .. import lsq
+from .._validate import as_int, as_scalar, as_seed, check_work
 from ..filters import bias_ekf, extended_kalman_filter
 from ..metrics import chi2_mean_bounds
 from ..models import (BiasRateDeadReckoning, RangeToBeacon, bias_rate_process_noise, paper_a_process_noise)
 from ..scenarios import paper_a
-from .checks import check_array, check_number, not_answered, parse_real_array, read_letter
+from .checks import (_answer_shape, _check_nees_letters, _row_as_vector, check_array, check_number, not_answered,
+                     parse_real_array)
 from .feedback import Feedback
 
 __all__ = [
@@ -77,10 +79,17 @@ def straight_track(n: int = 40) -> np.ndarray:
 
     The line runs across the line of sight, so the bearing from the beacon changes by about 11 degrees.
 
+    Parameters
+    ----------
+    n : int, default 40
+        Number of positions (>= 2).
+
     Returns
     -------
     ndarray, shape (n, 2)
     """
+    n = as_int("n", n, minimum=2)
+    check_work("n", 2 * n, "coordinates")
     s = 10.0 * (np.arange(n) - (n - 1) / 2.0)
     centre = 2000.0 * np.array([np.cos(np.pi / 4), np.sin(np.pi / 4)])
     across = np.array([-np.sin(np.pi / 4), np.cos(np.pi / 4)])
@@ -89,7 +98,8 @@ def straight_track(n: int = 40) -> np.ndarray:
 
 # -- exercise 7.1: Q ---------------------------------------------------------------------------------------------------
 def check_bias_noise(answer: Any) -> Feedback:
-    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`, :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`.
+    r"""Check paper A's :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`,
+    :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2`.
 
     Parameters
     ----------
@@ -104,7 +114,7 @@ def check_bias_noise(answer: Any) -> Feedback:
     """
     sx, sy = NOISE_SIGMAS
     expected = paper_a_process_noise(sx, sy)
-    if answer is not None and np.shape(answer) == (2, 2):
+    if _answer_shape(answer) == (2, 2):
         return Feedback(False, "Not yet: Q must be 3x3, one row and column per state [x, y, bias].",
                         hint="Add the bias row: Q = diag(σx², σy², q_υ).")
     mistakes = [
@@ -143,9 +153,8 @@ def check_augmented_jacobian(answer: Any) -> Feedback:
     expected = model.H(x[None], 0)[0, 0]
     d = x[:2] - b
     r = np.linalg.norm(d)
-    if answer is not None and np.shape(answer) == (1, 3):
-        answer = np.asarray(answer)[0]
-    if answer is not None and np.shape(answer) == (2,):
+    answer = _row_as_vector(answer, 3)
+    if _answer_shape(answer) == (2,):
         return Feedback(False, "Not yet: H needs one entry per state, three: ∂r/∂x, ∂r/∂y and ∂r/∂υ.",
                         hint="The range is ‖p − b‖ + υ, so ∂r/∂υ = 1.")
     mistakes = [
@@ -283,22 +292,30 @@ def bias_diagnosis_studies(n_runs: int = 40, n_obs: int = 1500, seed: int = 5,
     Parameters
     ----------
     n_runs : int, default 40
-        Monte Carlo runs.
+        Monte Carlo runs (>= 2).
     n_obs : int, default 1500
-        Ranges per run.
+        Ranges per run (>= 2).
     seed : int, default 5
         Seed.
     rate : float, default 0.03
-        The bias ramp [m/s].
+        The bias ramp [m/s], between -1 and 1.
 
     Returns
     -------
     dict
         ``{"A": mean NEES (K,), "B": ..., "C": ..., "bounds": (lower, upper)}``.
     """
+    n_runs = as_int("n_runs", n_runs, minimum=2)
+    n_obs = as_int("n_obs", n_obs, minimum=2)
+    check_work("n_runs", 40 * n_runs * n_obs, "floats (n_runs x n_obs x 40: three filters of 3 and 4 states)")
+    # a ramp beyond 1 m/s is a sound-speed error of 100 % (and its ranges soon turn negative)
+    rate = as_scalar("rate", rate, low=-1.0, high=1.0)
     params = paper_a.PaperAParameters(dr_sigma=0.2, n_obs=n_obs)
-    sc, bias = paper_a.make_with_truth(np.random.default_rng(seed), n_runs, params)
+    sc, bias = paper_a.make_with_truth(np.random.default_rng(as_seed("seed", seed)), n_runs, params)
     z = np.asarray(sc.ranges) + rate * sc.times
+    if np.any(z < 0.0):
+        raise ValueError(f"rate = {rate:g} m/s makes a measured range negative: a falling bias cannot exceed the "
+                         "range (use a smaller ramp, or fewer ranges n_obs)")
     truth = np.concatenate([sc.true_positions, (bias + rate * sc.times)[..., None]], axis=-1)
     x0, P0, u = truth[:, 0], np.eye(3) * 100.0, sc.dr_displacements
     out: dict[str, Any] = {}
@@ -346,26 +363,10 @@ def check_bias_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
     Feedback
         The verdict, with what each filter's NEES says.
     """
-    right_c, right_o, right_u = _classify(bias_diagnosis_studies())
-    chosen = {}
-    for name, value in (("consistent", consistent), ("overconfident", overconfident)):
-        chosen[name], problem = read_letter(value, sorted(DIAGNOSIS_FILTERS), name=f"the {name} filter",
-                                            example=name)
-        if problem is not None:
-            return problem
-    c, o = chosen["consistent"], chosen["overconfident"]
-    read = ("Mean NEES of a consistent 3-state filter: about 3, inside the band. Far above: the filter's P is too "
-            "small for its errors (here, a bias that moves faster than its Q allows). Below: P too large.")
-    if c == right_c and o == right_o:
-        return Feedback(True, f"Correct: {c} ({DIAGNOSIS_FILTERS[c]}) is consistent; {o} "
-                              f"({DIAGNOSIS_FILTERS[o]}) lags behind the ramp and is overconfident; {right_u} "
-                              f"({DIAGNOSIS_FILTERS[right_u]}) follows it but claims more uncertainty than it has.")
-    if c == o:
-        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
-    if o == right_u:
-        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident, not "
-                               "overconfident.", hint=read)
-    if c != right_c:
-        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the band.",
-                        hint=read)
-    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)
+    return _check_nees_letters(
+        consistent, overconfident, sorted(DIAGNOSIS_FILTERS), lambda: _classify(bias_diagnosis_studies()),
+        read="Mean NEES of a consistent 3-state filter: about 3, inside the band. Far above: the filter's P is too "
+             "small for its errors (here, a bias that moves faster than its Q allows). Below: P too large.",
+        correct=lambda c, o, u: (f"Correct: {c} ({DIAGNOSIS_FILTERS[c]}) is consistent; {o} ({DIAGNOSIS_FILTERS[o]}) "
+                                 f"lags behind the ramp and is overconfident; {u} ({DIAGNOSIS_FILTERS[u]}) follows it "
+                                 "but claims more uncertainty than it has."))

@@ -35,7 +35,7 @@ from ..filters.cooperative import cooperative_ekf
 from ..models.cooperative import SquaredRangePair
 from ..owtt import clock_range_error, resolve_travel_time
 from ..scenarios import paper_b
-from .checks import Case, check_array, check_function, check_number, parse_real_array, run_student
+from .checks import Case, _a_type, _probe_student, check_array, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -242,13 +242,9 @@ def check_pair_jacobian(func: Any) -> Feedback:
     x, b0, b1, u, dt = cases[0].args
     literal = SquaredRangePair(np.stack([b0, b1]), u[None], dt, np.eye(10), literal=True).H(x[None], 0)[0]
     if callable(func):
-        value, refusal = run_student(func, x.copy(), b0.copy(), b1.copy(), u.copy(), dt, name="pair_jacobian")
-        if refusal is not None and "timeout" in refusal.details or \
-                refusal is not None and isinstance(refusal.details.get("exception"), SystemExit):
+        got, refusal = _probe_student(func, (x, b0, b1, u, dt), "pair_jacobian")
+        if refusal is not None:
             return refusal                  # a loop or sys.exit(): no need to run it on every case
-        got = None
-        if refusal is None:
-            got, _ = parse_real_array(value, "the Jacobian")
         if got is not None and got.shape == literal.shape and np.allclose(got, literal, rtol=1e-9, atol=1e-9):
             return Feedback(False, "Not yet: that is paper B's Jacobian evaluated at the predicted state as printed "
                                    "(eq. 11 with x_(k+1|k) in place of x_k).",
@@ -346,12 +342,15 @@ def check_unobservable_pattern(answer: Any) -> Feedback:
     -------
     Feedback
     """
-    flagged = [p for p, (_, warned) in _study().items() if warned]
-    if answer is None:
+    # the answer is read before the study runs (8 s the first time): a name that is no pattern is answered at once
+    if answer is None or answer is Ellipsis:
         return Feedback(False, "No answer yet: set `unobservable` to the name of a pattern.")
-    if answer not in paper_b.LEADER_PATTERNS:
-        return Feedback(False, f"{answer!r} is not a leader pattern; choose one of "
-                               f"{', '.join(paper_b.LEADER_PATTERNS)}.")
+    if not isinstance(answer, str) or answer not in paper_b.LEADER_PATTERNS:   # never `in` on any object: an
+        shown = repr(answer) if isinstance(answer, str) else _a_type(answer)      # array's == is elementwise
+        return Feedback(False, f"{shown} is not a leader pattern; choose one of "
+                               f"{', '.join(paper_b.LEADER_PATTERNS)}.",
+                        hint='Give the name in quotes, e.g. `unobservable = "' + paper_b.LEADER_PATTERNS[0] + '"`.')
+    flagged = [p for p, (_, warned) in _study().items() if warned]
     if answer in flagged:
         return Feedback(True, f"Correct: with a {answer} leader the relative track is straight (here a point), the "
                               "rank of the information stays at 2 and the filter emits an UnobservableWarning.")

@@ -73,7 +73,7 @@ STUDY_SEED = 58
 STUDY_SPACING = 40
 
 
-# -- exercise 9.1: the gate ---------------------------------------------------------------------------------------------
+# -- exercise 9.1: the gate --------------------------------------------------------------------------------------------
 def check_gate_upper(answer: Any) -> Feedback:
     r"""Check the largest innovation :math:`y_\mathrm{max} = \sqrt{(1+\delta)(S + \hat z^2)} - \hat z` (exercise 9.1).
 
@@ -141,7 +141,7 @@ def check_equivalent_nis(answer: Any) -> Feedback:
                                     "test lets through innovations of many standard deviations.")
 
 
-# -- exercise 9.2: virtual beacons --------------------------------------------------------------------------------------
+# -- exercise 9.2: virtual beacons -------------------------------------------------------------------------------------
 def check_virtual_beacons(answer: Any) -> Feedback:
     r"""Check :math:`\mathbf b^\mathrm v_i = \mathbf a_i - \mathbf d_i` with
     :math:`\mathbf d_i = \mathbf p^\mathrm{DR}_i - \mathbf p^\mathrm{DR}_4`, for ``SHIP`` and ``DR`` (exercise 9.2).
@@ -171,7 +171,7 @@ def check_virtual_beacons(answer: Any) -> Feedback:
                                    "the current position.")
 
 
-# -- exercise 9.3: the lock-out -----------------------------------------------------------------------------------------
+# -- exercise 9.3: the lock-out ----------------------------------------------------------------------------------------
 def lockout_dive() -> paper_e.Dive:
     """The dive of exercise 9.3 (one run, paper E's parameters and outliers)."""
     return paper_e.make(np.random.default_rng(LOCKOUT_SEED), 1)
@@ -229,7 +229,7 @@ def _good_rejected_counts() -> tuple[int, int, int, int, int, int]:
             int(first), int(last))
 
 
-# -- exercise 9.4: the 10 % statistic -----------------------------------------------------------------------------------
+# -- exercise 9.4: the 10 % statistic ----------------------------------------------------------------------------------
 def study() -> dict[str, Any]:
     """The dive and the OR-VMLBL-KF run of exercise 9.4: ``{"dive", "result", "truth", "slant"}`` (the true
     positions and slant ranges at the fixes' epochs)."""

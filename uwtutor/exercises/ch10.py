@@ -36,7 +36,7 @@ import numpy as np
 from .. import methods
 from ..observability import posterior_crlb, rmse_bound
 from ..scenarios import suite
-from .checks import Case, check_array, check_choice, check_function, check_number, run_student
+from .checks import Case, _probe_student, check_array, check_choice, check_function, check_number
 from .feedback import Feedback
 
 __all__ = [
@@ -460,14 +460,9 @@ def check_pcrb_recursion(func: Any) -> Feedback:
     cases = _pcrb_cases()
     if callable(func):
         args = cases[0].args
-        value, stopped = run_student(func, *[np.copy(a) if isinstance(a, np.ndarray) else a for a in args],
-                                     name="pcrb_recursion")
-        if stopped is not None and "exception" not in (stopped.details or {}):
+        got, stopped = _probe_student(func, args, "pcrb_recursion")
+        if stopped is not None:
             return stopped                         # a loop or sys.exit(), stopped within the time limit
-        try:
-            got = None if stopped is not None else np.asarray(value, dtype=float)
-        except (TypeError, ValueError):  # check_function below reports an answer that is not numbers
-            got = None
         ref = pcrb_reference(*args)
         if got is not None and got.shape == ref.shape:
             if np.allclose(got, np.linalg.inv(ref), rtol=1e-6):

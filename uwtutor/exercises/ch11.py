@@ -1,4 +1,5 @@
-r"""Checkers for the exercises of chapter 11, "Real ranges: the book's methods on a robot's log, against a factor graph".
+r"""Checkers for the exercises of chapter 11, "Real ranges: the book's methods on a robot's log, against a factor
+graph".
 
 Each checker takes the student's answer, computes the expected value with ``uwtutor`` itself (the Plaza logs of
 :func:`uwtutor.datasets.plaza`, :func:`uwtutor.datasets.navigate` and the models of
@@ -73,7 +74,8 @@ def _scale_variants() -> tuple[tuple[str, float], ...]:
             ("median_ratio", float(np.median(r / d))), ("percent", 100.0 * (s - 1.0)), ("excess", s - 1.0),
             ("std", float(res.std())), ("std_unscaled", float((r - d).std())),
             ("rms_unscaled", float(np.sqrt(np.mean((r - d) ** 2)))),
-            ("std_affine", float(affine.std())), ("variance", float(res.var())), ("rms", float(np.sqrt(np.mean(res**2)))))
+            ("std_affine", float(affine.std())), ("variance", float(res.var())),
+            ("rms", float(np.sqrt(np.mean(res**2)))))
 
 
 def scale_variants() -> dict[str, float]:
@@ -110,10 +112,11 @@ def check_scale(answer: Any) -> Feedback:
     """
     v = scale_variants()
     mistakes = {
-        v["mean_ratio"]: "That is the mean of the ratios r/d: each ratio is weighted alike, so the short ranges, whose "
-                         "ratio is noisiest, count as much as the long ones. Least squares of r = s d weighs each range "
-                         "by its distance: s = Σ r d / Σ d².",
-        v["median_ratio"]: "That is the median of the ratios r/d; the task asks for the least-squares s = Σ r d / Σ d².",
+        v["mean_ratio"]: "That is the mean of the ratios r/d: each ratio is weighted alike, so the short ranges, "
+                         "whose ratio is noisiest, count as much as the long ones. Least squares of r = s d weighs "
+                         "each range by its distance: s = Σ r d / Σ d².",
+        v["median_ratio"]: "That is the median of the ratios r/d; the task asks for the least-squares "
+                           "s = Σ r d / Σ d².",
         v["affine_slope"]: "That is the slope of a straight line with an offset (np.polyfit(d, r, 1)[0]); the model "
                            "has no offset, r = s d: fit through the origin, s = Σ r d / Σ d².",
         v["inverse"]: "That regresses the wrong way round (d on r), then inverts: s is the slope of r on d, "
@@ -124,8 +127,8 @@ def check_scale(answer: Any) -> Feedback:
         v["excess"]: "That is s − 1; the task asks for the scale itself, the factor on the distance.",
     }
     return check_number(answer, v["scale"], rtol=2e-5, name="the range scale s", common_mistakes=mistakes,
-                        hint="r = data.ranges_on_epochs(), d = data.true_ranges(); keep the entries where r is not NaN; "
-                             "s = (r @ d) / (d @ d).",
+                        hint="r = data.ranges_on_epochs(), d = data.true_ranges(); keep the entries where r is "
+                             "not NaN; s = (r @ d) / (d @ d).",
                         explanation="Every range is that many times the true distance, on every beacon: a scale, "
                                     "not an offset.")
 

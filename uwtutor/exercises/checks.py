@@ -150,6 +150,14 @@ def not_answered(what: str) -> Feedback:
     -------
     Feedback
         Not correct, with a message that asks for the answer and a hint on where to write it.
+
+    Examples
+    --------
+    >>> fb = not_answered("the two-way range in metres (a number)")
+    >>> fb.correct
+    False
+    >>> print(fb.message)
+    No answer yet: replace `None` with the two-way range in metres (a number).
     """
     return Feedback(False, f"No answer yet: replace `None` with {what}.",
                     hint="Write your code in the answer cell above (where it says `# YOUR CODE HERE`), delete the "
@@ -447,7 +455,8 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
 # check_choice
 # ---------------------------------------------------------------------------------------------------------------------
 def read_letter(answer: Any, letters: Sequence[str], *, name: str = "the answer",
-                options: Mapping[str, str] | None = None, example: str = "choice") -> tuple[str | None, Feedback | None]:
+                options: Mapping[str, str] | None = None,
+                example: str = "choice") -> tuple[str | None, Feedback | None]:
     """Read an answer that must be one of the capital ``letters``, as the question asks.
 
     Surrounding spaces are ignored. Anything else is not accepted, but explained, without saying whether the choice
@@ -890,7 +899,9 @@ class Case:
 
     Examples
     --------
-    >>> Case((np.array([1.0, 2.0]), 5.0), label="two ranges")  # doctest: +SKIP
+    >>> case = Case((np.array([1.0, 2.0]), 5.0), label="two ranges", hint="Use both ranges.")
+    >>> len(case.args), case.label
+    (2, 'two ranges')
     """
 
     args: tuple = ()
@@ -1069,8 +1080,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     allow_mutation : bool
         Whether the function may modify its input arrays in place (default: no).
     time_limit_s : float, optional
-        Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading of what it returned) may take on one case before it is
-        stopped and reported as too slow (an endless loop); ``sys.exit()`` in the student's code is reported too.
+        Seconds (default: the module's ``TIME_LIMIT``, read at each call) the student's function (and the reading
+        of what it returned) may take on one case before it is stopped and reported as too slow (an endless loop);
+        ``sys.exit()`` in the student's code is reported too.
     reveal_expected : bool
         ``False`` for a graded (hidden) test: a failing case then shows its inputs and what the function returned,
         but not the expected result (the default comparison also keeps it out of its message).
@@ -1085,6 +1097,21 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     ------
     ValueError
         If there are no cases (a bug in the checker).
+
+    Examples
+    --------
+    >>> def reference(x):
+    ...     return 2.0 * x
+    >>> check_function(lambda x: x + x, reference, [(1.0,), (2.5,)], name="double")
+    ✔ Correct: `double` passes all 2 test cases.
+    >>> fb = check_function(
+    ...     lambda x: 3.0 * x, reference, [Case((1.0,), label="one")], name="double"
+    ... )
+    >>> print(fb.message)
+    Not yet: case 1 of 1 (one) fails: your value for the result, 3, is 50 % too large.
+    Inputs: x = 1
+    Expected: 2
+    Got: 3
     """
     case_list = [_as_case(c) for c in cases]
     if time_limit_s is None:
@@ -1135,8 +1162,8 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
                             details={**base_details, "exception": exc})
         except NotImplementedError:
             return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
-                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run that "
-                                 "cell, then this one.",
+                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
+                                 "that cell, then this one.",
                             details={**base_details, "answered": False})
         except Exception as exc:  # the student's code failed: report it, never crash the checker
             where = _where(exc)
@@ -1269,3 +1296,75 @@ def run_student(func: Any, *args: Any, name: str = "your function", time_limit_s
     except Exception as exc:  # noqa: BLE001 - the student's code failed: feedback, never a crash
         return None, Feedback(False, f"{_NOT_YET}`{name}` raised {type(exc).__name__}: {exc}.",
                               hint=_exception_hint(exc), details={"exception": exc})
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Shared by the chapters' checkers (private to the exercises: each chapter module imports what it needs)
+# ---------------------------------------------------------------------------------------------------------------------
+def _row_as_vector(answer: Any, n: int) -> Any:
+    """A ``(1, n)`` row (a Jacobian written as a 1 x n matrix) as its ``(n,)`` vector; any other answer unchanged.
+
+    The answer is read by :func:`parse_real_array`, so that a ragged list, an object whose ``__array__`` fails or
+    a string never crashes the probe: the checker's own parser then explains what is wrong with it.
+    """
+    if _is_unanswered(answer):
+        return answer
+    arr, _ = parse_real_array(answer, "the answer")
+    return arr[0] if arr is not None and arr.shape == (1, n) else answer
+
+
+def _answer_shape(answer: Any) -> tuple[int, ...] | None:
+    """The shape of an answer that reads as an array of real numbers (:func:`parse_real_array`), else ``None``."""
+    if _is_unanswered(answer):
+        return None
+    arr, _ = parse_real_array(answer, "the answer")
+    return None if arr is None else arr.shape
+
+
+def _probe_student(func: Any, args: Sequence[Any], name: str) -> tuple[np.ndarray | None, Feedback | None]:
+    """Run a student's function once, before :func:`check_function`, to recognise a known mistake from its result.
+
+    Returns ``(result, None)`` with the result read as a real array (``None`` when it is not one, or when the
+    function raised: ``check_function`` then reports that case by case), or ``(None, feedback)`` when the function
+    ran past the time limit or called ``sys.exit()``: a loop is not run again on every case. The arrays among
+    ``args`` are copied, so the function cannot change the checker's own.
+    """
+    copies = [np.copy(a) if isinstance(a, np.ndarray) else a for a in args]
+    value, stopped = run_student(func, *copies, name=name)
+    if stopped is not None:
+        if "timeout" in stopped.details or isinstance(stopped.details.get("exception"), SystemExit):
+            return None, stopped
+        return None, None
+    got, _ = parse_real_array(value, "the result")
+    return got, None
+
+
+def _check_nees_letters(consistent: Any, overconfident: Any, letters: Sequence[str],
+                        classify: Callable[[], tuple[str, str, str]], *, read: str,
+                        correct: Callable[[str, str, str], str], underconfident: str = "") -> Feedback:
+    """Check which of the filters of a NEES study is consistent and which overconfident (exercises 4.5 and 7.5).
+
+    The letters are read first (:func:`read_letter`), so that an answer that is no letter, or the same letter
+    twice, is explained without running the study; ``classify()`` then gives the right letters
+    ``(consistent, overconfident, underconfident)``. ``read`` is the hint on how to read a NEES curve,
+    ``correct(c, o, u)`` the message of the right answer, ``underconfident`` what the underconfident filter's
+    curve means (appended to "it is underconfident").
+    """
+    chosen = {}
+    for role, value in (("consistent", consistent), ("overconfident", overconfident)):
+        chosen[role], problem = read_letter(value, letters, name=f"the {role} filter", example=role)
+        if problem is not None:
+            return problem
+    c, o = chosen["consistent"], chosen["overconfident"]
+    if c == o:
+        return Feedback(False, "Not yet: one filter cannot be both consistent and overconfident.", hint=read)
+    right_c, right_o, right_u = classify()
+    if c == right_c and o == right_o:
+        return Feedback(True, correct(right_c, right_o, right_u))
+    if o == right_u:
+        return Feedback(False, f"Not yet: {o}'s NEES lies *below* the band: it is underconfident{underconfident}, "
+                               "not overconfident.", hint=read)
+    if c != right_c:
+        return Feedback(False, f"Not yet: {c} is not the consistent one: look at which curve stays inside the band.",
+                        hint=read)
+    return Feedback(False, f"Not yet: {o} is not the overconfident one.", hint=read)

@@ -88,7 +88,13 @@ def build_parser() -> argparse.ArgumentParser:
     Returns
     -------
     argparse.ArgumentParser
-        The parser, with one sub-command, ``exercises``.
+        The parser, with two sub-commands, ``exercises`` and ``labs``.
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["labs", "my-labs", "--lab", "ekf_consistency"])
+    >>> args.command, args.dir.name, args.lab, args.force
+    ('labs', 'my-labs', ['ekf_consistency'], False)
     """
     parser = argparse.ArgumentParser(prog="uwtutor", description=_DESCRIPTION,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -210,6 +216,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         The exit status: 0 on success, 1 when files cannot be read or written, 2 on a usage error. ``--help`` and
         ``--version`` print and return 0; argparse's own messages go to the standard streams as usual.
+
+    Examples
+    --------
+    >>> import shutil, tempfile
+    >>> from pathlib import Path
+    >>> import nbformat
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> (tmp / "sources").mkdir()
+    >>> nbformat.write(nbformat.v4.new_notebook(), tmp / "sources" / "ex1.ipynb")
+    >>> main(["exercises", str(tmp / "my-work"), "--source", str(tmp / "sources")])  # doctest: +ELLIPSIS
+    Wrote 1 notebook to .../my-work:
+      ex1.ipynb
+    Next: ...
+    0
+    >>> main(["exercises", ""])  # a usage error (an empty DIR), explained on the standard error stream
+    2
+    >>> shutil.rmtree(tmp)
     """
     parser = build_parser()
     try:

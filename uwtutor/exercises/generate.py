@@ -96,7 +96,18 @@ _MARKER_TEXT = re.compile(r"(BEGIN|END)\s+(SOLUTION|HIDDEN TESTS)")
 
 
 class ExerciseSourceError(ValueError):
-    """A source notebook's markers are malformed (unmatched, nested, or not on a line of their own)."""
+    """A source notebook's markers are malformed (unmatched, nested, or not on a line of their own).
+
+    Examples
+    --------
+    >>> import nbformat
+    >>> source = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("### BEGIN SOLUTION\\nx = 1")])
+    >>> try:
+    ...     make_student_version(source)
+    ... except ExerciseSourceError as exc:
+    ...     print(exc)
+    the notebook, cell 0 (code): '### BEGIN SOLUTION' without a matching '### END SOLUTION'
+    """
 
 
 def _strip_regions(source: str, *, cell_type: str, where: str) -> tuple[str, bool]:
@@ -150,17 +161,17 @@ def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
         except UnicodeDecodeError:
             raise ExerciseSourceError(f"{label} is not a notebook: it is not UTF-8 text") from None
         except json.JSONDecodeError as exc:
-            raise ExerciseSourceError(f"{label} is not a notebook: its JSON is invalid ({exc.msg}, line {exc.lineno})") \
-                from None
+            raise ExerciseSourceError(f"{label} is not a notebook: its JSON is invalid ({exc.msg}, line "
+                                      f"{exc.lineno})") from None
     elif isinstance(source_nb, dict):
         data, label = copy.deepcopy(source_nb), "the notebook"
     else:
         raise TypeError(f"source_nb must be a notebook (nbformat.NotebookNode) or a path; got "
                         f"{type(source_nb).__name__}")
     if not isinstance(data, dict) or not isinstance(data.get("cells"), list):
-        kind = type(data).__name__ if not isinstance(data, dict) else "an object without a list of 'cells'"
-        raise ExerciseSourceError(f"{label} is not a notebook: its JSON is {'a ' + kind if not isinstance(data, dict) else kind}"
-                                  "; a notebook is an object with 'cells', 'metadata', 'nbformat'")
+        kind = "a " + type(data).__name__ if not isinstance(data, dict) else "an object without a list of 'cells'"
+        raise ExerciseSourceError(f"{label} is not a notebook: its JSON is {kind}; a notebook is an object with "
+                                  "'cells', 'metadata', 'nbformat'")
     try:
         nb = nbformat.reads(json.dumps(data), as_version=4)
         nbformat.validate(nb)
@@ -181,18 +192,28 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
     Returns
     -------
     nbformat.NotebookNode
-        A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE HERE``
-        and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every ``### BEGIN HIDDEN
-        TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that dropped; outputs and
-        execution counts cleared; notebook metadata reduced to ``kernelspec`` and ``language_info`` (for Python, as
-        JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so that opening the notebook does not
-        mark it modified), cell metadata to ``tags``.
+        A new notebook: every ``### BEGIN SOLUTION`` ... ``### END SOLUTION`` region replaced by ``# YOUR CODE
+        HERE`` and ``raise NotImplementedError(STUB_MESSAGE)`` (code) or ``YOUR ANSWER HERE`` (Markdown); every
+        ``### BEGIN HIDDEN TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that
+        dropped; outputs and execution counts cleared; notebook metadata reduced to ``kernelspec`` and
+        ``language_info`` (for Python, as JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so
+        that opening the notebook does not mark it modified), cell metadata to ``tags``.
 
     Raises
     ------
     ValueError
         An ``ExerciseSourceError`` (a ``ValueError``) if a marker is unmatched, nested, or not on a line of its own;
         the message names the cell and the line.
+
+    Examples
+    --------
+    >>> import nbformat
+    >>> source = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
+    ...     "speed = None\\n### BEGIN SOLUTION\\nspeed = 1500.0\\n### END SOLUTION")])
+    >>> print(make_student_version(source).cells[0].source)  # doctest: +ELLIPSIS
+    speed = None
+    # YOUR CODE HERE
+    raise NotImplementedError('not answered yet: ...')
     """
     nb, label = _read(source_nb)
     nb = copy.deepcopy(nb)
@@ -242,6 +263,11 @@ def exercise_source_dir() -> Path:
     ------
     FileNotFoundError
         If neither exists: pass the source directory explicitly instead (``--source`` on the command line).
+
+    Examples
+    --------
+    >>> exercise_source_dir().name
+    'exercises'
     """
     import uwtutor
 
@@ -273,6 +299,11 @@ def list_exercise_sources(source_dir: str | os.PathLike[str] | None = None) -> l
     ------
     FileNotFoundError
         If the directory does not exist or holds no notebook.
+
+    Examples
+    --------
+    >>> list_exercise_sources()[0].name
+    'ch01_positioning_and_errors.ipynb'
     """
     directory = exercise_source_dir() if source_dir is None else Path(source_dir)
     if not directory.is_dir():
@@ -292,6 +323,17 @@ class WriteReport:
     with ``overwrite=True``); ``skipped`` the files left alone because they already existed; ``overwritten`` the files
     among ``written`` that existed before. All are ``pathlib.Path`` objects, the last three in tuples. ``str(report)``
     and ``report.summary()`` describe them for a person.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> report = WriteReport(Path("my-work"), written=(Path("my-work/ch01.ipynb"),),
+    ...                      skipped=(Path("my-work/ch02.ipynb"),))
+    >>> print("\\n".join(report.summary().splitlines()[:4]))
+    Wrote 1 notebook to my-work:
+      ch01.ipynb
+    Skipped 1 notebook that already exists (your work is never overwritten):
+      ch02.ipynb
     """
 
     dest_dir: Path
@@ -421,6 +463,21 @@ def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: 
         If ``dest_dir`` exists and is not a directory.
     ValueError
         If ``dest_dir`` is the source directory, or a source's markers are malformed (``ExerciseSourceError``).
+
+    Examples
+    --------
+    >>> import shutil, tempfile
+    >>> from pathlib import Path
+    >>> import nbformat
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> (tmp / "sources").mkdir()
+    >>> nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
+    ...     "x = None\\n### BEGIN SOLUTION\\nx = 1\\n### END SOLUTION")]), tmp / "sources" / "ex1.ipynb")
+    >>> [p.name for p in write_student_versions(tmp / "sources", tmp / "my-work").written]
+    ['ex1.ipynb']
+    >>> [p.name for p in write_student_versions(tmp / "sources", tmp / "my-work").skipped]  # never overwritten
+    ['ex1.ipynb']
+    >>> shutil.rmtree(tmp)
     """
     sources = list_exercise_sources(source_dir)
     if names is not None:
@@ -472,6 +529,11 @@ def lab_source_dir(source_dir: str | os.PathLike[str] | None = None) -> Path:
     ------
     FileNotFoundError
         If the exercise sources cannot be found (see ``exercise_source_dir``).
+
+    Examples
+    --------
+    >>> lab_source_dir("exercises").as_posix()
+    'exercises/labs'
     """
     return (exercise_source_dir() if source_dir is None else Path(source_dir)) / "labs"
 
@@ -496,6 +558,12 @@ def list_lab_sources(labs_dir: str | os.PathLike[str] | None = None) -> dict[str
     ------
     FileNotFoundError
         If the directory does not exist or holds no lab.
+
+    Examples
+    --------
+    >>> labs = list_lab_sources()
+    >>> [p.name for p in labs["ekf_consistency"]]
+    ['ekf_consistency.ipynb']
     """
     directory = lab_source_dir() if labs_dir is None else Path(labs_dir)
     if not directory.is_dir():
@@ -543,6 +611,20 @@ def write_lab_versions(labs_dir: str | os.PathLike[str] | None, dest_dir: str | 
         If ``dest_dir`` exists and is not a directory.
     ValueError
         If ``dest_dir`` is the lab source directory, or a source's markers are malformed.
+
+    Examples
+    --------
+    >>> import shutil, tempfile
+    >>> from pathlib import Path
+    >>> import nbformat
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> (tmp / "labs" / "demo").mkdir(parents=True)
+    >>> nbformat.write(nbformat.v4.new_notebook(), tmp / "labs" / "demo" / "demo.ipynb")
+    >>> _ = (tmp / "labs" / "demo" / "data.csv").write_text("t,r\\n0,100\\n")
+    >>> report = write_lab_versions(tmp / "labs", tmp / "course")
+    >>> sorted(p.relative_to(tmp / "course").as_posix() for p in report.written)
+    ['demo/data.csv', 'demo/demo.ipynb']
+    >>> shutil.rmtree(tmp)
     """
     directory = lab_source_dir() if labs_dir is None else Path(labs_dir)
     labs = list_lab_sources(directory)

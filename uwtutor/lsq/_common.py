@@ -106,14 +106,6 @@ def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.nda
     return r, b
 
 
-def runs_of(**shapes: int | None) -> int | None:
-    sizes = {k: v for k, v in shapes.items() if v is not None}
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{k} has {v}" for k, v in sizes.items())
-        raise ValueError(f"the arguments with a leading runs axis disagree on the number of runs M: {described}")
-    return next(iter(sizes.values()), None)
-
-
 def sigma_and_cov(sigma: Any, residuals: np.ndarray, n_unknowns: int,
                    inv_normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = residuals.shape[-1]

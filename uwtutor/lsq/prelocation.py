@@ -7,8 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_scalar
-from ._common import runs_of
+from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_scalar, common_runs
 
 
 #: Largest elements of one intermediate array of the grid search (runs are processed in chunks below it).
@@ -122,8 +121,8 @@ def _prelocation_inputs(travel_times: Any, ranges: Any, dr_displacements: Any, b
                          f"beyond {MAX_COORDINATE:.0e} (the cost's squares overflow float64): check their units "
                          "(seconds, m/s, metres)")
     b = as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
-    M = runs_of(travel_times=tau.shape[0] if tau.ndim == 2 else None,
-                 dr_displacements=u.shape[0] if u.ndim == 3 else None)
+    M = common_runs(dict(travel_times=tau.shape[0] if tau.ndim == 2 else None,
+                         dr_displacements=u.shape[0] if u.ndim == 3 else None))
     batched = M is not None
     K = tau.shape[-1]
     tau = np.broadcast_to(tau, (M or 1, K))
@@ -353,14 +352,17 @@ class PrelocationAcceptance:
 
     Examples
     --------
+    On a straight track the estimated start stops moving at once, but with no turn it may be the mirror start: the
+    pre-location is never accepted (``prelocation_acceptance`` shows the accepted case):
+
     >>> import numpy as np
     >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
-    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(10)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
     >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
-    >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
-    >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
-    (True, 6, 8)
+    >>> verdict = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
+    >>> float(verdict.shifts[-1]), bool(verdict.accepted), int(verdict.turn_epoch), int(verdict.epoch)
+    (0.0, False, -1, -1)
     """
 
     accepted: np.ndarray
@@ -434,7 +436,8 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
     n_ok = as_int("n_consecutive", n_consecutive, minimum=1)
     dmax = as_scalar("max_shift", max_shift, domain="positive")
     w = as_int("heading_window", heading_window, minimum=1)
-    M = runs_of(starts=s.shape[0] if s.ndim == 3 else None, dr_displacements=u.shape[0] if u.ndim == 3 else None)
+    M = common_runs(dict(starts=s.shape[0] if s.ndim == 3 else None,
+                         dr_displacements=u.shape[0] if u.ndim == 3 else None))
     batched = M is not None
     Mb = M or 1
     K = s.shape[-2]

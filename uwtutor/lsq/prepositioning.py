@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar
+from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar, common_runs
 from ..errors import IllConditionedWarning
-from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, runs_of, sigma_and_cov, unit_los,
+from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, sigma_and_cov, unit_los,
                      warn_conditioning)
 
 #: Largest number of Gauss-Newton steps accepted by ``linearized_lsq`` (it converges in a handful).
@@ -164,8 +164,8 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
         raise ValueError(f"provisional must be a position [x, y], shape (2,) or (M, 2); got {p0.shape}")
     steps = as_int("iterations", iterations, minimum=1, maximum=MAX_ITERATIONS)
     mc, mg = as_thresholds(max_condition, max_noise_gain)
-    M = runs_of(ranges=r.shape[0] if r.ndim == 2 else None, beacons=b.shape[0] if b.ndim == 3 else None,
-                 provisional=p0.shape[0] if p0.ndim == 2 else None)
+    M = common_runs(dict(ranges=r.shape[0] if r.ndim == 2 else None, beacons=b.shape[0] if b.ndim == 3 else None,
+                         provisional=p0.shape[0] if p0.ndim == 2 else None))
     batched = M is not None
     Mb = M or 1
     N = r.shape[-1]

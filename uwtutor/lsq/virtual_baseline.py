@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_finite
-from ._common import as_thresholds, batched_lstsq, runs_of, warn_conditioning
+from .._validate import MAX_COORDINATE, as_finite, common_runs
+from ._common import as_thresholds, batched_lstsq, warn_conditioning
 
 
 @dataclass(frozen=True)
@@ -160,9 +160,9 @@ def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *,
         raise ValueError(f"beacon_depths must be a number or have shape ({N},); got {z.shape}")
     z = np.broadcast_to(z, (N,))
     mc, mg = as_thresholds(max_condition, max_noise_gain)
-    M = runs_of(ranges=r.shape[0] if r.ndim == 2 else None,
-                 beacon_positions=ab.shape[0] if ab.ndim == 3 else None,
-                 dr_positions=P.shape[0] if P.ndim == 3 else None)
+    M = common_runs(dict(ranges=r.shape[0] if r.ndim == 2 else None,
+                         beacon_positions=ab.shape[0] if ab.ndim == 3 else None,
+                         dr_positions=P.shape[0] if P.ndim == 3 else None))
     batched = M is not None
     Mb = M or 1
     r = np.broadcast_to(r, (Mb, N))

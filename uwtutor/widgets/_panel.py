@@ -47,6 +47,14 @@ def figure_png(fig: Any) -> bytes:
 
     The canvas (and so its renderer and text caches) is made once per figure rather than once per picture, as
     ``savefig`` on an inline-backend figure would.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(2.0, 1.0), dpi=50)
+    >>> _ = fig.subplots().plot([0, 1], [0, 1])
+    >>> figure_png(fig)[1:4]
+    b'PNG'
     """
     canvas = _agg_canvas(fig)
     canvas.draw()
@@ -54,13 +62,31 @@ def figure_png(fig: Any) -> bytes:
 
 
 def keep(fig: Any, **artists: Any) -> Any:
-    """Remember the artists a plot function made on ``fig`` by name, for its ``update`` function; returns ``fig``."""
+    """Remember the artists a plot function made on ``fig`` by name, for its ``update`` function; returns ``fig``.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure()
+    >>> (line,) = fig.subplots().plot([0, 1], [0, 1])
+    >>> keep(fig, line=line) is fig
+    True
+    """
     fig._uwtutor_artists = artists
     return fig
 
 
 def kept(fig: Any) -> dict[str, Any] | None:
-    """The artists ``keep`` remembered on ``fig`` (``None`` if it has none)."""
+    """The artists ``keep`` remembered on ``fig`` (``None`` if it has none).
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure()
+    >>> (line,) = fig.subplots().plot([0, 1], [0, 1])
+    >>> kept(keep(fig, line=line))["line"] is line, kept(Figure())
+    (True, None)
+    """
     return getattr(fig, "_uwtutor_artists", None)
 
 
@@ -69,7 +95,22 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
     has while the data fits in them and spans at least ``keep_within`` of them on both axes (in log units on a log
     axis): then the axes, and the pixels kept of them, stay as they are (see ``BlitRenderer``). When the limits do
     change, an axis whose data outgrew them gets ``headroom`` (a fraction of the span) on each side, so that the
-    next step the same way usually fits."""
+    next step the same way usually fits.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> ax = Figure().subplots()
+    >>> (line,) = ax.plot([0, 1], [0, 1])
+    >>> line.set_data([0, 10], [0, 1])          # the data outgrew the x limits: refit, with headroom
+    >>> rescale(ax)
+    >>> [round(float(v), 2) for v in ax.get_xlim()]
+    [-2.15, 12.15]
+    >>> line.set_data([0, 8], [0, 1])           # fits and spans over half of them: the limits are kept
+    >>> rescale(ax)
+    >>> [round(float(v), 2) for v in ax.get_xlim()]
+    [-2.15, 12.15]
+    """
     for ax in axes:
         # An equal-aspect axes that fits its limits to the data ("datalim") would re-centre kept limits on the
         # data at every draw: while its limits are kept it keeps its box instead, and fits them again after.
@@ -161,6 +202,18 @@ class BlitRenderer:
     pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew),
     and so does a ``dynamic`` that holds the figure itself (its artists changed in place all over: colours, tick
     labels).
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(2.0, 1.0), dpi=50)
+    >>> (line,) = fig.subplots().plot([0, 1], [0, 1])
+    >>> renderer = BlitRenderer(fig)
+    >>> first = renderer.png(None)               # everything drawn
+    >>> line.set_ydata([1, 0])
+    >>> second = renderer.png([line])            # the background drawn once and kept, the line drawn over it
+    >>> renderer.background is not None, first != second
+    (True, True)
     """
 
     def __init__(self, fig: Any) -> None:
@@ -232,6 +285,22 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     ipywidgets.VBox
         The two rows of controls, then the figure area: a ``VBox`` of the figure (an ``ipywidgets.Image``) and an
         ``Output`` that shows the error, if a computation fails, until the next update succeeds.
+
+    Examples
+    --------
+    >>> import ipywidgets as w
+    >>> from matplotlib.figure import Figure
+    >>> def draw(fig, slope):
+    ...     fig = fig or Figure(figsize=(2.0, 1.5), dpi=50)
+    ...     fig.add_subplot().plot([0, 1], [0, slope])
+    ...     return fig
+    >>> slope = w.FloatSlider(value=1.0, min=-2.0, max=2.0, continuous_update=False)
+    >>> panel = slider_panel({"slope": slope}, draw)
+    >>> image = panel.children[2].children[0]
+    >>> before = image.value
+    >>> slope.value = -1.0                       # the figure is drawn again for the new value
+    >>> image.value != before
+    True
     """
     import ipywidgets as w
 

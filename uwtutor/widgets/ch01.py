@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .. import acoustics, motion, ranging
-from .._validate import as_finite, as_int, as_nonnegative, as_positive
+from .._validate import as_scalar, as_seed
 from ._panel import keep, kept, rescale, slider_panel
 
 __all__ = [
@@ -74,9 +74,9 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
     Sensitivities are central differences of the Mackenzie equation (steps 0.01 deg C, 0.01 PSU, 1 m; one-sided at
     the surface).
     """
-    T = float(as_finite("temperature", temperature))
-    S = float(as_finite("salinity", salinity))
-    D = float(as_nonnegative("depth", depth))
+    T = as_scalar("temperature", temperature)
+    S = as_scalar("salinity", salinity)
+    D = as_scalar("depth", depth, domain="nonnegative")
     c = acoustics.sound_speed(T, S, D)
     steps = {"temperature": 0.01, "salinity": 0.01, "depth": 1.0}
     args = {"temperature": T, "salinity": S, "depth": D}
@@ -186,8 +186,14 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     The track starts 3000 m from the beacon (paper D's setting); the true sound speed is N(1500, 1) m/s per ping.
     Outliers: a patch of 5 one-sided ones at 400 s and 8 two-sided ones at 1000 s (paper E's kinds).
     """
-    as_positive("assumed_speed", assumed_speed)
-    rng = np.random.default_rng(as_int("seed", seed, minimum=0))    # never OS entropy: the figure is reproducible
+    # each value checked under its own name (the models below would name theirs: sigma, mean, amplitude...)
+    noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
+    assumed_speed = as_scalar("assumed_speed", assumed_speed, domain="positive")
+    bias_mean = as_scalar("bias_mean", bias_mean)
+    bias_sigma = as_scalar("bias_sigma", bias_sigma, domain="nonnegative")
+    bias_time_constant = as_scalar("bias_time_constant", bias_time_constant, domain="positive")
+    outlier_amplitude = as_scalar("outlier_amplitude", outlier_amplitude)
+    rng = np.random.default_rng(as_seed("seed", seed))    # never OS entropy: the figure is reproducible
     times = np.arange(0.0, 1500.0 + 1e-9, 10.0)
     track = motion.straight_track(times, start=(-3000.0, 400.0), speed=2.0, heading=0.0)
     true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .. import motion, observability
-from .._validate import as_finite, as_positive
+from .._validate import as_scalar
 from ..plotting import mark_beacon, plot_track
 from ._panel import keep, kept, rescale, slider_panel
 
@@ -136,8 +136,8 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
         raise ValueError(f"track must be one of {', '.join(repr(t) for t in TRACK_CHOICES)}; got {track!r}")
     if state not in STATE_CHOICES:
         raise ValueError(f"state must be one of {', '.join(repr(s) for s in STATE_CHOICES)}; got {state!r}")
-    theta = float(as_finite("turn_angle_deg", turn_angle_deg))
-    s = float(as_positive("sigma", sigma))
+    theta = as_scalar("turn_angle_deg", turn_angle_deg)
+    s = as_scalar("sigma", sigma, domain="positive")
     times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
     tr = _make_track(track, theta, times)
     beacon = np.zeros(2)

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .. import lsq, observability, scenarios
-from .._validate import as_finite, as_int, as_positive
+from .._validate import as_int, as_positive, as_scalar, as_seed, check_work
 from ..plotting import mark_beacon
 from ._panel import keep, kept, rescale, slider_panel
 
@@ -30,6 +30,8 @@ __all__ = [
 
 
 # --- the precision factor ------------------------------------------------------------------------------------------
+#: Largest radius and bias [m] the precision view takes: beyond 1000 km a value is not a beacon's range (wrong units).
+_MAX_RANGE = 1e6
 
 @dataclass(frozen=True)
 class PrecisionView:
@@ -99,13 +101,13 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
     n_obs : int, default 236
         Number of ranges (>= 1).
     turn_deg : float, default 90
-        Bearing change over the arc [deg], > 0.
+        Bearing change over the arc [deg], 1 to 360.
     radius : float, default 1500
-        Range to the beacon [m].
+        Range to the beacon [m], 1 m to 1000 km.
     noise_sigma : float, default sqrt(5)
-        White range noise [m] (paper A: "variance 5").
+        White range noise [m] (paper A: "variance 5"), > 0 and at most 1000 km.
     bias : float, default 10
-        Constant range bias [m].
+        Constant range bias [m], above ``-radius`` and at most 1000 km.
     n_runs : int, default 200
         Monte Carlo fixes.
     seed : int, default 0
@@ -116,16 +118,22 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
     PrecisionView
     """
     n = as_int("n_obs", n_obs, minimum=1)
-    turn = float(as_positive("turn_deg", turn_deg, ndim=0))
-    R = float(as_positive("radius", radius, ndim=0))
-    sigma = float(as_positive("noise_sigma", noise_sigma, ndim=0))
-    b = float(as_finite("bias", bias, ndim=0))
+    # an arc of less than a degree, or a radius below a metre, gives no fix at all (the normal matrix is singular
+    # in float64); a radius, noise or bias beyond 1000 km is not a beacon's range (their squares overflow float64)
+    turn = as_scalar("turn_deg", turn_deg, low=1.0, high=360.0)
+    R = as_scalar("radius", radius, low=1.0, high=_MAX_RANGE)
+    sigma = as_scalar("noise_sigma", noise_sigma, domain="positive", high=_MAX_RANGE)
+    b = as_scalar("bias", bias, low=-_MAX_RANGE, high=_MAX_RANGE)
+    if R + b <= 0.0:
+        raise ValueError(f"bias must be above -radius (the measured range R + bias must be > 0); got bias = {b:g} "
+                         f"with radius = {R:g}")
     runs = as_int("n_runs", n_runs, minimum=1)
-    rng = np.random.default_rng(as_int("seed", seed))
+    check_work("n_runs", runs * n, "ranges (n_runs x n_obs)")
+    rng = np.random.default_rng(as_seed("seed", seed))
     phi = np.deg2rad(-90.0 + turn * np.linspace(0.0, 1.0, n))
     positions = R * np.column_stack([np.cos(phi), np.sin(phi)])
     alpha_hist = lsq.precision_factor_history(positions)
-    ranges = R + b + sigma * rng.standard_normal((runs, n))
+    ranges = np.maximum(R + b + sigma * rng.standard_normal((runs, n)), 0.0)     # noise larger than the range
     provisional = positions[-1] + 30.0 * rng.standard_normal((runs, 2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", lsq.IllConditionedWarning)   # shown in the figure's title instead
@@ -335,7 +343,7 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
     if not 0.5 <= step_b <= 30.0 or not 1.0 <= step_c <= 50.0:
         raise ValueError(f"bearing_step_deg must lie in [0.5, 30] and speed_step in [1, 50]; got {step_b:g} and "
                          f"{step_c:g}")
-    sc = scenarios.approach_with_turn_scenario(np.random.default_rng(as_int("seed", seed)))
+    sc = scenarios.approach_with_turn_scenario(np.random.default_rng(as_seed("seed", seed)))
     k = as_int("epoch", epoch, minimum=2)
     if k >= sc.n_steps:
         raise ValueError(f"epoch must be below the number of epochs ({sc.n_steps}); got {k}")

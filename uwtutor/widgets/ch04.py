@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .. import scenarios
-from .._validate import as_finite, as_int, as_positive
+from .._validate import as_int, as_scalar, as_seed, check_work
 from ..filters import range_only_ekf
 from ..montecarlo import run_monte_carlo
 from ..plotting import mark_beacon, plain_log_ticks
@@ -28,6 +28,8 @@ __all__ = [
 #: DR noise variance per axis per ping and white range noise variance of paper D's simulation [m²].
 DR_VARIANCE = 0.81
 RANGE_VARIANCE = 0.49
+#: Epochs of the approach (a ping every 10 s for 1500 s): the work of a run, to refuse a count of runs too large.
+_EPOCHS = 151
 
 
 @dataclass(frozen=True)
@@ -98,31 +100,34 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
     Parameters
     ----------
     initial_error : float, default 30
-        Initial error standard deviation per axis [m], > 0.
+        Initial error standard deviation per axis [m], 1e-3 to 1e6.
     q_scale : float, default 1
-        Filter Q / true DR noise, > 0.
+        Filter Q / true DR noise, 1e-6 to 1e6.
     r_scale : float, default 1
-        Filter R / true range noise, > 0.
+        Filter R / true range noise, 1e-6 to 1e6.
     bias : float, default 0
-        Unmodelled constant range bias [m].
+        Unmodelled constant range bias [m], at most 1e6 in size.
     n_runs : int, default 50
         Monte Carlo runs.
     seed : int, default 0
         Seed of the noise and the initial errors.
     n_shown : int, default 8
-        Runs whose estimated tracks are kept for the plot.
+        Runs whose estimated tracks are kept for the plot: the first ``min(n_shown, n_runs)``.
 
     Returns
     -------
     EKFView
     """
-    p0 = float(as_positive("initial_error", initial_error, ndim=0))
-    qs = float(as_positive("q_scale", q_scale, ndim=0))
-    rs = float(as_positive("r_scale", r_scale, ndim=0))
-    b = float(as_finite("bias", bias, ndim=0))
+    # beyond these bounds the filter's variances underflow to 0 or their products overflow float64
+    p0 = as_scalar("initial_error", initial_error, low=1e-3, high=1e6)
+    qs = as_scalar("q_scale", q_scale, low=1e-6, high=1e6)
+    rs = as_scalar("r_scale", r_scale, low=1e-6, high=1e6)
+    # a bias beyond 1000 km is not a range bias (the ranges would overflow the filter's float64): refused by name
+    b = as_scalar("bias", bias, low=-1e6, high=1e6)
     M = as_int("n_runs", n_runs, minimum=2)
+    check_work("n_runs", 10 * M * _EPOCHS, "floats (n_runs x the scenario's epochs x 10)")
     shown = as_int("n_shown", n_shown, minimum=0)
-    rng = np.random.default_rng(as_int("seed", seed))
+    rng = np.random.default_rng(as_seed("seed", seed))
     sc = scenarios.approach_with_turn_scenario(rng, n_runs=M, assumed_speed=1500.0, speed_sigma=0.0,
                                                noise_sigma=np.sqrt(RANGE_VARIANCE), dr_sigma=np.sqrt(DR_VARIANCE))
     truth = np.array(sc.true_positions[0])

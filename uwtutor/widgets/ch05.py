@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..scenarios import paper_d
-from .._validate import as_finite, as_int
+from .._validate import as_finite, as_int, check_work
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf
 from ..plotting import mark_beacon, plot_track
@@ -27,6 +27,8 @@ __all__ = [
 ]
 
 #: Paper D's parameters by name (from :mod:`uwtutor.scenarios.paper_d`, the one place they are written down).
+#: Epochs of paper D's approach (a ping every 10 s for 1500 s): the work of a run, to refuse a count of runs too large.
+_EPOCHS = 151
 PAPER_D: dict[str, float] = {key: value for key, value in paper_d.PARAMETERS.as_dict().items() if key != "n_runs"}
 #: Start of the steady-state window of the summaries, in seconds (epochs at or after it count).
 STEADY_FROM = 1200.0
@@ -116,7 +118,7 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     weakening : bool, default True
         Paper D's range weakening factor (True) or Zhou and Xi's :math:`\beta = 1` (False).
     initial_error : float, default 150
-        Initial position error [m], > 0.
+        Initial position error [m], 1e-3 to 1e6.
     n_runs : int, default 100
         Monte Carlo runs (>= 1).
     seed : int, default 0
@@ -130,11 +132,13 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     if not -200.0 <= dc <= 200.0:
         raise ValueError(f"assumed_dc must lie between -200 and 200 m/s; got {dc:g}")
     d0 = float(as_finite("initial_error", initial_error, ndim=0))
-    if d0 <= 0:
-        raise ValueError(f"initial_error must be > 0 (the filter's P1 is diag(d0², d0²)); got {d0:g}")
+    if not 1e-3 <= d0 <= 1e6:           # beyond, the filter's P1 = diag(d0², d0²) underflows to 0 or overflows
+        raise ValueError(f"initial_error must lie between 1e-3 and 1e6 m (the filter's P1 is diag(d0², d0²)); "
+                         f"got {d0:g}")
     if not isinstance(weakening, (bool, np.bool_)):
         raise TypeError(f"weakening must be True or False; got {weakening!r}")
     M = as_int("n_runs", n_runs, minimum=1)
+    check_work("n_runs", 10 * M * _EPOCHS, "floats (n_runs x paper D's epochs x 10)")
     seed = as_int("seed", seed, minimum=0)
     rng = np.random.default_rng(seed)
     sc = paper_d.make(rng, n_runs=M)

@@ -15,7 +15,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .._validate import as_int, as_positive
+from .._validate import as_int, as_scalar, check_work
 from ..errors import deprecated_aliases
 from ..filters import GreyParticleFilter, extended_kalman_filter
 from ..models.depth import DepthSensors, DepthSpeedPitch
@@ -109,9 +109,9 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     grey_fraction : float, optional
         :math:`N_\\mathrm{grey}/N`, in [0, 1).
     noise_window : int, optional
-        Wavelet window length (>= 12).
+        Wavelet window length (>= 12, at most the dive's 240 samples).
     noise_change : float, optional
-        Factor applied to the sensor noise from 8 s on (> 0).
+        Factor applied to the sensor noise from 8 s on (1e-3 to 1e3).
     seed : int, optional
         Seed of the sensor noise and of the GPF.
 
@@ -120,9 +120,15 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     GPFView
     """
     N = as_int("n_particles", n_particles, minimum=10)
-    factor = float(as_positive("noise_change", noise_change))
+    check_work("n_particles", 30 * N, "floats (n_particles x 3 states x the filter's working arrays)")
+    grey_fraction = as_scalar("grey_fraction", grey_fraction)         # its range is the filter's to check
+    window = as_int("noise_window", noise_window, minimum=1)
+    # a factor beyond a thousand either way is not a change of sensor noise (its variances under- or overflow)
+    factor = as_scalar("noise_change", noise_change, low=1e-3, high=1e3)
     seed = as_int("seed", seed, minimum=0)
     profile, z, ekf = _dive_and_ekf(factor, seed)
+    if window > len(profile.times):
+        raise ValueError(f"noise_window must be at most the dive's {len(profile.times)} samples; got {window}")
     R = np.diag(PARAMETERS.sensor_std ** 2)
     q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)

@@ -10,7 +10,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .._validate import as_finite, as_int, as_nonnegative, as_positive
+from .._validate import as_int, as_scalar, as_seed, check_work
 from ..filters import bias_ekf
 from ..pipelines import prepositioned_bias_ekf
 from ..models import paper_a_process_noise
@@ -107,11 +107,12 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     Parameters
     ----------
     drift_rate : float, default 0
-        Bias ramp [m/s] (0.01 m/s: a 1 % sound-speed error while the range opens at 1 m/s).
+        Bias ramp [m/s] (0.01 m/s: a 1 % sound-speed error while the range opens at 1 m/s), between -1 and 1;
+        a falling bias must not make a range negative.
     initial_error : float, default 150
-        Provisional start error [m], >= 0.
+        Provisional start error [m], 0 to 1e6.
     max_alpha : float, default 2
-        Pre-positioning threshold, > 0.
+        Pre-positioning threshold, > 0 and at most 1000.
     n_runs : int, default 30
         Monte Carlo runs, >= 2.
     n_obs : int, default 2000
@@ -123,14 +124,21 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     -------
     BiasTrackingView
     """
-    rate = float(as_finite("drift_rate", drift_rate, ndim=0))
-    d0 = float(as_nonnegative("initial_error", initial_error, ndim=0))
-    a_max = float(as_positive("max_alpha", max_alpha, ndim=0))
+    # a drift beyond 1 m/s (a sound-speed error of 100 % at 1 m/s of opening) or a start error beyond 1000 km is not
+    # a sound-speed effect or a provisional start; a precision factor alpha above 1000 accepts a fix that is none
+    rate = as_scalar("drift_rate", drift_rate, low=-1.0, high=1.0)
+    d0 = as_scalar("initial_error", initial_error, low=0.0, high=1e6)
+    a_max = as_scalar("max_alpha", max_alpha, domain="positive", high=1e3)
     M = as_int("n_runs", n_runs, minimum=2)
     K = as_int("n_obs", n_obs, minimum=600)
-    params, sc, bias, direction = _scenario(M, K, as_int("seed", seed))
+    check_work("n_runs", 20 * M * K, "floats (n_runs x n_obs x 20)")
+    params, sc, bias, direction = _scenario(M, K, as_seed("seed", seed))
     t = np.asarray(sc.times)
     z = np.asarray(sc.ranges) + rate * t
+    if np.any(z < 0.0):
+        k = int(np.argmax(np.any(z < 0.0, axis=0)))
+        raise ValueError(f"drift_rate = {rate:g} m/s makes the measured range negative at {t[k]:g} s: a falling "
+                         "bias cannot exceed the range (use a smaller drift, or fewer ranges n_obs)")
     true_bias = bias + rate * t
     truth = np.asarray(sc.true_positions[0])
     start = truth[0] + d0 * direction

@@ -16,6 +16,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .._validate import as_instance
 from ._panel import keep, kept, slider_panel
 
 __all__ = ["ComparisonView", "comparison_view", "plot_comparison_view", "comparison_widget", "COMPUTE_FUNCTIONS"]
@@ -29,6 +30,15 @@ def _committed_table() -> Any:
 
         _TABLE["table"] = load_comparison()
     return _TABLE["table"]
+
+
+def _table(table: Any) -> Any:
+    """The committed comparison for ``None``, else ``table`` itself if it is a ``montecarlo.ComparisonTable``."""
+    if table is None:
+        return _committed_table()
+    from ..montecarlo import ComparisonTable
+
+    return as_instance("table", table, ComparisonTable, "read one with montecarlo.ComparisonTable.from_csv")
 
 
 @dataclass(frozen=True)
@@ -76,7 +86,7 @@ class ComparisonView:
 
 def comparison_view(scenario: str = "circle", condition: str = "white", table: Any = None) -> ComparisonView:
     """The rows of ``table`` (the committed comparison by default) for one scenario and condition."""
-    t = _committed_table() if table is None else table
+    t = _table(table)
     scenarios, conditions = list(dict.fromkeys(t.scenario.tolist())), list(dict.fromkeys(t.condition.tolist()))
     if scenario not in scenarios:
         raise ValueError(f"scenario must be one of {scenarios}; got {scenario!r}")
@@ -188,7 +198,7 @@ def comparison_widget(table: Any = None) -> Any:
     method that does not run on the chosen scenario highlights nothing."""
     import ipywidgets as w
 
-    t = _committed_table() if table is None else table
+    t = _table(table)
     style = {"description_width": "initial"}
     sliders = {
         "scenario": w.Dropdown(options=list(dict.fromkeys(t.scenario.tolist())), value="circle",

@@ -137,8 +137,9 @@ def part_d(ns: Answers) -> Iterator[Feedback]:
     bounds = chi2_mean_bounds(3, n_runs)
     yield check_array(np.asarray(ns["nees_bounds"], dtype=float), np.asarray(bounds, dtype=float), rtol=1e-6,
                       name="nees_bounds", common_mistakes=[
-                          (np.asarray(chi2_mean_bounds(2, n_runs)), "The state [x, y, bias] has 3 components: its NEES "
-                                                                    "has 3 degrees of freedom (chi2_mean_bounds(3, ...)).")],
+                          (np.asarray(chi2_mean_bounds(2, n_runs)),
+                           "The state [x, y, bias] has 3 components: its NEES has 3 degrees of freedom "
+                           "(chi2_mean_bounds(3, ...)).")],
                       hint="The 95 % interval of a mean of n_runs NEES values of a 3-state filter.",
                       reveal_expected=False)
     for name in ("nees_paper_a", "nees_const", "inside_const"):

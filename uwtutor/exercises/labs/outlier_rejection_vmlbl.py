@@ -48,7 +48,8 @@ def part_a(ns: Answers) -> Iterator[Feedback]:
         if not (isinstance(got, tuple) and len(got) == 3):
             yield fail(f"paper_gate returned {type(got).__name__}; it returns (lower, upper, accepted).")
         yield check_number(got[0], lo, rtol=1e-9, name="the lower end" + where, units="m", common_mistakes={
-            -d * zp / 2: "That is the small-S approximation -delta z_pred / 2: compute it exactly from D = S + z_pred².",
+            -d * zp / 2: "That is the small-S approximation -delta z_pred / 2: compute it exactly from "
+                         "D = S + z_pred².",
             float(np.sqrt((1 - d) * zp**2) - zp): "D includes the innovation variance: D = S + z_pred²."},
             reveal_expected=False)
         yield check_number(got[1], hi, rtol=1e-9, name="the upper end" + where, units="m", common_mistakes={
@@ -81,7 +82,7 @@ def part_b(ns: Answers) -> Iterator[Feedback]:
 
 
 def part_c(ns: Answers) -> Iterator[Feedback]:
-    is_outlier, ranges = ns["is_outlier"], ns["ranges"]
+    is_outlier = ns["is_outlier"]
     false_rejections = _filter(ns, "paper", None).extras["outlier"] & ~is_outlier
     k = next((s for s, n in _runs(false_rejections) if n >= 15), None)
     if k is None:  # pragma: no cover - the lab's scenario has a lock-out
