@@ -527,5 +527,7 @@ from robustness_spec_core import SPECS_CORE, EXEMPT_CORE  # noqa: E402
 SPECS.update(SPECS_CORE); EXEMPT.update(EXEMPT_CORE)  # noqa: E702
 from robustness_spec_scen import SPECS_SCEN, EXEMPT_SCEN  # noqa: E402
 SPECS.update(SPECS_SCEN); EXEMPT.update(EXEMPT_SCEN)  # noqa: E702
+from robustness_spec_struct import SPECS_STRUCT, EXEMPT_STRUCT  # noqa: E402
+SPECS.update(SPECS_STRUCT); EXEMPT.update(EXEMPT_STRUCT)  # noqa: E702
 from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
 SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702

@@ -381,3 +381,46 @@ def test_ls_fading_result_is_a_filter_result_and_run_monte_carlo_scores_its_nis(
     assert np.isfinite(study.nis[after & res.extras["updated"]]).all()
     assert np.isnan(study.nis[~after]).all()
     np.testing.assert_array_equal(res.fading_factor, res.extras["fading_factor"])
+
+
+# --- one rule for the state a filter shows (issue 27) ------------------------------------------------------------
+
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_state_is_read_only_and_set_by_assignment(case):
+    """What a filter shows is read-only: writing into ``x`` raises (never a change silently lost, or one that
+    bypasses validation). A new ``x`` or ``P`` is given by assignment, validated, and the run starts from it."""
+    z, u = _inputs(case, True)
+    filt = case.make(True)
+    filt.predict(None if u is None else u[:, 0])
+    filt.update(z[:, 0])
+    for name in ("x", "P", "x_prior", "P_prior"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(filt, name)[...] += 1.0
+    before = filt.x
+    kept = before.copy()
+    shifted = before + 1.0
+    filt.x = shifted
+    np.testing.assert_array_equal(filt.x, shifted)
+    np.testing.assert_array_equal(before, kept)                   # a value shown earlier is not changed by it
+    filt.P = 2.0 * filt.P
+    with pytest.raises(ValueError, match=r"\bx\b"):
+        filt.x = np.full_like(shifted, np.nan)
+    with pytest.raises(ValueError, match=r"\bP\b"):
+        filt.P = -filt.P
+
+    plain, moved = case.make(True), case.make(True)
+    moved.x = moved.x + 5.0
+    a, b = plain.run(z, u), moved.run(z, u)
+    assert not np.allclose(a.x_prior[:, 0], b.x_prior[:, 0])      # the first prediction starts from the new x
+
+
+def test_fading_state_is_set_between_steps_only():
+    """The fading filter computes its step at the update from the estimate it started from: x is set between
+    steps, not between a predict and its update."""
+    filt = FadingEKF(X0, np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
+    filt.predict(U[:, 0])
+    with pytest.raises(RuntimeError, match="before predict or after update"):
+        filt.x = X0
+    filt.update(Z[:, 0])
+    filt.x = X0
+    np.testing.assert_array_equal(filt.x, X0)

@@ -485,3 +485,24 @@ def test_run_monte_carlo_scores_a_batched_particle_filter():
     # and it is consistent: its time-averaged mean NEES is near n = 2 (the chi-square mean)
     assert 1.5 < float(np.mean(study.mean_nees)) < 2.6
     assert 0.7 < float(np.nanmean(study.mean_nis)) < 1.4
+
+
+@pytest.mark.parametrize("name", PARTICLE_CASES)
+def test_moments_are_read_only_and_follow_the_particles(name):
+    """One rule for the state a filter shows (issue 27): a particle filter's x and P are the moments of its
+    particles, read-only (a write raises, so x and the particles never part ways); a new state is given through
+    the particles (or the weights), and x follows them."""
+    z, u = _inputs(name, True)
+    filt = _make(name, True)
+    filt.predict(None if u is None else u[:, 0])
+    filt.update(z[:, 0])
+    for attribute in ("x", "P", "x_prior", "P_prior", "particles", "weights"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(filt, attribute)[...] *= 1.0
+    for attribute in ("x", "P"):
+        with pytest.raises(AttributeError, match="particles"):
+            setattr(filt, attribute, getattr(filt, attribute))
+    moved = filt.particles + 1.0
+    filt.particles = moved
+    mean = np.einsum("mn,mnk->mk", filt.weights, moved)
+    np.testing.assert_allclose(filt.x, mean, rtol=1e-12, atol=1e-9)

@@ -404,7 +404,7 @@ def test_paper_c_ekf_bad_input():
     Q = np.diag(Q_STD**2)
     with pytest.raises(ValueError, match=r"x0 must be \[depth, speed, pitch\]"):
         DepthEKF([1.0, 2.0], R_PAPER, Q, R_PAPER)
-    with pytest.raises(ValueError, match="process_cov must be positive semi-definite"):
+    with pytest.raises(ValueError, match="Q must be positive semi-definite"):     # DepthEKF's own name for it
         DepthEKF([1.0, 2.0, 0.0], R_PAPER, np.array([[0.04, 0.64, 0.36], [0.64, 1, 0], [0.36, 0, 0.25]]), R_PAPER)
     with pytest.raises(ValueError, match="R must be positive definite"):
         DepthEKF([1.0, 2.0, 0.0], R_PAPER, Q, np.diag([1.0, 0.0, 1.0]))

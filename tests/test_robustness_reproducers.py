@@ -372,3 +372,176 @@ def test_a_locked_out_robust_filter_says_so():
     with pytest.warns(UwtutorWarning, match=r"rejected 120 of 120 measurements"):   # a start 150 m off
         robust_track_kf(z[:, None], 1.0, q=0.01, r=2.0, test="paper", reacquire=None,
                         x0=np.array([z[0] + 150.0, 0.0]), P0=np.diag([2.0, 0.01]))
+
+
+def test_rts_smoother_after_a_huge_P0_and_a_tiny_R_says_why():
+    """P0 = 1e12 I with R <= 1e-6: the smoothed covariance cannot be formed in float64; the error says so and
+    what to change, instead of numpy's raw ``LinAlgError: Singular matrix``."""
+    motion = DeadReckoning(np.eye(2) * 0.1)
+    for R in (1e-6, 1e-12):
+        res = extended_kalman_filter(motion, RangeToBeacon((0.0, 0.0), R=R), TRACK[0] + 3.0, np.eye(2) * 1e12, U, Z)
+        with pytest.raises(IllConditionedError, match="start from a smaller P0 or a larger R"):
+            rts_smoother(res, motion, U)
+
+
+def test_a_locked_out_robust_range_filter_says_so():
+    z = 1000.0 + np.cumsum(np.random.default_rng(0).normal(0.0, 3.0, 300))   # a range that wanders 3 m a step
+    with pytest.warns(UwtutorWarning, match=r"rejected \d+ of 300 measurements: the filter is locked out"):
+        robust_range_kf(z, 1.0, q=0.0, r=1e-12)
+
+
+# --- the struct share of the contract: models, filters, pipelines, real logs ------------------------------------------
+def _depth_study_call(**kw):
+    from uwtutor.pipelines.depth_study import run_depth_study
+    from uwtutor.scenarios import paper_c
+    sc = paper_c.make(np.random.default_rng(0), n_runs=1, duration=2.0)
+    return run_depth_study(sc.profile, sc.measurements, ("EKF",), **kw)
+
+
+def _small_log():
+    from uwtutor.datasets import RangeDataset
+    K = 41
+    odo = np.column_stack([np.r_[0.0, np.ones(K - 1)], np.zeros(K)])
+    truth = np.column_stack([np.arange(K, dtype=float), np.zeros(K), np.zeros(K)])
+    r = np.linalg.norm(truth[1::2, :2] - [5.0, 12.0], axis=1)
+    ranges = np.column_stack([np.arange(1.0, K, 2), np.full(r.size, 3), r])
+    return RangeDataset(times=np.arange(K, dtype=float), odometry=odo, ranges=ranges, beacons={3: (5.0, 12.0)},
+                        truth=truth)
+
+
+@pytest.mark.parametrize("label, exc, match, call", [
+    ("bias_ekf negative range", ValueError, "z must be finite and >= 0",
+     lambda: __import__("uwtutor.filters", fromlist=["x"]).bias_ekf(
+         np.r_[TRACK[0], 0.0], np.eye(3) * 100.0, U, -Z, np.eye(3) * 0.1, 1.0)),
+    ("DepthEKF names its Q", ValueError, "^Q must be positive semi-definite",
+     lambda: __import__("uwtutor.filters", fromlist=["x"]).DepthEKF([10.0, 1.5, 0.1], np.eye(3), -np.eye(3))),
+    ("CooperativeEKF range_variance", TypeError, "range_variance must be numeric",
+     lambda: __import__("uwtutor.filters.cooperative", fromlist=["x"]).CooperativeEKF(
+         np.zeros(4), np.eye(4), np.ones((2, 2)), np.ones((3, 2)) * 100.0, 8.0, np.eye(6), np.eye(10),
+         range_variance="4")),
+    ("wrap_angle None", TypeError, "angle contains None",
+     lambda: __import__("uwtutor.models", fromlist=["x"]).wrap_angle([0.5, None])),
+    ("step_lengths dt with times", TypeError, "dt must be numeric",
+     lambda: __import__("uwtutor.models.robust", fromlist=["x"]).step_lengths(3, dt="1", times=[0.0, 1.0, 2.0])),
+    ("per_run_generators spawn", TypeError, "spawn must be True or False",
+     lambda: __import__("uwtutor.models.noise", fromlist=["x"]).per_run_generators(
+         np.random.default_rng(0), 2, spawn="False")),
+    ("OdometryMotion huge sigma", ValueError, "sigma_distance must be at most",
+     lambda: __import__("uwtutor.models", fromlist=["x"]).OdometryMotion(1e300, 1e-3)),
+    ("run_depth_study ignored parameter", TypeError, "mmpf_time_constant must be numeric",
+     lambda: _depth_study_call(mmpf_time_constant=None)),
+    ("navigate smooth 'False'", TypeError, "smooth must be True or False",
+     lambda: __import__("uwtutor.datasets", fromlist=["x"]).navigate(_small_log(), smooth="False")),
+    ("RobustGate NaN step", ValueError, "steps must be finite",
+     lambda: __import__("uwtutor.filters.robust", fromlist=["x"]).RobustGate(None, [0.0, np.nan, 1.0])),
+    ("robust_track_kf P0 of the wrong size", ValueError, r"P0 must be 2x2",
+     lambda: __import__("uwtutor.filters.robust", fromlist=["x"]).robust_track_kf(Z[:, None], q=0.01, r=2.0,
+                                                                                 P0=np.eye(4))),
+    ("range_factor_moments names effective_speed", ValueError, "effective_speed must lie in",
+     lambda: __import__("uwtutor.filters.fading", fromlist=["x"]).range_factor_moments(1470.0, 1e300)),
+    ("weights of other particles", ValueError, r"one weight for each of the particles",
+     lambda: __import__("uwtutor.filters", fromlist=["x"]).BootstrapParticleFilter(
+         DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), np.zeros((5, 2)), np.random.default_rng(0),
+         weights=np.ones(4))),
+])
+def test_struct_share_silent_answers_are_refused(label, exc, match, call):
+    with pytest.raises(exc, match=match):
+        call()
+
+
+def test_prepositioned_start_names_a_max_alpha_that_accepts_a_singular_fix():
+    from uwtutor.pipelines import prepositioned_bias_ekf
+    from uwtutor.scenarios import paper_a
+    sc = paper_a.make(np.random.default_rng(0), n_runs=1)
+    args = (sc.ranges[:, :600], sc.dr_displacements[:, :600], sc.true_positions[:, 0] + [150.0, 0.0], np.eye(3), 5.0)
+    assert np.isfinite(prepositioned_bias_ekf(*args, max_alpha=2.0).x[:, -1]).all()
+    with pytest.raises(ValueError, match="max_alpha = 1e\\+300 accepted a fix that is singular"):
+        prepositioned_bias_ekf(*args, max_alpha=1e300)
+
+
+def test_the_engine_refuses_a_negative_range_of_a_range_model():
+    """A model that measures ranges (``nonnegative = True``: RangeToBeacon, BeaconRanges, and a model of yours that
+    sets it) gets no negative range through the engine, as range_only_ekf does not; a model of other measurements
+    may take negative values."""
+    from uwtutor.filters import ExtendedKalmanFilter
+    from uwtutor.models import LinearMeasurement, LinearMotion
+    z = Z.copy()
+    z[2] = -1.0
+    with pytest.raises(ValueError, match=r"z must be >= 0 \(RangeToBeacon measures ranges; .*\); got -1 at index 2"):
+        extended_kalman_filter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), TRACK[0], np.eye(2), U, z)
+    filt = ExtendedKalmanFilter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), TRACK[0], np.eye(2))
+    with pytest.raises(ValueError, match="z must be >= 0"):
+        filt.run(z, U)
+    res = extended_kalman_filter(LinearMotion(F=[[1.0]], Q=[[1.0]]), LinearMeasurement(H=[[1.0]], R=1.0), [0.0],
+                                 [[1.0]], None, [-1.0, -2.0, np.nan])
+    assert np.isfinite(res.x).all()
+
+
+@pytest.mark.parametrize("f, F, exc, match", [
+    (lambda x, u: x + u + 1j, None, TypeError, r"the model's f must return real numbers; .*complex128 \(complex"),
+    (None, "abc", TypeError, r"the model's F must return real numbers; got an array of dtype <U3"),
+    (lambda x, u: np.array([[None, 1.0]], dtype=object), None, TypeError, "it returned NoneType None"),
+])
+def test_what_a_motion_model_returns_is_real(f, F, exc, match):
+    """A complex f is refused (numpy would drop its imaginary part with a warning), a string F by the model's name
+    for it, not by numpy's conversion error."""
+    class Odd(_Motion):
+        def f(self, x, u, k):
+            return x + u if f is None else f(x, u)
+
+        def F(self, x, u, k):
+            return np.eye(2) if F is None else F
+    with pytest.raises(exc, match=match):
+        _run(motion=Odd(np.eye(2) * 0.1))
+
+
+def test_a_measurement_of_the_wrong_size_is_named():
+    class Twice(_Range):
+        def linearize(self, x, k):
+            z, H, defined = super().linearize(x, k)
+            return np.hstack([z, z]), H, defined
+    with pytest.raises(ValueError, match=r"the measurement model's h must return shape \(1, 1\); got \(1, 2\)"):
+        _run(measurement=Twice())
+
+
+@pytest.mark.parametrize("returned, exc, match", [
+    (lambda x, P: (x, -P), ValueError, r"the gate Odd\.after_update \(its P\) returned a matrix that is not positive"),
+    (lambda x, P: (x * np.nan, P), ValueError, r"the gate Odd\.after_update returned a non-finite x"),
+    (lambda x, P: (x, P + 0j), TypeError, r"the gate Odd\.after_update \(its P\) must return real numbers"),
+    (lambda x, P: None, TypeError, r"the gate Odd\.after_update must return the pair \(x, P\); got NoneType"),
+])
+def test_what_a_gate_after_update_returns_is_checked(returned, exc, match):
+    """A gate of yours that changes the estimate: its new P is checked (not blamed on R at the next update), its x
+    (not blamed on the motion model), its dtype and the pair itself."""
+    class Odd(Gate):
+        def after_update(self, x, P, accepted, k):
+            return returned(x, P)
+    with pytest.raises(exc, match=match):
+        _run(gate=Odd())
+
+
+def test_a_composed_test_gate_returning_a_float_does_not_count_as_true():
+    from uwtutor.filters import ReacquiringGate
+    from uwtutor.filters.robust import RobustGate
+
+    class Fuzzy(Gate):
+        def accept(self, ctx):
+            return np.full(ctx.y.shape[0], 0.3)
+    with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
+        _run(gate=ReacquiringGate(Fuzzy()))
+    with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
+        _run(gate=RobustGate(Fuzzy(), np.r_[0.0, np.ones(K - 1)]))
+
+
+def test_a_squared_range_pair_whose_paths_disagree_on_the_runs_is_refused():
+    """Per-run leader and displacement paths of different run counts: refused when the model is made (its n_runs
+    read None, 'shared by every run', before)."""
+    import numpy as np
+    import pytest
+
+    from uwtutor.models import SquaredRangePair
+
+    K = 5
+    with pytest.raises(ValueError, match="runs M: leader has 3, displacements has 4"):
+        SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((4, K, 2)), 8.0, np.eye(10))
+    assert SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((K, 2)), 8.0, np.eye(10)).n_runs == 3

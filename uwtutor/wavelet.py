@@ -90,7 +90,7 @@ def as_wavelet(wavelet: Any) -> pywt.Wavelet:
                         f"pywt.Wavelet; got {type(wavelet).__name__}")
     try:
         w = pywt.Wavelet(wavelet)
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, AttributeError):       # AttributeError: a list or a number, not a name
         raise ValueError(f"wavelet must be the name of a discrete wavelet of PyWavelets (e.g. 'db6', 'haar', "
                          f"'sym4'; see pywt.wavelist(kind='discrete')); got {wavelet!r}") from None
     return w

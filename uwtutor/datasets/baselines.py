@@ -63,6 +63,37 @@ class BaselineRun:
         The method's own result (a :class:`~uwtutor.filters.base.FilterResult`, or a
         :class:`~uwtutor.pipelines.vmlbl.VMLBLResult` for the virtual baseline), for its innovations, covariances and
         extras.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import position_ekf
+    >>> run = position_ekf(data, [3, 7])
+    >>> run.name, run.times.shape, run.positions.shape, type(run.result).__name__
+    ('EKF', (81,), (81, 2), 'FilterResult')
     """
 
     name: str
@@ -127,9 +158,43 @@ def world_displacements(data: RangeDataset) -> np.ndarray:
 
 def displacement_covariance(data: RangeDataset, distance_sigma: Any = DISTANCE_SIGMA) -> np.ndarray:
     r"""The per-step covariance :math:`\sigma_k^2\mathbf I` of :math:`\mathbf u_k`, :math:`\sigma_k = a + c\,d_k`,
-    shape ``(K, 2, 2)`` [m²]."""
+    shape ``(K, 2, 2)`` [m²].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import displacement_covariance
+    >>> C = displacement_covariance(data, distance_sigma=(0.01, 0.02))
+    >>> # one 2x2 covariance per step: (0.01 + 0.02 * 1 m)^2 on a 1 m step
+    >>> C.shape, np.round(C[5], 4).tolist()
+    ((81, 2, 2), [[0.0009, 0.0], [0.0, 0.0009]])
+    """
     _check(data)
-    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
+    # standard deviations: their squares stay within the covariances' bound, 1e150
+    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,), max_abs=1e75))
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     sigma = a + c * np.abs(data.odometry[:, 0])
@@ -164,6 +229,38 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     Returns
     -------
     BaselineRun
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import position_ekf
+    >>> run = position_ekf(data, [3, 7], range_sigma=0.1)
+    >>> # exact ranges from the exact start: the track is followed [m]
+    >>> round(float(np.linalg.norm(run.positions[-1] - truth[-1, :2])), 2)
+    0.0
     """
     from ..filters import extended_kalman_filter, range_only_ekf
     from ..models import BeaconRanges, DeadReckoning
@@ -203,6 +300,45 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     -------
     BaselineRun
         ``result.x[:, 2:]`` holds the bias estimates.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import bias_iekf
+    >>> # 0.5 m too long: the bias state takes it
+    >>> longer = RangeDataset(
+    ...     times=data.times,
+    ...     odometry=data.odometry,
+    ...     ranges=data.ranges + [0.0, 0.0, 0.5],
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> run = bias_iekf(longer, [3], range_sigma=0.1, bias_sigma=1.0)
+    >>> run.name, round(float(run.result.x[-1, 2]), 1)
+    ('IEKF', 0.5)
     """
     from ..filters import bias_ekf, extended_kalman_filter
     from ..models import BeaconRanges, DeadReckoning
@@ -255,6 +391,40 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
     Returns
     -------
     BaselineRun
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import fading_filter
+    >>> run = fading_filter(data, [3], range_sigma=0.1)
+    >>> run.name, type(run.result).__name__, run.positions.shape
+    ('ISFEKF', 'FadingResult', (81, 2))
+    >>> # the fading factor of each epoch (>= 1)
+    >>> bool(np.all(run.result.extras["fading_factor"] >= 1.0))
+    True
     """
     from ..filters.fading import fading_ekf
 
@@ -299,6 +469,39 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     -------
     BaselineRun
         ``result`` is the :class:`~uwtutor.pipelines.vmlbl.VMLBLResult`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import vmlbl_filter
+    >>> run = vmlbl_filter(data, [3], spacing=4.0)
+    >>> run.name, type(run.result).__name__, run.positions.shape
+    ('OR-VMLBL-KF', 'VMLBLResult', (81, 2))
+    >>> bool(np.linalg.norm(run.positions[-1] - truth[-1, :2]) < 1.0)
+    True
     """
     import warnings
 
@@ -350,6 +553,41 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     Returns
     -------
     BaselineRun
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import particle_filter
+    >>> run = particle_filter(
+    ...     data, [3], rng=np.random.default_rng(0), n_particles=200, range_sigma=0.3
+    ... )
+    >>> run.name, run.positions.shape
+    ('particle filter', (81, 2))
+    >>> bool(np.linalg.norm(run.positions[-1] - truth[-1, :2]) < 1.0)
+    True
     """
     from ..filters import BootstrapParticleFilter
     from ..models import DeadReckoning, RangeToBeacon

@@ -149,6 +149,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     >>> bool(np.linalg.norm(result.x[-1, :2] - truth[-1, :2]) < 1.0)
     True
     """
+    smooth, gate = as_flag("smooth", smooth), as_flag("gate", gate)
     nav = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
                             range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
                             gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
@@ -186,6 +187,38 @@ class NavigationModels:
         The ranges on the epochs, NaN where a beacon was not heard.
     times : ndarray, shape (K,)
         The epochs [s].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets import navigation_models
+    >>> nav = navigation_models(data, [3], gyro_bias=True, scale=True)
+    >>> # the state [x, y, heading, gyro bias, scale]; one range column (beacon 3)
+    >>> type(nav.motion).__name__, nav.x0.shape, nav.P0.shape, nav.z.shape
+    ('OdometryMotion', (5,), (5, 5), (81, 1))
     """
 
     motion: OdometryMotion
@@ -262,7 +295,8 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
     z = data.ranges_on_epochs(ids, min_period=min_period)
     beacons = data.beacon_positions(ids)
     sigma_r = _positive("range_sigma", range_sigma)
-    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
+    # standard deviations: their squares stay within the covariances' bound, 1e150
+    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,), max_abs=1e75))
     q_heading = _positive("heading_noise", heading_noise)
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0 (a step's distance is never exact); got {a}")

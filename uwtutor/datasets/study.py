@@ -189,7 +189,39 @@ def _with_truth(data: Any, what: str) -> RangeDataset:
 
 
 def most_heard_beacon(data: RangeDataset) -> int:
-    """The beacon with the most ranges in the log (the lowest id on a tie): the one-beacon case of the study."""
+    """The beacon with the most ranges in the log (the lowest id on a tie): the one-beacon case of the study.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.study import most_heard_beacon
+    >>> # 40 ranges to each: the lowest id
+    >>> most_heard_beacon(data)
+    3
+    """
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.n_ranges == 0:
@@ -199,7 +231,39 @@ def most_heard_beacon(data: RangeDataset) -> int:
 
 
 def without_scale(data: RangeDataset, scale: float) -> RangeDataset:
-    """The log with every range divided by ``scale`` (a calibrated scale removed)."""
+    """The log with every range divided by ``scale`` (a calibrated scale removed).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.study import without_scale
+    >>> scaled = without_scale(data, 1.05)
+    >>> np.round(scaled.ranges[0], 3).tolist(), np.round(data.ranges[0], 3).tolist()
+    ([1.0, 7.0, 5.553], [1.0, 7.0, 5.831])
+    """
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     scale = as_scalar("scale", scale, domain="positive", low=1e-6, high=1e6)
@@ -210,7 +274,49 @@ def without_scale(data: RangeDataset, scale: float) -> RangeDataset:
 
 
 def with_true_heading(data: RangeDataset) -> RangeDataset:
-    """The log with its odometry's heading changes replaced by the truth's (an oracle compass: no drift)."""
+    """The log with its odometry's heading changes replaced by the truth's (an oracle compass: no drift).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.study import with_true_heading
+    >>> # a gyro that drifts 0.01 rad an epoch
+    >>> drifting = RangeDataset(
+    ...     times=data.times,
+    ...     odometry=data.odometry + [0.0, 0.01],
+    ...     ranges=data.ranges,
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> fixed = with_true_heading(drifting)
+    >>> bool(np.allclose(fixed.odometry[1:, 1], data.odometry[1:, 1]))
+    True
+    >>> fixed.name
+    'dataset, true heading'
+    """
     _with_truth(data, "with_true_heading")
     odometry = np.array(data.odometry)
     odometry[1:, 1] = np.diff(np.unwrap(data.truth[:, 2]))
@@ -248,6 +354,40 @@ def navigation_run(data: RangeDataset, beacon: str = "all", period: float | None
         95 % chi-square interval); ``scale``, ``gyro_bias``: final estimates (NaN when not estimated);
         ``curves``: ``times``, ``xy`` (filter), ``error``, ``error_rts``, ``scale``, ``scale_sigma``,
         ``gyro_bias``, decimated.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.study import navigation_run
+    >>> run = navigation_run(data, beacon="3", states="+ scale", decimation=5)
+    >>> sorted(run)
+    ['curves', 'filter', 'gyro_bias', 'scale', 'smoother']
+    >>> # the smoother's measures, and the scale it found (the ranges are exact)
+    >>> sorted(run["smoother"])[:3], round(run["scale"], 3)
+    (['consistent_pose', 'consistent_position', 'final'], 1.0)
     """
     from scipy import stats
 
@@ -296,6 +436,24 @@ def navigation_grid(data: RangeDataset, progress: Callable[[str], None] | None =
         ``smoother_rmse``, ..., ``scale``, ``gyro_bias``); ``curves``: name -> array with those three axes, then
         the decimated epochs (and 2 for ``xy``); ``times``, ``truth``, ``dead_reckoning`` decimated;
         ``beacons`` (the beacon positions by id).
+
+    Examples
+    --------
+    The committed grid: a measure per beacon, range period and set of states:
+
+    >>> from uwtutor.datasets.study import (
+    ...     GRID_BEACONS,
+    ...     GRID_PERIODS,
+    ...     GRID_STATES,
+    ...     load_real_data_study,
+    ... )
+    >>> grid = load_real_data_study().grid
+    >>> grid["measures"]["filter_rmse"].shape == (
+    ...     len(GRID_BEACONS),
+    ...     len(GRID_PERIODS),
+    ...     len(GRID_STATES),
+    ... )
+    True
     """
     shape = (len(GRID_BEACONS), len(GRID_PERIODS), len(GRID_STATES))
     measures: dict[str, np.ndarray] = {}
@@ -347,7 +505,19 @@ def _method_runs(data: RangeDataset, ids: list[int], period: float | None, scale
 
 def method_table(data: RangeDataset, progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """Every method of ``TABLE_METHODS`` with the most-heard beacon and with all, at the logged and the acoustic
-    rate: one row each, with :func:`error_summary`'s measures (single-beacon methods have no four-beacon rows)."""
+    rate: one row each, with :func:`error_summary`'s measures (single-beacon methods have no four-beacon rows).
+
+    Examples
+    --------
+    The rows of the committed study (Plaza 2's, then Plaza 1's), one per method, beacons and rate:
+
+    >>> from uwtutor.datasets.study import load_real_data_study
+    >>> rows = load_real_data_study().table
+    >>> sorted(rows[0])
+    ['beacon_ids', 'beacons', 'final', 'median', 'method', 'rate', 'rmse', 'set', 'within']
+    >>> rows[0]["set"], rows[0]["method"], rows[0]["beacons"], rows[0]["rate"]
+    ('Plaza 2', 'odometry alone', 'one', 'full')
+    """
     scale = measured_scale(data)
     rows = []
     for beacons, ids in (("one", [most_heard_beacon(data)]), ("four", list(data.beacon_ids))):
@@ -377,6 +547,39 @@ def fixes_within(run: Any, truth: Any, beacon: Any, fraction: float = 0.1) -> fl
         The beacon's position [m].
     fraction : float, default 0.1
         The tolerance, a fraction of the distance.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import RangeDataset
+    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
+    >>> K = 81
+    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    >>> turn[:2] = 0.0
+    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    >>> truth = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.empty((0, 3)),
+    ...     beacons=beacons,
+    ...     start=[0.0, 0.0, 0.0],
+    ... ).dead_reckoning()
+    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
+    >>> data = RangeDataset(
+    ...     times=np.arange(K, dtype=float),
+    ...     odometry=odometry,
+    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+    ...     beacons=beacons,
+    ...     truth=truth,
+    ... )
+    >>> from uwtutor.datasets.baselines import vmlbl_filter
+    >>> from uwtutor.datasets.study import fixes_within
+    >>> run = vmlbl_filter(data, [3], spacing=4.0)
+    >>> # the share of the fixes within 10 % of the distance to the beacon
+    >>> 0.5 < fixes_within(run, truth, beacons[3]) <= 1.0
+    True
     """
     out = run.result
     now = np.asarray(out.now)
@@ -403,7 +606,19 @@ def _ablation_run(data: RangeDataset, method: str, ids: list[int], scale: float 
 
 def ablation_table(data: RangeDataset, progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """Each method of ``ABLATION_METHODS`` with the most-heard beacon at the logged rate, on the four variants of
-    the log (``ABLATION_VARIANTS``), and GTSAM's batch solution on the same variants."""
+    the log (``ABLATION_VARIANTS``), and GTSAM's batch solution on the same variants.
+
+    Examples
+    --------
+    The rows of the committed study, one per method and variant of the log:
+
+    >>> from uwtutor.datasets.study import ABLATION_VARIANTS, load_real_data_study
+    >>> rows = load_real_data_study().ablation
+    >>> sorted(rows[0])
+    ['beacon_ids', 'final', 'median', 'method', 'rmse', 'set', 'variant', 'within']
+    >>> sorted({row["variant"] for row in rows}) == sorted(ABLATION_VARIANTS)
+    True
+    """
     from .factor_graph import gtsam_map
 
     scale = measured_scale(data)
@@ -434,7 +649,19 @@ def ablation_table(data: RangeDataset, progress: Callable[[str], None] | None = 
 def gtsam_sweep(data: RangeDataset, progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """GTSAM's batch solution for each heading noise of ``SWEEP_HEADING_NOISE``, each beacon alone and all four,
     ranges as logged and scale removed, at the logged rate; and, for the most-heard beacon, from the truth as the
-    initial guess (the same optimum: the graph's model, not its start, decides)."""
+    initial guess (the same optimum: the graph's model, not its start, decides).
+
+    Examples
+    --------
+    The rows of the committed study, one per beacon(s), scale and heading noise:
+
+    >>> from uwtutor.datasets.study import SWEEP_HEADING_NOISE, load_real_data_study
+    >>> rows = load_real_data_study().sweep
+    >>> sorted(rows[0])[:5]
+    ['beacon', 'final', 'heading_noise', 'initial', 'iterations']
+    >>> sorted({row["heading_noise"] for row in rows}) == sorted(SWEEP_HEADING_NOISE)
+    True
+    """
     from .factor_graph import HEADING_NOISE, gtsam_map
 
     scale = measured_scale(data)
@@ -476,6 +703,17 @@ class RealDataStudy:
         ``truth``, ``dead_reckoning`` (decimated) and ``beacons``.
     info : dict
         How it was computed: versions, scales, the most-heard beacons.
+
+    Examples
+    --------
+    The committed study, read back:
+
+    >>> from uwtutor.datasets.study import load_real_data_study
+    >>> study = load_real_data_study()
+    >>> len(study.table), len(study.ablation), len(study.sweep)
+    (80, 24, 42)
+    >>> study.row("Plaza 2", "navigate", "four")["rmse"] < 1.0
+    True
     """
 
     table: list[dict[str, Any]]
@@ -532,7 +770,19 @@ def _rounded(value: Any) -> Any:
 
 
 def run_real_data_study(progress: Callable[[str], None] | None = None) -> RealDataStudy:
-    """Compute the whole study on Plaza 1 and 2 (several minutes; ``make study-real``)."""
+    """Compute the whole study on Plaza 1 and 2 (several minutes; ``make study-real``).
+
+    Examples
+    --------
+    What it computes, as committed (read back by :func:`load_real_data_study`):
+
+    >>> from uwtutor.datasets.study import load_real_data_study
+    >>> study = load_real_data_study()
+    >>> sorted(study.info)[:4]
+    ['acoustic_period', 'decimation', 'gtsam', 'most_heard_beacon']
+    >>> sorted({row["set"] for row in study.table})
+    ['Plaza 1', 'Plaza 2']
+    """
     from importlib.metadata import version
 
     from .. import __version__

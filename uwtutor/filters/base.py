@@ -12,7 +12,13 @@ A filter holds its estimate in attributes that mean the same thing in every filt
 * ``extra_outputs`` -- the names of further per-step attributes the filter records (fading factors, outlier
   flags, effective sample sizes...);
 
-and moves it with two methods,
+One rule holds for all of them: what a filter shows is **read-only** (writing into ``f.x`` raises, so a change is
+never silently lost or slipped past the checks), and it does not change with later steps (keep it as a snapshot). A
+Kalman-family filter takes a new estimate by assignment, ``f.x = ...`` or ``f.P = ...``, checked like its
+constructor's ``x0`` and ``P0`` (the fading filter between steps only); a particle filter's ``x`` and ``P`` are the
+moments of its particles, so a new state is given as ``f.particles = ...`` (or ``f.weights``), and they follow.
+
+It moves its estimate with two methods,
 
 * ``predict(u=None)`` -- propagate the estimate one step with the motion model and the input ``u``
   (for single-beacon navigation: the dead-reckoned displacement since the last step);
@@ -31,6 +37,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
@@ -40,7 +47,22 @@ __all__ = ["Filter", "FilterResult", "run_filter"]
 
 @runtime_checkable
 class Filter(Protocol):
-    """Structural type of a uwtutor filter (see the module docstring for what each member means)."""
+    """Structural type of a uwtutor filter (see the module docstring for what each member means).
+
+    Examples
+    --------
+    A Kalman filter has every member of the protocol, so the one step loop runs it:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Filter, KalmanFilter, run_filter
+    >>> kf = KalmanFilter.constant_velocity(
+    ...     dt=1.0, q=0.01, r=4.0, x0=[0.0, 1.0], P0=np.eye(2)
+    ... )
+    >>> isinstance(kf, Filter)
+    True
+    >>> run_filter(kf, [1.2, 1.9, 3.1]).x.shape
+    (3, 2)
+    """
 
     x: np.ndarray
     P: np.ndarray
@@ -82,6 +104,27 @@ class FilterResult:
         Covariance ``S`` of each innovation; NaN where no measurement was used.
     extras : dict of ndarray
         Per-step outputs particular to a filter (e.g. ``"fading_factor"``), each with the time axis first.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> u = np.tile([1.0, 0.0], (4, 1))
+    >>> truth = np.array([10.0, 20.0]) + np.cumsum(u, axis=0)
+    >>> res = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [12.0, 18.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ... )
+    >>> res.n_steps, res.x.shape, res.P.shape, res.innovations.shape
+    (4, (4, 2), (4, 2, 2), (4, 1))
+    >>> # one NIS per step, and the measurements used
+    >>> res.nis().shape, res.extras["accepted"].tolist()
+    ((4,), [True, True, True, True])
     """
 
     times: np.ndarray
@@ -147,7 +190,7 @@ def _sequence_times(n_steps: int, times: Any) -> np.ndarray:
     return times
 
 
-def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
     """Run ``filt`` over a measurement sequence: at each step ``predict(u[k])`` then ``update(z[k])``.
 
     This is the library's one step loop: every filter's ``run`` gives the same result as this function.
@@ -206,8 +249,8 @@ def run_filter(filt: Filter, z: Any, u: Any = None, times: Any = None) -> Filter
         u_shared = batched and u.ndim == 2
         u_axis = 0 if u_shared else step_axis
         if u.ndim <= u_axis or u.shape[u_axis] != n_steps:
-            raise ValueError(f"u must give one input per step ({n_steps} steps along axis {u_axis}); "
-                             f"got shape {u.shape}")
+            raise ValueError(f"u must give one input per step of z ({n_steps} steps along axis {u_axis}); "
+                             f"got shape {u.shape} (z has shape {z.shape})")
     times = _sequence_times(n_steps, times)
 
     m = _measurement_size(z, batched)

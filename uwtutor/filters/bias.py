@@ -41,8 +41,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .._validate import as_covariance, as_float_array
+from .._validate import MAX_COORDINATE, as_covariance, as_range_array
 from ._packed import range_variances
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
@@ -51,7 +52,7 @@ from .engine import ExtendedKalmanFilter, extended_kalman_filter
 __all__ = ["bias_ekf", "BiasEKF", "bias_model_pair"]
 
 
-def bias_model_pair(Q: Any, R: Any, beacon: Any = (0.0, 0.0),
+def bias_model_pair(Q: ArrayLike, R: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
                     n_steps: int | None = None) -> tuple[DeadReckoning, RangeToBeacon]:
     r"""Paper A's model pair on the state :math:`[x, y, b]`: dead reckoning with a random-walk range bias, and the
     range plus the bias, :math:`z = \lVert p - b_\mathrm{beacon}\rVert + b + v` -- what :func:`bias_ekf` runs, for
@@ -92,8 +93,8 @@ def bias_model_pair(Q: Any, R: Any, beacon: Any = (0.0, 0.0),
     return DeadReckoning(Q), RangeToBeacon(beacon, R, n=3, bias_index=2)
 
 
-def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0),
-             times: Any = None, *, gate: Any = None) -> FilterResult:
+def bias_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
+             beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, *, gate: Any = None) -> FilterResult:
     r"""Run paper A's IEKF (state ``[x, y, bias]``) over whole sequences, one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]`` (the bias is kept, its variance grows by
@@ -171,9 +172,9 @@ def bias_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.
     ... )
     (True, True)
     """
-    zz = as_float_array("z", z)
+    zz = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)      # measured ranges: >= 0, NaN missing
     motion, measurement = bias_model_pair(Q, R, beacon, zz.shape[-1] if zz.ndim else None)
-    return extended_kalman_filter(motion, measurement, x0, P0, u, z, times=times, gate=gate)
+    return extended_kalman_filter(motion, measurement, x0, P0, u, zz, times=times, gate=gate)
 
 
 class BiasEKF(ExtendedKalmanFilter):
@@ -208,9 +209,13 @@ class BiasEKF(ExtendedKalmanFilter):
     ((3,), (3, 3), 5.83)
     """
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, beacon: ArrayLike = (0.0, 0.0)) -> None:
         motion, measurement = bias_model_pair(Q, R, beacon)
         super().__init__(motion, measurement, x0, P0)
+
+    def update(self, z: Any) -> None:
+        """Correct the estimate with the measured range ``z`` (>= 0; NaN: no reply, predict only)."""
+        super().update(as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE))
 
     @property
     def bias(self) -> np.ndarray:

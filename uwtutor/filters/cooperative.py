@@ -40,8 +40,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._validate import as_covariance, as_finite, as_positive, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar, common_runs
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from ..errors import UnobservableWarning, warn
 from .base import FilterResult, run_filter
@@ -56,7 +57,7 @@ LOST_POLICIES = ("step", "range")
 
 
 
-def range_pairs(ranges: Any) -> np.ndarray:
+def range_pairs(ranges: ArrayLike) -> NDArray[np.float64]:
     r"""The measurements of paper B's steps, :math:`[r_k, r_{k+1}]` for :math:`k = 0, \dots, K - 1`.
 
     Parameters
@@ -75,13 +76,13 @@ def range_pairs(ranges: Any) -> np.ndarray:
     array([[100., 110.],
            [110., 120.]])
     """
-    r = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2))
+    r = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if r.shape[-1] < 2:
         raise ValueError(f"ranges must hold at least two epochs (one interval); got shape {r.shape}")
     return np.stack([r[..., :-1], r[..., 1:]], axis=-1)
 
 
-def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | np.ndarray:
+def relative_track_deviation(u: ArrayLike, leader: ArrayLike, times: ArrayLike | None = None) -> float | np.ndarray:
     r"""How far the follower's track relative to the leader bends away from a straight line at constant speed.
 
     The filter knows the follower's DR track :math:`\mathbf{q}_k = \sum_{j < k} \mathbf{u}_j` and the leader's
@@ -121,8 +122,8 @@ def relative_track_deviation(u: Any, leader: Any, times: Any = None) -> float | 
     >>> round(relative_track_deviation(u, leader), 9)
     0.0
     """
-    d = as_finite("u", u, ndim=(2, 3))
-    b = as_finite("leader", leader, ndim=(2, 3))
+    d = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    b = as_finite("leader", leader, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if d.shape[-1] != 2 or b.shape[-1] != 2 or b.shape[-2] != d.shape[-2] + 1:
         raise ValueError(f"u must have shape (..., K, 2) and leader (..., K + 1, 2); got {d.shape} and {b.shape}")
     k1 = b.shape[-2]
@@ -151,25 +152,21 @@ def _warn_straight(deviation: Any, noise: float) -> None:
 def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
                   n_runs: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate the inputs; a single x0 is repeated over the runs of any batched input."""
-    x = as_finite("x0", x0, ndim=(1, 2))
+    x = as_finite("x0", x0, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if x.shape[-1] != 4:
         raise ValueError(f"x0 must be [x, y, Ux, Uy] (last axis of length 4); got shape {x.shape}")
     P = as_covariance("P0", P0, 4)
-    d = as_finite("u", u, ndim=(2, 3))
+    d = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if d.shape[-1] != 2:
         raise ValueError(f"u must hold DR displacements [dx, dy] (last axis 2); got shape {d.shape}")
-    b = as_finite("leader", leader, ndim=(2, 3))
+    b = as_finite("leader", leader, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if b.shape[-1] != 2 or b.shape[-2] != d.shape[-2] + 1:
         raise ValueError(f"leader must have shape (..., K + 1, 2) with K = {d.shape[-2]} intervals (one position per "
                          f"ranging epoch); got {b.shape}")
-    runs = {name: n for name, n in (("x0", len(x) if x.ndim == 2 else None), ("P0", len(P) if P.ndim == 3 else None),
-                                    ("u", len(d) if d.ndim == 3 else None),
-                                    ("leader", len(b) if b.ndim == 3 else None), ("ranges", n_runs)) if n is not None}
-    if len(set(runs.values())) > 1:
-        described = ", ".join(f"{name} has {n}" for name, n in runs.items())
-        raise ValueError(f"the inputs disagree on the number of runs M (the leading axis): {described}")
-    if runs and x.ndim == 1:
-        x = np.broadcast_to(x, (next(iter(runs.values())), 4)).copy()
+    M = common_runs(dict(x0=len(x) if x.ndim == 2 else None, P0=len(P) if P.ndim == 3 else None,
+                         u=len(d) if d.ndim == 3 else None, leader=len(b) if b.ndim == 3 else None, ranges=n_runs))
+    if M is not None and x.ndim == 1:
+        x = np.broadcast_to(x, (M, 4)).copy()
     return x, P, d, b
 
 
@@ -236,8 +233,8 @@ class CooperativeEKF:
     ((4,), (2,))
     """
 
-    def __init__(self, x0: Any, P0: Any, u: Any, leader: Any, dt: Any, Q: Any, R: Any, *,
-                 formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, dt: Any, Q: ArrayLike,
+                 R: ArrayLike, *, formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
                  _n_runs: int | None = None) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
@@ -245,6 +242,8 @@ class CooperativeEKF:
             raise ValueError(f"lost must be one of {LOST_POLICIES} (a pair with one range lost: predict only, or "
                              f"update with the other range); got {lost!r}")
         self.lost = lost
+        if range_variance is not None:      # checked whatever the formulation (only "single_range" uses it)
+            range_variance = as_scalar("range_variance", range_variance, domain="positive")
         x, P, d, b = _check_inputs(x0, P0, u, leader, _n_runs)
         self.formulation = formulation
         self.u = d
@@ -266,13 +265,21 @@ class CooperativeEKF:
     # -- the protocol's state, read from the engine ---------------------------------------------------------------
     @property
     def x(self) -> np.ndarray:
-        """Current estimate, shape (4,) or (M, 4)."""
+        """Current estimate, shape (4,) or (M, 4) (read-only; assign a new one to set it)."""
         return self._engine.x
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        self._engine.x = value
 
     @property
     def P(self) -> np.ndarray:
-        """Its covariance, shape (4, 4) or (M, 4, 4)."""
+        """Its covariance, shape (4, 4) or (M, 4, 4) (read-only; assign a new one to set it)."""
         return self._engine.P
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        self._engine.P = value
 
     @property
     def x_prior(self) -> np.ndarray:
@@ -340,9 +347,9 @@ class CooperativeEKF:
         return run_filter(self, z, self.u if u is None else u, times)
 
 
-def cooperative_ekf(x0: Any, P0: Any, u: Any, leader: Any, ranges: Any, dt: Any, Q: Any, R: Any, times: Any = None,
-                    *, formulation: str = "consistent", range_variance: Any = None,
-                    lost: str = "step") -> FilterResult:
+def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, ranges: ArrayLike, dt: Any,
+                    Q: ArrayLike, R: ArrayLike, times: ArrayLike | None = None, *, formulation: str = "consistent",
+                    range_variance: Any = None, lost: str = "step") -> FilterResult:
     r"""Run paper B's cooperative EKF over a whole run (or ``M`` runs at once).
 
     Parameters

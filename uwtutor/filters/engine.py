@@ -63,7 +63,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance
+from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, common_runs,
+                        readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -79,9 +80,49 @@ def _check_model(name: str, model: Any, kind: type) -> None:
                         f"got {type(model).__name__}")
 
 
+def _real(name: str, value: Any) -> np.ndarray:
+    """What a model returned, as a float array: real numbers only (a complex value is refused, not cut to its real
+    part; a string or an object by name, not by numpy's conversion error)."""
+    arr = np.asarray(value)
+    kind = arr.dtype.kind
+    if kind == "O":                                  # numbers held as objects: converted when they all are real
+        for v in arr.flat:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise TypeError(f"{_owner(name)} must return real numbers; it returned {type(v).__name__} {v!r}")
+        return arr.astype(float)
+    if kind not in "fiu":
+        raise TypeError(f"{_owner(name)} must return real numbers; got an array of dtype {arr.dtype}"
+                        + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
+    return arr.astype(float, copy=False)
+
+
+def _owner(name: str) -> str:
+    """``"the model's F"`` for a model's method, the name itself when it already says whose value it is."""
+    return name if name.startswith("the ") else f"the model's {name}"
+
+
+def _gate_estimate(gate: Any, out: Any, x_in: np.ndarray, P_in: np.ndarray, M: int, n: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """What a gate's ``after_update`` returned, checked: a pair of real arrays of the filter's shapes; a new x must be
+    finite and a new P symmetric positive semi-definite (the same arrays back, or a library gate's, are trusted)."""
+    name = f"the gate {type(gate).__name__}.after_update"
+    if not (isinstance(out, tuple) and len(out) == 2):
+        raise TypeError(f"{name} must return the pair (x, P); got {type(out).__name__}")
+    x_out, P_out = out
+    x, P = _real(f"{name} (its x)", x_out), _real(f"{name} (its P)", P_out)
+    if x.shape != (M, n) or P.shape != (M, n, n):
+        raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
+    if not getattr(gate, "estimates_checked", False):
+        if x_out is not x_in and not np.isfinite(x).all():
+            raise ValueError(f"{name} returned a non-finite x")
+        if P_out is not P_in:
+            check_model_covariance(f"{name} (its P)", P)
+    return x, P
+
+
 def _batched_matrix(name: str, value: Any, M: int, shape: tuple[int, ...]) -> np.ndarray:
     """A model's matrix as ``(M,) + shape`` (broadcast when shared by every run)."""
-    arr = np.asarray(value, dtype=float)
+    arr = _real(name, value)
     if arr.shape == shape:
         return arr
     if arr.shape == (M,) + shape:
@@ -263,11 +304,9 @@ class ExtendedKalmanFilter:
         P0 = as_covariance("P0", P0, n)
         if P0.ndim not in (2, 3):
             raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
-        sizes = {name: a.shape[0] for name, a, d in (("x0", x0, 2), ("P0", P0, 3)) if a.ndim == d}
-        if len(set(sizes.values())) > 1:
-            raise ValueError(f"x0 and P0 disagree on the number of runs M: {sizes}")
-        self._batched = bool(sizes)
-        self._M = next(iter(sizes.values()), 1)
+        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
+        self._batched = M is not None
+        self._M = M or 1
         self._x = np.array(np.broadcast_to(x0, (self._M, n)))
         self._P = _runs_last(np.broadcast_to(P0, (self._M, n, n)))      # (n, n, M): see _runs_last
         self._x_prior = self._x.copy()
@@ -296,7 +335,9 @@ class ExtendedKalmanFilter:
 
     # -- state access (views of the filter's arrays; assignment is validated) --
     def _out(self, a: np.ndarray) -> np.ndarray:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def n_runs(self) -> int:
@@ -373,7 +414,7 @@ class ExtendedKalmanFilter:
         x_new, F, Q = self.motion.linearize(x, u, k)
         F = _batched_matrix("F", F, M, (n, n))
         Q = _batched_matrix("Q", Q, M, (n, n))
-        x_new = np.asarray(x_new, dtype=float)
+        x_new = _real("f", x_new)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
         for method, value in (("f", x_new), ("F", F), ("Q", Q)):
@@ -417,8 +458,11 @@ class ExtendedKalmanFilter:
         M, n, m = self._M, self.n, self.m
         x, P = self._x, self._P
         z_pred, H, defined = self.measurement.linearize(x, k)
-        z_pred = np.asarray(z_pred, dtype=float).reshape(M, m)
-        H = np.asarray(H, dtype=float)
+        z_pred = _real("h", z_pred)
+        if z_pred.size != M * m:
+            raise ValueError(f"the measurement model's h must return shape ({M}, {m}); got {z_pred.shape}")
+        z_pred = z_pred.reshape(M, m)
+        H = _real("H", H)
         if H.shape != (M, m, n):
             raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
         R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
@@ -485,11 +529,10 @@ class ExtendedKalmanFilter:
         _refuse_lost_psd(P_post, Rc, k)
         S = _runs_first(S)
         if self.gate is not None:
-            x_post, P_first = self.gate.after_update(x_post, _runs_first(P_post), use.copy(), k)
-            x_post = np.asarray(x_post, dtype=float)
-            P_post = _runs_last(np.asarray(P_first, dtype=float))
-            if x_post.shape != (M, n) or P_post.shape != (n, n, M):
-                raise ValueError(f"the gate's after_update must return x ({M}, {n}) and P ({M}, {n}, {n})")
+            P_in = _runs_first(P_post)
+            x_post, P_first = _gate_estimate(self.gate, self.gate.after_update(x_post, P_in, use.copy(), k), x_post,
+                                             P_in, M, n)
+            P_post = _runs_last(P_first)
         self._x, self._P = x_post, P_post
         if not masked:
             self._y = np.where(use[:, None], y, np.nan)
@@ -533,6 +576,8 @@ class ExtendedKalmanFilter:
         ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
         measurements; ``u`` has shape (K, p) or (M, K, p), or is None.
         """
+        z = as_float_array("z", z)
+        _check_nonnegative(self.measurement, z)
         return run_filter(self, z, u, times)
 
 
@@ -616,12 +661,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
         "the measurement model": getattr(measurement, "n_runs", None),
         "the motion model": getattr(motion, "n_runs", None),
     }
-    given = {name: size for name, size in sizes.items() if size is not None}
-    if len(set(given.values())) > 1:
-        described = ", ".join(f"{name} has {size}" for name, size in given.items())
-        raise ValueError(f"the inputs with a leading runs axis disagree on the number of runs M: {described}")
-    if given:
-        M = next(iter(given.values()))
+    M = common_runs(sizes)
+    if M is not None:
         x0 = np.broadcast_to(x0, (M, motion.n))
         if z.ndim == single_z_ndim:
             z = np.broadcast_to(z, (M,) + z.shape)
@@ -629,3 +670,14 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
             u = np.broadcast_to(u, (M,) + u.shape)
     filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate)
     return filt.run(z, u, times)
+
+
+def _check_nonnegative(measurement: MeasurementModel, z: np.ndarray) -> None:
+    """Refuse a negative measurement of a model that measures ranges (``measurement.nonnegative``), by name."""
+    if getattr(measurement, "nonnegative", False):
+        negative = z < 0                                         # NaN (a missing range) compares False
+        if negative.any():
+            where = tuple(int(i) for i in np.argwhere(negative)[0])
+            at = "the value" if not where else f"index {where if len(where) > 1 else where[0]}"
+            raise ValueError(f"z must be >= 0 ({type(measurement).__name__} measures ranges; NaN marks a missing "
+                             f"one); got {z[where]:g} at {at}")

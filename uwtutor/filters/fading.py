@@ -117,11 +117,13 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
-from .._validate import as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array
+from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
+                        common_runs, readonly)
 from .base import FilterResult
-from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
+from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
                       predict_step, result_fields,
                       runs_first, sequence_inputs, steps_and_times, update_step, x_view)
@@ -185,6 +187,8 @@ def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 150
     """
     c = _positive_scalar("assumed_speed", assumed_speed)
     ce = _positive_scalar("effective_speed", effective_speed)
+    if not 1.0 <= ce <= 1e5:          # a sound speed is a few km/s: [1, 1e5] m/s bounds every medium (and c / ce^2)
+        raise ValueError(f"effective_speed must lie in [1, 1e5] m/s (a sound speed); got {ce:g}")
     sc = float(as_finite("speed_sigma", speed_sigma, ndim=0))
     if sc < 0:
         raise ValueError(f"speed_sigma must be >= 0 (a standard deviation); got {sc:g}")
@@ -306,7 +310,7 @@ def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: 
         if beta_v < 0:
             raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
     fading = as_flag("fading", fading)
-    M = common_runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
+    M = common_runs(dict(mu_gamma=m_mu, sigma_gamma=m_sigma))
     sigma2 = sigma * sigma
     return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M
 
@@ -346,6 +350,27 @@ class FadingResult(FilterResult):
     :math:`\sigma_\gamma^2 T_k` (the part of the innovation variance due to the multiplicative noise) and
     ``"updated"`` (True where a range was used). ``innovations`` are
     :math:`\tilde z_k = z_k - \mu_\gamma h(\hat{\mathbf x}^-_k)` and ``innovation_cov`` is :math:`R_\delta`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import fading_ekf
+    >>> u = np.tile([1.0, 0.0], (5, 1))
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=0)
+    >>> res = fading_ekf(
+    ...     [102.0, 48.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ...     mu_gamma=1.0,
+    ... )
+    >>> type(res).__name__, res.x.shape
+    ('FadingResult', (5, 2))
+    >>> # the fading factor lambda_k of each step (>= 1)
+    >>> bool(np.all(res.extras["fading_factor"] >= 1.0))
+    True
     """
 
     @property
@@ -403,9 +428,10 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     return result, post[-1].copy(), mem, started
 
 
-def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-               rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-               beacon: Any = (0.0, 0.0), times: Any = None) -> FadingResult:
+def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike, *,
+               mu_gamma: ArrayLike = 1.0, sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range",
+               fading: bool = True, second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0),
+               times: ArrayLike | None = None) -> FadingResult:
     r"""Run the fading EKF for multiplicative range noise (paper D's ISFEKF by default), one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]``, computes the fading factor
@@ -515,7 +541,7 @@ def fading_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, *, mu_gamma: An
     x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading, n_steps=len(times))
     p = replace(p, R=check_variances_where_measured(p.R, z))
-    M = common_runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
+    M = common_runs({**run_sizes, "mu_gamma_or_sigma_gamma": m_par})
     batched = M is not None
     M = M or 1
     s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
@@ -613,13 +639,13 @@ class FadingEKF:
     extra_outputs = _EXTRAS + ("updated",)
     result_type = FadingResult
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, *, mu_gamma: Any = 1.0, sigma_gamma: Any = 0.0,
-                 rho: Any = 0.95, beta: Any = "range", fading: bool = True, second_moment0: Any = None,
-                 beacon: Any = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
+                 sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
+                 second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
-        M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
-                  mu_gamma_or_sigma_gamma=m_par)
+        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+                             mu_gamma_or_sigma_gamma=m_par))
         self._batched = M is not None
         self._M = M or 1
         self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
@@ -651,28 +677,52 @@ class FadingEKF:
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
-        return a if self._batched else a[0]
+        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
+        shown = a if self._batched else a[0]
+        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
 
     @property
     def x(self) -> np.ndarray:
-        """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2)."""
-        return self._out(x_view(self._shown)).copy()
+        """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2) (read-only;
+        assign a new one between steps to set it)."""
+        return self._out(x_view(self._shown))
+
+    @x.setter
+    def x(self, value: Any) -> None:
+        x = as_finite("x", value, max_abs=MAX_COORDINATE)
+        if x.shape not in ((2,), (self._M, 2)):
+            raise ValueError(f"x must have shape (2,) or (M, 2) with M = {self._M}; got {x.shape}")
+        self._set_state(np.broadcast_to(x, (self._M, 2)), P_view(self._s), "x")
 
     @property
     def P(self) -> np.ndarray:
-        """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2)."""
-        return self._out(P_view(self._shown)).copy()
+        """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2) (read-only;
+        assign a new one between steps to set it)."""
+        return self._out(P_view(self._shown))
+
+    @P.setter
+    def P(self, value: Any) -> None:
+        P = as_covariance("P", value, 2)
+        if P.shape not in ((2, 2), (self._M, 2, 2)):
+            raise ValueError(f"P must have shape (2, 2) or (M, 2, 2) with M = {self._M}; got {P.shape}")
+        self._set_state(x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)), "P")
+
+    def _set_state(self, x: np.ndarray, P: np.ndarray, name: str) -> None:
+        if self._pending is not None:
+            raise RuntimeError(f"{name} can be set before predict or after update, not between them: the fading "
+                               "factor is computed at the update from the estimate the step started with")
+        self._s = self._shown = pack(x, P)
 
     @property
     def x_prior(self) -> np.ndarray:
-        """The prediction of the current step, shape (2,) or (M, 2)."""
-        return self._out(x_view(self._prior)).copy()
+        """The prediction of the current step, shape (2,) or (M, 2) (read-only)."""
+        return self._out(x_view(self._prior))
 
     @property
     def P_prior(self) -> np.ndarray:
         r"""Its covariance as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until the update has
-        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2)."""
-        return self._out(P_view(self._prior)).copy()
+        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2) (read-only)."""
+        return self._out(P_view(self._prior))
 
     def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
         self.y = y[:, None] if self._batched else y[:1].copy()
@@ -724,7 +774,7 @@ class FadingEKF:
         if self._pending is None:
             raise RuntimeError("call predict(u) before update(z): the fading factor scales the prediction's "
                                "covariance, so each update needs its own prediction")
-        z = as_range_array("z", z, allow_nan=True)
+        z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
         if z.size == 1 and z.ndim <= 1:
             z = np.broadcast_to(z.reshape(()), (self._M,))
         elif z.shape != (self._M,) or not self._batched:
@@ -742,13 +792,13 @@ class FadingEKF:
         """
         if self._pending is not None:
             raise RuntimeError("run() starts from an updated state: call update(z) for the pending prediction first")
-        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1))
+        z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
         if z.ndim == 2 and z.shape[0] != self._M:
             raise ValueError(f"z must have shape (K,) or (M, K) with M = {self._M}; got {z.shape}")
         K = z.shape[-1]
         u = np.zeros((K, 2)) if u is None else as_finite("u", u, ndim=(3 if self._batched else 2, 2))
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
-            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2); got {u.shape}")
+            raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2), one input per step of z; got {u.shape}")
         times = steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last

@@ -29,9 +29,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._linalg import quadratic_form
-from .._validate import as_finite, as_flag, as_float_array, as_int, as_scalar
+from .._validate import MAX_COORDINATE, as_bool_array, as_finite, as_flag, as_float_array, as_int, as_scalar
 
 __all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared"]
 
@@ -64,6 +65,34 @@ class GateContext:
         Its covariance.
     present : ndarray of bool, shape (M, m), optional
         Which components are measured (and usable); None means "every finite component of ``z``".
+
+    Examples
+    --------
+    What a gate sees at each step (here, the first step of a one-run filter):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Gate, extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> seen = []
+    >>> class Spy(Gate):
+    ...     def accept(self, ctx):
+    ...         seen.append(ctx)
+    ...         return np.ones(ctx.y.shape[0], dtype=bool)
+    >>> _ = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [3.0, 4.0],
+    ...     np.eye(2),
+    ...     np.zeros((1, 2)),
+    ...     [6.0],
+    ...     gate=Spy(),
+    ... )
+    >>> ctx = seen[0]
+    >>> ctx.k, ctx.z.tolist(), ctx.z_pred.tolist(), ctx.y.tolist()
+    (0, [[6.0]], [[5.0]], [[1.0]])
+    >>> # S = H P H^T + R
+    >>> np.round(ctx.S, 3).tolist()
+    [[[2.01]]]
     """
 
     k: int
@@ -82,7 +111,7 @@ class GateContext:
         return np.isfinite(self.z) if self.present is None else self.present
 
 
-def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+def normalized_innovation_squared(y: ArrayLike, S: ArrayLike) -> NDArray[np.float64]:
     r""":math:`\nu = y^T S^{-1} y` over stacked innovations ``(..., m)`` and covariances ``(..., m, m)``.
 
     Examples
@@ -100,6 +129,9 @@ def normalized_innovation_squared(y: np.ndarray, S: np.ndarray) -> np.ndarray:
                          f"{S.shape}")
     if np.isinf(y).any():
         raise ValueError("y must be finite (NaN marks a missing innovation); got an infinite value")
+    if (np.abs(y) > MAX_COORDINATE).any():
+        raise ValueError(f"y must be at most {MAX_COORDINATE:.0e} in magnitude (its square overflows float64 beyond "
+                         "it); change its units")
     return quadratic_form(y, S, "S")
 
 
@@ -108,9 +140,35 @@ class Gate:
 
     A gate may name per-step attributes in ``extra_outputs`` (each an array ``(M,)``, set by :meth:`accept` or
     :meth:`after_update`): the filter records them in its result's ``extras``.
+
+    Examples
+    --------
+    A gate of your own: accept a range only when it is shorter than 1000 m (one decision per run):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import Gate, extended_kalman_filter
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> class ShortRanges(Gate):
+    ...     def accept(self, ctx):
+    ...         return ctx.z[:, 0] < 1000.0
+    >>> res = extended_kalman_filter(
+    ...     DeadReckoning(np.eye(2) * 0.01),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [100.0, 0.0],
+    ...     np.eye(2) * 25.0,
+    ...     np.zeros((3, 2)),
+    ...     [100.0, 5000.0, 101.0],
+    ...     gate=ShortRanges(),
+    ... )
+    >>> res.extras["accepted"].tolist()
+    [True, False, True]
     """
 
     extra_outputs: tuple[str, ...] = ()
+    #: True for a library gate whose :meth:`after_update` keeps the covariance symmetric positive semi-definite by
+    #: construction (it scales it by positive factors, or restarts from a fit): the engine does not check what it
+    #: returns. A gate of your own leaves it False, and a new ``x`` or ``P`` it returns is checked.
+    estimates_checked: bool = False
 
     def accept(self, ctx: GateContext) -> np.ndarray:
         """A bool array ``(M,)`` -- True where the run's measurement is to be used -- or ``(M, m)``, component by
@@ -286,6 +344,8 @@ class ReacquiringGate(Gate):
     (True, True)
     """
 
+    estimates_checked = True      # P scaled by positive factors only: it stays positive semi-definite
+
     extra_outputs = ("rejected", "inflated", "forced")
 
     def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: Any = 10.0,
@@ -327,7 +387,8 @@ class ReacquiringGate(Gate):
             self._reset(M)
         present = ctx.present_mask()
         has = present.any(axis=-1)
-        verdict = np.asarray(self.test.accept(ctx), dtype=bool)
+        verdict = as_bool_array(f"the gate {type(self.test).__name__}.accept", self.test.accept(ctx),
+                                ((M,), present.shape))
         forced = self._due & has
         if forced.any():
             verdict = verdict | (forced[:, None] & present if verdict.shape == present.shape else forced)

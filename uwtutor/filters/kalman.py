@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_finite, as_positive
 from ..models.linear import LinearMeasurement, LinearMotion
@@ -99,7 +100,8 @@ class KalmanFilter(ExtendedKalmanFilter):
     (2.76, 1.69)
     """
 
-    def __init__(self, F: Any, H: Any, Q: Any, R: Any, x0: Any, P0: Any, B: Any = None) -> None:
+    def __init__(self, F: ArrayLike, H: ArrayLike, Q: ArrayLike, R: ArrayLike, x0: ArrayLike, P0: ArrayLike,
+                 B: ArrayLike | None = None) -> None:
         motion = LinearMotion(F, Q, B)
         measurement = LinearMeasurement(H, R)
         if measurement._R is None:

@@ -17,10 +17,10 @@ live in :mod:`uwtutor.models.depth`.)
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+from numpy.typing import ArrayLike
 
+from .._validate import MAX_COORDINATE, as_covariance, as_finite
 from ..models.base import ModelPair
 from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..models.linear import LinearMeasurement, LinearMotion
@@ -70,13 +70,16 @@ class DepthEKF(ExtendedKalmanFilter):
     True
     """
 
-    def __init__(self, x0: Any, P0: Any, Q: Any = None, R: Any = None, T: float = 0.05) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike | None = None, R: ArrayLike | None = None,
+                 T: float = 0.05) -> None:
+        if Q is not None:                          # named Q here (the motion model calls it process_cov)
+            Q = as_covariance("Q", Q, 3, allow_singular=True)
         motion = DepthSpeedPitch(T=T) if Q is None else DepthSpeedPitch(T=T, process_cov=Q)
         sensors = DepthSensors(R)
         if sensors._R is None or sensors._R.shape != (3, 3):
             raise ValueError("R must be one 3x3 covariance (depth, speed, pitch sensors); for per-step or per-run "
                              "noise use extended_kalman_filter(DepthSpeedPitch(...), DepthSensors(R), ...)")
-        x = np.asarray(x0, dtype=float)
+        x = as_finite("x0", x0, max_abs=MAX_COORDINATE)
         if x.ndim not in (1, 2) or x.shape[-1] != 3:
             raise ValueError(f"x0 must be [depth, speed, pitch], shape (3,) or (M, 3); got shape {x.shape}")
         super().__init__(motion, sensors, x0, P0)
@@ -124,7 +127,7 @@ class LinearGaussianModel(ModelPair):
     True
     """
 
-    def __init__(self, F: Any, H: Any, Q: Any, R: Any, B: Any = None) -> None:
+    def __init__(self, F: ArrayLike, H: ArrayLike, Q: ArrayLike, R: ArrayLike, B: ArrayLike | None = None) -> None:
         motion = LinearMotion(F, Q, B)
         measurement = LinearMeasurement(H, R)
         if measurement.n != motion.n:

@@ -54,9 +54,11 @@ import dataclasses
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
-from .._validate import as_finite, as_float_array, as_int, as_positive, as_scalar
+from .._validate import (MAX_COORDINATE, as_bool_array, as_covariance, as_finite, as_float_array, as_int,
+                        as_nonnegative, as_positive, as_range_array, as_scalar)
 from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
@@ -142,7 +144,8 @@ class SecondMomentGate(Gate):
             return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
 
 
-def moment_gate_interval(z_pred: Any, S: Any, delta: Any = 0.03) -> tuple[np.ndarray, np.ndarray]:
+def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
+                         delta: Any = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""The innovations :math:`y = z - \hat z` that paper E's test accepts for a scalar measurement :math:`z > 0`.
 
     .. math::
@@ -171,7 +174,7 @@ def moment_gate_interval(z_pred: Any, S: Any, delta: Any = 0.03) -> tuple[np.nda
     >>> round(float(lo), 2), round(float(hi), 2)
     (-22.67, 22.34)
     """
-    zp = as_positive("z_pred", z_pred)
+    zp = as_positive("z_pred", z_pred, max_abs=MAX_COORDINATE)
     S = as_float_array("S", S)
     if not np.all(np.isfinite(S)) or np.any(S < 0):
         raise ValueError("S must be finite and >= 0 (an innovation variance)")
@@ -186,6 +189,17 @@ def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate 
 
     ``delta`` and ``probability`` are checked whichever test uses them, so that a bad value is never silently
     ignored (``make_test("chi2", delta=nan)`` is refused).
+
+    Examples
+    --------
+    >>> from uwtutor.filters.robust import make_test
+    >>> type(make_test("paper", delta=0.03)).__name__
+    'SecondMomentGate'
+    >>> gate = make_test("chi2", probability=0.99)
+    >>> type(gate).__name__, round(gate.threshold(1), 3)
+    ('ChiSquareGate', 6.635)
+    >>> make_test("none") is None
+    True
     """
     paper, chi2 = SecondMomentGate(delta), ChiSquareGate(probability)      # both checked, whichever is used
     if isinstance(test, Gate):
@@ -228,9 +242,38 @@ class RobustGate(Gate):
         Per step, bool ``(M,)``: the run was restarted.
     cleared : list of tuple
         The ``(run, step)`` pairs of rejected measurements reclassified as good by a re-acquisition.
+
+    Examples
+    --------
+    Paper E's test on a range track with a spike at step 3: rejected, and predicted through:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.filters.robust import RobustGate, SecondMomentGate
+    >>> from uwtutor.models import ConstantVelocity, PositionMeasurement
+    >>> from uwtutor.models.robust import step_lengths
+    >>> steps = step_lengths(6)
+    >>> gate = RobustGate(SecondMomentGate(0.03), steps)
+    >>> z = np.array([1000.0, 999.0, 998.1, 1150.0, 996.0, 995.1])
+    >>> res = extended_kalman_filter(
+    ...     ConstantVelocity(1, 0.01, steps),
+    ...     PositionMeasurement(1, 2.0),
+    ...     [1000.0, -1.0],
+    ...     np.diag([2.0, 1.0]),
+    ...     None,
+    ...     z,
+    ...     gate=gate,
+    ... )
+    >>> res.extras["accepted"].tolist()
+    [True, True, True, False, True, True]
+    >>> # the spike's step: the prediction [m]
+    >>> round(float(res.x[3, 0]), 1)
+    997.1
     """
 
-    def __init__(self, test: Gate | None, steps: Any, *, on_outlier: str = "predict",
+    estimates_checked = True      # the engine's own estimate, extrapolated or restarted from a fit
+
+    def __init__(self, test: Gate | None, steps: ArrayLike, *, on_outlier: str = "predict",
                  reacquire: int | None = None) -> None:
         if test is not None and not isinstance(test, Gate):
             raise TypeError(f"test must be a uwtutor.filters.Gate or None; got {type(test).__name__}")
@@ -239,7 +282,8 @@ class RobustGate(Gate):
         if reacquire is not None:
             reacquire = as_int("reacquire", reacquire, minimum=3)
         self.test, self.on_outlier, self.reacquire = test, on_outlier, reacquire
-        self.times = np.cumsum(as_float_array("steps", steps, ndim=1))
+        # step lengths (models.robust.step_lengths): finite, >= 0, one per epoch
+        self.times = np.cumsum(as_nonnegative("steps", steps, ndim=1, nonempty=True, max_abs=MAX_COORDINATE))
         self.rejected: list[np.ndarray] = []
         self.reacquired: list[np.ndarray] = []
         self.cleared: list[tuple[int, int]] = []
@@ -257,7 +301,8 @@ class RobustGate(Gate):
         if ctx.k == 0 or not hasattr(self, "_count") or self._count.shape[0] != M:
             self._reset(M, d)
         has = np.isfinite(ctx.z).all(axis=-1)
-        verdict = np.ones(M, dtype=bool) if self.test is None else np.asarray(self.test.accept(ctx), dtype=bool)
+        verdict = (np.ones(M, dtype=bool) if self.test is None else
+                   as_bool_array(f"the gate {type(self.test).__name__}.accept", self.test.accept(ctx), ((M,),)))
         self._pending = (ctx.k, has & ~verdict, np.array(ctx.z), np.asarray(ctx.R))
         return verdict
 
@@ -333,9 +378,9 @@ def _initial_state(z: np.ndarray, var: np.ndarray, rate_sigma: float) -> tuple[n
     return x0, P0
 
 
-def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper", delta: Any = 0.03,
+def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: Any = "paper", delta: Any = 0.03,
                     probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = None,
-                    times: Any = None, x0: Any = None, P0: Any = None,
+                    times: ArrayLike | None = None, x0: ArrayLike | None = None, P0: ArrayLike | None = None,
                     initial_rate_sigma: Any = 5.0) -> FilterResult:
     r"""A constant-velocity Kalman filter on a sequence of ``d``-vectors, with an outlier test (paper E).
 
@@ -377,10 +422,32 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
         The engine's result with, in ``extras`` (each ``(K,)`` or ``(M, K)``): ``"accepted"`` (measurement used),
         ``"rejected"`` (the test said no), ``"outlier"`` (rejected and not reclassified as good by a
         re-acquisition) and ``"reacquired"`` (the state was restarted at that step).
+
+    Examples
+    --------
+    A range that closes at 1.2 m/s with one wild value at step 5:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters.robust import robust_track_kf
+    >>> t = np.arange(10.0)
+    >>> z = 1800.0 - 1.2 * t
+    >>> z[5] += 80.0
+    >>> res = robust_track_kf(z[:, None], 1.0, q=0.01, r=2.0)
+    >>> np.flatnonzero(res.extras["outlier"]).tolist()
+    [5]
+    >>> # the estimated range rate [m/s]
+    >>> round(float(res.x[-1, 1]), 1)
+    -1.2
     """
-    zz = as_float_array("z", z, ndim=(2, 3))
+    zz = as_float_array("z", z, ndim=(2, 3), nonempty=True)
+    if times is not None and np.size(times) != zz.shape[-2]:
+        raise ValueError(f"times must have one entry per epoch of z ({zz.shape[-2]}, its axis -2); got "
+                         f"{np.size(times)}")
     if np.isinf(zz).any():
         raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
+    if (np.abs(zz) > MAX_COORDINATE).any():
+        raise ValueError(f"z must be at most {MAX_COORDINATE:.0e} in magnitude (its square overflows float64 beyond "
+                         "it); change its units")
     batched = zz.ndim == 3
     zb = zz if batched else zz[None]
     M, K, d = zb.shape
@@ -394,12 +461,19 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     motion = ConstantVelocity(d, q, steps)
     Rk = np.asarray(measurement.R(None, 0))
     var0 = np.diagonal(Rk, axis1=-2, axis2=-1)
-    rate = float(as_positive("initial_rate_sigma", initial_rate_sigma, ndim=0))
+    # its square is a variance of P0: within [1e-150, 1e150]
+    rate = as_scalar("initial_rate_sigma", initial_rate_sigma, domain="positive", low=1e-75, high=1e75)
     x_init, P_init = _initial_state(zb, var0, rate)
     if x0 is not None:
-        x_init = np.broadcast_to(as_finite("x0", x0), (M, 2 * d))
+        x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
+        if x0.shape not in ((2 * d,), (M, 2 * d)):
+            raise ValueError(f"x0 must have shape ({2 * d},) or ({M}, {2 * d}) (positions, then rates); got {x0.shape}")
+        x_init = np.broadcast_to(x0, (M, 2 * d))
     if P0 is not None:
-        P_init = np.broadcast_to(as_finite("P0", P0), (M, 2 * d, 2 * d))
+        P0 = as_covariance("P0", P0, 2 * d)
+        if P0.shape not in ((2 * d, 2 * d), (M, 2 * d, 2 * d)):
+            raise ValueError(f"P0 must have shape ({2 * d}, {2 * d}) or ({M}, {2 * d}, {2 * d}); got {P0.shape}")
+        P_init = np.broadcast_to(P0, (M, 2 * d, 2 * d))
     gate = make_test(test, delta=delta, probability=probability)
     robust = RobustGate(gate, steps, on_outlier=on_outlier, reacquire=reacquire)
     filt = ExtendedKalmanFilter(motion, measurement, x_init, P_init, gate=robust)
@@ -422,9 +496,9 @@ def robust_track_kf(z: Any, dt: Any = 1.0, *, q: Any, r: Any, test: Any = "paper
     return FilterResult(times=res.times, extras=extras, **fields)
 
 
-def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, delta: Any = 0.03,
-                    test: Any = "paper", times: Any = None, probability: Any = 0.99, on_outlier: str = "predict",
-                    reacquire: int | None = 20) -> FilterResult:
+def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, delta: Any = 0.03,
+                    test: Any = "paper", times: ArrayLike | None = None, probability: Any = 0.99,
+                    on_outlier: str = "predict", reacquire: int | None = 20) -> FilterResult:
     r"""Paper E's range preprocessing: a Kalman filter on the range sequence that rejects outliers (sec. 1.1).
 
     State :math:`[r_k, \dot r_k]`, constant velocity with acceleration variance ``q``, ranges of variance ``r``
@@ -478,7 +552,7 @@ def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, d
     >>> bool(np.max(np.abs(res.x[:, 0] - truth)) < 10.0)
     True
     """
-    rr = as_float_array("ranges", ranges, ndim=(1, 2))
+    rr = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), nonempty=True, max_abs=MAX_COORDINATE)
     bad = np.isfinite(rr) & (rr < 0)
     if bad.any() or np.isinf(rr).any():
         where = np.flatnonzero((bad | np.isinf(rr)).ravel())[0]
@@ -488,7 +562,7 @@ def robust_range_kf(ranges: Any, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, d
                            on_outlier=on_outlier, reacquire=reacquire, times=times)
 
 
-def cascade_kf(fixes: Any, dt: Any = 1.0, *, q: Any = 1e-4, r: Any, test: Any = "chi2", delta: Any = 0.03,
+def cascade_kf(fixes: ArrayLike, dt: Any = 1.0, *, q: Any = 1e-4, r: ArrayLike, test: Any = "chi2", delta: Any = 0.03,
                probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = 20,
                times: Any = None) -> FilterResult:
     r"""Paper E's cascade Kalman filter on the least-squares fixes (sec. 1.3), with an outlier test.
@@ -529,8 +603,14 @@ def cascade_kf(fixes: Any, dt: Any = 1.0, *, q: Any = 1e-4, r: Any, test: Any = 
     >>> rms(fixes[100:] - truth[100:]) > 5 * rms(res.x[100:, :2] - truth[100:])
     True
     """
-    f = as_float_array("fixes", fixes, ndim=(2, 3))
+    f = as_float_array("fixes", fixes, ndim=(2, 3), nonempty=True)
     if f.shape[-1] != 2:
         raise ValueError(f"fixes must be horizontal positions, shape (K, 2) or (M, K, 2); got {f.shape}")
+    if np.isinf(f).any():
+        raise ValueError("fixes must be finite, or NaN where there is no fix; got an infinite value")
+    if (np.abs(f) > MAX_COORDINATE).any():
+        raise ValueError(f"fixes must be at most {MAX_COORDINATE:.0e} m in magnitude; change their units")
+    if times is not None and np.size(times) != f.shape[-2]:
+        raise ValueError(f"times must have one entry per fix ({f.shape[-2]} in fixes); got {np.size(times)}")
     return robust_track_kf(f, dt, q=q, r=r, test=test, delta=delta, probability=probability,
                            on_outlier=on_outlier, reacquire=reacquire, times=times)

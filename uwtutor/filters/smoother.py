@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_covariance, as_finite
 from ..errors import IllConditionedError
@@ -60,6 +61,29 @@ class SmootherResult:
         The smoother gains :math:`C_k` (the last one is zero).
     filtered : FilterResult
         The filter run that was smoothed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter, rts_smoother
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> motion = DeadReckoning(np.eye(2) * 0.01)
+    >>> u = np.tile([1.0, 0.0], (4, 1))
+    >>> truth = np.array([10.0, 20.0]) + np.cumsum(u, axis=0)
+    >>> res = extended_kalman_filter(
+    ...     motion,
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [12.0, 18.0],
+    ...     np.eye(2) * 25.0,
+    ...     u,
+    ...     np.linalg.norm(truth, axis=1),
+    ... )
+    >>> sm = rts_smoother(res, motion, u)
+    >>> sm.x.shape, sm.gain.shape, sm.filtered is res
+    ((4, 2), (4, 2, 2), True)
+    >>> # the last epoch has no future: smoothed = filtered
+    >>> bool(np.allclose(sm.x[-1], res.x[-1]))
+    True
     """
 
     times: np.ndarray
@@ -69,7 +93,7 @@ class SmootherResult:
     filtered: FilterResult
 
 
-def rts_smoother(result: FilterResult, motion: MotionModel, u: Any = None) -> SmootherResult:
+def rts_smoother(result: FilterResult, motion: MotionModel, u: ArrayLike | None = None) -> SmootherResult:
     r"""Smooth a filter run backwards with the Rauch–Tung–Striebel recursion (equations in the module docstring).
 
     Parameters

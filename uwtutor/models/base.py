@@ -75,6 +75,35 @@ class MotionModel:
     ----------
     n : int
         Size of the state.
+
+    Examples
+    --------
+    A motion model of your own: the position drifts by a known current of 0.1 m per step on top of the DR
+    displacement (``f``, its Jacobian ``F`` and the noise ``Q``, for every run at once):
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.models import MotionModel, RangeToBeacon
+    >>> class Drift(MotionModel):
+    ...     n = 2
+    ...     def f(self, x, u, k):
+    ...         return x + u + [0.1, 0.0]
+    ...     def F(self, x, u, k):
+    ...         return np.eye(2)
+    ...     def Q(self, x, u, k):
+    ...         return np.eye(2) * 0.01
+    >>> Drift().f(np.zeros((1, 2)), np.array([1.0, 2.0]), 0)
+    array([[1.1, 2. ]])
+    >>> res = extended_kalman_filter(
+    ...     Drift(),
+    ...     RangeToBeacon((0.0, 0.0), R=1.0),
+    ...     [30.0, 40.0],
+    ...     np.eye(2),
+    ...     np.zeros((3, 2)),
+    ...     [50.1, 50.2, 50.3],
+    ... )
+    >>> res.x.shape
+    (3, 2)
     """
 
     n: int = 0
@@ -169,6 +198,35 @@ class MeasurementModel:
         Size of one measurement.
     n : int
         Size of the state the model reads.
+
+    Examples
+    --------
+    A measurement model of your own: a pressure sensor that reads the first state (a depth), with a noise of
+    0.1 m:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.models import LinearMotion, MeasurementModel
+    >>> class Depth(MeasurementModel):
+    ...     m, n = 1, 2
+    ...     def h(self, x, k):
+    ...         return x[:, :1]
+    ...     def H(self, x, k):
+    ...         return np.tile([[1.0, 0.0]], (x.shape[0], 1, 1))
+    ...     def R(self, x, k):
+    ...         return np.array([[0.01]])
+    >>> Depth().h(np.array([[12.0, 0.5]]), 0)
+    array([[12.]])
+    >>> res = extended_kalman_filter(
+    ...     LinearMotion(F=[[1.0, 1.0], [0.0, 1.0]], Q=np.eye(2) * 1e-4),
+    ...     Depth(),
+    ...     [10.0, 0.5],
+    ...     np.eye(2),
+    ...     None,
+    ...     [10.5, 11.0, 11.5],
+    ... )
+    >>> np.round(res.x[-1], 2)
+    array([11.5,  0.5])
     """
 
     m: int = 1
@@ -177,6 +235,9 @@ class MeasurementModel:
     #: :math:`G \Sigma G^\mathsf{T}` of checked variances): the filters do not check them again at each step. A model
     #: of your own leaves it False, and the engine checks every new covariance it returns.
     covariances_checked: bool = False
+    #: True for a model whose measurements are ranges (>= 0, NaN where missing): the engine's ``run`` and
+    #: ``extended_kalman_filter`` refuse a negative one by name. Set it on a range model of your own.
+    nonnegative: bool = False
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
         """The predicted measurements ``(M, m)`` of the states ``x`` ``(M, n)`` at step ``k``."""
@@ -354,10 +415,11 @@ class ModelPair:
         measurements : ndarray, shape (K, m)
             ``h(truth)`` plus noise drawn from ``R``.
         """
-        from .._validate import as_finite, as_int, as_rng
+        from .._validate import as_finite, as_int, as_rng, check_work
 
         x = as_finite("x0", x0, shape=(self.n,))[None, None, :]
         K = as_int("n_steps", n_steps, minimum=1)
+        check_work("n_steps", K * (self.n + self.m), "values of truth and measurements")
         rng = as_rng(rng)
         inputs = None if u is None else as_finite("u", u, ndim=2)
         if inputs is not None and len(inputs) != K:

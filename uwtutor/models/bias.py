@@ -36,14 +36,18 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_covariance, as_nonnegative, as_positive
 from .base import MotionModel
 
 __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise"]
 
+#: Largest standard deviation accepted [m]: its square stays within the covariances' bound (1e150).
+_MAX_STD = 1e75
 
-def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> np.ndarray:
+
+def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> NDArray[np.float64]:
     r"""Paper A's process noise :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)`.
 
     :math:`\sigma_x, \sigma_y` are the DR errors per epoch; when ``sigma_bias`` is not given the bias noise follows
@@ -72,14 +76,15 @@ def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = N
            [0.   , 0.25 , 0.   ],
            [0.   , 0.   , 0.625]])
     """
-    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0))
-    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0))
-    sb2 = (sx**2 + sy**2) / 2.0 if sigma_bias is None else float(as_nonnegative("sigma_bias", sigma_bias,
-                                                                                 ndim=0)) ** 2
+    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0, max_abs=_MAX_STD))
+    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0, max_abs=_MAX_STD))
+    sb2 = (sx**2 + sy**2) / 2.0 if sigma_bias is None else float(as_nonnegative("sigma_bias", sigma_bias, ndim=0,
+                                                                                 max_abs=_MAX_STD)) ** 2
     return np.diag([sx**2, sy**2, sb2])
 
 
-def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: Any, dt: Any) -> np.ndarray:
+def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: Any,
+                            dt: Any) -> NDArray[np.float64]:
     r"""Process noise of :class:`BiasRateDeadReckoning`: DR noise plus a white-noise bias *acceleration*.
 
     The bias rate :math:`\dot\upsilon` receives white noise of spectral density :math:`q = \sigma_a^2` over each
@@ -111,10 +116,10 @@ def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: An
     array([[0.004167, 0.00125 ],
            [0.00125 , 0.0005  ]])
     """
-    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0))
-    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0))
-    q = float(as_nonnegative("rate_sigma", rate_sigma, ndim=0)) ** 2
-    h = float(as_positive("dt", dt, ndim=0))
+    sx = float(as_nonnegative("sigma_x", sigma_x, ndim=0, max_abs=_MAX_STD))
+    sy = sx if sigma_y is None else float(as_nonnegative("sigma_y", sigma_y, ndim=0, max_abs=_MAX_STD))
+    q = float(as_nonnegative("rate_sigma", rate_sigma, ndim=0, max_abs=_MAX_STD)) ** 2
+    h = float(as_positive("dt", dt, ndim=0, max_abs=1e50))          # q dt^3 / 3 stays finite
     Q = np.zeros((4, 4))
     Q[0, 0], Q[1, 1] = sx**2, sy**2
     Q[2:, 2:] = q * np.array([[h**3 / 3.0, h**2 / 2.0], [h**2 / 2.0, h]])
@@ -158,7 +163,7 @@ class BiasRateDeadReckoning(MotionModel):
 
     n = 4
 
-    def __init__(self, Q: Any, dt: Any) -> None:
+    def __init__(self, Q: ArrayLike, dt: Any) -> None:
         self._Q = as_covariance("Q", Q, 4, allow_singular=True)
         if self._Q.shape != (4, 4):
             raise ValueError(f"Q must be one 4x4 matrix (the same at every epoch); got shape {self._Q.shape}")

@@ -61,8 +61,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, check_same_shape
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, as_scalar,
+                         check_same_shape, common_runs)
 from .base import MeasurementModel, MotionModel
 from .range import RangeToBeacon
 
@@ -70,10 +72,10 @@ __all__ = ["CooperativeMotion", "SquaredRangePair", "leader_range", "process_noi
 
 
 def _interval(dt: Any) -> float:
-    return float(as_positive("dt", dt, ndim=0))
+    return float(as_positive("dt", dt, ndim=0, max_abs=1e75))      # dt^2 times a variance stays finite
 
 
-def process_noise_map(dt: Any) -> np.ndarray:
+def process_noise_map(dt: Any) -> NDArray[np.float64]:
     r"""Paper B's process-noise map :math:`\mathbf{G}` (its :math:`\mathbf{W}`, eq. 10), shape (4, 6).
 
     .. math::
@@ -95,7 +97,7 @@ def process_noise_map(dt: Any) -> np.ndarray:
     return G
 
 
-def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
+def measurement_noise_map(a: ArrayLike, c: ArrayLike, dt: Any) -> NDArray[np.float64]:
     r"""Paper B's measurement-noise map :math:`\mathbf{L}` (its :math:`\mathbf{V}`, eq. 12) for the vectors
     :math:`\mathbf{s}_k` (the follower relative to the leader at epoch :math:`k`) and :math:`\mathbf{s}_{k+1}` (at
     epoch :math:`k + 1`).
@@ -121,6 +123,16 @@ def measurement_noise_map(a: Any, c: Any, dt: Any) -> np.ndarray:
     Returns
     -------
     ndarray, shape (2, 10) or (M, 2, 10)
+
+    Examples
+    --------
+    >>> from uwtutor.models.cooperative import measurement_noise_map
+    >>> L = measurement_noise_map([3.0, 4.0], [1.0, 2.0], dt=8.0)
+    >>> L.shape
+    (2, 10)
+    >>> # the first row: 2 s_k^T, then -2 s_k^T
+    >>> L[0, :4]
+    array([ 6.,  8., -6., -8.])
     """
     a = as_finite("a", a, max_abs=MAX_COORDINATE, ndim=(1, 2))
     c = as_finite("c", c, max_abs=MAX_COORDINATE, ndim=(1, 2))
@@ -143,7 +155,7 @@ def _noise_map(a: np.ndarray, c: np.ndarray, d: float) -> np.ndarray:
 
 
 def _per_step(name: str, value: Any, n_epochs_extra: int) -> np.ndarray:
-    arr = as_finite(name, value)
+    arr = as_finite(name, value, nonempty=True)
     if arr.ndim not in (2, 3) or arr.shape[-1] != 2:
         raise ValueError(f"{name} must have shape (K{'+1' if n_epochs_extra else ''}, 2) or "
                          f"(M, K{'+1' if n_epochs_extra else ''}, 2); got {arr.shape}")
@@ -182,7 +194,7 @@ class CooperativeMotion(MotionModel):
 
     n = 4
 
-    def __init__(self, dt: Any, Q: Any) -> None:
+    def __init__(self, dt: Any, Q: ArrayLike) -> None:
         self.dt = _interval(dt)
         self.Q6 = as_covariance("Q", Q, 6, allow_singular=True)
         self.noise_map = process_noise_map(self.dt)
@@ -238,12 +250,15 @@ class SquaredRangePair(MeasurementModel):
     m = 2
     n = 4
 
-    def __init__(self, leader: Any, displacements: Any, dt: Any, R: Any, literal: bool = False) -> None:
+    def __init__(self, leader: ArrayLike, displacements: ArrayLike, dt: Any, R: ArrayLike,
+                 literal: bool = False) -> None:
         self.leader = _per_step("leader", leader, 1)
         self.displacements = _per_step("displacements", displacements, 0)
         if self.leader.shape[-2] != self.displacements.shape[-2] + 1:
             raise ValueError(f"leader must hold one position more than displacements (K + 1 epochs, K intervals); "
                              f"got {self.leader.shape[-2]} and {self.displacements.shape[-2]}")
+        self._n_runs = common_runs({name: a.shape[0] if a.ndim == 3 else None
+                                    for name, a in (("leader", self.leader), ("displacements", self.displacements))})
         self.dt = _interval(dt)
         self.R10 = as_covariance("R", R, 10, allow_singular=True)
         self.literal = as_flag("literal", literal)
@@ -293,11 +308,10 @@ class SquaredRangePair(MeasurementModel):
     @property
     def n_runs(self) -> int | None:
         """Number of runs of per-run leader or displacement paths (``None`` when shared by every run)."""
-        sizes = {a.shape[0] for a in (self.leader, self.displacements) if a.ndim == 3}
-        return sizes.pop() if len(sizes) == 1 else None
+        return self._n_runs
 
 
-def leader_range(leader: Any, variance: Any) -> RangeToBeacon:
+def leader_range(leader: ArrayLike, variance: Any) -> RangeToBeacon:
     r"""The plain range to the leader at the end of each interval, :math:`r_{k+1} = \lVert \mathbf{p}_{k+1} -
     \mathbf{p}^\mathrm{M}_{k+1} \rVert`, for the 4-state :math:`[x, y, U_x, U_y]`: the library's
     :class:`~uwtutor.models.range.RangeToBeacon` on the leader's positions of epochs 1..K (step ``k`` ends at epoch
@@ -323,4 +337,7 @@ def leader_range(leader: Any, variance: Any) -> RangeToBeacon:
     array([[50.]])
     """
     b = _per_step("leader", leader, 1)
-    return RangeToBeacon(b[..., 1:, :], R=variance, n=4)
+    if b.shape[-2] < 2:
+        raise ValueError(f"leader must hold K + 1 >= 2 positions (the start, then one per ranging epoch); got shape "
+                         f"{b.shape}")
+    return RangeToBeacon(b[..., 1:, :], R=as_scalar("variance", variance, domain="positive"), n=4)

@@ -17,6 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_covariance
 from .base import MotionModel
@@ -50,7 +51,7 @@ class DeadReckoning(MotionModel):
 
     covariances_checked = True      # Q is checked when the model is made (one, or one per step)
 
-    def __init__(self, Q: Any) -> None:
+    def __init__(self, Q: ArrayLike) -> None:
         self._Q = as_covariance("Q", Q, allow_singular=True)
         if self._Q.ndim not in (2, 3) or self._Q.shape[-1] < 2:
             raise ValueError("Q must be one (n, n) matrix with n >= 2 (the position comes first), or one per step "

@@ -54,8 +54,9 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._validate import as_covariance, as_finite, as_nonnegative, as_positive, as_scalar
+from .._validate import as_covariance, as_finite, as_nonnegative, as_scalar
 from .base import ModelPair, MotionModel
 from .linear import DirectMeasurement
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
@@ -77,6 +78,8 @@ __all__ = [
 #: :mod:`uwtutor.scenarios.paper_c`).
 DEFAULT_PROCESS_STD = np.array([0.01, 0.01, 0.0035])
 DEFAULT_PROCESS_STD.flags.writeable = False
+#: Largest sampling interval and standard deviation accepted: the variances they make stay within 1e150.
+_MAX_STD = 1e75
 
 #: Default sensor noise standard deviations in m, m/s and rad, from paper C's
 #: :math:`R = \mathrm{diag}(0.2^2, 5^2, 0.5^2)` (printed without units, read as 0.2 m, 5 cm/s and 0.5 deg).
@@ -84,7 +87,8 @@ DEFAULT_SENSOR_STD = np.array([0.2, 0.05, np.radians(0.5)])
 DEFAULT_SENSOR_STD.flags.writeable = False
 
 
-def depth_speed_pitch_kinematics(s: Any, T: float, axis: int = -1, *, out: np.ndarray | None = None) -> np.ndarray:
+def depth_speed_pitch_kinematics(s: ArrayLike, T: float, axis: int = -1, *,
+                                 out: np.ndarray | None = None) -> np.ndarray:
     r"""Paper C's kinematics :math:`g(s) = [s_z + s_v \sin(s_\phi) T,\ s_v,\ s_\phi]` of states ``s``.
 
     Parameters
@@ -129,6 +133,12 @@ def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None 
     elif out is not s:
         out[...] = s
     ax = axis % s.ndim
+    if ax == 1 and s.ndim == 3:                                  # (M, 3, N): the particle filters' rows
+        dz = np.sin(s[:, 2])
+        dz *= s[:, 1]
+        dz *= T
+        out[:, 0] += dz
+        return out
 
     lead = (slice(None),) * ax                                   # index component i as lead + (i,)
     dz = np.sin(s[lead + (2,)])
@@ -138,7 +148,7 @@ def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None 
     return out
 
 
-def depth_speed_pitch_jacobian(s: Any, T: float) -> np.ndarray:
+def depth_speed_pitch_jacobian(s: ArrayLike, T: float) -> NDArray[np.float64]:
     r"""The Jacobian :math:`G = \partial g / \partial s` of :func:`depth_speed_pitch_kinematics` at states ``s``.
 
     Parameters
@@ -228,8 +238,10 @@ class DepthSpeedPitch(MotionModel):
 
     n = 3
 
-    def __init__(self, T: float = 0.05, process_std: Any = None, *, process_cov: Any = None) -> None:
-        self.T = float(as_positive("T", T))
+    def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, *,
+                 process_cov: ArrayLike | None = None) -> None:
+        # T and the standard deviations up to 1e75: the variances they make stay within the covariances' 1e150
+        self.T = as_scalar("T", T, domain="positive", high=_MAX_STD)
         if process_cov is not None:
             if process_std is not None:
                 raise ValueError("give process_std or process_cov, not both")
@@ -240,7 +252,7 @@ class DepthSpeedPitch(MotionModel):
             self.process_std = np.sqrt(np.diag(cov))
         else:
             std = DEFAULT_PROCESS_STD if process_std is None else process_std
-            self.process_std = as_nonnegative("process_std", std, shape=(3,)).copy()
+            self.process_std = as_nonnegative("process_std", std, shape=(3,), max_abs=_MAX_STD).copy()
             self.process_cov = np.diag(self.process_std**2)
         diagonal = np.count_nonzero(self.process_cov - np.diag(np.diag(self.process_cov))) == 0
         self._root = None if diagonal else psd_sqrt(self.process_cov)      # L with L L^T = Q_u (correlated)
@@ -287,7 +299,7 @@ class DepthSpeedPitch(MotionModel):
         x = np.asarray(x, dtype=float)
         if x.ndim == 2:
             return self.sample(x[:, None, :], None, k, rng)[:, 0, :]
-        return np.swapaxes(self.sample_rows(np.swapaxes(self._pre(x), -1, -2), rng), -1, -2)
+        return self.sample_rows(self._pre(x).swapaxes(-1, -2), rng).swapaxes(-1, -2)
 
 
 class PitchManeuver(DepthSpeedPitch):
@@ -340,8 +352,8 @@ class PitchManeuver(DepthSpeedPitch):
     def __init__(self, pitch_target: float = 0.0, time_constant: float = 2.0, T: float = 0.05,
                  process_std: Any = None, *, process_cov: Any = None) -> None:
         super().__init__(T=T, process_std=process_std, process_cov=process_cov)
-        self.pitch_target = float(as_finite("pitch_target", pitch_target))
-        self.time_constant = float(as_positive("time_constant", time_constant))
+        self.pitch_target = as_scalar("pitch_target", pitch_target)
+        self.time_constant = as_scalar("time_constant", time_constant, domain="positive")
         self._gain = -math.expm1(-self.T / self.time_constant)
 
     def _pre(self, x: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -381,7 +393,7 @@ class DepthSensors(DirectMeasurement):
     (True, array([0.2   , 0.05  , 0.0087]))
     """
 
-    def __init__(self, R: Any = None) -> None:
+    def __init__(self, R: ArrayLike | None = None) -> None:
         super().__init__(3, [0, 1, 2], np.diag(DEFAULT_SENSOR_STD**2) if R is None else R)
 
 
@@ -437,7 +449,7 @@ class DepthSpeedPitchModel(ModelPair):
     True
     """
 
-    def __init__(self, T: float = 0.05, process_std: Any = None, R: Any = None) -> None:
+    def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, R: ArrayLike | None = None) -> None:
         super().__init__(self._motion(T, process_std), DepthSensors(R))
         self._check_R()
 

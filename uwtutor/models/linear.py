@@ -12,6 +12,7 @@ import copy
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_covariance, as_finite, as_int
 from .base import MeasurementModel, MotionModel
@@ -40,8 +41,8 @@ class LinearMotion(MotionModel):
     array([[12.,  2.]])
     """
 
-    def __init__(self, F: Any, Q: Any, B: Any = None) -> None:
-        self._F = as_finite("F", F, ndim=2)
+    def __init__(self, F: ArrayLike, Q: ArrayLike, B: ArrayLike | None = None) -> None:
+        self._F = as_finite("F", F, ndim=2, max_abs=1e75)     # F P F^T stays finite for P up to 1e150
         n = self._F.shape[0]
         if self._F.shape != (n, n):
             raise ValueError(f"F must be square, shape (n, n); got {self._F.shape}")
@@ -87,7 +88,7 @@ class LinearMeasurement(MeasurementModel):
     array([[4.]])
     """
 
-    def __init__(self, H: Any, R: Any) -> None:
+    def __init__(self, H: ArrayLike, R: ArrayLike) -> None:
         from .range import NoiseSchedule
 
         self._H = as_finite("H", H, ndim=2)
@@ -154,7 +155,7 @@ class DirectMeasurement(LinearMeasurement):
     True
     """
 
-    def __init__(self, n: int, indices: Any, R: Any) -> None:
+    def __init__(self, n: int, indices: Any, R: ArrayLike) -> None:
         n = as_int("n", n, minimum=1)
         idx = [as_int("indices", i, minimum=0) for i in np.atleast_1d(np.asarray(indices)).tolist()]
         if not idx or max(idx) >= n or len(set(idx)) != len(idx):

@@ -20,6 +20,9 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validate import as_flag, as_int, check_work
 
 __all__ = ["per_run_generators", "standard_normal_per_run", "psd_sqrt", "gaussian_noise", "gaussian_log_likelihood"]
 
@@ -52,11 +55,15 @@ def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np
     ... )
     (3, True)
     """
+    n_runs = as_int("n_runs", n_runs, minimum=1)
+    spawn = as_flag("spawn", spawn)
     if isinstance(rng, np.random.Generator):
         if n_runs == 1:
             return (rng,)
         if not spawn:
             raise ValueError(f"rng must be a sequence of {n_runs} Generators (one per run); got one Generator")
+        # a spawned Generator holds about 1 kB (125 floats) of state: a million runs is a gigabyte
+        check_work("n_runs", 125 * n_runs, "values of random-stream state (about 1 kB a run)")
         return tuple(rng.spawn(n_runs))
     if isinstance(rng, (str, bytes)) or not hasattr(rng, "__len__"):
         raise TypeError(f"rng must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)) or a sequence "
@@ -68,7 +75,7 @@ def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np
     return rngs
 
 
-def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> np.ndarray:
+def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> NDArray[np.float64]:
     """Standard normal draws of shape ``(M,) + shape``; block ``m`` is exactly ``rngs[m].standard_normal(shape)``.
 
     Examples
@@ -83,15 +90,21 @@ def standard_normal_per_run(rngs: Sequence[np.random.Generator], shape: tuple[in
     ... )
     ((2, 2, 3), True)
     """
-    if len(rngs) == 1:
-        return rngs[0].standard_normal(shape)[None]
-    out = np.empty((len(rngs),) + tuple(shape))
-    for m, r in enumerate(rngs):
-        r.standard_normal(out=out[m])
+    try:
+        if len(rngs) == 1:
+            return rngs[0].standard_normal(shape)[None]
+        out = np.empty((len(rngs),) + tuple(shape))
+        for m, r in enumerate(rngs):
+            r.standard_normal(out=out[m])
+    except (TypeError, AttributeError) as exc:       # checked only when it fails: a per-step kernel
+        if not isinstance(rngs, (list, tuple)) or not all(isinstance(r, np.random.Generator) for r in rngs):
+            raise TypeError("rngs must be a list or tuple of numpy.random.Generator, one per run (see "
+                            f"per_run_generators); got {type(rngs).__name__}") from None
+        raise TypeError(f"shape must be a tuple of ints; got {shape!r} ({exc})") from None
     return out
 
 
-def psd_sqrt(Q: Any) -> np.ndarray:
+def psd_sqrt(Q: ArrayLike) -> np.ndarray:
     r"""A square root :math:`L` of positive semi-definite matrices, :math:`L L^\mathsf{T} = Q`, ``(..., n, n)``.
 
     The Cholesky factor when every matrix of the stack is positive definite; otherwise

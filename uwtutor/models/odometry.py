@@ -93,8 +93,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._validate import as_covariance, as_finite, as_flag, as_int, as_nonnegative
+from .._validate import as_choice, as_covariance, as_finite, as_flag, as_int, as_nonnegative
 from .base import MotionModel
 from .noise import per_run_generators, standard_normal_per_run
 
@@ -105,7 +106,7 @@ __all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
 ORDERS = {"turn-first": 1.0, "move-first": 0.0, "midpoint": 0.5}
 
 
-def wrap_angle(angle: Any) -> np.ndarray:
+def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     r"""Angles wrapped to :math:`[-\pi, \pi)` [rad].
 
     Examples
@@ -115,7 +116,11 @@ def wrap_angle(angle: Any) -> np.ndarray:
     >>> wrap_angle(np.array([3 * np.pi / 2, -np.pi, np.pi, 0.1]))
     array([-1.57079633, -3.14159265, -3.14159265,  0.1       ])
     """
-    a = np.asarray(angle, dtype=float)
+    return _wrap(as_finite("angle", angle, nonempty=True))
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap_angle` without its checks: the models' per-step kernel (their states are float arrays)."""
     return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
@@ -283,9 +288,13 @@ class StateLayout:
         return x0, P0
 
 
+#: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
+_MAX_STD = 1e75
+
+
 def _per_step(name: str, value: Any) -> np.ndarray:
     """A number or one value per step (K,), >= 0."""
-    arr = as_nonnegative(name, value, ndim=(0, 1))
+    arr = as_nonnegative(name, value, ndim=(0, 1), max_abs=_MAX_STD)
     if arr.ndim == 1 and arr.size == 0:
         raise ValueError(f"{name} is empty: give a number or one value per step")
     return arr
@@ -383,13 +392,11 @@ class OdometryMotion(MotionModel):
 
     covariances_checked = True      # Q = G diag(sigma^2) G^T of the variances checked when the model is made
 
-    def __init__(self, sigma_distance: Any, sigma_heading: Any, *, gyro_bias: bool = False, scale: bool = False,
-                 range_bias: Any = False, times: Any = None, dt: Any = None, order: str = "turn-first",
-                 gyro_bias_walk: Any = 0.0, scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
-        if order not in ORDERS:
-            raise ValueError(f"order must be one of {tuple(ORDERS)} (when the step's turn happens relative to its "
-                             f"move); got {order!r}")
-        self.order = order
+    def __init__(self, sigma_distance: ArrayLike, sigma_heading: ArrayLike, *, gyro_bias: bool = False,
+                 scale: bool = False, range_bias: Any = False, times: ArrayLike | None = None,
+                 dt: ArrayLike | None = None, order: str = "turn-first", gyro_bias_walk: Any = 0.0,
+                 scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
+        self.order = as_choice("order", order, ORDERS)
         self._c = ORDERS[order]
         self.layout = StateLayout.odometry(gyro_bias=gyro_bias, scale=scale, range_bias=range_bias)
         self.n = self.layout.n
@@ -404,7 +411,7 @@ class OdometryMotion(MotionModel):
                  "range_bias_walk": (range_bias_walk, bool(self.layout.range_bias))}
         self._walk = np.zeros(self.n)               # q per second (or per step), on the diagonal
         for name, (value, present) in walks.items():
-            q = float(as_nonnegative(name, value, ndim=0)) ** 2
+            q = float(as_nonnegative(name, value, ndim=0, max_abs=_MAX_STD)) ** 2
             if q > 0 and not present:
                 raise ValueError(f"{name} was given but the state has no {name[:-5]} (set {name[:-5]}=True)")
             idx = {"gyro_bias_walk": (self.layout.gyro_bias,), "scale_walk": (self.layout.scale,),
@@ -467,7 +474,7 @@ class OdometryMotion(MotionModel):
         out = np.array(x, dtype=float)
         out[..., 0] += d * ca
         out[..., 1] += d * sa
-        out[..., h] = wrap_angle(x[..., h] + turn)
+        out[..., h] = _wrap(x[..., h] + turn)
         return out
 
     def _F(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray, dt: float) -> np.ndarray:
@@ -556,13 +563,13 @@ class OdometryMotion(MotionModel):
     def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         r"""``a - b`` with the heading difference wrapped to :math:`[-\pi, \pi)`."""
         d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-        d[..., self.layout.heading] = wrap_angle(d[..., self.layout.heading])
+        d[..., self.layout.heading] = _wrap(d[..., self.layout.heading])
         return d
 
     def normalize(self, x: np.ndarray) -> np.ndarray:
         r"""The state with its heading wrapped to :math:`[-\pi, \pi)`."""
         out = np.array(x, dtype=float)
-        out[..., self.layout.heading] = wrap_angle(out[..., self.layout.heading])
+        out[..., self.layout.heading] = _wrap(out[..., self.layout.heading])
         return out
 
     def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,6 +28,7 @@ import copy
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import line_of_sight as _line_of_sight
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
@@ -113,11 +114,13 @@ class RangeToBeacon(MeasurementModel):
     array([[[0.6, 0.8, 1. ]]])
     """
 
+    nonnegative = True          # measured ranges: the engine refuses a negative one
+
     covariances_checked = True      # R is a schedule checked when the model is made
 
     m = 1
 
-    def __init__(self, beacon: Any, R: Any, *, n: int = 2, bias_index: int | None = None) -> None:
+    def __init__(self, beacon: ArrayLike, R: ArrayLike, *, n: int = 2, bias_index: int | None = None) -> None:
         if isinstance(beacon, dict):
             raise TypeError("beacon must be one beacon's position [x, y] (or its path); got a dict of beacons. For "
                             "ranges to several beacons at once use uwtutor.models.BeaconRanges(beacons, R)")
@@ -233,10 +236,11 @@ class MultiplicativeRange(RangeToBeacon):
     (array([[4900.]]), array([[[11.60111111]]]))
     """
 
-    def __init__(self, beacon: Any, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
+    def __init__(self, beacon: ArrayLike, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
         super().__init__(beacon, R, n=n)
-        mu = float(as_finite("mu_gamma", mu_gamma, ndim=0))
-        sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0))
+        # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
+        mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
+        sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0, max_abs=1e3))
         if not mu > 0.0:
             raise ValueError(f"mu_gamma must be > 0 (the mean range factor, about 1); got {mu:g}")
         if sigma < 0.0:
@@ -293,8 +297,8 @@ class NoiseSchedule:
            [0., 4.]])
     """
 
-    def __init__(self, name: str, R: Any, m: int) -> None:
-        self.name, self.m = name, m
+    def __init__(self, name: str, R: ArrayLike, m: int) -> None:
+        self.name, self.m = name, as_int("m", m, minimum=1)
         arr = as_float_array(name, R)
         self.constant: np.ndarray | None = None
         self._variances: np.ndarray | None = None
@@ -459,9 +463,11 @@ class BeaconRanges(MeasurementModel):
     array([0.642, 0.856, 0.   , 5.   ])
     """
 
+    nonnegative = True          # measured ranges: the engine refuses a negative one
+
     covariances_checked = True      # R is a schedule checked when the model is made
 
-    def __init__(self, beacons: Any, R: Any, *, layout: Any = None, n: int | None = None,
+    def __init__(self, beacons: Any, R: ArrayLike, *, layout: Any = None, n: int | None = None,
                  scale_index: int | None = None, bias_index: Any = None) -> None:
         self.beacon_ids, self.beacons = _beacon_table(beacons)
         B = len(self.beacons)

@@ -30,14 +30,16 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from .._validate import as_covariance, as_finite, as_float_array, as_int, as_nonnegative
+from .._validate import (MAX_COVARIANCE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
+                         as_scalar, check_finite_result, check_work)
 from .base import MeasurementModel, MotionModel
 
 __all__ = ["ConstantVelocity", "PositionMeasurement", "step_lengths"]
 
 
-def step_lengths(n_steps: int, dt: Any = 1.0, times: Any = None) -> np.ndarray:
+def step_lengths(n_steps: int, dt: Any = 1.0, times: ArrayLike | None = None) -> NDArray[np.float64]:
     r"""The step lengths :math:`\Delta_k` of a run, shape ``(K,)``, with :math:`\Delta_0 = 0`.
 
     Parameters
@@ -60,15 +62,15 @@ def step_lengths(n_steps: int, dt: Any = 1.0, times: Any = None) -> np.ndarray:
     (array([0., 2., 2., 2.]), array([0. , 1. , 2.5]))
     """
     K = as_int("n_steps", n_steps, minimum=1)
+    # checked even when times is given (never ignored silently); 1e30 s bounds any clock and keeps q dt^4 finite
+    step = as_scalar("dt", dt, domain="positive", high=1e30)
     if times is None:
-        step = float(as_finite("dt", dt, ndim=0))
-        if step <= 0:
-            raise ValueError(f"dt must be > 0 (the time between two epochs, in seconds); got {step:g}")
+        check_work("n_steps", K)
         out = np.full(K, step)
     else:
-        t = as_finite("times", times, ndim=1)
+        t = as_finite("times", times, ndim=1, max_abs=1e30)
         if len(t) != K:
-            raise ValueError(f"times must have one entry per epoch ({K}); got {len(t)}")
+            raise ValueError(f"times must have one entry per epoch (n_steps = {K}); got {len(t)}")
         out = np.diff(t, prepend=t[:1])
         if K > 1 and np.any(out[1:] <= 0):
             raise ValueError("times must be strictly increasing")
@@ -103,17 +105,19 @@ class ConstantVelocity(MotionModel):
     #: check it again at each step.
     covariances_checked = True
 
-    def __init__(self, d: int, q: Any, steps: Any) -> None:
+    def __init__(self, d: int, q: Any, steps: ArrayLike) -> None:
         self.d = as_int("d", d, minimum=1)
         self.n = 2 * self.d
-        self.q = float(as_nonnegative("q", q, ndim=0))
-        steps = as_nonnegative("steps", steps, ndim=1)
+        self.q = float(as_nonnegative("q", q, ndim=0, max_abs=MAX_COVARIANCE))
+        steps = as_nonnegative("steps", steps, ndim=1, nonempty=True)
         self.steps = steps
         d, K = self.d, len(steps)
         self._F = np.tile(np.eye(2 * d), (K, 1, 1))
         self._F[:, :d, d:] = steps[:, None, None] * np.eye(d)
         blocks = np.stack([np.stack([steps**4 / 4, steps**3 / 2], -1), np.stack([steps**3 / 2, steps**2], -1)], -2)
-        self._Q = self.q * np.einsum("kij,ab->kiajb", blocks, np.eye(d)).reshape(K, 2 * d, 2 * d)
+        with np.errstate(over="ignore", invalid="ignore"):
+            self._Q = self.q * np.einsum("kij,ab->kiajb", blocks, np.eye(d)).reshape(K, 2 * d, 2 * d)
+        check_finite_result(self._Q, "q", "steps", what="the process noise q * steps**4 / 4")
 
     def _step(self, k: int) -> int:
         if not 0 <= k < len(self.steps):
@@ -152,7 +156,7 @@ class PositionMeasurement(MeasurementModel):
 
     covariances_checked = True      # R is checked (symmetric positive definite) when the model is made
 
-    def __init__(self, d: int, R: Any) -> None:
+    def __init__(self, d: int, R: ArrayLike) -> None:
         self.d = self.m = as_int("d", d, minimum=1)
         self.n = 2 * self.d
         R = as_float_array("R", R)

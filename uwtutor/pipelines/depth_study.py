@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .._validate import as_finite, as_int, as_nonnegative
+from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_scalar, check_work
 from ..filters import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
                        extended_kalman_filter)
 from ..models.depth import DepthSensors, DepthSpeedPitch, PitchManeuver
@@ -37,6 +38,19 @@ class DepthStudy:
     extras : dict
         ``"GPF noise_std"`` (M, K, 3): the wavelet noise estimates the GPF used; ``"MMPF mode_probabilities"``
         (M, K, J): the posterior probabilities of the MMPF's modes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import run_depth_study
+    >>> from uwtutor.scenarios import paper_c
+    >>> sc = paper_c.make(np.random.default_rng(0), n_runs=2, duration=2.0)
+    >>> study = run_depth_study(sc.profile, sc.measurements, ("EKF",))
+    >>> list(study.estimates), study.estimates["EKF"].shape
+    (['EKF'], (2, 40, 3))
+    >>> # RMSE over the runs of depth, speed and pitch at each step [m, m/s, rad]
+    >>> study.rmse("EKF").shape
+    (40, 3)
     """
 
     profile: DepthProfile
@@ -69,9 +83,9 @@ def _mmpf_transition(stay: float, J: int) -> np.ndarray:
     return np.full((J, J), off) + np.eye(J) * (stay - off)
 
 
-def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[str] = ("EKF", "MMPF", "GPF"), *,
+def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Sequence[str] = ("EKF", "MMPF", "GPF"), *,
                     n_particles: int = 1000, grey_fraction: float = 0.1, grey_window: int = 30,
-                    noise_window: int = 50, process_std: Any = None,
+                    noise_window: int = 50, process_std: ArrayLike | None = None,
                     mmpf_targets_deg: Sequence[float] = (0.0, 20.0, -20.0), mmpf_time_constant: float = 1.0,
                     mmpf_stay: float = 0.995, seed: int = 0) -> DepthStudy:
     """Run the filters of paper C's comparison on every Monte Carlo run of a depth profile.
@@ -151,16 +165,24 @@ def run_depth_study(profile: DepthProfile, measurements: Any, filters: Sequence[
     unknown = [f for f in filters if f not in FILTER_NAMES]
     if unknown or not filters:
         raise ValueError(f"filters must be names from {FILTER_NAMES}; got {list(filters)!r}")
-    Z = as_finite("measurements", measurements)
+    as_instance("profile", profile, DepthProfile, "e.g. uwtutor.scenarios.paper_c.make(rng).profile")
+    # readings up to 1e75: the process noise (v T)^2 sigma^2 of a state read from them stays finite
+    Z = as_finite("measurements", measurements, nonempty=True, max_abs=1e75)
     if Z.ndim != 3 or Z.shape[1:] != (profile.n_steps, 3):
         raise ValueError(f"measurements must have shape (M, {profile.n_steps}, 3); got {Z.shape}")
     N = as_int("n_particles", n_particles, minimum=10)
+    check_work("n_particles", Z.shape[0] * N * 3, "particle values")
+    # every filter's parameters are checked, whichever filters run (none is ignored silently)
+    grey_fraction = as_scalar("grey_fraction", grey_fraction, low=0.0)
+    grey_window = as_int("grey_window", grey_window, minimum=4)
+    noise_window = as_int("noise_window", noise_window, minimum=1)
+    mmpf_time_constant = as_scalar("mmpf_time_constant", mmpf_time_constant, domain="positive")
     q = PARAMETERS.process_std if process_std is None else as_nonnegative("process_std", process_std, shape=(3,))
     seed = as_int("seed", seed, minimum=0)
     targets = as_finite("mmpf_targets_deg", mmpf_targets_deg, ndim=1)
     if targets.size < 1:
         raise ValueError("mmpf_targets_deg must hold at least one pitch target")
-    stay = float(as_finite("mmpf_stay", mmpf_stay))
+    stay = as_scalar("mmpf_stay", mmpf_stay)
     if not 0.0 < stay <= 1.0:
         raise ValueError(f"mmpf_stay must lie in (0, 1]; got {stay}")
     T = profile.T

@@ -8,8 +8,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .._validate import as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int, as_range_array
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int,
+                        as_range_array, as_scalar)
 from ..filters.base import FilterResult
 from ..filters._packed import steps_and_times
 from ..filters.fading import FadingResult, fading_ekf
@@ -58,6 +60,27 @@ class LSFadingResult(FilterResult):
         The filter's own run over the accepted runs (in order), in *filter time*: step ``j`` of accepted run
         ``m`` is epoch ``start_epoch[m] + 1 + j`` (steps past the last epoch are padding without ranges); see
         :func:`uwtutor.pipelines.staggered.filter_from_start_epochs`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import scenarios
+    >>> from uwtutor.pipelines import ls_fading_ekf
+    >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(5), n_runs=2)
+    >>> res = ls_fading_ekf(
+    ...     sc.ranges,
+    ...     sc.dr_displacements,
+    ...     Q=np.eye(2) * 0.81,
+    ...     R=0.49,
+    ...     P0=np.eye(2) * 50.0**2,
+    ...     times=sc.times,
+    ... )
+    >>> res.x.shape, res.start_epoch.shape, res.mu_gamma.shape
+    ((2, 151, 2), (2,), (2,))
+    >>> # the filter's covariance starts after the pre-location's epoch
+    >>> k0 = int(res.start_epoch[0])
+    >>> bool(np.isnan(res.P[0, k0]).all() and np.isfinite(res.P[0, k0 + 1]).all())
+    True
     """
 
     start_epoch: np.ndarray
@@ -82,11 +105,12 @@ class LSFadingResult(FilterResult):
         return self.start_epoch < len(self.times)
 
 
-def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *, mu_gamma: Any = "prelocation",
-                  sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
-                  assumed_speed: Any = 1470.0, beacon: Any = (0.0, 0.0), times: Any = None,
-                  n_consecutive: int = 10, max_shift: Any = 50.0, min_heading_change: Any = np.deg2rad(10.0),
-                  prelocation: Any = None, acceptance: Any = None) -> LSFadingResult:
+def ls_fading_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, Q: ArrayLike, R: Any, P0: ArrayLike, *,
+                  mu_gamma: Any = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
+                  fading: bool = True, assumed_speed: Any = 1470.0, beacon: ArrayLike = (0.0, 0.0),
+                  times: ArrayLike | None = None, n_consecutive: int = 10, max_shift: Any = 50.0,
+                  min_heading_change: Any = np.deg2rad(10.0), prelocation: Any = None,
+                  acceptance: Any = None) -> LSFadingResult:
     r"""Paper D's LS-ISFEKF (and LS-EKF): grid-search pre-location, then a fading EKF started from it.
 
     1. **Pre-location** (``uwtutor.lsq.grid_prelocation``): at every epoch, the start bearing and sound-speed
@@ -180,8 +204,11 @@ def ls_fading_ekf(ranges: Any, dr_displacements: Any, Q: Any, R: Any, P0: Any, *
     """
     from .. import lsq   # imported here: lsq is a sibling top-level module of the filters package
 
-    z = as_range_array("ranges", ranges, allow_nan=True, ndim=2)
-    u = as_finite("dr_displacements", dr_displacements, ndim=3)
+    z = as_range_array("ranges", ranges, allow_nan=True, ndim=2, nonempty=True, max_abs=MAX_COORDINATE)
+    u = as_finite("dr_displacements", dr_displacements, ndim=3, max_abs=MAX_COORDINATE)
+    as_finite("beacon", beacon, shape=(2,), max_abs=MAX_COORDINATE)
+    # a sound speed is a few km/s: [1, 1e5] m/s bounds every medium (and the ranges it rescales)
+    as_scalar("assumed_speed", assumed_speed, domain="positive", low=1.0, high=1e5)
     M, K = z.shape
     if u.shape != (M, K, 2):
         raise ValueError(f"dr_displacements must have shape (M, K, 2) = {(M, K, 2)} to match ranges; got {u.shape}")

@@ -14,6 +14,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
@@ -43,9 +44,9 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
     return alpha
 
 
-def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start: Any, Q: Any, R: Any, *,
-                           P0: Any = None, max_alpha: Any = 2.0, beacon: Any = (0.0, 0.0), iterations: int = 3,
-                           times: Any = None) -> FilterResult:
+def prepositioned_bias_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, provisional_start: ArrayLike, Q: ArrayLike,
+                           R: Any, *, P0: ArrayLike | None = None, max_alpha: Any = 2.0, beacon: ArrayLike = (0.0, 0.0),
+                           iterations: int = 3, times: ArrayLike | None = None) -> FilterResult:
     r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`
     ``max_alpha``.
 
@@ -118,7 +119,7 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
     >>> bool(np.sqrt(np.mean(err**2)) < 30.0)
     True
     """
-    z = as_float_array("ranges", ranges, ndim=2)
+    z = as_float_array("ranges", ranges, ndim=2, nonempty=True)
     if np.isinf(z).any() or (z < 0).any():
         raise ValueError("ranges must be finite and >= 0, or NaN where missing")
     M, K = z.shape
@@ -163,6 +164,12 @@ def prepositioned_bias_ekf(ranges: Any, dr_displacements: Any, provisional_start
                                          iterations=steps, sigma=np.sqrt(R))
                 fix_state[runs] = fix.estimate
                 fix_cov[runs] = fix.covariance
+    singular = has_start & ~np.isfinite(fix_state).all(axis=1)
+    if singular.any():
+        run = int(np.flatnonzero(singular)[0])
+        raise ValueError(f"max_alpha = {a_max:g} accepted a fix that is singular (run {run}, epoch {int(start[run])}, "
+                         f"alpha = {alpha[run, start[run]]:.3g}): no start can be computed from it. Use a smaller "
+                         "max_alpha (paper A: 2)")
     P_start = fix_cov if P0 is None else np.broadcast_to(P0, (M, 3, 3))
     epochs = np.arange(K)[None, :]
     out = {name: np.full(shape, np.nan) for name, shape in

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_float_array
 from ..filters.base import FilterResult
@@ -37,6 +38,29 @@ class StaggeredRun:
     filter_result : FilterResult
         The filter's own run over ``runs``, in *filter time*: step ``j`` of the ``i``-th filtered run is epoch
         ``start[runs[i]] + 1 + j`` (steps past the last epoch are padding without measurements).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.pipelines import filter_from_start_epochs
+    >>> u = np.tile([1.0, 0.0], (2, 6, 1))
+    >>> truth = np.array([100.0, 50.0]) + np.cumsum(u, axis=1)
+    >>> run = filter_from_start_epochs(
+    ...     range_only_ekf,
+    ...     [1, 3],
+    ...     truth[[0, 1], [1, 3]],
+    ...     np.eye(2),
+    ...     u,
+    ...     np.linalg.norm(truth, axis=-1),
+    ...     Q=np.eye(2) * 0.01,
+    ...     R=1.0,
+    ... )
+    >>> run.start.tolist(), run.n_epochs
+    ([1, 3], 6)
+    >>> run.after_start.astype(int)
+    array([[0, 0, 1, 1, 1, 1],
+           [0, 0, 0, 0, 1, 1]])
     """
 
     start: np.ndarray
@@ -68,8 +92,8 @@ class StaggeredRun:
         return out
 
 
-def filter_from_start_epochs(filter_fn: Any, start: Any, x_start: Any, P_start: Any, u: Any, z: Any, *,
-                             per_run: dict[str, Any] | None = None, **kwargs: Any) -> StaggeredRun:
+def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLike, P_start: ArrayLike, u: ArrayLike,
+                             z: ArrayLike, *, per_run: dict[str, Any] | None = None, **kwargs: Any) -> StaggeredRun:
     r"""Run a batched filter in every run from its own start epoch, all runs in one call.
 
     Papers A and D start their filters only when a least-squares fix can be trusted (paper A: the precision

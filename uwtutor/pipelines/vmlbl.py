@@ -7,10 +7,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq
 from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_range_array, as_rng,
-                         as_scalar)
+                         as_scalar, check_work)
 from ..errors import IllConditionedWarning, warn as _warn
 from ..filters.base import FilterResult
 from ..filters.robust import cascade_kf, robust_range_kf
@@ -58,6 +59,7 @@ def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.nda
     first = (n - 1) * s
     if first >= K:
         raise ValueError(f"a fix needs {n} epochs {s} steps apart, i.e. {first + 1} epochs; the run has only {K}")
+    check_work("n_steps", (K - first) * (n + 1), "epoch indices")
     now = np.arange(first, K)
     return now, now[:, None] - s * np.arange(n - 1, -1, -1)
 
@@ -87,6 +89,26 @@ class VMLBLResult:
         The cascade filter's run on the fixes (state ``[x, y, vx, vy]``).
     smoothed : SmootherResult or None
         The RTS smoother over ``track`` (when ``smooth=True``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import or_vmlbl_kf
+    >>> from uwtutor.scenarios import paper_e
+    >>> d = paper_e.make(np.random.default_rng(3))
+    >>> res = or_vmlbl_kf(
+    ...     d.slant_ranges[0][:400],
+    ...     d.ship_positions[0][:400],
+    ...     d.dr_positions[0][:400],
+    ...     depth=d.depth,
+    ...     spacing=100,
+    ... )
+    >>> # 400 epochs; a fix at every epoch from 3 * 100 on
+    >>> res.times.shape, res.now.shape, res.fix_cov.shape
+    ((400,), (100,), (100, 2, 2))
+    >>> # the cascade filter's state [x, y, vx, vy] at each fix
+    >>> res.track.x.shape
+    (100, 4)
     """
 
     times: np.ndarray
@@ -114,8 +136,8 @@ class VMLBLResult:
         return self.track.x[..., :2]
 
 
-def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: Any, dt: Any = 1.0,
-                times: Any = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
+def or_vmlbl_kf(ranges: ArrayLike, ship_positions: ArrayLike, dr_positions: ArrayLike, *, depth: Any, dt: Any = 1.0,
+                times: ArrayLike | None = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
                 range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
                 fix_options: dict[str, Any] | None = None, smooth: bool = False) -> VMLBLResult:
     r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.
@@ -178,7 +200,7 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     >>> rms(out.filtered - truth) < rms(out.fixes - truth)
     True
     """
-    r = as_range_array("ranges", ranges, allow_nan=True, max_abs=MAX_COORDINATE, ndim=(1, 2))
+    r = as_range_array("ranges", ranges, allow_nan=True, max_abs=MAX_COORDINATE, ndim=(1, 2), nonempty=True)
     batched = r.ndim == 2
     K = r.shape[-1]
     ship = as_finite("ship_positions", ship_positions, ndim=(2, 3))
@@ -186,12 +208,12 @@ def or_vmlbl_kf(ranges: Any, ship_positions: Any, dr_positions: Any, *, depth: A
     for name, a in (("ship_positions", ship), ("dr_positions", dr)):
         if a.shape[-2:] != (K, 2):
             raise ValueError(f"{name} must have one horizontal position per range, shape ({K}, 2) or "
-                             f"(M, {K}, 2); got {a.shape}")
+                             f"(M, {K}, 2) for ranges of shape {r.shape}; got {a.shape}")
     M = r.shape[0] if batched else 1
     rb = np.broadcast_to(r, (M, K))
     shipb = np.broadcast_to(ship, (M, K, 2))
     drb = np.broadcast_to(dr, (M, K, 2))
-    h = as_scalar("depth", depth, domain="nonnegative")      # a depth below the surface: h >= 0
+    h = as_scalar("depth", depth, domain="nonnegative", high=MAX_COORDINATE)   # below the surface: h >= 0
     steps = step_lengths(K, dt, times)
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
     if preprocess:
@@ -302,6 +324,26 @@ class ErrorBudget:
         Monte Carlo runs behind each point.
     spacing : int
         Epochs between the four epochs of each fix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.pipelines import vmlbl_error_budget
+    >>> from uwtutor.scenarios import paper_e
+    >>> dive = paper_e.make(np.random.default_rng(0))
+    >>> b = vmlbl_error_budget(
+    ...     np.random.default_rng(1),
+    ...     dive.ship_positions[0],
+    ...     dive.true_positions[0],
+    ...     depth=dive.depth,
+    ...     levels=[1.0, 2.0],
+    ...     n_runs=200,
+    ... )
+    >>> b.sources
+    ('virtual beacon', 'range', 'depth')
+    >>> # an RMS and a median per source and level, a slope per source
+    >>> b.rms.shape, b.median.shape, b.slope.shape
+    ((3, 2), (3, 2), (3,))
     """
 
     sources: tuple[str, ...]
@@ -313,8 +355,8 @@ class ErrorBudget:
     spacing: int
 
 
-def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_positions: Any, *, depth: Any,
-                       spacing: Any = 100, levels: Any = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
+def vmlbl_error_budget(rng: np.random.Generator, ship_positions: ArrayLike, true_positions: ArrayLike, *, depth: Any,
+                       spacing: Any = 100, levels: ArrayLike = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
                        n_runs: Any = 50_000, n_epochs: Any = 4) -> ErrorBudget:
     r"""Paper E's error budget (Fig. 6): the virtual-beacon fix's error against each error source alone.
 
@@ -374,11 +416,13 @@ def vmlbl_error_budget(rng: np.random.Generator, ship_positions: Any, true_posit
     if ship.shape != truth.shape or ship.shape[1] != 2:
         raise ValueError(f"ship_positions and true_positions must both have shape (K, 2); got {ship.shape} and "
                          f"{truth.shape}")
-    h = float(as_nonnegative("depth", depth, ndim=0))
-    lv = as_finite("levels", levels, ndim=1)
+    h = float(as_nonnegative("depth", depth, ndim=0, max_abs=MAX_COORDINATE))
+    lv = as_finite("levels", levels, ndim=1, max_abs=MAX_COORDINATE)
     if lv.size == 0 or np.any(lv <= 0):
         raise ValueError("levels must be a non-empty list of error levels > 0 [m]")
     N = as_int("n_runs", n_runs, minimum=len(lv))
+    check_work("n_runs", 3 * N * (as_int("n_epochs", n_epochs, minimum=3) + 2), "values (3 sources, an epoch "
+               "window each)")
     per = N // len(lv)
     now, index = epoch_windows(len(ship), spacing, n_epochs)
     n = index.shape[1]

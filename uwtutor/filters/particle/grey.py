@@ -30,12 +30,15 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from ..._validate import as_finite, as_int, as_nonnegative, as_positive
+from ..._validate import as_finite, as_flag, as_int, as_nonnegative, as_positive, as_scalar
+from ...models.base import MeasurementModel, MotionModel
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
 from ...wavelet import as_wavelet, detail_matrix, mad_sigma
-from .bootstrap import BootstrapParticleFilter, _all, _any, _rows, _whitened_log_likelihood, _whitening
+from .bootstrap import (BootstrapParticleFilter, _all, _any, _check_model, _rows, _whitened_log_likelihood,
+                        _whitening)
 
 __all__ = ["GreyParticleFilter"]
 
@@ -147,12 +150,14 @@ class GreyParticleFilter(BootstrapParticleFilter):
     def _can_split(self) -> bool:
         return self._R_diag and super()._can_split()      # whitening vectors of one shape in every block
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
-                 grey_fraction: float = 0.1, grey_window: int = 30, grey_std: Any = None, grey_offset: Any = None,
-                 noise_window: int = 50, wavelet: str = "db6", adapt_noise: bool = True,
-                 min_noise_std: Any = None, resampler: Resampler = systematic_resample,
-                 weights: Any = None) -> None:
+    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+                 grey_fraction: float = 0.1, grey_window: int = 30, grey_std: ArrayLike | None = None,
+                 grey_offset: ArrayLike | None = None, noise_window: int = 50, wavelet: str = "db6",
+                 adapt_noise: bool = True, min_noise_std: ArrayLike | None = None,
+                 resampler: Resampler = systematic_resample, weights: ArrayLike | None = None) -> None:
         motion, measurement, (particles, rng) = self._split_models(motion, measurement, (particles, rng))
+        _check_model("motion", motion, MotionModel)
+        _check_model("measurement", measurement, MeasurementModel)
         n = getattr(motion, "n", None)
         probe = (np.arange(1.0, (n or 0) + 1.0) * 0.37)[None, None, :]
         direct = (isinstance(n, int) and getattr(measurement, "m", None) == n
@@ -168,7 +173,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         super().__init__(motion, measurement, particles, rng, weights=weights, resampler=resampler,
                          ess_threshold=1.0)
         M, N = self._w.shape
-        frac = float(as_finite("grey_fraction", grey_fraction))
+        frac = as_scalar("grey_fraction", grey_fraction)
         if not 0.0 <= frac < 1.0:
             raise ValueError(f"grey_fraction must lie in [0, 1) (paper C: 0.1); got {frac}")
         self.grey_fraction = frac
@@ -178,17 +183,17 @@ class GreyParticleFilter(BootstrapParticleFilter):
             if not hasattr(motion, "process_std"):
                 raise ValueError("grey_std must be given for a motion model without a process_std attribute")
             grey_std = motion.process_std
-        self.grey_std = as_nonnegative("grey_std", grey_std, shape=(n,))
+        self.grey_std = as_nonnegative("grey_std", grey_std, shape=(n,), max_abs=1e75)   # its square stays finite
         self.grey_offset = (np.zeros(n) if grey_offset is None
                             else as_finite("grey_offset", grey_offset, shape=(n,)))
         self._wavelet = as_wavelet(wavelet)
         self.noise_window = as_int("noise_window", noise_window, minimum=self._wavelet.dec_len)
         # the valid finest-scale DWT of a window is linear in it: one (window, n_coefficients) matrix
         self._dwt_matrix = detail_matrix(self.noise_window, self._wavelet)
-        self.adapt_noise = bool(adapt_noise)
+        self.adapt_noise = as_flag("adapt_noise", adapt_noise)
         sd0 = np.sqrt(np.diag(R0))
         self.min_noise_std = (0.01 * sd0 if min_noise_std is None
-                              else as_positive("min_noise_std", min_noise_std, shape=(n,)))
+                              else as_positive("min_noise_std", min_noise_std, shape=(n,), max_abs=1e75))
         self._noise_std = np.tile(sd0, (M, 1))
         # the R_k of each run: the model's R until the run's first wavelet estimate, diagonal after it
         self._R_runs = np.tile(R0, (M, 1, 1))

@@ -32,6 +32,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..._validate import as_nonnegative
 from ...models.base import MeasurementModel, ModelPair, MotionModel
@@ -75,7 +76,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     modes : array_like of int, shape (N,) or (M, N), optional
         Initial mode of each particle; drawn from ``mode_probabilities`` when not given.
     mode_probabilities : array_like, shape (J,), optional
-        Initial mode probabilities (equal by default); used only when ``modes`` is not given.
+        Initial mode probabilities, >= 0 (normalized here, as the weights are; equal by default); used only
+        when ``modes`` is not given.
     weights : array_like, shape (N,) or (M, N), optional
         Initial weights; equal by default.
     resampler : callable, optional
@@ -122,9 +124,10 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     extra_outputs = ("ess", "resampled", "mode_probabilities")
     _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
-    def __init__(self, motions: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
-                 transition: Any, modes: Any = None, mode_probabilities: Any = None, weights: Any = None,
-                 resampler: Resampler = systematic_resample, ess_threshold: float = 1.0) -> None:
+    def __init__(self, motions: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+                 transition: ArrayLike, modes: ArrayLike | None = None, mode_probabilities: ArrayLike | None = None,
+                 weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
+                 ess_threshold: float = 1.0) -> None:
         motions, measurement, (particles, rng) = self._split_models(motions, measurement, (particles, rng))
         J = len(motions)
         Pi = as_nonnegative("transition", transition, shape=(J, J))
