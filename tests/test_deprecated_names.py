@@ -104,3 +104,55 @@ def test_every_scenario_module_calls_its_default_set_parameters(module_name, cls
     module = importlib.import_module(module_name)
     assert isinstance(module.PARAMETERS, getattr(module, cls))
     assert {"PARAMETERS", cls} <= set(module.__all__)
+
+
+OLD_NAMES = {"SoundSpeedError", "CompositeError", "PaperD", "PaperE", "PAPER_B", "SUITE", "PAPER_C"}
+REPO = importlib.import_module("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _old_names_used(source: str) -> set[str]:
+    """The old names a piece of Python reads (as a name, an attribute or an import), by its syntax tree."""
+    import ast
+
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Name) and node.id in OLD_NAMES:
+            found.add(node.id)
+        elif isinstance(node, ast.Attribute) and node.attr in OLD_NAMES:
+            found.add(node.attr)
+        elif isinstance(node, ast.ImportFrom):
+            found |= {alias.name for alias in node.names if alias.name in OLD_NAMES}
+    return found
+
+
+def test_the_check_sees_an_old_name():
+    assert _old_names_used("from uwtutor.ranging import GaussianNoise, SoundSpeedError\nP = suite.SUITE") == {
+        "SoundSpeedError", "SUITE"}
+    assert not _old_names_used('__getattr__ = deprecated_aliases(__name__, {"PAPER_B": "PARAMETERS"})')
+
+
+def test_nothing_in_the_project_reads_an_old_name():
+    """The library, the tests, the studies, the tools, the book and the exercises use the new names only (an old
+    name would warn in a reader's notebook)."""
+    import json
+
+    offenders = []
+    for folder in ("uwtutor", "tests", "studies", "benchmarks", "tools"):
+        for path in sorted((REPO / folder).rglob("*.py")):
+            if path.name != "test_deprecated_names.py":
+                used = _old_names_used(path.read_text(encoding="utf-8"))
+                offenders += [f"{path.relative_to(REPO)}: {sorted(used)}"] if used else []
+    for path in sorted([*(REPO / "book").rglob("*.ipynb"), *(REPO / "exercises").rglob("*.ipynb")]):
+        if ".ipynb_checkpoints" in path.parts:
+            continue
+        for index, cell in enumerate(json.loads(path.read_text(encoding="utf-8"))["cells"]):
+            if cell["cell_type"] != "code":
+                continue
+            source = "".join(cell["source"])
+            code = "\n".join("" if line.lstrip().startswith(("%", "!")) else line for line in source.splitlines())
+            try:
+                used = _old_names_used(code)
+            except SyntaxError:                              # a student stub or a cell magic: read it as text
+                used = {name for name in OLD_NAMES if name in source}
+            offenders += [f"{path.relative_to(REPO)} cell {index}: {sorted(used)}"] if used else []
+    assert not offenders, "use the new names (see RENAMED):\n  " + "\n  ".join(offenders)
