@@ -310,7 +310,7 @@ def _raises(exc, match, fn, *args, **kwargs):
      lambda: paper_b.make(np.random.default_rng(0), 1, interval=1e-300)),
     ("paper_b one-element interval", ValueError, "interval must be a single number",
      lambda: paper_b.make(np.random.default_rng(0), 1, interval=[8.0])),
-    ("suite unbounded work", ValueError, r"n asks for .* use fewer, or run them in chunks",
+    ("suite unbounded work", ValueError, r"n_runs asks for .* use fewer, or run them in chunks",
      lambda: suite.circle(np.random.default_rng(0), 10**8)),
     ("metrics 1e300 estimate", ValueError, "estimates must be finite .* and at most",
      lambda: metrics.rmse_over_time(TRACK + [1e300, 0.0], TRACK)),

@@ -218,7 +218,7 @@ class CooperativeEKF:
     >>> from uwtutor.filters.cooperative import CooperativeEKF
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=1)
-    >>> p = paper_b.PAPER_B
+    >>> p = paper_b.PARAMETERS
     >>> f = CooperativeEKF(
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),
@@ -396,7 +396,7 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLik
     >>> from uwtutor.filters import cooperative_ekf
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=4)
-    >>> p = paper_b.PAPER_B
+    >>> p = paper_b.PARAMETERS
     >>> res = cooperative_ekf(
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),

@@ -250,7 +250,7 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))
     models = {
         "additive": ranging.GaussianNoise(noise_sigma),
-        "multiplicative": ranging.SoundSpeedError(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
+        "multiplicative": ranging.SoundSpeedMismatch(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
         "slow bias": ranging.SlowBias(mean=bias_mean, sigma=bias_sigma, time_constant=bias_time_constant),
         "outliers": (ranging.Outliers(onset_times=[400.0], count=5, amplitude=outlier_amplitude)
                      + ranging.Outliers(onset_times=[1000.0], count=8, amplitude=outlier_amplitude,

@@ -1,7 +1,7 @@
 """Chapter 6 (paper C): the GPF explorer widget (a view, its plot, a thin widget).
 
 Paper C's parameters, the maneuvering depth profile, the sensors and the EKF / MMPF / GPF comparison live in
-:mod:`uwtutor.scenarios.paper_c` (importable from here under their old names: ``PAPER_C``,
+:mod:`uwtutor.scenarios.paper_c` (importable from here too: ``PARAMETERS``,
 ``maneuvering_depth_profile``, ``simulate_depth_sensors``, ``run_depth_study``, ...). :func:`gpf_view` is the light
 version behind the chapter's widget (a shorter profile, fewer particles).
 """
@@ -16,13 +16,18 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._validate import as_int, as_scalar, check_work
+from ..errors import deprecated_aliases
 from ..filters import GreyParticleFilter, extended_kalman_filter
 from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..pipelines.depth_study import DepthStudy, run_depth_study  # noqa: F401 (chapter 6 calls ch06.run_depth_study)
-from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,  # noqa: F401
+from ..scenarios.paper_c import (FILTER_NAMES, PARAMETERS, DepthProfile, maneuvering_depth_profile,  # noqa: F401
                                  simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
 from ._panel import keep, kept, rescale, slider_panel
+
+#: ``ch06.PAPER_C``, paper C's parameters as a dict, is ``paper_c.PARAMETERS.as_dict()`` (the old name, one release)
+__getattr__ = deprecated_aliases(__name__, {"PAPER_C": ("uwtutor.scenarios.paper_c.PARAMETERS.as_dict()",
+                                                       lambda: PARAMETERS.as_dict())})
 
 __all__ = [                   # the paper's content above is documented in uwtutor.scenarios.paper_c
     "GPFView",
@@ -87,8 +92,8 @@ def _dive_and_ekf(factor: float, seed: int) -> tuple[DepthProfile, np.ndarray, A
     profile = maneuvering_depth_profile(noise_factors=(1.0, factor), noise_change_times=(13.0,)).between(6.0, 18.0)
     rng = np.random.default_rng(seed)
     z = simulate_depth_sensors(profile, 1, rng)[0]
-    R = np.diag(PAPER_C["sensor_std"] ** 2)
-    q = PAPER_C["process_std"]
+    R = np.diag(PARAMETERS.sensor_std ** 2)
+    q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
     ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
     return profile, z, ekf
@@ -139,8 +144,8 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     profile, z, ekf = _dive_and_ekf(factor, seed)
     if window > len(profile.times):
         raise ValueError(f"noise_window must be at most the dive's {len(profile.times)} samples; got {window}")
-    R = np.diag(PAPER_C["sensor_std"] ** 2)
-    q = PAPER_C["process_std"]
+    R = np.diag(PARAMETERS.sensor_std ** 2)
+    q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
     gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
                                            grey_fraction=grey_fraction, noise_window=noise_window,

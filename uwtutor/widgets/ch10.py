@@ -113,10 +113,10 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
     rows = np.flatnonzero((t.scenario == scenario) & (t.condition == condition))
     if t.rmse_curves is None:
         raise ValueError("the table holds no curves: read it with ComparisonTable.from_csv(path, curves=...)")
-    from ..scenarios.suite import SUITE
+    from ..scenarios.suite import PARAMETERS
 
     K = int(t.n_steps[rows[0]])
-    times = SUITE.interval * np.arange(1, K + 1, dtype=float)
+    times = PARAMETERS.interval * np.arange(1, K + 1, dtype=float)
     return ComparisonView(scenario=scenario, condition=condition, times=times, bound=t.bound_curves[rows[0]],
                           methods=tuple(t.method[rows].tolist()), rmse=t.rmse_curves[rows],
                           median_final=t.median_final_error[rows], p95_final=t.p95_final_error[rows],
