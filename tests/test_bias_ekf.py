@@ -170,7 +170,7 @@ def test_prepositioned_start_is_the_least_squares_fix_then_the_filter():
     u = np.asarray(sc.dr_displacements)
     start = np.asarray(sc.true_positions[:, 0]) + [120.0, -60.0]
     Q = paper_a_process_noise(1.0)
-    res = prepositioned_bias_ekf(z, u, start, Q, 5.0, P0=np.eye(3), times=sc.times)
+    res = prepositioned_bias_ekf(start, np.eye(3), u, z, Q, 5.0, times=sc.times)
     started = res.extras["started"]
     k0 = np.argmax(started, axis=1)
     provisional = start[:, None] + np.cumsum(u, axis=1)
@@ -194,8 +194,8 @@ def test_prepositioned_start_is_the_least_squares_fix_then_the_filter():
 
 def test_prepositioning_never_trusted_leaves_the_run_unstarted():
     sc = paper_a.make(np.random.default_rng(4), n_runs=2, params=paper_a.PaperAParameters(n_obs=60))
-    res = prepositioned_bias_ekf(sc.ranges, sc.dr_displacements, sc.true_positions[:, 0], paper_a_process_noise(1.0),
-                                 5.0)
+    res = prepositioned_bias_ekf(sc.true_positions[:, 0], None, sc.dr_displacements, sc.ranges,
+                                 paper_a_process_noise(1.0), 5.0)
     assert not res.extras["started"].any() and np.isnan(res.x).all()
 
 

@@ -293,7 +293,7 @@ def ls_study():
 def test_ls_fading_ekf_starts_from_the_accepted_prelocation(ls_study):
     sc, pre, acc = ls_study
     P0 = np.eye(2) * 50.0**2
-    res = ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, P0, sigma_gamma=SIGMA_D, times=sc.times,
+    res = ls_fading_ekf(P0, sc.dr_displacements, sc.ranges, Q_D, R_D, sigma_gamma=SIGMA_D, times=sc.times,
                         prelocation=pre, acceptance=acc)
     assert isinstance(res, LSFadingResult)
     assert res.x.shape == (12, sc.n_steps, 2) and res.P.shape == (12, sc.n_steps, 2, 2)
@@ -309,14 +309,14 @@ def test_ls_fading_ekf_starts_from_the_accepted_prelocation(ls_study):
         np.testing.assert_allclose(res.x[m, k0 + 1:], by_hand.x, rtol=0, atol=1e-9)
         np.testing.assert_allclose(res.fading_factor[m, k0 + 1:], by_hand.fading_factor, rtol=1e-12)
     # the same grid search is found again when not given
-    again = ls_fading_ekf(sc.ranges[:3], sc.dr_displacements[:3], Q_D, R_D, P0, sigma_gamma=SIGMA_D)
+    again = ls_fading_ekf(P0, sc.dr_displacements[:3], sc.ranges[:3], Q_D, R_D, sigma_gamma=SIGMA_D)
     np.testing.assert_allclose(again.x, res.x[:3], rtol=0, atol=1e-9)
 
 
 def test_ls_ekf_is_the_plain_ekf_after_the_prelocation(ls_study):
     sc, pre, acc = ls_study
     P0 = np.eye(2) * 50.0**2
-    res = ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, P0, mu_gamma=1.0, sigma_gamma=0.0, fading=False,
+    res = ls_fading_ekf(P0, sc.dr_displacements, sc.ranges, Q_D, R_D, mu_gamma=1.0, sigma_gamma=0.0, fading=False,
                         prelocation=pre, acceptance=acc)
     np.testing.assert_array_equal(res.mu_gamma, 1.0)
     m, k0 = 2, acc.epoch[2]
@@ -330,7 +330,7 @@ def test_ls_fading_ekf_without_acceptance_keeps_the_prelocation(ls_study):
     epoch = np.array(acc.epoch)
     epoch[[1, 4]] = -1
     never = dataclasses.replace(acc, epoch=epoch, accepted=epoch >= 0)
-    res = ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, np.eye(2) * 2500.0, prelocation=pre,
+    res = ls_fading_ekf(np.eye(2) * 2500.0, sc.dr_displacements, sc.ranges, Q_D, R_D, prelocation=pre,
                         acceptance=never)
     assert not res.accepted[1] and not res.accepted[4] and res.accepted[0]
     np.testing.assert_array_equal(res.x[1], pre.position[1])
@@ -341,17 +341,17 @@ def test_ls_fading_ekf_bad_input(ls_study):
     sc, pre, acc = ls_study
     P0 = np.eye(2) * 2500.0
     with pytest.raises(ValueError, match="prelocation"):
-        ls_fading_ekf(sc.ranges[:5], sc.dr_displacements[:5], Q_D, R_D, P0, prelocation=pre)
+        ls_fading_ekf(P0, sc.dr_displacements[:5], sc.ranges[:5], Q_D, R_D, prelocation=pre)
     with pytest.raises(ValueError, match="acceptance"):
-        ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, P0, prelocation=pre,
+        ls_fading_ekf(P0, sc.dr_displacements, sc.ranges, Q_D, R_D, prelocation=pre,
                       acceptance=dataclasses.replace(acc, epoch=acc.epoch[:3]))
     with pytest.raises(ValueError, match="mu_gamma"):
-        ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, P0, mu_gamma="paper", prelocation=pre,
+        ls_fading_ekf(P0, sc.dr_displacements, sc.ranges, Q_D, R_D, mu_gamma="paper", prelocation=pre,
                       acceptance=acc)
     with pytest.raises(ValueError, match="dr_displacements"):
-        ls_fading_ekf(sc.ranges, sc.dr_displacements[:, :-1], Q_D, R_D, P0, prelocation=pre, acceptance=acc)
+        ls_fading_ekf(P0, sc.dr_displacements[:, :-1], sc.ranges, Q_D, R_D, prelocation=pre, acceptance=acc)
     with pytest.raises(ValueError, match="P0"):
-        ls_fading_ekf(sc.ranges, sc.dr_displacements, Q_D, R_D, np.eye(3), prelocation=pre, acceptance=acc)
+        ls_fading_ekf(np.eye(3), sc.dr_displacements, sc.ranges, Q_D, R_D, prelocation=pre, acceptance=acc)
 
 
 # --- bad input ------------------------------------------------------------------------------------------------------

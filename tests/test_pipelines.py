@@ -18,11 +18,13 @@ NO_OUTLIERS = {"outlier_onsets": (), "outlier_counts": (), "outlier_two_sided": 
 def test_noise_free_virtual_beacon_fixes_are_exact():
     dive = paper_e.make(np.random.default_rng(0), 1, range_noise_variance=0.0, dr_sigma=0.0, **NO_OUTLIERS)
     truth = np.asarray(dive.true_positions[0])
-    out = or_vmlbl_kf(dive.true_slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth,
+    out = or_vmlbl_kf(dive.dr_positions[0], dive.true_slant_ranges[0], ship_positions=dive.ship_positions[0],
+                      depth=dive.depth,
                       preprocess=False)
     np.testing.assert_allclose(out.fixes, truth[out.now], rtol=0, atol=1e-6)
     # the DR positions need only be right up to a constant offset
-    shifted = or_vmlbl_kf(dive.true_slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0] + [500.0, -70.0],
+    shifted = or_vmlbl_kf(dive.dr_positions[0] + [500.0, -70.0], dive.true_slant_ranges[0],
+                          ship_positions=dive.ship_positions[0],
                           depth=dive.depth, preprocess=False)
     np.testing.assert_allclose(shifted.fixes, truth[out.now], rtol=0, atol=1e-6)
 
@@ -38,8 +40,9 @@ def test_epoch_windows():
 
 def test_pipeline_stages_and_their_gains():
     dive = paper_e.make(np.random.default_rng(58), 20)
-    out = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth, smooth=True)
-    raw = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth,
+    out = or_vmlbl_kf(dive.dr_positions, dive.slant_ranges, ship_positions=dive.ship_positions, depth=dive.depth,
+                      smooth=True)
+    raw = or_vmlbl_kf(dive.dr_positions, dive.slant_ranges, ship_positions=dive.ship_positions, depth=dive.depth,
                       preprocess=False)
     truth = np.asarray(dive.true_positions)[:, out.now]
 
@@ -57,8 +60,10 @@ def test_pipeline_stages_and_their_gains():
 
 def test_pipeline_batched_run_equals_single_run():
     dive = paper_e.make(np.random.default_rng(5), 3)
-    batch = or_vmlbl_kf(dive.slant_ranges, dive.ship_positions, dive.dr_positions, depth=dive.depth, smooth=True)
-    single = or_vmlbl_kf(dive.slant_ranges[2], dive.ship_positions[2], dive.dr_positions[2], depth=dive.depth,
+    batch = or_vmlbl_kf(dive.dr_positions, dive.slant_ranges, ship_positions=dive.ship_positions, depth=dive.depth,
+                        smooth=True)
+    single = or_vmlbl_kf(dive.dr_positions[2], dive.slant_ranges[2], ship_positions=dive.ship_positions[2],
+                         depth=dive.depth,
                          smooth=True)
     np.testing.assert_allclose(single.fixes, batch.fixes[2], rtol=0, atol=1e-9)
     np.testing.assert_allclose(single.filtered, batch.filtered[2], rtol=0, atol=1e-9)
@@ -69,9 +74,11 @@ def test_pipeline_batched_run_equals_single_run():
 def test_pipeline_bad_input():
     dive = paper_e.make(np.random.default_rng(5), 1)
     with pytest.raises(ValueError, match="ship_positions must have one horizontal position per range"):
-        or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0][:-1], dive.dr_positions[0], depth=dive.depth)
+        or_vmlbl_kf(dive.dr_positions[0], dive.slant_ranges[0], ship_positions=dive.ship_positions[0][:-1],
+                    depth=dive.depth)
     with pytest.raises(ValueError, match="ranges must be finite and >= 0"):
-        or_vmlbl_kf(-dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth)
+        or_vmlbl_kf(dive.dr_positions[0], -dive.slant_ranges[0], ship_positions=dive.ship_positions[0],
+                    depth=dive.depth)
 
 
 def test_error_budget_is_linear_in_each_source_and_blind_to_the_depth():
@@ -109,9 +116,9 @@ def test_runs_without_any_fix_get_a_nan_track_and_a_warning():
     z_c, b_c, dr_c, t = _suite_ranges("circle", 3, 1)
     z_l, b_l, dr_l, _ = _suite_ranges("line", 2, 1)
     z, b, dr = (np.concatenate(pair) for pair in ((z_c, z_l), (b_c, b_l), (dr_c, dr_l)))
-    alone = or_vmlbl_kf(z_c, b_c, dr_c, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
+    alone = or_vmlbl_kf(dr_c, z_c, ship_positions=b_c, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
     with pytest.warns(IllConditionedWarning, match="2 of 5 runs have no usable virtual-beacon fix"):
-        mixed = or_vmlbl_kf(z, b, dr, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
+        mixed = or_vmlbl_kf(dr, z, ship_positions=b, depth=0.0, times=t, spacing=20, range_options=dict(test="chi2"))
     assert np.isnan(mixed.track.x[3:]).all() and np.isfinite(mixed.track.x[:3]).all()
     np.testing.assert_array_equal(mixed.track.x[:3], alone.track.x)     # the other runs are unaffected
     assert not mixed.track.extras["accepted"][3:].any()
@@ -121,7 +128,7 @@ def test_runs_without_any_fix_get_a_nan_track_and_a_warning():
 def test_no_fix_in_any_run_is_a_clear_error():
     z, b, dr, t = _suite_ranges("line", 2, 1)
     with pytest.raises(NoUsableFixError, match="no run has a single usable virtual-beacon fix"):
-        or_vmlbl_kf(z, b, dr, depth=0.0, times=t, spacing=20)
+        or_vmlbl_kf(dr, z, ship_positions=b, depth=0.0, times=t, spacing=20)
     assert issubclass(NoUsableFixError, ValueError)
 
 
@@ -134,7 +141,7 @@ def test_a_filtered_range_below_zero_near_the_beacon_is_read_as_zero():
     dr = np.column_stack([np.minimum(5.0 * t, 300.0) - 300.0, np.zeros_like(t)])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IllConditionedWarning)        # the fixes themselves are not the point
-        out = or_vmlbl_kf(z, ship, dr, depth=0.0, times=t, spacing=10)
+        out = or_vmlbl_kf(dr, z, ship_positions=ship, depth=0.0, times=t, spacing=10)
     raw = out.ranges.x[..., 0]
     assert (raw < 0).any()                      # the case the clipping is for
     np.testing.assert_array_equal(out.used_ranges, np.maximum(raw, 0.0))

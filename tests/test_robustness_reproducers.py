@@ -296,7 +296,7 @@ def _raises(exc, match, fn, *args, **kwargs):
     ("matched_tuning NaN", ValueError, "position_noise must be finite",
      lambda: paper_b.matched_tuning(position_noise=np.nan)),
     ("or_vmlbl_kf negative depth", ValueError, "depth must be >= 0",
-     lambda: or_vmlbl_kf(Z, TRACK[1:], TRACK[1:], depth=-10.0)),
+     lambda: or_vmlbl_kf(TRACK[1:], Z, ship_positions=TRACK[1:], depth=-10.0)),
     ("None inside an object array", TypeError, "z contains None",
      lambda: extended_kalman_filter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), TRACK[0],
                                     np.eye(2), U, np.array([None] + list(Z[1:]), dtype=object))),
@@ -453,7 +453,8 @@ def test_prepositioned_start_names_a_max_alpha_that_accepts_a_singular_fix():
     from uwtutor.pipelines import prepositioned_bias_ekf
     from uwtutor.scenarios import paper_a
     sc = paper_a.make(np.random.default_rng(0), n_runs=1)
-    args = (sc.ranges[:, :600], sc.dr_displacements[:, :600], sc.true_positions[:, 0] + [150.0, 0.0], np.eye(3), 5.0)
+    args = (sc.true_positions[:, 0] + [150.0, 0.0], None, sc.dr_displacements[:, :600], sc.ranges[:, :600], np.eye(3),
+            5.0)
     assert np.isfinite(prepositioned_bias_ekf(*args, max_alpha=2.0).x[:, -1]).all()
     with pytest.raises(ValueError, match="max_alpha = 1e\\+300 accepted a fix that is singular"):
         prepositioned_bias_ekf(*args, max_alpha=1e300)

@@ -40,8 +40,8 @@ def test_view_matches_the_library_and_is_reproducible():
     sc, bias = paper_a.make_with_truth(rng, 5, params)
     d = rng.normal(size=(5, 2))
     start = sc.true_positions[0, 0] + 100.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
-    res = prepositioned_bias_ekf(sc.ranges, sc.dr_displacements, start, paper_a_process_noise(1.0), 5.0,
-                                 P0=np.eye(3))
+    res = prepositioned_bias_ekf(start, np.eye(3), sc.dr_displacements, sc.ranges, paper_a_process_noise(1.0),
+                                 5.0)
     np.testing.assert_allclose(a.estimate, res.x[0], rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(a.true_bias, bias[0])
     np.testing.assert_array_equal(a.start_epochs, np.argmax(res.extras["started"], axis=1))

@@ -264,7 +264,7 @@ def prepositioned_iekf(inputs: SuiteInputs) -> FilterResult:
     """
     s = _inputs(inputs)
     Q3, _ = _bias_noise(s)
-    res = prepositioned_bias_ekf(s.z, s.u, s.x0, Q3, s.R, beacon=s.fixed_beacon, times=s.times)
+    res = prepositioned_bias_ekf(s.x0, None, s.u, s.z, Q3, s.R, beacon=s.fixed_beacon, times=s.times)
     started = np.isfinite(res.x[..., 0]) & np.isfinite(res.P[..., 0, 0])
     return _dr_before(s, res, started)
 
@@ -326,7 +326,7 @@ def ls_isfekf(inputs: SuiteInputs) -> FilterResult:
     """
     s = _inputs(inputs)
     pre = prelocate(s)
-    res = ls_fading_ekf(s.z, s.u, s.Q, s.R, np.eye(2) * 50.0**2, sigma_gamma=s.parameters.speed_factor_sigma,
+    res = ls_fading_ekf(np.eye(2) * 50.0**2, s.u, s.z, s.Q, s.R, sigma_gamma=s.parameters.speed_factor_sigma,
                         assumed_speed=s.parameters.assumed_speed, beacon=s.fixed_beacon, times=s.times,
                         prelocation=pre)
     started = np.arange(s.n_epochs)[None, :] > np.asarray(res.start_epoch)[:, None]
@@ -397,7 +397,7 @@ def or_vmlbl(inputs: SuiteInputs) -> FilterResult:
     try:
         with warnings.catch_warnings():      # runs without any usable fix navigate by DR (below)
             warnings.simplefilter("ignore", IllConditionedWarning)
-            out = or_vmlbl_kf(s.z, s.beacon, dr_x, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
+            out = or_vmlbl_kf(dr_x, s.z, ship_positions=s.beacon, depth=0.0, times=s.times, spacing=VMLBL_SPACING,
                               range_options=dict(r=s.R, test="chi2"), fix_q=VMLBL_FIX_Q,
                               fix_options=dict(reacquire=5))
     except NoUsableFixError:                 # not one fix in any run (a straight track): dead reckoning throughout

@@ -518,7 +518,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     r = _pos("range_sigma", range_sigma) ** 2
     with warnings.catch_warnings():         # near-collinear windows are part of what is measured
         warnings.simplefilter("ignore", IllConditionedWarning)
-        out = or_vmlbl_kf(z, ship, dr, depth=0.0, times=data.times, spacing=steps,
+        out = or_vmlbl_kf(dr, z, ship_positions=ship, depth=0.0, times=data.times, spacing=steps,
                           range_options=dict(q=range_q, r=r, test="chi2"), fix_q=fix_q,
                           fix_options=dict(reacquire=5))
     positions = dr.copy()

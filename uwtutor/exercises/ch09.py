@@ -236,7 +236,8 @@ def study() -> dict[str, Any]:
     dive = paper_e.make(np.random.default_rng(STUDY_SEED), 1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IllConditionedWarning)
-        result = or_vmlbl_kf(dive.slant_ranges[0], dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth,
+        result = or_vmlbl_kf(dive.dr_positions[0], dive.slant_ranges[0], ship_positions=dive.ship_positions[0],
+                             depth=dive.depth,
                              spacing=STUDY_SPACING)
     return {"dive": dive, "result": result, "truth": np.asarray(dive.true_positions[0])[result.now],
             "slant": np.asarray(dive.true_slant_ranges[0])[result.now]}

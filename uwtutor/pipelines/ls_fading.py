@@ -68,11 +68,11 @@ class LSFadingResult(FilterResult):
     >>> from uwtutor.pipelines import ls_fading_ekf
     >>> sc = scenarios.approach_with_turn_scenario(np.random.default_rng(5), n_runs=2)
     >>> res = ls_fading_ekf(
-    ...     sc.ranges,
+    ...     np.eye(2) * 50.0**2,
     ...     sc.dr_displacements,
+    ...     sc.ranges,
     ...     Q=np.eye(2) * 0.81,
     ...     R=0.49,
-    ...     P0=np.eye(2) * 50.0**2,
     ...     times=sc.times,
     ... )
     >>> res.x.shape, res.start_epoch.shape, res.mu_gamma.shape
@@ -105,7 +105,7 @@ class LSFadingResult(FilterResult):
         return self.start_epoch < len(self.times)
 
 
-def ls_fading_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, Q: ArrayLike, R: Any, P0: ArrayLike, *,
+def ls_fading_ekf(P0: ArrayLike, dr_displacements: ArrayLike, ranges: ArrayLike, Q: ArrayLike, R: Any, *,
                   mu_gamma: Any = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
                   fading: bool = True, assumed_speed: Any = 1470.0, beacon: ArrayLike = (0.0, 0.0),
                   times: ArrayLike | None = None, n_consecutive: int = 10, max_shift: Any = 50.0,
@@ -127,20 +127,23 @@ def ls_fading_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, Q: ArrayLike, 
     fading=False`` (the additive-noise EKF, which ignores the speed estimate). All runs are processed at once:
     each run's arrays are shifted so that its filter starts at step 0.
 
+    The arguments come in the filters' order ``(P0, u, z, Q, R)`` (the pre-location gives the start, so there is
+    no ``x0``).
+
     Parameters
     ----------
+    P0 : array_like, shape (2, 2)
+        Covariance of the pre-location when the filter starts [m^2] (paper D: "can be set slightly smaller" than
+        for an unknown start; its trial uses ``diag(100^2, 100^2)``).
+    dr_displacements : array_like, shape (M, K, 2)
+        DR displacements (row 0 not used).
     ranges : array_like, shape (M, K)
         Measured ranges, converted with ``assumed_speed`` (e.g. ``Scenario.ranges``); NaN where missing (not at
         epoch 0).
-    dr_displacements : array_like, shape (M, K, 2)
-        DR displacements (row 0 not used).
     Q : array_like, shape (2, 2)
         DR noise covariance per step [m^2].
     R : float
         Additive range noise variance [m^2].
-    P0 : array_like, shape (2, 2)
-        Covariance of the pre-location when the filter starts [m^2] (paper D: "can be set slightly smaller" than
-        for an unknown start; its trial uses ``diag(100^2, 100^2)``).
     mu_gamma : {"prelocation"} or float or array_like, shape (M,), default "prelocation"
         Mean multiplicative factor for the filter; ``"prelocation"`` takes each run's estimate.
     sigma_gamma : float, default 0
@@ -188,11 +191,11 @@ def ls_fading_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, Q: ArrayLike, 
     ...     np.random.default_rng(5), n_runs=50
     ... )
     >>> res = ls_fading_ekf(
-    ...     sc.ranges,
+    ...     np.eye(2) * 50.0**2,
     ...     sc.dr_displacements,
+    ...     sc.ranges,
     ...     Q=np.eye(2) * 0.81,
     ...     R=0.49,
-    ...     P0=np.eye(2) * 50.0**2,
     ...     sigma_gamma=1 / 1500,
     ...     times=sc.times,
     ... )

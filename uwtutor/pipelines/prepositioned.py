@@ -44,9 +44,10 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
     return alpha
 
 
-def prepositioned_bias_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, provisional_start: ArrayLike, Q: ArrayLike,
-                           R: Any, *, P0: ArrayLike | None = None, max_alpha: Any = 2.0, beacon: ArrayLike = (0.0, 0.0),
-                           iterations: int = 3, times: ArrayLike | None = None) -> FilterResult:
+def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, dr_displacements: ArrayLike,
+                           ranges: ArrayLike, Q: ArrayLike, R: Any, *, max_alpha: Any = 2.0,
+                           beacon: ArrayLike = (0.0, 0.0), iterations: int = 3,
+                           times: ArrayLike | None = None) -> FilterResult:
     r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`
     ``max_alpha``.
 
@@ -60,21 +61,24 @@ def prepositioned_bias_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, provi
     4. **Filter** from :math:`k_0`: :func:`~uwtutor.filters.bias.bias_ekf` from the fix with covariance ``P0``,
        over epochs :math:`k_0 + 1, \dots` (all runs in one call: each run's arrays are shifted to start at step 0).
 
+    The arguments come in the filters' order ``(x0, P0, u, z, Q, R)``: the provisional start, the covariance the
+    filter starts with, the DR displacements, the ranges, then the noise.
+
     Parameters
     ----------
-    ranges : array_like, shape (M, K)
-        Measured ranges [m], NaN where missing.
-    dr_displacements : array_like, shape (M, K, 2)
-        DR displacements (row 0: from the provisional start to epoch 0, usually zeros).
     provisional_start : array_like, shape (2,) or (M, 2)
         Provisional position at epoch 0 [m] (e.g. the position the vehicle believed it started from).
+    P0 : array_like, shape (3, 3) or (M, 3, 3), or None
+        Covariance the filter starts with; ``None``: the fix's own :math:`R\,(\mathbf A^\mathsf T\mathbf A)^{-1}`
+        (paper A starts from the identity).
+    dr_displacements : array_like, shape (M, K, 2)
+        DR displacements (row 0: from the provisional start to epoch 0, usually zeros).
+    ranges : array_like, shape (M, K)
+        Measured ranges [m], NaN where missing.
     Q : array_like, shape (3, 3)
         Process noise of the IEKF [m²].
     R : float
         White range noise variance [m²] (also the :math:`\sigma^2` of the fix's covariance).
-    P0 : array_like, shape (3, 3) or (M, 3, 3), optional
-        Covariance the filter starts with; default the fix's own :math:`R\,(\mathbf A^\mathsf T\mathbf A)^{-1}`
-        (paper A starts from the identity).
     max_alpha : float, default 2
         Acceptance threshold on the precision factor.
     beacon : array_like, shape (2,), optional
@@ -105,12 +109,12 @@ def prepositioned_bias_ekf(ranges: ArrayLike, dr_displacements: ArrayLike, provi
     >>> # believed start 150 m off
     >>> start = sc.true_positions[:, 0] + [150.0, 0.0]
     >>> res = prepositioned_bias_ekf(
-    ...     sc.ranges,
-    ...     sc.dr_displacements,
     ...     start,
+    ...     np.eye(3),
+    ...     sc.dr_displacements,
+    ...     sc.ranges,
     ...     paper_a_process_noise(1.0),
     ...     5.0,
-    ...     P0=np.eye(3),
     ... )
     >>> k0 = np.argmax(res.extras["started"], axis=1)
     >>> bool(np.all((150 < k0) & (k0 < 400)))

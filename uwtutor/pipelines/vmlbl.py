@@ -97,9 +97,9 @@ class VMLBLResult:
     >>> from uwtutor.scenarios import paper_e
     >>> d = paper_e.make(np.random.default_rng(3))
     >>> res = or_vmlbl_kf(
-    ...     d.slant_ranges[0][:400],
-    ...     d.ship_positions[0][:400],
     ...     d.dr_positions[0][:400],
+    ...     d.slant_ranges[0][:400],
+    ...     ship_positions=d.ship_positions[0][:400],
     ...     depth=d.depth,
     ...     spacing=100,
     ... )
@@ -136,20 +136,24 @@ class VMLBLResult:
         return self.track.x[..., :2]
 
 
-def or_vmlbl_kf(ranges: ArrayLike, ship_positions: ArrayLike, dr_positions: ArrayLike, *, depth: Any, dt: Any = 1.0,
+def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: Any, dt: Any = 1.0,
                 times: ArrayLike | None = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
                 range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
                 fix_options: dict[str, Any] | None = None, smooth: bool = False) -> VMLBLResult:
     r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.
 
+    The arguments come in the filters' order, the dead reckoning ``u`` before the ranges ``z``; the ship's path
+    (the moving beacon, a filter's ``beacon=``) is a keyword, so that it cannot be swapped with the DR track of the
+    same shape.
+
     Parameters
     ----------
+    dr_positions : array_like, shape (K, 2) or (M, K, 2)
+        The submersible's dead-reckoned positions :math:`P_k` [m] (only differences matter).
     ranges : array_like, shape (K,) or (M, K)
         Measured slant ranges to the ship [m] (NaN where missing).
     ship_positions : array_like, shape (K, 2) or (M, K, 2)
         The ship's horizontal positions :math:`AB_k` (GPS) [m].
-    dr_positions : array_like, shape (K, 2) or (M, K, 2)
-        The submersible's dead-reckoned positions :math:`P_k` [m] (only differences matter).
     depth : float
         The submersible's depth :math:`h` [m] (pressure sensor); the ship is at the surface.
     dt : float, default 1
@@ -190,9 +194,9 @@ def or_vmlbl_kf(ranges: ArrayLike, ship_positions: ArrayLike, dr_positions: Arra
     >>> from uwtutor.scenarios import paper_e
     >>> dive = paper_e.make(np.random.default_rng(3))
     >>> out = or_vmlbl_kf(
-    ...     dive.slant_ranges[0],
-    ...     dive.ship_positions[0],
     ...     dive.dr_positions[0],
+    ...     dive.slant_ranges[0],
+    ...     ship_positions=dive.ship_positions[0],
     ...     depth=dive.depth,
     ... )
     >>> truth = dive.true_positions[0][out.now]

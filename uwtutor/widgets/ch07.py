@@ -163,7 +163,7 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     start = truth[0] + d0 * direction
     Q = paper_a_process_noise(params.dr_sigma)
     R = params.noise_variance
-    pre = prepositioned_bias_ekf(z, sc.dr_displacements, start, Q, R, P0=np.eye(3), max_alpha=a_max, times=t)
+    pre = prepositioned_bias_ekf(start, np.eye(3), sc.dr_displacements, z, Q, R, max_alpha=a_max, times=t)
     plain = _from_the_start(rate, d0, M, K, int(seed))
     started = pre.extras["started"]
     k0 = np.where(started.any(axis=1), np.argmax(started, axis=1), K)

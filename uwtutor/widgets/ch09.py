@@ -189,7 +189,8 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     options = {"delta": d, "test": test, "reacquire": 20 if reacquire else None}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IllConditionedWarning)
-        out = or_vmlbl_kf(ranges, dive.ship_positions[0], dive.dr_positions[0], depth=dive.depth, spacing=s,
+        out = or_vmlbl_kf(dive.dr_positions[0], ranges, ship_positions=dive.ship_positions[0], depth=dive.depth,
+                          spacing=s,
                           range_options=options)
     plain = _standard_kf(a, pattern, seed, ranges)
     truth = np.asarray(dive.true_positions[0])[out.now]

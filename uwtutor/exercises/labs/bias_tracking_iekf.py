@@ -121,7 +121,7 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                        hint="`bias_ekf` from `[start_poor, 0]` with `np.eye(3)`, started at epoch 0.",
                        reveal_expected=False)
     pre = cached("bias_tracking_iekf.prepositioned", (_inputs(ns), start_poor, Q),
-                 lambda: prepositioned_bias_ekf(ns["ranges"], dr, start_poor, Q, ns["R"], P0=np.eye(3),
+                 lambda: prepositioned_bias_ekf(start_poor, np.eye(3), dr, ns["ranges"], Q, ns["R"],
                                                 max_alpha=2.0, beacon=buoy))
     yield check_number(ns["rmse_prepositioned"], final_rmse(pre), rtol=1e-6, name="rmse_prepositioned", units="m",
                        hint="`prepositioned_bias_ekf` on all runs from `start_poor` with P0=np.eye(3) and "
