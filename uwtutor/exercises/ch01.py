@@ -182,7 +182,8 @@ def check_two_way_range(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_two_way_range(NOMINAL_SOUND_SPEED * TWO_WAY_TIME).correct  # the whole two-way path
+    >>> # the whole two-way path
+    >>> check_two_way_range(NOMINAL_SOUND_SPEED * TWO_WAY_TIME).correct
     False
     >>> check_two_way_range(NOMINAL_SOUND_SPEED * TWO_WAY_TIME / 2).correct
     True
@@ -226,7 +227,9 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_sound_speed_range_error(ASSUMED_SOUND_SPEED - TRUE_SOUND_SPEED).correct  # a speed, not a range
+    >>> # a speed, not a range
+    >>> speed_error = ASSUMED_SOUND_SPEED - TRUE_SOUND_SPEED
+    >>> check_sound_speed_range_error(speed_error).correct
     False
     >>> estimated = ASSUMED_SOUND_SPEED * TRUE_RANGE / TRUE_SOUND_SPEED
     >>> check_sound_speed_range_error(estimated - TRUE_RANGE).correct
@@ -277,7 +280,8 @@ def check_dr_drift(answer: Any) -> Feedback:
     --------
     >>> import math
     >>> d = DR_SPEED * DR_DURATION
-    >>> check_dr_drift(d * math.sin(HEADING_BIAS_DEG)).correct  # degrees given to sin
+    >>> # degrees given to sin
+    >>> check_dr_drift(d * math.sin(HEADING_BIAS_DEG)).correct
     False
     >>> check_dr_drift(d * math.sin(math.radians(HEADING_BIAS_DEG))).correct
     True
@@ -335,9 +339,10 @@ def check_dr_track(answer: Any) -> Feedback:
     >>> import numpy as np
     >>> theta = np.radians(90.0 - HEADING_BIAS_DEG)
     >>> d = DR_SPEED * TRACK_TIMES
-    >>> check_dr_track(np.vstack((d * np.cos(theta), d * np.sin(theta)))).correct  # transposed, (2, 7)
+    >>> east, north = d * np.cos(theta), d * np.sin(theta)
+    >>> check_dr_track(np.vstack((east, north))).correct  # transposed, (2, 7)
     False
-    >>> check_dr_track(np.column_stack((d * np.cos(theta), d * np.sin(theta)))).correct
+    >>> check_dr_track(np.column_stack((east, north))).correct
     True
     """
     expected = _true_track(TRACK_TIMES, HEADING_BIAS_DEG)

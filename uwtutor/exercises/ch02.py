@@ -178,7 +178,8 @@ def check_rmse_bound(answer: Any) -> Feedback:
     --------
     >>> from uwtutor import observability
     >>> J = observability.fisher_information(FIX_BEACONS, FIX_POSITION, FIX_SIGMA)
-    >>> check_rmse_bound(np.trace(np.linalg.inv(J))).correct  # m², without the square root
+    >>> # m², without the square root
+    >>> check_rmse_bound(np.trace(np.linalg.inv(J))).correct
     False
     >>> check_rmse_bound(np.sqrt(np.trace(np.linalg.inv(J)))).correct
     True
@@ -225,8 +226,10 @@ def check_mirror_solutions(answer: Any) -> Feedback:
     Examples
     --------
     >>> from uwtutor import observability
-    >>> pair = observability.two_range_fix(MIRROR_BEACON, MIRROR_RANGES, MIRROR_DISPLACEMENT)
-    >>> check_mirror_solutions(pair[0]).correct  # one point: two circles meet twice
+    >>> pair = observability.two_range_fix(MIRROR_BEACON, MIRROR_RANGES,
+    ...                                    MIRROR_DISPLACEMENT)
+    >>> # one point: two circles meet twice
+    >>> check_mirror_solutions(pair[0]).correct
     False
     >>> check_mirror_solutions(pair[::-1]).correct  # both, in either order
     True
@@ -341,10 +344,13 @@ def check_halving_turn_angle(answer: Any) -> Feedback:
     Examples
     --------
     >>> from scipy.optimize import brentq
-    >>> check_halving_turn_angle(2 * REFERENCE_TURN_DEG).correct  # doubling the turn
+    >>> # doubling the turn
+    >>> check_halving_turn_angle(2 * REFERENCE_TURN_DEG).correct
     False
     >>> half = turn_rmse_bound(REFERENCE_TURN_DEG) / 2
-    >>> angle = brentq(lambda a: turn_rmse_bound(a) - half, REFERENCE_TURN_DEG, 60.0)
+    >>> def excess(a):
+    ...     return turn_rmse_bound(a) - half
+    >>> angle = brentq(excess, REFERENCE_TURN_DEG, 60.0)
     >>> check_halving_turn_angle(angle).correct
     True
     """
@@ -465,9 +471,11 @@ def check_unobservable_direction(answer: Any) -> Feedback:
     --------
     >>> x0, y0 = CURRENT_START
     >>> wx, wy = CURRENT_VELOCITY
-    >>> check_unobservable_direction([-y0, x0, 0.0, 0.0]).correct  # the start point turned alone
+    >>> # the start point turned alone
+    >>> check_unobservable_direction([-y0, x0, 0.0, 0.0]).correct
     False
-    >>> check_unobservable_direction([-y0, x0, -wy, wx]).correct  # and the velocity with it
+    >>> # and the velocity with it
+    >>> check_unobservable_direction([-y0, x0, -wy, wx]).correct
     True
     """
     H = straight_current_jacobian()
@@ -541,7 +549,8 @@ def check_turned_current_rank(answer: Any) -> Feedback:
     False
     >>> track = motion.turning_track(CURRENT_TIMES, start=CURRENT_START, speed=2.0,
     ...                              headings=[0.0, np.pi / 2], turn_times=[600.0])
-    >>> H = observability.track_jacobian(track.positions, (0.0, 0.0), times=CURRENT_TIMES,
+    >>> H = observability.track_jacobian(track.positions, (0.0, 0.0),
+    ...                                  times=CURRENT_TIMES,
     ...                                  unknown_current=True, reference=0)
     >>> check_turned_current_rank(np.linalg.matrix_rank(H)).correct
     True

@@ -86,7 +86,8 @@ def check_precision_factor(answer: Any) -> Feedback:
     >>> from uwtutor import lsq
     >>> phi = np.radians(QUARTER_TURN_BEARINGS_DEG)
     >>> A = np.column_stack((np.cos(phi), np.sin(phi), np.ones_like(phi)))
-    >>> check_precision_factor(np.trace(A.T @ A)).correct  # the trace of AᵀA, not of its inverse
+    >>> # the trace of AᵀA, not of its inverse
+    >>> check_precision_factor(np.trace(A.T @ A)).correct
     False
     >>> check_precision_factor(lsq.precision_factor(A)).correct
     True
@@ -152,12 +153,14 @@ def check_ranges_until_trusted(answer: Any) -> Feedback:
     --------
     >>> from uwtutor import lsq, motion
     >>> times = RANGE_INTERVAL * np.arange(600)
-    >>> track = motion.circle_track(times, CIRCLE_RADIUS, CIRCLE_SPEED, start_angle=-np.pi / 2)
+    >>> track = motion.circle_track(times, CIRCLE_RADIUS, CIRCLE_SPEED,
+    ...                             start_angle=-np.pi / 2)
     >>> alpha = lsq.precision_factor_history(track.positions, unknown_bias=True)
     >>> first = int(np.flatnonzero(alpha < ALPHA_THRESHOLD)[0])  # a 0-based index
     >>> check_ranges_until_trusted(first).correct
     False
-    >>> check_ranges_until_trusted(first + 1).correct  # the first range counts as 1
+    >>> # the first range counts as 1
+    >>> check_ranges_until_trusted(first + 1).correct
     True
     """
     alpha = _circle_alpha(600)
@@ -219,7 +222,8 @@ def vmlbl_system_reference(ranges: Any, virtual_beacons: Any, depth: float,
     >>> A, B = vmlbl_system_reference(ranges, vb, 100.0, np.zeros(3))
     >>> A.shape, B.shape
     ((3, 2), (3,))
-    >>> np.round(np.linalg.lstsq(A, B, rcond=None)[0], 3)  # the vehicle's horizontal position
+    >>> # the vehicle's horizontal position
+    >>> np.round(np.linalg.lstsq(A, B, rcond=None)[0], 3)
     array([-500.,  200.])
     """
     r = np.asarray(ranges, dtype=float)
@@ -293,8 +297,10 @@ def check_vmlbl_system(func: Any) -> Feedback:
 
     Examples
     --------
-    >>> def no_cycle(ranges, virtual_beacons, depth, beacon_depths):  # one equation short
-    ...     A, B = vmlbl_system_reference(ranges, virtual_beacons, depth, beacon_depths)
+    >>> # one equation short
+    >>> def no_cycle(ranges, virtual_beacons, depth, beacon_depths):
+    ...     A, B = vmlbl_system_reference(ranges, virtual_beacons, depth,
+    ...                                   beacon_depths)
     ...     return A[:-1], B[:-1]
     >>> check_vmlbl_system(no_cycle).correct
     False
@@ -340,10 +346,12 @@ def travel_time_cost_reference(travel_times: Any, dr_offsets: Any, bearing: floa
     --------
     >>> positions = np.array([[1000.0, 0.0], [1000.0, 100.0], [1000.0, 200.0]])
     >>> tau = np.hypot(*positions.T) / 1500.0
-    >>> cost = travel_time_cost_reference(tau, positions - positions[0], 0.0, 0.0, 1500.0)
+    >>> offsets = positions - positions[0]
+    >>> cost = travel_time_cost_reference(tau, offsets, 0.0, 0.0, 1500.0)
     >>> bool(cost < 1e-20)  # the true cell fits exactly
     True
-    >>> bool(travel_time_cost_reference(tau, positions - positions[0], 0.1, 0.0, 1500.0) > 0)
+    >>> # three degrees off in bearing (0.1 rad)
+    >>> bool(travel_time_cost_reference(tau, offsets, 0.1, 0.0, 1500.0) > 0)
     True
     """
     D = np.asarray(dr_offsets, dtype=float)
@@ -397,7 +405,8 @@ def check_travel_time_cost(func: Any) -> Feedback:
 
     Examples
     --------
-    >>> def zero_cost(travel_times, dr_offsets, bearing, speed_error, assumed_speed):
+    >>> def zero_cost(travel_times, dr_offsets, bearing, speed_error,
+    ...               assumed_speed):
     ...     return 0.0
     >>> check_travel_time_cost(zero_cost).correct
     False

@@ -138,7 +138,8 @@ def ekf_update_reference(x: Any, P: Any, z: float, R: float, beacon: Any) -> tup
 
     Examples
     --------
-    >>> x, P = ekf_update_reference([300.0, 400.0], 100.0 * np.eye(2), z=505.0, R=4.0, beacon=[0.0, 0.0])
+    >>> x, P = ekf_update_reference([300.0, 400.0], 100.0 * np.eye(2), z=505.0,
+    ...                             R=4.0, beacon=[0.0, 0.0])
     >>> np.round(x, 2)  # pushed 4.81 m outwards, along the line of sight
     array([302.88, 403.85])
     >>> np.round(P, 2)
@@ -295,7 +296,8 @@ def check_nees_bounds(answer: Any) -> Feedback:
     --------
     >>> from scipy import stats
     >>> M, n = BOUNDS_RUNS, BOUNDS_STATES
-    >>> check_nees_bounds(stats.chi2.ppf([0.025, 0.975], n)).correct  # one run's bounds
+    >>> # one run's bounds
+    >>> check_nees_bounds(stats.chi2.ppf([0.025, 0.975], n)).correct
     False
     >>> check_nees_bounds(stats.chi2.ppf([0.025, 0.975], M * n) / M).correct
     True

@@ -111,7 +111,8 @@ def check_mu_gamma(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_mu_gamma(EFFECTIVE_SPEED / ASSUMED_SPEED).correct  # the inverse ratio
+    >>> # the inverse ratio
+    >>> check_mu_gamma(EFFECTIVE_SPEED / ASSUMED_SPEED).correct
     False
     >>> check_mu_gamma(ASSUMED_SPEED / EFFECTIVE_SPEED).correct
     True
@@ -201,7 +202,8 @@ def check_mean_range_error(answer: Any) -> Feedback:
     Examples
     --------
     >>> mu = ASSUMED_SPEED / EFFECTIVE_SPEED
-    >>> check_mean_range_error(mu * TRUE_RANGE).correct  # the mean measured range, not its error
+    >>> # the mean measured range, not its error
+    >>> check_mean_range_error(mu * TRUE_RANGE).correct
     False
     >>> check_mean_range_error((mu - 1.0) * TRUE_RANGE).correct
     True
@@ -247,8 +249,10 @@ def fading_factors_reference(innovations: Any, predicted: Any, subtracted: Any, 
 
     Examples
     --------
-    >>> lam = fading_factors_reference([0.5, 4.0, 0.5], [0.5, 0.5, 0.5], [2.5, 2.5, 2.5], 0.95)
-    >>> np.round(lam, 2)  # a large innovation at step 2 lifts the factor for a while
+    >>> innovations = [0.5, 4.0, 0.5]
+    >>> lam = fading_factors_reference(innovations, [0.5] * 3, [2.5] * 3, 0.95)
+    >>> # a large innovation at step 2 lifts the factor for a while
+    >>> np.round(lam, 2)
     array([ 1.  , 11.65,  3.37])
     """
     z = np.asarray(innovations, dtype=float)
@@ -311,8 +315,11 @@ def check_fading_factors(func: Any) -> Feedback:
 
     Examples
     --------
-    >>> def no_max(innovations, predicted, subtracted, rho):  # forgets that λ is at least 1
-    ...     z, n, s = (np.asarray(a, dtype=float) for a in (innovations, predicted, subtracted))
+    >>> # forgets that λ is at least 1
+    >>> def no_max(innovations, predicted, subtracted, rho):
+    ...     z = np.asarray(innovations, dtype=float)
+    ...     n = np.asarray(predicted, dtype=float)
+    ...     s = np.asarray(subtracted, dtype=float)
     ...     V = np.empty_like(z)
     ...     V[0] = z[0] ** 2
     ...     for k in range(1, len(z)):
@@ -429,7 +436,8 @@ def check_threshold_beta_one(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_threshold_beta_one(threshold_innovation(1.0) ** 2).correct  # m², not m
+    >>> # m², not m
+    >>> check_threshold_beta_one(threshold_innovation(1.0) ** 2).correct
     False
     >>> check_threshold_beta_one(threshold_innovation(1.0)).correct
     True
@@ -458,7 +466,8 @@ def check_threshold_beta_range(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_threshold_beta_range(threshold_innovation(1.0)).correct  # the threshold of β = 1
+    >>> # the threshold of β = 1
+    >>> check_threshold_beta_range(threshold_innovation(1.0)).correct
     False
     >>> check_threshold_beta_range(threshold_innovation(BETA_RANGE)).correct
     True
@@ -574,8 +583,11 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
     >>> args = (s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"])
     >>> mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
     >>> e = final_rmse(range_only_ekf(*args).x, s["truth"])
-    >>> m = final_rmse(fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, fading=False).x, s["truth"])
-    >>> i = final_rmse(fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, rho=0.95, beta="range").x, s["truth"])
+    >>> mult = fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, fading=False)
+    >>> m = final_rmse(mult.x, s["truth"])
+    >>> isfekf = fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, rho=0.95,
+    ...                     beta="range")
+    >>> i = final_rmse(isfekf.x, s["truth"])
     >>> check_final_rmse(e, m, 2 * i).correct  # the ISFEKF's RMSE doubled
     False
     >>> check_final_rmse(e, m, i).correct
@@ -650,7 +662,8 @@ def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: fl
     --------
     >>> d = isfekf_step_run()
     >>> x, P, m, Xi, V, lam = isfekf_step_reference(
-    ...     d["x0"], d["P0"], d["x0"], d["P0"] + np.outer(d["x0"], d["x0"]), None, d["u"][0], d["z"][0], d["Q"],
+    ...     d["x0"], d["P0"], d["x0"], d["P0"] + np.outer(d["x0"], d["x0"]), None,
+    ...     d["u"][0], d["z"][0], d["Q"],
     ...     0.49, mu_gamma=0.98, sigma_gamma=1 / 1500, rho=0.95)
     >>> x.shape, P.shape, bool(lam >= 1.0)
     ((2,), (2, 2), True)
@@ -720,8 +733,10 @@ def check_isfekf_step(func: Any) -> Feedback:
 
     Examples
     --------
-    >>> def no_fading(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho):  # always λ = 1
-    ...     out = isfekf_step_reference(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho)
+    >>> # always λ = 1
+    >>> def no_fading(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho):
+    ...     out = isfekf_step_reference(x, P, m, Xi, V, u, z, Q, R, mu_gamma,
+    ...                                 sigma_gamma, rho)
     ...     return out[:5] + (1.0,)
     >>> check_isfekf_step(no_fading).correct
     False

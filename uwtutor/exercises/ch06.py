@@ -179,7 +179,8 @@ def check_grey_forecast(value: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_grey_forecast(DEPTH_SERIES[-1]).correct  # the last reading, not a forecast
+    >>> # the last reading, not a forecast
+    >>> check_grey_forecast(DEPTH_SERIES[-1]).correct
     False
     >>> check_grey_forecast(fit_gm11(DEPTH_SERIES).forecast(1)[0]).correct
     True
@@ -227,7 +228,8 @@ def check_mad_sigma(sigma: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_mad_sigma(np.std(NOISE_WINDOW)).correct  # the spread of the readings, dive included
+    >>> # the spread of the readings, dive included
+    >>> check_mad_sigma(np.std(NOISE_WINDOW)).correct
     False
     >>> d = detail_coefficients(NOISE_WINDOW)
     >>> check_mad_sigma(np.median(np.abs(d)) / 0.6745).correct
@@ -284,7 +286,8 @@ def check_effective_sample_size(ess: Any) -> Feedback:
     Examples
     --------
     >>> w = PARTICLE_WEIGHTS
-    >>> check_effective_sample_size(1 / np.sum(w ** 2)).correct  # weights not normalized
+    >>> # weights not normalized
+    >>> check_effective_sample_size(1 / np.sum(w ** 2)).correct
     False
     >>> check_effective_sample_size(1 / np.sum((w / w.sum()) ** 2)).correct
     True
@@ -361,10 +364,13 @@ def check_systematic_resample(func: Any) -> Feedback:
     ...     w = np.asarray(weights, dtype=float)
     ...     c = np.cumsum(w / w.sum())
     ...     c[-1] = 1.0
-    ...     return np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
-    >>> def systematic_left(weights, u):  # a point on a boundary goes to the wrong particle
+    ...     points = (np.arange(w.size) + u) / w.size
+    ...     return np.searchsorted(c, points, side="right")
+    >>> # a point on a boundary goes to the wrong particle
+    >>> def systematic_left(weights, u):
     ...     w = np.asarray(weights, dtype=float)
-    ...     return np.searchsorted(np.cumsum(w / w.sum()), (np.arange(w.size) + u) / w.size)
+    ...     points = (np.arange(w.size) + u) / w.size
+    ...     return np.searchsorted(np.cumsum(w / w.sum()), points)
     >>> check_systematic_resample(systematic_left).correct
     False
     >>> check_systematic_resample(systematic).correct
@@ -505,9 +511,12 @@ def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R:
     Examples
     --------
     >>> rng = np.random.default_rng(0)
-    >>> particles = np.array([12.0, 1.8, 0.14]) + 0.1 * rng.standard_normal((50, 3))
+    >>> start = np.array([12.0, 1.8, 0.14])
+    >>> particles = start + 0.1 * rng.standard_normal((50, 3))
     >>> noise = 0.01 * rng.standard_normal((50, 3))
-    >>> est, w, resampled = pf_step_reference(particles, [12.1, 1.8, 0.14], noise, 0.5, PF_STEP_T, PF_STEP_R)
+    >>> z = [12.1, 1.8, 0.14]
+    >>> est, w, resampled = pf_step_reference(particles, z, noise, 0.5, PF_STEP_T,
+    ...                                       PF_STEP_R)
     >>> est.shape, w.shape, resampled.shape
     ((3,), (50,), (50, 3))
     >>> round(float(w.sum()), 9)
@@ -596,7 +605,8 @@ def check_pf_step(func: Any) -> Feedback:
 
     Examples
     --------
-    >>> def no_weights(particles, z, noise, u, T, R):  # every particle weighted alike
+    >>> # every particle weighted alike
+    >>> def no_weights(particles, z, noise, u, T, R):
     ...     est, w, resampled = pf_step_reference(particles, z, noise, u, T, R)
     ...     return est, np.full(len(w), 1 / len(w)), resampled
     >>> check_pf_step(no_weights).correct

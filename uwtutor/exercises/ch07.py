@@ -123,9 +123,11 @@ def check_bias_noise(answer: Any) -> Feedback:
     Examples
     --------
     >>> sx, sy = NOISE_SIGMAS
-    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2])).correct  # 2x2: the bias is missing
+    >>> # 2x2: the bias is missing
+    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2])).correct
     False
-    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2, (sx ** 2 + sy ** 2) / 2])).correct
+    >>> q_bias = (sx ** 2 + sy ** 2) / 2
+    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2, q_bias])).correct
     True
     """
     sx, sy = NOISE_SIGMAS
@@ -230,7 +232,8 @@ def check_weak_direction(answer: Any) -> Feedback:
     Examples
     --------
     >>> p = straight_track()
-    >>> A = np.column_stack([p / np.linalg.norm(p, axis=1, keepdims=True), np.ones(len(p))])
+    >>> los = p / np.linalg.norm(p, axis=1, keepdims=True)
+    >>> A = np.column_stack([los, np.ones(len(p))])
     >>> _, _, vt = np.linalg.svd(A)
     >>> check_weak_direction(vt[0]).correct  # the direction seen best
     False
@@ -353,7 +356,8 @@ def bias_diagnosis_studies(n_runs: int = 40, n_obs: int = 1500, seed: int = 5,
 
     Examples
     --------
-    >>> studies = bias_diagnosis_studies(n_runs=2, n_obs=50)  # a small study: the exercise uses the defaults
+    >>> # a small study: the exercise uses the defaults
+    >>> studies = bias_diagnosis_studies(n_runs=2, n_obs=50)
     >>> studies["A"].shape, len(studies["bounds"])
     ((50,), 2)
     """
@@ -417,13 +421,16 @@ def check_bias_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_bias_diagnosis("A", "A").correct  # one filter cannot be both (answered before any study runs)
+    >>> # one filter cannot be both (answered before any study runs)
+    >>> check_bias_diagnosis("A", "A").correct
     False
     >>> studies = bias_diagnosis_studies()
     >>> lo, hi = studies["bounds"]
-    >>> inside = {k: np.mean((studies[k] >= lo) & (studies[k] <= hi)) for k in "ABC"}
+    >>> inside = {k: np.mean((studies[k] >= lo) & (studies[k] <= hi))
+    ...           for k in "ABC"}
     >>> late = {k: np.mean(studies[k][len(studies[k]) // 3:]) for k in "ABC"}
-    >>> consistent, overconfident = max(inside, key=inside.get), max(late, key=late.get)
+    >>> consistent = max(inside, key=inside.get)
+    >>> overconfident = max(late, key=late.get)
     >>> check_bias_diagnosis(consistent, overconfident).correct
     True
     """

@@ -89,9 +89,11 @@ def check_clock_range_error(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_clock_range_error(SOUND_SPEED * CLOCK_OFFSET).correct  # the offset alone
+    >>> # the offset alone
+    >>> check_clock_range_error(SOUND_SPEED * CLOCK_OFFSET).correct
     False
-    >>> check_clock_range_error(SOUND_SPEED * (CLOCK_OFFSET + CLOCK_DRIFT * CLOCK_TIME)).correct
+    >>> clock_error = CLOCK_OFFSET + CLOCK_DRIFT * CLOCK_TIME
+    >>> check_clock_range_error(SOUND_SPEED * clock_error).correct
     True
     """
     c, e0, rate, t = SOUND_SPEED, CLOCK_OFFSET, CLOCK_DRIFT, CLOCK_TIME
@@ -168,10 +170,12 @@ def check_resolve(func: Any) -> Feedback:
     --------
     >>> def resolve_floor(wrapped, predicted_range):  # rounds down
     ...     w = np.asarray(wrapped, dtype=float)
-    ...     return w + np.maximum(0, np.floor(np.asarray(predicted_range) / SOUND_SPEED - w))
+    ...     n = np.floor(np.asarray(predicted_range) / SOUND_SPEED - w)
+    ...     return w + np.maximum(0, n)
     >>> def resolve(wrapped, predicted_range):
     ...     w = np.asarray(wrapped, dtype=float)
-    ...     return w + np.maximum(0, np.round(np.asarray(predicted_range) / SOUND_SPEED - w))
+    ...     n = np.round(np.asarray(predicted_range) / SOUND_SPEED - w)
+    ...     return w + np.maximum(0, n)
     >>> check_resolve(resolve_floor).correct
     False
     >>> check_resolve(resolve).correct
@@ -238,8 +242,10 @@ def pair_jacobian_reference(x_pred: Any, leader_k: Any, leader_k1: Any, u_k: Any
 
     Examples
     --------
-    >>> H = pair_jacobian_reference([0.0, 0.0, 0.0, 0.0], [100.0, 0.0], [0.0, 100.0], [0.0, 0.0], 10.0)
-    >>> np.round(H, 6) + 0.0  # rows 2 s_k (and −2 δt s_k for the current), 2 s_(k+1)
+    >>> x_pred, u_k = [0.0, 0.0, 0.0, 0.0], [0.0, 0.0]
+    >>> H = pair_jacobian_reference(x_pred, [100.0, 0.0], [0.0, 100.0], u_k, 10.0)
+    >>> # rows 2 s_k (and −2 δt s_k for the current), 2 s_(k+1)
+    >>> np.round(H, 6) + 0.0
     array([[-200.,    0., 2000.,    0.],
            [   0., -200.,    0.,    0.]])
     """
@@ -343,7 +349,8 @@ def leader_study() -> dict[str, float]:
 
     Examples
     --------
-    >>> errors = leader_study()  # 200 runs per pattern: about a second, once per session
+    >>> # 200 runs per pattern: about a second, once per session
+    >>> errors = leader_study()
     >>> sorted(errors)
     ['circling', 'parallel', 'zigzag']
     >>> bool(errors["parallel"] > 10 * errors["zigzag"])
@@ -368,7 +375,8 @@ def check_leader_errors(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_leader_errors({"zigzag": 1.0}).correct  # an entry per pattern is needed
+    >>> # an entry per pattern is needed
+    >>> check_leader_errors({"zigzag": 1.0}).correct
     False
     >>> check_leader_errors(leader_study()).correct
     True
@@ -407,10 +415,12 @@ def check_unobservable_pattern(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_unobservable_pattern("spiral").correct  # no such pattern: answered before the study runs
+    >>> # no such pattern: answered before the study runs
+    >>> check_unobservable_pattern("spiral").correct
     False
     >>> errors = leader_study()
-    >>> check_unobservable_pattern(max(errors, key=errors.get)).correct  # the pattern whose error grows
+    >>> # the pattern whose error grows
+    >>> check_unobservable_pattern(max(errors, key=errors.get)).correct
     True
     """
     # the answer is read before the study runs (8 s the first time): a name that is no pattern is answered at once

@@ -95,7 +95,8 @@ def check_gate_upper(answer: Any) -> Feedback:
     >>> lo, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
     >>> check_gate_upper(DELTA * Z_PRED).correct  # δẑ: z compared instead of z²
     False
-    >>> check_gate_upper(np.sqrt((1 + DELTA) * (S_INNOV + Z_PRED ** 2)) - Z_PRED).correct
+    >>> z_max = np.sqrt((1 + DELTA) * (S_INNOV + Z_PRED ** 2))
+    >>> check_gate_upper(z_max - Z_PRED).correct
     True
     """
     lo, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
@@ -174,7 +175,8 @@ def check_virtual_beacons(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> check_virtual_beacons(SHIP - (DR[-1] - DR)).correct  # the ship moved backwards
+    >>> # the ship moved backwards
+    >>> check_virtual_beacons(SHIP - (DR[-1] - DR)).correct
     False
     >>> check_virtual_beacons(SHIP + (DR[-1] - DR)).correct
     True
@@ -227,10 +229,12 @@ def check_good_rejected(answer: Any) -> Feedback:
     >>> dive = lockout_dive()
     >>> good = ~dive.outlier_mask[0]
     >>> with warnings.catch_warnings():
-    ...     warnings.simplefilter("ignore", UwtutorWarning)  # the lock-out is the point of the exercise
+    ...     # the lock-out is the point of the exercise
+    ...     warnings.simplefilter("ignore", UwtutorWarning)
     ...     literal = robust_range_kf(dive.slant_ranges[0], 1.0, reacquire=None)
     >>> rejected = literal.extras["rejected"]
-    >>> check_good_rejected(int(np.sum(rejected))).correct  # the outliers counted too
+    >>> # the outliers counted too
+    >>> check_good_rejected(int(np.sum(rejected))).correct
     False
     >>> check_good_rejected(int(np.sum(rejected & good))).correct
     True

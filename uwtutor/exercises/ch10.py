@@ -121,7 +121,8 @@ def bound_variants() -> dict[str, float]:
 
     Examples
     --------
-    >>> v = bound_variants()  # a few bounds over the suite's tracks: about a second, once per session
+    >>> # a few bounds over the suite's tracks: about a second, once per session
+    >>> v = bound_variants()
     >>> bool(v["final"] > v["white"])  # the bias state costs accuracy
     True
     >>> bool(v["final"] < v["first"])
@@ -215,8 +216,10 @@ def check_first_ratio(answer: Any) -> Feedback:
     Examples
     --------
     >>> table = methods.load_comparison()
-    >>> rmse = table.rmse_curves[table.index(START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)]
-    >>> bound = rmse_bound(posterior_crlb(**suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)))
+    >>> row = table.index(START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)
+    >>> rmse = table.rmse_curves[row]
+    >>> inputs = suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)
+    >>> bound = rmse_bound(posterior_crlb(**inputs))
     >>> check_first_ratio(rmse[-1] / bound[-1]).correct  # the last epoch's ratio
     False
     >>> check_first_ratio(rmse[0] / bound[0]).correct
@@ -260,8 +263,10 @@ def check_final_efficiency(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> row = methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
-    >>> check_final_efficiency(row["final_bound"] / row["final_rmse"]).correct  # inverted
+    >>> table = methods.load_comparison()
+    >>> row = table.row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    >>> # inverted
+    >>> check_final_efficiency(row["final_bound"] / row["final_rmse"]).correct
     False
     >>> check_final_efficiency(row["final_rmse"] / row["final_bound"]).correct
     True
@@ -300,10 +305,13 @@ def check_median_over_bound(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> row = methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
-    >>> check_median_over_bound(row["final_rmse"] / row["final_bound"]).correct  # the RMSE, not the median
+    >>> table = methods.load_comparison()
+    >>> row = table.row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    >>> # the RMSE, not the median
+    >>> check_median_over_bound(row["final_rmse"] / row["final_bound"]).correct
     False
-    >>> check_median_over_bound(row["median_final_error"] / row["final_bound"]).correct
+    >>> median = row["median_final_error"]
+    >>> check_median_over_bound(median / row["final_bound"]).correct
     True
     """
     row = _table_row()
@@ -478,7 +486,8 @@ def pcrb_reference(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any) -> 
     --------
     >>> phi = np.radians(np.arange(12) * 15.0)
     >>> arc = 1000.0 * np.column_stack([np.cos(phi), np.sin(phi)])
-    >>> bounds = pcrb_reference(arc, [0.0, 0.0], 2.0, np.eye(2), 100.0 ** 2 * np.eye(2))
+    >>> P0 = 100.0 ** 2 * np.eye(2)
+    >>> bounds = pcrb_reference(arc, [0.0, 0.0], 2.0, np.eye(2), P0)
     >>> bounds.shape
     (12, 2, 2)
     >>> bool(np.trace(bounds[-1]) < np.trace(bounds[0]))
@@ -529,7 +538,8 @@ def check_pcrb_recursion(func: Any) -> Feedback:
     ...         J = J + np.outer(h, h) / sigma ** 2  # add the range's information
     ...         out.append(np.linalg.inv(J))
     ...     return np.array(out)
-    >>> def information(positions, beacon, sigma, Q, P0):  # J_k, not the bound J_k⁻¹
+    >>> # J_k, not the bound J_k⁻¹
+    >>> def information(positions, beacon, sigma, Q, P0):
     ...     return np.linalg.inv(pcrb(positions, beacon, sigma, Q, P0))
     >>> check_pcrb_recursion(information).correct
     False

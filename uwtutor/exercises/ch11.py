@@ -94,7 +94,8 @@ def scale_variants() -> dict[str, float]:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> v = scale_variants()
     >>> bool(1.0 < v["scale"] < 1.1), bool(v["std"] < v["std_unscaled"])
     (True, True)
@@ -147,7 +148,8 @@ def check_residual_std(answer: Any) -> Feedback:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> from uwtutor.datasets import plaza
     >>> data = plaza(SET)
     >>> r, d = data.ranges_on_epochs(), data.true_ranges()
@@ -202,10 +204,13 @@ def drift_variants() -> dict[str, float]:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> v = drift_variants()
-    >>> round(v["per_minute"] / v["rate"], 9), round(float(v["radians"] / np.radians(v["rate"])), 9)
-    (60.0, 1.0)
+    >>> round(v["per_minute"] / v["rate"], 9)
+    60.0
+    >>> round(float(v["radians"] / np.radians(v["rate"])), 9)
+    1.0
     """
     return dict(_drift_variants())
 
@@ -253,7 +258,8 @@ def check_scale_gain(answer: Any) -> Feedback:
 
     Examples
     --------
-    >>> from uwtutor.datasets.study import GRID_BEACONS, GRID_PERIODS, GRID_STATES, load_real_data_study
+    >>> from uwtutor.datasets.study import (
+    ...     GRID_BEACONS, GRID_PERIODS, GRID_STATES, load_real_data_study)
     >>> rmse = load_real_data_study().grid["measures"]["filter_rmse"]
     >>> cell = rmse[GRID_BEACONS.index(GAIN_BEACONS), GRID_PERIODS.index(None)]
     >>> without = cell[GRID_STATES.index("+ gyro bias")]
@@ -316,8 +322,10 @@ def lockout_runs() -> dict[str, Any]:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
-    >>> r = lockout_runs()  # two filters on Plaza 2: about two seconds, once per session
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> # two filters on Plaza 2: about two seconds, once per session
+    >>> r = lockout_runs()
     >>> r["rejected"] + r["accepted"] == r["ranges"]
     True
     >>> bool(r["back"]["rmse"] < r["locked"]["rmse"])  # re-acquisition helps
@@ -333,7 +341,8 @@ def check_rejected(answer: Any) -> Feedback:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> r = lockout_runs()
     >>> check_rejected(r["accepted"]).correct  # the ranges accepted, not rejected
     False
@@ -363,7 +372,8 @@ def check_locked_rmse(answer: Any) -> Feedback:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> r = lockout_runs()
     >>> check_locked_rmse(r["locked"]["median"]).correct  # the median error
     False
@@ -385,9 +395,11 @@ def check_reacquired_rmse(answer: Any) -> Feedback:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> r = lockout_runs()
-    >>> check_reacquired_rmse(r["locked"]["rmse"]).correct  # without re-acquisition
+    >>> # without re-acquisition
+    >>> check_reacquired_rmse(r["locked"]["rmse"]).correct
     False
     >>> check_reacquired_rmse(r["back"]["rmse"]).correct
     True

@@ -63,7 +63,8 @@ def nbgrader_problems(nb: Any) -> list[str]:
     >>> import nbformat
     >>> nb = nbformat.v4.new_notebook(cells=[
     ...     nbformat.v4.new_markdown_cell("## Exercise 1.1"),
-    ...     nbformat.v4.new_code_cell("x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION"),
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION"),
     ... ])
     >>> nbgrader_problems(nb)
     ['cell 1 (code) has a solution region but no nbgrader metadata (it must be a solution cell)']
@@ -135,9 +136,11 @@ def total_points(nb: Any) -> tuple[float, float]:
     >>> import nbformat
     >>> nb = nbformat.v4.new_notebook(cells=[
     ...     nbformat.v4.new_markdown_cell("## Exercise 1.1"),
-    ...     nbformat.v4.new_code_cell("x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
     ...                               metadata={"tags": ["answer"]}),
-    ...     nbformat.v4.new_code_cell("assert x == 2", metadata={"tags": ["check"]}),
+    ...     nbformat.v4.new_code_cell("assert x == 2",
+    ...                               metadata={"tags": ["check"]}),
     ... ])
     >>> total_points(nb)  # no nbgrader metadata yet
     (0.0, 0.0)
@@ -185,9 +188,11 @@ def add_nbgrader_metadata(nb: Any, *, prefix: str, points: float = 1.0, written_
     >>> import nbformat
     >>> nb = nbformat.v4.new_notebook(cells=[
     ...     nbformat.v4.new_markdown_cell("## Exercise 1.4 (b)"),
-    ...     nbformat.v4.new_code_cell("x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
     ...                               metadata={"tags": ["answer"]}),
-    ...     nbformat.v4.new_code_cell("assert x == 2", metadata={"tags": ["check"]}),
+    ...     nbformat.v4.new_code_cell("assert x == 2",
+    ...                               metadata={"tags": ["check"]}),
     ... ])
     >>> nb = add_nbgrader_metadata(nb, prefix="ex1")
     >>> [c.metadata["nbgrader"]["grade_id"] for c in nb.cells[1:]]

@@ -115,12 +115,16 @@ def check_part(lab: str, part: str, namespace: Mapping[str, Any]) -> Feedback:
     --------
     >>> import numpy as np
     >>> from uwtutor.acoustics import sound_speed
-    >>> cast = dict(cast_temperature=np.array([14.2, 7.0]), cast_salinity=np.array([30.5, 34.9]),
+    >>> cast = dict(cast_temperature=np.array([14.2, 7.0]),
+    ...             cast_salinity=np.array([30.5, 34.9]),
     ...             cast_depth=np.array([0.0, 180.0]))
-    >>> check_part("range_error_budget", "A", {**cast, "profile_speeds": np.array([1500.0, 1480.0])}).correct
+    >>> wrong = {**cast, "profile_speeds": np.array([1500.0, 1480.0])}
+    >>> check_part("range_error_budget", "A", wrong).correct
     False
-    >>> speeds = sound_speed(cast["cast_temperature"], cast["cast_salinity"], cast["cast_depth"])
-    >>> check_part("range_error_budget", "A", {**cast, "profile_speeds": speeds}).correct
+    >>> speeds = sound_speed(cast["cast_temperature"], cast["cast_salinity"],
+    ...                      cast["cast_depth"])
+    >>> right = {**cast, "profile_speeds": speeds}
+    >>> check_part("range_error_budget", "A", right).correct
     True
     """
     module = _module(lab)

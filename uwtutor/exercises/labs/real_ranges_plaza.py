@@ -179,7 +179,8 @@ def reference() -> dict[str, float]:
     Examples
     --------
     >>> import pytest
-    >>> _ = pytest.importorskip("gtsam")  # the Plaza data come with the gtsam wheel
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
     >>> ref = reference()  # three filters on Plaza 2: about three seconds
     >>> sorted(ref)
     ['nees_inside', 'nees_mean', 'rmse_cal', 'rmse_est', 's_cal', 'scale_end']
