@@ -14,8 +14,12 @@ Measured in one run, on this machine:
    ``jupyterlab_session.py``), from the key press that moves its first slider to the first frame painted with the
    new figure, against the same widget built the way widgets updated before; and what the kernel alone spends on
    that update (compute, draw, PNG), in this process; ``--no-browser`` leaves JupyterLab out;
-6. the peak memory of the 1000-run EKF study, in a fresh subprocess;
-7. the generic EKF on a real-data-sized odometry log: wheel odometry with a gyro bias and a range scale in the state,
+6. the range-only EKF study and the particle filter of 2. against the same filters written in plain numpy for the
+   purpose (``plain_numpy.py``: the same arithmetic and outputs, no checks), timed in turn in this process: the
+   ratio of the two CPU times (the wall times beside it) is what the library's validation, guards and generality
+   cost (``--only ekf_vs_numpy``, ``--only pf_vs_numpy``);
+7. the peak memory of the 1000-run EKF study, in a fresh subprocess;
+8. the generic EKF on a real-data-sized odometry log: wheel odometry with a gyro bias and a range scale in the state,
    4091 epochs x 4 beacons (the size of the CMU Plaza logs), one run; ``navigate`` on the real Plaza 2 log; and the
    bootstrap particle filter with the same odometry model pair on Plaza 2, N = 2000 (``--only pf_plaza``; skipped
    without the ``data`` extra).
@@ -42,6 +46,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:                   # time this checkout's uwtutor, not another installed copy
+    sys.path.insert(0, str(ROOT))
 RESULTS_FILE = ROOT / "benchmarks" / "results.json"
 PAGE_FILE = ROOT / "book" / "appendix_performance.md"
 START_MARKER = "<!-- BENCH-TABLE:START -->"
@@ -64,6 +70,8 @@ TARGETS = {
     "odometry_ekf_s": ("<=", 1.0),
     "navigate_plaza2_s": ("<=", 1.0),
     "pf_plaza2_s": ("<=", 10.0),
+    "ekf_vs_numpy_ratio": ("<=", 1.2),
+    "pf_vs_numpy_ratio": ("<=", 1.2),
 }
 
 #: Particles of the particle filter on Plaza 2.
@@ -168,6 +176,81 @@ def bench_ekf(repeats: int) -> dict[str, Any]:
     filterpy_full = sample * EKF_RUNS / FILTERPY_SAMPLE_RUNS
     return {"ekf_study_s": batched, "filterpy_sample_s": sample, "filterpy_sample_runs": FILTERPY_SAMPLE_RUNS,
             "filterpy_scaled_s": filterpy_full, "ekf_speedup_vs_filterpy": filterpy_full / batched}
+
+
+def interleaved_best(first: Callable[[], Any], second: Callable[[], Any],
+                     repeats: int) -> tuple[float, float, float, float]:
+    """Best wall times of ``first`` and ``second`` called in turn ``repeats`` times each, so that both see the
+    same load of the machine (a ratio of the two is then steadier than either time; the ratio benchmarks take
+    three times ``--repeats``), then the best CPU times of this process for each: the ratio of the CPU times is the
+    one compared with the target, since other processes on a shared machine disturb it far less than the wall
+    time (on a quiet machine the two agree)."""
+    wall = [float("inf"), float("inf")]
+    cpu = [float("inf"), float("inf")]
+    for _ in range(repeats):
+        for i, fn in enumerate((first, second)):
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            wall[i] = min(wall[i], time.perf_counter() - t0)
+            cpu[i] = min(cpu[i], time.process_time() - c0)
+    return wall[0], wall[1], cpu[0], cpu[1]
+
+
+def _plain_numpy() -> Any:
+    """``benchmarks/plain_numpy.py``, the plain-numpy references (imported by path: ``benchmarks`` is no package)."""
+    import importlib.util
+
+    name = "uwtutor_bench_plain_numpy"
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parent / "plain_numpy.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
+
+
+def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
+    """The study of ``bench_ekf`` (1000 runs x 1500 steps) with ``range_only_ekf`` and with the plain-numpy EKF of
+    ``plain_numpy.py`` (the same arithmetic, no checks), in turn in this process; their outputs must agree to 1e-9
+    (relative). The ratio of the CPU times is what the library's validation, guards and generality cost."""
+    from uwtutor.filters import range_only_ekf
+
+    plain = _plain_numpy()
+    inputs = ekf_study_inputs()
+    args = [inputs[k] for k in ("x0", "P0", "u", "z", "Q", "R")]
+    max_rel = plain.assert_ekf_agrees(range_only_ekf(**inputs), plain.range_only_ekf(*args))   # also a warm-up
+    ours, theirs, ours_cpu, theirs_cpu = interleaved_best(lambda: range_only_ekf(**inputs),
+                                                          lambda: plain.range_only_ekf(*args), 3 * repeats)
+    return {"ekf_vs_numpy_s": ours, "ekf_numpy_s": theirs, "ekf_vs_numpy_wall_ratio": ours / theirs,
+            "ekf_vs_numpy_ratio": ours_cpu / theirs_cpu, "ekf_vs_numpy_max_rel_diff": max_rel}
+
+
+def bench_pf_vs_numpy(repeats: int) -> dict[str, Any]:
+    """The particle filter of ``bench_pf`` (paper C's model, N = 1000, 2000 steps, one run, systematic resampling
+    every step, initial particles included) with ``BootstrapParticleFilter`` and with the plain-numpy filter of
+    ``plain_numpy.py`` on the same random stream, in turn in this process; their outputs must agree to 1e-9
+    (relative; they are equal draw for draw)."""
+    import numpy as np
+
+    from uwtutor.filters import BootstrapParticleFilter
+    from uwtutor.models import DepthSpeedPitchModel
+
+    plain = _plain_numpy()
+    model = DepthSpeedPitchModel()
+    _, measurements = model.simulate([20.0, 1.5, 0.05], PF_STEPS, np.random.default_rng(1))
+
+    def ours() -> Any:
+        return BootstrapParticleFilter.from_gaussian(model.motion, model.measurement, measurements[0], model.R,
+                                                     PF_PARTICLES, np.random.default_rng(2)).run(measurements)
+
+    def theirs() -> Any:
+        return plain.bootstrap_pf(measurements[0], model.R, measurements, PF_PARTICLES, np.random.default_rng(2),
+                                  model.motion.T, model.motion.process_std, model.R)
+
+    max_rel = plain.assert_pf_agrees(ours(), theirs())
+    ours_s, theirs_s, ours_cpu, theirs_cpu = interleaved_best(ours, theirs, 3 * repeats)
+    return {"pf_vs_numpy_s": ours_s, "pf_numpy_s": theirs_s, "pf_vs_numpy_wall_ratio": ours_s / theirs_s,
+            "pf_vs_numpy_ratio": ours_cpu / theirs_cpu, "pf_vs_numpy_max_rel_diff": max_rel}
 
 
 def bench_generic_ekf(repeats: int) -> dict[str, Any]:
@@ -646,6 +729,8 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_odometry_ekf(repeats))
     results.update(bench_navigate(repeats))
     results.update(bench_pf(repeats))
+    results.update(bench_ekf_vs_numpy(repeats))
+    results.update(bench_pf_vs_numpy(repeats))
     results.update(bench_pf_batched(repeats))
     results.update(bench_depth_filters(repeats))
     results.update(bench_pf_plaza(repeats))
@@ -672,6 +757,19 @@ def _target(key: str, targets: dict[str, list[Any]], unit: str) -> str:
     op, limit = targets[key]
     sign = "≤" if op == "<=" else "≥"
     return f"{sign} {limit:g}{unit}"
+
+
+def _agreement(max_rel_diff: float) -> str:
+    """How the library's outputs compare with the plain-numpy reference's, in words."""
+    if max_rel_diff == 0.0:
+        return "outputs equal bit for bit"
+    return f"outputs within {max_rel_diff:.0e} relative"
+
+
+def _wall(results: dict[str, Any], name: str) -> str:
+    """The wall times of the library and of plain numpy, and their ratio."""
+    ours, theirs = results[f"{name}_vs_numpy_s"], results[f"{name}_numpy_s"]
+    return f"{ours:.3f} s against {theirs:.3f} s of wall time ({ours / theirs:.2f}×)"
 
 
 def render_table(results: dict[str, Any]) -> str:
@@ -709,6 +807,19 @@ def render_table(results: dict[str, Any]) -> str:
     rows.append(("Same PF with filterpy's loop-based systematic_resample",
                  f"{results['pf_filterpy_resampler_steps_per_s']:,.0f} steps/s "
                  f"(ours {results['pf_speedup_vs_filterpy_resampler']:.1f}× faster)", "(reference)", "–"))
+    if "ekf_vs_numpy_ratio" in results:
+        r = results["ekf_vs_numpy_ratio"]
+        rows.append((f"Range-only EKF study against the same EKF in plain numpy (benchmarks/plain_numpy.py: the "
+                     f"same arithmetic, no checks), in turn in one process: {_wall(results, 'ekf')}; "
+                     f"{_agreement(results['ekf_vs_numpy_max_rel_diff'])}; measured: the ratio of the CPU times",
+                     f"{r:.2f}×",
+                     _target("ekf_vs_numpy_ratio", t, "×"), _status("ekf_vs_numpy_ratio", r, t)))
+    if "pf_vs_numpy_ratio" in results:
+        r = results["pf_vs_numpy_ratio"]
+        rows.append((f"Bootstrap PF above against the same PF in plain numpy on the same random stream, in turn in "
+                     f"one process: {_wall(results, 'pf')}; {_agreement(results['pf_vs_numpy_max_rel_diff'])}; "
+                     "measured: the ratio of the CPU times", f"{r:.2f}×",
+                     _target("pf_vs_numpy_ratio", t, "×"), _status("pf_vs_numpy_ratio", r, t)))
     if "pf_plaza2_s" in results:
         p = results["pf_plaza2_s"]
         rows.append((f"Bootstrap PF, N = {results['pf_plaza2_particles']}, with the odometry model pair of navigate "
@@ -791,7 +902,7 @@ def update_page(results: dict[str, Any], page: Path = PAGE_FILE) -> None:
 #: The benchmarks ``--only`` can run alone.
 SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
     "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
-    "navigate": bench_navigate, "pf": bench_pf,
+    "navigate": bench_navigate, "pf": bench_pf, "ekf_vs_numpy": bench_ekf_vs_numpy, "pf_vs_numpy": bench_pf_vs_numpy,
     "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters, "pf_plaza": bench_pf_plaza,
 }
 

@@ -338,7 +338,7 @@ SPECS: dict[str, Spec] = {
     "uwtutor.grey:gm11_next": Spec(lambda: dict(series=np.array([10.0, 11.0, 12.5, 13.0, 14.2])),
                                    kinds=dict(series=Real((None,), "pos"))),
     # scenarios and pipelines
-    "uwtutor.scenarios.suite:circle": Spec(lambda: dict(rng=np.random.default_rng(0), n=2)),
+    "uwtutor.scenarios.suite:circle": Spec(lambda: dict(rng=np.random.default_rng(0), n_runs=2)),
     "uwtutor.scenarios.suite:crlb_inputs": Spec(
         lambda: dict(scenario="circle", condition="white", n_tracks=3, seed=1998),
         kinds=dict(scenario=Choice(), condition=Choice(), n_tracks=Int(minimum=1, unbounded_work=True))),

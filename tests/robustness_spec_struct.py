@@ -95,7 +95,7 @@ def _run_object(cls_path: str):
 def _coop():
     """Four steps of paper B's pair: the follower's DR displacements, the leader's broadcast positions."""
     from uwtutor.scenarios import paper_b
-    p = paper_b.PAPER_B
+    p = paper_b.PARAMETERS
     t = np.arange(5.0)
     leader = np.column_stack([100.0 + 16.0 * t, 50.0 + 4.0 * t])
     return dict(x0=np.array([0.0, 0.0, 0.1, 0.0]), P0=np.diag([100.0, 100.0, 1.0, 1.0]),

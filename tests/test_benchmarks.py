@@ -35,7 +35,10 @@ def test_results_record_the_machine_and_the_targets():
     results = committed_results()
     assert set(results["widget_updates_ms"]) == set(bench.widget_factories()), "a widget is missing from the results"
     assert {"cpu_count", "numpy", "date", "python"} <= set(results["machine"])
-    assert results["targets"] == {k: list(v) for k, v in bench.TARGETS.items()}
+    targets = {k: list(v) for k, v in bench.TARGETS.items()}
+    assert results["targets"] == {k: targets[k] for k in results["targets"]}, "a target changed since --save"
+    added = set(targets) - set(results["targets"])          # a benchmark added since the results were saved
+    assert not added & set(results), "a measurement is saved without its target"
     assert results["sizes"] == {"ekf_runs": 1000, "ekf_steps": 1500, "pf_particles": 1000, "pf_steps": 2000}
 
 
@@ -93,3 +96,46 @@ def test_the_committed_latency_baseline_names_every_widget():
     baseline = bench.latency_baseline()
     assert len(baseline["commit"]) == 40
     assert set(baseline["widgets"]) == set(bench.widget_factories())
+
+
+def test_ratio_rows_against_plain_numpy():
+    """The two ratios to plain numpy (of the CPU times; the wall times and their ratio beside) get a row each,
+    marked against their target of 1.2 (rows absent from results saved before these benchmarks existed)."""
+    results = copy.deepcopy(committed_results())
+    for key in ("ekf_vs_numpy_ratio", "pf_vs_numpy_ratio"):
+        results.pop(key, None)
+    assert "plain numpy" not in bench.render_table(results)
+    results["targets"] = {k: list(v) for k, v in bench.TARGETS.items()}
+    results.update({"ekf_vs_numpy_s": 0.118, "ekf_numpy_s": 0.100, "ekf_vs_numpy_ratio": 1.19,
+                    "ekf_vs_numpy_max_rel_diff": 0.0, "pf_vs_numpy_s": 0.26,
+                    "pf_numpy_s": 0.20, "pf_vs_numpy_ratio": 1.30, "pf_vs_numpy_max_rel_diff": 3e-12})
+    rows = [row for row in bench.render_table(results).splitlines() if "plain numpy" in row]
+    assert len(rows) == 2
+    assert "| 1.19× | ≤ 1.2× | PASS |" in rows[0] and "0.118 s against 0.100 s of wall time (1.18×)" in rows[0]
+    assert "bit for bit" in rows[0] and "ratio of the CPU times" in rows[0]
+    assert "| 1.30× | ≤ 1.2× | MISS |" in rows[1] and "within 3e-12 relative" in rows[1]
+
+
+def test_plain_numpy_references_do_the_library_s_work():
+    """The plain-numpy filters of the ratio benchmarks give the library's outputs (here bit for bit) on a small
+    problem, with missing ranges; a wrong output is caught by the benchmark's own check."""
+    import numpy as np
+
+    from uwtutor.filters import BootstrapParticleFilter, range_only_ekf
+    from uwtutor.models import DepthSpeedPitchModel
+
+    plain = bench._plain_numpy()
+    inputs = bench.ekf_study_inputs(M=30, K=80, seed=3)
+    lib = range_only_ekf(**inputs)
+    ref = plain.range_only_ekf(*[inputs[k] for k in ("x0", "P0", "u", "z", "Q", "R")])
+    assert np.isnan(ref["y"]).any() and plain.assert_ekf_agrees(lib, ref) == 0.0
+    ref["P"][40, 0, 7] *= 1.0 + 1e-6
+    with pytest.raises(AssertionError, match="differs from the plain-numpy reference"):
+        plain.assert_ekf_agrees(lib, ref)
+    model = DepthSpeedPitchModel()
+    _, z = model.simulate([20.0, 1.5, 0.05], 60, np.random.default_rng(1))
+    res = BootstrapParticleFilter.from_gaussian(model.motion, model.measurement, z[0], model.R, 200,
+                                                np.random.default_rng(2)).run(z)
+    ref = plain.bootstrap_pf(z[0], model.R, z, 200, np.random.default_rng(2), model.motion.T,
+                             model.motion.process_std, model.R)
+    assert plain.assert_pf_agrees(res, ref) == 0.0

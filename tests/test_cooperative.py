@@ -15,7 +15,7 @@ from uwtutor.models.cooperative import (CooperativeMotion, SquaredRangePair, lea
 from uwtutor.observability import observability_rank
 from uwtutor.scenarios import paper_b
 
-P = paper_b.PAPER_B
+P = paper_b.PARAMETERS
 EXACT = dict(range_sigma=0.0, leader_sigma=0.0, dr_speed_sigma=0.0, dr_heading_sigma=0.0)
 Q_SMALL = np.diag([1e-6, 1e-6, 1e-6, 1e-6, 1e-10, 1e-10])
 R_SMALL = np.diag([1e-2] * 6 + [1e-6, 1e-6, 1e-10, 1e-10])

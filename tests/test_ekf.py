@@ -230,3 +230,36 @@ def test_object_form_bad_input():
     ekf.P = np.eye(2) * 3.0
     np.testing.assert_array_equal(ekf.x, [1.0, 2.0])
     np.testing.assert_array_equal(ekf.P, np.eye(2) * 3.0)
+
+
+def test_blocks_of_steps_equal_one_step_at_a_time():
+    """range_only_ekf runs blocks of steps and tests their posteriors together; a step that fails the test -- a
+    prediction exactly on the beacon (step 39, warned once), updates that only the line-of-sight form keeps PSD
+    (P0 = 1e150 I with R = 1e-6, first range at step 40) -- is done again with the step's own tests. The result is
+    the object form's, predict and update one step at a time, bit for bit."""
+    M, K = 3, 100
+    rng = np.random.default_rng(4)
+    x0 = np.array([[10.0, 0.0], [300.0, 40.0], [-200.0, 90.0]])
+    u = np.tile([-0.25, 0.0], (M, K, 1))                      # run 0 reaches the beacon at step 39 exactly
+    z = np.linalg.norm(x0[:, None, :] + np.cumsum(u, axis=1), axis=-1) + rng.normal(0.0, 1.0, (M, K))
+    z[0, :39] = np.nan                                          # predict only until then: no update moves run 0
+    z[0, 39] = 5.0
+    for P0, R, first in ((np.eye(2) * 400.0, 4.0, 0), (np.eye(2) * 1e150, 1e-6, 40)):
+        z_case = z.copy()
+        z_case[1:, :first] = np.nan
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = range_only_ekf(x0, P0, u, z_case, np.eye(2) * 1e-12, R)
+        one = RangeOnlyEKF(x0, P0, np.eye(2) * 1e-12, R)
+        with warnings.catch_warnings(record=True) as caught_one:
+            warnings.simplefilter("always")
+            for k in range(K):
+                one.predict(u[:, k])
+                one.update(z_case[:, k])
+                np.testing.assert_array_equal(res.x[:, k], one.x)
+                np.testing.assert_array_equal(res.P[:, k], one.P)
+                np.testing.assert_array_equal(res.innovations[:, k], one.y)
+                np.testing.assert_array_equal(res.extras["updated"][:, k], one.updated)
+        beacon = [w for w in caught if issubclass(w.category, BeaconSingularityWarning)]
+        assert len(beacon) == len([w for w in caught_one if issubclass(w.category, BeaconSingularityWarning)]) == 1
+        assert not res.extras["updated"][0, 39] and np.isnan(res.innovations[0, 39, 0])

@@ -199,7 +199,7 @@ def test_bad_input_names_the_argument():
         ExtendedKalmanFilter(motion, meas, [0.0, 0.0, 0.0], np.eye(2))
     with pytest.raises(ValueError, match="P0 must be positive definite"):
         ExtendedKalmanFilter(motion, meas, [0.0, 0.0], -np.eye(2))
-    with pytest.raises(ValueError, match="x0 and P0 disagree"):
+    with pytest.raises(ValueError, match="disagree on the number of runs M: x0 has"):
         ExtendedKalmanFilter(motion, meas, np.zeros((3, 2)), np.tile(np.eye(2), (4, 1, 1)))
     filt = ExtendedKalmanFilter(motion, meas, [10.0, 0.0], np.eye(2))
     with pytest.raises(ValueError, match="u must be the input of one step"):

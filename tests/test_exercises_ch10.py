@@ -124,7 +124,7 @@ def test_first_ratio_mistakes_get_their_hint(bound, table):
     white = rmse_bound(posterior_crlb(**suite.crlb_inputs("line", "white")))
     for answer, words in [(rmse[-1] / bound[-1], "last epoch"), (bound[0] / rmse[0], "over the bound"),
                           (rmse[0] / white[0], "white-noise bound"), (rmse[0] / bound[-1], "*final* bound"),
-                          (rmse[0] / np.sqrt(2 * suite.SUITE.start_sigma**2), "prior")]:
+                          (rmse[0] / np.sqrt(2 * suite.PARAMETERS.start_sigma**2), "prior")]:
         fb = ch10.check_first_ratio(answer)
         assert not fb.correct and words in _text(fb), (answer, _text(fb))
 

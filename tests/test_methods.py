@@ -98,7 +98,7 @@ def test_the_suite_draws_are_reproducible_and_shared_by_the_methods():
 
 
 def test_the_runs_follow_the_filters_model():
-    p = suite.SUITE
+    p = suite.PARAMETERS
     runs = suite.SCENARIOS["circle"](np.random.default_rng(2), 2000)
     start_error = runs.positions[:, 0] - runs.planned[0]
     np.testing.assert_allclose(start_error.std(axis=0), p.start_sigma, rtol=0.05)
@@ -111,7 +111,7 @@ def test_the_runs_follow_the_filters_model():
 
 
 def test_the_conditions_corrupt_what_they_say():
-    p = suite.SUITE
+    p = suite.PARAMETERS
     runs = suite.SCENARIOS["circle"](np.random.default_rng(0), 400)
     true_r = np.linalg.norm(runs.positions[:, 1:] - runs.beacon[:, 1:], axis=-1)
     white, truth = suite.white(np.random.default_rng(1), runs)
@@ -146,7 +146,7 @@ def test_the_moving_beacon_changes_bearing_without_a_turn():
 def test_the_bounds_shrink_and_the_extra_states_cost_information(scenario):
     bounds = methods.suite_bounds([scenario])
     white = bounds[(scenario, "white")]
-    p = suite.SUITE
+    p = suite.PARAMETERS
     assert white[0] < np.hypot(p.start_sigma, p.start_sigma)           # the first range already informs
     assert white[-1] < 0.3 * white[0]
     for harder in ("bias", "sound speed"):      # the same tracks, less information (the current moves the tracks)
@@ -159,7 +159,7 @@ def test_the_bounds_shrink_and_the_extra_states_cost_information(scenario):
 def test_the_bound_averages_the_information_over_the_scattered_tracks():
     # The expectation is over the true tracks: one range at 1 km, bearings scattered by about 100 m / 1 km, gives
     # the tangential direction an information of E[sin^2] / sigma_r^2, which the average reproduces.
-    p = suite.SUITE
+    p = suite.PARAMETERS
     args = suite.crlb_inputs("circle", "white", n_tracks=4000, seed=5)
     pos = args["positions"][:, 0]
     e = pos / np.linalg.norm(pos, axis=-1, keepdims=True)

@@ -362,7 +362,7 @@ def test_particle_filter_likelihood_marginalises_missing_components():
 
 def test_cooperative_pairs_follow_the_chosen_rule():
     sc = paper_b.make(np.random.default_rng(3), 2, packet_loss=0.3)
-    p = paper_b.PAPER_B
+    p = paper_b.PARAMETERS
     args = (p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.leader_broadcast, sc.ranges, p.interval,
             p.Q, p.R)
     step = cooperative_ekf(*args)

@@ -264,7 +264,7 @@ def _pair_cases():
                   np.tile([300.0, -5.0], (M, 1)), np.diag([4.0, 25.0]), None,
                   states[..., :1] + rng.normal(0.0, 2.0, (M, K, 1)), states[..., :1]))
     sc = paper_b.make(np.random.default_rng(5), M, duration=8.0 * 40)       # a leader per run: per-run parameters
-    p = paper_b.PAPER_B
+    p = paper_b.PARAMETERS
     cases.append(("CooperativeMotion + SquaredRangePair", CooperativeMotion(8.0, p.Q),
                   SquaredRangePair(sc.leader_broadcast, sc.dr_displacements, 8.0, p.R), np.tile(p.x1, (M, 1)),
                   np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, range_pairs(sc.ranges) ** 2,

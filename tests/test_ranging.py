@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uwtutor.motion import straight_track
-from uwtutor.ranging import (CompositeError, GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError,
+from uwtutor.ranging import (RangeErrorSum, GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedMismatch,
                              add_range_errors, horizontal_range, measure_ranges, reception_times, slant_range)
 
 K = 50
@@ -17,7 +17,7 @@ RANGES = np.linspace(500.0, 3000.0, K)
 
 ALL_MODELS = [
     GaussianNoise(1.0),
-    SoundSpeedError(),
+    SoundSpeedMismatch(),
     SlowBias(2.0, 3.0, 20.0),
     Outliers((10.0,), 5, 80.0, two_sided=True, probability=0.05),
     GaussianNoise(0.5) + SlowBias(0.0, 1.0, 5.0) + Outliers((3.0,), 2, 50.0),
@@ -76,9 +76,9 @@ def test_models_are_frozen():
 # --- composition -----------------------------------------------------------------------------------------------
 
 def test_composite_is_the_sum_of_its_parts():
-    a, b, c = GaussianNoise(1.0), SoundSpeedError(), SlowBias(1.0, 2.0, 10.0)
+    a, b, c = GaussianNoise(1.0), SoundSpeedMismatch(), SlowBias(1.0, 2.0, 10.0)
     total = a + b + c
-    assert isinstance(total, CompositeError) and total.parts == (a, b, c)   # flattened
+    assert isinstance(total, RangeErrorSum) and total.parts == (a, b, c)   # flattened
     assert (a + (b + c)).parts == (a, b, c)
     assert sum([a, b, c]) == total
     # the same draws in the same order: sum of the parts' samples from one generator
@@ -89,9 +89,9 @@ def test_composite_is_the_sum_of_its_parts():
 
 def test_composite_rejects_bad_parts():
     with pytest.raises(TypeError, match="parts"):
-        CompositeError((GaussianNoise(1.0), 3.0))
+        RangeErrorSum((GaussianNoise(1.0), 3.0))
     with pytest.raises(ValueError, match="parts"):
-        CompositeError(())
+        RangeErrorSum(())
     with pytest.raises(TypeError):
         GaussianNoise(1.0) + 1.0
 
@@ -120,10 +120,10 @@ def test_gaussian_noise_rejects_bad_sigma(sigma):
         GaussianNoise(sigma)
 
 
-# --- SoundSpeedError -------------------------------------------------------------------------------------------
+# --- SoundSpeedMismatch -------------------------------------------------------------------------------------------
 
 def test_sound_speed_error_mean_and_std_match_samples():
-    model = SoundSpeedError(true_speed=1500.0, assumed_speed=1470.0, speed_sigma=1.0)
+    model = SoundSpeedMismatch(true_speed=1500.0, assumed_speed=1470.0, speed_sigma=1.0)
     r = np.array([500.0, 2000.0])
     e = model.sample(r, [0.0, 1.0], np.random.default_rng(2), n_runs=200_000)
     # sample mean within 5 standard errors; sample std within 1 %
@@ -136,12 +136,12 @@ def test_sound_speed_error_mean_and_std_match_samples():
 
 
 def test_sound_speed_error_without_scatter_is_a_scale_error():
-    model = SoundSpeedError(1500.0, 1515.0, 0.0)
+    model = SoundSpeedMismatch(1500.0, 1515.0, 0.0)
     np.testing.assert_allclose(model.sample(RANGES, TIMES, np.random.default_rng(0)), 0.01 * RANGES)
 
 
 def test_sound_speed_error_draws_one_speed_per_ping():
-    e = SoundSpeedError(1500.0, 1500.0, 5.0).sample(np.full(K, 1000.0), TIMES, np.random.default_rng(0))
+    e = SoundSpeedMismatch(1500.0, 1500.0, 5.0).sample(np.full(K, 1000.0), TIMES, np.random.default_rng(0))
     assert len(np.unique(e)) == K
 
 
@@ -152,14 +152,14 @@ def test_sound_speed_error_draws_one_speed_per_ping():
 ])
 def test_sound_speed_error_rejects_bad_parameters(kwargs, name):
     with pytest.raises(ValueError, match=name):
-        SoundSpeedError(**kwargs)
+        SoundSpeedMismatch(**kwargs)
 
 
 def test_sound_speed_error_mean_rejects_negative_range():
     with pytest.raises(ValueError, match="true_range"):
-        SoundSpeedError().mean_error(-1.0)
+        SoundSpeedMismatch().mean_error(-1.0)
     with pytest.raises(ValueError, match="true_range"):
-        SoundSpeedError().error_std(np.nan)
+        SoundSpeedMismatch().error_std(np.nan)
 
 
 # --- SlowBias --------------------------------------------------------------------------------------------------
@@ -261,7 +261,7 @@ def test_outlier_mask_rejects_bad_input():
 # --- measure_ranges --------------------------------------------------------------------------------------------
 
 def test_measure_ranges_adds_the_errors():
-    model = GaussianNoise(1.0) + SoundSpeedError()
+    model = GaussianNoise(1.0) + SoundSpeedMismatch()
     measured = measure_ranges(RANGES, TIMES, model, np.random.default_rng(3), n_runs=5)
     np.testing.assert_allclose(measured - RANGES, model.sample(RANGES, TIMES, np.random.default_rng(3), n_runs=5))
     np.testing.assert_array_equal(measure_ranges(RANGES, TIMES, None, np.random.default_rng(0)), RANGES)

@@ -193,3 +193,23 @@ def test_rng_must_be_a_generator(resample):
 def test_huge_weights_do_not_overflow():
     idx = systematic_resample([1e308, 1e308, 0.0], np.random.default_rng(0))
     assert set(idx.tolist()) <= {0, 1}
+
+
+def test_the_filters_systematic_resampler_is_the_public_one():
+    """The particle filters resample their own (checked, normalized) weights with a private copy of
+    systematic_resample that skips the checks: the same indices and the same use of the generator, also for
+    trailing zero weights and for weights whose sum is off by more than the tolerance."""
+    from uwtutor.filters.particle.bootstrap import _systematic_own_weights as _systematic_trusted
+
+    rng = np.random.default_rng(11)
+    for N in (1, 2, 7, 1000):
+        for case in range(4):
+            w = rng.random(N) ** 8
+            if case == 1 and N > 2:
+                w[-2:] = 0.0
+            w = w / w.sum()
+            if case == 2:
+                w = w * 1.01
+            a, b = np.random.default_rng(case), np.random.default_rng(case)
+            np.testing.assert_array_equal(_systematic_trusted(w, a), systematic_resample(w, b))
+            assert a.random() == b.random()

@@ -236,7 +236,7 @@ def test_bad_input_names_the_argument(kwargs, match):
 
 
 def test_noise_model_of_the_scenario_is_the_papers():
-    p = paper_e.PaperE()
+    p = paper_e.PaperEParameters()
     assert (p.q, p.r, p.delta, p.outlier_amplitude, p.outlier_counts, p.budget_runs) == (2.0, 2.0, 0.03, 80.0,
                                                                                          (10, 20), 50_000)
     dive = paper_e.make(np.random.default_rng(0), 2)

@@ -310,7 +310,7 @@ def _raises(exc, match, fn, *args, **kwargs):
      lambda: paper_b.make(np.random.default_rng(0), 1, interval=1e-300)),
     ("paper_b one-element interval", ValueError, "interval must be a single number",
      lambda: paper_b.make(np.random.default_rng(0), 1, interval=[8.0])),
-    ("suite unbounded work", ValueError, r"n asks for .* use fewer, or run them in chunks",
+    ("suite unbounded work", ValueError, r"n_runs asks for .* use fewer, or run them in chunks",
      lambda: suite.circle(np.random.default_rng(0), 10**8)),
     ("metrics 1e300 estimate", ValueError, "estimates must be finite .* and at most",
      lambda: metrics.rmse_over_time(TRACK + [1e300, 0.0], TRACK)),
@@ -531,3 +531,17 @@ def test_a_composed_test_gate_returning_a_float_does_not_count_as_true():
         _run(gate=ReacquiringGate(Fuzzy()))
     with pytest.raises(TypeError, match=r"the gate Fuzzy\.accept must return bools"):
         _run(gate=RobustGate(Fuzzy(), np.r_[0.0, np.ones(K - 1)]))
+
+
+def test_a_squared_range_pair_whose_paths_disagree_on_the_runs_is_refused():
+    """Per-run leader and displacement paths of different run counts: refused when the model is made (its n_runs
+    read None, 'shared by every run', before)."""
+    import numpy as np
+    import pytest
+
+    from uwtutor.models import SquaredRangePair
+
+    K = 5
+    with pytest.raises(ValueError, match="runs M: leader has 3, displacements has 4"):
+        SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((4, K, 2)), 8.0, np.eye(10))
+    assert SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((K, 2)), 8.0, np.eye(10)).n_runs == 3

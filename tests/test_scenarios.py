@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from uwtutor.motion import circle_track, s_turn_track, straight_track
-from uwtutor.ranging import GaussianNoise, Outliers, SoundSpeedError, reception_times
+from uwtutor.ranging import GaussianNoise, Outliers, SoundSpeedMismatch, reception_times
 from uwtutor.scenarios import (Scenario, ScenarioRun, approach_with_turn_scenario, circling_scenario,
                                make_scenario, ship_and_submersible_scenario)
 
@@ -190,7 +190,7 @@ def test_approach_with_turn_scenario_matches_paper_d():
     assert rel.mean() == pytest.approx(-0.02, abs=2e-4)
     dr_err = sc.dr_displacements[:, 1:] - np.diff(sc.true_positions, axis=1)
     assert dr_err.var() == pytest.approx(0.81, rel=0.03)
-    model = SoundSpeedError()
+    model = SoundSpeedMismatch()
     resid = sc.range_errors - model.mean_error(sc.true_ranges)
     np.testing.assert_allclose(resid.var(axis=0).mean(),
                                np.mean(model.error_std(sc.true_ranges[0]) ** 2 + 0.49), rtol=0.05)
@@ -241,3 +241,34 @@ def test_paper_scenarios_require_a_generator(builder):
     with pytest.raises(TypeError, match="rng"):
         builder(0)
 
+
+
+def test_paper_d_make_takes_a_parameter_set_as_params():
+    from uwtutor.scenarios import paper_d
+
+    quiet = paper_d.PaperDParameters(R=0.0, speed_sigma=0.0, Q=0.0)
+    sc = paper_d.make(np.random.default_rng(1), 2, params=quiet, duration=200.0)
+    # no noise, no speed scatter: the errors are the pure scale error of the mean speed
+    np.testing.assert_allclose(sc.range_errors, (quiet.mu_gamma_true - 1.0) * sc.true_ranges, rtol=1e-9)
+    np.testing.assert_allclose(sc.dr_displacements[:, 1:], np.diff(sc.true_positions, axis=1), atol=1e-9)
+    # the default is the paper's own set, and the same seed gives the same draws
+    same = paper_d.make(np.random.default_rng(1), 2, duration=200.0)
+    np.testing.assert_array_equal(same.ranges,
+                                  paper_d.make(np.random.default_rng(1), 2, paper_d.PARAMETERS, duration=200.0).ranges)
+    with pytest.raises(TypeError, match="params must be a uwtutor.scenarios.paper_d.PaperDParameters"):
+        paper_d.make(np.random.default_rng(0), 1, params={"R": 0.0})
+
+
+def test_suite_geometries_count_their_runs_as_n_runs():
+    from uwtutor.scenarios import suite
+
+    for name, scenario in suite.SCENARIOS.items():
+        by_position = scenario(np.random.default_rng(3), 2)
+        by_keyword = scenario(np.random.default_rng(3), n_runs=2, params=suite.PARAMETERS)
+        assert by_position.n_runs == 2, name
+        np.testing.assert_array_equal(by_position.positions, by_keyword.positions)
+    with pytest.raises(ValueError, match="n_runs must be"):
+        suite.circle(np.random.default_rng(0), 0)
+    # crlb_inputs passes its n_tracks as the scenario's n_runs, and names its own argument when it is too many
+    with pytest.raises(ValueError, match="n_tracks asks for"):
+        suite.crlb_inputs("circle", "white", n_tracks=10**8)

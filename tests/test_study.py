@@ -43,7 +43,7 @@ def test_the_table_covers_every_claimed_pair_under_every_condition(table, run_in
     assert set(got) == expected
     assert (table.n_runs == run_info["runs"]).all() and table.seed == run_info["seed"]
     assert table.chunk_size == run_info["chunk_size"]
-    assert (table.n_steps == suite.SUITE.n_epochs).all()
+    assert (table.n_steps == suite.PARAMETERS.n_epochs).all()
 
 
 def test_the_bounds_in_the_table_are_the_suites(table):

@@ -95,3 +95,34 @@ def test_gram_matrices_are_accepted_as_covariances(values):
     A = np.array(values).reshape(2, 2)
     P = A @ A.T + 1e-3 * np.eye(2)
     np.testing.assert_array_equal(v.as_covariance("P", P, 2), P)
+
+
+@pytest.mark.parametrize("layout", ["C", "F", "strided"])
+def test_large_arrays_get_the_same_answers_as_small_ones(layout):
+    """Arrays of more than 1000 elements are first tested in one quick pass (blocks' minima and maxima); a bad
+    element anywhere, in the last block too, still gets the full check and its message."""
+    base = np.random.default_rng(0).uniform(0.0, 100.0, (300, 400))
+    for where in ((0, 0), (150, 7), (299, 399)):
+        for bad, message in ((np.nan, "must be finite; got nan"), (np.inf, "must be finite; got inf"),
+                             (-np.inf, "must be finite; got -inf"), (2e150, "at most 1e\\+150 in magnitude"),
+                             (-2e150, "at most 1e\\+150 in magnitude")):
+            a = base.copy()
+            a[where] = bad
+            a = {"C": a, "F": np.asfortranarray(a), "strided": np.repeat(a, 2, axis=1)[:, ::2]}[layout]
+            with pytest.raises(ValueError, match=message):
+                v.as_finite("u", a, max_abs=1e150)
+        for bad, message in ((np.inf, "finite and >= 0; use NaN"), (-1.0, "finite and >= 0; use NaN"),
+                             (-np.inf, "finite and >= 0; use NaN"), (2e150, "at most 1e\\+150")):
+            a = base.copy()
+            a[where] = bad
+            with pytest.raises(ValueError, match=message):
+                v.as_range_array("z", a, allow_nan=True, max_abs=1e150)
+        a = base.copy()
+        a[where] = np.nan
+        assert v.as_range_array("z", a, allow_nan=True) is a                     # NaN: a missing range
+        with pytest.raises(ValueError, match="z must be finite and >= 0; got nan"):
+            v.as_range_array("z", a)
+    assert v.as_finite("u", base, max_abs=1e150) is base and v.as_range_array("z", base) is base
+    assert v.as_range_array("z", np.full(2000, np.nan), allow_nan=True).shape == (2000,)   # all missing
+    with pytest.raises(ValueError, match="must be finite"):
+        v.as_finite("u", np.full(2000, np.nan))

@@ -19,7 +19,7 @@ def test_profile_follows_the_kinematics_and_the_noise_schedule():
     np.testing.assert_allclose(np.diff(z), v[1:] * np.sin(phi[1:]) * p.T, atol=1e-12)
     assert z[0] == pytest.approx(10.0 + v[0] * np.sin(phi[0]) * p.T)
     assert np.degrees(phi.max()) == pytest.approx(20.0) and np.degrees(phi.min()) == pytest.approx(-25.0)
-    nominal = ch06.PAPER_C["sensor_std"]
+    nominal = ch06.PARAMETERS.sensor_std
     for time, factor in ((5.0, 1.0), (20.0, 3.0), (35.0, 1.0), (50.0, 0.5)):
         k = np.searchsorted(p.times, time)
         np.testing.assert_allclose(p.sensor_std[k], factor * nominal)
@@ -95,7 +95,7 @@ def test_gpf_view_at_its_defaults():
     assert v.ess.shape == (240,) and (v.ess <= 200 + 1e-9).all()
     # the noise changes at 13 s by the chosen factor
     k = np.searchsorted(v.times, 14.0)
-    np.testing.assert_allclose(v.true_noise_std[k], 3.0 * ch06.PAPER_C["sensor_std"])
+    np.testing.assert_allclose(v.true_noise_std[k], 3.0 * ch06.PARAMETERS.sensor_std)
     # reproducible, and the GPF beats the EKF in depth when the noise triples
     w = ch06.gpf_view()
     np.testing.assert_array_equal(v.estimates["GPF"], w.estimates["GPF"])
@@ -135,9 +135,10 @@ def test_paper_c_scenario_module_holds_the_papers_content():
     np.testing.assert_allclose(p.process_std, [0.2, 0.01, np.radians(0.5)])
     np.testing.assert_allclose(p.R, np.diag(p.sensor_std**2))
     assert np.linalg.eigvalsh(p.Q_as_printed).min() < 0             # the printed Q is not a covariance
-    assert set(paper_c.PAPER_C) == {f for f in p.as_dict()}
+    for name, value in p.as_dict().items():                        # the module's default set is the paper's
+        np.testing.assert_array_equal(getattr(paper_c.PARAMETERS, name), value)
     # the widget module shows the same objects under the chapter's names
-    assert ch06.PAPER_C is paper_c.PAPER_C and ch06.run_depth_study is run_depth_study
+    assert ch06.PARAMETERS is paper_c.PARAMETERS and ch06.run_depth_study is run_depth_study
     assert ch06.maneuvering_depth_profile is paper_c.maneuvering_depth_profile
     assert ch06.DepthStudy is DepthStudy and ch06.FILTER_NAMES == paper_c.FILTER_NAMES
     # make(rng, n_runs) is the chapter's profile and sensor draws
@@ -150,8 +151,8 @@ def test_paper_c_scenario_module_holds_the_papers_content():
     short = paper_c.make(np.random.default_rng(0), 2, duration=6.0, noise_factors=(1.0, 2.0),
                          noise_change_times=(30.0,))
     assert short.measurements.shape == (2, 120, 3)
-    with pytest.raises(TypeError, match="parameters must be a PaperCParameters"):
-        paper_c.make(np.random.default_rng(0), 1, parameters={"T": 0.1})
+    with pytest.raises(TypeError, match="params must be a PaperCParameters"):
+        paper_c.make(np.random.default_rng(0), 1, params={"T": 0.1})
 
 
 def test_run_depth_study_batches_the_runs_like_single_runs():
@@ -166,7 +167,7 @@ def test_run_depth_study_batches_the_runs_like_single_runs():
     R = paper_c.PaperCParameters().R
     from uwtutor.models import DepthSensors, DepthSpeedPitch
 
-    motion, sensors = DepthSpeedPitch(T=0.05, process_std=paper_c.PAPER_C["process_std"]), DepthSensors(R)
+    motion, sensors = DepthSpeedPitch(T=0.05, process_std=paper_c.PARAMETERS.process_std), DepthSensors(R)
     for m in range(2):
         one = GreyParticleFilter.from_gaussian(motion, sensors, sc.measurements[m, 0], R, 100,
                                                np.random.default_rng(3 + m),

@@ -197,12 +197,34 @@ def as_float_array(name: str, value: Any, *, ndim: int | tuple[int, ...] | None 
     return arr
 
 
+_FLOAT_MAX = float(np.finfo(float).max)
+
+
+def _all_within(arr: np.ndarray, low: float, high: float, ignore_nan: bool = False) -> bool:
+    """Whether every element of ``arr`` lies in ``[low, high]`` (a NaN never does, unless ``ignore_nan``; an array
+    of NaNs only is never within): the quick test of a valid array, one pass through memory with no temporary
+    array (the minimum and the maximum of blocks that stay in cache). False says only "look closer"."""
+    smallest, largest = (np.fmin.reduce, np.fmax.reduce) if ignore_nan else (np.minimum.reduce, np.maximum.reduce)
+    if not (arr.flags.c_contiguous or arr.flags.f_contiguous):
+        return bool(smallest(arr, axis=None) >= low and largest(arr, axis=None) <= high)
+    flat = arr.ravel(order="K")                       # a view
+    block = 1 << 16
+    for start in range(0, flat.size, block):
+        part = flat[start:start + block]
+        if not (smallest(part) >= low and largest(part) <= high):
+            return False
+    return True
+
+
 def as_finite(name: str, value: Any, *, max_abs: float | None = None, **shape_kw: Any) -> np.ndarray:
     """A float array with no NaN or infinity (see :func:`as_float_array` for the shape keywords).
 
     With ``max_abs``, magnitudes above it are refused too (values whose squares or products would overflow).
     """
     arr = as_float_array(name, value, **shape_kw)
+    limit = _FLOAT_MAX if max_abs is None else max_abs
+    if arr.size > 1000 and _all_within(arr, -limit, limit):       # large and valid: one quick pass
+        return arr
     bad = ~np.isfinite(arr)
     if bad.any():
         where = _first_bad_index(bad) if arr.ndim else "the value"
@@ -259,6 +281,8 @@ def as_range_array(name: str, value: Any, *, allow_nan: bool = False, max_abs: f
     ``None`` is never a missing range (it is refused by name): write NaN.
     """
     arr = as_float_array(name, value, **shape_kw)
+    if arr.size > 1000 and _all_within(arr, 0.0, _FLOAT_MAX if max_abs is None else max_abs, ignore_nan=allow_nan):
+        return arr                                    # large and valid: one quick pass
     bad = np.isinf(arr) if allow_nan else ~np.isfinite(arr)
     bad |= arr < 0
     if bad.any():

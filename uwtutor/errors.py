@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from typing import Any, Callable
 
 __all__ = [
     "UwtutorWarning",
@@ -35,6 +36,7 @@ __all__ = [
     "IllConditionedWarning",
     "IllConditionedError",
     "warn",
+    "deprecated_aliases",
 ]
 
 
@@ -94,3 +96,64 @@ def warn(message: str, category: type[Warning] = UwtutorWarning) -> None:
         frame = frame.f_back
         level += 1
     warnings.warn(message, category, stacklevel=level)
+
+
+def deprecated_aliases(module: str, aliases: dict[str, Any]) -> Callable[[str], Any]:
+    """A module-level ``__getattr__`` (PEP 562) that keeps the old names of renamed objects importable for one release.
+
+    ``aliases`` maps each old name to its new one (a name of the same module), or to a pair ``(replacement,
+    value)``: the text the warning recommends and a function of no arguments that returns what the old name gives.
+    Reading an old name emits a :class:`DeprecationWarning` naming the replacement, attributed to the caller's line
+    (see :func:`warn`); the old names are not in the module's ``__all__``. Any other missing name raises
+    :class:`AttributeError` as usual.
+
+    Parameters
+    ----------
+    module : str
+        The ``__name__`` of the module that assigns the result to its ``__getattr__``.
+    aliases : dict
+        ``{old: new}`` or ``{old: (replacement, value)}``.
+
+    Returns
+    -------
+    callable
+        The module's ``__getattr__``.
+
+    Examples
+    --------
+    >>> import types, warnings
+    >>> from uwtutor.errors import deprecated_aliases
+    >>> mod = types.ModuleType("demo")
+    >>> mod.NEW = 42
+    >>> mod.__getattr__ = deprecated_aliases("demo", {"OLD": ("demo.NEW", lambda: mod.NEW)})
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     value = mod.OLD
+    >>> value, caught[0].category.__name__
+    (42, 'DeprecationWarning')
+    >>> print(caught[0].message)
+    demo.OLD is deprecated and will be removed in the next release: use demo.NEW
+    """
+    if not isinstance(module, str):
+        raise TypeError(f"module must be the module's __name__ (a string); got {type(module).__name__}")
+    if not isinstance(aliases, dict) or not all(isinstance(old, str) for old in aliases):
+        raise TypeError("aliases must be a dict from old names (strings) to new names or (replacement, value) pairs")
+    table: dict[str, tuple[str, Callable[[], Any]]] = {}
+    for old, new in aliases.items():
+        if isinstance(new, str):
+            table[old] = (f"{module}.{new}", lambda new=new: getattr(sys.modules[module], new))
+        elif isinstance(new, tuple) and len(new) == 2 and isinstance(new[0], str) and callable(new[1]):
+            table[old] = new
+        else:
+            raise TypeError(f"aliases[{old!r}] must be a new name (a string) or a (replacement, value) pair; got "
+                            f"{type(new).__name__}")
+
+    def __getattr__(name: str) -> Any:
+        if name not in table:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        replacement, value = table[name]
+        warn(f"{module}.{name} is deprecated and will be removed in the next release: use {replacement}",
+             DeprecationWarning)
+        return value()
+
+    return __getattr__

@@ -683,9 +683,10 @@ def scenario_draw(scenario: Callable[[np.random.Generator, int], Any],
                   condition: Callable[[np.random.Generator, Any], tuple[Any, Any]]) -> Callable[..., tuple[Any, Any]]:
     """The ``draw(rng, n)`` of :func:`run_study` for a scenario under an error condition (see :func:`compare`).
 
-    ``scenario(rng, n)`` makes ``n`` runs of a geometry (true tracks, beacon, DR); ``condition(rng, runs)``
-    measures them under an error model and returns ``(inputs, truth)``. The result is a ``functools.partial``
-    of a module-level function, so it can be sent to a process pool when ``scenario`` and ``condition`` can.
+    ``scenario(rng, n_runs)`` (called with ``n_runs`` by position) makes that many runs of a geometry (true tracks,
+    beacon, DR); ``condition(rng, runs)`` measures them under an error model and returns ``(inputs, truth)``. The
+    result is a ``functools.partial`` of a module-level function, so it can be sent to a process pool when
+    ``scenario`` and ``condition`` can.
     """
     import functools
 
@@ -970,8 +971,8 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
     methods : dict of str to callable
         ``name -> method``; a method is ``method(inputs) -> FilterResult``, batched over the runs.
     scenarios : dict of str to callable
-        ``name -> scenario``; ``scenario(rng, n)`` makes ``n`` runs of a geometry (any object: tracks, beacon,
-        DR displacements...).
+        ``name -> scenario``; ``scenario(rng, n_runs)`` (``n_runs`` given by position) makes that many runs of a
+        geometry (any object: tracks, beacon, DR displacements...).
     conditions : dict of str to callable
         ``name -> condition``; ``condition(rng, runs)`` measures a scenario's runs under an error model and
         returns ``(inputs, truth)``, as a ``draw`` of :func:`run_study` does.

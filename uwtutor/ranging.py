@@ -5,7 +5,7 @@ what they assume about :math:`e_k`, and each assumption is a small model here:
 
 ==========================  ===================================================================================
 ``GaussianNoise``           white, additive: every paper
-``SoundSpeedError``         multiplicative, from converting travel time with the wrong sound speed
+``SoundSpeedMismatch``      multiplicative, from converting travel time with the wrong sound speed
                             (Zhu et al. (2019), paper D; the :math:`\gamma r_k` term of paper A)
 ``SlowBias``                slowly varying bias, low-pass filtered white noise plus a mean (Liu et al., paper A)
 ``Outliers``                patches of gross errors (paper E)
@@ -13,8 +13,10 @@ what they assume about :math:`e_k`, and each assumption is a small model here:
 
 Every model is an immutable dataclass with one method, ``sample(true_ranges, times, rng, n_runs=None)``,
 returning the additive error for each epoch: shape ``(K,)``, or ``(M, K)`` for ``M`` Monte Carlo runs. Models add
-up: ``GaussianNoise(0.7) + SoundSpeedError()`` is a ``CompositeError`` whose error is the sum of the parts'
-errors, each part drawing its randomness from the same ``rng`` in turn.
+up: ``GaussianNoise(0.7) + SoundSpeedMismatch()`` is a ``RangeErrorSum`` whose error is the sum of the parts'
+errors, each part drawing its randomness from the same ``rng`` in turn. (The models are not exceptions: the library's
+exceptions and warnings live in :mod:`uwtutor.errors`. Until the next release the models' former names
+``SoundSpeedError`` and ``CompositeError`` still import, with a ``DeprecationWarning``.)
 
 ``sample_with_mask`` returns the error together with a boolean mask of the epochs hit by an outlier, from the
 *same* random draw, so that an outlier detector can be scored against the truth (the mask is all False for
@@ -34,12 +36,13 @@ from ._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_i
                         as_position_function, as_positive, as_range_array, as_rng, as_scalar, as_times, check_work,
                         with_runs)
 from .acoustics import range_factor
+from .errors import deprecated_aliases
 
 __all__ = [
     "RangeErrorModel",
-    "CompositeError",
+    "RangeErrorSum",
     "GaussianNoise",
-    "SoundSpeedError",
+    "SoundSpeedMismatch",
     "SlowBias",
     "Outliers",
     "measure_ranges",
@@ -127,10 +130,10 @@ class RangeErrorModel:
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - abstract
         raise NotImplementedError
 
-    def __add__(self, other: Any) -> CompositeError:
+    def __add__(self, other: Any) -> RangeErrorSum:
         if not isinstance(other, RangeErrorModel):
             return NotImplemented
-        return CompositeError(_parts(self) + _parts(other))
+        return RangeErrorSum(_parts(self) + _parts(other))
 
     def __radd__(self, other: Any) -> RangeErrorModel:
         # Lets ``sum(models)`` work: sum starts from 0.
@@ -140,11 +143,11 @@ class RangeErrorModel:
 
 
 def _parts(model: RangeErrorModel) -> tuple[RangeErrorModel, ...]:
-    return model.parts if isinstance(model, CompositeError) else (model,)
+    return model.parts if isinstance(model, RangeErrorSum) else (model,)
 
 
 @dataclass(frozen=True)
-class CompositeError(RangeErrorModel):
+class RangeErrorSum(RangeErrorModel):
     """Sum of several error models, usually made with ``+``: ``GaussianNoise(1.0) + SlowBias(5.0, 3.0, 600.0)``.
 
     Parameters
@@ -156,9 +159,9 @@ class CompositeError(RangeErrorModel):
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.ranging import CompositeError, GaussianNoise, SlowBias
+    >>> from uwtutor.ranging import GaussianNoise, RangeErrorSum, SlowBias
     >>> model = GaussianNoise(1.0) + SlowBias(5.0, 3.0, 600.0)
-    >>> isinstance(model, CompositeError), len(model.parts)
+    >>> isinstance(model, RangeErrorSum), len(model.parts)
     (True, 2)
     >>> e = model.sample(
     ...     np.full(50, 1000.0), 10.0 * np.arange(50), np.random.default_rng(0), n_runs=400
@@ -224,7 +227,7 @@ class GaussianNoise(RangeErrorModel):
 
 
 @dataclass(frozen=True)
-class SoundSpeedError(RangeErrorModel):
+class SoundSpeedMismatch(RangeErrorModel):
     r"""Multiplicative range error from an uncertain sound speed (Zhu et al. (2019), paper D).
 
     Each ping travels at a true effective speed :math:`c_{\mathrm{e},k} \sim \mathcal{N}(\bar c_\mathrm{e},
@@ -262,8 +265,8 @@ class SoundSpeedError(RangeErrorModel):
 
     Examples
     --------
-    >>> from uwtutor.ranging import SoundSpeedError
-    >>> model = SoundSpeedError()
+    >>> from uwtutor.ranging import SoundSpeedMismatch
+    >>> model = SoundSpeedMismatch()
     >>> round(model.scale_error, 3), round(model.mean_error(1000.0), 1)
     (-0.02, -20.0)
     >>> round(model.error_std(1000.0), 3)
@@ -527,12 +530,12 @@ def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, 
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.ranging import GaussianNoise, SoundSpeedError, measure_ranges
+    >>> from uwtutor.ranging import GaussianNoise, SoundSpeedMismatch, measure_ranges
     >>> rng = np.random.default_rng(3)
     >>> r = measure_ranges(
     ...     np.full(150, 2000.0),
     ...     np.arange(150.0),
-    ...     SoundSpeedError() + GaussianNoise(0.7),
+    ...     SoundSpeedMismatch() + GaussianNoise(0.7),
     ...     rng,
     ... )
     >>> # 1470/1500 of the true range on average
@@ -773,3 +776,7 @@ def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_a
         raise RuntimeError(f"reception_times did not converge in {n_iter} iterations (last change {change:.3g} s); "
                            "is the vehicle or beacon moving at a speed close to the sound speed?")
     return t_r, c * (t_r - tp)
+
+
+#: The former names (one release): range error models are not exceptions, so their names no longer end in "Error".
+__getattr__ = deprecated_aliases(__name__, {"SoundSpeedError": "SoundSpeedMismatch", "CompositeError": "RangeErrorSum"})

@@ -18,6 +18,9 @@ from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 ROW_X, ROW_Y, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY = range(6)
 N_ROWS = 6
 
+_min = np.minimum.reduce                              # a.min() without numpy's Python wrapper (run once per step)
+_all = np.logical_and.reduce
+
 
 
 
@@ -50,26 +53,39 @@ def predict_step(s: np.ndarray, u: np.ndarray, q4: np.ndarray, out: np.ndarray) 
 
     ``u`` has shape (2, M) or (2, 1); ``q4`` is ``[Qxx, Qxy, Qxy, Qyy]`` as a (4, 1) column.
     """
-    np.add(s[ROW_X:ROW_Y + 1], u, out=out[ROW_X:ROW_Y + 1])
-    np.add(s[ROW_PXX:], q4, out=out[ROW_PXX:])
+    add = np.add                                     # row by row: cheaper than one broadcast over the block
+    add(s[ROW_X], u[0], out=out[ROW_X])
+    add(s[ROW_Y], u[1], out=out[ROW_Y])
+    qxx, qxy, qyx, qyy = q4[:, 0]
+    add(s[ROW_PXX], qxx, out=out[ROW_PXX])
+    add(s[ROW_PXY], qxy, out=out[ROW_PXY])
+    add(s[ROW_PYX], qyx, out=out[ROW_PYX])
+    add(s[ROW_PYY], qyy, out=out[ROW_PYY])
 
 
-def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon: tuple[float, float],
-                 out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray) -> np.ndarray:
+def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: Any, beacon: tuple[Any, Any] | None,
+                out: np.ndarray, y_out: np.ndarray, S_out: np.ndarray, guard: bool = True) -> np.ndarray:
     """Range update of the predicted packed states ``s`` (6, M); the posterior is written into ``out``.
 
     ``z`` (M,) holds the ranges with missing ones replaced by any finite value and ``use`` (M,) is 1.0 where
     the range is to be used and 0.0 where it is missing: a zero gain leaves those runs exactly at their
-    prediction. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
+    prediction. ``beacon`` is ``(bx, by)``, floats or arrays (M,)/(1,) for a moving beacon, or None for the
+    origin. The innovation and its variance go to ``y_out`` and ``S_out`` (meaningless where unused).
     Returns the ``use`` array actually applied (runs whose prediction is on the beacon removed).
+
+    ``guard=False`` leaves out the test for a prediction on the beacon and the test of the posterior: for a
+    caller that tests the posteriors of many steps at once (:func:`first_unsound`; a prediction on the beacon
+    makes its posterior NaN) and redoes, with ``guard=True``, the steps from the first that fails.
     """
-    xp, yp = s[ROW_X], s[ROW_Y]
-    pxx, pxy, pyy = s[ROW_PXX], s[ROW_PXY], s[ROW_PYY]
-    bx, by = beacon                                  # floats, or arrays (M,)/(1,) for a moving beacon
-    dx = xp - bx if (np.ndim(bx) or bx) else xp
-    dy = yp - by if (np.ndim(by) or by) else yp
+    xp, yp, pxx, pxy, _, pyy = s                     # the rows (views)
+    if beacon is None:                               # the origin
+        dx, dy = xp, yp
+    else:
+        bx, by = beacon                              # floats, or arrays (M,)/(1,) for a moving beacon
+        dx = xp - bx if (np.ndim(bx) or bx) else xp
+        dy = yp - by if (np.ndim(by) or by) else yp
     r = np.sqrt(dx * dx + dy * dy)                   # predicted range h(x-)
-    if r.min() == 0.0:                               # H = (x - b)^T / |x - b| is 0/0 there
+    if guard and _min(r) == 0.0:                     # H = (x - b)^T / |x - b| is 0/0 there
         on_beacon = r == 0.0
         if (use[on_beacon] != 0.0).any():
             warn("the predicted position is exactly on the beacon, where the range Jacobian is "
@@ -105,14 +121,34 @@ def update_step(s: np.ndarray, z: np.ndarray, use: np.ndarray, R: float, beacon:
     nxy = np.subtract(bxy, vx * ky, out=out[ROW_PXY])
     nyy = np.subtract(byy, vy * ky, out=out[ROW_PYY])
     out[ROW_PYX] = nxy
+    if not guard:
+        return use
     det = nxx * nyy
     det -= nxy * nxy
-    if not (det.min() >= 0.0 and nxx.min() >= 0.0 and nyy.min() >= 0.0):   # also False for a NaN
+    if not (_min(det) >= 0.0 and _min(out[ROW_PXX::3], axis=None) >= 0.0):   # rows Pxx, Pyy; False for a NaN
         _los_update(s, hx, hy, ax, ay, a_los, g, use, R, out)
         # a+ >= 0 and b+^2 <= a+ c+ hold there by construction; what remains to refuse is a prediction that was
         # not PSD (a < 0), a value that overflowed, or round-off of the rotation beyond the stated tolerance
         check_psd(out, R)
     return use
+
+
+def first_unsound(post: np.ndarray) -> int | None:
+    """The first of the packed posteriors ``post`` (B, 6, M) of consecutive steps that :func:`update_step`'s test
+    refuses (a variance or the determinant below 0, or NaN, in any run), or None.
+
+    The determinant is computed as in the step, so that a step passes here exactly when it passes there.
+    """
+    pxx, pxy, pyy = post[:, ROW_PXX], post[:, ROW_PXY], post[:, ROW_PYY]
+    det = pxx * pyy
+    det -= pxy * pxy
+    low = np.minimum(pxx, pyy)
+    np.minimum(low, det, out=low)
+    least = _min(low, axis=1)                        # (B,): NaN where any entry is NaN
+    ok = least >= 0.0
+    if _all(ok):
+        return None
+    return int(np.argmin(ok))
 
 
 def _los_update(s: np.ndarray, hx: np.ndarray, hy: np.ndarray, ax: np.ndarray, ay: np.ndarray, a_los: np.ndarray,
@@ -272,7 +308,7 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
                      times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
     """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
-    ``common_runs``, the size of each input's runs axis (None where it has none)."""
+    ``_validate.common_runs``, the size of each input's runs axis (None where it has none)."""
     x0, P0 = initial_state(x0, P0)
     u = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
     if u.ndim == 3 and u.shape[0] == 0:
@@ -286,15 +322,6 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
     run_sizes = dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
                      u=u.shape[0] if u.ndim == 3 else None, z=z.shape[0] if z.ndim == 2 else None)
     return x0, P0, u, z, steps_and_times(K, times), run_sizes
-
-
-def common_runs(**batched: int | None) -> int | None:
-    """The common number of runs among the arguments that have a runs axis (None if none has)."""
-    sizes = {name: m for name, m in batched.items() if m is not None}
-    if len(set(sizes.values())) > 1:
-        described = ", ".join(f"{name} has {m}" for name, m in sizes.items())
-        raise ValueError(f"the arguments with a leading runs axis disagree on the number of runs M: {described}")
-    return next(iter(sizes.values()), None)
 
 
 

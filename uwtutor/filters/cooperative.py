@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar, common_runs
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from ..errors import UnobservableWarning, warn
 from .base import FilterResult, run_filter
@@ -163,14 +163,10 @@ def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
     if b.shape[-1] != 2 or b.shape[-2] != d.shape[-2] + 1:
         raise ValueError(f"leader must have shape (..., K + 1, 2) with K = {d.shape[-2]} intervals (one position per "
                          f"ranging epoch); got {b.shape}")
-    runs = {name: n for name, n in (("x0", len(x) if x.ndim == 2 else None), ("P0", len(P) if P.ndim == 3 else None),
-                                    ("u", len(d) if d.ndim == 3 else None),
-                                    ("leader", len(b) if b.ndim == 3 else None), ("ranges", n_runs)) if n is not None}
-    if len(set(runs.values())) > 1:
-        described = ", ".join(f"{name} has {n}" for name, n in runs.items())
-        raise ValueError(f"the inputs disagree on the number of runs M (the leading axis): {described}")
-    if runs and x.ndim == 1:
-        x = np.broadcast_to(x, (next(iter(runs.values())), 4)).copy()
+    M = common_runs(dict(x0=len(x) if x.ndim == 2 else None, P0=len(P) if P.ndim == 3 else None,
+                         u=len(d) if d.ndim == 3 else None, leader=len(b) if b.ndim == 3 else None, ranges=n_runs))
+    if M is not None and x.ndim == 1:
+        x = np.broadcast_to(x, (M, 4)).copy()
     return x, P, d, b
 
 
@@ -222,7 +218,7 @@ class CooperativeEKF:
     >>> from uwtutor.filters.cooperative import CooperativeEKF
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=1)
-    >>> p = paper_b.PAPER_B
+    >>> p = paper_b.PARAMETERS
     >>> f = CooperativeEKF(
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),
@@ -400,7 +396,7 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLik
     >>> from uwtutor.filters import cooperative_ekf
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=4)
-    >>> p = paper_b.PAPER_B
+    >>> p = paper_b.PARAMETERS
     >>> res = cooperative_ekf(
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),

@@ -63,7 +63,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, readonly
+from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, common_runs,
+                        readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -303,11 +304,9 @@ class ExtendedKalmanFilter:
         P0 = as_covariance("P0", P0, n)
         if P0.ndim not in (2, 3):
             raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
-        sizes = {name: a.shape[0] for name, a, d in (("x0", x0, 2), ("P0", P0, 3)) if a.ndim == d}
-        if len(set(sizes.values())) > 1:
-            raise ValueError(f"x0 and P0 disagree on the number of runs M: {sizes}")
-        self._batched = bool(sizes)
-        self._M = next(iter(sizes.values()), 1)
+        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
+        self._batched = M is not None
+        self._M = M or 1
         self._x = np.array(np.broadcast_to(x0, (self._M, n)))
         self._P = _runs_last(np.broadcast_to(P0, (self._M, n, n)))      # (n, n, M): see _runs_last
         self._x_prior = self._x.copy()
@@ -662,12 +661,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
         "the measurement model": getattr(measurement, "n_runs", None),
         "the motion model": getattr(motion, "n_runs", None),
     }
-    given = {name: size for name, size in sizes.items() if size is not None}
-    if len(set(given.values())) > 1:
-        described = ", ".join(f"{name} has {size}" for name, size in given.items())
-        raise ValueError(f"the inputs with a leading runs axis disagree on the number of runs M: {described}")
-    if given:
-        M = next(iter(given.values()))
+    M = common_runs(sizes)
+    if M is not None:
         x0 = np.broadcast_to(x0, (M, motion.n))
         if z.ndim == single_z_ndim:
             z = np.broadcast_to(z, (M,) + z.shape)

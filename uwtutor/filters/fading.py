@@ -121,9 +121,9 @@ from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
 from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
-                        readonly)
+                        common_runs, readonly)
 from .base import FilterResult
-from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, common_runs,
+from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
                       predict_step, result_fields,
                       runs_first, sequence_inputs, steps_and_times, update_step, x_view)
@@ -310,7 +310,7 @@ def _fading_parameters(Q: Any, R: Any, beacon: Any, mu_gamma: Any, sigma_gamma: 
         if beta_v < 0:
             raise ValueError(f'beta must be >= 0 (or "range"); got {beta_v:g}')
     fading = as_flag("fading", fading)
-    M = common_runs(mu_gamma=m_mu, sigma_gamma=m_sigma)
+    M = common_runs(dict(mu_gamma=m_mu, sigma_gamma=m_sigma))
     sigma2 = sigma * sigma
     return _Params(q4, Qm, R_val, b, mu, sigma2, rho_v, beta_v, bool(fading)), M
 
@@ -541,7 +541,7 @@ def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: Arra
     x0, P0, u, z, times, run_sizes = sequence_inputs(x0, P0, u, z, times)
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading, n_steps=len(times))
     p = replace(p, R=check_variances_where_measured(p.R, z))
-    M = common_runs(**run_sizes, mu_gamma_or_sigma_gamma=m_par)
+    M = common_runs({**run_sizes, "mu_gamma_or_sigma_gamma": m_par})
     batched = M is not None
     M = M or 1
     s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
@@ -644,8 +644,8 @@ class FadingEKF:
                  second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
-        M = common_runs(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
-                  mu_gamma_or_sigma_gamma=m_par)
+        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
+                             mu_gamma_or_sigma_gamma=m_par))
         self._batched = M is not None
         self._M = M or 1
         self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))

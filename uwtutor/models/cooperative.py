@@ -64,7 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, as_scalar,
-                         check_same_shape)
+                         check_same_shape, common_runs)
 from .base import MeasurementModel, MotionModel
 from .range import RangeToBeacon
 
@@ -257,6 +257,8 @@ class SquaredRangePair(MeasurementModel):
         if self.leader.shape[-2] != self.displacements.shape[-2] + 1:
             raise ValueError(f"leader must hold one position more than displacements (K + 1 epochs, K intervals); "
                              f"got {self.leader.shape[-2]} and {self.displacements.shape[-2]}")
+        self._n_runs = common_runs({name: a.shape[0] if a.ndim == 3 else None
+                                    for name, a in (("leader", self.leader), ("displacements", self.displacements))})
         self.dt = _interval(dt)
         self.R10 = as_covariance("R", R, 10, allow_singular=True)
         self.literal = as_flag("literal", literal)
@@ -306,8 +308,7 @@ class SquaredRangePair(MeasurementModel):
     @property
     def n_runs(self) -> int | None:
         """Number of runs of per-run leader or displacement paths (``None`` when shared by every run)."""
-        sizes = {a.shape[0] for a in (self.leader, self.displacements) if a.ndim == 3}
-        return sizes.pop() if len(sizes) == 1 else None
+        return self._n_runs
 
 
 def leader_range(leader: ArrayLike, variance: Any) -> RangeToBeacon:

@@ -133,6 +133,12 @@ def _kinematics(s: np.ndarray, T: float, axis: int = -1, out: np.ndarray | None 
     elif out is not s:
         out[...] = s
     ax = axis % s.ndim
+    if ax == 1 and s.ndim == 3:                                  # (M, 3, N): the particle filters' rows
+        dz = np.sin(s[:, 2])
+        dz *= s[:, 1]
+        dz *= T
+        out[:, 0] += dz
+        return out
 
     lead = (slice(None),) * ax                                   # index component i as lead + (i,)
     dz = np.sin(s[lead + (2,)])
@@ -293,7 +299,7 @@ class DepthSpeedPitch(MotionModel):
         x = np.asarray(x, dtype=float)
         if x.ndim == 2:
             return self.sample(x[:, None, :], None, k, rng)[:, 0, :]
-        return np.swapaxes(self.sample_rows(np.swapaxes(self._pre(x), -1, -2), rng), -1, -2)
+        return self.sample_rows(self._pre(x).swapaxes(-1, -2), rng).swapaxes(-1, -2)
 
 
 class PitchManeuver(DepthSpeedPitch):

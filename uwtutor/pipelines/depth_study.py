@@ -15,7 +15,7 @@ from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_scala
 from ..filters import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
                        extended_kalman_filter)
 from ..models.depth import DepthSensors, DepthSpeedPitch, PitchManeuver
-from ..scenarios.paper_c import FILTER_NAMES, PAPER_C, PITCH_OFFSET, DepthProfile
+from ..scenarios.paper_c import FILTER_NAMES, PARAMETERS, PITCH_OFFSET, DepthProfile
 from ..wavelet import sliding_noise_sigma
 
 __all__ = ["DepthStudy", "run_depth_study"]
@@ -177,7 +177,7 @@ def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Seq
     grey_window = as_int("grey_window", grey_window, minimum=4)
     noise_window = as_int("noise_window", noise_window, minimum=1)
     mmpf_time_constant = as_scalar("mmpf_time_constant", mmpf_time_constant, domain="positive")
-    q = PAPER_C["process_std"] if process_std is None else as_nonnegative("process_std", process_std, shape=(3,))
+    q = PARAMETERS.process_std if process_std is None else as_nonnegative("process_std", process_std, shape=(3,))
     seed = as_int("seed", seed, minimum=0)
     targets = as_finite("mmpf_targets_deg", mmpf_targets_deg, ndim=1)
     if targets.size < 1:
@@ -186,7 +186,7 @@ def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Seq
     if not 0.0 < stay <= 1.0:
         raise ValueError(f"mmpf_stay must lie in (0, 1]; got {stay}")
     T = profile.T
-    R = np.diag(PAPER_C["sensor_std"] ** 2)
+    R = np.diag(PARAMETERS.sensor_std ** 2)
     M = Z.shape[0]
     motion, sensors = DepthSpeedPitch(T=T, process_std=q), DepthSensors(R)
     gpf_kw = dict(grey_window=grey_window, noise_window=noise_window, grey_offset=[0.0, 0.0, PITCH_OFFSET])
@@ -222,7 +222,7 @@ def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Seq
             sd = extras.get("PF + wavelet R noise_std")
         if sd is None:                                   # compute the GPF's noise estimates without its particles
             sd = np.moveaxis(sliding_noise_sigma(np.moveaxis(Z, -1, 1), noise_window), 1, -1)
-            sd = np.where(np.isnan(sd), PAPER_C["sensor_std"], np.maximum(sd, 0.01 * PAPER_C["sensor_std"]))
+            sd = np.where(np.isnan(sd), PARAMETERS.sensor_std, np.maximum(sd, 0.01 * PARAMETERS.sensor_std))
         Rs = np.zeros(Z.shape + (3,))
         Rs[..., [0, 1, 2], [0, 1, 2]] = sd**2
         estimates["EKF + wavelet R"] = extended_kalman_filter(motion, DepthSensors(Rs), Z[:, 0], R, None, Z).x

@@ -27,7 +27,7 @@ import numpy as np
 from .._validate import (as_finite, as_flag, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar,
                          as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
-from ..ranging import (GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedError, measure_ranges,
+from ..ranging import (GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedMismatch, measure_ranges,
                        reception_times)
 
 __all__ = [
@@ -322,7 +322,7 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
         e_k = \eta_k + \gamma\, r_k + \mu_k + \rho, \qquad \eta_k \sim N(0, \sigma_\eta^2),
 
     with :math:`\mu_k + \rho` the ``SlowBias(bias_mean, bias_sigma, bias_time_constant)`` process and
-    :math:`\gamma r_k` a sound-speed scale error (``SoundSpeedError`` with no ping-to-ping scatter).
+    :math:`\gamma r_k` a sound-speed scale error (``SoundSpeedMismatch`` with no ping-to-ping scatter).
     With the defaults the bearing to the buoy turns by 90 degrees in about 236 epochs, close to the paper's
     "about 200 observations" at which the precision factor reaches 1 (Fig. 2).
 
@@ -370,7 +370,7 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
     error = (GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
-             + SoundSpeedError(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
+             + SoundSpeedMismatch(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
              + SlowBias(as_scalar("bias_mean", bias_mean), as_scalar("bias_sigma", bias_sigma, domain="nonnegative"),
                         as_scalar("bias_time_constant", bias_time_constant, domain="positive")))
     bias = error.parts[-1]
@@ -418,7 +418,7 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     ping_interval, duration : float
         Ping period and the time span of the pings [s] (pings at 0, 10, ..., 1500 s).
     true_speed, assumed_speed, speed_sigma : float
-        Sound-speed model, see ``ranging.SoundSpeedError`` [m/s].
+        Sound-speed model, see ``ranging.SoundSpeedMismatch`` [m/s].
     noise_sigma : float
         Extra white range noise [m] (variance 0.49).
     dr_sigma : float
@@ -450,7 +450,7 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     path = turning_track(np.union1d(pings, [turn]), start, speed, psi, [turn])
     t_r, _ = reception_times(pings, (0.0, 0.0), path.position_at, true_speed)
     track = turning_track(t_r, path.position_at(t_r[0]), speed, psi, [turn])
-    error = SoundSpeedError(true_speed, assumed_speed, speed_sigma) + GaussianNoise(noise_sigma)
+    error = SoundSpeedMismatch(true_speed, assumed_speed, speed_sigma) + GaussianNoise(noise_sigma)
     sound, noise = error.parts
     description = (f"Paper D: approach with one turn at {turn:g} s, {float(speed):g} m/s, a ping every "
                    f"{float(ping_interval):g} s; sound speed N({sound.true_speed:g}, {sound.speed_sigma:g}^2) "

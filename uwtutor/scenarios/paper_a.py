@@ -16,6 +16,7 @@ choices, marked as such) with a ``make(rng, n_runs)``:
   book's :math:`\mu_\gamma - 1`, is a constant sound-speed error (:math:`\sigma_\gamma = 0`); its Fig. 6
   also needs a random multiplicative part, :math:`\sigma_\gamma > 0` (:func:`variance_split`).
   ``track="circle"`` replaces the random turns by the exact circle of ``scenarios.circling_scenario``.
+  :data:`PARAMETERS` is the default set (``PaperAParameters()``).
 * :class:`LakeTrialParameters` -- the structure of paper A's 2018 lake trial: a receiving boat and a sending boat,
   both on GNSS, four groups of pings from two directions about 90 degrees apart. The sender is a *moving beacon*;
   paper A turns it into a fixed one with the relative displacement :math:`\mathbf u_k = \mathbf u_{r,k} -
@@ -40,11 +41,11 @@ import numpy as np
 
 from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
 from ..motion import Track, circle_track, turning_track
-from ..ranging import GaussianNoise, SlowBias, SoundSpeedError, add_range_errors
+from ..ranging import GaussianNoise, SlowBias, SoundSpeedMismatch, add_range_errors
 from . import Scenario, circling_scenario, make_scenario
 
-__all__ = ["PaperAParameters", "make", "make_with_truth", "random_turn_track", "variance_split", "LakeTrialParameters",
-           "LakeTrial", "make_lake_trial"]
+__all__ = ["PaperAParameters", "PARAMETERS", "make", "make_with_truth", "random_turn_track", "variance_split",
+           "LakeTrialParameters", "LakeTrial", "make_lake_trial"]
 
 
 def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0, speed: Any = 2.0,
@@ -199,17 +200,17 @@ class PaperAParameters:
         r""":math:`\sigma_r` [m]."""
         return float(np.sqrt(self.noise_variance))
 
-    def error_parts(self) -> tuple[GaussianNoise, SoundSpeedError, SlowBias]:
+    def error_parts(self) -> tuple[GaussianNoise, SoundSpeedMismatch, SlowBias]:
         r"""The three parts of the range error as ``ranging`` error models: :math:`\eta_k`, :math:`\gamma_k r_k`,
         :math:`\tilde\upsilon_k + \mu_\upsilon`.
 
-        :math:`(\gamma_k - 1) r_k` is a ``SoundSpeedError`` whose assumed speed is :math:`\mu_\gamma` times the
+        :math:`(\gamma_k - 1) r_k` is a ``SoundSpeedMismatch`` whose assumed speed is :math:`\mu_\gamma` times the
         true mean, with a ping-to-ping speed scatter that gives :math:`\sigma_\gamma` to first order.
         """
         c = 1500.0
         assumed = c * (1.0 + self.gamma)
         return (GaussianNoise(self.noise_sigma),
-                SoundSpeedError(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed),
+                SoundSpeedMismatch(true_speed=c, assumed_speed=assumed, speed_sigma=self.gamma_sigma * c**2 / assumed),
                 SlowBias(self.bias_mean, self.bias_sigma, self.bias_time_constant))
 
     def make(self, rng: np.random.Generator, n_runs: Any = 1) -> Scenario:
@@ -217,8 +218,12 @@ class PaperAParameters:
         return make(rng, n_runs, self)
 
 
+#: Paper A's parameters (``PaperAParameters()``: the paper's values and the book's choices).
+PARAMETERS = PaperAParameters()
+
+
 def _as_params(params: Any) -> PaperAParameters:
-    p = PaperAParameters() if params is None else params
+    p = PARAMETERS if params is None else params
     if not isinstance(p, PaperAParameters):
         raise TypeError(f"params must be a PaperAParameters; got {type(p).__name__}")
     return p
@@ -240,7 +245,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
     n_runs : int, default 1
         Number of Monte Carlo runs.
     params : PaperAParameters, optional
-        Default ``PaperAParameters()``.
+        Default :data:`PARAMETERS`.
 
     Returns
     -------
@@ -299,7 +304,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
     n_runs : int, default 1
         Number of Monte Carlo runs (paper A's Fig. 6: 300).
     params : PaperAParameters, optional
-        The parameters (default ``PaperAParameters()``); change some with ``dataclasses.replace``.
+        The parameters (default :data:`PARAMETERS`); change some with ``dataclasses.replace``.
 
     Returns
     -------

@@ -33,10 +33,11 @@ from .._validate import (as_finite, as_flag, as_instance, as_int, as_nonnegative
                          check_work, readonly)
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
+from ..errors import deprecated_aliases
 from ..owtt import clock_range_error, simulate_owtt, wrap_travel_time
 from ..ranging import add_range_errors
 
-__all__ = ["PaperBParameters", "PAPER_B", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
+__all__ = ["PaperBParameters", "PARAMETERS", "CooperativeScenario", "make", "make_followers", "LEADER_PATTERNS",
            "FilterTuning", "paper_tuning", "matched_tuning"]
 
 #: The leader patterns ``make`` knows.
@@ -173,7 +174,7 @@ class PaperBParameters:
 
 
 #: Paper B's parameters with our defaults for the rest.
-PAPER_B = PaperBParameters()
+PARAMETERS = PaperBParameters()
 
 
 @dataclass(frozen=True)
@@ -209,7 +210,7 @@ def paper_tuning(params: PaperBParameters | None = None) -> FilterTuning:
     >>> paper_b.paper_tuning().range_variance
     200.0
     """
-    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
+    p = PARAMETERS if params is None else as_instance("params", params, PaperBParameters)
     return FilterTuning(p.P1, p.Q, p.R, float(p.R[0, 0] + p.R[2, 2]))
 
 
@@ -236,7 +237,7 @@ def matched_tuning(params: PaperBParameters | None = None, *, position_noise: fl
     >>> tu.range_variance, np.sqrt(tu.Q[2, 2]).round(3)
     (50.0, np.float64(0.141))
     """
-    p = PAPER_B if params is None else as_instance("params", params, PaperBParameters)
+    p = PARAMETERS if params is None else as_instance("params", params, PaperBParameters)
     n = p.interval / p.dr_step
     dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
     q = as_scalar("position_noise", position_noise, domain="positive") ** 2
@@ -439,7 +440,7 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
 
 
 def _params(params: PaperBParameters | None, changes: dict[str, Any]) -> PaperBParameters:
-    base = PAPER_B if params is None else params
+    base = PARAMETERS if params is None else params
     if not isinstance(base, PaperBParameters):
         raise TypeError(f"params must be a PaperBParameters; got {type(base).__name__}")
     unknown = set(changes) - {f.name for f in dataclasses.fields(PaperBParameters)}
@@ -464,7 +465,7 @@ def make(rng: np.random.Generator, n_runs: int = 1, params: PaperBParameters | N
     n_runs : int, default 1
         Number of Monte Carlo runs ``M`` (the arrays keep their runs axis even for one run).
     params : PaperBParameters, optional
-        The parameters (default ``PAPER_B``).
+        The parameters (default ``PARAMETERS``).
     **changes
         Fields of ``PaperBParameters`` to change, e.g. ``leader_pattern="parallel"``, ``packet_loss=0.3``.
 
@@ -503,7 +504,7 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
     followers : sequence of (start, heading)
         Each follower's start position [m] and heading [rad] (east = 0); all move at ``speed`` through the water.
     params : PaperBParameters, optional
-        The parameters (default ``PAPER_B``); ``follower_start`` and ``follower_heading`` are ignored.
+        The parameters (default ``PARAMETERS``); ``follower_start`` and ``follower_heading`` are ignored.
     **changes
         Fields of ``PaperBParameters`` to change.
 
@@ -542,3 +543,7 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
     if not fl:
         raise ValueError("followers must hold at least one (start, heading) pair")
     return _simulate(rng, M, p, fl)
+
+
+#: The former name of the default parameters (one release): every scenario module calls its own ``PARAMETERS``.
+__getattr__ = deprecated_aliases(__name__, {"PAPER_B": "PARAMETERS"})

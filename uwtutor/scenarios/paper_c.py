@@ -3,7 +3,8 @@ r"""Paper C (Li et al. 2013): its parameters and the book's maneuvering-dive sce
 Paper C estimates the depth, speed and pitch of a maneuvering AUV with a grey particle filter (GPF) and compares
 it with an EKF and a multiple-model particle filter (MMPF) on a lake trial. The book simulates the trial instead:
 
-* :class:`PaperCParameters` -- the paper's values (:data:`PAPER_C` is the same as a plain dict);
+* :class:`PaperCParameters` -- the paper's values (:data:`PARAMETERS` holds them; ``PARAMETERS.as_dict()`` as a
+  plain dict);
 * :func:`maneuvering_depth_profile` -- the true depth, speed and pitch of a dive, a level leg and a climb, with
   a sensor noise level that changes over time; :func:`simulate_depth_sensors` -- the readings of ``M`` runs;
 * :func:`make` -- both at once: the scenario of the chapter on paper C for ``M`` runs.
@@ -26,11 +27,12 @@ from typing import Any, Sequence
 import numpy as np
 
 from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar, check_work
+from ..errors import deprecated_aliases, warn
 from ..wavelet import as_wavelet
 
 __all__ = [
     "PaperCParameters",
-    "PAPER_C",
+    "PARAMETERS",
     "DepthProfile",
     "maneuvering_depth_profile",
     "simulate_depth_sensors",
@@ -129,8 +131,8 @@ class PaperCParameters:
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in asdict(self).items()}
 
 
-#: Paper C's parameters as a dict (the fields of :class:`PaperCParameters`).
-PAPER_C: dict[str, Any] = PaperCParameters().as_dict()
+#: Paper C's parameters (``PaperCParameters()``).
+PARAMETERS = PaperCParameters()
 
 #: The filters :func:`~uwtutor.pipelines.depth_study.run_depth_study` knows: paper C's three, and three more that take
 #: the GPF apart.
@@ -269,7 +271,7 @@ def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitc
         raise ValueError("noise_change_times must increase")
     if (factors <= 0).any():
         raise ValueError("noise_factors must be > 0 (a sensor without noise makes R singular)")
-    nominal = PAPER_C["sensor_std"] if sensor_std is None else as_positive("sensor_std", sensor_std, shape=(3,))
+    nominal = PARAMETERS.sensor_std if sensor_std is None else as_positive("sensor_std", sensor_std, shape=(3,))
     s = duration / 60.0                                   # the profile is designed for 60 s
     t = np.arange(1, K + 1) * T
     pitch_ramps = [(8 * s, 11 * s), (24 * s, 27 * s), (35 * s, 38 * s), (50 * s, 53 * s)]
@@ -359,7 +361,7 @@ class PaperCScenario:
         return self.profile.truth
 
 
-def make(rng: np.random.Generator, n_runs: int = 1, *, parameters: PaperCParameters | None = None,
+def make(rng: np.random.Generator, n_runs: int = 1, *, params: PaperCParameters | None = None,
          **profile: Any) -> PaperCScenario:
     """Paper C's scenario: :func:`maneuvering_depth_profile` and ``n_runs`` draws of its sensors.
 
@@ -369,8 +371,9 @@ def make(rng: np.random.Generator, n_runs: int = 1, *, parameters: PaperCParamet
         Source of the sensor noise (the draws of :func:`simulate_depth_sensors` with this generator).
     n_runs : int, optional
         Number of Monte Carlo runs ``M``.
-    parameters : PaperCParameters, optional
-        The paper's values (the sampling interval and the nominal sensor noise are taken from them).
+    params : PaperCParameters, optional
+        The paper's values (default :data:`PARAMETERS`; the sampling interval and the nominal sensor noise are
+        taken from them).
     **profile
         Further arguments of :func:`maneuvering_depth_profile` (``duration``, ``dive_pitch_deg``, ...).
 
@@ -386,10 +389,21 @@ def make(rng: np.random.Generator, n_runs: int = 1, *, parameters: PaperCParamet
     >>> scenario.measurements.shape, scenario.profile.T
     ((4, 1200, 3), 0.05)
     """
-    params = PaperCParameters() if parameters is None else parameters
+    if "parameters" in profile:                 # the keyword's former name (one release)
+        if params is not None:
+            raise TypeError("give the parameters once, as params= (parameters= is its deprecated former name)")
+        warn("paper_c.make(parameters=...) is deprecated and will be removed in the next release: use params=",
+             DeprecationWarning)
+        params = profile.pop("parameters")
+    params = PARAMETERS if params is None else params
     if not isinstance(params, PaperCParameters):
-        raise TypeError(f"parameters must be a PaperCParameters; got {type(params).__name__}")
+        raise TypeError(f"params must be a PaperCParameters; got {type(params).__name__}")
     profile.setdefault("T", params.T)
     profile.setdefault("sensor_std", params.sensor_std)
     prof = maneuvering_depth_profile(**profile)
     return PaperCScenario(profile=prof, measurements=simulate_depth_sensors(prof, n_runs, rng), parameters=params)
+
+
+#: The former name (one release): ``PAPER_C`` was the parameters as a dict, now ``PARAMETERS.as_dict()``.
+__getattr__ = deprecated_aliases(__name__, {"PAPER_C": (f"{__name__}.PARAMETERS.as_dict()",
+                                                       lambda: PARAMETERS.as_dict())})

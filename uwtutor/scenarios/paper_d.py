@@ -25,15 +25,16 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import as_in_range, as_int, as_scalar
+from .._validate import as_in_range, as_instance, as_int, as_scalar
 from ..acoustics import range_factor
+from ..errors import deprecated_aliases
 from . import Scenario, approach_with_turn_scenario
 
-__all__ = ["PaperD", "PARAMETERS", "make"]
+__all__ = ["PaperDParameters", "PARAMETERS", "make"]
 
 
 @dataclass(frozen=True)
-class PaperD:
+class PaperDParameters:
     """Paper D's simulation and filter parameters, with the paper's values as defaults.
 
     Attributes
@@ -60,8 +61,8 @@ class PaperD:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.scenarios.paper_d import PaperD
-    >>> p = PaperD(R=1.0)
+    >>> from uwtutor.scenarios.paper_d import PaperDParameters
+    >>> p = PaperDParameters(R=1.0)
     >>> p.mu_gamma_true, p.as_dict()["R"]
     (0.98, 1.0)
     >>> p.make(np.random.default_rng(0), n_runs=2, duration=100.0).ranges.shape
@@ -105,11 +106,28 @@ class PaperD:
 
 
 #: Paper D's own values.
-PARAMETERS = PaperD()
+PARAMETERS = PaperDParameters()
 
 
-def make(rng: np.random.Generator, n_runs: Any = 1, **overrides: Any) -> Scenario:
-    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperD`).
+def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperDParameters | None = None,
+         **overrides: Any) -> Scenario:
+    """Paper D's scenario for ``n_runs`` Monte Carlo runs (see :class:`PaperDParameters`).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of randomness.
+    n_runs : int, default 1
+        Number of Monte Carlo runs.
+    params : PaperDParameters, optional
+        The parameters (default :data:`PARAMETERS`, the paper's values).
+    **overrides
+        Further arguments of :func:`uwtutor.scenarios.approach_with_turn_scenario` (``duration``, ``turn_time``,
+        ...), which take precedence over ``params``.
+
+    Returns
+    -------
+    Scenario
 
     Examples
     --------
@@ -118,5 +136,15 @@ def make(rng: np.random.Generator, n_runs: Any = 1, **overrides: Any) -> Scenari
     >>> sc = paper_d.make(np.random.default_rng(0), n_runs=2, duration=100.0)
     >>> sc.ranges.shape, sc.dr_displacements.shape
     ((2, 11), (2, 11, 2))
+    >>> quiet = paper_d.make(
+    ...     np.random.default_rng(0), 1, params=paper_d.PaperDParameters(R=0.0), duration=100.0
+    ... )
+    >>> "range noise std 0 m" in quiet.description
+    True
     """
-    return PARAMETERS.make(rng, n_runs, **overrides)
+    p = PARAMETERS if params is None else as_instance("params", params, PaperDParameters)
+    return p.make(rng, n_runs, **overrides)
+
+
+#: The former name of the parameters class (one release).
+__getattr__ = deprecated_aliases(__name__, {"PaperD": "PaperDParameters"})

@@ -1,6 +1,6 @@
 r"""Paper E's simulation: a manned submersible ranging to its GPS-positioned mother ship, ranges with outliers.
 
-``PaperE`` holds the paper's published parameters (sec. 2) beside the few this project had to choose (marked
+``PaperEParameters`` holds the paper's published parameters (sec. 2) beside the few this project had to choose (marked
 *chosen* below); ``make(rng, n_runs)`` draws ``n_runs`` dives at once as a ``Dive``: the horizontal scenario of
 ``scenarios.ship_and_submersible_scenario`` (the same tracks, DR noise and range errors) with the submersible at a
 known depth, so that the measured ranges are *slant* ranges, as an acoustic system measures them.
@@ -28,14 +28,15 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_finite, as_flag, as_in_range, as_int, as_point, as_scalar
+from ..errors import deprecated_aliases
 from ..ranging import add_range_errors
 from . import Scenario, ship_and_submersible_scenario
 
-__all__ = ["PaperE", "PARAMETERS", "Dive", "make"]
+__all__ = ["PaperEParameters", "PARAMETERS", "Dive", "make"]
 
 
 @dataclass(frozen=True)
-class PaperE:
+class PaperEParameters:
     """Paper E's simulation and filter parameters (published ones first, then the chosen ones).
 
     Attributes
@@ -83,8 +84,8 @@ class PaperE:
 
     Examples
     --------
-    >>> from uwtutor.scenarios.paper_e import PaperE
-    >>> p = PaperE()
+    >>> from uwtutor.scenarios.paper_e import PaperEParameters
+    >>> p = PaperEParameters()
     >>> p.duration, p.depth, p.outlier_counts
     (1200.0, 1000.0, (10, 20))
     """
@@ -134,8 +135,8 @@ class PaperE:
             as_flag(f"outlier_two_sided[{i}]", two_sided)
 
 
-#: Paper E's parameters (``PaperE()``).
-PARAMETERS = PaperE()
+#: Paper E's parameters (``PaperEParameters()``).
+PARAMETERS = PaperEParameters()
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,7 +155,7 @@ class Dive:
     slant_ranges : ndarray, shape (M, K)
         Measured ranges: ``true_slant_ranges`` plus the scenario's range errors (noise and outliers) [m], added
         by ``ranging.add_range_errors`` (a negative sum would be read as its magnitude).
-    parameters : PaperE
+    parameters : PaperEParameters
         The parameters the dives were drawn with.
 
     Examples
@@ -176,7 +177,7 @@ class Dive:
     depth: float
     true_slant_ranges: np.ndarray
     slant_ranges: np.ndarray
-    parameters: PaperE = field(default_factory=PaperE)
+    parameters: PaperEParameters = field(default_factory=PaperEParameters)
 
     @property
     def times(self) -> np.ndarray:
@@ -209,7 +210,7 @@ class Dive:
         return self.scenario.n_runs
 
 
-def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None, **changes: Any) -> Dive:
+def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperEParameters | None = None, **changes: Any) -> Dive:
     r"""Draw ``n_runs`` dives of paper E's simulation.
 
     The horizontal geometry, the DR noise and the range errors (white noise of variance 2 m² plus the outlier
@@ -225,10 +226,11 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
         Source of randomness.
     n_runs : int, default 1
         Number of dives M.
-    params : PaperE, optional
-        Parameters (default: ``PaperE()``, the paper's values).
+    params : PaperEParameters, optional
+        Parameters (default: :data:`PARAMETERS`, the paper's values).
     **changes
-        Fields of ``PaperE`` to change, e.g. ``outlier_onsets=()`` (with the counts and sides) for no outliers.
+        Fields of ``PaperEParameters`` to change, e.g. ``outlier_onsets=()`` (with the counts and sides) for no
+        outliers.
 
     Returns
     -------
@@ -243,13 +245,13 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
     ((2, 1201), 30)
     """
     p = params if params is not None else PARAMETERS
-    if not isinstance(p, PaperE):
-        raise TypeError(f"params must be a paper_e.PaperE; got {type(p).__name__}")
+    if not isinstance(p, PaperEParameters):
+        raise TypeError(f"params must be a paper_e.PaperEParameters; got {type(p).__name__}")
     if changes:
-        unknown = sorted(set(changes) - set(PaperE.__dataclass_fields__))
+        unknown = sorted(set(changes) - set(PaperEParameters.__dataclass_fields__))
         if unknown:
-            raise TypeError(f"unknown PaperE field(s) {unknown}; see paper_e.PaperE for the names")
-        p = PaperE(**{**p.__dict__, **changes})
+            raise TypeError(f"unknown PaperEParameters field(s) {unknown}; see paper_e.PaperEParameters for the names")
+        p = PaperEParameters(**{**p.__dict__, **changes})
     m = as_int("n_runs", n_runs, minimum=1)
     sc = ship_and_submersible_scenario(
         rng, m, duration=p.duration, interval=p.interval, ship_start=p.ship_start, ship_velocity=p.ship_velocity,
@@ -262,3 +264,7 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperE | None = None
     for a in (true_slant, slant):
         a.setflags(write=False)
     return Dive(scenario=sc, depth=float(p.depth), true_slant_ranges=true_slant, slant_ranges=slant, parameters=p)
+
+
+#: The former name of the parameters class (one release).
+__getattr__ = deprecated_aliases(__name__, {"PaperE": "PaperEParameters"})

@@ -2,7 +2,7 @@ r"""The common ground of chapter 10: five geometries, five error conditions, one
 
 No paper compares its method with the others on the same runs. This module makes the runs they can share:
 
-* a **scenario** ``scenario(rng, n) -> SuiteRuns`` is a geometry: the true track of ``n`` runs, sampled at
+* a **scenario** ``scenario(rng, n_runs) -> SuiteRuns`` is a geometry: the true track of ``n_runs`` runs, sampled at
   :math:`K + 1` epochs (epoch 0 is the start, where the vehicle has only its initial guess), and the beacon's
   position at each epoch (:data:`SCENARIOS`);
 * a **condition** ``condition(rng, runs) -> (SuiteInputs, truth)`` measures those runs under one error model --
@@ -36,11 +36,12 @@ import numpy as np
 
 from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
                          check_work)
+from ..errors import deprecated_aliases
 from ..motion import Track, circle_track, lawnmower_track, straight_track, turning_track
-from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedError, measure_ranges
+from ..ranging import GaussianNoise, Outliers, SlowBias, SoundSpeedMismatch, measure_ranges
 
 __all__ = [
-    "SuiteParameters", "SUITE", "SuiteRuns", "SuiteInputs",
+    "SuiteParameters", "PARAMETERS", "SuiteRuns", "SuiteInputs",
     "circle", "turn", "line", "lawnmower", "moving_beacon", "SCENARIOS",
     "white", "sound_speed", "bias", "outliers", "current", "CONDITIONS",
     "crlb_inputs", "BOUND_TRACKS", "BOUND_SEED",
@@ -49,7 +50,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class SuiteParameters:
-    r"""The numbers of the common suite (:data:`SUITE` holds the defaults).
+    r"""The numbers of the common suite (:data:`PARAMETERS` holds the defaults).
 
     Attributes
     ----------
@@ -93,8 +94,8 @@ class SuiteParameters:
 
     Examples
     --------
-    >>> from uwtutor.scenarios.suite import SUITE, SuiteParameters
-    >>> SUITE.n_epochs, SUITE.R, SUITE.P0.tolist()
+    >>> from uwtutor.scenarios.suite import PARAMETERS, SuiteParameters
+    >>> PARAMETERS.n_epochs, PARAMETERS.R, PARAMETERS.P0.tolist()
     (150, 4.0, [[10000.0, 0.0], [0.0, 10000.0]])
     >>> float(SuiteParameters(n_epochs=10).times[-1])
     100.0
@@ -167,7 +168,7 @@ class SuiteParameters:
 
 
 #: The suite's numbers.
-SUITE = SuiteParameters()
+PARAMETERS = SuiteParameters()
 
 
 @dataclass(frozen=True, eq=False)
@@ -318,16 +319,16 @@ class SuiteInputs:
 # scenarios: the geometries (deterministic; rng unused, kept for the draw signature)
 # ---------------------------------------------------------------------------------------------------------------------
 def _params(params: Any) -> SuiteParameters:
-    """The suite's numbers: ``SUITE`` for None, else a SuiteParameters (anything else refused by name)."""
-    return SUITE if params is None else as_instance("params", params, SuiteParameters)
+    """The suite's numbers: ``PARAMETERS`` for None, else a SuiteParameters (anything else refused by name)."""
+    return PARAMETERS if params is None else as_instance("params", params, SuiteParameters)
 
 
-def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: str,
+def _runs(name: str, rng: Any, n_runs: Any, track: Track, beacon: Any, description: str,
           p: SuiteParameters) -> SuiteRuns:
-    n = as_int("n", n, minimum=1)
+    n = as_int("n_runs", n_runs, minimum=1)
     rng = as_rng(rng)
     K1 = len(track.times)
-    check_work("n", 6 * n * K1, "floats (n runs x the epochs x 2 coordinates, three arrays)")
+    check_work("n_runs", 6 * n * K1, "floats (n_runs x the epochs x 2 coordinates, three arrays)")
     start_error = rng.normal(0.0, p.start_sigma, (n, 1, 2))
     steps = np.zeros((n, K1, 2))
     steps[:, 1:] = rng.normal(0.0, p.dr_sigma, (n, K1 - 1, 2))
@@ -338,7 +339,7 @@ def _runs(name: str, rng: Any, n: Any, track: Track, beacon: Any, description: s
                      parameters=p, description=description)
 
 
-def circle(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
+def circle(rng: np.random.Generator, n_runs: int, params: SuiteParameters | None = None) -> SuiteRuns:
     """Circling the beacon at 1 km (paper A's geometry): about 170 degrees of arc in 25 minutes.
 
     >>> import numpy as np
@@ -347,11 +348,11 @@ def circle(rng: np.random.Generator, n: int, params: SuiteParameters | None = No
     ((3, 151, 2), (151, 2), False)
     """
     p = _params(params)
-    return _runs("circle", rng, n, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
+    return _runs("circle", rng, n_runs, circle_track(p.times, 1000.0, p.speed), (0.0, 0.0),
                  "circling the beacon at 1 km", p)
 
 
-def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
+def turn(rng: np.random.Generator, n_runs: int, params: SuiteParameters | None = None) -> SuiteRuns:
     """An approach with one turn (paper D's geometry): east for 12.5 minutes, then north-east.
 
     >>> import numpy as np
@@ -362,10 +363,10 @@ def turn(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     """
     p = _params(params)
     track = turning_track(p.times, (-2000.0, -1000.0), p.speed, np.deg2rad([0.0, 60.0]), [p.times[-1] / 2])
-    return _runs("turn", rng, n, track, (0.0, 0.0), "approach with one turn", p)
+    return _runs("turn", rng, n_runs, track, (0.0, 0.0), "approach with one turn", p)
 
 
-def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
+def line(rng: np.random.Generator, n_runs: int, params: SuiteParameters | None = None) -> SuiteRuns:
     """A straight line passing 300 m from the beacon: the mirror image across the line fits the ranges as well.
 
     >>> import numpy as np
@@ -375,10 +376,10 @@ def line(rng: np.random.Generator, n: int, params: SuiteParameters | None = None
     """
     p = _params(params)
     track = straight_track(p.times, (-1500.0, 300.0), p.speed, 0.0)
-    return _runs("line", rng, n, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
+    return _runs("line", rng, n_runs, track, (0.0, 0.0), "straight line 300 m from the beacon", p)
 
 
-def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
+def lawnmower(rng: np.random.Generator, n_runs: int, params: SuiteParameters | None = None) -> SuiteRuns:
     """A survey: 750 m legs 300 m apart over the beacon.
 
     >>> import numpy as np
@@ -388,10 +389,10 @@ def lawnmower(rng: np.random.Generator, n: int, params: SuiteParameters | None =
     """
     p = _params(params)
     track = lawnmower_track(p.times, (-375.0, -600.0), p.speed, 750.0, 300.0)
-    return _runs("lawnmower", rng, n, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
+    return _runs("lawnmower", rng, n_runs, track, (0.0, 0.0), "lawnmower survey over the beacon", p)
 
 
-def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | None = None) -> SuiteRuns:
+def moving_beacon(rng: np.random.Generator, n_runs: int, params: SuiteParameters | None = None) -> SuiteRuns:
     """A straight run ranging to a leader (a ship or a vehicle) that zigzags across its track while overtaking it.
 
     The leader starts 700 m behind, gains 1 m/s and swings ±600 m across the vehicle's track every 10 minutes,
@@ -411,7 +412,7 @@ def moving_beacon(rng: np.random.Generator, n: int, params: SuiteParameters | No
     across = 600.0 * (4.0 * np.abs(phase - 0.5) - 1.0)
     along = -700.0 + 1.0 * p.times
     leader = track.positions + np.column_stack([along, across])
-    return _runs("moving beacon", rng, n, track, leader, "straight run ranging to a zigzagging leader", p)
+    return _runs("moving beacon", rng, n_runs, track, leader, "straight run ranging to a zigzagging leader", p)
 
 
 #: The scenarios by name, in the chapter's order.
@@ -483,7 +484,7 @@ def sound_speed(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs,
     0.98
     """
     p = _checked(runs).parameters
-    error = SoundSpeedError(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
+    error = SoundSpeedMismatch(p.true_speed, p.assumed_speed, p.speed_sigma) + GaussianNoise(p.range_sigma)
     return _measure("sound speed", rng, runs, error)
 
 
@@ -596,8 +597,8 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     p = _params(params)
     try:
         runs = SCENARIOS[scenario](np.random.default_rng(seed), n_tracks, p)
-    except ValueError as exc:                      # the scenario names its count "n": say which argument it was
-        raise ValueError(str(exc).replace("n asks", "n_tracks asks", 1)) from None
+    except ValueError as exc:                      # the scenario names its count "n_runs": say which argument it was
+        raise ValueError(str(exc).replace("n_runs asks", "n_tracks asks", 1)) from None
     pos = runs.positions
     if condition == "current":
         pos = pos + np.asarray(p.current_velocity) * (runs.times - runs.times[0])[:, None]
@@ -616,3 +617,7 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
         flags["current"] = True
         P0 = np.diag([p.start_sigma**2] * 2 + [p.current_sigma**2] * 2)
     return dict(positions=pos, beacon=b, sigma=sigma, Q=Q, P0=P0, times=runs.times, mean_over_runs=True, **flags)
+
+
+#: The former name of the default parameters (one release): every scenario module calls its own ``PARAMETERS``.
+__getattr__ = deprecated_aliases(__name__, {"SUITE": "PARAMETERS"})

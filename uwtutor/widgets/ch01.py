@@ -54,6 +54,12 @@ class SoundSpeedView:
         A depth grid [m].
     speed_vs_depth : ndarray
         The speed over that grid, temperature and salinity held [m/s].
+
+    Examples
+    --------
+    >>> view = sound_speed_view(temperature=10.0, salinity=35.0, depth=1000.0)
+    >>> round(view.speed, 1), view.speed_vs_depth.shape
+    (1506.3, (61,))
     """
 
     temperature: float
@@ -73,6 +79,14 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
 
     Sensitivities are central differences of the Mackenzie equation (steps 0.01 deg C, 0.01 PSU, 1 m; one-sided at
     the surface).
+
+    Examples
+    --------
+    >>> view = sound_speed_view(temperature=10.0, salinity=35.0, depth=1000.0)
+    >>> round(view.speed, 1), round(view.range_error_per_km, 1)    # a navigator assuming 1500 m/s comes up short
+    (1506.3, -4.2)
+    >>> {name: round(d, 3) for name, d in view.sensitivity.items()}
+    {'temperature': 3.601, 'salinity': 1.238, 'depth': 0.017}
     """
     T = as_scalar("temperature", temperature)
     S = as_scalar("salinity", salinity)
@@ -97,7 +111,16 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
 
 
 def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
-    """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked."""
+    """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_sound_speed_view(sound_speed_view(temperature=10.0))
+    >>> len(fig.axes), bool(fig.axes[1].yaxis_inverted())       # speed against temperature, and against depth
+    (2, True)
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.0, 3.2))
     ax_t, ax_d = fig.subplots(1, 2)
     (curve_t,) = ax_t.plot(view.temperatures, view.speed_vs_temperature)
@@ -139,7 +162,19 @@ def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any]:
 
 
 def sound_speed_widget() -> Any:
-    """Sliders for temperature, salinity and depth over the Mackenzie sound speed (chapter 1)."""
+    """Sliders for temperature, salinity and depth over the Mackenzie sound speed (chapter 1).
+
+    Examples
+    --------
+    >>> panel = sound_speed_widget()           # draws the first picture; works without a browser
+    >>> [slider.description for slider in panel.children[0].children]
+    ['T [°C]', 'S [PSU]', 'D [m]']
+    >>> image = panel.children[2].children[0]
+    >>> before = image.value
+    >>> panel.children[0].children[0].value = 20.0      # a warmer sea: the picture is drawn again
+    >>> image.value != before
+    True
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}
@@ -171,6 +206,12 @@ class RangeErrorView:
     errors : dict of ndarray
         The error of each model, in the order additive, multiplicative (sound speed), slow bias, outliers, and
         their sum under ``"total"``.
+
+    Examples
+    --------
+    >>> view = range_error_view(seed=1)
+    >>> view.times.shape, list(view.errors)
+    ((151,), ['additive', 'multiplicative', 'slow bias', 'outliers', 'total'])
     """
 
     times: np.ndarray
@@ -185,6 +226,16 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
 
     The track starts 3000 m from the beacon (paper D's setting); the true sound speed is N(1500, 1) m/s per ping.
     Outliers: a patch of 5 one-sided ones at 400 s and 8 two-sided ones at 1000 s (paper E's kinds).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> view = range_error_view(noise_sigma=0.7, outlier_amplitude=80.0, seed=1)
+    >>> round(float(view.true_ranges[0]), 1), view.times.shape       # 3 km out, a ping every 10 s
+    (3026.5, (151,))
+    >>> parts = [err for name, err in view.errors.items() if name != "total"]
+    >>> bool(np.allclose(view.errors["total"], sum(parts))), bool(np.abs(view.errors["outliers"]).max() > 50.0)
+    (True, True)
     """
     # each value checked under its own name (the models below would name theirs: sigma, mean, amplitude...)
     noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
@@ -199,7 +250,7 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))
     models = {
         "additive": ranging.GaussianNoise(noise_sigma),
-        "multiplicative": ranging.SoundSpeedError(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
+        "multiplicative": ranging.SoundSpeedMismatch(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
         "slow bias": ranging.SlowBias(mean=bias_mean, sigma=bias_sigma, time_constant=bias_time_constant),
         "outliers": (ranging.Outliers(onset_times=[400.0], count=5, amplitude=outlier_amplitude)
                      + ranging.Outliers(onset_times=[1000.0], count=8, amplitude=outlier_amplitude,
@@ -211,7 +262,16 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
 
 
 def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
-    """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range."""
+    """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_range_error_view(range_error_view(seed=1))
+    >>> len(fig.axes), len(fig.axes[0].lines)            # four models over time; their sum against range
+    (2, 4)
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.0, 3.4))
     ax_t, ax_r = fig.subplots(1, 2)
     lines = {}
@@ -239,7 +299,14 @@ def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any]:
 
 
 def range_error_widget() -> Any:
-    """Sliders over the parameters of the four range error models (chapter 1)."""
+    """Sliders over the parameters of the four range error models (chapter 1).
+
+    Examples
+    --------
+    >>> panel = range_error_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['σ white [m]', 'assumed c [m/s]', 'bias σ [m]', 'bias τ [s]', 'outlier size [m]']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

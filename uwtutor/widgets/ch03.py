@@ -68,6 +68,12 @@ class PrecisionView:
         Their RMS [m] (NaN if the problem is singular).
     well_conditioned : bool
         Whether the fix passed ``uwtutor.lsq``'s conditioning limits (no ``IllConditionedWarning``).
+
+    Examples
+    --------
+    >>> view = precision_view(n_obs=20, turn_deg=90.0, n_runs=20, seed=0)
+    >>> view.positions.shape, view.errors.shape, view.well_conditioned
+    ((20, 2), (20, 2), True)
     """
 
     n_obs: int
@@ -116,6 +122,15 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
     Returns
     -------
     PrecisionView
+
+    Examples
+    --------
+    >>> wide = precision_view(n_obs=236, turn_deg=90.0, n_runs=20, seed=0)      # paper A's arc
+    >>> round(wide.alpha, 2), round(wide.predicted_rmse, 1)
+    (1.0, 1.7)
+    >>> narrow = precision_view(n_obs=20, turn_deg=10.0, n_runs=20, seed=0)     # 10 degrees of bearing
+    >>> bool(narrow.alpha > 1000.0), narrow.well_conditioned, bool(narrow.rmse > 100.0 * wide.rmse)
+    (True, False, True)
     """
     n = as_int("n_obs", n_obs, minimum=1)
     # an arc of less than a degree, or a radius below a metre, gives no fix at all (the normal matrix is singular
@@ -155,12 +170,30 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
 
 def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray:
     """Points ``(n, 2)`` of the ellipse of a 2x2 covariance, ``scale`` standard deviations from its centre (0, 0)
-    (:func:`uwtutor.observability.error_ellipse`, under the name the chapter uses)."""
+    (:func:`uwtutor.observability.error_ellipse`, under the name the chapter uses).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> points = covariance_ellipse(np.diag([4.0, 1.0]), scale=2.0, n=100)     # sigma 2 m east, 1 m north
+    >>> distance = np.hypot(points[:, 0], points[:, 1])
+    >>> points.shape, round(float(distance.min()), 2), round(float(distance.max()), 2)
+    ((100, 2), 2.0, 4.0)
+    """
     return observability.error_ellipse(cov, scale=scale, n_points=n)
 
 
 def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
-    """Draw a ``PrecisionView``: alpha against the number of ranges, and the scatter of the fixes' errors."""
+    """Draw a ``PrecisionView``: alpha against the number of ranges, and the scatter of the fixes' errors.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_precision_view(precision_view(n_obs=20, n_runs=20))
+    >>> len(fig.axes), fig.axes[0].get_yscale()          # alpha on a log axis; the fixes' errors
+    (2, 'log')
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.2, 3.3))
     ax_a, ax_e = fig.subplots(1, 2)
     k = np.arange(1, view.n_obs + 1)
@@ -224,7 +257,14 @@ def update_precision_view(fig: Any, view: PrecisionView) -> list[Any] | None:
 
 
 def precision_widget() -> Any:
-    """Sliders for the number of ranges and the bearing change, over alpha and the LS error (chapter 3)."""
+    """Sliders for the number of ranges and the bearing change, over alpha and the LS error (chapter 3).
+
+    Examples
+    --------
+    >>> panel = precision_widget()
+    >>> [c.description for c in panel.children[0].children]
+    ['ranges', 'bearing change [°]', 'σ [m]']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}
@@ -283,6 +323,12 @@ class PrelocationView:
         The track implied by the runner-up [m].
     error : float
         Distance between the pre-located and the true position at ``epoch`` [m].
+
+    Examples
+    --------
+    >>> view = prelocation_view(bearing_step_deg=2.0, speed_step=10.0, epoch=60)
+    >>> view.log_cost.shape, view.estimated_track.shape        # 180 bearings x 26 speeds; epochs 0..60
+    ((180, 26), (61, 2))
     """
 
     bearing_step_deg: float
@@ -337,6 +383,15 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
     Returns
     -------
     PrelocationView
+
+    Examples
+    --------
+    >>> before = prelocation_view(epoch=60)          # before the turn at epoch 70: a mirror valley
+    >>> [round(b) for b in before.truth], round(before.mirror_bearing_deg), before.runner_up is None
+    ([207, 1500], 183, False)
+    >>> after = prelocation_view(epoch=100)          # after it: one valley, at the truth
+    >>> after.runner_up is None, round(after.best[0]), bool(after.error < before.error)
+    (True, 206, True)
     """
     step_b = float(as_positive("bearing_step_deg", bearing_step_deg, ndim=0))
     step_c = float(as_positive("speed_step", speed_step, ndim=0))
@@ -379,7 +434,16 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
 
 
 def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
-    """Draw a ``PrelocationView``: the cost map with its minima, and the pre-located track against the truth."""
+    """Draw a ``PrelocationView``: the cost map with its minima, and the pre-located track against the truth.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_prelocation_view(prelocation_view(epoch=60))
+    >>> len(fig.axes)                     # the cost map, its colour bar, the tracks
+    3
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.4, 3.4))
     ax_c, ax_t = fig.subplots(1, 2)
     db, dc = view.bearing_step_deg, view.speed_step
@@ -450,7 +514,14 @@ def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None
 
 
 def prelocation_widget() -> Any:
-    """Sliders for the grid resolution and the number of epochs over paper D's cost map (chapter 3)."""
+    """Sliders for the grid resolution and the number of epochs over paper D's cost map (chapter 3).
+
+    Examples
+    --------
+    >>> panel = prelocation_widget()
+    >>> [c.description for c in panel.children[0].children]
+    ['bearing step [°]', 'speed step [m/s]', 'epochs used']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

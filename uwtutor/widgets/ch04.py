@@ -68,6 +68,12 @@ class EKFView:
         The same for the NIS.
     n_runs : int
         Number of Monte Carlo runs.
+
+    Examples
+    --------
+    >>> view = ekf_view(n_runs=10, n_shown=2, seed=0)
+    >>> view.times.shape, view.estimates.shape, view.n_runs       # 151 epochs; the tracks of 2 runs kept
+    ((151,), (2, 151, 2), 10)
     """
 
     initial_error: float
@@ -117,6 +123,15 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
     Returns
     -------
     EKFView
+
+    Examples
+    --------
+    >>> tuned = ekf_view(n_runs=10, seed=0)                # Q and R as the truth, no bias: consistent
+    >>> round(tuned.nees_fraction_within, 2), [round(b, 2) for b in tuned.nees_bounds]
+    (0.95, [0.96, 3.42])
+    >>> biased = ekf_view(bias=20.0, n_runs=10, seed=0)    # a 20 m range bias the filter does not model
+    >>> round(biased.nees_fraction_within, 2), bool(biased.rmse[-1] > 2.0 * tuned.rmse[-1])
+    (0.0, True)
     """
     # beyond these bounds the filter's variances underflow to 0 or their products overflow float64
     p0 = as_scalar("initial_error", initial_error, low=1e-3, high=1e6)
@@ -145,7 +160,16 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
 
 
 def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
-    """Draw an ``EKFView``: a few estimated tracks, the RMSE over time, and the mean NEES against its bounds."""
+    """Draw an ``EKFView``: a few estimated tracks, the RMSE over time, and the mean NEES against its bounds.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_ekf_view(ekf_view(n_runs=10, n_shown=2))
+    >>> len(fig.axes)                              # the tracks, the RMSE, the mean NEES
+    3
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.6, 3.6))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.15))
     ax_m = fig.add_subplot(grid[:, 0])
@@ -201,7 +225,14 @@ def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
 
 
 def ekf_widget() -> Any:
-    """Sliders for the initial error, Q, R and a range bias over the EKF's tracks and NEES (chapter 4)."""
+    """Sliders for the initial error, Q, R and a range bias over the EKF's tracks and NEES (chapter 4).
+
+    Examples
+    --------
+    >>> panel = ekf_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['initial σ [m]', 'Q scale', 'R scale', 'range bias [m]']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

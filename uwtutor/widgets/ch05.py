@@ -78,6 +78,12 @@ class FadingView:
         ``"fading"`` and ``"ekf"``: RMS error over the runs and the epochs after ``STEADY_FROM`` [m].
     steady_median : dict of float
         The median over the runs of each run's RMS error after ``STEADY_FROM`` [m].
+
+    Examples
+    --------
+    >>> view = fading_view(n_runs=10, seed=0)
+    >>> view.times.shape, view.x_fading.shape, view.fading_factor.shape
+    ((151,), (151, 2), (151,))
     """
 
     assumed_dc: float
@@ -127,6 +133,15 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     Returns
     -------
     FadingView
+
+    Examples
+    --------
+    >>> paper_d = fading_view(assumed_dc=-30.0, weakening=True, n_runs=10, seed=0)
+    >>> plain = fading_view(assumed_dc=-30.0, weakening=False, n_runs=10, seed=0)   # beta = 1
+    >>> round(paper_d.steady_median["fading"], 1), round(plain.steady_median["fading"], 1)
+    (30.6, 54.1)
+    >>> bool(paper_d.fraction_faded < plain.fraction_faded)       # the weakening factor fades less often
+    True
     """
     dc = float(as_finite("assumed_dc", assumed_dc, ndim=0))
     if not -200.0 <= dc <= 200.0:
@@ -174,7 +189,16 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
 
 def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     """Draw a ``FadingView``: the tracks of the displayed run, the error over time (RMS and median over the runs)
-    and the fading factor of the displayed run."""
+    and the fading factor of the displayed run.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_fading_view(fading_view(n_runs=10))
+    >>> len(fig.axes) >= 3                          # the tracks, the error over time, the factors
+    True
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(8.0, 5.0))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.25))
     ax_map = fig.add_subplot(grid[:, 0])
@@ -235,7 +259,14 @@ def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
 
 
 def fading_widget() -> Any:
-    """Assumed sound-speed error, forgetting factor, weakening factor on/off and initial error over the view."""
+    """Assumed sound-speed error, forgetting factor, weakening factor on/off and initial error over the view.
+
+    Examples
+    --------
+    >>> panel = fading_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['assumed Δc [m/s]', 'ρ', 'β = H m (paper D)', 'initial error [m]']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

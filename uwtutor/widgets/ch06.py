@@ -1,7 +1,7 @@
 """Chapter 6 (paper C): the GPF explorer widget (a view, its plot, a thin widget).
 
 Paper C's parameters, the maneuvering depth profile, the sensors and the EKF / MMPF / GPF comparison live in
-:mod:`uwtutor.scenarios.paper_c` (importable from here under their old names: ``PAPER_C``,
+:mod:`uwtutor.scenarios.paper_c` (importable from here too: ``PARAMETERS``,
 ``maneuvering_depth_profile``, ``simulate_depth_sensors``, ``run_depth_study``, ...). :func:`gpf_view` is the light
 version behind the chapter's widget (a shorter profile, fewer particles).
 """
@@ -16,13 +16,18 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from .._validate import as_int, as_scalar, check_work
+from ..errors import deprecated_aliases
 from ..filters import GreyParticleFilter, extended_kalman_filter
 from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..pipelines.depth_study import DepthStudy, run_depth_study  # noqa: F401 (chapter 6 calls ch06.run_depth_study)
-from ..scenarios.paper_c import (FILTER_NAMES, PAPER_C, DepthProfile, maneuvering_depth_profile,  # noqa: F401
+from ..scenarios.paper_c import (FILTER_NAMES, PARAMETERS, DepthProfile, maneuvering_depth_profile,  # noqa: F401
                                  simulate_depth_sensors)
 from ..scenarios.paper_c import PITCH_OFFSET as _PITCH_OFFSET
 from ._panel import keep, kept, rescale, slider_panel
+
+#: ``ch06.PAPER_C``, paper C's parameters as a dict, is ``paper_c.PARAMETERS.as_dict()`` (the old name, one release)
+__getattr__ = deprecated_aliases(__name__, {"PAPER_C": ("uwtutor.scenarios.paper_c.PARAMETERS.as_dict()",
+                                                       lambda: PARAMETERS.as_dict())})
 
 __all__ = [                   # the paper's content above is documented in uwtutor.scenarios.paper_c
     "GPFView",
@@ -60,6 +65,12 @@ class GPFView:
         ``N``.
     n_grey : int
         Grey particles per step.
+
+    Examples
+    --------
+    >>> view = gpf_view(n_particles=100, seed=1)
+    >>> view.times.shape, view.truth.shape, view.n_grey          # 12 s at 20 Hz; depth, speed, pitch
+    ((240,), (240, 3), 10)
     """
 
     times: np.ndarray
@@ -81,8 +92,8 @@ def _dive_and_ekf(factor: float, seed: int) -> tuple[DepthProfile, np.ndarray, A
     profile = maneuvering_depth_profile(noise_factors=(1.0, factor), noise_change_times=(13.0,)).between(6.0, 18.0)
     rng = np.random.default_rng(seed)
     z = simulate_depth_sensors(profile, 1, rng)[0]
-    R = np.diag(PAPER_C["sensor_std"] ** 2)
-    q = PAPER_C["process_std"]
+    R = np.diag(PARAMETERS.sensor_std ** 2)
+    q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
     ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
     return profile, z, ekf
@@ -113,6 +124,15 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     Returns
     -------
     GPFView
+
+    Examples
+    --------
+    >>> view = gpf_view(n_particles=200, noise_change=3.0, seed=1)    # the noise triples at 13 s
+    >>> ekf, gpf = view.rmse["EKF"], view.rmse["GPF"]       # RMSE of depth [m], speed [m/s], pitch [rad]
+    >>> round(float(ekf[0]), 1), bool(gpf[0] < ekf[0])      # the GPF follows the new noise, the EKF does not
+    (0.3, True)
+    >>> bool(view.ess.min() >= 1.0), bool(view.ess.max() <= view.n_particles)
+    (True, True)
     """
     N = as_int("n_particles", n_particles, minimum=10)
     check_work("n_particles", 30 * N, "floats (n_particles x 3 states x the filter's working arrays)")
@@ -124,8 +144,8 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     profile, z, ekf = _dive_and_ekf(factor, seed)
     if window > len(profile.times):
         raise ValueError(f"noise_window must be at most the dive's {len(profile.times)} samples; got {window}")
-    R = np.diag(PAPER_C["sensor_std"] ** 2)
-    q = PAPER_C["process_std"]
+    R = np.diag(PARAMETERS.sensor_std ** 2)
+    q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
     gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
                                            grey_fraction=grey_fraction, noise_window=noise_window,
@@ -139,7 +159,16 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
 
 
 def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
-    """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars."""
+    """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_gpf_view(gpf_view(n_particles=100))
+    >>> len(fig.axes)                      # pitch, noise estimate, ESS, RMSE bars
+    4
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.6, 5.0))
     ax = fig.subplots(2, 2)
     t = view.times
@@ -203,7 +232,14 @@ def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
 
 
 def gpf_widget() -> Any:
-    """Sliders for the GPF's particle count, grey share and wavelet window, and the change of the sensor noise."""
+    """Sliders for the GPF's particle count, grey share and wavelet window, and the change of the sensor noise.
+
+    Examples
+    --------
+    >>> panel = gpf_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['particles N', 'grey share', 'wavelet window', 'noise change ×']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

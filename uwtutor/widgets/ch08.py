@@ -73,6 +73,12 @@ class CooperativeView:
         Fraction of runs with an error above ``LOST_ERROR`` after ``LOST_AFTER`` seconds.
     unobservable : bool
         Whether the filter emitted an ``UnobservableWarning`` (the relative track is straight).
+
+    Examples
+    --------
+    >>> view = cooperative_view(n_runs=5, seed=0)
+    >>> view.times.shape, view.truth.shape, view.current_estimate.shape      # K filter steps, K + 1 epochs
+    ((312,), (313, 2), (312, 2))
     """
 
     pattern: str
@@ -125,6 +131,18 @@ def cooperative_view(pattern: str = "zigzag", current: float = 0.7071, interval:
     Returns
     -------
     CooperativeView
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> zigzag = cooperative_view(pattern="zigzag", n_runs=5, seed=0)
+    >>> zigzag.unobservable, zigzag.lost_fraction, bool(zigzag.late_median_error < 20.0)
+    (False, 0.0, True)
+    >>> bool(np.allclose(zigzag.current_estimate[-1], zigzag.current, atol=0.05))    # the current is found
+    True
+    >>> parallel = cooperative_view(pattern="parallel", n_runs=5, seed=0)   # a straight relative track
+    >>> parallel.unobservable, bool(parallel.late_median_error > 10.0 * zigzag.late_median_error)
+    (True, True)
     """
     if pattern not in paper_b.LEADER_PATTERNS:
         raise ValueError(f"pattern must be one of {paper_b.LEADER_PATTERNS}; got {pattern!r}")
@@ -165,7 +183,16 @@ def cooperative_view(pattern: str = "zigzag", current: float = 0.7071, interval:
 
 def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
     """Draw a ``CooperativeView``: the tracks of run 0, its current estimate with ±2σ, and the median position
-    error over the runs."""
+    error over the runs.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_cooperative_view(cooperative_view(n_runs=5))
+    >>> len(fig.axes)                 # the tracks, the current estimate, the median error
+    3
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.8, 3.2))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.3, 1.0))
     ax_map = fig.add_subplot(grid[:, 0])
@@ -229,7 +256,14 @@ def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None
 
 
 def cooperative_widget() -> Any:
-    """Leader pattern, current, update interval, packet loss and tuning over the view."""
+    """Leader pattern, current, update interval, packet loss and tuning over the view.
+
+    Examples
+    --------
+    >>> panel = cooperative_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['leader', 'current [m/s]', 'δt [s]', 'packet loss', 'tuning']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

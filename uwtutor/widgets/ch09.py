@@ -73,6 +73,12 @@ class OutlierView:
         ``"flagged"`` (fraction of the outliers flagged), ``"good_flagged"`` (fraction of the good ranges flagged),
         ``"rms_fix"``, ``"rms_track"`` [m], ``"within_10_fix"``, ``"within_10_track"`` (fraction of fixes with an
         error under 10 % of the slant range).
+
+    Examples
+    --------
+    >>> view = outlier_view(spacing=300, seed=0)          # a fix every 300 s: fewer fixes, faster
+    >>> view.times.shape, int(view.outlier.sum())        # paper E's two patches: 10 and 20 outliers
+    ((1201,), 30)
     """
 
     amplitude: float
@@ -140,6 +146,16 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     Returns
     -------
     OutlierView
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> view = outlier_view(amplitude=80.0, pattern="paper", spacing=300, seed=0)
+    >>> view.summary["flagged"], view.summary["good_flagged"]      # every outlier flagged, no good range
+    (1.0, 0.0)
+    >>> plain, robust = np.abs(view.plain_error).max(), np.abs(view.robust_error).max()
+    >>> bool(plain > 50.0), bool(robust < 0.2 * plain)     # the standard KF follows the outliers; OR-VMLBL-KF not
+    (True, True)
     """
     a = float(as_finite("amplitude", amplitude, ndim=0))
     if not 0.0 <= a <= 500.0:
@@ -199,7 +215,16 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
 
 
 def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
-    """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom)."""
+    """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_outlier_view(outlier_view(spacing=300))
+    >>> len(fig.axes)                  # range errors with the flags; position errors of the fixes
+    2
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.8, 5.0))
     ax_r, ax_p = fig.subplots(2, 1, sharex=True)
     t = view.times
@@ -256,7 +281,14 @@ def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
 
 
 def outlier_widget() -> Any:
-    """Outlier amplitude and pattern, the test and its δ, the epoch spacing and re-acquisition over the view."""
+    """Outlier amplitude and pattern, the test and its δ, the epoch spacing and re-acquisition over the view.
+
+    Examples
+    --------
+    >>> panel = outlier_widget()
+    >>> [c.description for row in panel.children[:2] for c in row.children]
+    ['outlier size [m]', 'pattern', 'δ', 'epoch spacing [s]', 'test', 're-acquire']
+    """
     import ipywidgets as w
 
     style = {"description_width": "initial"}

@@ -69,6 +69,12 @@ class ComparisonView:
         Fraction of the epochs whose mean NEES is inside its 95 % interval, per method (NaN without a covariance).
     n_runs : int
         Monte Carlo runs behind each number.
+
+    Examples
+    --------
+    >>> view = comparison_view("circle", "white")          # read from the committed comparison
+    >>> view.times.shape, len(view.methods), view.rmse.shape, view.n_runs
+    ((150,), 10, (10, 150), 1000)
     """
 
     scenario: str
@@ -85,7 +91,19 @@ class ComparisonView:
 
 
 def comparison_view(scenario: str = "circle", condition: str = "white", table: Any = None) -> ComparisonView:
-    """The rows of ``table`` (the committed comparison by default) for one scenario and condition."""
+    """The rows of ``table`` (the committed comparison by default) for one scenario and condition.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> view = comparison_view(scenario="circle", condition="white")
+    >>> view.methods[:3]
+    ('LS pre-positioning', 'grid pre-location', 'EKF')
+    >>> bool(np.all(view.rmse[:, -1] >= view.bound[-1]))     # no method beats the bound
+    True
+    >>> view.methods[int(np.argmin(view.median_final))]
+    'EKF'
+    """
     t = _table(table)
     scenarios, conditions = list(dict.fromkeys(t.scenario.tolist())), list(dict.fromkeys(t.condition.tolist()))
     if scenario not in scenarios:
@@ -95,10 +113,10 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
     rows = np.flatnonzero((t.scenario == scenario) & (t.condition == condition))
     if t.rmse_curves is None:
         raise ValueError("the table holds no curves: read it with ComparisonTable.from_csv(path, curves=...)")
-    from ..scenarios.suite import SUITE
+    from ..scenarios.suite import PARAMETERS
 
     K = int(t.n_steps[rows[0]])
-    times = SUITE.interval * np.arange(1, K + 1, dtype=float)
+    times = PARAMETERS.interval * np.arange(1, K + 1, dtype=float)
     return ComparisonView(scenario=scenario, condition=condition, times=times, bound=t.bound_curves[rows[0]],
                           methods=tuple(t.method[rows].tolist()), rmse=t.rmse_curves[rows],
                           median_final=t.median_final_error[rows], p95_final=t.p95_final_error[rows],
@@ -111,6 +129,14 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
 
     ``method`` (a name of ``view.methods``) draws that method in red and the others in grey; ``"all"`` colours
     every one.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_comparison_view(comparison_view(), method="EKF")      # the EKF in red, the others grey
+    >>> len(fig.axes)
+    2
+    >>> plt.close(fig)
     """
     if method != "all" and method not in view.methods:
         raise ValueError(f"method must be 'all' or one of the methods of this scenario, {list(view.methods)}; "
@@ -195,7 +221,14 @@ def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") 
 
 def comparison_widget(table: Any = None) -> Any:
     """Scenario, error condition and a method to highlight over the view (the committed table, or ``table``); a
-    method that does not run on the chosen scenario highlights nothing."""
+    method that does not run on the chosen scenario highlights nothing.
+
+    Examples
+    --------
+    >>> panel = comparison_widget()
+    >>> [c.description for c in panel.children[0].children]
+    ['scenario', 'error condition', 'highlight']
+    """
     import ipywidgets as w
 
     t = _table(table)

@@ -67,6 +67,12 @@ class RealDataView:
         The filter's RMSE, median, final error [m] and fraction within 2 m, over every epoch.
     rts_rmse : float
         The smoother's RMSE [m].
+
+    Examples
+    --------
+    >>> view = real_data_view(beacon="5")          # read from the committed runs on Plaza 2
+    >>> view.times.shape, view.estimate.shape, sorted(view.beacons)
+    ((410,), (410, 2), [5])
     """
 
     beacon: str
@@ -90,7 +96,19 @@ class RealDataView:
 def real_data_view(beacon: str = "5", period: float | None = None, states: str = "+ scale and gyro bias",
                    study: RealDataStudy | None = None) -> RealDataView:
     """The committed run of ``navigate`` on Plaza 2 for a beacon (``"all"`` for four), a range period and the
-    estimated states (``study``: the committed one by default)."""
+    estimated states (``study``: the committed one by default).
+
+    Examples
+    --------
+    >>> full = real_data_view(beacon="5", states="+ scale and gyro bias")
+    >>> pose = real_data_view(beacon="5", states="pose only")
+    >>> round(full.summary["rmse"], 1), round(pose.summary["rmse"], 1)     # estimating the odometry's scale pays
+    (2.4, 24.0)
+    >>> bool(abs(full.scale[-1] - full.measured_scale) < 0.01), bool(full.rts_rmse < full.summary["rmse"])
+    (True, True)
+    >>> round(real_data_view(beacon="all").summary["rmse"], 1)      # four beacons
+    0.3
+    """
     s = load_real_data_study() if study is None else study
     if not isinstance(study, (RealDataStudy, type(None))):
         raise TypeError(f"study must be a RealDataStudy (load_real_data_study()) or None; got {type(study).__name__}")
@@ -120,7 +138,16 @@ def real_data_view(beacon: str = "5", period: float | None = None, states: str =
 
 def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     """The track against the truth and the odometry (left), the error over time (top right) and the scale estimate
-    with its one-sigma band (bottom right)."""
+    with its one-sigma band (bottom right).
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> fig = plot_real_data_view(real_data_view())
+    >>> len(fig.axes) >= 3                 # the tracks, the error over time, the scale estimate
+    True
+    >>> plt.close(fig)
+    """
     fig = fig or plt.figure(figsize=(7.8, 3.9))
     # fixed margins, no tight_layout: it measures every tick label, most of the time of a redraw
     grid = fig.add_gridspec(2, 2, width_ratios=(1.0, 1.25), left=0.085, right=0.78, bottom=0.2, top=0.92,
@@ -203,7 +230,14 @@ def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
 
 
 def real_data_widget(study: RealDataStudy | None = None) -> Any:
-    """Beacon, range period and estimated states over the committed runs (``study``: the committed one)."""
+    """Beacon, range period and estimated states over the committed runs (``study``: the committed one).
+
+    Examples
+    --------
+    >>> panel = real_data_widget()
+    >>> [c.description for c in panel.children[0].children]
+    ['beacon', 'ranges', 'states']
+    """
     import ipywidgets as w
 
     s = load_real_data_study() if study is None else study

@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 from typing import Any, Sequence
 
 import numpy as np
@@ -88,7 +89,7 @@ from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_arr
                           as_rng, as_scalar, readonly)
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
-from ...resampling import Resampler, systematic_resample
+from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
 from ..base import FilterResult
 
 __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
@@ -96,6 +97,10 @@ __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
 
 class ParticleDegeneracyError(RuntimeError):
     """Every particle got zero likelihood: the particle cloud has lost the measurement."""
+
+
+_LOST = ("every particle has zero likelihood for this measurement{which}: the particles have lost the track. Use more "
+         "particles, a larger process noise, or check the measurement and R")
 
 
 #: Particles per block of runs that ``run`` moves through all steps together (a block stays in cache).
@@ -137,14 +142,22 @@ def _split_pair(first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, An
 
 
 def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, whiten: np.ndarray,
-                            diagonal: bool) -> np.ndarray:
+                            diagonal: bool, complete: bool = False) -> np.ndarray:
     r""":math:`-\tfrac12 (z - h)^T R^{-1} (z - h)` for every particle of every run, ``(M, N)``: the fast path of
     the Gaussian likelihood, with the whitening computed once for an ``R`` that does not change.
 
     ``hx_rows`` (M, m, N); ``z`` (M, m), NaN entries missing; ``R`` (m, m) or (M, m, m); ``whiten`` the
     reciprocal standard deviations (m,) or (M, m) when ``diagonal``, else :math:`W` (m, m) or (M, m, m) with
     :math:`W^T = L^{-1}`, :math:`L L^T = R`. A run with every entry missing gets 0 (its weights do not change).
+    ``complete`` says that the caller knows ``z`` has no NaN entry.
     """
+    if diagonal and hx_rows.shape[0] == 1 and (complete or _all(z == z)):   # one run, nothing missing: 2-D
+        d = hx_rows[0] - z[0][:, None]
+        d *= whiten.reshape(-1, 1)
+        d *= d
+        out = np.add.reduce(d, axis=0)
+        out *= -0.5
+        return out[None]
     missing = np.isnan(z)
     if not _any(missing):              # rows (M, m, N): contiguous per component
         d = hx_rows - z[..., None]
@@ -170,6 +183,32 @@ def _whitened_log_likelihood(hx_rows: np.ndarray, z: np.ndarray, R: np.ndarray, 
     out = np.add.reduce(d, axis=1)
     out *= -0.5
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _strata(N: int) -> np.ndarray:
+    """A read-only ``0.0, 1.0, ..., N - 1`` (the strata of systematic resampling), cached."""
+    a = np.arange(N, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+def _systematic_own_weights(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """:func:`uwtutor.resampling.systematic_resample` of a filter's own 1-D weights, which its update made finite,
+    >= 0 and normalized, so that they need no check at every step: the same draw from ``rng`` and the same indices
+    (``tests/test_resampling.py`` holds the two together)."""
+    total = float(np.add.reduce(w))
+    if abs(total - 1.0) > WEIGHT_SUM_TOL:         # normalize what is not, as the public function does
+        w = w / total
+    N = w.shape[-1]
+    points = _strata(N) + rng.random()           # the draw of rng.random((1,)), as a float
+    points /= N
+    c = np.add.accumulate(w)
+    if w[-1] > 0.0:                               # exactly 1 from the last positive weight on
+        c[-1] = 1.0
+    else:
+        c[N - 1 - int(np.argmax(w[::-1] > 0.0)):] = 1.0
+    return c.searchsorted(points, side="right")
 
 
 def _whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -355,6 +394,8 @@ class BootstrapParticleFilter:
         self._ess = 1.0 / np.einsum("ij,ij->i", self._w, self._w)
         self._resampled = np.zeros(M, dtype=bool)
         self._prior_moments = False
+        self._complete = False                  # whether the measurement of the current update has no NaN
+        self._sequence_complete = False         # set by run() for a sequence without NaN
         self._white_key: bytes | None = None
         self._set_estimate()
         self._xp, self._Pp = self._x, self._P
@@ -577,7 +618,7 @@ class BootstrapParticleFilter:
         return self.motion.normalize(ref[:, 0, :] + mean_d), cov
 
     def _set_estimate(self) -> None:
-        self._x, self._P = self._state_moments(self._rows_p)
+        self._x, self._P = self._state_moments(self._rows_p) if self._circular else self._moments(self._rows_p)
 
     def _set_prior(self) -> None:
         self._set_estimate()
@@ -602,12 +643,12 @@ class BootstrapParticleFilter:
     def _sample(self, motion: MotionModel, rows: np.ndarray, u: Any, k: int, rngs: Sequence[np.random.Generator],
                 name: str = "motion") -> np.ndarray:
         """Move ``rows`` (R, n, count) with ``motion.sample`` (one Generator per run); returns new rows."""
-        x = _rows(rows)
+        x = rows.swapaxes(-1, -2)
         new = motion.sample(x, u, k, rngs)
         if getattr(new, "shape", None) != x.shape:
             raise ValueError(f"{name} model's sample ({type(motion).__name__}) must return particles of shape "
                              f"{x.shape}; got {np.shape(new)}")
-        out = _rows(new)
+        out = new.swapaxes(-1, -2)
         return out if out.flags.c_contiguous else np.ascontiguousarray(out)
 
     def predict(self, u: Any = None) -> None:
@@ -652,18 +693,23 @@ class BootstrapParticleFilter:
             if key != self._white_key:
                 self._white, self._white_diag = _whitening(R)
                 self._white_key = key
-            return _whitened_log_likelihood(_rows(hx), z, R, self._white, self._white_diag)
+            return _whitened_log_likelihood(hx.swapaxes(-1, -2), z, R, self._white, self._white_diag,
+                                            self._complete)
         return gaussian_log_likelihood(hx, z, R)
 
     def _update(self, z: np.ndarray) -> None:
         """:meth:`update` for a measurement already checked: shape (M, m), no infinite entry."""
         M, m = z.shape
         k = max(self.k, 0)
-        missing = np.isnan(z)
         reuse = self._prior_moments
         self._prior_moments = False
         self._resampled = np.zeros(M, dtype=bool)
-        if not _any(missing):
+        if self._sequence_complete:                       # run() found no NaN in the whole sequence
+            missing, self._complete = None, True
+        else:
+            missing = np.isnan(z)
+            self._complete = not _any(missing)            # for the likelihood: no component missing
+        if self._complete:
             none = None
         else:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
@@ -673,9 +719,9 @@ class BootstrapParticleFilter:
                 return
 
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
-        view = _rows(self._rows_p)
+        view = self._rows_p.swapaxes(-1, -2)
         hx = self.measurement.h(view, k)
-        if getattr(hx, "shape", None) != view.shape[:-1] + (m,):
+        if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
             raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
                              f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
         hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
@@ -698,24 +744,33 @@ class BootstrapParticleFilter:
         if not _all(self._uniform):
             with np.errstate(divide="ignore"):
                 logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
-        top = np.maximum.reduce(logw, axis=1, keepdims=True)
-        lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
-        if _any(lost):
-            which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
-            raise ParticleDegeneracyError(
-                f"every particle has zero likelihood for this measurement{which}: the particles have lost the "
-                "track. Use more particles, a larger process noise, or check the measurement and R")
-        if none is not None:
-            top = np.where(none[:, None], 0.0, top)
-        w = logw - top                                    # a new array: the model's output is left alone
-        np.exp(w, out=w)
-        w /= np.add.reduce(w, axis=1, keepdims=True)
-        if none is not None:                              # nothing measured: weights as they were
-            w[none] = self._w[none]
+        if M == 1 and none is None:                       # one run: the same arithmetic on its row
+            top1 = np.maximum.reduce(logw[0])
+            if not math.isfinite(top1):
+                raise ParticleDegeneracyError(_LOST.format(which=""))
+            w = logw - top1                               # a new array: the model's output is left alone
+            np.exp(w, out=w)
+            w /= np.add.reduce(w[0])
+        else:
+            top = np.maximum.reduce(logw, axis=1, keepdims=True)
+            if none is None and _all(np.isfinite(top)):    # every run has a particle with a likelihood
+                lost = None
+            else:
+                lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
+            if lost is not None and _any(lost):
+                which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
+                raise ParticleDegeneracyError(_LOST.format(which=which))
+            if none is not None:
+                top = np.where(none[:, None], 0.0, top)
+            w = logw - top                                # a new array: the model's output is left alone
+            np.exp(w, out=w)
+            w /= np.add.reduce(w, axis=1, keepdims=True)
+            if none is not None:                          # nothing measured: weights as they were
+                w[none] = self._w[none]
         self._w = w
         self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
-        ess = np.array([1.0 / float(w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
+        ess = np.array([1.0 / (w[0] @ w[0])]) if M == 1 else 1.0 / np.einsum("ij,ij->i", w, w)
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
@@ -731,11 +786,13 @@ class BootstrapParticleFilter:
         """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
         to ``1/N``."""
         runs = range(self.n_runs) if runs is None else runs
-        N = self.n_particles
+        N = self._rows_p.shape[2]
+        # the default resampler on the filter's own weights (checked and normalized by the update) needs no check
+        resample = _systematic_own_weights if self.resampler is systematic_resample else self.resampler
+        w, rngs = self._w, self.rngs
         for r in runs:
-            idx = self.resampler(self._w[r], self.rngs[r])
-            self._take(r, idx)
-            self._w[r].fill(1.0 / N)
+            self._take(r, resample(w[r], rngs[r]))
+            w[r].fill(1.0 / N)
             self._uniform[r] = True
             self._resampled[r] = True
             if self.roughening > 0.0:
@@ -856,23 +913,30 @@ class BootstrapParticleFilter:
         others: dict[str, list[np.ndarray]] = {name: [] for name in names}      # one (K, ...) stack per block
         blocks = self._blocks()
         parts = []
-        for block in blocks:
-            # the runs are independent: a block of them goes through every step before the next block, so that
-            # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
-            f = self if len(blocks) == 1 else self._block(block)
-            values: dict[str, list[np.ndarray]] = {name: [] for name in names}
-            for k in range(K):
-                uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
-                f._predict(uk)
-                f._update(z_steps[k][block])
-                x[k, block], P[k, block], xp[k, block], Pp[k, block] = f._x, f._P, f._xp, f._Pp
-                y[k, block], S[k, block] = f._y, f._S
-                ess[k, block], resampled[k, block] = f._ess, f._resampled
+        self._sequence_complete = not _any(np.isnan(zs))     # then no step needs to look for missing values
+        try:
+            for block in blocks:
+                # the runs are independent: a block of them goes through every step before the next block, so that
+                # its arrays stay in cache (the same numbers as all runs at once, checked by the contract test)
+                f = self if len(blocks) == 1 else self._block(block)
+                values: dict[str, list[np.ndarray]] = {name: [] for name in names}
+                # the block's slices of the inputs and histories, (K, runs of the block, ...), made once
+                zb, xb, Pb, xpb, Ppb = z_steps[:, block], x[:, block], P[:, block], xp[:, block], Pp[:, block]
+                yb, Sb, essb, resb = y[:, block], S[:, block], ess[:, block], resampled[:, block]
+                for k in range(K):
+                    uk = None if u_steps is None else (u_steps[k][block] if per_run_u else u_steps[k])
+                    f._predict(uk)
+                    f._update(zb[k])
+                    xb[k], Pb[k], xpb[k], Ppb[k] = f._x, f._P, f._xp, f._Pp
+                    yb[k], Sb[k] = f._y, f._S
+                    essb[k], resb[k] = f._ess, f._resampled
+                    for name in names:
+                        values[name].append(np.array(getattr(f, name), copy=True))
                 for name in names:
-                    values[name].append(np.array(getattr(f, name), copy=True))
-            for name in names:
-                others[name].append(np.stack(values[name]))
-            parts.append(f)
+                    others[name].append(np.stack(values[name]))
+                parts.append(f)
+        finally:
+            self._sequence_complete = False
         if len(blocks) > 1:
             self._join(parts)
 
