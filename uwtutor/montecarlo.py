@@ -191,6 +191,24 @@ class MonteCarloResult(_StudyStatistics):
         Acceptance interval of ``mean_nis`` at each step (each step's own number of runs).
     confidence : float
         Probability of the acceptance intervals.
+
+    Examples
+    --------
+    Twenty runs of the range-only EKF on a straight leg past a beacon at the origin:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.montecarlo import run_monte_carlo
+    >>> rng = np.random.default_rng(1)
+    >>> track = np.column_stack([np.linspace(100.0, 150.0, 51), np.full(51, 80.0)])
+    >>> z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 1.0, (20, 50))
+    >>> x0 = track[0] + rng.normal(0.0, 3.0, (20, 2))
+    >>> study = run_monte_carlo(range_only_ekf, track[1:], x0=x0, P0=np.eye(2) * 9.0,
+    ...                         u=np.diff(track, axis=0), z=z, Q=np.eye(2) * 1e-4, R=1.0)
+    >>> study.n_runs, study.n_steps, study.errors.shape
+    (20, 50, (20, 50))
+    >>> bool(study.rmse[-1] < study.rmse[0])
+    True
     """
 
     result: FilterResult
@@ -450,6 +468,26 @@ class StudyResult(_StudyStatistics):
         The root of the random streams: chunk ``i`` drew from ``SeedSequence(seed).spawn(n_chunks)[i]``.
     versions : dict of str
         Versions of uwtutor, NumPy, SciPy and Python that computed it.
+
+    Examples
+    --------
+    A study of 300 runs in chunks of 100 keeps the final errors and the per-step sums, not the trajectories:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import range_only_ekf
+    >>> from uwtutor.montecarlo import run_study
+    >>> track = np.column_stack([np.linspace(100.0, 150.0, 51), np.full(51, 80.0)])
+    >>> def draw(rng, n):
+    ...     z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 1.0, (n, 50))
+    ...     return dict(x0=track[0] + rng.normal(0.0, 3.0, (n, 2)), z=z), track[1:]
+    >>> def estimate(inputs):
+    ...     return range_only_ekf(inputs["x0"], np.eye(2) * 9.0, np.diff(track, axis=0), inputs["z"],
+    ...                           np.eye(2) * 1e-4, 1.0)
+    >>> study = run_study(draw, estimate, 300, seed=5, chunk_size=100)
+    >>> study.n_runs, study.n_chunks, study.final_errors.shape, study.rmse.shape
+    (300, 3, (300,), (50,))
+    >>> sorted(study.as_dict())[:4]
+    ['chunk_size', 'components', 'confidence', 'final_errors']
     """
 
     final_errors: np.ndarray
@@ -687,6 +725,18 @@ def scenario_draw(scenario: Callable[[np.random.Generator, int], Any],
     beacon, DR); ``condition(rng, runs)`` measures them under an error model and returns ``(inputs, truth)``. The
     result is a ``functools.partial`` of a module-level function, so it can be sent to a process pool when
     ``scenario`` and ``condition`` can.
+
+    Examples
+    --------
+    The common suite's circle under white range noise, two runs:
+
+    >>> import numpy as np
+    >>> from uwtutor.montecarlo import scenario_draw
+    >>> from uwtutor.scenarios import suite
+    >>> draw = scenario_draw(suite.circle, suite.white)
+    >>> inputs, truth = draw(np.random.default_rng(0), 2)
+    >>> type(inputs).__name__, truth.shape
+    ('SuiteInputs', (2, 150, 2))
     """
     import functools
 
@@ -765,6 +815,18 @@ class ComparisonTable:
         all rows have the same ``K``); saved with :meth:`to_npz`, not in the CSV.
     bound_curves : ndarray or None
         The supplied bound :math:`B_k` of every row, the same shape (NaN in rows without one).
+
+    Examples
+    --------
+    Chapter 10's committed table (``uwtutor.methods.load_comparison``), one row per (method, scenario, condition):
+
+    >>> from uwtutor.methods import load_comparison
+    >>> table = load_comparison()
+    >>> row = table.row("EKF", "circle", "white")
+    >>> row["n_runs"], row["scenario"], bool(row["final_rmse"] > 0)
+    (1000, 'circle', True)
+    >>> table.timing_columns
+    ('cost_per_step',)
     """
 
     method: np.ndarray
