@@ -117,6 +117,15 @@ def check_sound_speed(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict, with a hint for a recognised mistake.
+
+    Examples
+    --------
+    >>> from uwtutor.acoustics import sound_speed
+    >>> check_sound_speed(1500.0).correct
+    False
+    >>> right = float(sound_speed(10.0, 35.0, 1000.0))
+    >>> check_sound_speed(right).correct
+    True
     """
     t, s, d = (SOUND_SPEED_CONDITIONS[k] for k in ("temperature", "salinity", "depth"))
     expected = _reference_sound_speed(t, s, d)
@@ -170,6 +179,14 @@ def check_two_way_range(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the classic mistake (the whole two-way path, c·t) is recognised.
+
+    Examples
+    --------
+    >>> # the whole two-way path
+    >>> check_two_way_range(NOMINAL_SOUND_SPEED * TWO_WAY_TIME).correct
+    False
+    >>> check_two_way_range(NOMINAL_SOUND_SPEED * TWO_WAY_TIME / 2).correct
+    True
     """
     c, t = NOMINAL_SOUND_SPEED, TWO_WAY_TIME
     expected = c * t / 2
@@ -207,6 +224,16 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
     Feedback
         The verdict; a flipped sign, the ratio taken with the wrong speed, the estimated range instead of its error,
         the speed error instead of the range error and a doubled (two-way) error are recognised.
+
+    Examples
+    --------
+    >>> # a speed, not a range
+    >>> speed_error = ASSUMED_SOUND_SPEED - TRUE_SOUND_SPEED
+    >>> check_sound_speed_range_error(speed_error).correct
+    False
+    >>> estimated = ASSUMED_SOUND_SPEED * TRUE_RANGE / TRUE_SOUND_SPEED
+    >>> check_sound_speed_range_error(estimated - TRUE_RANGE).correct
+    True
     """
     c_a, c_t, r = ASSUMED_SOUND_SPEED, TRUE_SOUND_SPEED, TRUE_RANGE
     travel_time = r / c_t
@@ -248,6 +275,16 @@ def check_dr_drift(answer: Any) -> Feedback:
     Feedback
         The verdict; degrees passed to a function that takes radians, the along-track distance, 1 h taken as
         60 s and a forgotten speed are recognised.
+
+    Examples
+    --------
+    >>> import math
+    >>> d = DR_SPEED * DR_DURATION
+    >>> # degrees given to sin
+    >>> check_dr_drift(d * math.sin(HEADING_BIAS_DEG)).correct
+    False
+    >>> check_dr_drift(d * math.sin(math.radians(HEADING_BIAS_DEG))).correct
+    True
     """
     d = DR_SPEED * DR_DURATION
     bias = math.radians(HEADING_BIAS_DEG)
@@ -296,6 +333,17 @@ def check_dr_track(answer: Any) -> Feedback:
     Feedback
         The verdict; a transposed ``(2, 7)`` array, a missing row, swapped columns, degrees used as radians, the
         bias with the wrong sign and times in minutes are recognised.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> theta = np.radians(90.0 - HEADING_BIAS_DEG)
+    >>> d = DR_SPEED * TRACK_TIMES
+    >>> east, north = d * np.cos(theta), d * np.sin(theta)
+    >>> check_dr_track(np.vstack((east, north))).correct  # transposed, (2, 7)
+    False
+    >>> check_dr_track(np.column_stack((east, north))).correct
+    True
     """
     expected = _true_track(TRACK_TIMES, HEADING_BIAS_DEG)
     theta_deg = 90.0 - HEADING_BIAS_DEG
@@ -395,6 +443,25 @@ def check_outlier_detector(func: Any) -> Feedback:
     -------
     Feedback
         The verdict; a failing case is reported with its inputs, the expected flags and the student's.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> def flag_all(ranges, threshold):
+    ...     return np.ones(len(ranges), dtype=bool)
+    >>> check_outlier_detector(flag_all).correct
+    False
+    >>> def flag_outliers(ranges, threshold):
+    ...     r = np.asarray(ranges, dtype=float)
+    ...     flags = np.zeros(r.shape, dtype=bool)
+    ...     for i in range(r.size):
+    ...         w = np.concatenate((r[max(i - 3, 0):i], r[i + 1:i + 4]))
+    ...         w = w[~np.isnan(w)]
+    ...         if not np.isnan(r[i]) and w.size:
+    ...             flags[i] = abs(r[i] - np.median(w)) > threshold
+    ...     return flags
+    >>> check_outlier_detector(flag_outliers).correct
+    True
     """
     return check_function(
         func, _flag_outliers_reference, _outlier_cases(), name="flag_outliers",

@@ -125,6 +125,15 @@ def check_fisher_information(answer: Any) -> Feedback:
         The verdict; the bound instead of the information, a missing :math:`1/\sigma^2`, :math:`\sigma` instead of
         :math:`\sigma^2`, line-of-sight vectors that are not unit vectors and the sum of :math:`h_i` instead of its
         outer products are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import observability
+    >>> check_fisher_information(np.eye(2)).correct
+    False
+    >>> J = observability.fisher_information(FIX_BEACONS, FIX_POSITION, FIX_SIGMA)
+    >>> check_fisher_information(J).correct
+    True
     """
     expected = observability.fisher_information(FIX_BEACONS, FIX_POSITION, FIX_SIGMA)
     h = _unit_rows(FIX_POSITION, FIX_BEACONS)
@@ -164,6 +173,16 @@ def check_rmse_bound(answer: Any) -> Feedback:
     Feedback
         The verdict; the trace without the square root, the square root of a single variance, of the determinant,
         of the largest eigenvalue, and :math:`1/\sqrt{\operatorname{tr} J}` are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import observability
+    >>> J = observability.fisher_information(FIX_BEACONS, FIX_POSITION, FIX_SIGMA)
+    >>> # m², without the square root
+    >>> check_rmse_bound(np.trace(np.linalg.inv(J))).correct
+    False
+    >>> check_rmse_bound(np.sqrt(np.trace(np.linalg.inv(J)))).correct
+    True
     """
     J = observability.fisher_information(FIX_BEACONS, FIX_POSITION, FIX_SIGMA)
     C = np.linalg.inv(J)
@@ -203,6 +222,17 @@ def check_mirror_solutions(answer: Any) -> Feedback:
     Feedback
         The verdict; the previous positions instead of the current ones, the virtual beacon on the wrong side
         (:math:`b - u`), swapped ranges, a single point and swapped coordinates are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import observability
+    >>> pair = observability.two_range_fix(MIRROR_BEACON, MIRROR_RANGES,
+    ...                                    MIRROR_DISPLACEMENT)
+    >>> # one point: two circles meet twice
+    >>> check_mirror_solutions(pair[0]).correct
+    False
+    >>> check_mirror_solutions(pair[::-1]).correct  # both, in either order
+    True
     """
     b, r, u = MIRROR_BEACON, MIRROR_RANGES, MIRROR_DISPLACEMENT
     with warnings.catch_warnings():
@@ -250,6 +280,14 @@ def turn_track(turn_deg: float) -> motion.Track:
     """The track of exercise 2.3: due east from ``TURN_START`` at 2 m/s, turning left by ``turn_deg`` at 600 s.
 
     ``turn_deg`` is a single finite number of degrees (negative: a turn to the right).
+
+    Examples
+    --------
+    >>> track = turn_track(30.0)
+    >>> track.positions.shape == (TURN_TIMES.size, 2)
+    True
+    >>> np.round(track.positions[0], 1)
+    array([-1500.,   600.])
     """
     turn = as_scalar("turn_deg", turn_deg)
     return motion.turning_track(TURN_TIMES, start=TURN_START, speed=TURN_SPEED,
@@ -261,6 +299,13 @@ def turn_rmse_bound(turn_deg: float) -> float:
 
     The bound is ``inf`` for a track that does not turn (``turn_deg`` 0, or a multiple of 360): a straight track
     cannot see the current.
+
+    Examples
+    --------
+    >>> print(turn_rmse_bound(0.0))  # a straight track cannot see the current
+    inf
+    >>> bool(turn_rmse_bound(20.0) < turn_rmse_bound(10.0))
+    True
     """
     track = turn_track(turn_deg)
     with warnings.catch_warnings():
@@ -295,6 +340,19 @@ def check_halving_turn_angle(answer: Any) -> Feedback:
     Feedback
         The verdict; the naive doubling (20°), an answer in radians and the angle of the smallest bound are
         recognised.
+
+    Examples
+    --------
+    >>> from scipy.optimize import brentq
+    >>> # doubling the turn
+    >>> check_halving_turn_angle(2 * REFERENCE_TURN_DEG).correct
+    False
+    >>> half = turn_rmse_bound(REFERENCE_TURN_DEG) / 2
+    >>> def excess(a):
+    ...     return turn_rmse_bound(a) - half
+    >>> angle = brentq(excess, REFERENCE_TURN_DEG, 60.0)
+    >>> check_halving_turn_angle(angle).correct
+    True
     """
     expected = _halving_angle()
     doubled = 2 * REFERENCE_TURN_DEG
@@ -327,7 +385,16 @@ def check_halving_turn_angle(answer: Any) -> Feedback:
 # -- exercise 2.4: a straight track with an unknown current is unobservable -------------------------------------------
 def straight_current_jacobian() -> np.ndarray:
     r"""The reference Jacobian of exercise 2.4: rows :math:`[h_k, t_k h_k]` for the state :math:`[x_0, y_0, U_x,
-    U_y]` at :math:`t = 0`, along the straight track :math:`p_k = p_0 + v t_k` (true current zero)."""
+    U_y]` at :math:`t = 0`, along the straight track :math:`p_k = p_0 + v t_k` (true current zero).
+
+    Examples
+    --------
+    >>> H = straight_current_jacobian()
+    >>> H.shape == (CURRENT_TIMES.size, 4)
+    True
+    >>> int(np.linalg.matrix_rank(H))  # one direction of the state is unobservable
+    3
+    """
     positions = CURRENT_START + CURRENT_TIMES[:, None] * CURRENT_VELOCITY
     return observability.track_jacobian(positions, (0.0, 0.0), times=CURRENT_TIMES, unknown_current=True,
                                         reference=0)
@@ -359,6 +426,14 @@ def check_straight_current_rank(answer: Any) -> Feedback:
     Feedback
         The verdict; full rank 4 (a wrong Jacobian) and 2 (current columns without the factor :math:`t_k`) are
         recognised.
+
+    Examples
+    --------
+    >>> check_straight_current_rank(4).correct
+    False
+    >>> H = straight_current_jacobian()
+    >>> check_straight_current_rank(np.linalg.matrix_rank(H)).correct
+    True
     """
     expected = observability.numerical_rank(straight_current_jacobian())
     mistakes = {
@@ -391,6 +466,17 @@ def check_unobservable_direction(answer: Any) -> Feedback:
     Feedback
         The verdict; the zero vector, a rotation of the position alone, a change of the current alone and the
         wrong sense of rotation for the current are recognised.
+
+    Examples
+    --------
+    >>> x0, y0 = CURRENT_START
+    >>> wx, wy = CURRENT_VELOCITY
+    >>> # the start point turned alone
+    >>> check_unobservable_direction([-y0, x0, 0.0, 0.0]).correct
+    False
+    >>> # and the velocity with it
+    >>> check_unobservable_direction([-y0, x0, -wy, wx]).correct
+    True
     """
     H = straight_current_jacobian()
     x0, y0 = CURRENT_START
@@ -455,6 +541,19 @@ def check_turned_current_rank(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; an unchanged rank 3 (the turn left out of the positions) is recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import motion, observability
+    >>> check_turned_current_rank(3).correct
+    False
+    >>> track = motion.turning_track(CURRENT_TIMES, start=CURRENT_START, speed=2.0,
+    ...                              headings=[0.0, np.pi / 2], turn_times=[600.0])
+    >>> H = observability.track_jacobian(track.positions, (0.0, 0.0),
+    ...                                  times=CURRENT_TIMES,
+    ...                                  unknown_current=True, reference=0)
+    >>> check_turned_current_rank(np.linalg.matrix_rank(H)).correct
+    True
     """
     times = CURRENT_TIMES
     track = motion.turning_track(times, start=CURRENT_START, speed=float(np.hypot(*CURRENT_VELOCITY)),

@@ -80,6 +80,17 @@ def check_precision_factor(answer: Any) -> Feedback:
         The verdict; the trace of :math:`A^\mathsf{T}A` itself, the inverse of that trace, the GDOP
         :math:`\sqrt\alpha`, the position-only :math:`\alpha` (no bias column), only the position block of the
         inverse, and degrees passed as radians are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import lsq
+    >>> phi = np.radians(QUARTER_TURN_BEARINGS_DEG)
+    >>> A = np.column_stack((np.cos(phi), np.sin(phi), np.ones_like(phi)))
+    >>> # the trace of AᵀA, not of its inverse
+    >>> check_precision_factor(np.trace(A.T @ A)).correct
+    False
+    >>> check_precision_factor(lsq.precision_factor(A)).correct
+    True
     """
     A = _design(QUARTER_TURN_BEARINGS_DEG)
     expected = float(lsq.precision_factor(A))
@@ -137,6 +148,20 @@ def check_ranges_until_trusted(answer: Any) -> Feedback:
     Feedback
         The verdict; the 0-based index, the count for :math:`\alpha < 1`, the elapsed time in seconds and the
         count without the bias column are recognised.
+
+    Examples
+    --------
+    >>> from uwtutor import lsq, motion
+    >>> times = RANGE_INTERVAL * np.arange(600)
+    >>> track = motion.circle_track(times, CIRCLE_RADIUS, CIRCLE_SPEED,
+    ...                             start_angle=-np.pi / 2)
+    >>> alpha = lsq.precision_factor_history(track.positions, unknown_bias=True)
+    >>> first = int(np.flatnonzero(alpha < ALPHA_THRESHOLD)[0])  # a 0-based index
+    >>> check_ranges_until_trusted(first).correct
+    False
+    >>> # the first range counts as 1
+    >>> check_ranges_until_trusted(first + 1).correct
+    True
     """
     alpha = _circle_alpha(600)
     expected = _first_count_below(alpha, ALPHA_THRESHOLD)
@@ -189,6 +214,17 @@ def vmlbl_system_reference(ranges: Any, virtual_beacons: Any, depth: float,
     -------
     tuple of ndarray
         ``A`` of shape (N, 2) and ``B`` of shape (N,).
+
+    Examples
+    --------
+    >>> vb = np.array([[0.0, 0.0], [400.0, 0.0], [400.0, 300.0]])
+    >>> ranges = np.sqrt(np.sum((vb - [-500.0, 200.0]) ** 2, axis=1) + 100.0 ** 2)
+    >>> A, B = vmlbl_system_reference(ranges, vb, 100.0, np.zeros(3))
+    >>> A.shape, B.shape
+    ((3, 2), (3,))
+    >>> # the vehicle's horizontal position
+    >>> np.round(np.linalg.lstsq(A, B, rcond=None)[0], 3)
+    array([-500.,  200.])
     """
     r = np.asarray(ranges, dtype=float)
     vb = np.asarray(virtual_beacons, dtype=float)
@@ -258,6 +294,18 @@ def check_vmlbl_system(func: Any) -> Feedback:
     Feedback
         The verdict; a missing cyclic row, reversed differences, a flipped sign of B and a missing factor 1/2 are
         recognised.
+
+    Examples
+    --------
+    >>> # one equation short
+    >>> def no_cycle(ranges, virtual_beacons, depth, beacon_depths):
+    ...     A, B = vmlbl_system_reference(ranges, virtual_beacons, depth,
+    ...                                   beacon_depths)
+    ...     return A[:-1], B[:-1]
+    >>> check_vmlbl_system(no_cycle).correct
+    False
+    >>> check_vmlbl_system(vmlbl_system_reference).correct
+    True
     """
     return check_function(func, vmlbl_system_reference, _vmlbl_cases(), name="vmlbl_system",
                           compare=_compare_system,
@@ -293,6 +341,18 @@ def travel_time_cost_reference(travel_times: Any, dr_offsets: Any, bearing: floa
     -------
     float
         :math:`L` [s²].
+
+    Examples
+    --------
+    >>> positions = np.array([[1000.0, 0.0], [1000.0, 100.0], [1000.0, 200.0]])
+    >>> tau = np.hypot(*positions.T) / 1500.0
+    >>> offsets = positions - positions[0]
+    >>> cost = travel_time_cost_reference(tau, offsets, 0.0, 0.0, 1500.0)
+    >>> bool(cost < 1e-20)  # the true cell fits exactly
+    True
+    >>> # three degrees off in bearing (0.1 rad)
+    >>> bool(travel_time_cost_reference(tau, offsets, 0.1, 0.0, 1500.0) > 0)
+    True
     """
     D = np.asarray(dr_offsets, dtype=float)
     displacements = np.diff(D, axis=0, prepend=np.zeros((1, 2)))
@@ -342,6 +402,16 @@ def check_travel_time_cost(func: Any) -> Feedback:
     -------
     Feedback
         The verdict, with the failing case and a hint.
+
+    Examples
+    --------
+    >>> def zero_cost(travel_times, dr_offsets, bearing, speed_error,
+    ...               assumed_speed):
+    ...     return 0.0
+    >>> check_travel_time_cost(zero_cost).correct
+    False
+    >>> check_travel_time_cost(travel_time_cost_reference).correct
+    True
     """
     return check_function(func, travel_time_cost_reference, _cost_cases(), name="travel_time_cost",
                           rtol=1e-6, atol=1e-12,

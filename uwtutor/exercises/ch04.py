@@ -87,6 +87,14 @@ def check_range_jacobian(answer: Any) -> Feedback:
         The verdict; the reversed direction (beacon minus position), the unnormalized difference, the gradient
         of the squared range, the position used without subtracting the beacon and swapped components are
         recognised.
+
+    Examples
+    --------
+    >>> b, p = np.array(JACOBIAN_BEACON), np.array(JACOBIAN_POSITION)
+    >>> check_range_jacobian(p - b).correct  # not divided by the range
+    False
+    >>> check_range_jacobian((p - b) / np.linalg.norm(p - b)).correct
+    True
     """
     b = np.array(JACOBIAN_BEACON)
     p = np.array(JACOBIAN_POSITION)
@@ -127,6 +135,16 @@ def ekf_update_reference(x: Any, P: Any, z: float, R: float, beacon: Any) -> tup
     -------
     tuple of ndarray
         The updated position (2,) and covariance (2, 2).
+
+    Examples
+    --------
+    >>> x, P = ekf_update_reference([300.0, 400.0], 100.0 * np.eye(2), z=505.0,
+    ...                             R=4.0, beacon=[0.0, 0.0])
+    >>> np.round(x, 2)  # pushed 4.81 m outwards, along the line of sight
+    array([302.88, 403.85])
+    >>> np.round(P, 2)
+    array([[ 65.38, -46.15],
+           [-46.15,  38.46]])
     """
     ekf = RangeOnlyEKF(x0=x, P0=P, Q=np.zeros((2, 2)), R=R, beacon=beacon)
     ekf.update(z)
@@ -198,6 +216,15 @@ def check_ekf_update(func: Any) -> Feedback:
     -------
     Feedback
         The verdict, with the failing case and a hint.
+
+    Examples
+    --------
+    >>> def no_update(x, P, z, R, beacon):
+    ...     return np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+    >>> check_ekf_update(no_update).correct
+    False
+    >>> check_ekf_update(ekf_update_reference).correct
+    True
     """
     return check_function(func, ekf_update_reference, _update_cases(), name="ekf_update",
                           compare=_compare_update,
@@ -221,6 +248,15 @@ def check_nees(answer: Any) -> Feedback:
     Feedback
         The verdict; :math:`e^\mathsf{T} P e`, :math:`\lVert e\rVert^2`, the square root, the diagonal of
         :math:`P` alone (correlation ignored) and the sum of squared standardized components are recognised.
+
+    Examples
+    --------
+    >>> e = np.array(NEES_TRUTH) - np.array(NEES_ESTIMATE)
+    >>> P = np.array(NEES_COVARIANCE)
+    >>> check_nees(e @ P @ e).correct  # P instead of its inverse
+    False
+    >>> check_nees(e @ np.linalg.solve(P, e)).correct
+    True
     """
     e = np.array(NEES_TRUTH) - np.array(NEES_ESTIMATE)
     P = np.array(NEES_COVARIANCE)
@@ -255,6 +291,16 @@ def check_nees_bounds(answer: Any) -> Feedback:
     Feedback
         The verdict; the bounds of a single run (n degrees of freedom), bounds not divided by M, M instead of M·n
         degrees of freedom, one-sided quantiles and the normal approximation are recognised.
+
+    Examples
+    --------
+    >>> from scipy import stats
+    >>> M, n = BOUNDS_RUNS, BOUNDS_STATES
+    >>> # one run's bounds
+    >>> check_nees_bounds(stats.chi2.ppf([0.025, 0.975], n)).correct
+    False
+    >>> check_nees_bounds(stats.chi2.ppf([0.025, 0.975], M * n) / M).correct
+    True
     """
     M, n, conf = BOUNDS_RUNS, BOUNDS_STATES, BOUNDS_CONFIDENCE
     tail = (1.0 - conf) / 2.0
@@ -299,6 +345,14 @@ def diagnosis_studies(n_runs: int = 50, seed: int = 4) -> dict[str, Any]:
     -------
     dict
         ``{"A": MonteCarloResult, "B": ..., "C": ...}`` (:func:`uwtutor.montecarlo.run_monte_carlo`).
+
+    Examples
+    --------
+    >>> studies = diagnosis_studies(n_runs=20)
+    >>> sorted(studies)
+    ['A', 'B', 'C']
+    >>> len(studies["A"].mean_nees) == len(studies["B"].mean_nees)
+    True
     """
     from .. import scenarios
     from ..filters import range_only_ekf
@@ -352,6 +406,19 @@ def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
     -------
     Feedback
         The verdict, with a hint on how to read a NEES curve.
+
+    Examples
+    --------
+    >>> studies = diagnosis_studies()
+    >>> mean = {k: float(np.nanmean(s.mean_nees)) for k, s in studies.items()}
+    >>> consistent = max(studies, key=lambda k: studies[k].nees_fraction_within())
+    >>> overconfident = max(mean, key=mean.get)
+    >>> check_diagnosis(overconfident, consistent).correct
+    False
+    >>> check_diagnosis(consistent, overconfident).correct
+    True
+    >>> check_diagnosis("A", "A").correct  # one filter cannot be both
+    False
     """
     def correct(c: str, o: str, u: str) -> str:
         over, under = DIAGNOSIS_FILTERS[o], DIAGNOSIS_FILTERS[u]

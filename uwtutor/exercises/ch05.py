@@ -108,6 +108,14 @@ def check_mu_gamma(answer: Any) -> Feedback:
     Feedback
         The verdict; paper D's sign slip :math:`1 - \Delta c / c_\mathrm e`, the inverse ratio and
         :math:`\Delta c / c_\mathrm e` without the 1 are recognised.
+
+    Examples
+    --------
+    >>> # the inverse ratio
+    >>> check_mu_gamma(EFFECTIVE_SPEED / ASSUMED_SPEED).correct
+    False
+    >>> check_mu_gamma(ASSUMED_SPEED / EFFECTIVE_SPEED).correct
+    True
     """
     c, ce = ASSUMED_SPEED, EFFECTIVE_SPEED
     expected, _ = range_factor_moments(c, ce, SPEED_SIGMA)
@@ -157,6 +165,13 @@ def check_sigma_gamma(answer: Any) -> Feedback:
     Feedback
         The verdict; the variance instead of the standard deviation, :math:`\sigma_c` itself and a factor of
         :math:`c` too many are recognised.
+
+    Examples
+    --------
+    >>> check_sigma_gamma(SPEED_SIGMA).correct  # σ_c itself, in m/s
+    False
+    >>> check_sigma_gamma(SPEED_SIGMA / EFFECTIVE_SPEED).correct
+    True
     """
     c, ce, sc = ASSUMED_SPEED, EFFECTIVE_SPEED, SPEED_SIGMA
     _, expected = range_factor_moments(c, ce, sc)
@@ -183,6 +198,15 @@ def check_mean_range_error(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the wrong sign and the error of the measured (not true) range are recognised.
+
+    Examples
+    --------
+    >>> mu = ASSUMED_SPEED / EFFECTIVE_SPEED
+    >>> # the mean measured range, not its error
+    >>> check_mean_range_error(mu * TRUE_RANGE).correct
+    False
+    >>> check_mean_range_error((mu - 1.0) * TRUE_RANGE).correct
+    True
     """
     mu, _ = range_factor_moments(ASSUMED_SPEED, EFFECTIVE_SPEED, SPEED_SIGMA)
     expected = (mu - 1.0) * TRUE_RANGE
@@ -222,6 +246,14 @@ def fading_factors_reference(innovations: Any, predicted: Any, subtracted: Any, 
     -------
     ndarray, shape (K,)
         :math:`\lambda_k`.
+
+    Examples
+    --------
+    >>> innovations = [0.5, 4.0, 0.5]
+    >>> lam = fading_factors_reference(innovations, [0.5] * 3, [2.5] * 3, 0.95)
+    >>> # a large innovation at step 2 lifts the factor for a while
+    >>> np.round(lam, 2)
+    array([ 1.  , 11.65,  3.37])
     """
     z = np.asarray(innovations, dtype=float)
     n = np.asarray(predicted, dtype=float)
@@ -280,6 +312,23 @@ def check_fading_factors(func: Any) -> Feedback:
     Feedback
         The verdict; the first failing case is reported with its inputs, the expected and the student's factors,
         and a hint aimed at the mistake that case catches (no ``max``, a wrong start, a wrong weighting).
+
+    Examples
+    --------
+    >>> # forgets that λ is at least 1
+    >>> def no_max(innovations, predicted, subtracted, rho):
+    ...     z = np.asarray(innovations, dtype=float)
+    ...     n = np.asarray(predicted, dtype=float)
+    ...     s = np.asarray(subtracted, dtype=float)
+    ...     V = np.empty_like(z)
+    ...     V[0] = z[0] ** 2
+    ...     for k in range(1, len(z)):
+    ...         V[k] = (rho * V[k - 1] + z[k] ** 2) / (1 + rho)
+    ...     return (V - s) / n
+    >>> check_fading_factors(no_max).correct
+    False
+    >>> check_fading_factors(fading_factors_reference).correct
+    True
     """
     if callable(func):
         # the slip λ = V/N − s passes some cases and fails with the hint of another: recognise it first
@@ -328,6 +377,13 @@ def threshold_innovation(beta: float, steady: dict[str, float] | None = None) ->
     float
         The threshold [m]; 0 when the right-hand side is negative (a weakening factor so small that every
         innovation makes :math:`\lambda_k > 1`).
+
+    Examples
+    --------
+    >>> round(threshold_innovation(1.0), 2)
+    1.88
+    >>> bool(threshold_innovation(BETA_RANGE) > 20 * threshold_innovation(1.0))
+    True
     """
     b = as_scalar("beta", beta, domain="nonnegative")
     st = STEADY if steady is None else _steady_terms(steady)
@@ -377,6 +433,14 @@ def check_threshold_beta_one(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the square, a missing :math:`1 + \rho` and a misplaced one are recognised.
+
+    Examples
+    --------
+    >>> # m², not m
+    >>> check_threshold_beta_one(threshold_innovation(1.0) ** 2).correct
+    False
+    >>> check_threshold_beta_one(threshold_innovation(1.0)).correct
+    True
     """
     expected = threshold_innovation(1.0)
     return check_number(answer, expected, rtol=2e-3, name="the threshold with β = 1", units="m",
@@ -399,6 +463,14 @@ def check_threshold_beta_range(answer: Any) -> Feedback:
     Feedback
         The verdict; the square, a missing :math:`1 + \rho` and :math:`\beta` not multiplied by :math:`R` are
         recognised.
+
+    Examples
+    --------
+    >>> # the threshold of β = 1
+    >>> check_threshold_beta_range(threshold_innovation(1.0)).correct
+    False
+    >>> check_threshold_beta_range(threshold_innovation(BETA_RANGE)).correct
+    True
     """
     expected = threshold_innovation(BETA_RANGE)
     return check_number(answer, expected, rtol=2e-3, name=f"the threshold with β = {BETA_RANGE:g}", units="m",
@@ -419,6 +491,14 @@ def study() -> dict[str, Any]:
     dict
         ``x0`` (M, 2), ``P0`` (2, 2), ``u`` (M, K, 2), ``z`` (M, K), ``Q`` (2, 2), ``R`` (float), ``truth``
         (M, K, 2) and ``times`` (K,).
+
+    Examples
+    --------
+    >>> s = study()
+    >>> s["z"].shape == (STUDY_RUNS, s["times"].size)
+    True
+    >>> s["x0"].shape, s["truth"].shape[-1]
+    ((200, 2), 2)
     """
     rng = np.random.default_rng(STUDY_SEED)
     sc = scenarios.approach_with_turn_scenario(rng, n_runs=STUDY_RUNS)
@@ -449,6 +529,13 @@ def final_rmse(estimates: Any, truth: Any) -> float:
     ------
     ValueError
         If an estimate at the last epoch is NaN or infinite (a run that diverged has no final error).
+
+    Examples
+    --------
+    >>> truth = np.zeros((4, 2))
+    >>> estimates = truth + [3.0, 4.0]  # 5 m off at every epoch
+    >>> final_rmse(estimates, truth)
+    5.0
     """
     err = final_errors(estimates, truth)
     if not np.all(np.isfinite(err)):
@@ -487,6 +574,24 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
     Feedback
         The first of the three that is wrong, with a hint (the mean error instead of the RMS error, the RMSE over
         all epochs instead of the last one, the paper's :math:`\mu_\gamma = 1.02`); correct when all three are.
+
+    Examples
+    --------
+    >>> from uwtutor.filters.ekf import range_only_ekf
+    >>> from uwtutor.filters.fading import fading_ekf, range_factor_moments
+    >>> s = study()
+    >>> args = (s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"])
+    >>> mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
+    >>> e = final_rmse(range_only_ekf(*args).x, s["truth"])
+    >>> mult = fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, fading=False)
+    >>> m = final_rmse(mult.x, s["truth"])
+    >>> isfekf = fading_ekf(*args, mu_gamma=mu, sigma_gamma=sigma, rho=0.95,
+    ...                     beta="range")
+    >>> i = final_rmse(isfekf.x, s["truth"])
+    >>> check_final_rmse(e, m, 2 * i).correct  # the ISFEKF's RMSE doubled
+    False
+    >>> check_final_rmse(e, m, i).correct
+    True
     """
     res = _study_results()
     truth = res["truth"]
@@ -552,6 +657,16 @@ def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: fl
     tuple
         ``(x, P, m, Xi, V, lam)`` after the step: :math:`\hat{\mathbf x}_{k|k}`, :math:`\mathbf P_{k|k}`,
         :math:`\mathbf m_k`, :math:`\boldsymbol\Xi_k`, :math:`V_k` and the fading factor :math:`\lambda_k`.
+
+    Examples
+    --------
+    >>> d = isfekf_step_run()
+    >>> x, P, m, Xi, V, lam = isfekf_step_reference(
+    ...     d["x0"], d["P0"], d["x0"], d["P0"] + np.outer(d["x0"], d["x0"]), None,
+    ...     d["u"][0], d["z"][0], d["Q"],
+    ...     0.49, mu_gamma=0.98, sigma_gamma=1 / 1500, rho=0.95)
+    >>> x.shape, P.shape, bool(lam >= 1.0)
+    ((2,), (2, 2), True)
     """
     x, P, m, Xi, u, Q = (np.asarray(a, dtype=float) for a in (x, P, m, Xi, u, Q))
     Xi = Xi + np.outer(m, u) + np.outer(u, m) + np.outer(u, u) + Q          # 1. moments (old m)
@@ -581,6 +696,12 @@ def isfekf_step_run() -> dict[str, Any]:
     -------
     dict
         ``x0``, ``P0`` (the start), ``u`` (K, 2) and ``z`` (K,) for ``K = ISF_STEP_STEPS``, and ``Q`` (2, 2).
+
+    Examples
+    --------
+    >>> d = isfekf_step_run()
+    >>> d["u"].shape, d["z"].shape
+    ((12, 2), (12,))
     """
     rng = np.random.default_rng(ISF_STEP_SEED)
     sc = scenarios.approach_with_turn_scenario(rng, n_runs=1)
@@ -609,6 +730,18 @@ def check_isfekf_step(func: Any) -> Feedback:
     -------
     Feedback
         The verdict.
+
+    Examples
+    --------
+    >>> # always λ = 1
+    >>> def no_fading(x, P, m, Xi, V, u, z, Q, R, mu_gamma, sigma_gamma, rho):
+    ...     out = isfekf_step_reference(x, P, m, Xi, V, u, z, Q, R, mu_gamma,
+    ...                                 sigma_gamma, rho)
+    ...     return out[:5] + (1.0,)
+    >>> check_isfekf_step(no_fading).correct
+    False
+    >>> check_isfekf_step(isfekf_step_reference).correct
+    True
     """
     from ..filters.fading import FadingEKF
     from .checks import _is_unanswered, not_answered

@@ -105,6 +105,14 @@ def check_gm11_coefficients(a: Any, b: Any) -> Feedback:
         The verdict; a flipped sign of the background column, the accumulated series on the right-hand side, a
         background weight of 1 or 0, a fit of the raw series without accumulation and rows starting at ``k = 1``
         are recognised.
+
+    Examples
+    --------
+    >>> model = fit_gm11(DEPTH_SERIES)
+    >>> check_gm11_coefficients(-model.a, model.b).correct  # the sign of a flipped
+    False
+    >>> check_gm11_coefficients(model.a, model.b).correct
+    True
     """
     if a is None or a is Ellipsis or b is None or b is Ellipsis:
         return not_answered("the development coefficient `a` and the grey input `b` (two numbers)")
@@ -168,6 +176,14 @@ def check_grey_forecast(value: Any) -> Feedback:
     Feedback
         The verdict; paper C's misprinted factor ``(1 - e^{-a})``, the accumulated forecast not differenced, the
         fitted sixth value instead of the seventh and a wrong sign in the exponent are recognised.
+
+    Examples
+    --------
+    >>> # the last reading, not a forecast
+    >>> check_grey_forecast(DEPTH_SERIES[-1]).correct
+    False
+    >>> check_grey_forecast(fit_gm11(DEPTH_SERIES).forecast(1)[0]).correct
+    True
     """
     x0 = DEPTH_SERIES
     model = fit_gm11(x0)
@@ -209,6 +225,15 @@ def check_mad_sigma(sigma: Any) -> Feedback:
         The verdict; a missing absolute value, multiplying by 0.6745, forgetting it, the standard deviation or the
         mean of the coefficients, PyWavelets' extended (symmetric) coefficients and the standard deviation of the
         raw readings are recognised.
+
+    Examples
+    --------
+    >>> # the spread of the readings, dive included
+    >>> check_mad_sigma(np.std(NOISE_WINDOW)).correct
+    False
+    >>> d = detail_coefficients(NOISE_WINDOW)
+    >>> check_mad_sigma(np.median(np.abs(d)) / 0.6745).correct
+    True
     """
     d = detail_coefficients(NOISE_WINDOW)
     expected = float(noise_sigma(NOISE_WINDOW))
@@ -257,6 +282,15 @@ def check_effective_sample_size(ess: Any) -> Feedback:
     Feedback
         The verdict; weights used without normalizing, the sum of squares without the reciprocal, the number of
         particles and the reciprocal of the largest weight are recognised.
+
+    Examples
+    --------
+    >>> w = PARTICLE_WEIGHTS
+    >>> # weights not normalized
+    >>> check_effective_sample_size(1 / np.sum(w ** 2)).correct
+    False
+    >>> check_effective_sample_size(1 / np.sum((w / w.sum()) ** 2)).correct
+    True
     """
     w = PARTICLE_WEIGHTS
     wn = w / w.sum()
@@ -323,6 +357,24 @@ def check_systematic_resample(func: Any) -> Feedback:
     -------
     Feedback
         The verdict; a failing case is reported with its inputs, the expected indices and the student's.
+
+    Examples
+    --------
+    >>> def systematic(weights, u):
+    ...     w = np.asarray(weights, dtype=float)
+    ...     c = np.cumsum(w / w.sum())
+    ...     c[-1] = 1.0
+    ...     points = (np.arange(w.size) + u) / w.size
+    ...     return np.searchsorted(c, points, side="right")
+    >>> # a point on a boundary goes to the wrong particle
+    >>> def systematic_left(weights, u):
+    ...     w = np.asarray(weights, dtype=float)
+    ...     points = (np.arange(w.size) + u) / w.size
+    ...     return np.searchsorted(np.cumsum(w / w.sum()), points)
+    >>> check_systematic_resample(systematic_left).correct
+    False
+    >>> check_systematic_resample(systematic).correct
+    True
     """
     return check_function(
         func, _systematic_reference, _systematic_cases(), name="systematic",
@@ -347,6 +399,16 @@ def check_q_smallest_eigenvalue(value: Any) -> Feedback:
     Feedback
         The verdict; the matrix of the unsquared entries, the largest eigenvalue, the determinant and the smallest
         diagonal entry are recognised.
+
+    Examples
+    --------
+    >>> check_q_smallest_eigenvalue(np.diag(Q_PRINTED).min()).correct
+    False
+    >>> smallest = np.linalg.eigvalsh(Q_PRINTED)[0]
+    >>> check_q_smallest_eigenvalue(smallest).correct
+    True
+    >>> bool(smallest < 0)  # so Q as printed is no covariance
+    True
     """
     Q = Q_PRINTED
     expected = float(np.linalg.eigvalsh(Q)[0])
@@ -383,6 +445,14 @@ def check_q_correlation(value: Any) -> Feedback:
     Feedback
         The verdict; the covariance itself, division by the variances instead of the standard deviations, the
         unsquared entries and the depth-pitch pair are recognised.
+
+    Examples
+    --------
+    >>> Q = Q_PRINTED
+    >>> check_q_correlation(Q[0, 1]).correct  # the covariance
+    False
+    >>> check_q_correlation(Q[0, 1] / np.sqrt(Q[0, 0] * Q[1, 1])).correct
+    True
     """
     Q = Q_PRINTED
     expected = float(Q[0, 1] / math.sqrt(Q[0, 0] * Q[1, 1]))
@@ -437,6 +507,20 @@ def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R:
     tuple
         ``(estimate (3,), weights (N,), resampled (N, 3))``: the weighted mean, the normalized weights before
         resampling and the resampled particles.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> start = np.array([12.0, 1.8, 0.14])
+    >>> particles = start + 0.1 * rng.standard_normal((50, 3))
+    >>> noise = 0.01 * rng.standard_normal((50, 3))
+    >>> z = [12.1, 1.8, 0.14]
+    >>> est, w, resampled = pf_step_reference(particles, z, noise, 0.5, PF_STEP_T,
+    ...                                       PF_STEP_R)
+    >>> est.shape, w.shape, resampled.shape
+    ((3,), (50,), (50, 3))
+    >>> round(float(w.sum()), 9)
+    1.0
     """
     from ..filters import DepthSpeedPitchModel
     from ..models.depth import DepthSpeedPitch
@@ -518,6 +602,17 @@ def check_pf_step(func: Any) -> Feedback:
     -------
     Feedback
         The verdict, with the first failing case and a hint aimed at its part of the step.
+
+    Examples
+    --------
+    >>> # every particle weighted alike
+    >>> def no_weights(particles, z, noise, u, T, R):
+    ...     est, w, resampled = pf_step_reference(particles, z, noise, u, T, R)
+    ...     return est, np.full(len(w), 1 / len(w)), resampled
+    >>> check_pf_step(no_weights).correct
+    False
+    >>> check_pf_step(pf_step_reference).correct
+    True
     """
     return check_function(
         func, pf_step_reference, _pf_step_cases(), name="pf_step", compare=_compare_pf_step,

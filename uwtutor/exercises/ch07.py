@@ -87,6 +87,14 @@ def straight_track(n: int = 40) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, 2)
+
+    Examples
+    --------
+    >>> p = straight_track()
+    >>> p.shape
+    (40, 2)
+    >>> round(float(np.linalg.norm(p[1] - p[0])), 6)  # 10 m apart
+    10.0
     """
     n = as_int("n", n, minimum=2)
     check_work("n", 2 * n, "coordinates")
@@ -111,6 +119,16 @@ def check_bias_noise(answer: Any) -> Feedback:
     Feedback
         The verdict; standard deviations instead of variances, the mean standard deviation squared, the sum
         instead of the mean, and a 2x2 Q without the bias are recognised.
+
+    Examples
+    --------
+    >>> sx, sy = NOISE_SIGMAS
+    >>> # 2x2: the bias is missing
+    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2])).correct
+    False
+    >>> q_bias = (sx ** 2 + sy ** 2) / 2
+    >>> check_bias_noise(np.diag([sx ** 2, sy ** 2, q_bias])).correct
+    True
     """
     sx, sy = NOISE_SIGMAS
     expected = paper_a_process_noise(sx, sy)
@@ -146,6 +164,15 @@ def check_augmented_jacobian(answer: Any) -> Feedback:
         The verdict; the position-only Jacobian with a 0 for the bias, the reversed direction, the range
         including the bias in the denominator, the beacon not subtracted and an unnormalized difference are
         recognised.
+
+    Examples
+    --------
+    >>> d = np.array(JACOBIAN_STATE[:2]) - np.array(JACOBIAN_BEACON)
+    >>> los = d / np.linalg.norm(d)
+    >>> check_augmented_jacobian(np.r_[los, 0.0]).correct  # ∂r/∂υ is 1, not 0
+    False
+    >>> check_augmented_jacobian(np.r_[los, 1.0]).correct
+    True
     """
     b = np.array(JACOBIAN_BEACON)
     x = np.array(JACOBIAN_STATE)
@@ -201,6 +228,17 @@ def check_weak_direction(answer: Any) -> Feedback:
     Feedback
         The verdict; the strongest direction, the position-only weak direction (across the line of sight), a
         vector that is not of unit length and one of the wrong size are recognised.
+
+    Examples
+    --------
+    >>> p = straight_track()
+    >>> los = p / np.linalg.norm(p, axis=1, keepdims=True)
+    >>> A = np.column_stack([los, np.ones(len(p))])
+    >>> _, _, vt = np.linalg.svd(A)
+    >>> check_weak_direction(vt[0]).correct  # the direction seen best
+    False
+    >>> check_weak_direction(vt[-1]).correct
+    True
     """
     weak, strong, across = _weak_direction()
     if answer is None or answer is Ellipsis:
@@ -257,6 +295,17 @@ def check_start_count(answer: Any) -> Feedback:
     Feedback
         The verdict; the 0-based index (one fewer), one more than the count, the count for paper A's threshold of 2,
         for ``<=`` instead of ``<`` when it differs, and for the position-only precision factor are recognised.
+
+    Examples
+    --------
+    >>> phi = np.radians(-90.0 + START_SPACING_DEG * np.arange(1000))
+    >>> track = START_RADIUS * np.column_stack([np.cos(phi), np.sin(phi)])
+    >>> alpha = lsq.precision_factor_history(track)
+    >>> index = int(np.argmax(alpha < START_THRESHOLD))
+    >>> check_start_count(index).correct  # a 0-based index
+    False
+    >>> check_start_count(index + 1).correct
+    True
     """
     track = _arc()
     alpha = lsq.precision_factor_history(track)
@@ -304,6 +353,13 @@ def bias_diagnosis_studies(n_runs: int = 40, n_obs: int = 1500, seed: int = 5,
     -------
     dict
         ``{"A": mean NEES (K,), "B": ..., "C": ..., "bounds": (lower, upper)}``.
+
+    Examples
+    --------
+    >>> # a small study: the exercise uses the defaults
+    >>> studies = bias_diagnosis_studies(n_runs=2, n_obs=50)
+    >>> studies["A"].shape, len(studies["bounds"])
+    ((50,), 2)
     """
     n_runs = as_int("n_runs", n_runs, minimum=2)
     n_obs = as_int("n_obs", n_obs, minimum=2)
@@ -362,6 +418,21 @@ def check_bias_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
     -------
     Feedback
         The verdict, with what each filter's NEES says.
+
+    Examples
+    --------
+    >>> # one filter cannot be both (answered before any study runs)
+    >>> check_bias_diagnosis("A", "A").correct
+    False
+    >>> studies = bias_diagnosis_studies()
+    >>> lo, hi = studies["bounds"]
+    >>> inside = {k: np.mean((studies[k] >= lo) & (studies[k] <= hi))
+    ...           for k in "ABC"}
+    >>> late = {k: np.mean(studies[k][len(studies[k]) // 3:]) for k in "ABC"}
+    >>> consistent = max(inside, key=inside.get)
+    >>> overconfident = max(late, key=late.get)
+    >>> check_bias_diagnosis(consistent, overconfident).correct
+    True
     """
     return _check_nees_letters(
         consistent, overconfident, sorted(DIAGNOSIS_FILTERS), lambda: _classify(bias_diagnosis_studies()),

@@ -86,6 +86,15 @@ def check_clock_range_error(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the offset or the drift alone, a two-way halving and a millisecond slip are recognised.
+
+    Examples
+    --------
+    >>> # the offset alone
+    >>> check_clock_range_error(SOUND_SPEED * CLOCK_OFFSET).correct
+    False
+    >>> clock_error = CLOCK_OFFSET + CLOCK_DRIFT * CLOCK_TIME
+    >>> check_clock_range_error(SOUND_SPEED * clock_error).correct
+    True
     """
     c, e0, rate, t = SOUND_SPEED, CLOCK_OFFSET, CLOCK_DRIFT, CLOCK_TIME
     expected = float(clock_range_error(t, e0, rate, c))
@@ -117,6 +126,11 @@ def resolve_reference(wrapped: Any, predicted_range: Any) -> np.ndarray:
     -------
     ndarray
         The travel times [s].
+
+    Examples
+    --------
+    >>> resolve_reference([0.25, 0.9], [1875.0, 1350.0])
+    array([1.25, 0.9 ])
     """
     return np.asarray(resolve_travel_time(wrapped, predicted_range, SOUND_SPEED, 1.0), dtype=float)
 
@@ -151,6 +165,21 @@ def check_resolve(func: Any) -> Feedback:
     Feedback
         The verdict; the failing case names the usual cause (floor instead of round, a negative count, the range
         not converted to a time).
+
+    Examples
+    --------
+    >>> def resolve_floor(wrapped, predicted_range):  # rounds down
+    ...     w = np.asarray(wrapped, dtype=float)
+    ...     n = np.floor(np.asarray(predicted_range) / SOUND_SPEED - w)
+    ...     return w + np.maximum(0, n)
+    >>> def resolve(wrapped, predicted_range):
+    ...     w = np.asarray(wrapped, dtype=float)
+    ...     n = np.round(np.asarray(predicted_range) / SOUND_SPEED - w)
+    ...     return w + np.maximum(0, n)
+    >>> check_resolve(resolve_floor).correct
+    False
+    >>> check_resolve(resolve).correct
+    True
     """
     return check_function(
         func, resolve_reference, _resolve_cases(), name="resolve",
@@ -172,6 +201,13 @@ def check_largest_prediction_error(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; a whole period (1500 m) and the answer in seconds are recognised.
+
+    Examples
+    --------
+    >>> check_largest_prediction_error(SOUND_SPEED * 1.0).correct  # a whole period
+    False
+    >>> check_largest_prediction_error(SOUND_SPEED * 1.0 / 2).correct
+    True
     """
     expected = SOUND_SPEED * 1.0 / 2.0
     mistakes = {
@@ -203,6 +239,15 @@ def pair_jacobian_reference(x_pred: Any, leader_k: Any, leader_k1: Any, u_k: Any
     Returns
     -------
     ndarray, shape (2, 4)
+
+    Examples
+    --------
+    >>> x_pred, u_k = [0.0, 0.0, 0.0, 0.0], [0.0, 0.0]
+    >>> H = pair_jacobian_reference(x_pred, [100.0, 0.0], [0.0, 100.0], u_k, 10.0)
+    >>> # rows 2 s_k (and −2 δt s_k for the current), 2 s_(k+1)
+    >>> np.round(H, 6) + 0.0
+    array([[-200.,    0., 2000.,    0.],
+           [   0., -200.,    0.,    0.]])
     """
     leader = np.stack([np.asarray(leader_k, float), np.asarray(leader_k1, float)])
     pair = SquaredRangePair(leader, np.asarray(u_k, float)[None], dt, np.eye(10))
@@ -237,6 +282,15 @@ def check_pair_jacobian(func: Any) -> Feedback:
     Feedback
         The verdict; paper B's literal Jacobian (evaluated at the prediction as printed) and the Jacobian of the
         ranges instead of the squared ranges are recognised.
+
+    Examples
+    --------
+    >>> def zeros(x_pred, leader_k, leader_k1, u_k, dt):
+    ...     return np.zeros((2, 4))
+    >>> check_pair_jacobian(zeros).correct
+    False
+    >>> check_pair_jacobian(pair_jacobian_reference).correct
+    True
     """
     cases = _jacobian_cases()
     x, b0, b1, u, dt = cases[0].args
@@ -292,6 +346,15 @@ def leader_study() -> dict[str, float]:
     Returns
     -------
     dict of str to float
+
+    Examples
+    --------
+    >>> # 200 runs per pattern: about a second, once per session
+    >>> errors = leader_study()
+    >>> sorted(errors)
+    ['circling', 'parallel', 'zigzag']
+    >>> bool(errors["parallel"] > 10 * errors["zigzag"])
+    True
     """
     return {name: err for name, (err, _) in _study().items()}
 
@@ -309,6 +372,14 @@ def check_leader_errors(answer: Any) -> Feedback:
     Feedback
         The first pattern whose value is wrong (the mean instead of the median, all epochs instead of the last
         1000 s are recognised); correct when all three are.
+
+    Examples
+    --------
+    >>> # an entry per pattern is needed
+    >>> check_leader_errors({"zigzag": 1.0}).correct
+    False
+    >>> check_leader_errors(leader_study()).correct
+    True
     """
     if answer is None:
         return Feedback(False, "No answer yet: fill the dict `errors` with one median per leader pattern.",
@@ -341,6 +412,16 @@ def check_unobservable_pattern(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
+
+    Examples
+    --------
+    >>> # no such pattern: answered before the study runs
+    >>> check_unobservable_pattern("spiral").correct
+    False
+    >>> errors = leader_study()
+    >>> # the pattern whose error grows
+    >>> check_unobservable_pattern(max(errors, key=errors.get)).correct
+    True
     """
     # the answer is read before the study runs (8 s the first time): a name that is no pattern is answered at once
     if answer is None or answer is Ellipsis:

@@ -89,6 +89,15 @@ def check_gate_upper(answer: Any) -> Feedback:
     Feedback
         The verdict; :math:`\delta \hat z` (no square root), the lower edge of the gate (with either sign), the
         largest accepted *range* and the interval in m² are recognised.
+
+    Examples
+    --------
+    >>> lo, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
+    >>> check_gate_upper(DELTA * Z_PRED).correct  # δẑ: z compared instead of z²
+    False
+    >>> z_max = np.sqrt((1 + DELTA) * (S_INNOV + Z_PRED ** 2))
+    >>> check_gate_upper(z_max - Z_PRED).correct
+    True
     """
     lo, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
     D = S_INNOV + Z_PRED**2
@@ -125,6 +134,14 @@ def check_equivalent_nis(answer: Any) -> Feedback:
     Feedback
         The verdict; the gate in standard deviations (not squared), the chi-square quantile and
         :math:`y_\mathrm{max}^2` without dividing by :math:`S` are recognised.
+
+    Examples
+    --------
+    >>> _, y_max = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
+    >>> check_equivalent_nis(y_max ** 2).correct  # in m², not divided by S
+    False
+    >>> check_equivalent_nis(y_max ** 2 / S_INNOV).correct
+    True
     """
     _, hi = moment_gate_interval(Z_PRED, S_INNOV, DELTA)
     expected = float(hi**2 / S_INNOV)
@@ -155,6 +172,14 @@ def check_virtual_beacons(answer: Any) -> Feedback:
     -------
     Feedback
         The verdict; the shift with the wrong sign (a_i + d_i) and the shift from the first epoch are recognised.
+
+    Examples
+    --------
+    >>> # the ship moved backwards
+    >>> check_virtual_beacons(SHIP - (DR[-1] - DR)).correct
+    False
+    >>> check_virtual_beacons(SHIP + (DR[-1] - DR)).correct
+    True
     """
     expected = SHIP + (DR[-1] - DR)
     mistakes = [
@@ -173,7 +198,14 @@ def check_virtual_beacons(answer: Any) -> Feedback:
 
 # -- exercise 9.3: the lock-out ----------------------------------------------------------------------------------------
 def lockout_dive() -> paper_e.Dive:
-    """The dive of exercise 9.3 (one run, paper E's parameters and outliers)."""
+    """The dive of exercise 9.3 (one run, paper E's parameters and outliers).
+
+    Examples
+    --------
+    >>> dive = lockout_dive()
+    >>> dive.slant_ranges.shape == dive.outlier_mask.shape
+    True
+    """
     return paper_e.make(np.random.default_rng(LOCKOUT_SEED), 1)
 
 
@@ -191,6 +223,21 @@ def check_good_rejected(answer: Any) -> Feedback:
     Feedback
         The verdict; counting the outliers too, counting with the default re-acquisition, and one too many (an
         off-by-one) are recognised.
+
+    Examples
+    --------
+    >>> dive = lockout_dive()
+    >>> good = ~dive.outlier_mask[0]
+    >>> with warnings.catch_warnings():
+    ...     # the lock-out is the point of the exercise
+    ...     warnings.simplefilter("ignore", UwtutorWarning)
+    ...     literal = robust_range_kf(dive.slant_ranges[0], 1.0, reacquire=None)
+    >>> rejected = literal.extras["rejected"]
+    >>> # the outliers counted too
+    >>> check_good_rejected(int(np.sum(rejected))).correct
+    False
+    >>> check_good_rejected(int(np.sum(rejected & good))).correct
+    True
     """
     expected, all_rejected, default_rejected, default_outlier, first, last = _good_rejected_counts()
     mistakes = {
@@ -232,7 +279,16 @@ def _good_rejected_counts() -> tuple[int, int, int, int, int, int]:
 # -- exercise 9.4: the 10 % statistic ----------------------------------------------------------------------------------
 def study() -> dict[str, Any]:
     """The dive and the OR-VMLBL-KF run of exercise 9.4: ``{"dive", "result", "truth", "slant"}`` (the true
-    positions and slant ranges at the fixes' epochs)."""
+    positions and slant ranges at the fixes' epochs).
+
+    Examples
+    --------
+    >>> s = study()
+    >>> s["result"].fixes.shape == s["truth"].shape
+    True
+    >>> s["slant"].shape == s["truth"].shape[:1]
+    True
+    """
     dive = paper_e.make(np.random.default_rng(STUDY_SEED), 1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IllConditionedWarning)
@@ -264,6 +320,16 @@ def check_within_ten_percent(answer: Any) -> Feedback:
         The verdict; a fraction rounded to two decimals is accepted (the task gives no precision); a percentage
         instead of a fraction, the horizontal range instead of the slant range, the cascade filter's fixes and an
         absolute 10 m are recognised.
+
+    Examples
+    --------
+    >>> s = study()
+    >>> err = np.linalg.norm(s["result"].fixes - s["truth"], axis=-1)
+    >>> fraction = np.mean(err <= 0.1 * s["slant"])
+    >>> check_within_ten_percent(100 * fraction).correct  # a percentage
+    False
+    >>> check_within_ten_percent(fraction).correct
+    True
     """
     s = _cached_study()
     err = np.linalg.norm(s["result"].fixes - s["truth"], axis=-1)

@@ -118,6 +118,15 @@ def bound_variants() -> dict[str, float]:
         bounds (the bounds averaged instead of the information); ``"variance"``: :math:`B_K^2`;
         ``"with_bias_variance"``: :math:`\sqrt{\operatorname{tr}}` of the whole 3-state bound; ``"prior"``: the
         prior's RMS position error :math:`\sqrt{\operatorname{tr} P_0}`.
+
+    Examples
+    --------
+    >>> # a few bounds over the suite's tracks: about a second, once per session
+    >>> v = bound_variants()
+    >>> bool(v["final"] > v["white"])  # the bias state costs accuracy
+    True
+    >>> bool(v["final"] < v["first"])
+    True
     """
     return dict(_variants())
 
@@ -137,6 +146,15 @@ def check_final_bound(answer: Any) -> Feedback:
         The verdict; the bound without the bias state, the recursion on the planned track (with and without the bias
         state) or on one true track, the mean of the per-track bounds, the first epoch's bound, :math:`B_K^2` and the
         trace with the bias variance are recognised.
+
+    Examples
+    --------
+    >>> inputs = suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)
+    >>> bound = rmse_bound(posterior_crlb(**inputs))
+    >>> check_final_bound(bound[0]).correct  # the first epoch's bound
+    False
+    >>> check_final_bound(bound[-1]).correct
+    True
     """
     v = bound_variants()
     mistakes = {
@@ -194,6 +212,18 @@ def check_first_ratio(answer: Any) -> Feedback:
     Feedback
         The verdict; the ratio at the last epoch, the inverted ratio, the white-noise bound, the final bound and the
         prior's RMS in the denominator are recognised.
+
+    Examples
+    --------
+    >>> table = methods.load_comparison()
+    >>> row = table.index(START_METHOD, BOUND_SCENARIO, BOUND_CONDITION)
+    >>> rmse = table.rmse_curves[row]
+    >>> inputs = suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)
+    >>> bound = rmse_bound(posterior_crlb(**inputs))
+    >>> check_first_ratio(rmse[-1] / bound[-1]).correct  # the last epoch's ratio
+    False
+    >>> check_first_ratio(rmse[0] / bound[0]).correct
+    True
     """
     r = _first_ratios()
     mistakes = {
@@ -230,6 +260,16 @@ def check_final_efficiency(answer: Any) -> Feedback:
     Feedback
         The verdict; the run-averaged efficiency, the inverted ratio, the median and the 95th percentile over the
         bound are recognised.
+
+    Examples
+    --------
+    >>> table = methods.load_comparison()
+    >>> row = table.row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    >>> # inverted
+    >>> check_final_efficiency(row["final_bound"] / row["final_rmse"]).correct
+    False
+    >>> check_final_efficiency(row["final_rmse"] / row["final_bound"]).correct
+    True
     """
     row = _table_row()
     expected = row["final_rmse"] / row["final_bound"]
@@ -262,6 +302,17 @@ def check_median_over_bound(answer: Any) -> Feedback:
     Feedback
         The verdict; the final efficiency (RMSE over the bound), the inverted ratio and the median over the
         run-averaged bound are recognised.
+
+    Examples
+    --------
+    >>> table = methods.load_comparison()
+    >>> row = table.row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    >>> # the RMSE, not the median
+    >>> check_median_over_bound(row["final_rmse"] / row["final_bound"]).correct
+    False
+    >>> median = row["median_final_error"]
+    >>> check_median_over_bound(median / row["final_bound"]).correct
+    True
     """
     row = _table_row()
     expected = row["median_final_error"] / row["final_bound"]
@@ -324,7 +375,16 @@ def check_lost_runs(answer: Any) -> Feedback:
 # -- exercise 10.3: which method when ----------------------------------------------------------------------------------
 def choice_rows() -> dict[str, dict[str, Any]]:
     """The committed table's rows of the cell of exercise 10.3 (``CHOICE_SCENARIO``, ``CHOICE_CONDITION``), keyed by
-    method (every method that runs on the scenario)."""
+    method (every method that runs on the scenario).
+
+    Examples
+    --------
+    >>> rows = choice_rows()
+    >>> set(CHOICES.values()) <= set(rows)  # every option is in the table's cell
+    True
+    >>> rows["EKF"]["scenario"], rows["EKF"]["condition"]
+    ('turn', 'sound speed')
+    """
     table = methods.load_comparison()
     hit = np.flatnonzero((table.scenario == CHOICE_SCENARIO) & (table.condition == CHOICE_CONDITION))
     rows = table.rows()
@@ -421,6 +481,17 @@ def pcrb_reference(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any) -> 
     Returns
     -------
     ndarray, shape (K, 2, 2)
+
+    Examples
+    --------
+    >>> phi = np.radians(np.arange(12) * 15.0)
+    >>> arc = 1000.0 * np.column_stack([np.cos(phi), np.sin(phi)])
+    >>> P0 = 100.0 ** 2 * np.eye(2)
+    >>> bounds = pcrb_reference(arc, [0.0, 0.0], 2.0, np.eye(2), P0)
+    >>> bounds.shape
+    (12, 2, 2)
+    >>> bool(np.trace(bounds[-1]) < np.trace(bounds[0]))
+    True
     """
     positions = np.asarray(positions, dtype=float)
     return posterior_crlb(positions, np.broadcast_to(np.asarray(beacon, float), positions.shape), float(sigma),
@@ -456,6 +527,24 @@ def check_pcrb_recursion(func: Any) -> Feedback:
     Feedback
         The verdict; returning the information :math:`\mathbf J_k` instead of its inverse, and forgetting the
         prediction (no :math:`\mathbf Q`), are recognised.
+
+    Examples
+    --------
+    >>> def pcrb(positions, beacon, sigma, Q, P0):
+    ...     J, out = np.linalg.inv(P0), []
+    ...     for p in np.asarray(positions, dtype=float):
+    ...         J = np.linalg.inv(Q + np.linalg.inv(J))  # predict
+    ...         h = (p - beacon) / np.linalg.norm(p - beacon)
+    ...         J = J + np.outer(h, h) / sigma ** 2  # add the range's information
+    ...         out.append(np.linalg.inv(J))
+    ...     return np.array(out)
+    >>> # J_k, not the bound J_k⁻¹
+    >>> def information(positions, beacon, sigma, Q, P0):
+    ...     return np.linalg.inv(pcrb(positions, beacon, sigma, Q, P0))
+    >>> check_pcrb_recursion(information).correct
+    False
+    >>> check_pcrb_recursion(pcrb).correct
+    True
     """
     cases = _pcrb_cases()
     if callable(func):

@@ -90,6 +90,15 @@ def scale_variants() -> dict[str, float]:
         ``"percent"``, ``"excess"``: :math:`100(\hat s - 1)` and :math:`\hat s - 1`; ``"std"``: the standard deviation
         of :math:`r_j - \hat s d_j`; ``"std_unscaled"``, ``"rms_unscaled"``: of :math:`r_j - d_j`; ``"std_affine"``:
         after the straight line; ``"variance"``; ``"rms"``: the RMS of :math:`r_j - \hat s d_j` (the mean included).
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> v = scale_variants()
+    >>> bool(1.0 < v["scale"] < 1.1), bool(v["std"] < v["std_unscaled"])
+    (True, True)
     """
     return dict(_scale_variants())
 
@@ -134,7 +143,23 @@ def check_scale(answer: Any) -> Feedback:
 
 
 def check_residual_std(answer: Any) -> Feedback:
-    r"""Check the standard deviation of :math:`r_j - \hat s d_j` over every range of Plaza 2 (exercise 11.1 b)."""
+    r"""Check the standard deviation of :math:`r_j - \hat s d_j` over every range of Plaza 2 (exercise 11.1 b).
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> from uwtutor.datasets import plaza
+    >>> data = plaza(SET)
+    >>> r, d = data.ranges_on_epochs(), data.true_ranges()
+    >>> r, d = r[np.isfinite(r)], d[np.isfinite(r)]
+    >>> s = r @ d / (d @ d)
+    >>> check_residual_std((r - d).std()).correct  # without the scale
+    False
+    >>> check_residual_std((r - s * d).std()).correct
+    True
+    """
     v = scale_variants()
     mistakes = {
         v["std_unscaled"]: "That is the spread of r − d, without the scale: the 7 % scale adds a part that grows with "
@@ -175,6 +200,17 @@ def drift_variants() -> dict[str, float]:
         heading and the truth's against time; ``"radians"``: in rad/s; ``"endpoints"``: the total drift over the
         duration; ``"wrapped"``: the slope of the difference wrapped to :math:`[-\pi, \pi)`; ``"no_unwrap"``: of the
         raw difference; ``"per_minute"``; ``"total"``: the drift at the end [deg].
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> v = drift_variants()
+    >>> round(v["per_minute"] / v["rate"], 9)
+    60.0
+    >>> round(float(v["radians"] / np.radians(v["rate"])), 9)
+    1.0
     """
     return dict(_drift_variants())
 
@@ -219,6 +255,19 @@ def check_scale_gain(answer: Any) -> Feedback:
 
     The reference is the committed study's grid (:func:`uwtutor.datasets.study.load_real_data_study`), the same
     runs.
+
+    Examples
+    --------
+    >>> from uwtutor.datasets.study import (
+    ...     GRID_BEACONS, GRID_PERIODS, GRID_STATES, load_real_data_study)
+    >>> rmse = load_real_data_study().grid["measures"]["filter_rmse"]
+    >>> cell = rmse[GRID_BEACONS.index(GAIN_BEACONS), GRID_PERIODS.index(None)]
+    >>> without = cell[GRID_STATES.index("+ gyro bias")]
+    >>> with_scale = cell[GRID_STATES.index("+ scale and gyro bias")]
+    >>> check_scale_gain(with_scale / without).correct  # the ratio upside down
+    False
+    >>> check_scale_gain(without / with_scale).correct
+    True
     """
     without = _grid_rmse("+ gyro bias")
     with_both = _grid_rmse("+ scale and gyro bias")
@@ -268,13 +317,38 @@ def _lockout() -> dict[str, Any]:
 
 def lockout_runs() -> dict[str, Any]:
     """Exercise 11.4's runs: the strict gate's counts (``rejected``, ``accepted``, ``not_accepted`` epochs,
-    ``ranges``, ``rejected_back`` with re-acquisition) and the error summaries ``locked`` and ``back``."""
+    ``ranges``, ``rejected_back`` with re-acquisition) and the error summaries ``locked`` and ``back``.
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> # two filters on Plaza 2: about two seconds, once per session
+    >>> r = lockout_runs()
+    >>> r["rejected"] + r["accepted"] == r["ranges"]
+    True
+    >>> bool(r["back"]["rmse"] < r["locked"]["rmse"])  # re-acquisition helps
+    True
+    """
     return _lockout()
 
 
 def check_rejected(answer: Any) -> Feedback:
     """Check the number of ranges the strict chi-square gate rejects from the filter too sure of its scale
-    (exercise 11.4 a)."""
+    (exercise 11.4 a).
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> r = lockout_runs()
+    >>> check_rejected(r["accepted"]).correct  # the ranges accepted, not rejected
+    False
+    >>> check_rejected(r["ranges"] - r["accepted"]).correct
+    True
+    """
     r = lockout_runs()
     mistakes = {
         r["not_accepted"]: "That counts every epoch whose range was not used, the epochs without any range included "
@@ -293,7 +367,19 @@ def check_rejected(answer: Any) -> Feedback:
 
 
 def check_locked_rmse(answer: Any) -> Feedback:
-    """Check the RMS position error of the locked-out filter (exercise 11.4 a)."""
+    """Check the RMS position error of the locked-out filter (exercise 11.4 a).
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> r = lockout_runs()
+    >>> check_locked_rmse(r["locked"]["median"]).correct  # the median error
+    False
+    >>> check_locked_rmse(r["locked"]["rmse"]).correct
+    True
+    """
     r = lockout_runs()
     mistakes = {r["locked"]["median"]: "That is the median error; the task asks for the RMSE.",
                 r["back"]["rmse"]: "That is the RMSE with re-acquisition (part b).",
@@ -304,7 +390,20 @@ def check_locked_rmse(answer: Any) -> Feedback:
 
 
 def check_reacquired_rmse(answer: Any) -> Feedback:
-    """Check the RMS position error with re-acquisition (exercise 11.4 b)."""
+    """Check the RMS position error with re-acquisition (exercise 11.4 b).
+
+    Examples
+    --------
+    >>> import pytest
+    >>> # the Plaza data come with the gtsam wheel
+    >>> _ = pytest.importorskip("gtsam")
+    >>> r = lockout_runs()
+    >>> # without re-acquisition
+    >>> check_reacquired_rmse(r["locked"]["rmse"]).correct
+    False
+    >>> check_reacquired_rmse(r["back"]["rmse"]).correct
+    True
+    """
     r = lockout_runs()
     mistakes = {r["back"]["median"]: "That is the median error; the task asks for the RMSE.",
                 r["locked"]["rmse"]: "That is the RMSE without re-acquisition (part a): wrap the ChiSquareGate in a "

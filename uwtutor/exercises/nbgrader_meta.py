@@ -57,6 +57,20 @@ def nbgrader_problems(nb: Any) -> list[str]:
     -------
     list of str
         One sentence per problem, naming the cell by its index.
+
+    Examples
+    --------
+    >>> import nbformat
+    >>> nb = nbformat.v4.new_notebook(cells=[
+    ...     nbformat.v4.new_markdown_cell("## Exercise 1.1"),
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION"),
+    ... ])
+    >>> nbgrader_problems(nb)
+    ['cell 1 (code) has a solution region but no nbgrader metadata (it must be a solution cell)']
+    >>> nb.cells[1].metadata["tags"] = ["answer"]
+    >>> nbgrader_problems(add_nbgrader_metadata(nb, prefix="ex1"))
+    []
     """
     problems = []
     seen: dict[str, int] = {}
@@ -116,6 +130,22 @@ def total_points(nb: Any) -> tuple[float, float]:
     -------
     tuple of float
         The points of the autograder-test cells and those of the manually graded answers.
+
+    Examples
+    --------
+    >>> import nbformat
+    >>> nb = nbformat.v4.new_notebook(cells=[
+    ...     nbformat.v4.new_markdown_cell("## Exercise 1.1"),
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
+    ...                               metadata={"tags": ["answer"]}),
+    ...     nbformat.v4.new_code_cell("assert x == 2",
+    ...                               metadata={"tags": ["check"]}),
+    ... ])
+    >>> total_points(nb)  # no nbgrader metadata yet
+    (0.0, 0.0)
+    >>> total_points(add_nbgrader_metadata(nb, prefix="ex1", points=2.0))
+    (2.0, 0.0)
     """
     auto = manual = 0.0
     for cell in nb["cells"]:
@@ -152,6 +182,23 @@ def add_nbgrader_metadata(nb: Any, *, prefix: str, points: float = 1.0, written_
     -------
     nbformat.NotebookNode
         ``nb``, with ``metadata["nbgrader"]`` on the cells above.
+
+    Examples
+    --------
+    >>> import nbformat
+    >>> nb = nbformat.v4.new_notebook(cells=[
+    ...     nbformat.v4.new_markdown_cell("## Exercise 1.4 (b)"),
+    ...     nbformat.v4.new_code_cell(
+    ...         "x = None\\n### BEGIN SOLUTION\\nx = 2\\n### END SOLUTION",
+    ...                               metadata={"tags": ["answer"]}),
+    ...     nbformat.v4.new_code_cell("assert x == 2",
+    ...                               metadata={"tags": ["check"]}),
+    ... ])
+    >>> nb = add_nbgrader_metadata(nb, prefix="ex1")
+    >>> [c.metadata["nbgrader"]["grade_id"] for c in nb.cells[1:]]
+    ['ex1_1_4b_answer', 'ex1_1_4b_check']
+    >>> nbgrader_problems(nb)
+    []
     """
     section = "intro"
     used: set[str] = {m["grade_id"] for c in nb.cells if (m := _meta(c)) and "grade_id" in m}

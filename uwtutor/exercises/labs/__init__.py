@@ -77,6 +77,13 @@ def lab_parts(lab: str) -> tuple[str, ...]:
     ------
     ValueError
         If ``lab`` is not one of ``LAB_NAMES``.
+
+    Examples
+    --------
+    >>> lab_parts("observable_track")
+    ('A', 'B', 'C', 'D')
+    >>> all(lab_parts(lab) for lab in LAB_NAMES)
+    True
     """
     return tuple(_module(lab).PARTS)
 
@@ -103,6 +110,22 @@ def check_part(lab: str, part: str, namespace: Mapping[str, Any]) -> Feedback:
     ------
     ValueError
         If ``lab`` or ``part`` does not exist (a mistake in the test cell, not in the answer).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.acoustics import sound_speed
+    >>> cast = dict(cast_temperature=np.array([14.2, 7.0]),
+    ...             cast_salinity=np.array([30.5, 34.9]),
+    ...             cast_depth=np.array([0.0, 180.0]))
+    >>> wrong = {**cast, "profile_speeds": np.array([1500.0, 1480.0])}
+    >>> check_part("range_error_budget", "A", wrong).correct
+    False
+    >>> speeds = sound_speed(cast["cast_temperature"], cast["cast_salinity"],
+    ...                      cast["cast_depth"])
+    >>> right = {**cast, "profile_speeds": speeds}
+    >>> check_part("range_error_budget", "A", right).correct
+    True
     """
     module = _module(lab)
     if part not in module.PARTS:
