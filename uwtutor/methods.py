@@ -344,7 +344,8 @@ def cooperative(inputs: SuiteInputs) -> FilterResult:
     >>> from uwtutor import methods
     >>> from uwtutor.scenarios import suite
     >>> rng = np.random.default_rng(0)
-    >>> inputs, truth = suite.CONDITIONS["white"](rng, suite.SCENARIOS["moving beacon"](rng, 2))
+    >>> inputs, truth = suite.CONDITIONS["white"](rng,
+    ...                                  suite.SCENARIOS["moving beacon"](rng, 2))
     >>> result = methods.cooperative(inputs)
     >>> # [x, y, Ux, Uy]: the position and the current
     >>> result.x.shape

@@ -481,7 +481,8 @@ class StudyResult(_StudyStatistics):
     ...     z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 1.0, (n, 50))
     ...     return dict(x0=track[0] + rng.normal(0.0, 3.0, (n, 2)), z=z), track[1:]
     >>> def estimate(inputs):
-    ...     return range_only_ekf(inputs["x0"], np.eye(2) * 9.0, np.diff(track, axis=0), inputs["z"],
+    ...     return range_only_ekf(inputs["x0"], np.eye(2) * 9.0,
+    ...                           np.diff(track, axis=0), inputs["z"],
     ...                           np.eye(2) * 1e-4, 1.0)
     >>> study = run_study(draw, estimate, 300, seed=5, chunk_size=100)
     >>> study.n_runs, study.n_chunks, study.final_errors.shape, study.rmse.shape

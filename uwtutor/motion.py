@@ -340,7 +340,8 @@ def s_turn_track(times: Any, start: Any, speed: Any, heading: Any, turn_rate: An
     --------
     >>> import numpy as np
     >>> from uwtutor.motion import s_turn_track
-    >>> track = s_turn_track(np.arange(0.0, 9.0, 2.0), (0.0, 0.0), 1.0, 0.0, turn_rate=0.2, half_period=4.0)
+    >>> track = s_turn_track(np.arange(0.0, 9.0, 2.0), (0.0, 0.0), 1.0, 0.0,
+    ...                      turn_rate=0.2, half_period=4.0)
     >>> track.headings.round(2)
     array([0. , 0.4, 0.8, 0.4, 0. ])
     """
@@ -392,7 +393,8 @@ def lawnmower_track(times: Any, start: Any, speed: Any, leg_length: Any, spacing
     >>> import numpy as np
     >>> from uwtutor.motion import lawnmower_track
     >>> # 4 m legs 3 m apart at 1 m/s, sampled every 2 s
-    >>> track = lawnmower_track(np.arange(0.0, 16.0, 2.0), (0.0, 0.0), 1.0, leg_length=4.0, spacing=3.0)
+    >>> track = lawnmower_track(np.arange(0.0, 16.0, 2.0), (0.0, 0.0), 1.0,
+    ...                         leg_length=4.0, spacing=3.0)
     >>> track.positions.round(2).tolist()
     [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0], [4.0, 2.0], [3.0, 3.0], [1.0, 3.0], [0.0, 4.0], [0.0, 6.0]]
     """
@@ -553,7 +555,8 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
     array([[0. , 0. ],
            [2.2, 0. ],
            [4.4, 0. ]])
-    >>> dead_reckoning(track, np.random.default_rng(0), heading_sigma=0.01, n_runs=3).positions.shape
+    >>> dead_reckoning(track, np.random.default_rng(0), heading_sigma=0.01,
+    ...                n_runs=3).positions.shape
     (3, 3, 2)
     """
     _check_track("track", track)

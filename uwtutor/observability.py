@@ -627,7 +627,8 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     >>> import numpy as np
     >>> from uwtutor.observability import gdop
     >>> beacons = np.array([[1000.0, 0.0], [0.0, 1000.0], [-1000.0, 0.0], [0.0, -1000.0]])
-    >>> round(gdop(beacons, [0.0, 0.0]), 3), round(gdop(beacons, [0.0, 0.0], unknown_bias=True), 3)
+    >>> round(gdop(beacons, [0.0, 0.0]),
+    ...       3), round(gdop(beacons, [0.0, 0.0], unknown_bias=True), 3)
     (1.0, 1.118)
     """
     unknown_bias = as_flag("unknown_bias", unknown_bias)

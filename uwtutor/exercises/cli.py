@@ -225,12 +225,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     >>> tmp = Path(tempfile.mkdtemp())
     >>> (tmp / "sources").mkdir()
     >>> nbformat.write(nbformat.v4.new_notebook(), tmp / "sources" / "ex1.ipynb")
-    >>> main(["exercises", str(tmp / "my-work"), "--source", str(tmp / "sources")])  # doctest: +ELLIPSIS
+    >>> argv = ["exercises", str(tmp / "my-work"), "--source", str(tmp / "sources")]
+    >>> main(argv)  # doctest: +ELLIPSIS
     Wrote 1 notebook to .../my-work:
       ex1.ipynb
     Next: ...
     0
-    >>> main(["exercises", ""])  # a usage error (an empty DIR), explained on the standard error stream
+    >>> # a usage error (an empty DIR), explained on the standard error stream
+    >>> main(["exercises", ""])
     2
     >>> shutil.rmtree(tmp)
     """

@@ -101,7 +101,8 @@ class ExerciseSourceError(ValueError):
     Examples
     --------
     >>> import nbformat
-    >>> source = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("### BEGIN SOLUTION\\nx = 1")])
+    >>> cell = nbformat.v4.new_code_cell("### BEGIN SOLUTION\\nx = 1")
+    >>> source = nbformat.v4.new_notebook(cells=[cell])
     >>> try:
     ...     make_student_version(source)
     ... except ExerciseSourceError as exc:
@@ -471,11 +472,13 @@ def write_student_versions(source_dir: str | os.PathLike[str] | None, dest_dir: 
     >>> import nbformat
     >>> tmp = Path(tempfile.mkdtemp())
     >>> (tmp / "sources").mkdir()
-    >>> nbformat.write(nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
-    ...     "x = None\\n### BEGIN SOLUTION\\nx = 1\\n### END SOLUTION")]), tmp / "sources" / "ex1.ipynb")
+    >>> cell = nbformat.v4.new_code_cell(
+    ...     "x = None\\n### BEGIN SOLUTION\\nx = 1\\n### END SOLUTION")
+    >>> nbformat.write(nbformat.v4.new_notebook(cells=[cell]), tmp / "sources" / "ex1.ipynb")
     >>> [p.name for p in write_student_versions(tmp / "sources", tmp / "my-work").written]
     ['ex1.ipynb']
-    >>> [p.name for p in write_student_versions(tmp / "sources", tmp / "my-work").skipped]  # never overwritten
+    >>> # never overwritten
+    >>> [p.name for p in write_student_versions(tmp / "sources", tmp / "my-work").skipped]
     ['ex1.ipynb']
     >>> shutil.rmtree(tmp)
     """

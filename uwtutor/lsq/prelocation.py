@@ -54,9 +54,11 @@ class Prelocation:
     --------
     >>> import numpy as np
     >>> from uwtutor.lsq import grid_prelocation
-    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)]
+    ...                  + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
-    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr,
+    ...                        speed_error_grid=[-30.0, 0.0, 30.0])
     >>> pre.n_steps, pre.cost_map.shape, float(pre.effective_speed[-1])
     (10, (180, 3), 1500.0)
     """
@@ -203,10 +205,12 @@ def prelocation_cost(travel_times: Any = None, dr_displacements: Any = None, bea
 
     >>> import numpy as np
     >>> from uwtutor.lsq import prelocation_cost
-    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)]
+    ...                  + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
     >>> bearings = np.radians(np.arange(-180.0, 180.0, 2.0))
-    >>> cost = prelocation_cost(np.linalg.norm(track, axis=1) / 1500.0, dr, bearings, [-30.0, 0.0, 30.0])
+    >>> cost = prelocation_cost(np.linalg.norm(track, axis=1) / 1500.0, dr, bearings,
+    ...                         [-30.0, 0.0, 30.0])
     >>> i, j = np.unravel_index(np.argmin(cost), cost.shape)
     >>> cost.shape, float(np.degrees(bearings[i])), [-30.0, 0.0, 30.0][j]
     ((180, 3), -90.0, -30.0)
@@ -359,9 +363,11 @@ class PrelocationAcceptance:
     >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
     >>> track = np.array([[50.0 * k, -500.0] for k in range(10)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
-    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr,
+    ...                        speed_error_grid=[-30.0, 0.0, 30.0])
     >>> verdict = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
-    >>> float(verdict.shifts[-1]), bool(verdict.accepted), int(verdict.turn_epoch), int(verdict.epoch)
+    >>> (float(verdict.shifts[-1]), bool(verdict.accepted), int(verdict.turn_epoch),
+    ...  int(verdict.epoch))
     (0.0, False, -1, -1)
     """
 
@@ -415,9 +421,11 @@ def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_ch
 
     >>> import numpy as np
     >>> from uwtutor.lsq import grid_prelocation, prelocation_acceptance
-    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)] + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
+    >>> track = np.array([[50.0 * k, -500.0] for k in range(6)]
+    ...                  + [[250.0, -500.0 + 50.0 * k] for k in range(1, 5)])
     >>> dr = np.vstack([np.zeros(2), np.diff(track, axis=0)])
-    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr, speed_error_grid=[-30.0, 0.0, 30.0])
+    >>> pre = grid_prelocation(np.linalg.norm(track, axis=1) / 1500.0, dr,
+    ...                        speed_error_grid=[-30.0, 0.0, 30.0])
     >>> accepted = prelocation_acceptance(pre.start, dr, n_consecutive=2, heading_window=2)
     >>> bool(accepted.accepted), int(accepted.turn_epoch), int(accepted.epoch)
     (True, 6, 8)

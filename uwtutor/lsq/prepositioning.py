@@ -264,7 +264,8 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     >>> theta = np.linspace(0.0, np.pi, 12)
     >>> track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
     >>> r = np.linalg.norm(track, axis=1) + 2.0
-    >>> fix = prepositioning(r, track - track[0], provisional=track[-1] + [8.0, -5.0], iterations=3)
+    >>> fix = prepositioning(r, track - track[0], provisional=track[-1] + [8.0, -5.0],
+    ...                      iterations=3)
     >>> bool(np.allclose(fix.position, track[-1], atol=1e-6)), round(float(fix.bias), 3)
     (True, 2.0)
     >>> round(float(fix.alpha), 3), bool(fix.trusted())

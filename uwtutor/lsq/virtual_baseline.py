@@ -46,7 +46,8 @@ class VirtualBeaconFix:
     >>> import numpy as np
     >>> from uwtutor.lsq import virtual_beacon_lsq
     >>> ship = np.array([[0.0, 0.0], [400.0, 100.0], [700.0, 400.0], [800.0, 800.0]])
-    >>> sub = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0], [-750.0, -950.0]])
+    >>> sub = np.array([[-900.0, -1100.0], [-850.0, -1050.0], [-800.0, -1000.0],
+    ...                 [-750.0, -950.0]])
     >>> r = np.sqrt(np.sum((ship - sub) ** 2, axis=1) + 1000.0**2)
     >>> fix = virtual_beacon_lsq(r, ship, sub, depth=1000.0)
     >>> fix.virtual_beacons.shape, fix.design.shape, bool(fix.well_conditioned)

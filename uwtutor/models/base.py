@@ -235,8 +235,8 @@ class MeasurementModel:
     #: :math:`G \Sigma G^\mathsf{T}` of checked variances): the filters do not check them again at each step. A model
     #: of your own leaves it False, and the engine checks every new covariance it returns.
     covariances_checked: bool = False
-    #: True for a model whose measurements are ranges (>= 0, NaN where missing): the engine's ``run`` and
-    #: ``extended_kalman_filter`` refuse a negative one by name. Set it on a range model of your own.
+    #: True for a model whose measurements are ranges, never negative (NaN where missing); the engine's ``run``
+    #: and ``extended_kalman_filter`` then refuse a negative one by name. Set it on a range model of your own.
     nonnegative: bool = False
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:

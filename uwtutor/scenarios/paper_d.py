@@ -137,7 +137,8 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperDParameters | N
     >>> sc.ranges.shape, sc.dr_displacements.shape
     ((2, 11), (2, 11, 2))
     >>> quiet = paper_d.make(
-    ...     np.random.default_rng(0), 1, params=paper_d.PaperDParameters(R=0.0), duration=100.0
+    ...     np.random.default_rng(0), 1, params=paper_d.PaperDParameters(R=0.0),
+    ...     duration=100.0,
     ... )
     >>> "range noise std 0 m" in quiet.description
     True

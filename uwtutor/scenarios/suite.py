@@ -518,7 +518,8 @@ def outliers(rng: np.random.Generator, runs: SuiteRuns) -> tuple[SuiteInputs, np
     >>> inputs, truth = outliers(np.random.default_rng(1), runs)
     >>> error = inputs.z - np.linalg.norm(truth - inputs.beacon, axis=-1)
     >>> # the patch of 10 from 600 s (epochs 60 to 69), then about 3 % of the rest
-    >>> bool((np.abs(error[:, 59:69]) > 60.0).all()), bool(np.mean(np.abs(error) > 60.0) < 0.2)
+    >>> (bool((np.abs(error[:, 59:69]) > 60.0).all()),
+    ...  bool(np.mean(np.abs(error) > 60.0) < 0.2))
     (True, True)
     """
     p = _checked(runs).parameters

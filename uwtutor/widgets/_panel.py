@@ -102,11 +102,13 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
     >>> from matplotlib.figure import Figure
     >>> ax = Figure().subplots()
     >>> (line,) = ax.plot([0, 1], [0, 1])
-    >>> line.set_data([0, 10], [0, 1])          # the data outgrew the x limits: refit, with headroom
+    >>> # the data outgrew the x limits: refit, with headroom
+    >>> line.set_data([0, 10], [0, 1])
     >>> rescale(ax)
     >>> [round(float(v), 2) for v in ax.get_xlim()]
     [-2.15, 12.15]
-    >>> line.set_data([0, 8], [0, 1])           # fits and spans over half of them: the limits are kept
+    >>> # fits and spans over half of them: the limits are kept
+    >>> line.set_data([0, 8], [0, 1])
     >>> rescale(ax)
     >>> [round(float(v), 2) for v in ax.get_xlim()]
     [-2.15, 12.15]
@@ -211,7 +213,8 @@ class BlitRenderer:
     >>> renderer = BlitRenderer(fig)
     >>> first = renderer.png(None)               # everything drawn
     >>> line.set_ydata([1, 0])
-    >>> second = renderer.png([line])            # the background drawn once and kept, the line drawn over it
+    >>> # the background drawn once and kept, the line drawn over it
+    >>> second = renderer.png([line])
     >>> renderer.background is not None, first != second
     (True, True)
     """
@@ -298,7 +301,8 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     >>> panel = slider_panel({"slope": slope}, draw)
     >>> image = panel.children[2].children[0]
     >>> before = image.value
-    >>> slope.value = -1.0                       # the figure is drawn again for the new value
+    >>> # the figure is drawn again for the new value
+    >>> slope.value = -1.0
     >>> image.value != before
     True
     """

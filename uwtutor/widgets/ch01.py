@@ -83,7 +83,8 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
     Examples
     --------
     >>> view = sound_speed_view(temperature=10.0, salinity=35.0, depth=1000.0)
-    >>> round(view.speed, 1), round(view.range_error_per_km, 1)    # a navigator assuming 1500 m/s comes up short
+    >>> # a navigator assuming 1500 m/s comes up short
+    >>> round(view.speed, 1), round(view.range_error_per_km, 1)
     (1506.3, -4.2)
     >>> {name: round(d, 3) for name, d in view.sensitivity.items()}
     {'temperature': 3.601, 'salinity': 1.238, 'depth': 0.017}
@@ -117,7 +118,8 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_sound_speed_view(sound_speed_view(temperature=10.0))
-    >>> len(fig.axes), bool(fig.axes[1].yaxis_inverted())       # speed against temperature, and against depth
+    >>> # speed against temperature, and against depth
+    >>> len(fig.axes), bool(fig.axes[1].yaxis_inverted())
     (2, True)
     >>> plt.close(fig)
     """
@@ -166,12 +168,14 @@ def sound_speed_widget() -> Any:
 
     Examples
     --------
-    >>> panel = sound_speed_widget()           # draws the first picture; works without a browser
+    >>> # draws the first picture; works without a browser
+    >>> panel = sound_speed_widget()
     >>> [slider.description for slider in panel.children[0].children]
     ['T [°C]', 'S [PSU]', 'D [m]']
     >>> image = panel.children[2].children[0]
     >>> before = image.value
-    >>> panel.children[0].children[0].value = 20.0      # a warmer sea: the picture is drawn again
+    >>> # a warmer sea: the picture is drawn again
+    >>> panel.children[0].children[0].value = 20.0
     >>> image.value != before
     True
     """
@@ -231,10 +235,12 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     --------
     >>> import numpy as np
     >>> view = range_error_view(noise_sigma=0.7, outlier_amplitude=80.0, seed=1)
-    >>> round(float(view.true_ranges[0]), 1), view.times.shape       # 3 km out, a ping every 10 s
+    >>> # 3 km out, a ping every 10 s
+    >>> round(float(view.true_ranges[0]), 1), view.times.shape
     (3026.5, (151,))
     >>> parts = [err for name, err in view.errors.items() if name != "total"]
-    >>> bool(np.allclose(view.errors["total"], sum(parts))), bool(np.abs(view.errors["outliers"]).max() > 50.0)
+    >>> (bool(np.allclose(view.errors["total"], sum(parts))),
+    ...  bool(np.abs(view.errors["outliers"]).max() > 50.0))
     (True, True)
     """
     # each value checked under its own name (the models below would name theirs: sigma, mean, amplitude...)
@@ -268,7 +274,8 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_range_error_view(range_error_view(seed=1))
-    >>> len(fig.axes), len(fig.axes[0].lines)            # four models over time; their sum against range
+    >>> # four models over time; their sum against range
+    >>> len(fig.axes), len(fig.axes[0].lines)
     (2, 4)
     >>> plt.close(fig)
     """

@@ -81,7 +81,8 @@ class ObservabilityView:
     Examples
     --------
     >>> view = observability_view(track="straight + turn", turn_angle_deg=60.0)
-    >>> view.times.shape, view.positions.shape, view.crlb.shape       # a range every 10 s for 1200 s
+    >>> # a range every 10 s for 1200 s
+    >>> view.times.shape, view.positions.shape, view.crlb.shape
     ((121,), (121, 2), (121, 2, 2))
     """
 
@@ -142,12 +143,14 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
     --------
     >>> import numpy as np
     >>> straight = observability_view(track="straight")
-    >>> round(float(np.abs(straight.mirror_misfit).max()), 3)     # the mirror track fits every range
+    >>> # the mirror track fits every range
+    >>> round(float(np.abs(straight.mirror_misfit).max()), 3)
     0.0
     >>> int(straight.ranks["position + current"][-1]), straight.n_states["position + current"]
     (3, 4)
     >>> turned = observability_view(track="straight + turn", turn_angle_deg=60.0)
-    >>> bool(np.abs(turned.mirror_misfit).max() > 100.0)           # the turn betrays the mirror
+    >>> # the turn betrays the mirror
+    >>> bool(np.abs(turned.mirror_misfit).max() > 100.0)
     True
     >>> {name: int(rank[-1]) for name, rank in turned.ranks.items()} == turned.n_states
     True
@@ -189,7 +192,8 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_observability_view(observability_view(track="circle"))
-    >>> len(fig.axes) >= 3                       # the map, the mirror's misfit, the ranks and bounds
+    >>> # the map, the mirror's misfit, the ranks and bounds
+    >>> len(fig.axes) >= 3
     True
     >>> plt.close(fig)
     """

@@ -125,11 +125,14 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
 
     Examples
     --------
-    >>> wide = precision_view(n_obs=236, turn_deg=90.0, n_runs=20, seed=0)      # paper A's arc
+    >>> # paper A's arc
+    >>> wide = precision_view(n_obs=236, turn_deg=90.0, n_runs=20, seed=0)
     >>> round(wide.alpha, 2), round(wide.predicted_rmse, 1)
     (1.0, 1.7)
-    >>> narrow = precision_view(n_obs=20, turn_deg=10.0, n_runs=20, seed=0)     # 10 degrees of bearing
-    >>> bool(narrow.alpha > 1000.0), narrow.well_conditioned, bool(narrow.rmse > 100.0 * wide.rmse)
+    >>> # 10 degrees of bearing
+    >>> narrow = precision_view(n_obs=20, turn_deg=10.0, n_runs=20, seed=0)
+    >>> (bool(narrow.alpha > 1000.0), narrow.well_conditioned,
+    ...  bool(narrow.rmse > 100.0 * wide.rmse))
     (True, False, True)
     """
     n = as_int("n_obs", n_obs, minimum=1)
@@ -175,7 +178,8 @@ def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray
     Examples
     --------
     >>> import numpy as np
-    >>> points = covariance_ellipse(np.diag([4.0, 1.0]), scale=2.0, n=100)     # sigma 2 m east, 1 m north
+    >>> # sigma 2 m east, 1 m north
+    >>> points = covariance_ellipse(np.diag([4.0, 1.0]), scale=2.0, n=100)
     >>> distance = np.hypot(points[:, 0], points[:, 1])
     >>> points.shape, round(float(distance.min()), 2), round(float(distance.max()), 2)
     ((100, 2), 2.0, 4.0)
@@ -190,7 +194,8 @@ def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_precision_view(precision_view(n_obs=20, n_runs=20))
-    >>> len(fig.axes), fig.axes[0].get_yscale()          # alpha on a log axis; the fixes' errors
+    >>> # alpha on a log axis; the fixes' errors
+    >>> len(fig.axes), fig.axes[0].get_yscale()
     (2, 'log')
     >>> plt.close(fig)
     """
@@ -327,7 +332,8 @@ class PrelocationView:
     Examples
     --------
     >>> view = prelocation_view(bearing_step_deg=2.0, speed_step=10.0, epoch=60)
-    >>> view.log_cost.shape, view.estimated_track.shape        # 180 bearings x 26 speeds; epochs 0..60
+    >>> # 180 bearings x 26 speeds; epochs 0..60
+    >>> view.log_cost.shape, view.estimated_track.shape
     ((180, 26), (61, 2))
     """
 
@@ -386,10 +392,13 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
 
     Examples
     --------
-    >>> before = prelocation_view(epoch=60)          # before the turn at epoch 70: a mirror valley
-    >>> [round(b) for b in before.truth], round(before.mirror_bearing_deg), before.runner_up is None
+    >>> # before the turn at epoch 70: a mirror valley
+    >>> before = prelocation_view(epoch=60)
+    >>> ([round(b) for b in before.truth], round(before.mirror_bearing_deg),
+    ...  before.runner_up is None)
     ([207, 1500], 183, False)
-    >>> after = prelocation_view(epoch=100)          # after it: one valley, at the truth
+    >>> # after it: one valley, at the truth
+    >>> after = prelocation_view(epoch=100)
     >>> after.runner_up is None, round(after.best[0]), bool(after.error < before.error)
     (True, 206, True)
     """
@@ -440,7 +449,8 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_prelocation_view(prelocation_view(epoch=60))
-    >>> len(fig.axes)                     # the cost map, its colour bar, the tracks
+    >>> # the cost map, its colour bar, the tracks
+    >>> len(fig.axes)
     3
     >>> plt.close(fig)
     """

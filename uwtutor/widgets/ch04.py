@@ -72,7 +72,8 @@ class EKFView:
     Examples
     --------
     >>> view = ekf_view(n_runs=10, n_shown=2, seed=0)
-    >>> view.times.shape, view.estimates.shape, view.n_runs       # 151 epochs; the tracks of 2 runs kept
+    >>> # 151 epochs; the tracks of 2 runs kept
+    >>> view.times.shape, view.estimates.shape, view.n_runs
     ((151,), (2, 151, 2), 10)
     """
 
@@ -126,10 +127,12 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
 
     Examples
     --------
-    >>> tuned = ekf_view(n_runs=10, seed=0)                # Q and R as the truth, no bias: consistent
+    >>> # Q and R as the truth, no bias: consistent
+    >>> tuned = ekf_view(n_runs=10, seed=0)
     >>> round(tuned.nees_fraction_within, 2), [round(b, 2) for b in tuned.nees_bounds]
     (0.95, [0.96, 3.42])
-    >>> biased = ekf_view(bias=20.0, n_runs=10, seed=0)    # a 20 m range bias the filter does not model
+    >>> # a 20 m range bias the filter does not model
+    >>> biased = ekf_view(bias=20.0, n_runs=10, seed=0)
     >>> round(biased.nees_fraction_within, 2), bool(biased.rmse[-1] > 2.0 * tuned.rmse[-1])
     (0.0, True)
     """
@@ -166,7 +169,8 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_ekf_view(ekf_view(n_runs=10, n_shown=2))
-    >>> len(fig.axes)                              # the tracks, the RMSE, the mean NEES
+    >>> # the tracks, the RMSE, the mean NEES
+    >>> len(fig.axes)
     3
     >>> plt.close(fig)
     """

@@ -137,10 +137,12 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     Examples
     --------
     >>> paper_d = fading_view(assumed_dc=-30.0, weakening=True, n_runs=10, seed=0)
-    >>> plain = fading_view(assumed_dc=-30.0, weakening=False, n_runs=10, seed=0)   # beta = 1
+    >>> # beta = 1
+    >>> plain = fading_view(assumed_dc=-30.0, weakening=False, n_runs=10, seed=0)
     >>> round(paper_d.steady_median["fading"], 1), round(plain.steady_median["fading"], 1)
     (30.6, 54.1)
-    >>> bool(paper_d.fraction_faded < plain.fraction_faded)       # the weakening factor fades less often
+    >>> # the weakening factor fades less often
+    >>> bool(paper_d.fraction_faded < plain.fraction_faded)
     True
     """
     dc = float(as_finite("assumed_dc", assumed_dc, ndim=0))
@@ -195,7 +197,8 @@ def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_fading_view(fading_view(n_runs=10))
-    >>> len(fig.axes) >= 3                          # the tracks, the error over time, the factors
+    >>> # the tracks, the error over time, the factors
+    >>> len(fig.axes) >= 3
     True
     >>> plt.close(fig)
     """

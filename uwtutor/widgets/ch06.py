@@ -69,7 +69,8 @@ class GPFView:
     Examples
     --------
     >>> view = gpf_view(n_particles=100, seed=1)
-    >>> view.times.shape, view.truth.shape, view.n_grey          # 12 s at 20 Hz; depth, speed, pitch
+    >>> # 12 s at 20 Hz; depth, speed, pitch
+    >>> view.times.shape, view.truth.shape, view.n_grey
     ((240,), (240, 3), 10)
     """
 
@@ -127,9 +128,12 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
 
     Examples
     --------
-    >>> view = gpf_view(n_particles=200, noise_change=3.0, seed=1)    # the noise triples at 13 s
-    >>> ekf, gpf = view.rmse["EKF"], view.rmse["GPF"]       # RMSE of depth [m], speed [m/s], pitch [rad]
-    >>> round(float(ekf[0]), 1), bool(gpf[0] < ekf[0])      # the GPF follows the new noise, the EKF does not
+    >>> # the noise triples at 13 s
+    >>> view = gpf_view(n_particles=200, noise_change=3.0, seed=1)
+    >>> # RMSE of depth [m], speed [m/s], pitch [rad]
+    >>> ekf, gpf = view.rmse["EKF"], view.rmse["GPF"]
+    >>> # the GPF follows the new noise, the EKF does not
+    >>> round(float(ekf[0]), 1), bool(gpf[0] < ekf[0])
     (0.3, True)
     >>> bool(view.ess.min() >= 1.0), bool(view.ess.max() <= view.n_particles)
     (True, True)

@@ -57,8 +57,10 @@ class BiasTrackingView:
 
     Examples
     --------
-    >>> view = bias_tracking_view(n_runs=4, n_obs=600, seed=0)      # fewer runs and ranges than the chapter's
-    >>> view.times.shape, view.estimate.shape, view.start_epochs.shape      # [x, y, bias] of run 0; a start per run
+    >>> # fewer runs and ranges than the chapter's
+    >>> view = bias_tracking_view(n_runs=4, n_obs=600, seed=0)
+    >>> # [x, y, bias] of run 0; a start per run
+    >>> view.times.shape, view.estimate.shape, view.start_epochs.shape
     ((600,), (600, 3), (4,))
     """
 
@@ -134,13 +136,17 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     --------
     >>> import numpy as np
     >>> view = bias_tracking_view(initial_error=300.0, n_runs=5, n_obs=1000, seed=0)
-    >>> started_late = np.sqrt(np.mean(view.rmse_unstarted[-500:] ** 2))     # the IEKF from the bad guess
-    >>> round(view.final_rmse), bool(started_late > 2.0 * view.final_rmse)     # RMS error over the last 500 [m]
+    >>> # the IEKF from the bad guess
+    >>> started_late = np.sqrt(np.mean(view.rmse_unstarted[-500:] ** 2))
+    >>> # RMS error over the last 500 [m]
+    >>> round(view.final_rmse), bool(started_late > 2.0 * view.final_rmse)
     (20, True)
-    >>> bool(np.all(view.start_epochs > 0))          # each run waits for alpha < 2 before the filter starts
+    >>> # each run waits for alpha < 2 before the filter starts
+    >>> bool(np.all(view.start_epochs > 0))
     True
     >>> miss = view.estimate[-1, 2] - view.true_bias[-1]
-    >>> bool(abs(miss) < 2.0 * view.bias_sigma[-1])     # the bias of run 0 tracked within 2 sigma
+    >>> # the bias of run 0 tracked within 2 sigma
+    >>> bool(abs(miss) < 2.0 * view.bias_sigma[-1])
     True
     """
     # a drift beyond 1 m/s (a sound-speed error of 100 % at 1 m/s of opening) or a start error beyond 1000 km is not
@@ -187,7 +193,8 @@ def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_bias_tracking_view(bias_tracking_view(n_runs=4, n_obs=600))
-    >>> len(fig.axes)                      # the track, the bias estimate, the RMSE of both starts
+    >>> # the track, the bias estimate, the RMSE of both starts
+    >>> len(fig.axes)
     3
     >>> plt.close(fig)
     """
@@ -262,7 +269,8 @@ def bias_tracking_widget() -> Any:
 
     Examples
     --------
-    >>> panel = bias_tracking_widget()     # computes the chapter's 30 runs of 2000 ranges: about a second
+    >>> # computes the chapter's 30 runs of 2000 ranges: about a second
+    >>> panel = bias_tracking_widget()
     >>> [c.description for c in panel.children[0].children]
     ['bias drift [m/s]', 'initial error [m]', 'α threshold']
     """

@@ -77,7 +77,8 @@ class CooperativeView:
     Examples
     --------
     >>> view = cooperative_view(n_runs=5, seed=0)
-    >>> view.times.shape, view.truth.shape, view.current_estimate.shape      # K filter steps, K + 1 epochs
+    >>> # K filter steps, K + 1 epochs
+    >>> view.times.shape, view.truth.shape, view.current_estimate.shape
     ((312,), (313, 2), (312, 2))
     """
 
@@ -138,10 +139,13 @@ def cooperative_view(pattern: str = "zigzag", current: float = 0.7071, interval:
     >>> zigzag = cooperative_view(pattern="zigzag", n_runs=5, seed=0)
     >>> zigzag.unobservable, zigzag.lost_fraction, bool(zigzag.late_median_error < 20.0)
     (False, 0.0, True)
-    >>> bool(np.allclose(zigzag.current_estimate[-1], zigzag.current, atol=0.05))    # the current is found
+    >>> # the current is found
+    >>> bool(np.allclose(zigzag.current_estimate[-1], zigzag.current, atol=0.05))
     True
-    >>> parallel = cooperative_view(pattern="parallel", n_runs=5, seed=0)   # a straight relative track
-    >>> parallel.unobservable, bool(parallel.late_median_error > 10.0 * zigzag.late_median_error)
+    >>> # a straight relative track
+    >>> parallel = cooperative_view(pattern="parallel", n_runs=5, seed=0)
+    >>> (parallel.unobservable,
+    ...  bool(parallel.late_median_error > 10.0 * zigzag.late_median_error))
     (True, True)
     """
     if pattern not in paper_b.LEADER_PATTERNS:
@@ -189,7 +193,8 @@ def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_cooperative_view(cooperative_view(n_runs=5))
-    >>> len(fig.axes)                 # the tracks, the current estimate, the median error
+    >>> # the tracks, the current estimate, the median error
+    >>> len(fig.axes)
     3
     >>> plt.close(fig)
     """

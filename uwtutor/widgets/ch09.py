@@ -76,8 +76,10 @@ class OutlierView:
 
     Examples
     --------
-    >>> view = outlier_view(spacing=300, seed=0)          # a fix every 300 s: fewer fixes, faster
-    >>> view.times.shape, int(view.outlier.sum())        # paper E's two patches: 10 and 20 outliers
+    >>> # a fix every 300 s: fewer fixes, faster
+    >>> view = outlier_view(spacing=300, seed=0)
+    >>> # paper E's two patches: 10 and 20 outliers
+    >>> view.times.shape, int(view.outlier.sum())
     ((1201,), 30)
     """
 
@@ -151,10 +153,12 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     --------
     >>> import numpy as np
     >>> view = outlier_view(amplitude=80.0, pattern="paper", spacing=300, seed=0)
-    >>> view.summary["flagged"], view.summary["good_flagged"]      # every outlier flagged, no good range
+    >>> # every outlier flagged, no good range
+    >>> view.summary["flagged"], view.summary["good_flagged"]
     (1.0, 0.0)
     >>> plain, robust = np.abs(view.plain_error).max(), np.abs(view.robust_error).max()
-    >>> bool(plain > 50.0), bool(robust < 0.2 * plain)     # the standard KF follows the outliers; OR-VMLBL-KF not
+    >>> # the standard KF follows the outliers; OR-VMLBL-KF not
+    >>> bool(plain > 50.0), bool(robust < 0.2 * plain)
     (True, True)
     """
     a = float(as_finite("amplitude", amplitude, ndim=0))
@@ -222,7 +226,8 @@ def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_outlier_view(outlier_view(spacing=300))
-    >>> len(fig.axes)                  # range errors with the flags; position errors of the fixes
+    >>> # range errors with the flags; position errors of the fixes
+    >>> len(fig.axes)
     2
     >>> plt.close(fig)
     """

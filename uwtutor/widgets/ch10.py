@@ -72,7 +72,8 @@ class ComparisonView:
 
     Examples
     --------
-    >>> view = comparison_view("circle", "white")          # read from the committed comparison
+    >>> # read from the committed comparison
+    >>> view = comparison_view("circle", "white")
     >>> view.times.shape, len(view.methods), view.rmse.shape, view.n_runs
     ((150,), 10, (10, 150), 1000)
     """
@@ -99,7 +100,8 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
     >>> view = comparison_view(scenario="circle", condition="white")
     >>> view.methods[:3]
     ('LS pre-positioning', 'grid pre-location', 'EKF')
-    >>> bool(np.all(view.rmse[:, -1] >= view.bound[-1]))     # no method beats the bound
+    >>> # no method beats the bound
+    >>> bool(np.all(view.rmse[:, -1] >= view.bound[-1]))
     True
     >>> view.methods[int(np.argmin(view.median_final))]
     'EKF'
@@ -133,7 +135,8 @@ def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "a
     Examples
     --------
     >>> import matplotlib.pyplot as plt
-    >>> fig = plot_comparison_view(comparison_view(), method="EKF")      # the EKF in red, the others grey
+    >>> # the EKF in red, the others grey
+    >>> fig = plot_comparison_view(comparison_view(), method="EKF")
     >>> len(fig.axes)
     2
     >>> plt.close(fig)

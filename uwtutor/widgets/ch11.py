@@ -70,7 +70,8 @@ class RealDataView:
 
     Examples
     --------
-    >>> view = real_data_view(beacon="5")          # read from the committed runs on Plaza 2
+    >>> # read from the committed runs on Plaza 2
+    >>> view = real_data_view(beacon="5")
     >>> view.times.shape, view.estimate.shape, sorted(view.beacons)
     ((410,), (410, 2), [5])
     """
@@ -102,9 +103,11 @@ def real_data_view(beacon: str = "5", period: float | None = None, states: str =
     --------
     >>> full = real_data_view(beacon="5", states="+ scale and gyro bias")
     >>> pose = real_data_view(beacon="5", states="pose only")
-    >>> round(full.summary["rmse"], 1), round(pose.summary["rmse"], 1)     # estimating the odometry's scale pays
+    >>> # estimating the odometry's scale pays
+    >>> round(full.summary["rmse"], 1), round(pose.summary["rmse"], 1)
     (2.4, 24.0)
-    >>> bool(abs(full.scale[-1] - full.measured_scale) < 0.01), bool(full.rts_rmse < full.summary["rmse"])
+    >>> (bool(abs(full.scale[-1] - full.measured_scale) < 0.01),
+    ...  bool(full.rts_rmse < full.summary["rmse"]))
     (True, True)
     >>> round(real_data_view(beacon="all").summary["rmse"], 1)      # four beacons
     0.3
@@ -144,7 +147,8 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     --------
     >>> import matplotlib.pyplot as plt
     >>> fig = plot_real_data_view(real_data_view())
-    >>> len(fig.axes) >= 3                 # the tracks, the error over time, the scale estimate
+    >>> # the tracks, the error over time, the scale estimate
+    >>> len(fig.axes) >= 3
     True
     >>> plt.close(fig)
     """

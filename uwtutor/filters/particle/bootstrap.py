@@ -557,7 +557,7 @@ class BootstrapParticleFilter:
 
     @property
     def x(self) -> np.ndarray:
-        """Weighted mean of the particles, (n,) or (M, n) (read-only: it follows ``particles`` and ``weights``)."""
+        """Weighted mean of the particles, (n,) or (M, n); read-only, it follows ``particles`` and ``weights``."""
         return self._out(self._x)
 
     @x.setter
@@ -567,7 +567,7 @@ class BootstrapParticleFilter:
 
     @property
     def P(self) -> np.ndarray:
-        """Weighted covariance of the particles, (n, n) or (M, n, n) (read-only: it follows the particles)."""
+        """Weighted covariance of the particles, (n, n) or (M, n, n); read-only, it follows the particles."""
         return self._out(self._P)
 
     @P.setter
