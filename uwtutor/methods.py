@@ -258,7 +258,7 @@ def prepositioned_iekf(inputs: SuiteInputs) -> FilterResult:
     >>> result = methods.prepositioned_iekf(inputs)
     >>> result.x.shape, result.extras["started"].shape
     ((2, 150, 3), (2, 150))
-    >>> # dead reckoning from the initial guess before the start: no range bias estimated there
+    >>> # dead reckoning from the initial guess before the start: no range bias there
     >>> bool(np.isnan(result.x[..., 2][~result.extras["started"]]).all())
     True
     """
