@@ -64,6 +64,8 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
+from numpy.typing import ArrayLike
+
 import numpy as np
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, common_runs, readonly
@@ -147,8 +149,9 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
 
 
 
-def range_only_ekf(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0),
-                   times: Any = None, *, gate: Gate | None = None) -> FilterResult:
+def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
+                   beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, *,
+                   gate: Gate | None = None) -> FilterResult:
     r"""Run the range-only EKF over whole range sequences, for one run or ``M`` Monte Carlo runs at once.
 
     Each step ``k`` predicts :math:`\hat x^-_k = \hat x_{k-1} + u_k`, :math:`P^-_k = P_{k-1} + Q_k` and, when the
@@ -332,7 +335,8 @@ class RangeOnlyEKF:
     extra_outputs = ("updated",)
     result_type = FilterResult
 
-    def __init__(self, x0: Any, P0: Any, Q: Any, R: Any, beacon: Any = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike,
+                 beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         self.Q, self.R, self._q4 = noise_parameters(Q, R)
         self.beacon = np.array(fixed_beacon(beacon))
@@ -395,7 +399,7 @@ class RangeOnlyEKF:
         self.S = S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy()
 
     # -- the protocol --
-    def predict(self, u: Any = None) -> None:
+    def predict(self, u: ArrayLike | None = None) -> None:
         """Move the estimate by the DR displacement ``u`` (shape (2,) or (M, 2); ``None``: no move), ``P += Q``."""
         if u is None:
             u_col = np.zeros((2, 1))
@@ -411,7 +415,7 @@ class RangeOnlyEKF:
         predict_step(self._s, u_col, self._q4, out)
         self._s = self._prior = out
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Correct the estimate with the range ``z`` (scalar, or shape (M,) when batched; NaN: no update)."""
         z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
         if z.size == 1 and z.ndim <= 1:
@@ -431,7 +435,7 @@ class RangeOnlyEKF:
         self._set_innovation(y, S)
         self._set_updated(~unused)
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step; return the history.
 
         ``z`` has shape (K,) or, for a batched filter, (M, K) (NaN: predict only); ``u`` has shape (K, 2)

@@ -61,6 +61,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from numpy.typing import ArrayLike
+
 import numpy as np
 
 from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, common_runs,
@@ -286,7 +288,7 @@ class ExtendedKalmanFilter:
     extra_outputs = ("accepted",)
     result_type = FilterResult
 
-    def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: Any, P0: Any,
+    def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                  gate: Gate | None = None) -> None:
         _check_model("motion", motion, MotionModel)
         _check_model("measurement", measurement, MeasurementModel)
@@ -404,7 +406,7 @@ class ExtendedKalmanFilter:
             raise ValueError(f"u must be the input of one step, shape {want}; got {u.shape}")
         return u
 
-    def predict(self, u: Any = None) -> None:
+    def predict(self, u: ArrayLike | None = None) -> None:
         """Predict one step: ``x- = f(x, u)``, ``P- = F P F^T + Q`` (``u`` of shape (p,) or (M, p), or None)."""
         u = self._step_input(u)
         self.k += 1
@@ -450,7 +452,7 @@ class ExtendedKalmanFilter:
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
         return z
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update
         (a NaN component: the update uses the components that are present)."""
         z = self._measurement(z)
@@ -569,7 +571,7 @@ class ExtendedKalmanFilter:
             raise _not_finite_error(model, "R", k, (run, i), what)
         return False
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
         :func:`~uwtutor.filters.base.run_filter`); the filter is left at the last step.
 
@@ -581,7 +583,8 @@ class ExtendedKalmanFilter:
         return run_filter(self, z, u, times)
 
 
-def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: Any, P0: Any, u: Any, z: Any, *,
+def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
+                           u: ArrayLike | None, z: ArrayLike, *,
         times: Any = None, gate: Gate | None = None) -> FilterResult:
     r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
 

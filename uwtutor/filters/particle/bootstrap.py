@@ -83,6 +83,8 @@ import functools
 import math
 from typing import Any, Sequence
 
+from numpy.typing import ArrayLike
+
 import numpy as np
 
 from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
@@ -363,9 +365,9 @@ class BootstrapParticleFilter:
     extra_outputs: tuple[str, ...] = ("ess", "resampled")
     result_type = FilterResult
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: Any = None, rng: Any = None, *,
-                 weights: Any = None, resampler: Resampler = systematic_resample, ess_threshold: float = 1.0,
-                 roughening: float = 0.0) -> None:
+    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+                 weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
+                 ess_threshold: float = 1.0, roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
         self._set_models(motion, measurement)
         p = as_finite("particles", particles, ndim=(2, 3), max_abs=MAX_COORDINATE)
@@ -433,7 +435,8 @@ class BootstrapParticleFilter:
                                  f"the particles are of {M} run(s): give one set of particles per run")
 
     @classmethod
-    def from_gaussian(cls, motion: Any, measurement: Any = None, x0: Any = None, P0: Any = None,
+    def from_gaussian(cls, motion: Any, measurement: Any = None, x0: ArrayLike | None = None,
+                      P0: ArrayLike | None = None,
                       n_particles: Any = None, rng: Any = None, *, n_runs: int | None = None,
                       **kwargs: Any) -> "BootstrapParticleFilter":
         """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
@@ -514,7 +517,7 @@ class BootstrapParticleFilter:
         return self._out(_rows(self._rows_p))
 
     @particles.setter
-    def particles(self, value: Any) -> None:
+    def particles(self, value: ArrayLike) -> None:
         p = as_finite("particles", value, ndim=3 if self._batched else 2, max_abs=MAX_COORDINATE)
         pb = p if self._batched else p[None]
         n = self.n
@@ -540,7 +543,7 @@ class BootstrapParticleFilter:
         return self._out(self._w)
 
     @weights.setter
-    def weights(self, value: Any) -> None:
+    def weights(self, value: ArrayLike) -> None:
         shape = self._w.shape if self._batched else self._w.shape[1:]
         w = as_nonnegative("weights", value)
         if w.shape != shape:
@@ -651,7 +654,7 @@ class BootstrapParticleFilter:
         out = new.swapaxes(-1, -2)
         return out if out.flags.c_contiguous else np.ascontiguousarray(out)
 
-    def predict(self, u: Any = None) -> None:
+    def predict(self, u: ArrayLike | None = None) -> None:
         """Draw every particle from the motion model (its ``sample``); ``x``, ``P`` follow, and ``x_prior``,
         ``P_prior`` keep the moments of the predicted particles.
 
@@ -665,7 +668,7 @@ class BootstrapParticleFilter:
         self._rows_p = self._sample(self.motion, self._rows_p, u, self.k, self.rngs)
         self._set_prior()
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Weight the particles by the likelihood of ``z`` (shape (m,), or (M, m) for a batch; NaN entries are
         missing), then resample where the effective sample size calls for it."""
         m = self.m
@@ -863,7 +866,7 @@ class BootstrapParticleFilter:
         self._prior_moments = all(p._prior_moments for p in parts)
         self.k = parts[-1].k
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
         """Predict with ``u[k]`` then update with ``z[k]`` at every step; return the history.
 
         The same result, field for field, as :func:`uwtutor.filters.base.run_filter` ``(self, z, u, times)``
