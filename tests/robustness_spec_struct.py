@@ -234,6 +234,9 @@ _COUNT = Int(minimum=1)
 
 
 SPECS_STRUCT: dict[str, Spec] = {
+    "uwtutor.datasets._core:square_log": Spec(
+        lambda: dict(range_scale=1.05, range_offset=0.1),
+        kinds=dict(range_scale=Real((), "pos"), range_offset=Real((), "nonneg"))),
     # --- models ------------------------------------------------------------------------------------------------------
     "uwtutor.models.base:ModelPair": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], x0=[3.0, 4.0], n_steps=3,

@@ -39,9 +39,9 @@ array([[nan],
        [nan]])
 """
 
-from ._core import DEFAULT_START_SIGMAS, RangeDataset
+from ._core import DEFAULT_START_SIGMAS, RangeDataset, square_log
 from ._plaza import PLAZA_HEADING_OFFSET, plaza
 from .navigation import NavigationModels, navigate, navigation_models
 
 __all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "NavigationModels", "DEFAULT_START_SIGMAS",
-           "PLAZA_HEADING_OFFSET"]
+           "PLAZA_HEADING_OFFSET", "square_log"]

@@ -14,7 +14,7 @@ from .._validate import (as_covariance, as_finite, as_float_array, as_instance, 
                          readonly)
 from ..motion import integrate_odometry
 
-__all__ = ["RangeDataset", "DEFAULT_START_SIGMAS"]
+__all__ = ["RangeDataset", "DEFAULT_START_SIGMAS", "square_log"]
 
 #: Standard deviations ``(x [m], y [m], heading [rad])`` of the default ``start_cov``: a start known about as
 #: well as a survey-grade GPS fix and a good compass know it (0.1 m, 1 degree).
@@ -582,3 +582,55 @@ class RangeDataset:
                          f"{np.degrees(self.start[2]):.4g} deg")
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
+
+
+def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeDataset:
+    r"""A small synthetic log in the form of the real ones: a 10 m square driven twice, ranging to two beacons.
+
+    The vehicle drives 1 m an epoch and turns 90° every 10 epochs (81 epochs, odometry ``[distance, heading
+    change]``), and ranges at every epoch after the first, to beacon 7 at (-4, 3) m and beacon 3 at (5, 12) m in
+    turn. The ranges are :math:`r = s\,d + b` for the true distance :math:`d` (no noise): ``range_scale`` :math:`s`
+    (a sound-speed error in all but name) and ``range_offset`` :math:`b`. The truth is the odometry integrated from
+    the origin, heading east. Every filter of :mod:`uwtutor.datasets` runs on it in milliseconds, which is what the
+    examples of this package use it for.
+
+    Parameters
+    ----------
+    range_scale : float, default 1
+        Scale factor :math:`s` of the ranges, > 0.
+    range_offset : float, default 0
+        Offset :math:`b` added to every range [m], >= 0.
+
+    Returns
+    -------
+    RangeDataset
+        With ``truth``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.datasets import square_log
+    >>> data = square_log()
+    >>> data.times.shape, data.ranges.shape, sorted(data.beacons)
+    ((81,), (80, 3), [3, 7])
+    >>> # noise-free ranges: the truth's distance to each beacon
+    >>> d = np.linalg.norm(data.truth[1:, :2] - [data.beacons[int(i)] for i in data.ranges[:, 1]], axis=1)
+    >>> bool(np.allclose(data.ranges[:, 2], d)), bool(np.allclose(square_log(1.05).ranges[:, 2], 1.05 * d))
+    (True, True)
+    """
+    s = as_positive("range_scale", range_scale, ndim=0)
+    b = float(as_finite("range_offset", range_offset, ndim=0, max_abs=1e6))
+    if b < 0.0:
+        raise ValueError(f"range_offset must be >= 0 (a range is never negative); got {b:g}")
+    K = 81
+    turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
+    turn[:2] = 0.0
+    odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
+    beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
+    times = np.arange(K, dtype=float)
+    truth = RangeDataset(times=times, odometry=odometry, ranges=np.empty((0, 3)), beacons=beacons,
+                         start=[0.0, 0.0, 0.0]).dead_reckoning()
+    ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
+    r = float(s) * np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1) + b
+    return RangeDataset(times=times, odometry=odometry, ranges=np.column_stack([np.arange(1.0, K), ids, r]),
+                        beacons=beacons, truth=truth)

@@ -67,29 +67,9 @@ class BaselineRun:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import position_ekf
     >>> run = position_ekf(data, [3, 7])
     >>> run.name, run.times.shape, run.positions.shape, type(run.result).__name__
@@ -163,29 +143,9 @@ def displacement_covariance(data: RangeDataset, distance_sigma: Any = DISTANCE_S
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import displacement_covariance
     >>> C = displacement_covariance(data, distance_sigma=(0.01, 0.02))
     >>> # one 2x2 covariance per step: (0.01 + 0.02 * 1 m)^2 on a 1 m step
@@ -233,33 +193,13 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import position_ekf
     >>> run = position_ekf(data, [3, 7], range_sigma=0.1)
     >>> # exact ranges from the exact start: the track is followed [m]
-    >>> round(float(np.linalg.norm(run.positions[-1] - truth[-1, :2])), 2)
+    >>> round(float(np.linalg.norm(run.positions[-1] - data.truth[-1, :2])), 2)
     0.0
     """
     from ..filters import extended_kalman_filter, range_only_ekf
@@ -304,38 +244,12 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import bias_iekf
     >>> # 0.5 m too long: the bias state takes it
-    >>> longer = RangeDataset(
-    ...     times=data.times,
-    ...     odometry=data.odometry,
-    ...     ranges=data.ranges + [0.0, 0.0, 0.5],
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> longer = square_log(range_offset=0.5)
     >>> run = bias_iekf(longer, [3], range_sigma=0.1, bias_sigma=1.0)
     >>> run.name, round(float(run.result.x[-1, 2]), 1)
     ('IEKF', 0.5)
@@ -395,29 +309,9 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import fading_filter
     >>> run = fading_filter(data, [3], range_sigma=0.1)
     >>> run.name, type(run.result).__name__, run.positions.shape
@@ -473,34 +367,14 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import vmlbl_filter
     >>> run = vmlbl_filter(data, [3], spacing=4.0)
     >>> run.name, type(run.result).__name__, run.positions.shape
     ('OR-VMLBL-KF', 'VMLBLResult', (81, 2))
-    >>> bool(np.linalg.norm(run.positions[-1] - truth[-1, :2]) < 1.0)
+    >>> bool(np.linalg.norm(run.positions[-1] - data.truth[-1, :2]) < 1.0)
     True
     """
     import warnings
@@ -557,36 +431,16 @@ def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.rando
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import particle_filter
     >>> run = particle_filter(
     ...     data, [3], rng=np.random.default_rng(0), n_particles=200, range_sigma=0.3
     ... )
     >>> run.name, run.positions.shape
     ('particle filter', (81, 2))
-    >>> bool(np.linalg.norm(run.positions[-1] - truth[-1, :2]) < 1.0)
+    >>> bool(np.linalg.norm(run.positions[-1] - data.truth[-1, :2]) < 1.0)
     True
     """
     from ..filters import BootstrapParticleFilter

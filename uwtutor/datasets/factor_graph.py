@@ -71,29 +71,9 @@ class GraphSolution:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.factor_graph import gtsam_map
     >>> sol = gtsam_map(data, [3, 7], range_sigma=0.1)
     >>> sol.poses.shape, sol.n_ranges

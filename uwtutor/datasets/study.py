@@ -194,29 +194,9 @@ def most_heard_beacon(data: RangeDataset) -> int:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.study import most_heard_beacon
     >>> # 40 ranges to each: the lowest id
     >>> most_heard_beacon(data)
@@ -236,29 +216,9 @@ def without_scale(data: RangeDataset, scale: float) -> RangeDataset:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.study import without_scale
     >>> scaled = without_scale(data, 1.05)
     >>> np.round(scaled.ranges[0], 3).tolist(), np.round(data.ranges[0], 3).tolist()
@@ -279,37 +239,18 @@ def with_true_heading(data: RangeDataset) -> RangeDataset:
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.study import with_true_heading
     >>> # a gyro that drifts 0.01 rad an epoch
+    >>> from uwtutor.datasets import RangeDataset
     >>> drifting = RangeDataset(
     ...     times=data.times,
     ...     odometry=data.odometry + [0.0, 0.01],
     ...     ranges=data.ranges,
-    ...     beacons=beacons,
-    ...     truth=truth,
+    ...     beacons=data.beacons,
+    ...     truth=data.truth,
     ... )
     >>> fixed = with_true_heading(drifting)
     >>> bool(np.allclose(fixed.odometry[1:, 1], data.odometry[1:, 1]))
@@ -358,29 +299,9 @@ def navigation_run(data: RangeDataset, beacon: str = "all", period: float | None
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.study import navigation_run
     >>> run = navigation_run(data, beacon="3", states="+ scale", decimation=5)
     >>> sorted(run)
@@ -551,34 +472,14 @@ def fixes_within(run: Any, truth: Any, beacon: Any, fraction: float = 0.1) -> fl
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.datasets import RangeDataset
-    >>> # a 10 m square driven twice at 1 m an epoch, ranging to two beacons in turn
-    >>> K = 81
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odometry = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.empty((0, 3)),
-    ...     beacons=beacons,
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    >>> r = np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odometry,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
+    >>> from uwtutor.datasets import square_log
+    >>> # a 10 m square driven twice, ranging to two beacons in turn
+    >>> data = square_log()
     >>> from uwtutor.datasets.baselines import vmlbl_filter
     >>> from uwtutor.datasets.study import fixes_within
     >>> run = vmlbl_filter(data, [3], spacing=4.0)
     >>> # the share of the fixes within 10 % of the distance to the beacon
-    >>> 0.5 < fixes_within(run, truth, beacons[3]) <= 1.0
+    >>> 0.5 < fixes_within(run, data.truth, data.beacons[3]) <= 1.0
     True
     """
     out = run.result
