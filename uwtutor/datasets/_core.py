@@ -614,8 +614,10 @@ def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeData
     >>> data.times.shape, data.ranges.shape, sorted(data.beacons)
     ((81,), (80, 3), [3, 7])
     >>> # noise-free ranges: the truth's distance to each beacon
-    >>> d = np.linalg.norm(data.truth[1:, :2] - [data.beacons[int(i)] for i in data.ranges[:, 1]], axis=1)
-    >>> bool(np.allclose(data.ranges[:, 2], d)), bool(np.allclose(square_log(1.05).ranges[:, 2], 1.05 * d))
+    >>> beacon = np.array([data.beacons[int(i)] for i in data.ranges[:, 1]])
+    >>> d = np.linalg.norm(data.truth[1:, :2] - beacon, axis=1)
+    >>> scaled = square_log(1.05).ranges[:, 2]
+    >>> bool(np.allclose(data.ranges[:, 2], d)), bool(np.allclose(scaled, 1.05 * d))
     (True, True)
     """
     s = as_positive("range_scale", range_scale, ndim=0)
