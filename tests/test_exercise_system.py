@@ -374,7 +374,7 @@ MISTAKES = [
     (ch01.check_sound_speed, SPEED + 5.304, "too large", "T² term is missing"),
     (ch01.check_sound_speed, SPEED + 2 * 5.304, "too large", "has a minus sign"),
     (ch01.check_sound_speed, SPEED - 2.374e-4 * 1000, "too small", "T³ term is missing"),
-    (ch01.check_sound_speed, SPEED - 1.675e-7 * 1e6, "close", "D² term is missing"),
+    (ch01.check_sound_speed, SPEED - 1.675e-7 * 1e6, "a known slip rather than a rounding", "D² term is missing"),
     (ch01.check_sound_speed, 1449.2 + 46.0 - 5.5 + 0.29 + 16.0, "too small", "Medwin"),
     (ch01.check_two_way_range, 3600.0, "is twice the expected value",
      "forget that a two-way travel time covers the path twice"),

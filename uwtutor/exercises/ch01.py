@@ -54,6 +54,8 @@ __all__ = [
 # -- the data of the exercises -----------------------------------------------------------------------------------------
 #: The temperature (°C), salinity (PSU) and depth (m) of exercise 1.1, where the sound speed is computed.
 SOUND_SPEED_CONDITIONS = {"temperature": 10.0, "salinity": 35.0, "depth": 1000.0}
+#: ... and the tolerance of its answer (m/s): a rounding to two decimals passes, the smallest term left out does not.
+SOUND_SPEED_ATOL = 0.005
 #: The two-way travel time (s) measured in exercise 1.2 ...
 TWO_WAY_TIME = 2.4
 #: ... and the sound speed used to convert it (m/s).
@@ -105,8 +107,9 @@ def _reference_sound_speed(t: float, s: float, d: float) -> float:
 def check_sound_speed(answer: Any) -> Feedback:
     """Check the sound speed (m/s) at T = 10 °C, S = 35 PSU, D = 1000 m by Mackenzie's (1981) equation.
 
-    Accepted within 0.02 m/s. Recognised mistakes: depth in kilometres, depth terms left out, S instead of S - 35,
-    temperature in kelvin, a missing or sign-flipped T² term, a missing T³ or D² term, Medwin's (1975) formula.
+    Accepted within ``SOUND_SPEED_ATOL`` (0.005 m/s: a two-decimal rounding). Recognised mistakes: depth in
+    kilometres, depth terms left out, S instead of S - 35, temperature in kelvin, a missing or sign-flipped T² or
+    T·D³ term, a missing T³ or D² term, Medwin's (1975) formula.
 
     Parameters
     ----------
@@ -158,8 +161,15 @@ def check_sound_speed(answer: Any) -> Feedback:
             "equation.",
         total - terms["D2"]:
             f"The 1.675e-7·D² term is missing (about +{terms['D2']:.2f} m/s at {d:g} m).",
+        total - terms["TD3"]:
+            f"The −7.139e-13·T·D³ term is missing (about {terms['TD3']:.4f} m/s here): the smallest of the nine, "
+            "but part of the equation.",
+        total - 2 * terms["TD3"]:
+            "The T·D³ term has a minus sign: −7.139e-13·T·D³.",
     }
-    return check_number(answer, expected, rtol=0.0, atol=0.02, name="the sound speed", units="m/s",
+    # A two-decimal rounding of the right value (at most 0.005 m/s off) passes; the smallest term, T·D³, left out
+    # (0.007 m/s) or with its sign flipped (0.014 m/s) does not.
+    return check_number(answer, expected, rtol=0.0, atol=SOUND_SPEED_ATOL, name="the sound speed", units="m/s",
                         common_mistakes=mistakes,
                         hint="Write out the nine terms one by one (T in °C, S in PSU, D in metres) and add them up; "
                              "print each term to compare it with its typical size.",

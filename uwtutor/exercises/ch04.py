@@ -171,6 +171,40 @@ def _update_cases() -> list[Case]:
     ]
 
 
+def _ekf_update_slip(*, no_s: bool = False, flipped: bool = False, no_beacon: bool = False,
+                     unnormalized: bool = False, r_std: bool = False) -> Any:
+    """An ``ekf_update`` written with one typical slip, for ``check_function``'s ``mistakes``."""
+
+    def update(x: Any, P: Any, z: float, R: float, beacon: Any) -> tuple[np.ndarray, np.ndarray]:
+        x, P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+        b = np.zeros(2) if no_beacon else np.asarray(beacon, dtype=float)
+        predicted = float(np.linalg.norm(x - b))
+        H = (x - b) if unnormalized else (x - b) / predicted
+        S = H @ P @ H + (np.sqrt(R) if r_std else R)
+        K = P @ H if no_s else P @ H / S
+        innovation = predicted - z if flipped else z - predicted
+        return x + K * innovation, (np.eye(2) - np.outer(K, H)) @ P
+
+    return update
+
+
+#: Exercise 4.2's typical slips, each with the hint that names it (``check_function`` recognises them).
+_EKF_UPDATE_SLIPS = (
+    (_ekf_update_slip(no_s=True),
+     "Your gain lacks the division by the innovation variance: K = P Hᵀ / S with S = H P Hᵀ + R (a scalar for one "
+     "range). Without it the correction has the units of P and ignores how noisy the range is."),
+    (_ekf_update_slip(flipped=True),
+     "The innovation is z − h(x) (measured minus predicted): a range longer than predicted pushes the estimate "
+     "away from the beacon, not towards it."),
+    (_ekf_update_slip(no_beacon=True),
+     "Both h(x) = ‖x − b‖ and H = (x − b)ᵀ/‖x − b‖ use the beacon's position b; yours assumes it is at the origin."),
+    (_ekf_update_slip(unnormalized=True),
+     "H is the unit vector (x − b)ᵀ/‖x − b‖ (the derivative of a distance), not x − b itself."),
+    (_ekf_update_slip(r_std=True),
+     "R is the range noise *variance* (m²): S = H P Hᵀ + R, not + √R."),
+)
+
+
 def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedback:
     if not isinstance(got, (tuple, list)) or len(got) != 2:
         return Feedback(False, "Not yet: the function should return two things, `x_new, P_new`.",
@@ -227,7 +261,7 @@ def check_ekf_update(func: Any) -> Feedback:
     True
     """
     return check_function(func, ekf_update_reference, _update_cases(), name="ekf_update",
-                          compare=_compare_update,
+                          compare=_compare_update, mistakes=_EKF_UPDATE_SLIPS,
                           hint="h(x) = ‖x − b‖, H = (x − b)ᵀ/h(x), S = H P Hᵀ + R, K = P Hᵀ/S, "
                                "x⁺ = x + K (z − h(x)), P⁺ = (I − K H) P.",
                           explanation="This is the update that filterpy's ExtendedKalmanFilter and "
