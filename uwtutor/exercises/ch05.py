@@ -618,13 +618,15 @@ def check_final_rmse(rmse_ekf: Any, rmse_mult: Any, rmse_isfekf: Any) -> Feedbac
                                                        "μ_γ = 0.98.")
         if key == "isfekf":
             s = study()
-            mu, sigma = range_factor_moments(1470.0, 1500.0, 1.0)
-            beta_one = fading_ekf(s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"], mu_gamma=mu, sigma_gamma=sigma,
-                                  rho=0.95, beta=1.0)
-            mistakes[final_rmse(beta_one.x, truth)] = (
+            beta_one_hint = (
                 "That is the filter with β = 1 (Zhou and Xi's fading rule, no weakening factor): every innovation "
                 "larger than its own standard deviation fades the filter. Paper D's ISFEKF weakens the rule with "
                 "β of about the range: beta=\"range\".")
+            # the task's rounded μ_γ = 0.98, σ_γ = 1/1500 and the moments of the study (with β = 1 they differ)
+            for mu, sigma in ((0.98, 1 / 1500), range_factor_moments(1470.0, 1500.0, 1.0)):
+                beta_one = fading_ekf(s["x0"], s["P0"], s["u"], s["z"], s["Q"], s["R"], mu_gamma=mu,
+                                      sigma_gamma=sigma, rho=0.95, beta=1.0)
+                mistakes.setdefault(final_rmse(beta_one.x, truth), beta_one_hint)
         fb = check_number(answer, expected[key], rtol=1e-3, name=labels[key][1], units="m", common_mistakes=mistakes,
                           hint="Run the filter on the study, then `ch05.final_rmse(result.x, s['truth'])`.")
         if not fb.correct:

@@ -327,6 +327,9 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
         return "is twice the expected value", _TWICE_HINT
     if close(e / 2):
         return "is half the expected value", _HALF_HINT
+    if a == 0:          # before the powers of ten: with an absolute tolerance 0 is "close" to e / 10**k
+        return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
+                                                   "division (`//`) round the result down to 0?")
     for k in range(1, 10):
         for sign, prefix, hint_extra in ((1, "", ""), (-1, "has the wrong sign and ", " Check the sign too.")):
             if close(sign * e * 10 ** k):
@@ -334,9 +337,6 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
             if close(sign * e / 10 ** k):
                 return f"{prefix}is {10 ** k:,} times smaller than expected", _power_hint(k, units) + hint_extra
     tol = atol + rtol * abs(e)
-    if a == 0:
-        return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
-                                                   "division (`//`) round the result down to 0?")
     if not reveal:
         if abs(a - e) <= 10 * tol:
             return "is close, but outside the tolerance", _NEAR_MISS_HINT
