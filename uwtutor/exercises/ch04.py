@@ -302,7 +302,8 @@ def check_nees(answer: Any) -> Feedback:
         float(np.sum(e**2 / np.diag(P))): "Dividing each component by its own variance ignores the correlation: "
                                           "use the full inverse, np.linalg.inv(P) or np.linalg.solve(P, e).",
     }
-    return check_number(answer, expected, rtol=1e-6, name="the NEES", common_mistakes=mistakes,
+    # rtol 3e-3: a NEES rounded to three significant digits (2.23) passes; every recognised slip is far off
+    return check_number(answer, expected, rtol=3e-3, name="the NEES", common_mistakes=mistakes,
                         hint="e = truth − estimate, NEES = e @ np.linalg.solve(P, e).",
                         explanation="For a consistent filter it follows a chi-square distribution with 2 degrees of "
                                     "freedom: mean 2.")
@@ -355,7 +356,9 @@ def check_nees_bounds(answer: Any) -> Feedback:
         (n + np.array([-1.96, 1.96]) * np.sqrt(2 * n / M), "That is the normal approximation; use the chi-square "
                                                            "quantiles (scipy.stats.chi2.ppf)."),
     ]
-    return check_array(answer, expected, rtol=1e-4, name="the interval", common_mistakes=mistakes,
+    # rtol 4e-3: bounds rounded to three significant digits ([1.48, 2.59]) pass; the nearest slip, the normal
+    # approximation, is 1.4 % off
+    return check_array(answer, expected, rtol=4e-3, name="the interval", common_mistakes=mistakes,
                        hint="Use scipy.stats.chi2.ppf([0.025, 0.975], M * n) / M.",
                        explanation="A consistent filter's mean NEES stays inside it at about 95 % of the epochs.")
 
