@@ -68,7 +68,7 @@ PRINTED = [
     Printed("ex-ch02-mirror", r"solutions are \$\(" + _NUMBER + r", " + _NUMBER + r"\)\$ and \$\(" + _NUMBER + r", "
             + _NUMBER + r"\)\$", lambda v: ch02.check_mirror_solutions(np.reshape(v, (2, 2)))),
     Printed("ex-ch02-turn", r"root is \$\\theta = " + _NUMBER + r"°", lambda v: ch02.check_halving_turn_angle(v[0])),
-    Printed("ex-ch02-current", r"`np.linalg.matrix_rank` gives " + _NUMBER,
+    Printed("ex-ch02-current", r"`observability.numerical_rank`\), the rank is " + _NUMBER,
             lambda v: ch02.check_straight_current_rank(int(v[0]))),
     Printed("ex-ch02-current", r"After the turn the rank is " + _NUMBER,
             lambda v: ch02.check_turned_current_rank(int(v[0]))),

@@ -206,13 +206,13 @@ def check_two_way_range(answer: Any) -> Feedback:
         c / t: "You divided the speed by the time: a distance is speed × time (and then halved for a two-way "
                "path).",
         t / c: "Time divided by speed is not a distance: a distance is speed × time.",
-        c * t / 4: "You halved twice: the two-way path is 2·R, so R = c·t/2.",
+        c * t / 4: "You halved twice: the two-way path is 2·r, so r = c·t/2.",
         c * t / 2 / 1000: "That is the range in kilometres; the answer is asked in metres.",
     }
     return check_number(answer, expected, rtol=1e-3, name="the range to the beacon", units="m",
                         common_mistakes=mistakes,
                         hint="Distance = speed × time, and a two-way time covers the range twice.",
-                        explanation="A transponder's reply comes back along the same path, so R = c·t/2 (ignoring "
+                        explanation="A transponder's reply comes back along the same path, so r = c·t/2 (ignoring "
                                     "the beacon's turn-around delay).")
 
 
@@ -221,8 +221,8 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
     r"""Check the range error (m, estimated − true) from assuming 1470 m/s when the sound travels at 1500 m/s, at 3 km.
 
     In the book's notation (``book/notation.md``) the vehicle assumes :math:`c` and the sound travels at the
-    effective speed :math:`c_\mathrm{e}`: the travel time is :math:`\tau = R / c_\mathrm{e}`, the vehicle computes
-    :math:`\hat R = c\,\tau`, so the error is :math:`R\,(c / c_\mathrm{e} - 1)`.
+    effective speed :math:`c_\mathrm{e}`: the travel time is :math:`\tau = r^\mathrm{true} / c_\mathrm{e}`, the vehicle
+    computes :math:`r = c\,\tau`, so the error is :math:`r - r^\mathrm{true} = r^\mathrm{true}\,(c / c_\mathrm{e} - 1)`.
 
     Parameters
     ----------
@@ -254,9 +254,9 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
         -expected: "The sign: the error is estimated − true. The vehicle assumes a speed that is too low, so it "
                    "underestimates the range and the error is negative.",
         wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
-                     "speed, τ = R / c_e; the vehicle then computes c · τ.",
+                     "speed, τ = r_true / c_e; the vehicle then computes c · τ.",
         -wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
-                      "speed, τ = R / c_e; the vehicle then computes c · τ.",
+                      "speed, τ = r_true / c_e; the vehicle then computes c · τ.",
         estimated: "That is the range the vehicle computes; the task asks for its error, estimated − true.",
         c_a - c_t: "That is the sound-speed error in m/s; the task asks for the range error in metres.",
         2 * expected: "The error is on the one-way range: with a two-way time both the path and the time are "

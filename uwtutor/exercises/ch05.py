@@ -275,10 +275,10 @@ def _fading_cases() -> list[Case]:
              hint="λ = max(1, M/N): a fading factor never shrinks the covariance, so it is never below 1."),
         Case((np.array([12.0]), np.array([0.5]), np.array([2.5]), 0.95),
              label="a single step: V₁ is the first innovation squared",
-             hint="Start the recursion with V₁ = z̃₁² (paper D, eq. 20), not with V = 0."),
+             hint="Start the recursion with V₁ = y₁² (paper D, eq. 20), not with V = 0."),
         Case((np.array([1.0, 20.0, 1.0, 1.0, 1.0]), np.full(5, 0.5), np.full(5, 2.5), 0.5),
              label="a gross error at step 2 with ρ = 0.5",
-             hint="The forgetting factor weighs the *old* value: V_k = (ρ V_{k−1} + z̃_k²) / (1 + ρ)."),
+             hint="The forgetting factor weighs the *old* value: V_k = (ρ V_{k−1} + y_k²) / (1 + ρ)."),
         Case((np.array([3.0, -4.0, 8.0, -2.0]), np.array([0.4, 0.6, 0.8, 1.0]), np.array([1.0, 2.0, 3.0, 4.0]),
               1.0),
              label="ρ = 1 (no forgetting) and terms that change every step",
@@ -408,12 +408,12 @@ def _threshold_mistakes(beta: float) -> dict[float, str]:
     st = STEADY
     vbar = st["N"] + st["CQC"] + st["mult"] + st["R"]
     out = {
-        threshold_innovation(beta) ** 2: "That is the threshold on z̃² (m²); take the square root for metres.",
-        math.sqrt(vbar + (beta - 1.0) * st["R"]): "One innovation enters V with weight 1/(1 + ρ): z̃² must exceed "
+        threshold_innovation(beta) ** 2: "That is the threshold on y² (m²); take the square root for metres.",
+        math.sqrt(vbar + (beta - 1.0) * st["R"]): "One innovation enters V with weight 1/(1 + ρ): y² must exceed "
                                                   "(1 + ρ) times the margin, not the margin itself.",
     }
     if beta == 1.0:
-        out[math.sqrt((1.0 + st["rho"]) * vbar)] = ("V_{k−1} = V̄ keeps its weight ρ/(1 + ρ): z̃² > V̄ + "
+        out[math.sqrt((1.0 + st["rho"]) * vbar)] = ("V_{k−1} = V̄ keeps its weight ρ/(1 + ρ): y² > V̄ + "
                                                     "(1 + ρ)(β − 1)R, not (1 + ρ)(V̄ + (β − 1)R).")
     else:
         out[math.sqrt(vbar + (1.0 + st["rho"]) * (beta - 1.0))] = ("The weakening factor multiplies R = "
@@ -446,7 +446,7 @@ def check_threshold_beta_one(answer: Any) -> Feedback:
     # rtol 3e-3: a threshold rounded to three significant digits (1.88 m) passes
     return check_number(answer, expected, rtol=3e-3, name="the threshold with β = 1", units="m",
                         common_mistakes=_threshold_mistakes(1.0),
-                        hint="With V_{k−1} = V̄, λ_k > 1 exactly when V_k > V̄ + (β − 1)R; solve for z̃_k.",
+                        hint="With V_{k−1} = V̄, λ_k > 1 exactly when V_k > V̄ + (β − 1)R; solve for y_k.",
                         explanation="With β = 1 any innovation larger than its own standard deviation √V̄ triggers "
                                     "the fading factor: about a third of all steps under a correct model.")
 
