@@ -60,7 +60,8 @@ _THETA = np.radians(89.0)
 CH01 = [
     Slip("1.1", "the sign of the T·D³ term flipped", lambda: ch01.check_sound_speed(_mackenzie(td3_sign=1.0)),
          "T·D³ term has a minus sign"),
-    Slip("1.1", "the T·D³ term left out", lambda: ch01.check_sound_speed(_mackenzie(td3=False)), "T·D³ term is missing"),
+    Slip("1.1", "the T·D³ term left out", lambda: ch01.check_sound_speed(_mackenzie(td3=False)),
+         "T·D³ term is missing"),
     Slip("1.1", "depth in kilometres", lambda: ch01.check_sound_speed(_mackenzie(d_km=True)), "metres"),
     Slip("1.1", "temperature in kelvin", lambda: ch01.check_sound_speed(_mackenzie(kelvin=True)), "kelvin"),
     Slip("1.2", "the two-way time not halved", lambda: ch01.check_two_way_range(1500.0 * 2.4), "two-way"),
@@ -217,6 +218,50 @@ def update_std(x, P, z, R, beacon):
     return x + K * (z - h), (np.eye(2) - np.outer(K, H)) @ P
 
 
+def _loop(x0, P0, u, z, Q, R, beacon, *, add_q=True, carry_p=True, predict_first=True, store_prior=False):
+    x, P = np.array(x0, dtype=float), np.array(P0, dtype=float)
+    out = np.empty((len(z), 2))
+    for k in range(len(z)):
+        if not carry_p:
+            P = np.array(P0, dtype=float)                        # P0 again at every epoch
+        if not predict_first and not np.isnan(z[k]):
+            x, P = update_correct(x, P, z[k], R, beacon)
+        x, P = x + u[k], (P + Q if add_q else P)
+        out[k] = x
+        if predict_first and not store_prior and not np.isnan(z[k]):
+            x, P = update_correct(x, P, z[k], R, beacon)
+            out[k] = x
+    return out
+
+
+def update_correct(x, P, z, R, beacon):
+    d = x - np.asarray(beacon, dtype=float)
+    h = np.linalg.norm(d)
+    H = d / h
+    K = P @ H / (H @ P @ H + R)
+    return x + K * (z - h), (np.eye(2) - np.outer(K, H)) @ P
+
+
+def run_without_q(x0, P0, u, z, Q, R, beacon):
+    return _loop(x0, P0, u, z, Q, R, beacon, add_q=False)
+
+
+def run_resetting_p(x0, P0, u, z, Q, R, beacon):
+    return _loop(x0, P0, u, z, Q, R, beacon, carry_p=False)
+
+
+def run_update_first(x0, P0, u, z, Q, R, beacon):
+    return _loop(x0, P0, u, z, Q, R, beacon, predict_first=False)
+
+
+def run_storing_priors(x0, P0, u, z, Q, R, beacon):
+    return _loop(x0, P0, u, z, Q, R, beacon, store_prior=True)
+
+
+def _check_run(func):
+    return ch04.check_ekf_run(func)        # exercise 4.6 (no checker before it was added)
+
+
 _E43 = np.array([100.0, -200.0]) - np.array([105.0, -196.0])
 _P43 = np.array([[16.0, 6.0], [6.0, 9.0]])
 _D41 = np.array([500.0, -300.0]) - np.array([200.0, 100.0])
@@ -235,6 +280,10 @@ CH04 = [
     Slip("4.4", "not divided by M", lambda: ch04.check_nees_bounds(stats.chi2.ppf([0.025, 0.975], 100)), "M"),
     Slip("4.4", "the one-dimensional quantiles", lambda: ch04.check_nees_bounds(stats.chi2.ppf([0.025, 0.975], 2)),
          "M·n"),
+    Slip("4.6", "no Q in the prediction", lambda: _check_run(run_without_q), "P ← P + Q"),
+    Slip("4.6", "P0 at every epoch", lambda: _check_run(run_resetting_p), "Carry P"),
+    Slip("4.6", "update before predict", lambda: _check_run(run_update_first), "Predict first"),
+    Slip("4.6", "the predictions stored", lambda: _check_run(run_storing_priors), "Those are the predictions"),
 ]
 
 
@@ -306,7 +355,8 @@ CH06 = [
         1.0 / np.sum(ch06.PARTICLE_WEIGHTS**2)), "Normalize the weights"),
     Slip("6.5", "the covariance not divided by the deviations", lambda: ch06.check_q_correlation(
         ch06.Q_PRINTED[0, 1]), "both standard deviations"),
-    Slip("6.6", "the estimate after resampling", lambda: ch06.check_pf_step(pf_estimate_after), "taken *before* resampling"),
+    Slip("6.6", "the estimate after resampling", lambda: ch06.check_pf_step(pf_estimate_after),
+         "taken *before* resampling"),
     Slip("6.6", "R not inverted", lambda: ch06.check_pf_step(pf_r_not_inverted), "R⁻¹"),
     Slip("6.6", "the noise after the kinematics", lambda: ch06.check_pf_step(pf_noise_after), "*before* the kinem"),
     Slip("6.6", "no shift of the log-weights", lambda: ch06.check_pf_step(pf_no_shift), "underflow"),
@@ -375,6 +425,8 @@ CORPUS = CH01 + CH02 + CH03 + CH04 + CH05 + CH06 + CH07_09
 
 def diagnose(slip: Slip) -> tuple[bool, str]:
     """Whether the checker refuses the wrong answer with the right hint, and its feedback as text."""
+    if slip.exercise == "4.6" and not hasattr(ch04, "check_ekf_run"):
+        return False, "no checker for this exercise"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fb = slip.run()
@@ -401,3 +453,5 @@ if __name__ == "__main__":
         if not right:
             print(f"MISDIAGNOSED {s.exercise} ({s.slip}):\n  {text.replace(chr(10), chr(10) + '  ')}")
     print(f"{sum(r for _, r, _ in results)} of {len(results)} wrong answers get the right diagnosis")
+    old = [(s, r) for s, r, t in results if t != "no checker for this exercise" and s.exercise != "4.6"]
+    print(f"{sum(r for _, r in old)} of {len(old)} for the exercises that had a checker before exercise 4.6")

@@ -635,8 +635,8 @@ def check_pf_step(func: Any) -> Feedback:
     r"""Check a student's ``pf_step(particles, z, noise, u, T, R)`` (exercise 6.6) against ``pf_step_reference``.
 
     Three cases (a cloud near the readings, one ``PF_STEP_FAR_OFFSET`` m off in depth where every weight underflows
-    without the log-space shift, a wide one); for each the weights, the estimate and the resampled particles are compared, in that
-    order, with the step built from ``uwtutor``'s model, likelihood and systematic resampler.
+    without the log-space shift, a wide one); for each the weights, the estimate and the resampled particles are
+    compared, in that order, with the step built from ``uwtutor``'s model, likelihood and systematic resampler.
 
     Parameters
     ----------
