@@ -564,31 +564,25 @@ def _run_cases() -> list[Case]:
 
 
 def _ekf_run_slip(*, no_q: bool = False, reset_p: bool = False, update_first: bool = False,
-                  priors: bool = False, skip_first_prediction: bool = False, no_u: bool = False) -> Any:
+                  priors: bool = False, no_u: bool = False) -> Any:
     """An ``ekf_run`` written with one typical slip, for ``check_function``'s ``mistakes``."""
 
     def run(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: float, beacon: Any) -> np.ndarray:
         x, P0_arr = np.array(x0, dtype=float), np.array(P0, dtype=float)
         P, u_arr, z_arr, Q_arr = P0_arr.copy(), np.asarray(u, float), np.asarray(z, float), np.asarray(Q, float)
-        b = np.asarray(beacon, dtype=float)
         out = np.empty((len(z_arr), 2))
+        right_update = _ekf_update_slip()                # exercise 4.2's update, without a slip
 
         def update(x: np.ndarray, P: np.ndarray, zk: float) -> tuple[np.ndarray, np.ndarray]:
-            if np.isnan(zk):
-                return x, P
-            h = float(np.linalg.norm(x - b))
-            H = (x - b) / h
-            K = P @ H / (H @ P @ H + R)
-            return x + K * (zk - h), (np.eye(2) - np.outer(K, H)) @ P
+            return (x, P) if np.isnan(zk) else right_update(x, P, zk, R, beacon)
 
         for k in range(len(z_arr)):
             if reset_p:
                 P = P0_arr.copy()
             if update_first:
                 x, P = update(x, P, z_arr[k])
-            if not (skip_first_prediction and k == 0):
-                x = x if no_u else x + u_arr[k]
-                P = P if no_q else P + Q_arr
+            x = x if no_u else x + u_arr[k]
+            P = P if no_q else P + Q_arr
             out[k] = x
             if not update_first and not priors:
                 x, P = update(x, P, z_arr[k])
