@@ -8,7 +8,9 @@ Four checkers cover the exercises of the book:
   otherwise the worst element; with a boolean ``expected`` it compares flags and names the missed and the false ones;
 - ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
   reports the first failing case with its inputs, the expected result and the student's result; an exception raised
-  by the student's code is caught and reported with the line it came from;
+  by the student's code is caught and reported with the line it came from; the exercise's typical slips
+  (``mistakes``, functions that make one mistake each) are run on the failing case, and the hint of the slip the
+  student's result matches beats the case's own, generic hint;
 - ``check_choice`` for a multiple-choice answer given as a capital letter: it asks for the capital when the letter is
   written in lower case and for the letter when the option's text is given, names the letters when the answer is none
   of them, and gives each wrong option its own hint (``read_letter`` does the reading, for other checkers too).
@@ -1177,6 +1179,13 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     Inputs: x = 1
     Expected: 2
     Got: 3
+    >>> slips = [(lambda x: x + 1.0, "You added one instead of doubling.")]
+    >>> fb = check_function(
+    ...     lambda x: x + 1.0, reference,
+    ...     [Case((3.0,), hint="Double the input.")], name="double", mistakes=slips,
+    ... )
+    >>> fb.hint  # the recognised slip, not the case's generic hint
+    'You added one instead of doubling.'
     """
     case_list = [_as_case(c) for c in cases]
     if time_limit_s is None:
