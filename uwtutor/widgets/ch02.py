@@ -337,8 +337,8 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
         finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
     ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
     rescale(ax_rmse)
-    return [*a["tracks"], *a["ellipses"], *changed_legend, ax_map.title, a["misfit"], a["noise"], legend, ax_mis.title, *a["ranks"],
-            *a["bounds"], ax_rmse.title]
+    return [*a["tracks"], *a["ellipses"], *changed_legend, ax_map.title, a["misfit"], a["noise"], legend,
+            ax_mis.title, *a["ranks"], *a["bounds"], ax_rmse.title]
 
 
 def observability_widget() -> Any:
