@@ -669,8 +669,9 @@ class ExtendedKalmanFilter:
         tested = np.empty((n, n, K, M))                          # the posteriors before a gate, runs-last
         extras: dict[str, list] = {name: [] for name in extra}
         try:
+            # the caller's warning filters stay: a warning they would show is recorded (and the steps are run
+            # again by run_filter, which shows it), one they ignore is ignored, one they turn into an error raises
             with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
                 for k in range(K):
                     self._predict(None if u is None else u_steps[k], deferred=True)
                     x_prior[k] = self._x_prior
