@@ -331,25 +331,35 @@ def check_page(page_path: Path) -> PageReport:
 # Drafting.
 
 def excerpt(occ: Occurrence, same: list[Occurrence]) -> str:
-    """A few words around the number, long enough to tell it from the page's other occurrences of the same token."""
+    """A few words around the number, long enough to tell it from the page's other occurrences of the same token
+    (the words before it, after it, or both; a table row "| 1000 | 1000 |" needs the one-sided kinds)."""
     flat = occ.flat
-    for words in (2, 3, 4, 6, 9, 14, 30):
+
+    def left(words: int) -> int:
         start = occ.start
         for _ in range(words):
             j = flat.rfind(" ", 0, max(0, start - 1))
-            start = 0 if j < 0 else j + 1
             if j < 0:
-                break
+                return 0
+            start = j + 1
+        return start
+
+    def right(words: int) -> int:
         end = occ.end
         for _ in range(words):
             j = flat.find(" ", end + 1)
-            end = len(flat) if j < 0 else j
             if j < 0:
-                break
-        text = flat[start:end].strip()
-        entry = {"number": occ.token, "text": text}
-        if sum(covers(entry, other) for other in same) == 1:
-            return text
+                return len(flat)
+            end = j
+        return end
+
+    text = flat[left(2):right(2)].strip()
+    for words in (2, 3, 4, 6, 9, 14, 30):
+        for a, b in ((left(words), right(words)), (left(words), occ.end), (occ.start, right(words))):
+            candidate = flat[a:b].strip()
+            entry = {"number": occ.token, "text": candidate}
+            if sum(covers(entry, other) for other in same) == 1:
+                return candidate
     return text
 
 

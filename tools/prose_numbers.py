@@ -49,7 +49,8 @@ STRIP = [
     re.compile(r"<[^>]+>"),                                                          # html tags
     re.compile(r"^\([A-Za-z0-9_:-]+\)=\s*$", re.M),                                 # MyST targets (label)=
 ]
-NUMBER = re.compile(r"(?<![\w.])[-−+]?\d[\d,]*(?:\.\d+)?(?:\s?(?:%|°|×|x(?=\s)))?(?![\w])")
+# a number, with thousands written "1,500" or "10 000" (a space or a thin space before each group of three)
+NUMBER = re.compile(r"(?<![\w.])[-−+]?\d[\d,]*(?:[ \u2009\u202f]\d{3}(?![\w.]))*(?:\.\d+)?(?:\s?(?:%|°|×|x(?=\s)))?(?![\w])")
 BORING = re.compile(r"^(?:[0-9]|1[0-2])$")            # small counting words: one to twelve, list numbers
 YEAR = re.compile(r"^(?:19|20)\d\d$")
 
@@ -84,6 +85,7 @@ class Occurrence:
 def token_value(token: str) -> float:
     """The number a token stands for: ``"1,500"`` -> 1500, ``"−2 %"`` -> -2, ``"3x"`` -> 3."""
     core = re.sub(r"\s?(?:%|°|×|x)$", "", token.strip()).replace("−", "-").replace(",", "")
+    core = re.sub(r"[ \u2009\u202f]", "", core)
     return float(core)
 
 
