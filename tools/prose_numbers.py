@@ -50,7 +50,8 @@ STRIP = [
     re.compile(r"^\([A-Za-z0-9_:-]+\)=\s*$", re.M),                                 # MyST targets (label)=
 ]
 # a number, with thousands written "1,500" or "10 000" (a space or a thin space before each group of three)
-NUMBER = re.compile(r"(?<![\w.])[-−+]?\d[\d,]*(?:[ \u2009\u202f]\d{3}(?![\w.]))*(?:\.\d+)?(?:\s?(?:%|°|×|x(?=\s)))?(?![\w])")
+NUMBER = re.compile(r"(?<![\w.])[-−+]?\d[\d,]*(?:(?<=\d)[ \u2009\u202f]\d{3}(?![\w.]))*(?:\.\d+)?"
+                    r"(?:\s?(?:%|°|×|x(?=\s)))?(?![\w])")
 BORING = re.compile(r"^(?:[0-9]|1[0-2])$")            # small counting words: one to twelve, list numbers
 YEAR = re.compile(r"^(?:19|20)\d\d$")
 
