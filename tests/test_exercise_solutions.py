@@ -117,6 +117,7 @@ NOT_CHECKED = {
     "ex-ch03-vmlbl": "code for a function; the notebook's solution runs it through its checker",
     "ex-ch03-cost": "code for a function; the notebook's solution runs it through its checker",
     "ex-ch04-update": "code for a function; the notebook's solution runs it through its checker",
+    "ex-ch04-run": "code for a function; the notebook's solution runs it through its checker",
     "ex-ch04-diagnosis": "letters chosen from a study; the notebook's solution runs them through the checker",
     "ex-ch05-fading": "code for a function; the notebook's solution runs it through its checker",
     "ex-ch05-ablation": "rounded descriptions of three RMSEs: test_ablation_solution_rounds_the_checked_values",
