@@ -55,7 +55,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
 from .._validate import (MAX_COORDINATE, as_bool_array, as_covariance, as_finite, as_float_array, as_int,
                         as_nonnegative, as_positive, as_range_array, as_scalar)
@@ -354,6 +353,7 @@ class RobustGate(Gate):
         var = np.diagonal(Rm, axis1=-2, axis2=-1)
         var = var[runs] if var.shape[0] > 1 else np.broadcast_to(var, (len(runs), d))
         chi = np.sum(res**2 / var[:, None, :], axis=(1, 2))
+        from scipy import stats          # imported where used: scipy.stats costs about 1 s of CPU to import
         ok = chi <= stats.chi2.ppf(1.0 - 1e-3, d * (n - 2))
         x_new = coef.reshape(len(runs), 2 * d)                               # [a (d), b (d)]
         C = np.linalg.inv(G)
