@@ -23,14 +23,16 @@ import _thread
 import dataclasses
 import math
 import threading
+import time
 import zlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
-#: Seconds one call may run before it counts as a hang (the valid calls take milliseconds; the margin absorbs a
-#: loaded machine, and a student's endless loop is stopped by the checkers' own, shorter limit).
+#: Seconds of CPU time one call may use before it counts as a hang (the valid calls take milliseconds to a few
+#: seconds of CPU; a student's endless loop is stopped by the checkers' own, shorter limit). CPU time, not wall time:
+#: the verdict must not depend on how busy the machine is (see ``call_with_limit``).
 CALL_LIMIT = 10.0
 #: Hostile values tried per argument (a deterministic sample of the kind's list; the must-refuse ones first).
 PER_ARGUMENT = 6
@@ -317,24 +319,41 @@ class CallTimeout(Exception):
     pass
 
 
+#: A call that uses no CPU for this many times its CPU limit (a deadlock, a sleep) also counts as a hang.
+WALL_BACKSTOP_FACTOR = 60.0
+#: How often the watchdog reads the process's CPU clock [s].
+_POLL = 0.05
+
+
 def call_with_limit(fn: Callable[[], Any], seconds: float = CALL_LIMIT) -> tuple[str, Any]:
     """Run ``fn()``; return ``("ok", value)``, ``("raised", exc)``, ``("escaped", exc)`` or ``("hung", None)``.
 
-    A watchdog thread interrupts the main thread after ``seconds`` (``_thread.interrupt_main``), which stops any
-    Python loop without touching SIGALRM (the checkers' own time limit uses it).
+    A hang is judged by **CPU time**, not by the clock on the wall: a watchdog thread reads the CPU time of this
+    process (``time.process_time``) and interrupts the main thread (``_thread.interrupt_main``, which stops any
+    Python loop without touching SIGALRM, the checkers' own time limit) once the call has used ``seconds`` of it.
+    On a busy machine the call gets less of the CPU and takes longer on the wall, but it uses the same CPU time, so
+    the verdict does not depend on the machine's load. A call that uses no CPU at all (a sleep, a deadlock) is
+    stopped after ``WALL_BACKSTOP_FACTOR * seconds`` on the wall.
     """
     fired = threading.Event()
+    done = threading.Event()
+    cpu_start, wall_start = time.process_time(), time.monotonic()
 
-    def _fire():
-        fired.set()
-        _thread.interrupt_main()
-    timer = threading.Timer(seconds, _fire)
-    timer.start()
+    def _watch():
+        while not done.wait(_POLL):
+            if (time.process_time() - cpu_start > seconds
+                    or time.monotonic() - wall_start > WALL_BACKSTOP_FACTOR * seconds):
+                fired.set()
+                _thread.interrupt_main()
+                return
+    watchdog = threading.Thread(target=_watch, daemon=True)
+    watchdog.start()
     try:
         try:
             value = fn()
         finally:
-            timer.cancel()
+            done.set()
+            watchdog.join()
     except KeyboardInterrupt as exc:
         if fired.is_set():
             return "hung", None
@@ -428,7 +447,7 @@ def judge(target: str, argument: str, hostile: Hostile, status: str, value: Any,
     def v(outcome: str, detail: str = "") -> Verdict:
         return Verdict(target, argument, hostile.label, outcome, detail)
     if status == "hung":
-        return v("escape", f"still running after {CALL_LIMIT:g} s")
+        return v("escape", f"still running after {CALL_LIMIT:g} s of CPU time")
     if status == "escaped":
         return v("escape", f"{type(value).__name__} escaped")
     if status == "raised":

@@ -167,3 +167,18 @@ def summary() -> Counter:
 
 if __name__ == "__main__":
     summary()
+
+
+# --- a hang is judged by CPU time, not by how busy the machine is -------------------------------------------------
+
+def test_a_hang_is_cpu_time_not_wall_time():
+    import time
+
+    def busy_loop():
+        while True:
+            pass
+    assert rk.call_with_limit(busy_loop, 0.2) == ("hung", None)
+    # waiting (as a call does on a loaded machine, off the CPU) is not a hang while it stays under the backstop
+    status, _ = rk.call_with_limit(lambda: time.sleep(0.5), 0.2)
+    assert status == "ok"
+    assert rk.call_with_limit(lambda: time.sleep(5.0), 0.05)[0] == "hung"       # 60 x 0.05 s: a call stuck off CPU
