@@ -70,7 +70,7 @@ from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
-from .base import FilterResult, run_filter
+from .base import Configurable, FilterResult, run_filter
 from .gates import Gate, GateContext
 
 __all__ = ["ExtendedKalmanFilter", "extended_kalman_filter"]
@@ -224,7 +224,7 @@ def _refuse_lost_psd(P: np.ndarray, R: np.ndarray, k: int) -> None:
             "honest initial uncertainty) or use a larger R")
 
 
-class ExtendedKalmanFilter:
+class ExtendedKalmanFilter(Configurable):
     r"""The generic batched extended Kalman filter (equations in the module docstring).
 
     Parameters
@@ -287,6 +287,9 @@ class ExtendedKalmanFilter:
 
     extra_outputs = ("accepted",)
     result_type = FilterResult
+    # the configuration rule (base.Configurable): the models and the gate are fixed once the filter is built
+    _fixed = ("motion", "measurement", "gate", "n", "m")
+    _diagnostics = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                  gate: Gate | None = None) -> None:
@@ -329,10 +332,25 @@ class ExtendedKalmanFilter:
         if gate_outputs:
             self.extra_outputs = type(self).extra_outputs + gate_outputs
 
+    def _use_models(self, motion: MotionModel, measurement: MeasurementModel, parameter: str) -> None:
+        """Run from the next step on with a new model pair of the same sizes, built by a subclass from a new value
+        of its ``parameter`` (``KalmanFilter.Q = ...``: base.Configurable)."""
+        if (motion.n, measurement.n, measurement.m) != (self.n, self.n, self.m):
+            raise ValueError(f"{parameter} must keep the filter's sizes (state {self.n}, measurement {self.m}); "
+                             f"got a model pair with state {motion.n} and measurement {measurement.m}: build a new "
+                             f"{type(self).__name__} for other sizes")
+        object.__setattr__(self, "motion", motion)
+        object.__setattr__(self, "measurement", measurement)
+        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q", motion, "Q")
+        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
+
     def __getattr__(self, name: str) -> Any:
         # the per-step values a gate names in its extra_outputs, read from the gate (runs axis as for x)
         if name in self.__dict__.get("_gate_outputs", ()):
-            return self._out(np.asarray(getattr(self.gate, name)))
+            value = np.asarray(getattr(self.gate, name))
+            if value.shape[:1] != (self._M,):           # before the gate's first step: nothing flagged yet
+                value = np.zeros((self._M,) + value.shape[1:], dtype=value.dtype)
+            return self._out(value)
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     # -- state access (views of the filter's arrays; assignment is validated) --
