@@ -65,8 +65,8 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, common_runs,
-                        readonly)
+from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_float_array, as_model_output,
+                        check_model_covariance, common_runs, readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -83,19 +83,8 @@ def _check_model(name: str, model: Any, kind: type) -> None:
 
 
 def _real(name: str, value: Any) -> np.ndarray:
-    """What a model returned, as a float array: real numbers only (a complex value is refused, not cut to its real
-    part; a string or an object by name, not by numpy's conversion error)."""
-    arr = np.asarray(value)
-    kind = arr.dtype.kind
-    if kind == "O":                                  # numbers held as objects: converted when they all are real
-        for v in arr.flat:
-            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise TypeError(f"{_owner(name)} must return real numbers; it returned {type(v).__name__} {v!r}")
-        return arr.astype(float)
-    if kind not in "fiu":
-        raise TypeError(f"{_owner(name)} must return real numbers; got an array of dtype {arr.dtype}"
-                        + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
-    return arr.astype(float, copy=False)
+    """What a model returned, as a float array of real numbers (``_validate.as_model_output``)."""
+    return as_model_output(_owner(name), value)
 
 
 def _owner(name: str) -> str:
@@ -150,23 +139,7 @@ def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
     return np.repeat(d[:, None], m, axis=1)
 
 
-class _CovarianceCheck:
-    """Checks a covariance returned by a user's model (symmetric PSD) once per distinct array: a model that returns
-    the same Q at every step pays for one eigendecomposition, not one per step. A library model whose covariances
-    are checked when it is made (``covariances_checked``) is not checked again at each step -- unless a subclass of
-    yours overrides the method, whose values are then checked like any user model's."""
-
-    def __init__(self, name: str, model: Any = None, method: str = "") -> None:
-        self.name, self._seen = name, None
-        own = getattr(type(model), method, None)
-        self._trusted = bool(getattr(model, "covariances_checked", False)) and own is not None and \
-            getattr(own, "__module__", "").startswith("uwtutor.")
-
-    def __call__(self, value: np.ndarray) -> None:
-        if self._trusted or value is self._seen:
-            return
-        check_model_covariance(self.name, value)
-        self._seen = value
+_CovarianceCheck = CovarianceCheck                   # the shared check (uwtutor._validate)
 
 
 def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -60,9 +60,19 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import CovarianceCheck, as_model_output
 from .noise import gaussian_log_likelihood, gaussian_noise, psd_sqrt
 
 __all__ = ["MotionModel", "MeasurementModel", "ModelPair"]
+
+
+def _checked(model: Any, method: str) -> CovarianceCheck:
+    """The covariance check of ``model.method`` (``Q`` or ``R``), kept with the model so that a model that returns
+    the same matrix at every step is checked once."""
+    checks = model.__dict__.setdefault("_covariance_checks", {})
+    if method not in checks:
+        checks[method] = CovarianceCheck(f"{type(model).__name__}.{method}", model, method)
+    return checks[method]
 
 
 class MotionModel:
@@ -178,8 +188,14 @@ class MotionModel:
         >>> x.shape, bool(np.all(x[..., 1] == 0.0))
         ((1, 4, 2), True)
         """
-        mean = np.asarray(self.f(x, u, k), dtype=float)
-        Q = np.asarray(self.Q(x, u, k), dtype=float)
+        name = type(self).__name__
+        mean = as_model_output(f"{name}.f", self.f(x, u, k))
+        if mean.shape != np.shape(x):
+            raise ValueError(f"{name}.f must return the shape of the states it moves, {np.shape(x)}; got {mean.shape}")
+        Q = as_model_output(f"{name}.Q", self.Q(x, u, k))
+        if Q.shape[-2:] != (self.n, self.n):
+            raise ValueError(f"{name}.Q must return ({self.n}, {self.n}) matrices (the state size); got {Q.shape}")
+        _checked(self, "Q")(Q)                       # real, symmetric PSD: the checks the EKF engine makes
         return mean + gaussian_noise(psd_sqrt(Q), rng, mean.shape)
 
 
@@ -312,8 +328,14 @@ class MeasurementModel:
         >>> z.shape, bool(abs(z[0, 0] - 5.0) < 8.0)
         ((1, 1), True)
         """
-        mean = np.asarray(self.h(x, k), dtype=float)
-        return mean + gaussian_noise(psd_sqrt(np.asarray(self.R(x, k), dtype=float)), rng, mean.shape)
+        name = type(self).__name__
+        mean = as_model_output(f"{name}.h", self.h(x, k))
+        R = as_model_output(f"{name}.R", self.R(x, k))
+        if R.shape[-2:] != (self.m, self.m):
+            raise ValueError(f"{name}.R must return ({self.m}, {self.m}) matrices (the measurement size); got "
+                             f"{R.shape}")
+        _checked(self, "R")(R)
+        return mean + gaussian_noise(psd_sqrt(R), rng, mean.shape)
 
 
 class ModelPair:

@@ -87,18 +87,36 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
-                          as_rng, as_scalar, readonly)
+from ..._validate import (MAX_COORDINATE, CovarianceCheck, as_covariance, as_finite, as_float_array, as_int,
+                          as_model_output, as_nonnegative, as_rng, as_scalar, readonly)
+from ...errors import UwtutorWarning, warn
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
 from ..base import FilterResult
 
-__all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
+__all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError", "ParticleCollapseWarning"]
 
 
 class ParticleDegeneracyError(RuntimeError):
     """Every particle got zero likelihood: the particle cloud has lost the measurement."""
+
+
+class ParticleCollapseWarning(UwtutorWarning):
+    """After an update one particle holds (almost) all the weight: the effective sample size fell below
+    :data:`COLLAPSE_ESS`, and the next resampling copies that particle ``N`` times. The estimate then rests on one
+    sample: the measurement lies far outside the predicted particles (a wrong ``z`` or ``R``, too little process
+    noise, too few particles)."""
+
+
+#: An effective sample size below this after an update is a collapse onto one particle (the largest weight is then
+#: above 0.995): the filter warns with :class:`ParticleCollapseWarning`.
+COLLAPSE_ESS = 1.01
+
+_COLLAPSE = ("the particle cloud collapsed onto one particle at step {k}{which}: effective sample size {ess:.3g} of "
+             "{N} particles. The measurement lies far outside the predicted particles: check z and the measurement "
+             "noise R, or give the filter more process noise, more particles or roughening (the estimate now rests "
+             "on one sample)")
 
 
 _LOST = ("every particle has zero likelihood for this measurement{which}: the particles have lost the track. Use more "
@@ -418,6 +436,8 @@ class BootstrapParticleFilter:
                              f"state has size {motion.n}: build both for the same state")
         self.motion, self.measurement = motion, measurement
         self.n, self.m = motion.n, measurement.m
+        # a user model's R is checked as the EKF engine checks it (real, symmetric PSD), once per distinct array
+        self._check_R = CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
         # the circular mean where the state has an angle (the model's difference wraps it)
         self._circular = type(motion).difference is not MotionModel.difference
         # the built-in Gaussian likelihood: computed here, with the whitening kept while R does not change
@@ -684,13 +704,25 @@ class BootstrapParticleFilter:
         self._update(z.reshape(M, m))
 
     def _measurement_noise(self, x: np.ndarray, k: int) -> np.ndarray:
-        """The measurement noise covariance of this update: (m, m), (M, m, m) or (M, N, m, m)."""
-        return np.asarray(self.measurement.R(x, k), dtype=float)
+        """The measurement noise covariance of this update: (m, m), (M, m, m) or (M, N, m, m), checked."""
+        name = f"the measurement model {type(self.measurement).__name__}.R"
+        R = as_model_output(name, self.measurement.R(x, k))
+        m, (M, N) = self.m, x.shape[:2]
+        if R.shape not in ((m, m), (M, m, m), (M, N, m, m)):
+            raise ValueError(f"{name} must return shape ({m}, {m}), ({M}, {m}, {m}) or ({M}, {N}, {m}, {m}) for "
+                             f"{m} measurement value(s); got {R.shape}")
+        self._check_R(R)
+        return R
 
     def _log_weights(self, x: np.ndarray, hx: np.ndarray, z: np.ndarray, R: np.ndarray, k: int) -> np.ndarray:
         """Log-likelihood (M, N) of ``z`` (M, m) for the particles ``x`` (M, N, n) with predictions ``hx``."""
         if not self._gaussian:
-            return self.measurement.log_likelihood(x, z, k)
+            name = f"the measurement model {type(self.measurement).__name__}.log_likelihood"
+            logw = as_model_output(name, self.measurement.log_likelihood(x, z, k))
+            if logw.shape == self._w.shape and (_any(np.isnan(logw)) or _any(np.isposinf(logw))):
+                raise ValueError(f"{name} returned NaN or +inf: a log-likelihood is a real number or -inf (zero "
+                                 "likelihood)")
+            return logw
         if R.ndim == 2:                                   # one R for every run: whiten once while it stays
             key = R.tobytes()
             if key != self._white_key:
@@ -724,6 +756,8 @@ class BootstrapParticleFilter:
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
         view = self._rows_p.swapaxes(-1, -2)
         hx = self.measurement.h(view, k)
+        if hx is not view:
+            hx = as_model_output(f"the measurement model {type(self.measurement).__name__}.h", hx)
         if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
             raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
                              f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
@@ -750,7 +784,7 @@ class BootstrapParticleFilter:
         if M == 1 and none is None:                       # one run: the same arithmetic on its row
             top1 = np.maximum.reduce(logw[0])
             if not math.isfinite(top1):
-                raise ParticleDegeneracyError(_LOST.format(which=""))
+                raise self._lost(logw, "")
             w = logw - top1                               # a new array: the model's output is left alone
             np.exp(w, out=w)
             w /= np.add.reduce(w[0])
@@ -762,7 +796,7 @@ class BootstrapParticleFilter:
                 lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
             if lost is not None and _any(lost):
                 which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
-                raise ParticleDegeneracyError(_LOST.format(which=which))
+                raise self._lost(logw, which)
             if none is not None:
                 top = np.where(none[:, None], 0.0, top)
             w = logw - top                                # a new array: the model's output is left alone
@@ -777,6 +811,11 @@ class BootstrapParticleFilter:
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
+        collapsed = ess < COLLAPSE_ESS if none is None else (ess < COLLAPSE_ESS) & ~none
+        if w.shape[1] > 1 and _any(collapsed):
+            run = int(np.flatnonzero(collapsed)[0])
+            warn(_COLLAPSE.format(k=k, which=f" (run {run})" if self._batched else "", ess=float(ess[run]),
+                                  N=w.shape[1]), ParticleCollapseWarning)
         if self.ess_threshold >= 1.0:
             due = range(M) if none is None else np.flatnonzero(~none)
         else:
@@ -784,6 +823,14 @@ class BootstrapParticleFilter:
             due = np.flatnonzero(low if none is None else low & ~none)
         if len(due):
             self._resample(due)
+
+    def _lost(self, logw: np.ndarray, which: str) -> Exception:
+        """The error for an update where no particle has a likelihood: the model's fault when it made a NaN (an h
+        or R that is NaN there), else the cloud's (:class:`ParticleDegeneracyError`)."""
+        if _any(np.isnan(logw)):
+            return ValueError(f"the measurement model {type(self.measurement).__name__} gave NaN log-likelihoods at "
+                              f"step {max(self.k, 0)}{which} (its h or R is NaN there): check the model")
+        return ParticleDegeneracyError(_LOST.format(which=which))
 
     def _resample(self, runs: Any = None) -> None:
         """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
