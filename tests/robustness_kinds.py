@@ -20,6 +20,7 @@ The rule (:func:`judge`), for every hostile call:
 from __future__ import annotations
 
 import _thread
+import copy
 import dataclasses
 import math
 import threading
@@ -242,6 +243,104 @@ class Instance(Kind):
         out = [Hostile("object", object(), True), Hostile("string", "abc", True), Hostile("int", 1, True)]
         if not self.optional:
             out.append(Hostile("None", None, True))
+        return out
+
+
+# --- a user's model whose outputs are hostile (the filters must check what a model returns, not only what a user
+# passes them) ---------------------------------------------------------------------------------------------------
+
+def _complex(a: np.ndarray) -> np.ndarray:
+    return a.astype(complex) + 1e-3j
+
+
+def _with_nan(a: np.ndarray) -> np.ndarray:
+    b = np.array(a, dtype=float)
+    b.flat[0] = math.nan
+    return b
+
+
+def _short(a: np.ndarray) -> np.ndarray:
+    return a[..., :-1]
+
+
+def _indefinite(C: np.ndarray) -> np.ndarray:
+    b = np.array(C, dtype=float)
+    b[..., 0, 0] = -abs(b[..., 0, 0]) - 1.0
+    return b
+
+
+def _non_symmetric(C: np.ndarray) -> np.ndarray:
+    b = np.array(C, dtype=float)
+    b[..., 0, -1] += 1.0 + abs(b[..., 0, -1])
+    return b
+
+
+def _one_size_too_big(C: np.ndarray) -> np.ndarray:
+    n = C.shape[-1]
+    b = np.zeros(C.shape[:-2] + (n + 1, n + 1))
+    b[..., :n, :n] = C
+    b[..., n, n] = 1.0
+    return b
+
+
+_VECTOR_ATTACKS = (("complex", _complex), ("NaN", _with_nan), ("one component short", _short))
+_COVARIANCE_ATTACKS = (("complex", _complex), ("indefinite", _indefinite), ("non-symmetric", _non_symmetric),
+                       ("one size too big", _one_size_too_big), ("NaN", _with_nan))
+
+
+def corrupted_model(model: Any, method: str, corrupt: Callable[[np.ndarray], np.ndarray]) -> Any:
+    """A copy of ``model`` whose ``method`` returns ``corrupt(what the model returned)``: a user's subclass with a
+    bug in one method (its class is defined here, so no filter trusts it as a library model)."""
+    cls = type(model)
+    original = getattr(cls, method)
+
+    def hostile_method(self, *args, **kwargs):
+        return corrupt(np.asarray(original(self, *args, **kwargs)))
+    hostile_cls = type(f"Hostile{cls.__name__}", (cls,), {method: hostile_method, "__module__": __name__})
+    new = copy.copy(model)
+    new.__dict__.pop("_covariance_checks", None)        # checks made for the original model are not this one's
+    new.__class__ = hostile_cls
+    return new
+
+
+@dataclass(frozen=True)
+class Model(Kind):
+    """A motion or measurement model of ``uwtutor.models`` (or a list of motion models, one per mode): its hostile
+    values are the wrong types, and the valid model with one method returning a complex, NaN, wrong-shaped, or
+    (for ``Q``/``R``) indefinite or non-symmetric value -- a filter must refuse each by name, never run on it.
+
+    ``likelihood``: the target weighs by the model's ``log_likelihood`` (a particle filter), so it is attacked too.
+    """
+    optional: bool = False
+    likelihood: bool = False
+    #: the target draws particles with the motion model's ``sample`` (a particle filter), not ``f`` and ``Q`` alone
+    sampled: bool = False
+
+    def hostile(self, valid: Any) -> list[Hostile]:
+        from uwtutor.models.base import MeasurementModel, MotionModel
+        out = [Hostile("object", object(), True), Hostile("string", "abc", True)]
+        if not self.optional:
+            out.append(Hostile("None", None, True))
+        if isinstance(valid, (list, tuple)) and valid:              # modes: the first one is a user's buggy model
+            return out + [Hostile(f"mode 0: {h.label}", [h.value, *valid[1:]], True)
+                          for h in self.hostile(valid[0]) if h.label.startswith(("f ", "Q ", "sample "))]
+
+        def covariance_attacks(size: int) -> tuple:
+            return tuple(a for a in _COVARIANCE_ATTACKS if size > 1 or a[0] != "non-symmetric")
+        if isinstance(valid, MotionModel):
+            if self.sampled and type(valid).sample is not MotionModel.sample:     # the model draws its own way
+                methods = {"sample": _VECTOR_ATTACKS}
+            else:
+                methods = {"f": _VECTOR_ATTACKS, "Q": covariance_attacks(valid.n)}
+        elif isinstance(valid, MeasurementModel):
+            methods = {"h": _VECTOR_ATTACKS, "R": covariance_attacks(valid.m)}
+            if self.likelihood:
+                methods["log_likelihood"] = _VECTOR_ATTACKS
+        else:
+            return out
+        for method, attacks in methods.items():
+            for label, corrupt in attacks:
+                out.append(Hostile(f"{method} returns {label}", corrupted_model(valid, method, corrupt), True))
         return out
 
 

@@ -28,8 +28,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from robustness_kinds import (Answer, Choice, Covariance, Flag, Func, Instance, Int, Kind, Mapping, Real, Rng, Seed,
-                              StudentFunc)
+from robustness_kinds import (Answer, Choice, Covariance, Flag, Func, Instance, Int, Kind, Mapping, Model, Real, Rng,
+                              Seed, StudentFunc)
 
 
 @dataclass
@@ -56,6 +56,8 @@ KIND_BY_NAME: dict[str, Kind] = {
     "confidence": Real((), "open01"), "probability": Real((), "open01"), "delta": Real((), "open01"),
     "q": Real((), "nonneg"), "r": Real((), "pos"), "two_way": Flag(), "sound_speed": Real((), "pos"),
     "speed": Real((), "pos"), "radius": Real((), "pos"), "depth": Real((), "nonneg"),
+    # a user's model with a bug in one method (complex, NaN, wrong shape, indefinite or non-symmetric Q/R)
+    "motion": Model(), "measurement": Model(), "motions": Model(),
 }
 
 
@@ -169,7 +171,8 @@ SPECS: dict[str, Spec] = {
         kinds=dict(z=Real(None, "nonneg", nan_ok=True, extra_axis_ok=True)), names=("motion", "state size")),
     "uwtutor.filters.engine:ExtendedKalmanFilter": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], x0=_X0, P0=np.eye(2)),
-        kinds=dict(motion=Instance(), measurement=Instance())),
+        kinds=dict(motion=Model(), measurement=Model()), names=("model",),
+        call=lambda **kw: __import__("uwtutor.filters", fromlist=["x"]).ExtendedKalmanFilter(**kw).run(_Z, _U)),
     "uwtutor.filters.smoother:rts_smoother": Spec(
         lambda: dict(result=_ekf_result(), motion=_models()[0], u=_U),
         kinds=dict(result=Instance(), motion=Instance(), u=Real((5, 2)))),

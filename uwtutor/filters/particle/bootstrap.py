@@ -668,6 +668,11 @@ class BootstrapParticleFilter:
         """Move ``rows`` (R, n, count) with ``motion.sample`` (one Generator per run); returns new rows."""
         x = rows.swapaxes(-1, -2)
         new = motion.sample(x, u, k, rngs)
+        if type(motion).sample is not MotionModel.sample:     # a model's own draw (the default one checks itself)
+            new = as_model_output(f"the {name} model {type(motion).__name__}.sample", new)
+            if new.shape == x.shape and not _all(np.isfinite(new)):
+                raise ValueError(f"the {name} model {type(motion).__name__}.sample returned a non-finite particle at "
+                                 f"step {k}: check the model there")
         if getattr(new, "shape", None) != x.shape:
             raise ValueError(f"{name} model's sample ({type(motion).__name__}) must return particles of shape "
                              f"{x.shape}; got {np.shape(new)}")

@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..._validate import as_finite, as_flag, as_int, as_nonnegative, as_positive, as_scalar
+from ..._validate import (as_finite, as_flag, as_int, as_model_output, as_nonnegative, as_positive, as_scalar,
+                          check_model_covariance)
 from ...models.base import MeasurementModel, MotionModel
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
@@ -166,7 +167,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
             raise ValueError("GreyParticleFilter needs a measurement model that measures the state directly (h(x) = "
                              f"x, e.g. uwtutor.models.DepthSensors); got {type(measurement).__name__} with "
                              f"{getattr(measurement, 'm', '?')} measurements of {n} states")
-        R0 = np.asarray(measurement.R(probe, 0), dtype=float)
+        R0 = as_model_output(f"the measurement model {type(measurement).__name__}.R", measurement.R(probe, 0))
+        if R0.shape == (n, n):
+            check_model_covariance(f"the measurement model {type(measurement).__name__}.R", R0)
         if R0.shape != (n, n):
             raise ValueError(f"GreyParticleFilter starts from one R ({n}, {n}) for every run; the measurement "
                              f"model's R has shape {R0.shape}")
