@@ -44,6 +44,14 @@ class Hostile:
     label: str
     value: Any
     must_refuse: bool
+    #: one of the classes of defect every argument is tried with (not left to the sample): an overflow, an empty
+    #: batch, a column where a vector is meant, a scalar given as a one-element list or 2-D array, unbounded work
+    always: bool = False
+
+
+#: The labels tried on every argument whatever the sample (see ``Hostile.always``).
+ALWAYS = ("huge", "beyond the coordinate bound", "empty", "extra axis", "one-element list", "one-element 2-D array",
+          "10**12", "nan")
 
 
 class _NoFloat:
@@ -65,13 +73,15 @@ class _NoArray:
 
 
 def _pick(key: str, values: Sequence[Hostile], k: int) -> list[Hostile]:
-    """A deterministic sample of ``k`` values (seeded by ``key``): every must-refuse value is tried at least as
-    often as the others, and the order does not depend on Python's hash seed."""
-    if len(values) <= k:
-        return list(values)
-    start = zlib.crc32(key.encode()) % len(values)
-    rotated = list(values[start:]) + list(values[:start])
-    return rotated[:k]
+    """The values of the defect classes every argument is tried with (``ALWAYS``), and a deterministic sample of
+    ``k`` of the others (seeded by ``key``; the order does not depend on Python's hash seed)."""
+    always = [h for h in values if h.always or h.label in ALWAYS]
+    rest = [h for h in values if not (h.always or h.label in ALWAYS)]
+    if len(rest) <= k:
+        return always + rest
+    start = zlib.crc32(key.encode()) % len(rest)
+    rotated = rest[start:] + rest[:start]
+    return always + rotated[:k]
 
 
 # --- kinds ----------------------------------------------------------------------------------------------------------
@@ -120,7 +130,9 @@ class Real(Kind):
             return a
         out += [Hostile("nan", like(math.nan), not self.nan_ok), Hostile("inf", like(math.inf), not self.inf_ok),
                 Hostile("-inf", like(-math.inf), not self.inf_ok),
-                Hostile("huge", like(1e300), False), Hostile("tiny", like(1e-300), False)]
+                Hostile("huge", like(1e300), False), Hostile("tiny", like(1e-300), False),
+                # squares overflow float64 (1e400): refused by the coordinate bound or computed without overflow
+                Hostile("beyond the coordinate bound", like(1e200), False)]
         if self.domain in ("nonneg", "pos", "prob", "open01"):
             out.append(Hostile("negative", like(-1.0), True))
         if self.domain in ("pos", "open01"):
@@ -129,6 +141,7 @@ class Real(Kind):
             out.append(Hostile("above one", like(1.5), True))
         if arr.ndim == 0:
             out.append(Hostile("one-element list", [float(arr)], False))
+            out.append(Hostile("one-element 2-D array", np.array([[float(arr)]]), False))
             out.append(Hostile("array", np.array([float(arr), float(arr)]), not self.vector_ok))
         else:
             out.append(Hostile("list with None", _with_none(arr).tolist(), True))

@@ -172,9 +172,18 @@ def bias_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayL
     ... )
     (True, True)
     """
-    zz = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)      # measured ranges: >= 0, NaN missing
+    x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
+    if u is None:
+        raise TypeError("u (the dead-reckoned displacements, shape (K, 2) or (M, K, 2)) is required: give "
+                        "np.zeros((K, 2)) for a vehicle that does not move")
+    uu = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    K = uu.shape[-2]
+    # measured ranges: >= 0, NaN missing; one per step of u, (K,) or (M, K) as for range_only_ekf
+    zz = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if zz.shape[-1] != K:
+        raise ValueError(f"z must hold one range per step of u, shape ({K},) or (M, {K}); got shape {zz.shape}")
     motion, measurement = bias_model_pair(Q, R, beacon, zz.shape[-1] if zz.ndim else None)
-    return extended_kalman_filter(motion, measurement, x0, P0, u, zz, times=times, gate=gate)
+    return extended_kalman_filter(motion, measurement, x0, P0, uu, zz, times=times, gate=gate)
 
 
 class BiasEKF(ExtendedKalmanFilter):

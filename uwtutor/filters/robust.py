@@ -553,6 +553,10 @@ def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 
     True
     """
     rr = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), nonempty=True, max_abs=MAX_COORDINATE)
+    if rr.ndim == 2 and rr.shape[1] == 1 and rr.shape[0] > 1:
+        raise ValueError(f"ranges has shape {rr.shape}, a column: that would be {rr.shape[0]} runs of one range each. "
+                         f"Give shape ({rr.shape[0]},) for one run of {rr.shape[0]} ranges (ranges.ravel()), or "
+                         "(M, K) for M runs of K ranges")
     bad = np.isfinite(rr) & (rr < 0)
     if bad.any() or np.isinf(rr).any():
         where = np.flatnonzero((bad | np.isinf(rr)).ravel())[0]

@@ -110,11 +110,16 @@ class ParticleCollapseWarning(UwtutorWarning):
 
 
 #: An effective sample size below this after an update is a collapse onto one particle (the largest weight is then
-#: above 0.995): the filter warns with :class:`ParticleCollapseWarning`.
+#: above 0.995); when, in addition, even the best particle is more than ``sqrt(COLLAPSE_NIS)`` standard deviations
+#: from the measurement (its normalized innovation squared above ``COLLAPSE_NIS``), the measurement lies outside the
+#: whole cloud and the filter warns with :class:`ParticleCollapseWarning`. (A filter that never resamples also
+#: ends on one particle, on one that explains the data: that is sample degeneracy, chapter 6, not warned about.)
 COLLAPSE_ESS = 1.01
+COLLAPSE_NIS = 100.0
 
 _COLLAPSE = ("the particle cloud collapsed onto one particle at step {k}{which}: effective sample size {ess:.3g} of "
-             "{N} particles. The measurement lies far outside the predicted particles: check z and the measurement "
+             "{N} particles, and the measurement lies more than 10 standard deviations from every predicted particle: "
+             "check z and the measurement "
              "noise R, or give the filter more process noise, more particles or roughening (the estimate now rests "
              "on one sample)")
 
@@ -790,6 +795,7 @@ class BootstrapParticleFilter:
             top1 = np.maximum.reduce(logw[0])
             if not math.isfinite(top1):
                 raise self._lost(logw, "")
+            top = np.array([[top1]])
             w = logw - top1                               # a new array: the model's output is left alone
             np.exp(w, out=w)
             w /= np.add.reduce(w[0])
@@ -816,8 +822,14 @@ class BootstrapParticleFilter:
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
+        # a collapse onto one particle because the measurement is far from every particle (an SIS filter that never
+        # resamples also ends on one particle, but on one that explains the data: that is not warned about)
         collapsed = ess < COLLAPSE_ESS if none is None else (ess < COLLAPSE_ESS) & ~none
-        if w.shape[1] > 1 and _any(collapsed):
+        if w.shape[1] > 1 and _any(collapsed) and self._gaussian and R.ndim < 4:
+            collapsed &= top[:, 0] < -0.5 * COLLAPSE_NIS        # the best particle's own -NIS/2 (no constant)
+        else:
+            collapsed[:] = False
+        if _any(collapsed):
             run = int(np.flatnonzero(collapsed)[0])
             warn(_COLLAPSE.format(k=k, which=f" (run {run})" if self._batched else "", ess=float(ess[run]),
                                   N=w.shape[1]), ParticleCollapseWarning)
