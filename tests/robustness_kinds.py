@@ -51,7 +51,7 @@ class Hostile:
 
 #: The labels tried on every argument whatever the sample (see ``Hostile.always``).
 ALWAYS = ("huge", "beyond the coordinate bound", "empty", "extra axis", "one-element list", "one-element 2-D array",
-          "10**12", "nan")
+          "10**12")
 
 
 class _NoFloat:
@@ -167,11 +167,12 @@ class Covariance(Kind):
     definite: bool = False
     inf_ok: bool = False        # an infinite variance is a documented value (an unobservable direction)
     any_size: bool = False      # the function takes any n x n (e.g. reads the position block)
+    optional: bool = False      # None is the documented default
 
     def hostile(self, valid: Any) -> list[Hostile]:
         P = np.atleast_2d(np.asarray(valid, dtype=float))
         n = P.shape[-1]
-        out = _type_attacks(False)
+        out = [h for h in _type_attacks(False) if not (self.optional and h.value is None)]
         bad = np.array(P, dtype=float)
         bad[..., 0, 0] = -abs(bad[..., 0, 0]) - 1.0
         out.append(Hostile("indefinite", bad, True))
@@ -507,7 +508,8 @@ def _leaves(obj: Any, path: str = "", depth: int = 0):
 
 _COV_NAMES = ("P", "P_prior", "S", "covariance", "cov", "P_smoothed", "bound", "crlb")
 #: Per-step values that are NaN by definition where a measurement is missing or rejected (predict only).
-_MISSING_OK = ("y", "S", "innovations", "innovation_cov", "nis")
+_MISSING_OK = ("y", "S", "innovations", "innovation_cov", "nis", "ranges", "['fading_numerator']",
+               "['fading_denominator']")
 
 
 def answer_problems(answer: Any, baseline: Any) -> list[str]:

@@ -165,7 +165,7 @@ SPECS: dict[str, Spec] = {
                      sigma_gamma=1e-3, rho=0.95, fading=True, second_moment0=np.eye(2)),
         kinds=dict(mu_gamma=Real((), "pos", vector_ok=True), sigma_gamma=Real((), "nonneg"), rho=Real((), "open01"),
                    fading=Flag(),
-                   second_moment0=Covariance())),
+                   second_moment0=Covariance(optional=True))),
     "uwtutor.filters.engine:extended_kalman_filter": Spec(
         lambda: dict(x0=_X0, P0=np.eye(2) * 100.0, u=_U, z=_Z, Q=np.eye(2) * 0.1, R=1.0), call=_ekf,
         kinds=dict(z=Real(None, "nonneg", nan_ok=True, extra_axis_ok=True)), names=("motion", "state size")),
@@ -204,9 +204,9 @@ SPECS: dict[str, Spec] = {
     "uwtutor.models.depth:PitchManeuver": Spec(
         lambda: dict(pitch_target=0.2, time_constant=2.0, T=0.05, process_std=[0.01, 0.01, 0.01]),
         kinds=dict(pitch_target=Real(()), time_constant=Real((), "pos"), T=Real((), "pos"),
-                   process_std=Real((3,), "nonneg"))),
+                   process_std=Real((3,), "nonneg", optional=True))),
     "uwtutor.models.depth:DepthSensors": Spec(lambda: dict(R=np.eye(3) * 0.01),
-                                              kinds=dict(R=Covariance(definite=True))),
+                                              kinds=dict(R=Covariance(definite=True, optional=True))),
     "uwtutor.models.linear:LinearMotion": Spec(lambda: dict(F=np.eye(2), Q=np.eye(2)), kinds=dict(F=Real((2, 2)))),
     "uwtutor.models.linear:LinearMeasurement": Spec(lambda: dict(H=[[1.0, 0.0]], R=[[1.0]]),
                                                     kinds=dict(H=Real((1, 2)))),

@@ -88,12 +88,13 @@ def test_a_models_R_is_checked_and_named():
 def test_a_library_models_covariances_are_checked_once_a_subclass_that_overrides_them_every_step(monkeypatch):
     """The library's own models check their covariances when they are made (``covariances_checked``): the engine
     does not check them again at every step. A subclass of yours that overrides Q is checked like any user model."""
-    from uwtutor.filters import engine
+    from uwtutor import _validate
     from uwtutor.models import DeadReckoning
 
     calls = []
-    real = engine.check_model_covariance
-    monkeypatch.setattr(engine, "check_model_covariance", lambda name, value: calls.append(name) or real(name, value))
+    real = _validate.check_model_covariance                 # the one check of every filter family
+    monkeypatch.setattr(_validate, "check_model_covariance",
+                        lambda name, value: calls.append(name) or real(name, value))
     K = len(Z)
     _run(motion=DeadReckoning(np.tile(np.eye(2) * 0.1, (K, 1, 1))), measurement=RangeToBeacon((0.0, 0.0), R=1.0))
     assert calls == []

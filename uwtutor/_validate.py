@@ -453,6 +453,10 @@ def common_runs(sizes: Mapping[str, int | None], *, broadcast_one: bool = False)
     given = {name: m for name, m in sizes.items() if m is not None}
     if not given:
         return None
+    empty = [name for name, m in given.items() if m == 0]
+    if empty:
+        raise ValueError(f"{empty[0]} has no runs (a runs axis of length 0): give at least one run, or drop the "
+                         "runs axis")
     distinct = set(given.values()) - ({1} if broadcast_one else set())
     if len(distinct) > 1:
         described = ", ".join(f"{name} has {m}" for name, m in given.items())

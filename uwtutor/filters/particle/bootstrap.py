@@ -110,15 +110,16 @@ class ParticleCollapseWarning(UwtutorWarning):
 
 
 #: An effective sample size below this after an update is a collapse onto one particle (the largest weight is then
-#: above 0.995); when, in addition, even the best particle is more than ``sqrt(COLLAPSE_NIS)`` standard deviations
-#: from the measurement (its normalized innovation squared above ``COLLAPSE_NIS``), the measurement lies outside the
-#: whole cloud and the filter warns with :class:`ParticleCollapseWarning`. (A filter that never resamples also
-#: ends on one particle, on one that explains the data: that is sample degeneracy, chapter 6, not warned about.)
+#: above 0.995); when, in addition, even the best particle is more than ``sqrt(COLLAPSE_NIS)`` = 100 standard
+#: deviations from the measurement (its normalized innovation squared above ``COLLAPSE_NIS``), no particle explains
+#: the measurement at all and the filter warns with :class:`ParticleCollapseWarning`. (Sample degeneracy, chapter 6
+#: -- an SIS filter that never resamples, a cloud a few sigma off after a manoeuvre -- also ends on one particle, on
+#: one that still explains the data within tens of sigma: the effective sample size reports it, not a warning.)
 COLLAPSE_ESS = 1.01
-COLLAPSE_NIS = 100.0
+COLLAPSE_NIS = 1e4
 
 _COLLAPSE = ("the particle cloud collapsed onto one particle at step {k}{which}: effective sample size {ess:.3g} of "
-             "{N} particles, and the measurement lies more than 10 standard deviations from every predicted particle: "
+             "{N} particles, and the measurement lies more than 100 standard deviations from every predicted particle: "
              "check z and the measurement "
              "noise R, or give the filter more process noise, more particles or roughening (the estimate now rests "
              "on one sample)")
