@@ -448,14 +448,41 @@ def constructor_arguments(make, batched):
     return cls, seen
 
 
+def constructed_with(make, batched, name, value):
+    """``make(batched)`` with the constructor argument ``name`` replaced by ``value`` (everything else, random
+    generators included, made afresh as ``make`` makes it)."""
+    import inspect
+    from unittest import mock
+
+    cls = type(make(batched))
+    original = cls.__init__
+    signature = inspect.signature(original)
+    done = []
+
+    def spy(self, *args, **kwargs):
+        if not done:                                   # the outermost constructor only
+            done.append(True)
+            bound = signature.bind(self, *args, **kwargs)
+            bound.arguments[name] = value
+            return original(*bound.args, **bound.kwargs)
+        return original(self, *args, **kwargs)
+    with mock.patch.object(cls, "__init__", spy):
+        return make(batched)
+
+
 def changed(name, value):
-    """Another valid value of a parameter: 1.5 times it (a beacon 5 m away)."""
+    """Another valid value of a parameter: 1.5 times it (a beacon 5 m away, 0.1 for a zero, another resampler)."""
+    if callable(value):
+        from uwtutor.resampling import stratified_resample
+        return stratified_resample
     new = np.asarray(value, dtype=float) * 1.5
-    return new + 5.0 if name == "beacon" else new
+    if name == "beacon":
+        return new + 5.0
+    return new if np.any(new) else np.full_like(new, 0.1)
 
 
 #: Constructor arguments that are the filter's state or inputs, not its configuration.
-NOT_CONFIGURATION = {"x0", "P0"}
+NOT_CONFIGURATION = {"x0", "P0", "particles", "weights", "modes", "mode_probabilities"}
 
 
 def check_configuration_rule(make, batched, run):
@@ -489,11 +516,12 @@ def check_configuration_rule(make, batched, run):
         assigned = make(batched)
         setattr(assigned, name, new)
         by_assignment = run(assigned)
-        by_constructor = run(cls(**dict(arguments, **{name: new})))
+        by_constructor = run(constructed_with(make, batched, name, new))
         _assert_same(by_assignment, by_constructor)
         assert not np.allclose(by_assignment.x, plain.x, equal_nan=True), f"{name} assigned had no effect"
+        bad = "not a function" if callable(new) else np.full_like(np.asarray(new, dtype=float), np.nan)
         with pytest.raises((ValueError, TypeError), match=name):
-            setattr(make(batched), name, np.full_like(np.asarray(new, dtype=float), np.nan))
+            setattr(make(batched), name, bad)
 
 
 @pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])

@@ -93,7 +93,7 @@ from ...errors import UwtutorWarning, warn
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
-from ..base import FilterResult
+from ..base import Configurable, FilterResult
 
 __all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError", "ParticleCollapseWarning"]
 
@@ -243,7 +243,7 @@ def _whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
     return (1.0 / np.sqrt(np.diag(R)) if diagonal else np.linalg.inv(np.linalg.cholesky(R)).T), diagonal
 
 
-class BootstrapParticleFilter:
+class BootstrapParticleFilter(Configurable):
     r"""Bootstrap (SIR) particle filter on a motion/measurement model pair, vectorized over its ``N`` particles and
     over ``M`` runs, with a pluggable resampler.
 
@@ -387,6 +387,11 @@ class BootstrapParticleFilter:
 
     #: Per-step outputs recorded by :func:`uwtutor.filters.base.run_filter` in ``FilterResult.extras``.
     extra_outputs: tuple[str, ...] = ("ess", "resampled")
+    # the configuration rule (base.Configurable): these take effect when assigned; the models and generators are
+    # fixed (a new state is given as particles or weights); y and S are read-only
+    _parameters: tuple[str, ...] = ("resampler", "ess_threshold", "roughening")
+    _fixed: tuple[str, ...] = ("motion", "measurement", "rng", "rngs", "n", "m")
+    _diagnostics: tuple[str, ...] = ("y", "S")
     result_type = FilterResult
 
     def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
@@ -405,14 +410,8 @@ class BootstrapParticleFilter:
         self.rngs = per_run_generators(rng, M)
         if weights is not None:
             self.weights = weights
-        if not callable(resampler):
-            raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {resampler!r}")
-        self.resampler = resampler
-        self.ess_threshold = as_scalar("ess_threshold", ess_threshold, domain="nonnegative")
-        self.roughening = as_scalar("roughening", roughening, domain="nonnegative")
-        if self.roughening > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
-            raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times the "
-                             f"spread of the particles); got {self.roughening:g}")
+        for name, value in (("resampler", resampler), ("ess_threshold", ess_threshold), ("roughening", roughening)):
+            self._apply(name, value)
         m = self.m
         self.k = -1
         self._y = np.full((M, m), np.nan)
@@ -427,6 +426,21 @@ class BootstrapParticleFilter:
         self._xp, self._Pp = self._x, self._P
 
     # --- the models -------------------------------------------------------------------------------------------------
+
+    def _apply(self, name: str, value: Any) -> None:
+        """Set ``resampler``, ``ess_threshold`` or ``roughening``, checked (the constructor's arguments; assigned
+        later, they take effect from the next update: base.Configurable)."""
+        if name == "resampler":
+            if not callable(value):
+                raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {value!r}")
+        elif name == "ess_threshold":
+            value = as_scalar("ess_threshold", value, domain="nonnegative")
+        else:
+            value = as_scalar("roughening", value, domain="nonnegative")
+            if value > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
+                raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times "
+                                 f"the spread of the particles); got {value:g}")
+        object.__setattr__(self, name, value)
 
     @classmethod
     def _split_models(cls, first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, Any, tuple[Any, ...]]:
@@ -613,12 +627,12 @@ class BootstrapParticleFilter:
     @property
     def ess(self) -> Any:
         """Effective sample size after the last update (a float, or an (M,) array for a batch)."""
-        return self._ess.copy() if self._batched else float(self._ess[0])
+        return readonly(self._ess.copy()) if self._batched else float(self._ess[0])
 
     @property
     def resampled(self) -> Any:
         """Whether the last update resampled (a bool, or an (M,) array for a batch)."""
-        return self._resampled.copy() if self._batched else bool(self._resampled[0])
+        return readonly(self._resampled.copy()) if self._batched else bool(self._resampled[0])
 
     # --- moments ----------------------------------------------------------------------------------------------------
 
@@ -918,10 +932,10 @@ class BootstrapParticleFilter:
         part = copy.copy(self)
         for name in self._run_state:
             setattr(part, name, getattr(self, name)[block].copy())
-        part.rngs = self.rngs[block]
+        object.__setattr__(part, "rngs", self.rngs[block])        # fixed for users (base.Configurable), not here
         for name, model in self._models():
             if getattr(model, "n_runs", None) is not None:
-                setattr(part, name, model.select_runs(block))
+                object.__setattr__(part, name, model.select_runs(block))
         return part
 
     def _join(self, parts: Sequence["BootstrapParticleFilter"]) -> None:

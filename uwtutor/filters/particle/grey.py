@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..._validate import (as_finite, as_flag, as_int, as_model_output, as_nonnegative, as_positive, as_scalar,
-                          check_model_covariance)
+                          check_model_covariance, readonly)
 from ...models.base import MeasurementModel, MotionModel
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
@@ -145,6 +145,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "noise_std", "grey_used", "grey_forecast")
+    # paper C's settings size the filter's buffers (windows, wavelet matrix, grey particles): fixed once built
+    _fixed = BootstrapParticleFilter._fixed + ("grey_fraction", "n_grey", "grey_window", "grey_std", "grey_offset",
+                                                "noise_window", "wavelet", "adapt_noise", "min_noise_std")
     _run_state = BootstrapParticleFilter._run_state + ("_noise_std", "_R_runs", "_whiten_runs", "_estimated",
                                                        "_history", "_grey_used", "_grey_forecast")
 
@@ -207,15 +210,15 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self._grey_used = np.zeros(M, dtype=bool)
         self._grey_forecast = np.full((M, n), np.nan)
 
-    noise_std = property(lambda self: self._out(self._noise_std).copy(),
+    noise_std = property(lambda self: readonly(self._out(self._noise_std).copy()),
                          doc="Sensor noise standard deviations used by the last update, (n,) or (M, n).")
-    grey_forecast = property(lambda self: self._out(self._grey_forecast).copy(),
+    grey_forecast = property(lambda self: readonly(self._out(self._grey_forecast).copy()),
                              doc="The last grey forecast, (n,) or (M, n) (NaN when none was made).")
 
     @property
     def grey_used(self) -> Any:
         """Whether the last ``predict`` drew grey particles (a bool, or an (M,) array for a batch)."""
-        return self._grey_used.copy() if self._batched else bool(self._grey_used[0])
+        return readonly(self._grey_used.copy()) if self._batched else bool(self._grey_used[0])
 
     def _grey_prediction(self) -> tuple[np.ndarray, np.ndarray]:
         """GM(1,1) one-step forecast (M, n) of every component from its last ``L`` measurements, and the mask
