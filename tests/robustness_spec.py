@@ -287,7 +287,7 @@ SPECS: dict[str, Spec] = {
                                                        upper=Real(()))),
     # observability
     "uwtutor.observability:cramer_rao_bound": Spec(lambda: dict(information=np.eye(2) * 2.0),
-                                                   kinds=dict(information=Covariance(definite=True))),
+                                                   kinds=dict(information=Covariance(definite=True, any_size=True))),
     "uwtutor.observability:rmse_bound": Spec(lambda: dict(covariance=np.eye(2) * 2.0),
                                              kinds=dict(covariance=Covariance(inf_ok=True, any_size=True)),
                                              check=lambda v, b: ["NaN bound"] if np.isnan(v).any() else []),
@@ -317,7 +317,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.acoustics:sound_speed": Spec(lambda: dict(temperature=10.0, salinity=35.0, depth=100.0),
                                           kinds=dict(temperature=Real((), vector_ok=True),
                                                      salinity=Real((), "nonneg", vector_ok=True),
-                                                     depth=Real((), "nonneg", vector_ok=True))),
+                                                     # outside Mackenzie's 0-8000 m: a documented warning
+                                                     depth=Real((), vector_ok=True))),
     "uwtutor.acoustics:range_factor": Spec(lambda: dict(assumed_speed=1500.0, true_speed=1470.0),
                                            kinds=dict(assumed_speed=Real((), "pos", vector_ok=True),
                                                       true_speed=Real((), "pos", vector_ok=True))),
@@ -327,7 +328,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.motion:straight_track": Spec(lambda: dict(times=np.arange(5.0), start=(0.0, 0.0), speed=2.0,
                                                        heading=0.3),
                                           kinds=dict(start=Real((2,)), heading=Real(()), speed=Real((), "nonneg"))),
-    "uwtutor.motion:circle_track": Spec(lambda: dict(times=np.arange(5.0), radius=300.0, speed=2.0)),
+    "uwtutor.motion:circle_track": Spec(lambda: dict(times=np.arange(5.0), radius=300.0, speed=2.0),
+                                        kinds=dict(speed=Real((), "nonneg"))),    # 0: a vehicle holding station
     "uwtutor.grey:gm11_next": Spec(lambda: dict(series=np.array([10.0, 11.0, 12.5, 13.0, 14.2])),
                                    kinds=dict(series=Real((None,), "pos"))),
     # scenarios and pipelines

@@ -266,7 +266,7 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.models.cooperative:process_noise_map": Spec(lambda: dict(dt=8.0)),
     "uwtutor.models.depth:DepthSpeedPitch": Spec(
         lambda: dict(T=0.05, process_std=[0.01, 0.01, 0.01]),
-        kinds=dict(T=_POS, process_std=Real((3,), "nonneg")),
+        kinds=dict(T=_POS, process_std=Real((3,), "nonneg", optional=True)),
         call=_build("uwtutor.models.depth.DepthSpeedPitch", x=[10.0, 2.0, 0.1])),
     "uwtutor.models.depth:DepthSpeedPitchModel": Spec(
         lambda: dict(T=0.05, process_std=[0.01, 0.01, 0.01], R=np.eye(3) * 0.01),

@@ -26,7 +26,23 @@ import robustness_kinds as rk
 import robustness_spec as rs
 
 #: Failures accepted for now, each with its reason (the contract says when one is fixed, so it can be removed).
-KNOWN: dict[str, str] = {}
+KNOWN: dict[str, str] = {
+    # found when the contract began to try every argument with each defect class (issue 37); not fixed here
+    "uwtutor.filters.engine:extended_kalman_filter/u/None": "u=None is the documented 'no input'; DeadReckoning reads "
+    "it as no displacement, as RangeOnlyEKF.predict(None) does. A model that needs an input should say so (a "
+    "motion-model flag: the architecture issue); bias_ekf, whose u is required, refuses None",
+    "uwtutor.filters.gates:normalized_innovation_squared/y/nan": "a NaN innovation is a missing measurement: its NIS "
+    "is NaN by design (metrics.nis skips it)",
+    "uwtutor.metrics:final_errors/estimates/nan": "metrics belongs to the statistics work: a NaN estimate is a lost "
+    "run there (counted, not refused)",
+    "uwtutor.metrics:fraction_within/values/extra axis": "metrics (statistics work): a trailing axis of one is read "
+    "as more values",
+    "uwtutor.metrics:nees/covariances/nan": "metrics (statistics work): a NaN covariance is a lost run",
+    "uwtutor.metrics:nis/innovation_cov/nan": "metrics (statistics work): a NaN innovation covariance is a missing "
+    "measurement",
+    "uwtutor.montecarlo:run_study/components/None": "montecarlo (statistics work): None is its documented default "
+    "(every component); the spec's kind needs optional=True there",
+}
 
 
 def _targets():

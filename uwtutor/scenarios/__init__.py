@@ -451,7 +451,8 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     pings = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("ping_interval", ping_interval, domain="positive"), "ping_interval")
     turn = as_scalar("turn_time", turn_time)
-    true_speed = as_scalar("true_speed", true_speed, domain="positive")
+    # a sound speed in water (about 1400-1600 m/s): a tiny one would put the receptions beyond float64's range
+    true_speed = as_scalar("true_speed", true_speed, low=1000.0, high=2000.0)
     noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
     psi = as_finite("headings", headings, shape=(2,))
     start = as_finite("start", start, shape=(2,), max_abs=MAX_COORDINATE)
