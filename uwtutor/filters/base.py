@@ -72,8 +72,13 @@ class Configurable:
     _fixed: tuple[str, ...] = ()
     _diagnostics: tuple[str, ...] = ()
 
+    #: every name the rule governs (computed per class); an instance may add more (a gate's extra outputs)
+    _ruled: frozenset = frozenset()
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        cls._ruled = frozenset(cls._parameters + cls._fixed + cls._diagnostics + tuple(getattr(cls, "extra_outputs",
+                                                                                             ())))
         init = cls.__dict__.get("__init__")
         if init is None:
             return
@@ -86,19 +91,23 @@ class Configurable:
         cls.__init__ = __init__                             # type: ignore[method-assign]
 
     def __setattr__(self, name: str, value: Any) -> None:
-        if self.__dict__.get("_configured", False):
-            cls = type(self).__name__
-            if name in self._diagnostics or name in self.__dict__.get("extra_outputs",
-                                                                      getattr(type(self), "extra_outputs", ())):
-                raise AttributeError(f"{name} of a {cls} is what the last step computed (read-only); to change the "
-                                     "filter, assign its state (x, P) or its parameters")
-            if name in self._fixed:
-                raise AttributeError(f"{name} of a {cls} is fixed when the filter is built (everything the filter "
-                                     f"computes depends on it): build a new {cls} with the {name} you want")
-            if name in self._parameters:
-                self._apply(name, value)
-                return
+        # the filters' own state is private (``_x``, ``_P``...): it passes at the cost of one comparison
+        if name[0] != "_" and (name in self._ruled or name in self.__dict__.get("_extra_ruled", ())) \
+                and self.__dict__.get("_configured", False):
+            self._assign(name, value)
+            return
         object.__setattr__(self, name, value)
+
+    def _assign(self, name: str, value: Any) -> None:
+        cls = type(self).__name__
+        if name in self._parameters:
+            self._apply(name, value)
+            return
+        if name in self._fixed:
+            raise AttributeError(f"{name} of a {cls} is fixed when the filter is built (everything the filter "
+                                 f"computes depends on it): build a new {cls} with the {name} you want")
+        raise AttributeError(f"{name} of a {cls} is what the last step computed (read-only); to change the filter, "
+                             "assign its state (x, P) or its parameters")
 
     def _apply(self, name: str, value: Any) -> None:
         """Validate a new value of the parameter ``name`` and compute again what depends on it."""

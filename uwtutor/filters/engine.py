@@ -304,6 +304,7 @@ class ExtendedKalmanFilter(Configurable):
         self._gate_outputs = gate_outputs
         if gate_outputs:
             self.extra_outputs = type(self).extra_outputs + gate_outputs
+            self._extra_ruled = frozenset(gate_outputs)          # read-only diagnostics too (base.Configurable)
 
     def _use_models(self, motion: MotionModel, measurement: MeasurementModel, parameter: str) -> None:
         """Run from the next step on with a new model pair of the same sizes, built by a subclass from a new value
