@@ -211,6 +211,19 @@ def _plain_numpy() -> Any:
     return sys.modules[name]
 
 
+def bench_import_time(repeats: int) -> dict[str, Any]:
+    """The CPU time of ``import uwtutor`` and ``import uwtutor.filters`` (``import_time.py``, loaded by path)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("uwtutor_bench_import_time",
+                                                  Path(__file__).with_name("import_time.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    results = module.bench_import_time(repeats)
+    results["import_rows"] = module.rows(results)
+    return results
+
+
 def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
     """The study of ``bench_ekf`` (1000 runs x 1500 steps) with ``range_only_ekf`` and with the plain-numpy EKF of
     ``plain_numpy.py`` (the same arithmetic, no checks), in turn in this process; their outputs must agree to 1e-9
@@ -827,6 +840,7 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     else:
         results.update({"widget_latency": {}, "widget_latency_note": "not measured in JupyterLab (--no-browser)"})
     results.update(bench_memory())
+    results.update(bench_import_time(repeats))
     return results
 
 
@@ -964,6 +978,7 @@ def render_table(results: dict[str, Any]) -> str:
     rows.append((f"Peak memory of the {sizes['ekf_runs']}-run EKF study (RSS of a fresh process; inputs "
                  f"{results['inputs_mb']:.0f} MB, study allocations {results['study_traced_peak_mb']:.0f} MB)",
                  f"{mem:.0f} MB", _target("peak_memory_mb", t, " MB"), _status("peak_memory_mb", mem, t)))
+    rows += [tuple(r) for r in results.get("import_rows", [])]
     m = results["machine"]
     lines = ["| " + " | ".join(r) + " |" for r in rows]
     lines.insert(1, "|:---|---:|---:|:---:|")
@@ -999,7 +1014,7 @@ SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
     "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
     "navigate": bench_navigate, "pf": bench_pf, "ekf_vs_numpy": bench_ekf_vs_numpy, "pf_vs_numpy": bench_pf_vs_numpy,
     "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters, "pf_plaza": bench_pf_plaza,
-    "single_run": bench_single_run, "first_visit": bench_first_visit,
+    "single_run": bench_single_run, "first_visit": bench_first_visit, "import_time": bench_import_time,
 }
 
 

@@ -12,8 +12,7 @@ import shutil
 import socket
 import subprocess
 import sys
-import time
-import urllib.request
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -23,7 +22,7 @@ REPO = Path(__file__).resolve().parents[1]
 BUILD_DIR = REPO / "_build"
 HTML_DIR = BUILD_DIR / "html"
 BUILD_LOG = BUILD_DIR / "book-build.log"
-BUILD_TIMEOUT = 3600  # seconds; the notebooks run in this build unless cached
+BUILD_TIMEOUT = 3600  # seconds of CPU time (tests/cpu_limits.py), not of the wall
 
 # The build command of `make book`, in the strict form: warnings are errors (-W), nitpicky
 # cross-references (-n), every warning reported (--keep-going), every page re-read (--all: without
@@ -68,24 +67,24 @@ def toc_docnames(toc_path: Path = REPO / "_toc.yml") -> list[str]:
 
 
 @contextlib.contextmanager
-def serve_directory(directory: Path, timeout: float = 20.0) -> Iterator[str]:
-    """Serve ``directory`` with ``python -m http.server`` on a free port of 127.0.0.1; yields the base URL."""
+def serve_directory(directory: Path) -> Iterator[str]:
+    """Serve ``directory`` with ``python -m http.server`` on a free port of 127.0.0.1; yields the base URL.
+
+    Waits for the server's own event, the line ``Serving HTTP on ...`` it prints once it listens (or the end of its
+    output if it failed), not for a number of seconds: a busy machine only makes the wait longer.
+    """
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    server = subprocess.Popen([sys.executable, "-m", "http.server", "--bind", "127.0.0.1", "--directory",
-                               str(directory), str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = subprocess.Popen([sys.executable, "-u", "-m", "http.server", "--bind", "127.0.0.1", "--directory",
+                               str(directory), str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                              text=True)
     base = f"http://127.0.0.1:{port}/"
     try:
-        deadline = time.monotonic() + timeout
-        while True:
-            try:
-                urllib.request.urlopen(base, timeout=2).close()
-                break
-            except OSError:
-                if server.poll() is not None or time.monotonic() > deadline:
-                    raise RuntimeError(f"python -m http.server did not start on port {port}") from None
-                time.sleep(0.1)
+        first = server.stdout.readline()          # blocks until the server listens, or exits (then: "")
+        if not first.startswith("Serving HTTP"):
+            raise RuntimeError(f"python -m http.server did not start on port {port}: {first!r}")
+        threading.Thread(target=server.stdout.read, daemon=True).start()    # keep its log pipe from filling
         yield base
     finally:
         server.terminate()

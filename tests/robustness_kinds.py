@@ -20,17 +20,20 @@ The rule (:func:`judge`), for every hostile call:
 from __future__ import annotations
 
 import _thread
+import copy
 import dataclasses
 import math
 import threading
+import time
 import zlib
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
-#: Seconds one call may run before it counts as a hang (the valid calls take milliseconds; the margin absorbs a
-#: loaded machine, and a student's endless loop is stopped by the checkers' own, shorter limit).
+#: Seconds of CPU time one call may use before it counts as a hang (the valid calls take milliseconds to a few
+#: seconds of CPU; a student's endless loop is stopped by the checkers' own, shorter limit). CPU time, not wall time:
+#: the verdict must not depend on how busy the machine is (see ``call_with_limit``).
 CALL_LIMIT = 10.0
 #: Hostile values tried per argument (a deterministic sample of the kind's list; the must-refuse ones first).
 PER_ARGUMENT = 6
@@ -41,6 +44,14 @@ class Hostile:
     label: str
     value: Any
     must_refuse: bool
+    #: one of the classes of defect every argument is tried with (not left to the sample): an overflow, an empty
+    #: batch, a column where a vector is meant, a scalar given as a one-element list or 2-D array, unbounded work
+    always: bool = False
+
+
+#: The labels tried on every argument whatever the sample (see ``Hostile.always``).
+ALWAYS = ("huge", "beyond the coordinate bound", "empty", "extra axis", "one-element list", "one-element 2-D array",
+          "10**12")
 
 
 class _NoFloat:
@@ -62,13 +73,15 @@ class _NoArray:
 
 
 def _pick(key: str, values: Sequence[Hostile], k: int) -> list[Hostile]:
-    """A deterministic sample of ``k`` values (seeded by ``key``): every must-refuse value is tried at least as
-    often as the others, and the order does not depend on Python's hash seed."""
-    if len(values) <= k:
-        return list(values)
-    start = zlib.crc32(key.encode()) % len(values)
-    rotated = list(values[start:]) + list(values[:start])
-    return rotated[:k]
+    """The values of the defect classes every argument is tried with (``ALWAYS``), and a deterministic sample of
+    ``k`` of the others (seeded by ``key``; the order does not depend on Python's hash seed)."""
+    always = [h for h in values if h.always or h.label in ALWAYS]
+    rest = [h for h in values if not (h.always or h.label in ALWAYS)]
+    if len(rest) <= k:
+        return always + rest
+    start = zlib.crc32(key.encode()) % len(rest)
+    rotated = rest[start:] + rest[:start]
+    return always + rotated[:k]
 
 
 # --- kinds ----------------------------------------------------------------------------------------------------------
@@ -117,7 +130,9 @@ class Real(Kind):
             return a
         out += [Hostile("nan", like(math.nan), not self.nan_ok), Hostile("inf", like(math.inf), not self.inf_ok),
                 Hostile("-inf", like(-math.inf), not self.inf_ok),
-                Hostile("huge", like(1e300), False), Hostile("tiny", like(1e-300), False)]
+                Hostile("huge", like(1e300), False), Hostile("tiny", like(1e-300), False),
+                # squares overflow float64 (1e400): refused by the coordinate bound or computed without overflow
+                Hostile("beyond the coordinate bound", like(1e200), False)]
         if self.domain in ("nonneg", "pos", "prob", "open01"):
             out.append(Hostile("negative", like(-1.0), True))
         if self.domain in ("pos", "open01"):
@@ -126,6 +141,7 @@ class Real(Kind):
             out.append(Hostile("above one", like(1.5), True))
         if arr.ndim == 0:
             out.append(Hostile("one-element list", [float(arr)], False))
+            out.append(Hostile("one-element 2-D array", np.array([[float(arr)]]), False))
             out.append(Hostile("array", np.array([float(arr), float(arr)]), not self.vector_ok))
         else:
             out.append(Hostile("list with None", _with_none(arr).tolist(), True))
@@ -151,11 +167,12 @@ class Covariance(Kind):
     definite: bool = False
     inf_ok: bool = False        # an infinite variance is a documented value (an unobservable direction)
     any_size: bool = False      # the function takes any n x n (e.g. reads the position block)
+    optional: bool = False      # None is the documented default
 
     def hostile(self, valid: Any) -> list[Hostile]:
         P = np.atleast_2d(np.asarray(valid, dtype=float))
         n = P.shape[-1]
-        out = _type_attacks(False)
+        out = [h for h in _type_attacks(False) if not (self.optional and h.value is None)]
         bad = np.array(P, dtype=float)
         bad[..., 0, 0] = -abs(bad[..., 0, 0]) - 1.0
         out.append(Hostile("indefinite", bad, True))
@@ -243,6 +260,104 @@ class Instance(Kind):
         return out
 
 
+# --- a user's model whose outputs are hostile (the filters must check what a model returns, not only what a user
+# passes them) ---------------------------------------------------------------------------------------------------
+
+def _complex(a: np.ndarray) -> np.ndarray:
+    return a.astype(complex) + 1e-3j
+
+
+def _with_nan(a: np.ndarray) -> np.ndarray:
+    b = np.array(a, dtype=float)
+    b.flat[0] = math.nan
+    return b
+
+
+def _short(a: np.ndarray) -> np.ndarray:
+    return a[..., :-1]
+
+
+def _indefinite(C: np.ndarray) -> np.ndarray:
+    b = np.array(C, dtype=float)
+    b[..., 0, 0] = -abs(b[..., 0, 0]) - 1.0
+    return b
+
+
+def _non_symmetric(C: np.ndarray) -> np.ndarray:
+    b = np.array(C, dtype=float)
+    b[..., 0, -1] += 1.0 + abs(b[..., 0, -1])
+    return b
+
+
+def _one_size_too_big(C: np.ndarray) -> np.ndarray:
+    n = C.shape[-1]
+    b = np.zeros(C.shape[:-2] + (n + 1, n + 1))
+    b[..., :n, :n] = C
+    b[..., n, n] = 1.0
+    return b
+
+
+_VECTOR_ATTACKS = (("complex", _complex), ("NaN", _with_nan), ("one component short", _short))
+_COVARIANCE_ATTACKS = (("complex", _complex), ("indefinite", _indefinite), ("non-symmetric", _non_symmetric),
+                       ("one size too big", _one_size_too_big), ("NaN", _with_nan))
+
+
+def corrupted_model(model: Any, method: str, corrupt: Callable[[np.ndarray], np.ndarray]) -> Any:
+    """A copy of ``model`` whose ``method`` returns ``corrupt(what the model returned)``: a user's subclass with a
+    bug in one method (its class is defined here, so no filter trusts it as a library model)."""
+    cls = type(model)
+    original = getattr(cls, method)
+
+    def hostile_method(self, *args, **kwargs):
+        return corrupt(np.asarray(original(self, *args, **kwargs)))
+    hostile_cls = type(f"Hostile{cls.__name__}", (cls,), {method: hostile_method, "__module__": __name__})
+    new = copy.copy(model)
+    new.__dict__.pop("_covariance_checks", None)        # checks made for the original model are not this one's
+    new.__class__ = hostile_cls
+    return new
+
+
+@dataclass(frozen=True)
+class Model(Kind):
+    """A motion or measurement model of ``uwtutor.models`` (or a list of motion models, one per mode): its hostile
+    values are the wrong types, and the valid model with one method returning a complex, NaN, wrong-shaped, or
+    (for ``Q``/``R``) indefinite or non-symmetric value -- a filter must refuse each by name, never run on it.
+
+    ``likelihood``: the target weighs by the model's ``log_likelihood`` (a particle filter), so it is attacked too.
+    """
+    optional: bool = False
+    likelihood: bool = False
+    #: the target draws particles with the motion model's ``sample`` (a particle filter), not ``f`` and ``Q`` alone
+    sampled: bool = False
+
+    def hostile(self, valid: Any) -> list[Hostile]:
+        from uwtutor.models.base import MeasurementModel, MotionModel
+        out = [Hostile("object", object(), True), Hostile("string", "abc", True)]
+        if not self.optional:
+            out.append(Hostile("None", None, True))
+        if isinstance(valid, (list, tuple)) and valid:              # modes: the first one is a user's buggy model
+            return out + [Hostile(f"mode 0: {h.label}", [h.value, *valid[1:]], True)
+                          for h in self.hostile(valid[0]) if h.label.startswith(("f ", "Q ", "sample "))]
+
+        def covariance_attacks(size: int) -> tuple:
+            return tuple(a for a in _COVARIANCE_ATTACKS if size > 1 or a[0] != "non-symmetric")
+        if isinstance(valid, MotionModel):
+            if self.sampled and type(valid).sample is not MotionModel.sample:     # the model draws its own way
+                methods = {"sample": _VECTOR_ATTACKS}
+            else:
+                methods = {"f": _VECTOR_ATTACKS, "Q": covariance_attacks(valid.n)}
+        elif isinstance(valid, MeasurementModel):
+            methods = {"h": _VECTOR_ATTACKS, "R": covariance_attacks(valid.m)}
+            if self.likelihood:
+                methods["log_likelihood"] = _VECTOR_ATTACKS
+        else:
+            return out
+        for method, attacks in methods.items():
+            for label, corrupt in attacks:
+                out.append(Hostile(f"{method} returns {label}", corrupted_model(valid, method, corrupt), True))
+        return out
+
+
 @dataclass(frozen=True)
 class Mapping(Kind):
     """A dict of options (``per_run``, ``range_options``): unknown keys and wrong-length values."""
@@ -317,24 +432,41 @@ class CallTimeout(Exception):
     pass
 
 
+#: A call that uses no CPU for this many times its CPU limit (a deadlock, a sleep) also counts as a hang.
+WALL_BACKSTOP_FACTOR = 60.0
+#: How often the watchdog reads the process's CPU clock [s].
+_POLL = 0.05
+
+
 def call_with_limit(fn: Callable[[], Any], seconds: float = CALL_LIMIT) -> tuple[str, Any]:
     """Run ``fn()``; return ``("ok", value)``, ``("raised", exc)``, ``("escaped", exc)`` or ``("hung", None)``.
 
-    A watchdog thread interrupts the main thread after ``seconds`` (``_thread.interrupt_main``), which stops any
-    Python loop without touching SIGALRM (the checkers' own time limit uses it).
+    A hang is judged by **CPU time**, not by the clock on the wall: a watchdog thread reads the CPU time of this
+    process (``time.process_time``) and interrupts the main thread (``_thread.interrupt_main``, which stops any
+    Python loop without touching SIGALRM, the checkers' own time limit) once the call has used ``seconds`` of it.
+    On a busy machine the call gets less of the CPU and takes longer on the wall, but it uses the same CPU time, so
+    the verdict does not depend on the machine's load. A call that uses no CPU at all (a sleep, a deadlock) is
+    stopped after ``WALL_BACKSTOP_FACTOR * seconds`` on the wall.
     """
     fired = threading.Event()
+    done = threading.Event()
+    cpu_start, wall_start = time.process_time(), time.monotonic()
 
-    def _fire():
-        fired.set()
-        _thread.interrupt_main()
-    timer = threading.Timer(seconds, _fire)
-    timer.start()
+    def _watch():
+        while not done.wait(_POLL):
+            if (time.process_time() - cpu_start > seconds
+                    or time.monotonic() - wall_start > WALL_BACKSTOP_FACTOR * seconds):
+                fired.set()
+                _thread.interrupt_main()
+                return
+    watchdog = threading.Thread(target=_watch, daemon=True)
+    watchdog.start()
     try:
         try:
             value = fn()
         finally:
-            timer.cancel()
+            done.set()
+            watchdog.join()
     except KeyboardInterrupt as exc:
         if fired.is_set():
             return "hung", None
@@ -376,7 +508,8 @@ def _leaves(obj: Any, path: str = "", depth: int = 0):
 
 _COV_NAMES = ("P", "P_prior", "S", "covariance", "cov", "P_smoothed", "bound", "crlb")
 #: Per-step values that are NaN by definition where a measurement is missing or rejected (predict only).
-_MISSING_OK = ("y", "S", "innovations", "innovation_cov", "nis")
+_MISSING_OK = ("y", "S", "innovations", "innovation_cov", "nis", "ranges", "['fading_numerator']",
+               "['fading_denominator']")
 
 
 def answer_problems(answer: Any, baseline: Any) -> list[str]:
@@ -428,7 +561,7 @@ def judge(target: str, argument: str, hostile: Hostile, status: str, value: Any,
     def v(outcome: str, detail: str = "") -> Verdict:
         return Verdict(target, argument, hostile.label, outcome, detail)
     if status == "hung":
-        return v("escape", f"still running after {CALL_LIMIT:g} s")
+        return v("escape", f"still running after {CALL_LIMIT:g} s of CPU time")
     if status == "escaped":
         return v("escape", f"{type(value).__name__} escaped")
     if status == "raised":

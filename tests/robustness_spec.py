@@ -28,8 +28,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from robustness_kinds import (Answer, Choice, Covariance, Flag, Func, Instance, Int, Kind, Mapping, Real, Rng, Seed,
-                              StudentFunc)
+from robustness_kinds import (Answer, Choice, Covariance, Flag, Func, Instance, Int, Kind, Mapping, Model, Real, Rng,
+                              Seed, StudentFunc)
 
 
 @dataclass
@@ -56,6 +56,8 @@ KIND_BY_NAME: dict[str, Kind] = {
     "confidence": Real((), "open01"), "probability": Real((), "open01"), "delta": Real((), "open01"),
     "q": Real((), "nonneg"), "r": Real((), "pos"), "two_way": Flag(), "sound_speed": Real((), "pos"),
     "speed": Real((), "pos"), "radius": Real((), "pos"), "depth": Real((), "nonneg"),
+    # a user's model with a bug in one method (complex, NaN, wrong shape, indefinite or non-symmetric Q/R)
+    "motion": Model(), "measurement": Model(), "motions": Model(),
 }
 
 
@@ -163,13 +165,14 @@ SPECS: dict[str, Spec] = {
                      sigma_gamma=1e-3, rho=0.95, fading=True, second_moment0=np.eye(2)),
         kinds=dict(mu_gamma=Real((), "pos", vector_ok=True), sigma_gamma=Real((), "nonneg"), rho=Real((), "open01"),
                    fading=Flag(),
-                   second_moment0=Covariance())),
+                   second_moment0=Covariance(optional=True))),
     "uwtutor.filters.engine:extended_kalman_filter": Spec(
         lambda: dict(x0=_X0, P0=np.eye(2) * 100.0, u=_U, z=_Z, Q=np.eye(2) * 0.1, R=1.0), call=_ekf,
         kinds=dict(z=Real(None, "nonneg", nan_ok=True, extra_axis_ok=True)), names=("motion", "state size")),
     "uwtutor.filters.engine:ExtendedKalmanFilter": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], x0=_X0, P0=np.eye(2)),
-        kinds=dict(motion=Instance(), measurement=Instance())),
+        kinds=dict(motion=Model(), measurement=Model()), names=("model",),
+        call=lambda **kw: __import__("uwtutor.filters", fromlist=["x"]).ExtendedKalmanFilter(**kw).run(_Z, _U)),
     "uwtutor.filters.smoother:rts_smoother": Spec(
         lambda: dict(result=_ekf_result(), motion=_models()[0], u=_U),
         kinds=dict(result=Instance(), motion=Instance(), u=Real((5, 2)))),
@@ -201,9 +204,9 @@ SPECS: dict[str, Spec] = {
     "uwtutor.models.depth:PitchManeuver": Spec(
         lambda: dict(pitch_target=0.2, time_constant=2.0, T=0.05, process_std=[0.01, 0.01, 0.01]),
         kinds=dict(pitch_target=Real(()), time_constant=Real((), "pos"), T=Real((), "pos"),
-                   process_std=Real((3,), "nonneg"))),
+                   process_std=Real((3,), "nonneg", optional=True))),
     "uwtutor.models.depth:DepthSensors": Spec(lambda: dict(R=np.eye(3) * 0.01),
-                                              kinds=dict(R=Covariance(definite=True))),
+                                              kinds=dict(R=Covariance(definite=True, optional=True))),
     "uwtutor.models.linear:LinearMotion": Spec(lambda: dict(F=np.eye(2), Q=np.eye(2)), kinds=dict(F=Real((2, 2)))),
     "uwtutor.models.linear:LinearMeasurement": Spec(lambda: dict(H=[[1.0, 0.0]], R=[[1.0]]),
                                                     kinds=dict(H=Real((1, 2)))),
@@ -284,7 +287,7 @@ SPECS: dict[str, Spec] = {
                                                        upper=Real(()))),
     # observability
     "uwtutor.observability:cramer_rao_bound": Spec(lambda: dict(information=np.eye(2) * 2.0),
-                                                   kinds=dict(information=Covariance(definite=True))),
+                                                   kinds=dict(information=Covariance(definite=True, any_size=True))),
     "uwtutor.observability:rmse_bound": Spec(lambda: dict(covariance=np.eye(2) * 2.0),
                                              kinds=dict(covariance=Covariance(inf_ok=True, any_size=True)),
                                              check=lambda v, b: ["NaN bound"] if np.isnan(v).any() else []),
@@ -314,7 +317,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.acoustics:sound_speed": Spec(lambda: dict(temperature=10.0, salinity=35.0, depth=100.0),
                                           kinds=dict(temperature=Real((), vector_ok=True),
                                                      salinity=Real((), "nonneg", vector_ok=True),
-                                                     depth=Real((), "nonneg", vector_ok=True))),
+                                                     # outside Mackenzie's 0-8000 m: a documented warning
+                                                     depth=Real((), vector_ok=True))),
     "uwtutor.acoustics:range_factor": Spec(lambda: dict(assumed_speed=1500.0, true_speed=1470.0),
                                            kinds=dict(assumed_speed=Real((), "pos", vector_ok=True),
                                                       true_speed=Real((), "pos", vector_ok=True))),
@@ -324,7 +328,8 @@ SPECS: dict[str, Spec] = {
     "uwtutor.motion:straight_track": Spec(lambda: dict(times=np.arange(5.0), start=(0.0, 0.0), speed=2.0,
                                                        heading=0.3),
                                           kinds=dict(start=Real((2,)), heading=Real(()), speed=Real((), "nonneg"))),
-    "uwtutor.motion:circle_track": Spec(lambda: dict(times=np.arange(5.0), radius=300.0, speed=2.0)),
+    "uwtutor.motion:circle_track": Spec(lambda: dict(times=np.arange(5.0), radius=300.0, speed=2.0),
+                                        kinds=dict(speed=Real((), "nonneg"))),    # 0: a vehicle holding station
     "uwtutor.grey:gm11_next": Spec(lambda: dict(series=np.array([10.0, 11.0, 12.5, 13.0, 14.2])),
                                    kinds=dict(series=Real((None,), "pos"))),
     # scenarios and pipelines

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from robustness_kinds import Choice, Covariance, Flag, Instance, Int, Kind, Mapping, Real, Rng, Seed
+from robustness_kinds import Choice, Covariance, Flag, Instance, Int, Kind, Mapping, Model, Real, Rng, Seed
 from robustness_spec import _U, _X0, _Z, Spec, _models, _small_log
 
 
@@ -266,7 +266,7 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.models.cooperative:process_noise_map": Spec(lambda: dict(dt=8.0)),
     "uwtutor.models.depth:DepthSpeedPitch": Spec(
         lambda: dict(T=0.05, process_std=[0.01, 0.01, 0.01]),
-        kinds=dict(T=_POS, process_std=Real((3,), "nonneg")),
+        kinds=dict(T=_POS, process_std=Real((3,), "nonneg", optional=True)),
         call=_build("uwtutor.models.depth.DepthSpeedPitch", x=[10.0, 2.0, 0.1])),
     "uwtutor.models.depth:DepthSpeedPitchModel": Spec(
         lambda: dict(T=0.05, process_std=[0.01, 0.01, 0.01], R=np.eye(3) * 0.01),
@@ -416,7 +416,8 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.filters.particle.bootstrap:BootstrapParticleFilter": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], particles=_particles(),
                      rng=np.random.default_rng(0), weights=np.full(20, 0.05), ess_threshold=0.5, roughening=0.2),
-        kinds=dict(motion=Instance(), measurement=Instance(optional=True), particles=Real((20, 2)),
+        kinds=dict(motion=Model(sampled=True), measurement=Model(optional=True, likelihood=True),
+                   particles=Real((20, 2)),
                    # ess_threshold >= 1 is documented: resample at every measurement
                    weights=Real((20,), "nonneg", optional=True), ess_threshold=_NONNEG,
                    roughening=_NONNEG),
@@ -426,7 +427,7 @@ SPECS_STRUCT: dict[str, Spec] = {
                      rng=np.random.default_rng(0), grey_fraction=0.1, grey_window=4, grey_std=[0.01, 0.01, 0.01],
                      grey_offset=[0.0, 0.0, 1.0], noise_window=12, wavelet="db2", adapt_noise=True,
                      min_noise_std=[1e-3, 1e-3, 1e-3]),
-        kinds=dict(motion=Instance(), measurement=Instance(optional=True), particles=Real((None, 3)),
+        kinds=dict(motion=Model(sampled=True), measurement=Model(optional=True), particles=Real((None, 3)),
                    grey_fraction=Real((), "prob"), grey_window=Int(minimum=4),
                    grey_std=Real((3,), "nonneg", optional=True), grey_offset=Real((3,), optional=True),
                    noise_window=Int(minimum=1), wavelet=Choice(), adapt_noise=Flag(),
@@ -437,10 +438,12 @@ SPECS_STRUCT: dict[str, Spec] = {
                      rng=np.random.default_rng(0), transition=[[0.9, 0.1], [0.2, 0.8]], modes=None,
                      mode_probabilities=[0.5, 0.5], ess_threshold=1.0),
         # mode_probabilities are normalized (documented, as the weights are); ess_threshold >= 1: always resample
-        kinds=dict(motions=Instance(), measurement=Instance(optional=True), particles=Real((None, 3)),
+        kinds=dict(motions=Model(sampled=True), measurement=Model(optional=True, likelihood=True),
+                   particles=Real((None, 3)),
                    transition=Real((2, 2), "prob"), mode_probabilities=Real((2,), "nonneg", optional=True),
                    ess_threshold=_NONNEG),
-        call=_run_depth("uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter"), per_argument=4),
+        call=_run_depth("uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter"), per_argument=4,
+        names=("motion model",)),
     "uwtutor.filters.robust:RobustGate": Spec(
         lambda: dict(test=None, steps=np.r_[0.0, np.ones(4)], on_outlier="extrapolate", reacquire=3),
         kinds=dict(test=Instance(optional=True), steps=Real((None,), "nonneg"),

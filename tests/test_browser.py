@@ -39,6 +39,10 @@ KNOWN_CONSOLE_ERRORS = [
 
 # Chapter 1 is found by this word on the search page.
 SEARCH_WORD = "Mackenzie"
+#: Every wait of these tests waits for an event (the page's load, MathJax's startup promise, the widgets drawn, the
+#: network idle, the search results listed) and returns as soon as it happens, however busy the machine. This bound
+#: only ends a wait for an event that never comes (a broken page): it is not a speed limit, so it is generous.
+EVENT_WAIT_MS = 600_000
 
 DOCNAMES = toc_docnames()
 FIRST_CHAPTER = next((d for d in DOCNAMES[1:] if "ch01" in d), DOCNAMES[1] if len(DOCNAMES) > 1 else DOCNAMES[0])
@@ -100,7 +104,9 @@ def browser(site, tmp_path_factory):
             args=CHROMIUM_FLAGS,
             viewport=VIEWPORT,
             service_workers="block",
+            timeout=EVENT_WAIT_MS,
         )
+        context.set_default_timeout(EVENT_WAIT_MS)        # every other wait (locators, clicks) waits for its event
         try:
             context.route("**/*", guard)
             yield context, external
@@ -191,7 +197,7 @@ def test_page_renders_offline(browser, site, docname):
     watch = PageWatch(page, site)
     problems: list[str] = []
     try:
-        page.goto(site + f"{docname}.html", wait_until="load", timeout=60_000)
+        page.goto(site + f"{docname}.html", wait_until="load", timeout=EVENT_WAIT_MS)
         has_mathjax = page.evaluate(WAIT_FOR_MATHJAX)
         facts = page.evaluate(PAGE_FACTS)
         has_state = page.locator('script[type="application/vnd.jupyter.widget-state+json"]').count() > 0
@@ -201,11 +207,11 @@ def test_page_renders_offline(browser, site, docname):
                     """() => Array.from(document.querySelectorAll(
                          'script[type="application/vnd.jupyter.widget-view+json"]'))
                          .every(s => s.parentElement.querySelector('.widget-subarea > *'))""",
-                    timeout=30_000)
+                    timeout=EVENT_WAIT_MS)
             except Exception:  # reported below through facts["widgetsEmpty"]
                 pass
         broken_images = page.evaluate(IMAGES_LOADED)
-        page.wait_for_load_state("networkidle", timeout=30_000)
+        page.wait_for_load_state("networkidle", timeout=EVENT_WAIT_MS)
         facts = page.evaluate(PAGE_FACTS)
         page.evaluate("() => window.scrollTo(0, 0)")
         page.screenshot(path=str(_screenshot_path(docname)), full_page=False)
@@ -243,11 +249,11 @@ def test_search_finds_chapter_one(browser, site):
     page = context.new_page()
     watch = PageWatch(page, site)
     try:
-        page.goto(site + f"search.html?q={SEARCH_WORD}", wait_until="load", timeout=60_000)
-        page.wait_for_selector("#search-results ul.search li", timeout=30_000)
+        page.goto(site + f"search.html?q={SEARCH_WORD}", wait_until="load", timeout=EVENT_WAIT_MS)
+        page.wait_for_selector("#search-results ul.search li", timeout=EVENT_WAIT_MS)
         page.wait_for_function(
             "() => document.querySelector('#search-results .search-summary')?.textContent.trim().length > 0",
-            timeout=30_000)
+            timeout=EVENT_WAIT_MS)
         hrefs = page.eval_on_selector_all("#search-results ul.search li a", "as => as.map(a => a.href)")
         page.screenshot(path=str(_screenshot_path("search")), full_page=False)
     finally:
@@ -293,11 +299,11 @@ def test_frozen_widgets_say_so_and_do_not_move(browser, site):
     page = context.new_page()
     watch = PageWatch(page, site)
     try:
-        page.goto(site + f"{WIDGET_PAGE}.html", wait_until="load", timeout=60_000)
+        page.goto(site + f"{WIDGET_PAGE}.html", wait_until="load", timeout=EVENT_WAIT_MS)
         page.wait_for_function(
             """() => Array.from(document.querySelectorAll(
                  'script[type="application/vnd.jupyter.widget-view+json"]'))
-                 .every(s => s.parentElement.classList.contains('uwtutor-frozen'))""", timeout=30_000)
+                 .every(s => s.parentElement.classList.contains('uwtutor-frozen'))""", timeout=EVENT_WAIT_MS)
         facts = page.evaluate(FROZEN_FACTS)
         slider = page.locator(".uwtutor-frozen .widget-slider").first
         slider.scroll_into_view_if_needed()

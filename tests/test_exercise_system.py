@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import subprocess
 import sys
 from pathlib import Path
 
 import nbformat
 import numpy as np
 import pytest
+
+import cpu_limits
 from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook, new_output
 
 import uwtutor
@@ -805,17 +806,17 @@ class TestCommand:
         if not exe.exists():
             pytest.skip("the uwtutor console script is not installed (pip install -e .)")
         dest = tmp_path / "work"
-        first = subprocess.run([str(exe), "exercises", str(dest)], capture_output=True, text=True, timeout=120)
+        first = cpu_limits.run([str(exe), "exercises", str(dest)], capture_output=True, text=True, cpu_seconds=120)
         assert first.returncode == 0, first.stderr
         assert NAME in first.stdout
         (dest / NAME).write_text("mine")
-        second = subprocess.run([str(exe), "exercises", str(dest)], capture_output=True, text=True, timeout=120)
+        second = cpu_limits.run([str(exe), "exercises", str(dest)], capture_output=True, text=True, cpu_seconds=120)
         assert second.returncode == 0, second.stderr
         assert "Skipped" in second.stdout and (dest / NAME).read_text() == "mine"
-        forced = subprocess.run([str(exe), "exercises", str(dest), "--force"], capture_output=True, text=True,
-                                timeout=120)
+        forced = cpu_limits.run([str(exe), "exercises", str(dest), "--force"], capture_output=True, text=True,
+                                cpu_seconds=120)
         assert forced.returncode == 0 and "YOUR CODE HERE" in (dest / NAME).read_text()
-        usage = subprocess.run([str(exe), "exercises"], capture_output=True, text=True, timeout=120)
+        usage = cpu_limits.run([str(exe), "exercises"], capture_output=True, text=True, cpu_seconds=120)
         assert usage.returncode == 2 and "usage:" in usage.stderr
 
 
@@ -900,7 +901,6 @@ def test_nbgrader_generates_the_exercise_assignment(tmp_path):
     pytest.importorskip("nbgrader", reason="nbgrader is in the test extra")
     import os
     import shutil
-    import subprocess
     import sys
 
     (tmp_path / "source" / "exercises").mkdir(parents=True)
@@ -910,8 +910,8 @@ def test_nbgrader_generates_the_exercise_assignment(tmp_path):
         f"c = get_config()\nc.CourseDirectory.root = {str(tmp_path)!r}\n"
         f"c.CourseDirectory.db_url = 'sqlite:///{tmp_path / 'gradebook.db'}'\n", encoding="utf-8")
     env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
-    result = subprocess.run([sys.executable, "-m", "nbgrader", "generate_assignment", "exercises", "--create"],
-                            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    result = cpu_limits.run([sys.executable, "-m", "nbgrader", "generate_assignment", "exercises", "--create"],
+                            cwd=tmp_path, env=env, capture_output=True, text=True, cpu_seconds=600)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     released = sorted(p.name for p in (tmp_path / "release" / "exercises").glob("*.ipynb"))
     assert released == [p.name for p in list_exercise_sources()]

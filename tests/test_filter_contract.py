@@ -424,3 +424,111 @@ def test_fading_state_is_set_between_steps_only():
     filt.update(Z[:, 0])
     filt.x = X0
     np.testing.assert_array_equal(filt.x, X0)
+
+
+# --- one rule for a filter's configuration (its parameters and its diagnostics) ---------------------------------
+
+def constructor_arguments(make, batched):
+    """``(cls, arguments)``: the class ``make(batched)`` builds and the arguments its constructor received."""
+    import inspect
+    from unittest import mock
+
+    cls = type(make(batched))
+    original = cls.__init__
+    signature = inspect.signature(original)
+    seen: dict = {}
+
+    def spy(self, *args, **kwargs):
+        if not seen:                                   # the outermost constructor (a subclass calls its parent's)
+            seen.update(signature.bind(self, *args, **kwargs).arguments)
+        original(self, *args, **kwargs)
+    with mock.patch.object(cls, "__init__", spy):
+        make(batched)
+    seen.pop("self")
+    return cls, seen
+
+
+def constructed_with(make, batched, name, value):
+    """``make(batched)`` with the constructor argument ``name`` replaced by ``value`` (everything else, random
+    generators included, made afresh as ``make`` makes it)."""
+    import inspect
+    from unittest import mock
+
+    cls = type(make(batched))
+    original = cls.__init__
+    signature = inspect.signature(original)
+    done = []
+
+    def spy(self, *args, **kwargs):
+        if not done:                                   # the outermost constructor only
+            done.append(True)
+            bound = signature.bind(self, *args, **kwargs)
+            bound.arguments[name] = value
+            return original(*bound.args, **bound.kwargs)
+        return original(self, *args, **kwargs)
+    with mock.patch.object(cls, "__init__", spy):
+        return make(batched)
+
+
+def changed(name, value):
+    """Another valid value of a parameter: 1.5 times it (a beacon 5 m away, 0.1 for a zero, another resampler)."""
+    if callable(value):
+        from uwtutor.resampling import stratified_resample
+        return stratified_resample
+    new = np.asarray(value, dtype=float) * 1.5
+    if name == "beacon":
+        return new + 5.0
+    return new if np.any(new) else np.full_like(new, 0.1)
+
+
+#: Constructor arguments that are the filter's state or inputs, not its configuration.
+NOT_CONFIGURATION = {"x0", "P0", "particles", "weights", "modes", "mode_probabilities"}
+
+
+def check_configuration_rule(make, batched, run):
+    """The rule of base.Configurable for the filter ``make(batched)``: every constructor parameter is either
+    assignable (and then runs exactly as a filter constructed with the new value) or fixed (assignment refused); the
+    diagnostics are read-only; a parameter is shown read-only. ``run(filt)`` returns its result on a sequence."""
+    filt = make(batched)
+    cls, arguments = constructor_arguments(make, batched)
+    parameters, fixed = set(cls._parameters), set(cls._fixed)
+    unruled = {a for a in arguments if not a.startswith("_")} - parameters - fixed - NOT_CONFIGURATION
+    assert not unruled, f"{cls.__name__}: constructor parameters neither assignable nor fixed: {sorted(unruled)}"
+    for name in ("y", "S") + tuple(filt.extra_outputs):
+        with pytest.raises(AttributeError, match="read-only"):
+            setattr(filt, name, getattr(filt, name))
+        shown = getattr(filt, name)
+        if isinstance(shown, np.ndarray):
+            with pytest.raises(ValueError, match="read-only"):
+                shown[...] = 0
+    for name in sorted(fixed):
+        with pytest.raises(AttributeError, match="build a new"):
+            setattr(make(batched), name, getattr(filt, name, None))
+    plain = run(make(batched))
+    for name in sorted(parameters):
+        if arguments.get(name) is None:
+            continue
+        shown = getattr(filt, name)
+        if isinstance(shown, np.ndarray) and shown.ndim:
+            with pytest.raises(ValueError, match="read-only"):
+                shown[...] = 0
+        new = changed(name, arguments[name])
+        assigned = make(batched)
+        setattr(assigned, name, new)
+        by_assignment = run(assigned)
+        by_constructor = run(constructed_with(make, batched, name, new))
+        _assert_same(by_assignment, by_constructor)
+        assert not np.allclose(by_assignment.x, plain.x, equal_nan=True), f"{name} assigned had no effect"
+        bad = "not a function" if callable(new) else np.full_like(np.asarray(new, dtype=float), np.nan)
+        with pytest.raises((ValueError, TypeError), match=name):
+            setattr(make(batched), name, bad)
+
+
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+@pytest.mark.parametrize("case", CASES, ids=IDS)
+def test_configuration_takes_effect_or_is_refused(case, batched):
+    """Q, R and every parameter: assigned, the filter runs as one constructed with the new value (nothing computed
+    from the old one is kept: RangeOnlyEKF's packed Q), or the assignment raises; y, S and the extra outputs are
+    read-only."""
+    z, u = _inputs(case, batched)
+    check_configuration_rule(lambda b: case.make(b), batched, lambda f: f.run(z, u))

@@ -506,3 +506,14 @@ def test_moments_are_read_only_and_follow_the_particles(name):
     filt.particles = moved
     mean = np.einsum("mn,mnk->mk", filt.weights, moved)
     np.testing.assert_allclose(filt.x, mean, rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+@pytest.mark.parametrize("name", [c.name for c in CASES])
+def test_configuration_takes_effect_or_is_refused(name, batched):
+    """The rule of the Kalman family (tests/test_filter_contract.py) for the particle filters: resampler,
+    ess_threshold and roughening take effect when assigned (the run equals that of a filter built with them); the
+    models, generators and paper C's settings refuse assignment; y, S and the extra outputs are read-only."""
+    from test_filter_contract import check_configuration_rule
+    z, u = _inputs(name, batched)
+    check_configuration_rule(lambda b: _make(name, b), batched, lambda f: f.run(z, u))

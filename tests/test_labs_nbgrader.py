@@ -34,6 +34,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
+import cpu_limits
+
 nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the test extra: pip install -e '.[test]'")
 
 from uwtutor.exercises.cli import main  # noqa: E402
@@ -105,8 +107,8 @@ def _with_mistake(nb: nbformat.NotebookNode, grade_id: str, right: str, wrong: s
 def _nbgrader(course: Path, *args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
     env.pop("JUPYTER_CONFIG_DIR", None)
-    result = subprocess.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
-                            text=True, timeout=900)
+    result = cpu_limits.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
+                            text=True, cpu_seconds=900)
     assert result.returncode == 0, \
         f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return result
@@ -352,8 +354,8 @@ def test_uwtutor_labs_errors(tmp_path, capsys):
 # -- the project's JupyterLab is a student's: nbgrader is installed for these tests, not shown ------------------------
 def _jupyter(*args: str) -> str:
     env = {k: v for k, v in os.environ.items() if not k.startswith(("JUPYTER", "JPY_"))}
-    proc = subprocess.run([str(Path(sys.executable).with_name("jupyter")), *args], capture_output=True, text=True,
-                          timeout=120, env=env)
+    proc = cpu_limits.run([str(Path(sys.executable).with_name("jupyter")), *args], capture_output=True, text=True,
+                          cpu_seconds=120, env=env)
     assert proc.returncode == 0, proc.stderr
     return re.sub(r"\x1b\[[0-9;]*m", "", proc.stdout + proc.stderr)
 

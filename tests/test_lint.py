@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+import cpu_limits
+
 REPO = Path(__file__).resolve().parents[1]
 RUFF = Path(sys.executable).with_name("ruff")
 
@@ -16,8 +18,8 @@ RUFF = Path(sys.executable).with_name("ruff")
 def _ruff(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
     if not RUFF.exists():
         pytest.fail(f"ruff is not installed in {RUFF.parent} (it comes with the test extra: make setup)", pytrace=False)
-    return subprocess.run([str(RUFF), "check", "--no-cache", *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=300)
+    return cpu_limits.run([str(RUFF), "check", "--no-cache", *args], cwd=cwd, capture_output=True, text=True,
+                          cpu_seconds=300)
 
 
 def test_ruff_is_clean():

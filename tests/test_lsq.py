@@ -439,9 +439,12 @@ def test_virtual_beacon_lsq_exact_fix_and_system():
     # cyclic rows: they sum to zero (only N - 1 are independent)
     np.testing.assert_allclose(fix.design.sum(axis=0), 0.0, atol=1e-9)
     assert fix.rhs.sum() == pytest.approx(0.0, abs=1e-6)
-    # with a surface ship the depth cancels from the differenced equations
-    other = lsq.virtual_beacon_lsq(r, SHIP, SUB, depth=3000.0)
+    # with a surface ship the depth cancels from the differenced equations (any depth the ranges allow)
+    other = lsq.virtual_beacon_lsq(r, SHIP, SUB, depth=1200.0)
     np.testing.assert_allclose(other.position, fix.position, atol=1e-9)
+    # but a slant range shorter than the depth is impossible: refused, not turned into a fix
+    with pytest.raises(ValueError, match="shorter than the vertical distance"):
+        lsq.virtual_beacon_lsq(r, SHIP, SUB, depth=3000.0)
 
 
 def test_virtual_beacon_lsq_with_beacon_depths():

@@ -421,7 +421,7 @@ class _SlowFloat:
     (lambda x: 10**400, "too large"), (lambda x: [[1.0], [2.0, 3.0]], "does not hold a number"),
 ])
 def test_check_function_survives_hostile_students(func, fragment):
-    start = time.monotonic()
+    start = time.process_time()
     fb = check_function(func, _ref, [(1.0,)], time_limit_s=0.5)
     assert not fb and fragment in fb.message
-    assert time.monotonic() - start < 5.0
+    assert time.process_time() - start < 5.0          # stopped: CPU time, whatever the machine's load

@@ -88,12 +88,13 @@ def test_a_models_R_is_checked_and_named():
 def test_a_library_models_covariances_are_checked_once_a_subclass_that_overrides_them_every_step(monkeypatch):
     """The library's own models check their covariances when they are made (``covariances_checked``): the engine
     does not check them again at every step. A subclass of yours that overrides Q is checked like any user model."""
-    from uwtutor.filters import engine
+    from uwtutor import _validate
     from uwtutor.models import DeadReckoning
 
     calls = []
-    real = engine.check_model_covariance
-    monkeypatch.setattr(engine, "check_model_covariance", lambda name, value: calls.append(name) or real(name, value))
+    real = _validate.check_model_covariance                 # the one check of every filter family
+    monkeypatch.setattr(_validate, "check_model_covariance",
+                        lambda name, value: calls.append(name) or real(name, value))
     K = len(Z)
     _run(motion=DeadReckoning(np.tile(np.eye(2) * 0.1, (K, 1, 1))), measurement=RangeToBeacon((0.0, 0.0), R=1.0))
     assert calls == []
@@ -546,3 +547,111 @@ def test_a_squared_range_pair_whose_paths_disagree_on_the_runs_is_refused():
     with pytest.raises(ValueError, match="runs M: leader has 3, displacements has 4"):
         SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((4, K, 2)), 8.0, np.eye(10))
     assert SquaredRangePair(np.zeros((3, K + 1, 2)), np.ones((K, 2)), 8.0, np.eye(10)).n_runs == 3
+
+
+# --- the reproducers of issue 37 (the contract finds each class; these pin the reported cases) -----------------------
+
+def _pf(model, n=200, seed=0):
+    from uwtutor.filters import BootstrapParticleFilter
+    return BootstrapParticleFilter.from_gaussian(model, [0.0, 0.0], np.eye(2), n, np.random.default_rng(seed))
+
+
+class _UserQ(DeadReckoning):
+    """A user's motion model whose Q is returned by ``make_Q`` (complex, indefinite, non-symmetric, 3x3)."""
+
+    def __init__(self, make_Q):
+        super().__init__(np.eye(2))
+        self._make_Q = make_Q
+
+    def Q(self, x, u, k):
+        return self._make_Q()
+
+
+@pytest.mark.parametrize("make_Q, match", [
+    (lambda: np.eye(2) * (1 + 1e-3j), "real numbers"),
+    (lambda: np.diag([1.0, -1.0]), "not positive semi-definite"),
+    (lambda: np.array([[1.0, 0.5], [0.0, 1.0]]), "not symmetric"),
+    (lambda: np.eye(3), r"\(2, 2\) matrices"),
+])
+def test_particle_filters_check_a_user_models_q_as_the_ekf_does(make_Q, match):
+    from uwtutor.models import ModelPair
+    pf = _pf(ModelPair(_UserQ(make_Q), RangeToBeacon((100.0, 0.0), R=4.0)))
+    with pytest.raises((ValueError, TypeError), match=match):
+        pf.predict()
+
+
+def test_particle_filter_checks_r_and_h_of_a_user_model():
+    from uwtutor.models import ModelPair
+
+    class BadR(RangeToBeacon):
+        def R(self, x, k):
+            return np.eye(2)                              # 2x2 for m = 1
+
+    class ComplexH(RangeToBeacon):
+        def h(self, x, k):
+            return super().h(x, k) + 1e-3j
+    for model, match in ((BadR((100.0, 0.0), R=4.0), r"must return shape \(1, 1\)"),
+                         (ComplexH((100.0, 0.0), R=4.0), "real numbers")):
+        pf = _pf(ModelPair(DeadReckoning(np.eye(2)), model))
+        pf.predict()
+        with pytest.raises((ValueError, TypeError), match=match):
+            pf.update([100.0])
+
+
+def test_a_measurement_far_outside_every_particle_warns_of_the_collapse():
+    from uwtutor.filters import BootstrapParticleFilter, LinearGaussianModel, ParticleCollapseWarning
+    pf = BootstrapParticleFilter.from_gaussian(LinearGaussianModel([[1]], [[1]], [[1e-6]], [[1e-6]]), [0.0], [[1.0]],
+                                               1000, np.random.default_rng(0))
+    pf.predict()
+    with pytest.warns(ParticleCollapseWarning, match="collapsed onto one particle"):
+        pf.update([1e6])
+    assert pf.ess < 1.01
+
+
+def test_assigned_configuration_takes_effect():
+    from uwtutor.filters import KalmanFilter, RangeOnlyEKF
+    ekf, fresh = (RangeOnlyEKF([100.0, 10.0], np.eye(2) * 100.0, Q, 4.0) for Q in (np.eye(2), np.eye(2) * 100.0))
+    ekf.Q = 100 * np.eye(2)
+    ekf.predict([0.0, 5.0])
+    fresh.predict([0.0, 5.0])
+    np.testing.assert_array_equal(ekf.P, fresh.P)                 # the packed Q was computed again
+    with pytest.raises(AttributeError, match="read-only"):
+        ekf.y = np.zeros(1)
+    kf = KalmanFilter(F=[[1.0]], H=[[1.0]], Q=[[1.0]], R=[[1.0]], x0=[0.0], P0=[[1.0]])
+    kf.R = [[100.0]]
+    kf.predict()
+    kf.update([10.0])
+    assert kf.x[0] == pytest.approx(10.0 * 2.0 / 102.0)             # K = 2 / (2 + 100)
+    with pytest.raises(ValueError, match="read-only"):
+        kf.Q[0, 0] = 5.0
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: or_vmlbl_kf(TRACK[1:], np.ones(K), ship_positions=TRACK[1:], depth=1000.0), "shorter than the vertical"),
+    (lambda: robust_range_kf(Z[:, None]), r"a column"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).bias_ekf([300.0, 0.0, 0.0], np.eye(3), U, Z[:, None],
+                                                                    np.eye(3), 4.0), r"shape \(6,\) or \(M, 6\)"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).bias_ekf([300.0, 0.0, 0.0], np.eye(3), None, Z,
+                                                                    np.eye(3), 4.0), "does not move"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).bias_ekf([1.5e303, 0.0, 0.0], np.eye(3), U, Z,
+                                                                    np.eye(3), 4.0), "x0 must be at most"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).ChiSquareGate().threshold(0), "m must be >= 1"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).ChiSquareGate().threshold(2.5), "m must be an integer"),
+    (lambda: line_of_sight(np.array([[np.nan, 1.0]]), np.zeros(2)), "positions must be finite"),
+    (lambda: owtt.clock_error(1e300, 1e300, 1e300), "overflows"),
+    (lambda: grey.fit_gm11([1e308] * 4), "overflows"),
+    (lambda: __import__("uwtutor.datasets", fromlist=["x"]).square_log(range_scale=1e300), "range_scale"),
+    (lambda: grey.gm11_forecast([1, 2, 3, 4], 10**8), "overflows"),
+    (lambda: __import__("uwtutor.scenarios", fromlist=["x"]).circling_scenario(np.random.default_rng(0), interval=1e-4,
+                                                                               duration=1e4), "duration / interval"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).range_only_ekf([1.0, 0.0], np.eye(2), np.zeros((5, 2)),
+                                                                         np.zeros((0, 5)), np.eye(2), 1.0), "no runs"),
+    (lambda: linearized_lsq(np.zeros(0), np.zeros((0, 2)), [0.0, 0.0]), "ranges is empty"),
+    (lambda: __import__("uwtutor.resampling", fromlist=["x"]).systematic_resample(np.zeros((0, 5)),
+                                                                                  np.random.default_rng(0)), "no runs"),
+    (lambda: __import__("uwtutor.filters", fromlist=["x"]).KalmanFilter.constant_velocity(
+        dt=[1.0], q=0.1, r=1.0, x0=[0.0, 0.0], P0=np.eye(2)), r"write 1.0, not \[1.0\]"),
+])
+def test_issue_37_reproducers_get_a_clear_error(call, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        call()

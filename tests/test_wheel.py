@@ -36,6 +36,8 @@ from pathlib import Path
 import nbformat
 import pytest
 
+import cpu_limits
+
 from uwtutor.exercises.generate import make_student_version
 
 REPO = Path(__file__).resolve().parents[1]
@@ -68,7 +70,7 @@ def _clean_env(**extra: str) -> dict[str, str]:
 
 
 def _run(args: list[str], cwd: Path, **kwargs) -> subprocess.CompletedProcess:
-    proc = subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=300, env=_clean_env(), **kwargs)
+    proc = cpu_limits.run(args, cwd=cwd, capture_output=True, text=True, cpu_seconds=300, env=_clean_env(), **kwargs)
     assert proc.returncode == 0, f"{' '.join(map(str, args))} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
     return proc
 
@@ -108,8 +110,8 @@ def build(tmp_path_factory):
             shutil.copytree(path, src / name, ignore=IGNORED)
         else:
             shutil.copy2(path, src / name)
-    proc = subprocess.run([sys.executable, "-c", BUILD_SCRIPT, str(dist)], cwd=src, capture_output=True, text=True,
-                          timeout=300, env=_clean_env())
+    proc = cpu_limits.run([sys.executable, "-c", BUILD_SCRIPT, str(dist)], cwd=src, capture_output=True, text=True,
+                          cpu_seconds=300, env=_clean_env())
     output = proc.stdout + proc.stderr
     assert proc.returncode == 0, f"the build failed:\n{output}"
     wheel = dist / output.split("WHEEL=")[-1].strip().splitlines()[0]
@@ -313,11 +315,11 @@ def lab_venv(build, tmp_path_factory):
     python = str(venv / "bin" / "python")
     install = [python, "-m", "pip", "install", "--disable-pip-version-check", "--quiet", "--no-compile", "--no-index",
                "--find-links", str(WHEELHOUSE), "--only-binary", ":all:", f"{wheel}[lab]"]
-    proc = subprocess.run(install, cwd=venv.parent, capture_output=True, text=True, timeout=600, env=_clean_env())
+    proc = cpu_limits.run(install, cwd=venv.parent, capture_output=True, text=True, cpu_seconds=600, env=_clean_env())
     if proc.returncode != 0:        # the wheelhouse lacks a pinned version: fetch the missing wheels once
         download = [sys.executable, "-m", "pip", "download", "--disable-pip-version-check", "--quiet", "--dest",
                     str(WHEELHOUSE), "--only-binary", ":all:", "-c", str(REPO / "constraints.txt"), *requirements]
-        fetched = subprocess.run(download, cwd=REPO, capture_output=True, text=True, timeout=600, env=_clean_env())
+        fetched = cpu_limits.run(download, cwd=REPO, capture_output=True, text=True, cpu_seconds=600, env=_clean_env())
         if fetched.returncode != 0:
             if os.environ.get("CI", "").lower() == "true":
                 pytest.fail(f"cannot fill the wheelhouse {WHEELHOUSE} from PyPI:\n{fetched.stderr[-2000:]}")

@@ -453,6 +453,10 @@ def common_runs(sizes: Mapping[str, int | None], *, broadcast_one: bool = False)
     given = {name: m for name, m in sizes.items() if m is not None}
     if not given:
         return None
+    empty = [name for name, m in given.items() if m == 0]
+    if empty:
+        raise ValueError(f"{empty[0]} has no runs (a runs axis of length 0): give at least one run, or drop the "
+                         "runs axis")
     distinct = set(given.values()) - ({1} if broadcast_one else set())
     if len(distinct) > 1:
         described = ", ".join(f"{name} has {m}" for name, m in given.items())
@@ -612,10 +616,50 @@ def as_bool_array(name: str, value: Any, shapes: tuple[tuple[int, ...], ...]) ->
     return arr
 
 
+def as_model_output(owner: str, value: Any) -> np.ndarray:
+    """What a user's model returned (``f``, ``h``, ``Q``, ``R``, a log-likelihood), as a float array: real numbers
+    only -- a complex value is refused, not cut to its real part; a string or an object by name, not by numpy's
+    conversion error. ``owner`` says whose value it is (``"the model's F"``, ``"DeadReckoning.Q"``). Every filter
+    family (the EKF engine, the particle filters, the models' own ``sample``) reads model outputs through it."""
+    arr = np.asarray(value)
+    kind = arr.dtype.kind
+    if kind == "O":                                  # numbers held as objects: converted when they all are real
+        for v in arr.flat:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+                raise TypeError(f"{owner} must return real numbers; it returned {type(v).__name__} {v!r}")
+        return arr.astype(float)
+    if kind not in "fiu":
+        raise TypeError(f"{owner} must return real numbers; got an array of dtype {arr.dtype}"
+                        + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
+    return arr.astype(float, copy=False)
+
+
+class CovarianceCheck:
+    """Checks a covariance returned by a user's model (real, symmetric PSD: :func:`check_model_covariance`) once per
+    distinct array: a model that returns the same Q at every step pays for one eigendecomposition, not one per step.
+    A library model whose covariances are checked when it is made (``covariances_checked``) is not checked again at
+    each step -- unless a subclass of yours overrides the method, whose values are then checked like any user
+    model's."""
+
+    def __init__(self, name: str, model: Any = None, method: str = "") -> None:
+        self.name, self._seen = name, None
+        own = getattr(type(model), method, None)
+        self._trusted = bool(getattr(model, "covariances_checked", False)) and own is not None and \
+            getattr(own, "__module__", "").startswith("uwtutor.")
+
+    def __call__(self, value: np.ndarray) -> None:
+        if self._trusted or value is self._seen:
+            return
+        check_model_covariance(self.name, value)
+        self._seen = value
+
+
 def check_model_covariance(name: str, value: np.ndarray) -> None:
-    """A covariance a user's model returned (``Q``, ``R``): finite, symmetric and positive semi-definite, matrix
-    by matrix; the error names the model method (``name``) rather than the filter's own arguments."""
-    C = np.asarray(value, dtype=float)
+    """A covariance a user's model returned (``Q``, ``R``): real, finite, symmetric and positive semi-definite,
+    matrix by matrix; the error names the model method (``name``) rather than the filter's own arguments."""
+    C = as_model_output(name, value)
+    if C.ndim < 2 or C.shape[-1] != C.shape[-2]:
+        raise ValueError(f"{name} returned an array of shape {C.shape}, not a square matrix")
     if not np.isfinite(C).all():
         raise ValueError(f"{name} returned a non-finite value")
     scale = max(1.0, float(np.max(np.abs(C)))) if C.size else 1.0

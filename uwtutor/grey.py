@@ -392,6 +392,8 @@ def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
     s2 = float(np.std(residuals / unit))
     C = s2 / s1 if s1 > 0 else 0.0
     P = (float(np.mean(np.abs(residuals / unit - (residuals / unit).mean()) < 0.6745 * s1)) if s1 > 0 else 1.0)
+    for part in (x1, z, fitted, residuals):       # the accumulated series of values near 1.8e308 overflows
+        check_finite_result(part, "series", what="the GM(1,1) fit (its accumulated series)")
     return GM11(series=x0.copy(), a=a, b=b, background_weight=alpha, accumulated=x1, background=z,
                 fitted=fitted, residuals=residuals, relative_errors=np.abs(residuals) / x0,
                 posterior_variance_ratio=C, small_error_probability=P, level_ratio=level_ratio_test(x0))
@@ -468,6 +470,10 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     a, b = _fitted_coefficients(x0, alpha)
     n = x0.shape[-1]
     with np.errstate(over="ignore", invalid="ignore"):
+        # a work guard: the forecast grows or decays monotonically, so its ends say whether it overflows, before
+        # the steps are computed (10**8 steps of a growing series: refused at once, not after gigabytes)
+        ends = _restored(x0[..., 0], a, b, np.array([float(n), float(n + steps - 1)]))
+        check_finite_result(ends, "series", "steps", what="the GM(1,1) forecast")
         out = _restored(x0[..., 0], a, b, np.arange(n, n + steps, dtype=float))
     return check_finite_result(out, "series", "steps", what="the GM(1,1) forecast")
 

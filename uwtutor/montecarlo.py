@@ -28,7 +28,7 @@ import numpy as np
 
 from . import metrics
 from ._validate import as_finite, as_float_array
-from ._validate import as_int, as_positive
+from ._validate import as_int, as_positive, as_scalar
 from .filters.base import FilterResult
 
 __all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "compare",
@@ -64,7 +64,7 @@ class _StudyStatistics:
 
 def _as_confidence(confidence: Any) -> float:
     """The probability of the chi-square intervals, strictly between 0 and 1."""
-    conf = float(as_finite("confidence", confidence))
+    conf = as_scalar("confidence", confidence)           # a one-element list is refused by name
     if not 0.0 < conf < 1.0:
         raise ValueError(f"confidence must lie strictly between 0 and 1; got {conf}")
     return conf

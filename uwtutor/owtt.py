@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_scalar,
-                        as_times, readonly)
+                        as_times, check_finite_result, readonly)
 from .acoustics import range_from_travel_time
 from .ranging import reception_times
 
@@ -91,7 +91,9 @@ def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.n
     t = as_finite("times", times)
     e0 = as_scalar("offset", offset)
     rate = as_scalar("drift", drift)
-    return _scalar_or_array(np.asarray(e0 + rate * t, dtype=float))
+    with np.errstate(over="ignore", invalid="ignore"):
+        error = np.asarray(e0 + rate * t, dtype=float)
+    return _scalar_or_array(check_finite_result(error, "times", "offset", "drift", what="the clock error"))
 
 
 def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_speed: Any = 1500.0) -> float | np.ndarray:

@@ -85,6 +85,8 @@ def _check_weights(weights: Any) -> np.ndarray:
     w = as_float_array("weights", weights, ndim=(1, 2))
     if w.shape[-1] == 0:
         raise ValueError("weights must hold at least one particle weight; got an empty array")
+    if w.size == 0:
+        raise ValueError(f"weights has no runs (shape {w.shape}): give at least one run, or drop the runs axis")
     top = np.maximum.reduce(w, axis=None)       # NaN if any weight is NaN
     if not (np.minimum.reduce(w, axis=None) >= 0.0 and top < _HUGE):    # also False for NaN and inf
         bad = ~np.isfinite(w) | (w < 0)

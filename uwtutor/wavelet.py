@@ -42,12 +42,14 @@ Li Ting, Zhao Dexin, Huang Zhiping and Su Shaojing (2013), paper C, section 2.3,
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pywt
 
 from ._validate import as_finite, as_float_array, as_index, as_int, check_work
+
+if TYPE_CHECKING:                       # only for the annotations: PyWavelets is imported where it is used
+    import pywt
 
 __all__ = [
     "MAD_TO_SIGMA",
@@ -61,6 +63,16 @@ __all__ = [
 
 #: :math:`\Phi^{-1}(3/4)`: the median of :math:`|N(0, \sigma^2)|` is this times :math:`\sigma` (paper C: 0.6745).
 MAD_TO_SIGMA = 0.6744897501960817
+
+
+def _pywt() -> Any:
+    """PyWavelets, imported where it is used: only paper C's noise estimate needs it, so the rest of the library
+    (and ``import uwtutor.widgets``) works without it."""
+    try:
+        import pywt
+    except ImportError as exc:
+        raise ImportError("the wavelet noise estimate (paper C) needs PyWavelets: pip install PyWavelets") from exc
+    return pywt
 
 
 def as_wavelet(wavelet: Any) -> pywt.Wavelet:
@@ -83,6 +95,7 @@ def as_wavelet(wavelet: Any) -> pywt.Wavelet:
     >>> w.dec_len, w.vanishing_moments_psi
     (12, 6)
     """
+    pywt = _pywt()
     if isinstance(wavelet, pywt.Wavelet):
         return wavelet
     if not isinstance(wavelet, str):
@@ -97,6 +110,7 @@ def as_wavelet(wavelet: Any) -> pywt.Wavelet:
 
 
 def _mode(mode: Any) -> str:
+    pywt = _pywt()
     if mode == "valid" or mode in pywt.Modes.modes:
         return mode
     raise ValueError(f"mode must be 'valid' or a PyWavelets signal-extension mode ({', '.join(pywt.Modes.modes)}); "
@@ -231,7 +245,7 @@ def detail_coefficients(signal: Any, wavelet: Any = "db6", mode: str = "valid") 
         raise ValueError(f"signal must hold at least {w.dec_len} samples along its last axis for {w.name} "
                          f"(its filter length); got shape {x.shape}")
     if mode != "valid":
-        return np.asarray(pywt.dwt(x, w, mode=mode, axis=-1)[1])
+        return np.asarray(_pywt().dwt(x, w, mode=mode, axis=-1)[1])
     # pywt.dwt keeps the odd positions 2i+1 of the full convolution; the valid ones start at L - 1.
     start = w.dec_len % 2                    # 0 when L - 1 is odd (every Daubechies wavelet)
     return _valid_details(x, w)[..., start::2]
@@ -337,7 +351,7 @@ def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mod
                                                               axis=-1)[..., w.dec_len % 2::2]
     else:
         windows = np.lib.stride_tricks.sliding_window_view(filled, n, axis=-1)
-        per_window = np.asarray(pywt.dwt(windows, w, mode=mode, axis=-1)[1])
+        per_window = np.asarray(_pywt().dwt(windows, w, mode=mode, axis=-1)[1])
     sigma = np.asarray(mad_sigma(per_window))                                 # (..., K - n + 1)
     if missing.any():
         counts = np.lib.stride_tricks.sliding_window_view(missing, n, axis=-1).any(axis=-1)

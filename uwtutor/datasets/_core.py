@@ -620,7 +620,7 @@ def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeData
     >>> bool(np.allclose(data.ranges[:, 2], d)), bool(np.allclose(scaled, 1.05 * d))
     (True, True)
     """
-    s = as_positive("range_scale", range_scale, ndim=0)
+    s = as_positive("range_scale", range_scale, ndim=0, max_abs=1e6)      # bounded, as range_offset is
     b = float(as_finite("range_offset", range_offset, ndim=0, max_abs=1e6))
     if b < 0.0:
         raise ValueError(f"range_offset must be >= 0 (a range is never negative); got {b:g}")

@@ -69,6 +69,8 @@ DEFAULT_HINT = "Re-read the task: check the formula, each input and its units."
 _NOT_YET = "Not yet: "
 #: Seconds a student's function may run on one test case (the reference takes milliseconds); see ``time_limit``.
 TIME_LIMIT = 5.0
+#: A student's function that waits without using the CPU is stopped after this many times ``TIME_LIMIT`` on the wall.
+WALL_FACTOR = 20.0
 _PACKAGE_DIR = str(Path(__file__).resolve().parents[1])
 
 
@@ -1032,28 +1034,36 @@ class StudentTimeout(BaseException):
 
 @contextlib.contextmanager
 def time_limit(seconds: float):
-    """Stop the code run inside this block with :class:`StudentTimeout` once ``seconds`` have passed.
+    """Stop the code run inside this block with :class:`StudentTimeout` once it has used ``seconds`` of CPU time.
 
-    In the main thread on a POSIX system (a Jupyter kernel) a real-time interval timer interrupts any Python code,
-    even a ``while True: pass``; elsewhere a trace function checks the clock at every line of Python code. Neither can
-    interrupt a single long call into compiled code: it is stopped when it returns.
+    CPU time (of this process), not time on the wall: on a busy machine a correct function takes longer on the wall
+    but not more CPU, so it is never stopped for the machine's load; an endless loop uses CPU and is stopped. Code
+    that waits without using the CPU (``time.sleep``, ``input()``) is stopped after ``WALL_FACTOR * seconds`` on the
+    wall. In the main thread on a POSIX system (a Jupyter kernel) interval timers (``ITIMER_PROF`` for the CPU,
+    ``ITIMER_REAL`` for the wall) interrupt any Python code, even a ``while True: pass``; elsewhere a trace function
+    checks the clocks at every line of Python code. Neither can interrupt a single long call into compiled code: it
+    is stopped when it returns.
     """
-    deadline = time.monotonic() + seconds
+    cpu_deadline = time.process_time() + seconds
+    wall_deadline = time.monotonic() + WALL_FACTOR * seconds
     if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
         def _alarm(signum, frame):
             raise StudentTimeout
-        previous = signal.signal(signal.SIGALRM, _alarm)
-        signal.setitimer(signal.ITIMER_REAL, seconds)
+        previous = {sig: signal.signal(sig, _alarm) for sig in (signal.SIGPROF, signal.SIGALRM)}
+        signal.setitimer(signal.ITIMER_PROF, seconds)
+        signal.setitimer(signal.ITIMER_REAL, WALL_FACTOR * seconds)
         try:
             yield
         finally:
+            signal.setitimer(signal.ITIMER_PROF, 0)
             signal.setitimer(signal.ITIMER_REAL, 0)
-            signal.signal(signal.SIGALRM, previous)
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
         return
     previous_trace = sys.gettrace()
 
     def _trace(frame, event, arg):
-        if time.monotonic() > deadline:
+        if time.process_time() > cpu_deadline or time.monotonic() > wall_deadline:
             raise StudentTimeout
         return _trace
     sys.settrace(_trace)

@@ -15,7 +15,8 @@ from .gates import ChiSquareGate, Gate, GateContext, ReacquiringGate
 from .kalman import KalmanFilter
 from .robust import RobustGate, SecondMomentGate, cascade_kf, robust_range_kf
 from .smoother import SmootherResult, rts_smoother
-from .particle import BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter, ParticleDegeneracyError
+from .particle import (BootstrapParticleFilter, GreyParticleFilter, MultipleModelParticleFilter,
+                       ParticleCollapseWarning, ParticleDegeneracyError)
 # Names kept for chapter 6 and the lab depth_pf_vs_ekf, which import them from here (see uwtutor.filters.legacy):
 from .legacy import DepthEKF, LinearGaussianModel
 from ..models.depth import DepthSpeedPitchModel, PitchManeuverModel
@@ -25,6 +26,7 @@ __all__ = [
     "ExtendedKalmanFilter", "extended_kalman_filter", "Gate", "GateContext", "ChiSquareGate", "ReacquiringGate",
     "range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning",
     "BootstrapParticleFilter", "MultipleModelParticleFilter", "GreyParticleFilter", "ParticleDegeneracyError",
+    "ParticleCollapseWarning",
     "DepthEKF", "LinearGaussianModel", "DepthSpeedPitchModel", "PitchManeuverModel",
     "cooperative_ekf", "CooperativeEKF",
     "robust_range_kf", "cascade_kf", "RobustGate", "SecondMomentGate", "rts_smoother", "SmootherResult",

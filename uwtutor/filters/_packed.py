@@ -316,6 +316,8 @@ def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
     if u.shape[-1] != 2:
         raise ValueError(f"u must hold displacements [dx, dy], shape (K, 2) or (M, K, 2); got shape {u.shape}")
     z = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if z.ndim == 2 and z.shape[0] == 0:
+        raise ValueError(f"z has no runs (shape {z.shape}): give at least one run, or drop the runs axis")
     K = u.shape[-2]
     if z.shape[-1] != K:
         raise ValueError(f"z must have one range per step of u ({K} steps); got shape {z.shape}")

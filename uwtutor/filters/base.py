@@ -29,10 +29,17 @@ It moves its estimate with two methods,
 subclass), the same, field for field, as :func:`run_filter` ``(filt, z, u, times)``, the library's one step loop.
 A filter may run its sequence faster than that loop (the packed range-only EKF does), but its result must equal
 the loop's: ``tests/test_filter_contract.py`` holds every filter to this.
+
+The same rule holds for a filter's **configuration** (:class:`Configurable`): its noise covariances ``Q`` and ``R``
+and its other parameters either take effect when assigned (``f.Q = ...`` is checked like the constructor's ``Q``,
+and everything computed from it is computed again, so the next step uses it) or refuse the assignment with a
+message saying to build a new filter; they are shown read-only (``f.Q[0, 0] = 1`` raises). The diagnostics of the
+last step (``y``, ``S`` and the ``extra_outputs``) are read-only: assigning them raises.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, fields
 from typing import Any, Protocol, runtime_checkable
 
@@ -43,6 +50,75 @@ from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
 
 __all__ = ["Filter", "FilterResult", "run_filter"]
+
+
+class Configurable:
+    """The configuration rule of every filter: assigned parameters take effect or are refused; diagnostics are
+    read-only.
+
+    A filter class names, after its constructor has run:
+
+    * ``_parameters`` -- attributes that take effect when assigned: ``f.Q = value`` calls ``f._apply(name, value)``,
+      which validates the value as the constructor does and computes again what depends on it;
+    * ``_fixed`` -- attributes fixed at construction (a model, a formulation): assigning one raises
+      ``AttributeError`` saying to build a new filter;
+    * ``_diagnostics`` -- what the last step computed (``y``, ``S``; the ``extra_outputs`` always are): assigning
+      raises ``AttributeError``; the filter itself sets them with :meth:`_set_diagnostic`.
+
+    The rule starts to hold when the constructor of the filter's own class returns.
+    """
+
+    _parameters: tuple[str, ...] = ()
+    _fixed: tuple[str, ...] = ()
+    _diagnostics: tuple[str, ...] = ()
+
+    #: every name the rule governs (computed per class); an instance may add more (a gate's extra outputs)
+    _ruled: frozenset = frozenset()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._ruled = frozenset(cls._parameters + cls._fixed + cls._diagnostics + tuple(getattr(cls, "extra_outputs",
+                                                                                             ())))
+        init = cls.__dict__.get("__init__")
+        if init is None:
+            return
+
+        @functools.wraps(init)
+        def __init__(self: Any, *args: Any, **kw: Any) -> None:
+            init(self, *args, **kw)
+            if type(self).__init__ is __init__:          # the constructor of the filter's own class has returned
+                object.__setattr__(self, "_configured", True)
+        cls.__init__ = __init__                             # type: ignore[method-assign]
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        # the filters' own state is private (``_x``, ``_P``...): it passes at the cost of one comparison
+        if name[0] != "_" and (name in self._ruled or name in self.__dict__.get("_extra_ruled", ())) \
+                and self.__dict__.get("_configured", False):
+            self._assign(name, value)
+            return
+        object.__setattr__(self, name, value)
+
+    def _assign(self, name: str, value: Any) -> None:
+        cls = type(self).__name__
+        if name in self._parameters:
+            self._apply(name, value)
+            return
+        if name in self._fixed:
+            raise AttributeError(f"{name} of a {cls} is fixed when the filter is built (everything the filter "
+                                 f"computes depends on it): build a new {cls} with the {name} you want")
+        raise AttributeError(f"{name} of a {cls} is what the last step computed (read-only); to change the filter, "
+                             "assign its state (x, P) or its parameters")
+
+    def _apply(self, name: str, value: Any) -> None:
+        """Validate a new value of the parameter ``name`` and compute again what depends on it."""
+        raise NotImplementedError(f"{type(self).__name__} lists {name} in _parameters but does not apply it")
+
+    def _set_diagnostic(self, name: str, value: Any) -> None:
+        """Set a diagnostic of the last step (shown read-only)."""
+        if isinstance(value, np.ndarray):
+            value = value.view()
+            value.flags.writeable = False
+        object.__setattr__(self, name, value)
 
 
 @runtime_checkable

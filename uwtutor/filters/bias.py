@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import MAX_COORDINATE, as_covariance, as_range_array
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, readonly
 from ._packed import range_variances
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
@@ -172,9 +172,18 @@ def bias_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayL
     ... )
     (True, True)
     """
-    zz = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)      # measured ranges: >= 0, NaN missing
+    x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
+    if u is None:
+        raise TypeError("u (the dead-reckoned displacements, shape (K, 2) or (M, K, 2)) is required: give "
+                        "np.zeros((K, 2)) for a vehicle that does not move")
+    uu = as_finite("u", u, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    K = uu.shape[-2]
+    # measured ranges: >= 0, NaN missing; one per step of u, (K,) or (M, K) as for range_only_ekf
+    zz = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if zz.shape[-1] != K:
+        raise ValueError(f"z must hold one range per step of u, shape ({K},) or (M, {K}); got shape {zz.shape}")
     motion, measurement = bias_model_pair(Q, R, beacon, zz.shape[-1] if zz.ndim else None)
-    return extended_kalman_filter(motion, measurement, x0, P0, u, zz, times=times, gate=gate)
+    return extended_kalman_filter(motion, measurement, x0, P0, uu, zz, times=times, gate=gate)
 
 
 class BiasEKF(ExtendedKalmanFilter):
@@ -209,9 +218,35 @@ class BiasEKF(ExtendedKalmanFilter):
     ((3,), (3, 3), 5.83)
     """
 
+    _parameters = ("Q", "R", "beacon")
+
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, beacon: ArrayLike = (0.0, 0.0)) -> None:
+        x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
         motion, measurement = bias_model_pair(Q, R, beacon)
         super().__init__(motion, measurement, x0, P0)
+        self._config = dict(Q=Q, R=R, beacon=beacon)
+
+    def _apply(self, name: str, value: Any) -> None:
+        """A new ``Q``, ``R`` or ``beacon`` (base.Configurable): the model pair is built again with it, checked
+        as in the constructor, and used from the next step on."""
+        config = dict(self._config, **{name: value})
+        self._use_models(*bias_model_pair(config["Q"], config["R"], config["beacon"]), name)
+        self._config = config
+
+    @property
+    def Q(self) -> np.ndarray:
+        """Process noise of ``[x, y, bias]`` per step (3, 3) (read-only; assign a new one to change it)."""
+        return readonly(np.array(self._config["Q"], dtype=float))
+
+    @property
+    def R(self) -> float:
+        """Range noise variance (assign a new one to change it)."""
+        return range_variances(self._config["R"])
+
+    @property
+    def beacon(self) -> np.ndarray:
+        """Beacon position, as given (read-only; assign a new one to change it)."""
+        return readonly(np.array(self._config["beacon"], dtype=float))
 
     def update(self, z: Any) -> None:
         """Correct the estimate with the measured range ``z`` (>= 0; NaN: no reply, predict only)."""

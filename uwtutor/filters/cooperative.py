@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar, common_runs
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from ..errors import UnobservableWarning, warn
-from .base import FilterResult, run_filter
+from .base import Configurable, FilterResult, run_filter
 from .engine import ExtendedKalmanFilter
 
 __all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "relative_track_deviation", "FORMULATIONS"]
@@ -170,7 +170,7 @@ def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
     return x, P, d, b
 
 
-class CooperativeEKF:
+class CooperativeEKF(Configurable):
     r"""Paper B's cooperative EKF, one step at a time (the protocol's ``predict`` / ``update``).
 
     Parameters
@@ -314,6 +314,11 @@ class CooperativeEKF:
     #: Per-step attributes recorded in a result's ``extras`` (the protocol's ``extra_outputs``).
     extra_outputs = ("accepted",)
     result_type = FilterResult
+    # the configuration rule (base.Configurable): the models are built from these at construction (the leader's
+    # track and the DR displacements are in them), so none can change afterwards; y, S, accepted are read-only
+    _fixed = ("Q", "R", "dt", "leader", "u", "P0", "formulation", "lost", "range_variance", "range_noise",
+              "relative_track_deviation", "motion", "measurement")
+    _diagnostics = ("y", "S", "accepted")
 
     def _measurement(self, z: Any) -> np.ndarray:
         z = as_range_array("z", z, allow_nan=True)

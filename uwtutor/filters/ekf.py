@@ -70,7 +70,7 @@ import numpy as np
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, common_runs, readonly
 from ..errors import BeaconSingularityWarning
-from .base import FilterResult
+from .base import Configurable, FilterResult
 from .gates import Gate
 from ._packed import (N_ROWS, P_view, beacon_path, check_variances_where_measured, first_unsound,
                       fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields, runs_first,
@@ -278,7 +278,7 @@ def _gated(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, Q: np.n
     return dataclasses.replace(res, extras=extras)
 
 
-class RangeOnlyEKF:
+class RangeOnlyEKF(Configurable):
     r"""The range-only EKF as an object: ``predict(u)``, ``update(z)``, one step at a time.
 
     Same model and same arithmetic as :func:`range_only_ekf` (both call this module's step functions):
@@ -315,7 +315,9 @@ class RangeOnlyEKF:
     updated : ndarray of bool
         Whether the last update used a range, shape () or (M,).
     Q, R, beacon
-        The model parameters.
+        The model parameters (read-only arrays). Assigning one takes effect from the next step: it is checked as
+        in the constructor, ``ekf.Q = 100 * np.eye(2)`` runs exactly as ``RangeOnlyEKF(..., Q=100 * np.eye(2))``.
+        ``y``, ``S`` and ``updated`` are read-only (what the last update computed).
 
     Examples
     --------
@@ -334,12 +336,14 @@ class RangeOnlyEKF:
 
     extra_outputs = ("updated",)
     result_type = FilterResult
+    _parameters = ("Q", "R", "beacon")
+    _diagnostics = ("y", "S", "updated")
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike,
                  beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
-        self.Q, self.R, self._q4 = noise_parameters(Q, R)
-        self.beacon = np.array(fixed_beacon(beacon))
+        self._set_noise(Q, R)
+        self._apply("beacon", beacon)
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
         self._batched = M is not None
         self._M = M or 1
@@ -348,8 +352,23 @@ class RangeOnlyEKF:
         self._set_innovation(np.full(self._M, np.nan), np.full(self._M, np.nan))
         self._set_updated(np.zeros(self._M, dtype=bool))
 
+    # -- configuration: assigned parameters take effect (base.Configurable) --
+    def _set_noise(self, Q: Any, R: Any) -> None:
+        Q, R, q4 = noise_parameters(Q, R)
+        object.__setattr__(self, "Q", readonly(Q))
+        object.__setattr__(self, "R", R)
+        self._q4 = q4                                   # what the prediction adds: computed again with Q
+
+    def _apply(self, name: str, value: Any) -> None:
+        if name == "beacon":
+            object.__setattr__(self, "beacon", readonly(np.array(fixed_beacon(value))))
+        elif name == "Q":
+            self._set_noise(value, self.R)
+        else:
+            self._set_noise(self.Q, value)
+
     def _set_updated(self, used: np.ndarray) -> None:
-        self.updated = used.copy() if self._batched else np.array(used[0])
+        self._set_diagnostic("updated", used.copy() if self._batched else np.array(used[0]))
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
@@ -395,8 +414,8 @@ class RangeOnlyEKF:
         raise ValueError(f"{name} must have shape {single} or (M, ...) with M = {self._M}; got {shape}")
 
     def _set_innovation(self, y: np.ndarray, S: np.ndarray) -> None:
-        self.y = y[:, None] if self._batched else y[:1].copy()
-        self.S = S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy()
+        self._set_diagnostic("y", y[:, None] if self._batched else y[:1].copy())
+        self._set_diagnostic("S", S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy())
 
     # -- the protocol --
     def predict(self, u: ArrayLike | None = None) -> None:

@@ -67,12 +67,12 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array, check_model_covariance, common_runs,
-                        readonly)
+from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_float_array, as_model_output,
+                        check_model_covariance, common_runs, readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
-from .base import FilterResult, _sequence_times, run_filter
+from .base import Configurable, FilterResult, _sequence_times, run_filter
 from .gates import Gate, GateContext
 
 __all__ = ["ExtendedKalmanFilter", "extended_kalman_filter"]
@@ -90,19 +90,8 @@ def _check_model(name: str, model: Any, kind: type) -> None:
 
 
 def _real(name: str, value: Any) -> np.ndarray:
-    """What a model returned, as a float array: real numbers only (a complex value is refused, not cut to its real
-    part; a string or an object by name, not by numpy's conversion error)."""
-    arr = np.asarray(value)
-    kind = arr.dtype.kind
-    if kind == "O":                                  # numbers held as objects: converted when they all are real
-        for v in arr.flat:
-            if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise TypeError(f"{_owner(name)} must return real numbers; it returned {type(v).__name__} {v!r}")
-        return arr.astype(float)
-    if kind not in "fiu":
-        raise TypeError(f"{_owner(name)} must return real numbers; got an array of dtype {arr.dtype}"
-                        + (" (complex: its imaginary part would be dropped)" if kind == "c" else ""))
-    return arr.astype(float, copy=False)
+    """What a model returned, as a float array of real numbers (``_validate.as_model_output``)."""
+    return as_model_output(_owner(name), value)
 
 
 def _owner(name: str) -> str:
@@ -157,23 +146,7 @@ def _defined_mask(defined: Any, M: int, m: int) -> np.ndarray:
     return np.repeat(d[:, None], m, axis=1)
 
 
-class _CovarianceCheck:
-    """Checks a covariance returned by a user's model (symmetric PSD) once per distinct array: a model that returns
-    the same Q at every step pays for one eigendecomposition, not one per step. A library model whose covariances
-    are checked when it is made (``covariances_checked``) is not checked again at each step -- unless a subclass of
-    yours overrides the method, whose values are then checked like any user model's."""
-
-    def __init__(self, name: str, model: Any = None, method: str = "") -> None:
-        self.name, self._seen = name, None
-        own = getattr(type(model), method, None)
-        self._trusted = bool(getattr(model, "covariances_checked", False)) and own is not None and \
-            getattr(own, "__module__", "").startswith("uwtutor.")
-
-    def __call__(self, value: np.ndarray) -> None:
-        if self._trusted or value is self._seen:
-            return
-        check_model_covariance(self.name, value)
-        self._seen = value
+_CovarianceCheck = CovarianceCheck                   # the shared check (uwtutor._validate)
 
 
 def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -231,7 +204,7 @@ def _refuse_lost_psd(P: np.ndarray, R: np.ndarray, k: int) -> None:
             "honest initial uncertainty) or use a larger R")
 
 
-class ExtendedKalmanFilter:
+class ExtendedKalmanFilter(Configurable):
     r"""The generic batched extended Kalman filter (equations in the module docstring).
 
     Parameters
@@ -294,6 +267,9 @@ class ExtendedKalmanFilter:
 
     extra_outputs = ("accepted",)
     result_type = FilterResult
+    # the configuration rule (base.Configurable): the models and the gate are fixed once the filter is built
+    _fixed = ("motion", "measurement", "gate", "n", "m")
+    _diagnostics = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                  gate: Gate | None = None) -> None:
@@ -335,11 +311,27 @@ class ExtendedKalmanFilter:
         self._gate_outputs = gate_outputs
         if gate_outputs:
             self.extra_outputs = type(self).extra_outputs + gate_outputs
+            self._extra_ruled = frozenset(gate_outputs)          # read-only diagnostics too (base.Configurable)
+
+    def _use_models(self, motion: MotionModel, measurement: MeasurementModel, parameter: str) -> None:
+        """Run from the next step on with a new model pair of the same sizes, built by a subclass from a new value
+        of its ``parameter`` (``KalmanFilter.Q = ...``: base.Configurable)."""
+        if (motion.n, measurement.n, measurement.m) != (self.n, self.n, self.m):
+            raise ValueError(f"{parameter} must keep the filter's sizes (state {self.n}, measurement {self.m}); "
+                             f"got a model pair with state {motion.n} and measurement {measurement.m}: build a new "
+                             f"{type(self).__name__} for other sizes")
+        object.__setattr__(self, "motion", motion)
+        object.__setattr__(self, "measurement", measurement)
+        self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q", motion, "Q")
+        self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
 
     def __getattr__(self, name: str) -> Any:
         # the per-step values a gate names in its extra_outputs, read from the gate (runs axis as for x)
         if name in self.__dict__.get("_gate_outputs", ()):
-            return self._out(np.asarray(getattr(self.gate, name)))
+            value = np.asarray(getattr(self.gate, name))
+            if value.shape[:1] != (self._M,):           # before the gate's first step: nothing flagged yet
+                value = np.zeros((self._M,) + value.shape[1:], dtype=value.dtype)
+            return self._out(value)
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     # -- state access (views of the filter's arrays; assignment is validated) --

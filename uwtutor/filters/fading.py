@@ -122,7 +122,7 @@ from numpy.typing import ArrayLike
 from ..acoustics import range_factor
 from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
                         common_runs, readonly)
-from .base import FilterResult
+from .base import Configurable, FilterResult
 from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y,
                       check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
                       predict_step, result_fields,
@@ -550,7 +550,7 @@ def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: Arra
     return result
 
 
-class FadingEKF:
+class FadingEKF(Configurable):
     r"""Paper D's fading EKF for multiplicative range noise as an object: ``predict(u)``, ``update(z)``.
 
     Same model and arithmetic as :func:`fading_ekf` (both call this module's step function). The fading factor
@@ -615,6 +615,11 @@ class FadingEKF:
         Whether the last update used a range, shape () or (M,).
     extra_outputs : tuple of str
         The attributes :func:`uwtutor.filters.base.run_filter` records per step.
+    Q, R, beacon
+        The model parameters (read-only arrays); assigning one takes effect from the next step, checked as in the
+        constructor. The other parameters (``mu_gamma``, ``sigma_gamma``, ``rho``, ``beta``, ``fading``) are
+        fixed: assigning one raises (build a new filter). ``y``, ``S`` and the per-step diagnostics are
+        read-only.
 
     Examples
     --------
@@ -638,6 +643,9 @@ class FadingEKF:
 
     extra_outputs = _EXTRAS + ("updated",)
     result_type = FadingResult
+    _parameters = ("Q", "R", "beacon")
+    _fixed = ("mu_gamma", "sigma_gamma", "rho", "beta", "fading", "second_moment0")
+    _diagnostics = ("y", "S") + extra_outputs
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
                  sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
@@ -662,8 +670,8 @@ class FadingEKF:
     # -- parameters --
     @property
     def Q(self) -> np.ndarray:
-        """Process noise covariance (2, 2)."""
-        return self._p.Q
+        """Process noise covariance (2, 2) (read-only; assign a new one to change it)."""
+        return readonly(self._p.Q)
 
     @property
     def R(self) -> float:
@@ -672,8 +680,17 @@ class FadingEKF:
 
     @property
     def beacon(self) -> np.ndarray:
-        """Beacon position (2,)."""
-        return np.array(self._p.beacon)
+        """Beacon position (2,) (read-only; assign a new one to change it)."""
+        return readonly(np.array(self._p.beacon))
+
+    def _apply(self, name: str, value: Any) -> None:
+        """A new ``Q``, ``R`` or ``beacon`` (base.Configurable), checked as in the constructor, used from the next
+        step on (with everything computed from it: the packed ``Q`` the prediction adds)."""
+        if name == "beacon":
+            self._p = replace(self._p, beacon=fixed_beacon(value))
+            return
+        Q, R, q4 = noise_parameters(value if name == "Q" else self._p.Q, value if name == "R" else self._p.R)
+        self._p = replace(self._p, Q=Q, R=R, q4=q4)
 
     # -- state access --
     def _out(self, a: np.ndarray) -> np.ndarray:
@@ -725,11 +742,11 @@ class FadingEKF:
         return self._out(P_view(self._prior))
 
     def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
-        self.y = y[:, None] if self._batched else y[:1].copy()
-        self.S = S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy()
+        self._set_diagnostic("y", y[:, None] if self._batched else y[:1].copy())
+        self._set_diagnostic("S", S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy())
         for name, values in zip(_EXTRAS, diag):
-            setattr(self, name, values.copy() if self._batched else np.array(values[0]))
-        self.updated = updated.copy() if self._batched else np.array(updated[0])
+            self._set_diagnostic(name, values.copy() if self._batched else np.array(values[0]))
+        self._set_diagnostic("updated", updated.copy() if self._batched else np.array(updated[0]))
 
     def _u_column(self, u: Any) -> np.ndarray:
         if u is None:

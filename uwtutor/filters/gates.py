@@ -227,7 +227,9 @@ class ChiSquareGate(Gate):
         self._thresholds: dict[int, float] = {}
 
     def threshold(self, m: int) -> float:
-        """The NIS threshold for a measurement of size ``m``."""
+        """The NIS threshold for a measurement of size ``m`` (an integer >= 1: the degrees of freedom)."""
+        if m not in self._thresholds or type(m) is not int:
+            m = as_int("m", m, minimum=1)
         if m not in self._thresholds:
             from scipy import stats      # imported when needed: scipy.stats is heavy and most filters never gate
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import as_finite, as_positive
+from .._validate import as_scalar, readonly
 from ..models.linear import LinearMeasurement, LinearMotion
 from .engine import ExtendedKalmanFilter
 
@@ -79,6 +79,10 @@ class KalmanFilter(ExtendedKalmanFilter):
     B : ndarray or None
         Control-input matrix (None without input).
 
+    ``F``, ``H``, ``Q``, ``R`` and ``B`` are shown read-only; assigning one takes effect from the next step, checked
+    as in the constructor (``kf.R = 4.0`` runs exactly as ``KalmanFilter(..., R=4.0)``). ``y`` and ``S`` are
+    read-only.
+
     Examples
     --------
     Smooth noisy ranges to a beacon that the vehicle approaches at 1.5 m/s:
@@ -110,8 +114,31 @@ class KalmanFilter(ExtendedKalmanFilter):
         if measurement.n != motion.n:
             raise ValueError(f"H must have {motion.n} columns to match F; got shape {measurement._H.shape}")
         super().__init__(motion, measurement, x0, P0)
-        self.F, self.Q, self.B = motion._F, motion._Q, motion._B
-        self.H, self.R = measurement._H, measurement._R
+        self._show_models()
+
+    _parameters = ("F", "H", "Q", "R", "B")
+
+    def _show_models(self) -> None:
+        shown = dict(F=self.motion._F, Q=self.motion._Q, B=self.motion._B, H=self.measurement._H,
+                     R=self.measurement._R)
+        for name, value in shown.items():
+            object.__setattr__(self, name, None if value is None else readonly(value))
+
+    def _apply(self, name: str, value: Any) -> None:
+        """A new ``F``, ``H``, ``Q``, ``R`` or ``B`` (base.Configurable): the model pair is built again with it,
+        checked as in the constructor, and used from the next step on."""
+        config = dict(F=self.F, H=self.H, Q=self.Q, R=self.R, B=self.B)
+        config[name] = value
+        motion = LinearMotion(config["F"], config["Q"], config["B"])
+        measurement = LinearMeasurement(config["H"], config["R"])
+        if measurement._R is None:
+            raise ValueError(f"R must be one ({measurement.m}, {measurement.m}) matrix; got shape "
+                             f"{np.shape(config['R'])}")
+        if name == "B" and (self.B is None) != (motion._B is None):
+            raise ValueError("B cannot be added or removed after construction (the filter's input changes): build "
+                             "a new KalmanFilter")
+        self._use_models(motion, measurement, name)
+        self._show_models()
 
     @classmethod
     def constant_velocity(cls, dt: float, q: float, r: float, x0: Any, P0: Any) -> "KalmanFilter":
@@ -138,10 +165,9 @@ class KalmanFilter(ExtendedKalmanFilter):
         P0 : array_like, shape (2, 2)
             Initial covariance.
         """
-        dt = float(as_positive("dt", dt))
-        q = float(as_finite("q", q))
-        if q < 0:
-            raise ValueError(f"q must be >= 0; got {q}")
+        dt = as_scalar("dt", dt, domain="positive")
+        q = as_scalar("q", q, domain="nonnegative")
+        r = as_scalar("r", r, domain="positive")
         F = np.array([[1.0, dt], [0.0, 1.0]])
         Q = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
-        return cls(F=F, H=[[1.0, 0.0]], Q=Q, R=[[float(as_positive("r", r))]], x0=x0, P0=P0)
+        return cls(F=F, H=[[1.0, 0.0]], Q=Q, R=[[r]], x0=x0, P0=P0)

@@ -17,16 +17,30 @@ live in :mod:`uwtutor.models.depth`.)
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, readonly
 from ..models.base import ModelPair
 from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..models.linear import LinearMeasurement, LinearMotion
 from .engine import ExtendedKalmanFilter
 
 __all__ = ["DepthEKF", "LinearGaussianModel"]
+
+
+def _depth_models(Q: ArrayLike | None, R: ArrayLike | None, T: float) -> tuple[DepthSpeedPitch, DepthSensors]:
+    """Paper C's model pair for :class:`DepthEKF`, its arguments checked."""
+    if Q is not None:                          # named Q here (the motion model calls it process_cov)
+        Q = as_covariance("Q", Q, 3, allow_singular=True)
+    motion = DepthSpeedPitch(T=T) if Q is None else DepthSpeedPitch(T=T, process_cov=Q)
+    sensors = DepthSensors(R)
+    if sensors._R is None or sensors._R.shape != (3, 3):
+        raise ValueError("R must be one 3x3 covariance (depth, speed, pitch sensors); for per-step or per-run "
+                         "noise use extended_kalman_filter(DepthSpeedPitch(...), DepthSensors(R), ...)")
+    return motion, sensors
 
 
 class DepthEKF(ExtendedKalmanFilter):
@@ -72,17 +86,36 @@ class DepthEKF(ExtendedKalmanFilter):
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike | None = None, R: ArrayLike | None = None,
                  T: float = 0.05) -> None:
-        if Q is not None:                          # named Q here (the motion model calls it process_cov)
-            Q = as_covariance("Q", Q, 3, allow_singular=True)
-        motion = DepthSpeedPitch(T=T) if Q is None else DepthSpeedPitch(T=T, process_cov=Q)
-        sensors = DepthSensors(R)
-        if sensors._R is None or sensors._R.shape != (3, 3):
-            raise ValueError("R must be one 3x3 covariance (depth, speed, pitch sensors); for per-step or per-run "
-                             "noise use extended_kalman_filter(DepthSpeedPitch(...), DepthSensors(R), ...)")
+        motion, sensors = _depth_models(Q, R, T)
         x = as_finite("x0", x0, max_abs=MAX_COORDINATE)
         if x.ndim not in (1, 2) or x.shape[-1] != 3:
             raise ValueError(f"x0 must be [depth, speed, pitch], shape (3,) or (M, 3); got shape {x.shape}")
         super().__init__(motion, sensors, x0, P0)
+        self._config = dict(Q=Q, R=R, T=T)
+
+    _parameters = ("Q", "R", "T")
+
+    def _apply(self, name: str, value: Any) -> None:
+        """A new ``Q``, ``R`` or ``T`` (base.Configurable): the models are built again with it, checked as in the
+        constructor, and used from the next step on."""
+        config = dict(self._config, **{name: value})
+        self._use_models(*_depth_models(**config), name)
+        self._config = config
+
+    @property
+    def Q(self) -> np.ndarray | None:
+        """Covariance of the motion noise per step (None: the default; assign a new one to change it)."""
+        return None if self._config["Q"] is None else readonly(np.array(self._config["Q"], dtype=float))
+
+    @property
+    def R(self) -> np.ndarray:
+        """Sensor noise covariance (3, 3) (read-only; assign a new one to change it)."""
+        return readonly(self.measurement._R)
+
+    @property
+    def T(self) -> float:
+        """Sampling interval [s] (assign a new one to change it)."""
+        return float(self._config["T"])
 
 
 class LinearGaussianModel(ModelPair):

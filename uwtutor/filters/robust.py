@@ -55,7 +55,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
 from .._validate import (MAX_COORDINATE, as_bool_array, as_covariance, as_finite, as_float_array, as_int,
                         as_nonnegative, as_positive, as_range_array, as_scalar)
@@ -354,6 +353,7 @@ class RobustGate(Gate):
         var = np.diagonal(Rm, axis1=-2, axis2=-1)
         var = var[runs] if var.shape[0] > 1 else np.broadcast_to(var, (len(runs), d))
         chi = np.sum(res**2 / var[:, None, :], axis=(1, 2))
+        from scipy import stats          # imported where used: scipy.stats costs about 1 s of CPU to import
         ok = chi <= stats.chi2.ppf(1.0 - 1e-3, d * (n - 2))
         x_new = coef.reshape(len(runs), 2 * d)                               # [a (d), b (d)]
         C = np.linalg.inv(G)
@@ -553,6 +553,10 @@ def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 
     True
     """
     rr = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), nonempty=True, max_abs=MAX_COORDINATE)
+    if rr.ndim == 2 and rr.shape[1] == 1 and rr.shape[0] > 1:
+        raise ValueError(f"ranges has shape {rr.shape}, a column: that would be {rr.shape[0]} runs of one range each. "
+                         f"Give shape ({rr.shape[0]},) for one run of {rr.shape[0]} ranges (ranges.ravel()), or "
+                         "(M, K) for M runs of K ranges")
     bad = np.isfinite(rr) & (rr < 0)
     if bad.any() or np.isinf(rr).any():
         where = np.flatnonzero((bad | np.isinf(rr)).ravel())[0]

@@ -21,6 +21,8 @@ def as_design(A: Any) -> np.ndarray:
         raise ValueError(f"A must be a design matrix of shape (N, p) or a stack (..., N, p); got shape {A.shape}")
     if A.shape[-2] < 1 or A.shape[-1] < 1:
         raise ValueError(f"A must have at least one row and one column; got shape {A.shape}")
+    if A.size == 0:
+        raise ValueError(f"A has no matrices in its stack (shape {A.shape}): give at least one")
     return A
 
 
@@ -103,6 +105,9 @@ def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.nda
         raise ValueError(f"beacons must hold horizontal positions, shape (N, 2) or (M, N, 2); got {b.shape}")
     if b.shape[-2] != r.shape[-1]:
         raise ValueError(f"beacons must give one beacon per range: {b.shape[-2]} beacons for {r.shape[-1]} ranges")
+    if r.shape[-1] == 0:
+        raise ValueError(f"ranges is empty (shape {r.shape}): a fix needs ranges to at least as many beacons as "
+                         "unknowns")
     return r, b
 
 

@@ -66,6 +66,21 @@ class VirtualBeaconFix:
     well_conditioned: np.ndarray
 
 
+def check_slant_ranges(name: str, ranges: np.ndarray, vertical: Any) -> None:
+    """Refuse slant ranges shorter than the vertical distance between the vehicle and the beacon: a slant range is
+    at least that long, and a shorter one (ranges in the wrong units, or the wrong depth) would still give a fix
+    that looks valid. A range may fall short by measurement noise near the point overhead: the tolerance is 1 % of
+    the vertical distance, and at least 5 m."""
+    dz = np.asarray(vertical, dtype=float)
+    short = np.isfinite(ranges) & (ranges < dz - np.maximum(5.0, 0.01 * dz))
+    if short.any():
+        i = np.flatnonzero(short.ravel())[0]
+        raise ValueError(f"{name} holds slant ranges shorter than the vertical distance to the beacon (the depth): "
+                         f"{int(short.sum())} of them, e.g. {ranges.ravel()[i]:g} m against "
+                         f"{np.broadcast_to(dz, ranges.shape).ravel()[i]:g} m. A slant range cannot be shorter: check "
+                         "the units of the ranges and the depth")
+
+
 def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *, depth: Any = 0.0,
                        beacon_depths: Any = 0.0, max_condition: float = 1e3,
                        max_noise_gain: float = 100.0) -> VirtualBeaconFix:
@@ -160,6 +175,7 @@ def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *,
     if z.ndim == 1 and z.shape != (N,):
         raise ValueError(f"beacon_depths must be a number or have shape ({N},); got {z.shape}")
     z = np.broadcast_to(z, (N,))
+    check_slant_ranges("ranges", r, np.abs(h - z))
     mc, mg = as_thresholds(max_condition, max_noise_gain)
     M = common_runs(dict(ranges=r.shape[0] if r.ndim == 2 else None,
                          beacon_positions=ab.shape[0] if ab.ndim == 3 else None,

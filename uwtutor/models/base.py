@@ -60,9 +60,20 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import CovarianceCheck, as_model_output
 from .noise import gaussian_log_likelihood, gaussian_noise, psd_sqrt
 
 __all__ = ["MotionModel", "MeasurementModel", "ModelPair"]
+
+
+def _checked(model: Any, method: str) -> CovarianceCheck:
+    """The covariance check of ``model.method`` (``Q`` or ``R``), kept with the model so that a model that returns
+    the same matrix at every step is checked once."""
+    checks = model.__dict__.setdefault("_covariance_checks", {})
+    if method not in checks:
+        role = "motion" if method == "Q" else "measurement"
+        checks[method] = CovarianceCheck(f"the {role} model {type(model).__name__}.{method}", model, method)
+    return checks[method]
 
 
 class MotionModel:
@@ -178,8 +189,16 @@ class MotionModel:
         >>> x.shape, bool(np.all(x[..., 1] == 0.0))
         ((1, 4, 2), True)
         """
-        mean = np.asarray(self.f(x, u, k), dtype=float)
-        Q = np.asarray(self.Q(x, u, k), dtype=float)
+        name = f"the motion model {type(self).__name__}"
+        mean = as_model_output(f"{name}.f", self.f(x, u, k))
+        if mean.shape != np.shape(x):
+            raise ValueError(f"{name}.f must return the shape of the states it moves, {np.shape(x)}; got {mean.shape}")
+        if not np.isfinite(mean).all():
+            raise ValueError(f"{name}.f returned a non-finite value at step {k}: check the model there")
+        Q = as_model_output(f"{name}.Q", self.Q(x, u, k))
+        if Q.shape[-2:] != (self.n, self.n):
+            raise ValueError(f"{name}.Q must return ({self.n}, {self.n}) matrices (the state size); got {Q.shape}")
+        _checked(self, "Q")(Q)                       # real, symmetric PSD: the checks the EKF engine makes
         return mean + gaussian_noise(psd_sqrt(Q), rng, mean.shape)
 
 
@@ -235,6 +254,19 @@ class MeasurementModel:
     #: :math:`G \Sigma G^\mathsf{T}` of checked variances): the filters do not check them again at each step. A model
     #: of your own leaves it False, and the engine checks every new covariance it returns.
     covariances_checked: bool = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A subclass that overrides ``h`` and inherits a library ``linearize`` (which computes the prediction and
+        the Jacobian together, without calling ``h``) gets a ``linearize`` that predicts with its own ``h``: an
+        override is never silently left out of the EKF."""
+        super().__init_subclass__(**kwargs)
+        inherited = cls.linearize
+        if "h" in cls.__dict__ and "linearize" not in cls.__dict__ and inherited is not MeasurementModel.linearize:
+            def linearize(self: Any, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                _, H, defined = inherited(self, x, k)
+                return self.h(x, k), H, defined
+            linearize.__doc__ = inherited.__doc__
+            cls.linearize = linearize                  # type: ignore[method-assign]
     #: True for a model whose measurements are ranges, never negative (NaN where missing); the engine's ``run``
     #: and ``extended_kalman_filter`` then refuse a negative one by name. Set it on a range model of your own.
     nonnegative: bool = False
@@ -312,8 +344,14 @@ class MeasurementModel:
         >>> z.shape, bool(abs(z[0, 0] - 5.0) < 8.0)
         ((1, 1), True)
         """
-        mean = np.asarray(self.h(x, k), dtype=float)
-        return mean + gaussian_noise(psd_sqrt(np.asarray(self.R(x, k), dtype=float)), rng, mean.shape)
+        name = f"the measurement model {type(self).__name__}"
+        mean = as_model_output(f"{name}.h", self.h(x, k))
+        R = as_model_output(f"{name}.R", self.R(x, k))
+        if R.shape[-2:] != (self.m, self.m):
+            raise ValueError(f"{name}.R must return ({self.m}, {self.m}) matrices (the measurement size); got "
+                             f"{R.shape}")
+        _checked(self, "R")(R)
+        return mean + gaussian_noise(psd_sqrt(R), rng, mean.shape)
 
 
 class ModelPair:

@@ -43,7 +43,7 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     Parameters
     ----------
     positions : ndarray, shape (..., 2)
-        Horizontal positions :math:`p`.
+        Horizontal positions :math:`p` (finite: a missing position has no line of sight).
     beacon : ndarray, shape (2,) or broadcastable to ``positions``
         Beacon positions :math:`b`.
 
@@ -65,11 +65,9 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     (array([5., 0.]), array([[0.6, 0.8],
            [0. , 0. ]]), array([ True, False]))
     """
-    positions = as_float_array("positions", positions, nonempty=True)
+    positions = as_finite("positions", positions, nonempty=True, max_abs=MAX_COORDINATE)
     if positions.ndim < 1 or positions.shape[-1] != 2:
         raise ValueError(f"positions must have shape (..., 2) (x, y); got {positions.shape}")
-    if np.isinf(positions).any():
-        raise ValueError("positions must be finite (a NaN position gives NaN); got an infinite value")
     beacon = as_finite("beacon", beacon, max_abs=MAX_COORDINATE)
     if beacon.ndim < 1 or beacon.shape[-1] != 2:
         raise ValueError(f"beacon must have shape (2,) or (..., 2); got {beacon.shape}")

@@ -20,6 +20,7 @@ from .. import lsq
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
 from ..filters.base import FilterResult
 from ..filters.bias import bias_ekf, bias_model_pair
+from ..filters._packed import range_variances
 from .staggered import filter_from_start_epochs
 
 __all__ = ["prepositioned_bias_ekf"]
@@ -135,7 +136,7 @@ def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, d
     a_max = float(as_positive("max_alpha", max_alpha, ndim=0))
     steps = as_int("iterations", iterations, minimum=1)
     bias_model_pair(Q, R, b)                                      # validates Q and R before any work
-    R = float(R)
+    R = range_variances(R)                                         # a float from 4.0, [[4.0]] or its array
     if P0 is not None:
         P0 = as_covariance("P0", P0, 3)
         if P0.shape not in ((3, 3), (M, 3, 3)):

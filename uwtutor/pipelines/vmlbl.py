@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import lsq
+from ..lsq.virtual_baseline import check_slant_ranges
 from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_range_array, as_rng,
                          as_scalar, check_work)
 from ..errors import IllConditionedWarning, warn as _warn
@@ -218,6 +219,7 @@ def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: A
     shipb = np.broadcast_to(ship, (M, K, 2))
     drb = np.broadcast_to(dr, (M, K, 2))
     h = as_scalar("depth", depth, domain="nonnegative", high=MAX_COORDINATE)   # below the surface: h >= 0
+    check_slant_ranges("ranges", rb, h)                     # the measured ones, before any preprocessing
     steps = step_lengths(K, dt, times)
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
     if preprocess:

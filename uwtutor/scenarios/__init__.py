@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import (as_finite, as_flag, as_float_array, as_int, as_point, as_range_array, as_rng, as_scalar,
-                         as_times, check_work, readonly)
+from .._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_point, as_range_array,
+                         as_rng, as_scalar, as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
 from ..ranging import (GaussianNoise, Outliers, RangeErrorModel, SlowBias, SoundSpeedMismatch, measure_ranges,
                        reception_times)
@@ -166,6 +166,8 @@ class Scenario:
         t = as_times("times", self.times)
         pos = as_finite("true_positions", self.true_positions, shape=(None, None, 2))
         m, k = pos.shape[:2]
+        if m == 0:
+            raise ValueError(f"true_positions has no runs (shape {pos.shape}): a scenario holds at least one run")
         if k != len(t):
             raise ValueError(f"true_positions must have one position per epoch: {k} along axis 1, times has {len(t)}")
         arrays = {
@@ -300,10 +302,16 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
                     outlier_mask=mask)
 
 
+#: Floats a scenario holds per epoch and run (track, velocity, DR, range, error parts): the unit of its work guard.
+_FLOATS_PER_EPOCH = 16
+
+
 def _epochs(duration: float, interval: float, interval_name: str = "interval") -> np.ndarray:
     """0, interval, 2 interval, ... up to and including ``duration`` (when it is a multiple)."""
     count = duration / interval + 1e-9
-    check_work(f"duration / {interval_name}", count, "epochs")
+    # a work guard counted in floats, before anything is computed: every epoch holds a track point, its velocity,
+    # the DR, the range and its error parts, for every run (about 16 floats)
+    check_work(f"duration / {interval_name}", _FLOATS_PER_EPOCH * count, "floats (16 per epoch)")
     n = int(np.floor(count)) + 1
     return interval * np.arange(n)
 
@@ -365,7 +373,8 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     """
     times = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("interval", interval, domain="positive"))
-    track = circle_track(times, radius, speed, center=center, start_angle=-np.pi / 2)
+    track = circle_track(times, radius, as_scalar("speed", speed, domain="positive"), center=center,
+                         start_angle=-np.pi / 2)
     g = as_scalar("gamma", gamma)
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
@@ -442,9 +451,12 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     pings = _epochs(as_scalar("duration", duration, domain="positive"),
                     as_scalar("ping_interval", ping_interval, domain="positive"), "ping_interval")
     turn = as_scalar("turn_time", turn_time)
-    true_speed = as_scalar("true_speed", true_speed, domain="positive")
+    # a sound speed in water (about 1400-1600 m/s): a tiny one would put the receptions beyond float64's range
+    true_speed = as_scalar("true_speed", true_speed, low=1000.0, high=2000.0)
     noise_sigma = as_scalar("noise_sigma", noise_sigma, domain="nonnegative")
     psi = as_finite("headings", headings, shape=(2,))
+    start = as_finite("start", start, shape=(2,), max_abs=MAX_COORDINATE)
+    speed = as_scalar("speed", speed, domain="positive")
     # A track sampled at the pings and the turn is exact under linear interpolation (straight legs between
     # samples) and beyond its end (extrapolated along the last leg): the reception-time iteration can use it.
     path = turning_track(np.union1d(pings, [turn]), start, speed, psi, [turn])

@@ -174,6 +174,7 @@ class PaperAParameters:
 
     def __post_init__(self) -> None:
         as_int("n_obs", self.n_obs, minimum=2)
+        check_work("n_obs", self.n_obs, "epochs")          # before the times are built
         if self.track not in ("turns", "circle"):
             raise ValueError(f'track must be "turns" or "circle"; got {self.track!r}')
         for name in ("interval", "radius", "speed", "leg_time", "noise_variance", "bias_time_constant"):
@@ -376,7 +377,12 @@ def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParam
     total = as_scalar("total_sigma", total_sigma, domain="nonnegative")
     base = PaperAParameters(bias_mean=0.0) if params is None else _as_params(params)
     r_bar = base.radius if mean_range is None else as_scalar("mean_range", mean_range, domain="positive")
-    return replace(base, bias_sigma=float(np.sqrt(s) * total), gamma_sigma=float(np.sqrt(1.0 - s) * total / r_bar))
+    gamma_sigma = float(np.sqrt(1.0 - s) * total / r_bar)
+    if not gamma_sigma < 0.1 / (1.0 + base.gamma):            # the bound PaperAParameters holds gamma_sigma to
+        raise ValueError(f"total_sigma = {total:g} m gives a range-proportional error of {gamma_sigma:.3g} of the "
+                         f"range at {r_bar:g} m (above the 10 % a sound-speed scatter can make): give a total_sigma "
+                         f"below {0.1 * r_bar / max(np.sqrt(1.0 - s), 1e-300):.3g} m, or a larger bias_share")
+    return replace(base, bias_sigma=float(np.sqrt(s) * total), gamma_sigma=gamma_sigma)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import (as_finite, as_flag, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar,
-                         check_work, readonly)
+from .._validate import (MAX_COORDINATE, as_finite, as_flag, as_instance, as_int, as_nonnegative, as_positive,
+                         as_rng, as_scalar, check_work, readonly)
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
 from ..acoustics import range_from_travel_time, travel_time_from_range
 from ..errors import deprecated_aliases
@@ -240,8 +240,8 @@ def matched_tuning(params: PaperBParameters | None = None, *, position_noise: fl
     p = PARAMETERS if params is None else as_instance("params", params, PaperBParameters)
     n = p.interval / p.dr_step
     dr = np.sqrt(n) * p.dr_step * max(p.dr_speed_sigma, p.speed * p.dr_heading_sigma)
-    q = as_scalar("position_noise", position_noise, domain="positive") ** 2
-    cu = as_scalar("current_noise", current_noise, domain="positive") ** 2
+    q = as_scalar("position_noise", position_noise, domain="positive", high=MAX_COORDINATE) ** 2
+    cu = as_scalar("current_noise", current_noise, domain="positive", high=MAX_COORDINATE) ** 2
     Q = np.diag([q, q, dr**2, dr**2, cu, cu])
     R = np.diag([2 * p.range_sigma**2] * 2 + [2 * p.leader_sigma**2] * 4 + [dr**2, dr**2, cu, cu])
     d = float(np.linalg.norm(np.asarray(p.initial_estimate[:2]) - np.asarray(p.follower_start)))
@@ -542,6 +542,8 @@ def make_followers(rng: np.random.Generator, n_runs: int, followers: Any, params
                    float(as_finite(f"followers[{i}] heading", heading, ndim=0))))
     if not fl:
         raise ValueError("followers must hold at least one (start, heading) pair")
+    # a work guard before anything is drawn: every run holds each follower's DR, ranges and truth at every step
+    check_work("n_runs", 16.0 * M * len(fl) * p.duration / p.dr_step, "floats (n_runs x followers x the steps)")
     return _simulate(rng, M, p, fl)
 
 

@@ -21,6 +21,7 @@ AUV based on the grey particle filter. *Journal of National University of Defens
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import asdict, dataclass, field
 from typing import Any, Sequence
 
@@ -108,7 +109,8 @@ class PaperCParameters:
         if not isinstance(self.wavelet, str):
             raise TypeError(f"wavelet must be the name of a PyWavelets wavelet, e.g. 'db6'; got "
                             f"{type(self.wavelet).__name__}")
-        as_wavelet(self.wavelet)
+        if importlib.util.find_spec("pywt") is not None:     # PyWavelets is optional until the GPF runs
+            as_wavelet(self.wavelet)
         # stored as read-only float arrays (the defaults already are; a list given by a user becomes one)
         object.__setattr__(self, "sensor_std", _readonly(as_positive("sensor_std", self.sensor_std, shape=(3,))))
         object.__setattr__(self, "process_std",

@@ -15,8 +15,9 @@ Each takes the model pair the generic EKF takes (``motion, measurement``; or one
 (``tests/test_filter_contract_pf.py``).
 """
 
-from .bootstrap import BootstrapParticleFilter, ParticleDegeneracyError
+from .bootstrap import BootstrapParticleFilter, ParticleCollapseWarning, ParticleDegeneracyError
 from .grey import GreyParticleFilter
 from .multiple_model import MultipleModelParticleFilter
 
-__all__ = ["BootstrapParticleFilter", "MultipleModelParticleFilter", "GreyParticleFilter", "ParticleDegeneracyError"]
+__all__ = ["BootstrapParticleFilter", "MultipleModelParticleFilter", "GreyParticleFilter", "ParticleDegeneracyError",
+           "ParticleCollapseWarning"]

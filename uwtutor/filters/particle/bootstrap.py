@@ -87,18 +87,42 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from ..._validate import (MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_nonnegative,
-                          as_rng, as_scalar, readonly)
+from ..._validate import (MAX_COORDINATE, CovarianceCheck, as_covariance, as_finite, as_float_array, as_int,
+                          as_model_output, as_nonnegative, as_rng, as_scalar, readonly)
+from ...errors import UwtutorWarning, warn
 from ...models.base import MeasurementModel, ModelPair, MotionModel
 from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
-from ..base import FilterResult
+from ..base import Configurable, FilterResult
 
-__all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError"]
+__all__ = ["BootstrapParticleFilter", "ParticleDegeneracyError", "ParticleCollapseWarning"]
 
 
 class ParticleDegeneracyError(RuntimeError):
     """Every particle got zero likelihood: the particle cloud has lost the measurement."""
+
+
+class ParticleCollapseWarning(UwtutorWarning):
+    """After an update one particle holds (almost) all the weight: the effective sample size fell below
+    :data:`COLLAPSE_ESS`, and the next resampling copies that particle ``N`` times. The estimate then rests on one
+    sample: the measurement lies far outside the predicted particles (a wrong ``z`` or ``R``, too little process
+    noise, too few particles)."""
+
+
+#: An effective sample size below this after an update is a collapse onto one particle (the largest weight is then
+#: above 0.995); when, in addition, even the best particle is more than ``sqrt(COLLAPSE_NIS)`` = 100 standard
+#: deviations from the measurement (its normalized innovation squared above ``COLLAPSE_NIS``), no particle explains
+#: the measurement at all and the filter warns with :class:`ParticleCollapseWarning`. (Sample degeneracy, chapter 6
+#: -- an SIS filter that never resamples, a cloud a few sigma off after a manoeuvre -- also ends on one particle, on
+#: one that still explains the data within tens of sigma: the effective sample size reports it, not a warning.)
+COLLAPSE_ESS = 1.01
+COLLAPSE_NIS = 1e4
+
+_COLLAPSE = ("the particle cloud collapsed onto one particle at step {k}{which}: effective sample size {ess:.3g} of "
+             "{N} particles, and the measurement lies more than 100 standard deviations from every predicted particle: "
+             "check z and the measurement "
+             "noise R, or give the filter more process noise, more particles or roughening (the estimate now rests "
+             "on one sample)")
 
 
 _LOST = ("every particle has zero likelihood for this measurement{which}: the particles have lost the track. Use more "
@@ -219,7 +243,7 @@ def _whitening(R: np.ndarray) -> tuple[np.ndarray, bool]:
     return (1.0 / np.sqrt(np.diag(R)) if diagonal else np.linalg.inv(np.linalg.cholesky(R)).T), diagonal
 
 
-class BootstrapParticleFilter:
+class BootstrapParticleFilter(Configurable):
     r"""Bootstrap (SIR) particle filter on a motion/measurement model pair, vectorized over its ``N`` particles and
     over ``M`` runs, with a pluggable resampler.
 
@@ -363,6 +387,11 @@ class BootstrapParticleFilter:
 
     #: Per-step outputs recorded by :func:`uwtutor.filters.base.run_filter` in ``FilterResult.extras``.
     extra_outputs: tuple[str, ...] = ("ess", "resampled")
+    # the configuration rule (base.Configurable): these take effect when assigned; the models and generators are
+    # fixed (a new state is given as particles or weights); y and S are read-only
+    _parameters: tuple[str, ...] = ("resampler", "ess_threshold", "roughening")
+    _fixed: tuple[str, ...] = ("motion", "measurement", "rng", "rngs", "n", "m")
+    _diagnostics: tuple[str, ...] = ("y", "S")
     result_type = FilterResult
 
     def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
@@ -381,14 +410,8 @@ class BootstrapParticleFilter:
         self.rngs = per_run_generators(rng, M)
         if weights is not None:
             self.weights = weights
-        if not callable(resampler):
-            raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {resampler!r}")
-        self.resampler = resampler
-        self.ess_threshold = as_scalar("ess_threshold", ess_threshold, domain="nonnegative")
-        self.roughening = as_scalar("roughening", roughening, domain="nonnegative")
-        if self.roughening > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
-            raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times the "
-                             f"spread of the particles); got {self.roughening:g}")
+        for name, value in (("resampler", resampler), ("ess_threshold", ess_threshold), ("roughening", roughening)):
+            self._apply(name, value)
         m = self.m
         self.k = -1
         self._y = np.full((M, m), np.nan)
@@ -404,6 +427,21 @@ class BootstrapParticleFilter:
 
     # --- the models -------------------------------------------------------------------------------------------------
 
+    def _apply(self, name: str, value: Any) -> None:
+        """Set ``resampler``, ``ess_threshold`` or ``roughening``, checked (the constructor's arguments; assigned
+        later, they take effect from the next update: base.Configurable)."""
+        if name == "resampler":
+            if not callable(value):
+                raise TypeError(f"resampler must be a function (weights, rng) -> indices; got {value!r}")
+        elif name == "ess_threshold":
+            value = as_scalar("ess_threshold", value, domain="nonnegative")
+        else:
+            value = as_scalar("roughening", value, domain="nonnegative")
+            if value > 10.0:      # the jitter is K times the cloud's spread: beyond 10 it is no posterior
+                raise ValueError(f"roughening must be at most 10 (Gordon et al.'s K, about 0.2: the jitter is K times "
+                                 f"the spread of the particles); got {value:g}")
+        object.__setattr__(self, name, value)
+
     @classmethod
     def _split_models(cls, first: Any, second: Any, rest: tuple[Any, ...]) -> tuple[Any, Any, tuple[Any, ...]]:
         """The motion model(s), the measurement model and the other leading arguments (a ModelPair may stand for
@@ -418,6 +456,8 @@ class BootstrapParticleFilter:
                              f"state has size {motion.n}: build both for the same state")
         self.motion, self.measurement = motion, measurement
         self.n, self.m = motion.n, measurement.m
+        # a user model's R is checked as the EKF engine checks it (real, symmetric PSD), once per distinct array
+        self._check_R = CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
         # the circular mean where the state has an angle (the model's difference wraps it)
         self._circular = type(motion).difference is not MotionModel.difference
         # the built-in Gaussian likelihood: computed here, with the whitening kept while R does not change
@@ -587,12 +627,12 @@ class BootstrapParticleFilter:
     @property
     def ess(self) -> Any:
         """Effective sample size after the last update (a float, or an (M,) array for a batch)."""
-        return self._ess.copy() if self._batched else float(self._ess[0])
+        return readonly(self._ess.copy()) if self._batched else float(self._ess[0])
 
     @property
     def resampled(self) -> Any:
         """Whether the last update resampled (a bool, or an (M,) array for a batch)."""
-        return self._resampled.copy() if self._batched else bool(self._resampled[0])
+        return readonly(self._resampled.copy()) if self._batched else bool(self._resampled[0])
 
     # --- moments ----------------------------------------------------------------------------------------------------
 
@@ -648,6 +688,11 @@ class BootstrapParticleFilter:
         """Move ``rows`` (R, n, count) with ``motion.sample`` (one Generator per run); returns new rows."""
         x = rows.swapaxes(-1, -2)
         new = motion.sample(x, u, k, rngs)
+        if type(motion).sample is not MotionModel.sample:     # a model's own draw (the default one checks itself)
+            new = as_model_output(f"the {name} model {type(motion).__name__}.sample", new)
+            if new.shape == x.shape and not _all(np.isfinite(new)):
+                raise ValueError(f"the {name} model {type(motion).__name__}.sample returned a non-finite particle at "
+                                 f"step {k}: check the model there")
         if getattr(new, "shape", None) != x.shape:
             raise ValueError(f"{name} model's sample ({type(motion).__name__}) must return particles of shape "
                              f"{x.shape}; got {np.shape(new)}")
@@ -684,13 +729,25 @@ class BootstrapParticleFilter:
         self._update(z.reshape(M, m))
 
     def _measurement_noise(self, x: np.ndarray, k: int) -> np.ndarray:
-        """The measurement noise covariance of this update: (m, m), (M, m, m) or (M, N, m, m)."""
-        return np.asarray(self.measurement.R(x, k), dtype=float)
+        """The measurement noise covariance of this update: (m, m), (M, m, m) or (M, N, m, m), checked."""
+        name = f"the measurement model {type(self.measurement).__name__}.R"
+        R = as_model_output(name, self.measurement.R(x, k))
+        m, (M, N) = self.m, x.shape[:2]
+        if R.shape not in ((m, m), (M, m, m), (M, N, m, m)):
+            raise ValueError(f"{name} must return shape ({m}, {m}), ({M}, {m}, {m}) or ({M}, {N}, {m}, {m}) for "
+                             f"{m} measurement value(s); got {R.shape}")
+        self._check_R(R)
+        return R
 
     def _log_weights(self, x: np.ndarray, hx: np.ndarray, z: np.ndarray, R: np.ndarray, k: int) -> np.ndarray:
         """Log-likelihood (M, N) of ``z`` (M, m) for the particles ``x`` (M, N, n) with predictions ``hx``."""
         if not self._gaussian:
-            return self.measurement.log_likelihood(x, z, k)
+            name = f"the measurement model {type(self.measurement).__name__}.log_likelihood"
+            logw = as_model_output(name, self.measurement.log_likelihood(x, z, k))
+            if logw.shape == self._w.shape and (_any(np.isnan(logw)) or _any(np.isposinf(logw))):
+                raise ValueError(f"{name} returned NaN or +inf: a log-likelihood is a real number or -inf (zero "
+                                 "likelihood)")
+            return logw
         if R.ndim == 2:                                   # one R for every run: whiten once while it stays
             key = R.tobytes()
             if key != self._white_key:
@@ -724,6 +781,8 @@ class BootstrapParticleFilter:
         # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
         view = self._rows_p.swapaxes(-1, -2)
         hx = self.measurement.h(view, k)
+        if hx is not view:
+            hx = as_model_output(f"the measurement model {type(self.measurement).__name__}.h", hx)
         if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
             raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
                              f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
@@ -750,7 +809,8 @@ class BootstrapParticleFilter:
         if M == 1 and none is None:                       # one run: the same arithmetic on its row
             top1 = np.maximum.reduce(logw[0])
             if not math.isfinite(top1):
-                raise ParticleDegeneracyError(_LOST.format(which=""))
+                raise self._lost(logw, "")
+            top = np.array([[top1]])
             w = logw - top1                               # a new array: the model's output is left alone
             np.exp(w, out=w)
             w /= np.add.reduce(w[0])
@@ -762,7 +822,7 @@ class BootstrapParticleFilter:
                 lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
             if lost is not None and _any(lost):
                 which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
-                raise ParticleDegeneracyError(_LOST.format(which=which))
+                raise self._lost(logw, which)
             if none is not None:
                 top = np.where(none[:, None], 0.0, top)
             w = logw - top                                # a new array: the model's output is left alone
@@ -777,6 +837,17 @@ class BootstrapParticleFilter:
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
+        # a collapse onto one particle because the measurement is far from every particle (an SIS filter that never
+        # resamples also ends on one particle, but on one that explains the data: that is not warned about)
+        collapsed = ess < COLLAPSE_ESS if none is None else (ess < COLLAPSE_ESS) & ~none
+        if w.shape[1] > 1 and _any(collapsed) and self._gaussian and R.ndim < 4:
+            collapsed &= top[:, 0] < -0.5 * COLLAPSE_NIS        # the best particle's own -NIS/2 (no constant)
+        else:
+            collapsed[:] = False
+        if _any(collapsed):
+            run = int(np.flatnonzero(collapsed)[0])
+            warn(_COLLAPSE.format(k=k, which=f" (run {run})" if self._batched else "", ess=float(ess[run]),
+                                  N=w.shape[1]), ParticleCollapseWarning)
         if self.ess_threshold >= 1.0:
             due = range(M) if none is None else np.flatnonzero(~none)
         else:
@@ -784,6 +855,14 @@ class BootstrapParticleFilter:
             due = np.flatnonzero(low if none is None else low & ~none)
         if len(due):
             self._resample(due)
+
+    def _lost(self, logw: np.ndarray, which: str) -> Exception:
+        """The error for an update where no particle has a likelihood: the model's fault when it made a NaN (an h
+        or R that is NaN there), else the cloud's (:class:`ParticleDegeneracyError`)."""
+        if _any(np.isnan(logw)):
+            return ValueError(f"the measurement model {type(self.measurement).__name__} gave NaN log-likelihoods at "
+                              f"step {max(self.k, 0)}{which} (its h or R is NaN there): check the model")
+        return ParticleDegeneracyError(_LOST.format(which=which))
 
     def _resample(self, runs: Any = None) -> None:
         """Draw ``N`` particles with the resampler in each of ``runs`` (all by default) and reset their weights
@@ -853,10 +932,10 @@ class BootstrapParticleFilter:
         part = copy.copy(self)
         for name in self._run_state:
             setattr(part, name, getattr(self, name)[block].copy())
-        part.rngs = self.rngs[block]
+        object.__setattr__(part, "rngs", self.rngs[block])        # fixed for users (base.Configurable), not here
         for name, model in self._models():
             if getattr(model, "n_runs", None) is not None:
-                setattr(part, name, model.select_runs(block))
+                object.__setattr__(part, name, model.select_runs(block))
         return part
 
     def _join(self, parts: Sequence["BootstrapParticleFilter"]) -> None:

@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..._validate import as_finite, as_flag, as_int, as_nonnegative, as_positive, as_scalar
+from ..._validate import (as_finite, as_flag, as_int, as_model_output, as_nonnegative, as_positive, as_scalar,
+                          check_model_covariance, readonly)
 from ...models.base import MeasurementModel, MotionModel
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
@@ -144,6 +145,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "noise_std", "grey_used", "grey_forecast")
+    # paper C's settings size the filter's buffers (windows, wavelet matrix, grey particles): fixed once built
+    _fixed = BootstrapParticleFilter._fixed + ("grey_fraction", "n_grey", "grey_window", "grey_std", "grey_offset",
+                                                "noise_window", "wavelet", "adapt_noise", "min_noise_std")
     _run_state = BootstrapParticleFilter._run_state + ("_noise_std", "_R_runs", "_whiten_runs", "_estimated",
                                                        "_history", "_grey_used", "_grey_forecast")
 
@@ -166,7 +170,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
             raise ValueError("GreyParticleFilter needs a measurement model that measures the state directly (h(x) = "
                              f"x, e.g. uwtutor.models.DepthSensors); got {type(measurement).__name__} with "
                              f"{getattr(measurement, 'm', '?')} measurements of {n} states")
-        R0 = np.asarray(measurement.R(probe, 0), dtype=float)
+        R0 = as_model_output(f"the measurement model {type(measurement).__name__}.R", measurement.R(probe, 0))
+        if R0.shape == (n, n):
+            check_model_covariance(f"the measurement model {type(measurement).__name__}.R", R0)
         if R0.shape != (n, n):
             raise ValueError(f"GreyParticleFilter starts from one R ({n}, {n}) for every run; the measurement "
                              f"model's R has shape {R0.shape}")
@@ -204,15 +210,15 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self._grey_used = np.zeros(M, dtype=bool)
         self._grey_forecast = np.full((M, n), np.nan)
 
-    noise_std = property(lambda self: self._out(self._noise_std).copy(),
+    noise_std = property(lambda self: readonly(self._out(self._noise_std).copy()),
                          doc="Sensor noise standard deviations used by the last update, (n,) or (M, n).")
-    grey_forecast = property(lambda self: self._out(self._grey_forecast).copy(),
+    grey_forecast = property(lambda self: readonly(self._out(self._grey_forecast).copy()),
                              doc="The last grey forecast, (n,) or (M, n) (NaN when none was made).")
 
     @property
     def grey_used(self) -> Any:
         """Whether the last ``predict`` drew grey particles (a bool, or an (M,) array for a batch)."""
-        return self._grey_used.copy() if self._batched else bool(self._grey_used[0])
+        return readonly(self._grey_used.copy()) if self._batched else bool(self._grey_used[0])
 
     def _grey_prediction(self) -> tuple[np.ndarray, np.ndarray]:
         """GM(1,1) one-step forecast (M, n) of every component from its last ``L`` measurements, and the mask

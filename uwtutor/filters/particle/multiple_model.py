@@ -122,6 +122,7 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     """
 
     extra_outputs = ("ess", "resampled", "mode_probabilities")
+    _fixed = BootstrapParticleFilter._fixed + ("motions", "transition")     # base.Configurable
     _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
     def __init__(self, motions: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
