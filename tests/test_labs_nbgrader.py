@@ -38,7 +38,7 @@ nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the te
 
 from uwtutor.exercises.cli import main  # noqa: E402
 from uwtutor.exercises.generate import CODE_STUB, list_lab_sources, write_lab_versions  # noqa: E402
-from uwtutor.exercises.labs import lab_parts  # noqa: E402
+from uwtutor_grader import lab_parts  # noqa: E402
 from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, total_points  # noqa: E402
 
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"

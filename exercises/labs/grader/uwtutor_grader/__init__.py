@@ -1,23 +1,31 @@
-"""The hidden tests of the course labs, computed inside the library so that a lab's feedback shows no answer.
+"""The hidden tests of uwtutor's course labs: the instructor's grader, never shipped to students.
 
-nbgrader's feedback shows every test cell as it is, hidden tests included. A hidden test that recomputed the
-reference in the cell would show the student the solution of the part they failed. So each hidden test (between the
-lab's ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` lines) is a call and an ``assert``::
+This package lives beside the lab sources (``exercises/labs/grader/`` of the repository and of uwtutor's sdist) and
+is installed by the instructor only (``pip install ./exercises/labs/grader``); uwtutor's wheel, which every student
+gets, carries neither it nor any reference value. nbgrader's feedback shows every test cell as it is, hidden tests
+included, so a hidden test that recomputed the reference in the cell would show the student the solution of the part
+they failed. Each hidden test (between the lab's ``### BEGIN HIDDEN TESTS`` and ``### END HIDDEN TESTS`` lines) is
+therefore a call and an ``assert``::
 
-    from uwtutor.exercises.labs import check_part
-    _verdict = check_part(LAB, PART, globals())       # e.g. check_part("bias_tracking_iekf", "C", globals())
+    from uwtutor_grader import check_part
+    _verdict = check_part(LAB, CHECK, globals())       # e.g. check_part("bias_tracking_iekf", "C", globals())
     assert _verdict, _verdict
 
 ``check_part`` reads the part's answers (and the lab's given data) from the notebook's namespace, computes the
-references with the library, and returns a ``Feedback``: correct, or the first check that fails, with a message that
+references with uwtutor, and returns a ``Feedback``: correct, or the first check that fails, with a message that
 names the answer, recognises the lab's common mistakes (those its instructor notes list) and hints at the cause,
-but never shows the expected value. The ``assert`` in the cell raises the ``AssertionError`` that nbgrader scores,
-from the cell itself, so the traceback shows only the call and the message.
+but never shows the expected value. A part with several steps is graded as several checks (``"B1"``, ``"B2"``),
+one test cell and its points each; a part that builds on an earlier answer is checked against the student's own
+earlier answer, so that one mistake is counted once.
+
+A lab whose grading needs a package that is not installed (``real_ranges_plaza`` needs ``gtsam``, which carries
+the Plaza logs) is not graded zero in silence: ``check_part`` raises ``LabDependencyMissing``, whose message says
+what to install, in the test cell and on the kernel's standard error, which ``nbgrader autograde`` shows in its log.
 
 Examples
 --------
 >>> import numpy as np
->>> from uwtutor.exercises.labs import check_part, lab_parts
+>>> from uwtutor_grader import check_part, lab_parts
 >>> lab_parts("range_error_budget")
 ('A', 'B', 'C', 'D', 'E')
 >>> cast = dict(
@@ -41,13 +49,14 @@ Examples
 from __future__ import annotations
 
 import importlib
+import sys
 from collections.abc import Mapping
 from typing import Any
 
-from ..feedback import Feedback
+from uwtutor.exercises.feedback import Feedback
 from ._common import run_part
 
-__all__ = ["check_part", "lab_parts", "LAB_NAMES"]
+__all__ = ["check_part", "lab_parts", "lab_requirements", "LabDependencyMissing", "LAB_NAMES"]
 
 #: The labs that have hidden tests here (one module each, named like the lab's folder).
 LAB_NAMES = ("bias_tracking_iekf", "cooperative_current", "depth_pf_vs_ekf", "ekf_consistency", "fading_sound_speed",
@@ -58,6 +67,50 @@ def _module(lab: Any) -> Any:
     if not isinstance(lab, str) or lab not in LAB_NAMES:
         raise ValueError(f"lab must be one of {', '.join(LAB_NAMES)}; got {lab!r}")
     return importlib.import_module(f"{__name__}.{lab}")
+
+
+class LabDependencyMissing(RuntimeError):
+    """The grading environment lacks a package a lab needs: grading it would give every student zero."""
+
+
+def lab_requirements(lab: str) -> dict[str, str]:
+    """The packages (beyond uwtutor's own dependencies) that grading ``lab`` needs, and how to install each.
+
+    Parameters
+    ----------
+    lab : str
+        The lab's name (its folder in ``exercises/labs/``).
+
+    Returns
+    -------
+    dict
+        Importable module name -> the ``pip install`` argument that brings it (empty when the lab needs nothing else).
+
+    Examples
+    --------
+    >>> lab_requirements("real_ranges_plaza")
+    {'gtsam': 'uwtutor[data]'}
+    >>> lab_requirements("ekf_consistency")
+    {}
+    """
+    return dict(getattr(_module(lab), "REQUIRES", {}))
+
+
+def _require(lab: str) -> None:
+    """Raise ``LabDependencyMissing`` (and say so on the kernel's standard error) if a package ``lab`` needs is
+    missing."""
+    for name, extra in lab_requirements(lab).items():
+        try:
+            importlib.import_module(name)
+        except ImportError as exc:
+            message = (f"cannot grade the lab {lab}: the package {name!r} is not installed in the grading "
+                       f"environment ({type(exc).__name__}: {exc}). Install it with pip install \"{extra}\" (or "
+                       f"\"uwtutor[instructor]\", which includes it) and autograde this lab again; every score of "
+                       f"this run of {lab} is void.")
+            # the test cell's output goes to the notebook; the kernel's own standard error reaches the terminal and
+            # the log of `nbgrader autograde`, which started the kernel
+            print(f"[uwtutor_grader] ERROR | {message}", file=sys.__stderr__, flush=True)
+            raise LabDependencyMissing(message) from None
 
 
 def lab_parts(lab: str) -> tuple[str, ...]:
@@ -110,6 +163,8 @@ def check_part(lab: str, part: str, namespace: Mapping[str, Any]) -> Feedback:
     ------
     ValueError
         If ``lab`` or ``part`` does not exist (a mistake in the test cell, not in the answer).
+    LabDependencyMissing
+        If a package the lab needs (``lab_requirements``) cannot be imported: grading is impossible here.
 
     Examples
     --------
@@ -130,4 +185,5 @@ def check_part(lab: str, part: str, namespace: Mapping[str, Any]) -> Feedback:
     module = _module(lab)
     if part not in module.PARTS:
         raise ValueError(f"part must be one of {', '.join(module.PARTS)} for the lab {lab}; got {part!r}")
+    _require(lab)
     return run_part(module.PARTS[part], namespace, f"part {part} of {lab}")
