@@ -347,7 +347,8 @@ def test_a_glossary_link_lands_on_its_entry(session):
             const o = document.querySelector('.jp-NotebookPanel:not(.lm-mod-hidden) .jp-WindowedPanel-outer');
             if (o.scrollTop < 4000) return {};
             const links = Array.from(document.querySelectorAll('.jp-MarkdownCell .myst a.hover-link[href^="#term-"]'))
-                .filter(a => { const r = a.getBoundingClientRect(); return r.top > 50 && r.bottom < innerHeight - 50; });
+                .filter(a => { const r = a.getBoundingClientRect();
+                               return r.top > 50 && r.bottom < innerHeight - 50; });
             if (!links.length) return {};
             links[0].click();
             return {href: links[0].getAttribute('href'), from: o.scrollTop};

@@ -1,5 +1,5 @@
-"""The labs' hidden tests (``uwtutor_grader``, the instructor's package beside the lab sources): they name the mistakes the instructor notes promise, and never
-show the answer.
+"""The labs' hidden tests (``uwtutor_grader``, the instructor's package beside the lab sources): they name the
+mistakes the instructor notes promise, and never show the answer.
 
 Each lab's solution is run in this process (its given and answer cells, solution markers taken out; not its test
 cells), then one answer at a time is replaced by a typical mistake and ``check_part`` must fail with the message the
@@ -389,8 +389,8 @@ def test_real_ranges_plaza_move_first_left_out():
     student = _with(lab, motion=motion, result_cal=result, rmse_cal=ns["rmse"](result.x))
     assert student["rmse_cal"] != pytest.approx(ns["rmse_cal"], rel=1e-3), "the mistake changes the RMSE"
     _fails_with(lab, "B1", 'order="move-first"` is left out', motion=motion)
-    _fails_with(lab, "B2", "default order of operations (turn-first)", **{k: student[k] for k in ("motion", "result_cal",
-                                                                                                 "rmse_cal")})
+    wrong_b = {k: student[k] for k in ("motion", "result_cal", "rmse_cal")}
+    _fails_with(lab, "B2", "default order of operations (turn-first)", **wrong_b)
     err = result.x[:, :2] - ns["truth"][:, :2]
     e = np.einsum("ki,ki->k", err, np.linalg.solve(result.P[:, :2, :2], err[..., None])[..., 0])
     lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
