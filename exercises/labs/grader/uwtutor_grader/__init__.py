@@ -49,6 +49,7 @@ Examples
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 from collections.abc import Mapping
 from typing import Any
@@ -107,10 +108,21 @@ def _require(lab: str) -> None:
                        f"environment ({type(exc).__name__}: {exc}). Install it with pip install \"{extra}\" (or "
                        f"\"uwtutor[instructor]\", which includes it) and autograde this lab again; every score of "
                        f"this run of {lab} is void.")
-            # the test cell's output goes to the notebook; the kernel's own standard error reaches the terminal and
-            # the log of `nbgrader autograde`, which started the kernel
-            print(f"[uwtutor_grader] ERROR | {message}", file=sys.__stderr__, flush=True)
+            _to_process_stderr(f"[uwtutor_grader] ERROR | {message}\n")
             raise LabDependencyMissing(message) from None
+
+
+def _to_process_stderr(line: str) -> None:
+    """Write ``line`` to the process's own standard error, past a Jupyter kernel's capture.
+
+    In a kernel, ``sys.stderr`` (and file descriptor 2) go to the notebook; ``sys.stderr.fileno()`` is a copy of the
+    kernel process's original standard error, inherited from whoever started the kernel: for ``nbgrader autograde``,
+    its own terminal and log. Outside a kernel it is descriptor 2.
+    """
+    try:
+        os.write(sys.stderr.fileno(), line.encode("utf-8", "replace"))
+    except (AttributeError, OSError, ValueError):    # no file descriptor (io.UnsupportedOperation is an OSError)
+        print(line, end="", file=sys.__stderr__, flush=True)
 
 
 def lab_parts(lab: str) -> tuple[str, ...]:
