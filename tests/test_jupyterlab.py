@@ -146,10 +146,11 @@ def _directives(text: str, names: str) -> list[str]:
     return [m.group("body") for m in pattern.finditer(text)]
 
 
-#: What jupyterlab-myst rendered (into a ``div.myst`` in place of each Markdown cell's editor).
+#: What jupyterlab-myst rendered (into a ``div.myst`` in place of each Markdown cell's editor; in the default
+#: windowing mode the cells do not carry ``jp-mod-rendered``, so the ``div.myst`` is what is counted).
 RENDERED_FACTS = r"""() => {
   const rendered = Array.from(document.querySelectorAll(
-      '.jp-NotebookPanel:not(.lm-mod-hidden) .jp-MarkdownCell.jp-mod-rendered .myst'));
+      '.jp-NotebookPanel:not(.lm-mod-hidden) .jp-MarkdownCell .myst'));
   const q = (sel) => rendered.flatMap(r => Array.from(r.querySelectorAll(sel)));
   const prose = rendered.map(r => {           // the text outside code and typeset math
     const copy = r.cloneNode(true);
