@@ -238,7 +238,7 @@ def _grader_lines() -> set[str]:
 
 
 def test_wheel_holds_no_grading_code(build):
-    """The hidden tests and the code computing their references stay with the instructor: no file of the wheel is,
+    """The hidden tests and the code computing their references stay with the instructor: no file of the wheel is or
     quotes the grader (naming it, as the READMEs do, is fine)."""
     wheel, sdist, _ = build
     secret = _grader_lines()
