@@ -429,8 +429,6 @@ EXEMPT_RULES: list[tuple[str, str]] = [
     ("uwtutor.exercises.cli:*", "command line: argv parsing, tested in tests/test_exercise_system.py"),
     ("uwtutor.exercises.generate:*", "file generation from notebooks: tested in tests/test_exercise_system.py"),
     ("uwtutor.exercises.nbgrader_meta:*", "notebook metadata: tested in tests/test_labs_nbgrader.py"),
-    ("uwtutor.exercises.labs:*", "the labs' hidden tests, called by the labs' own test cells on globals(); a bad lab, "
-                                 "part or namespace and answers of every kind: tests/test_lab_grading.py"),
     ("uwtutor.errors:*", "the warning helper: its message is library text, not user data"),
 ]
 
@@ -482,8 +480,6 @@ EXEMPT: dict[str, str] = {
                                            "roots and the filters' per-run generators, never with user data",
     "uwtutor.models.noise:gaussian_log_likelihood": "the particle filters' weighting kernel: called with the models' "
                                                     "own predictions and checked R, never with user data",
-    "uwtutor.exercises.labs.real_ranges_plaza:reference": "no arguments: the lab's reference values (three filters "
-                                                          "over Plaza 2, 5-10 s)",
 }
 
 

@@ -39,8 +39,11 @@ def test_adds_one_removed_cell_with_the_cited_terms_and_is_idempotent(tmp_path):
     assert tool.main([str(path)]) == 0
     nb = nbformat.read(path, as_version=4)
     assert len(nb.cells) == len(original.cells) + 1
-    assert [c.source for c in nb.cells[:-1]] == [c.source for c in original.cells], "no other cell is touched"
-    cell = nb.cells[-1]
+    at = tool.POSITION
+    assert [c.source for c in nb.cells[:at] + nb.cells[at + 1:]] == [c.source for c in original.cells], \
+        "no other cell is touched"
+    cell = nb.cells[at]
+    assert nb.cells[0].source == original.cells[0].source, "the chapter's title stays first"
     assert cell.cell_type == "markdown" and cell.metadata["tags"] == ["remove-cell"]
     cited = {tool._key(m.group(2) or m.group(1)) for c in original.cells if c.cell_type == "markdown"
              for m in re.finditer(r"\{term\}`([^`<]+?)(?:\s*<([^>]+)>)?`", c.source)}
@@ -58,7 +61,13 @@ def test_adds_one_removed_cell_with_the_cited_terms_and_is_idempotent(tmp_path):
     assert tool.main(["--check", str(path)]) == 1
     assert tool.main([str(path)]) == 0
     again = nbformat.read(path, as_version=4)
-    assert len(again.cells) == len(nb.cells) and "\nlong baseline\n" not in again.cells[-1].source
+    assert len(again.cells) == len(nb.cells) and "\nlong baseline\n" not in again.cells[at].source
+    # a chapter whose cell is still at the end (where the tool used to write it) gets it moved, not doubled
+    moved = nbformat.read(path, as_version=4)
+    moved.cells = moved.cells[:at] + moved.cells[at + 1:] + [moved.cells[at]]
+    nbformat.write(moved, path)
+    assert tool.main(["--check", str(path)]) == 1 and tool.main([str(path)]) == 0
+    assert nbformat.read(path, as_version=4) == again
 
 
 CHAPTERS = sorted((REPO / "book").glob("ch[0-9][0-9]_*.ipynb"))
@@ -78,13 +87,14 @@ def test_every_chapter_carries_the_entries_of_the_terms_it_cites():
             assert not generated, f"{path.name} cites no term but has a glossary cell"
             continue
         with_terms += 1
-        assert generated == [len(nb.cells) - 1], f"{path.name}: one glossary cell, the last"
-        cell = nb.cells[-1]
+        assert generated == [tool.POSITION], f"{path.name}: one glossary cell, right after the first"
+        cell = nb.cells[tool.POSITION]
         assert cell.cell_type == "markdown" and "remove-cell" in cell.metadata["tags"], \
             "the HTML book must not show the cell (nor see a second definition of a term)"
         listed = {tool._key(line) for line in cell.source.split("```{glossary}")[1].split("\n")
                   if line and not line.startswith((":", " ", "`"))}
         assert listed == set(cited), path.name
         # the chapter's own text keeps its roles: the HTML still links each term to the glossary page
-        assert any("{term}`" in c.source for c in nb.cells[:-1] if c.cell_type == "markdown")
+        assert any("{term}`" in c.source for i, c in enumerate(nb.cells) if c.cell_type == "markdown"
+                   and i != tool.POSITION)
     assert with_terms >= 7

@@ -10,6 +10,12 @@ request that would leave 127.0.0.1 aborted and recorded (``benchmarks/jupyterlab
   markup (directive fences, ``:class: dropdown``, ``{cite}``, ``{term}``...) left in the rendered text.
 - The chapter's sound-speed widget, once its cell has run, redraws its figure when a slider moves.
 - In the student notebook a wrong answer to exercise 1.2 gets a ✘ with a hint, and the right one a ✔.
+- Every chapter opens with no "Cross reference target was not found" error for a glossary term or for a label of
+  the chapter itself, and a click on a term's link scrolls its entry into view.
+
+Every test runs twice: in JupyterLab's default windowing mode (no setting: what a student gets; "contentVisibility"
+in JupyterLab 4.5, which renders the cells as they come into view) and with windowing off ("none": every cell in
+the DOM at once).
 
 Screenshots go to ``_build/screenshots/jupyterlab-*.png``. Chromium or Playwright missing: the tests are skipped,
 unless CI=true, where they fail.
@@ -62,6 +68,9 @@ sys.modules[_spec.name] = lab                      # dataclasses look the module
 _spec.loader.exec_module(lab)
 
 _workspaces = itertools.count()
+#: JupyterLab's setting that chooses the windowing mode (benchmarks/jupyterlab_session.py turns it off).
+WINDOWING = "@jupyterlab/notebook-extension/tracker.jupyterlab-settings"
+CHAPTERS = sorted(p.name for p in (REPO / "book").glob("ch[0-9][0-9]_*.ipynb"))
 
 
 def _unavailable(reason: str):
@@ -76,20 +85,30 @@ def _screenshot(page, name: str) -> None:
     page.screenshot(path=str(SCREENSHOTS / f"jupyterlab-{name}.png"))
 
 
-@pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    """JupyterLab on a temporary root with a copy of chapter 1 and fresh student exercises; yields the session."""
+@pytest.fixture(scope="module", params=["default", "none"], ids=lambda mode: f"windowing-{mode}")
+def session(request, tmp_path_factory):
+    """JupyterLab on a temporary root with a copy of every chapter and fresh student exercises, in the windowing mode
+    of the parameter ("default": JupyterLab's own, no setting); yields the session."""
     root = tmp_path_factory.mktemp("jupyterlab-root")
     (root / "book").mkdir()
-    shutil.copy2(REPO / CHAPTER_PATH, root / CHAPTER_PATH)
+    for name in CHAPTERS:
+        shutil.copy2(REPO / "book" / name, root / "book" / name)
     command = Path(sys.executable).with_name("uwtutor")
     subprocess.run([str(command), "exercises", str(root / "my-work")], check=True, capture_output=True, text=True)
+    settings = {k: v for k, v in lab.LAB_SETTINGS.items() if k != WINDOWING}
+    if request.param != "default":
+        settings[WINDOWING] = {"windowingMode": request.param}
+    saved, lab.LAB_SETTINGS = lab.LAB_SETTINGS, settings      # read once, when the server starts
     try:
         with lab.lab_session(root, tmp_path_factory.mktemp("jupyterlab-work")) as s:
+            lab.LAB_SETTINGS = saved
+            s.windowing = request.param
             yield s
             assert not s.external, f"JupyterLab requested addresses off this machine: {sorted(set(s.external))}"
     except lab.Unavailable as exc:
         _unavailable(str(exc))
+    finally:
+        lab.LAB_SETTINGS = saved
 
 
 @pytest.fixture
@@ -127,10 +146,11 @@ def _directives(text: str, names: str) -> list[str]:
     return [m.group("body") for m in pattern.finditer(text)]
 
 
-#: What jupyterlab-myst rendered (into a ``div.myst`` in place of each Markdown cell's editor).
+#: What jupyterlab-myst rendered (into a ``div.myst`` in place of each Markdown cell's editor; in the default
+#: windowing mode the cells do not carry ``jp-mod-rendered``, so the ``div.myst`` is what is counted).
 RENDERED_FACTS = r"""() => {
   const rendered = Array.from(document.querySelectorAll(
-      '.jp-NotebookPanel:not(.lm-mod-hidden) .jp-MarkdownCell.jp-mod-rendered .myst'));
+      '.jp-NotebookPanel:not(.lm-mod-hidden) .jp-MarkdownCell .myst'));
   const q = (sel) => rendered.flatMap(r => Array.from(r.querySelectorAll(sel)));
   const prose = rendered.map(r => {           // the text outside code and typeset math
     const copy = r.cloneNode(true);
@@ -149,6 +169,20 @@ RENDERED_FACTS = r"""() => {
     mathErrors: q('.katex-error').map(e => e.textContent.slice(0, 80)),
   };
 }"""
+
+
+def _scroll_through(page, step: int = 700, pause_ms: int = 150) -> None:
+    """Scroll the open notebook to its end and back to the top, as a reader would: in JupyterLab's default windowing
+    mode a cell is rendered when it comes into view."""
+    for _ in range(300):
+        at_end = page.evaluate("""(step) => { const o = document.querySelector(
+            '.jp-NotebookPanel:not(.lm-mod-hidden) .jp-WindowedPanel-outer');
+            o.scrollTop += step; return o.scrollTop + o.clientHeight >= o.scrollHeight - 2; }""", step)
+        page.wait_for_timeout(pause_ms)
+        if at_end:
+            break
+    page.evaluate("""() => { document.querySelector('.jp-NotebookPanel:not(.lm-mod-hidden) .jp-WindowedPanel-outer')
+                             .scrollTop = 0; }""")
 
 
 def _settled_facts(page, markdown_cells: int, timeout_s: float = 60.0, interval_ms: int = 500) -> dict:
@@ -179,6 +213,7 @@ def test_chapter_renders_admonitions_folded_solutions_math_and_roles(open_page):
     assert all(":class: dropdown" in body for body in solutions), "a solution of chapter 1 is not folded in the HTML"
 
     page = open_page(CHAPTER_PATH)
+    _scroll_through(page)
     facts = _settled_facts(page, markdown_cells=len(_markdown_cells()))
     _screenshot(page, "chapter")
     assert facts["admonitions"] == len(admonitions)
@@ -252,3 +287,82 @@ def test_opening_a_student_notebook_does_not_mark_it_modified(open_page):
     assert state["kernelspec"]["display_name"] == "Python 3 (ipykernel)"
     assert state["dirty"] is False, "the student notebook is marked modified on opening"
     assert not open_page.errors, f"console errors: {open_page.errors}"
+
+
+# -- every chapter: references resolve, glossary links land ----------------------------------------------------------
+_LABEL = re.compile(r"^\((?P<a>[\w:.-]+)\)=\s*$|^:(?:label|name):\s*(?P<b>[\w:.-]+)\s*$", re.M)
+_MISSING = re.compile(r"Cross reference target was not found: ([^\n]+)")
+
+
+def _first_cell_terms(nb: nbformat.NotebookNode) -> set[str]:
+    """The glossary targets the chapter's first cell cites: rendered before any other cell, it may miss them once."""
+    first = nb.cells[0].source if nb.cells else ""
+    return {"term-" + " ".join((m.group(2) or m.group(1)).split()).casefold()
+            for m in re.finditer(r"\{term\}`([^`<]+?)(?:\s*<([^>]+)>)?`", first)}
+
+
+@pytest.mark.parametrize("chapter", CHAPTERS)
+def test_chapter_opens_without_reference_errors(session, chapter):
+    """No "Cross reference target was not found" for a glossary term (the chapter carries the entries of the terms
+    it cites, tools/chapter_glossaries.py, in its second cell so that they are parsed before the text that cites
+    them) or for a label the chapter defines itself. References to other pages (other chapters' labels, the
+    bibliography) cannot resolve in a single notebook: the README lists that difference from the HTML."""
+    nb = nbformat.read(REPO / "book" / chapter, as_version=4)
+    own_labels = {m.group("a") or m.group("b") for c in nb.cells if c.cell_type == "markdown"
+                  for m in _LABEL.finditer(c.source)}
+    messages: list[str] = []
+
+    def listen(message):
+        if message.type == "error":
+            messages.append(message.text)
+
+    session.context.on("console", listen)
+    try:
+        page = lab.open_notebook(session, f"book/{chapter}", workspace=f"test-{next(_workspaces)}")
+        _scroll_through(page)         # every cell rendered (and the references of the others resolved again)
+        page.wait_for_timeout(2000)
+        page.close()
+    finally:
+        session.context.remove_listener("console", listen)
+    missing = {target.strip() for text in messages for target in _MISSING.findall(text)}
+    excused_once = _first_cell_terms(nb)
+    terms = sorted(t for t in missing if t.startswith("term-") and t not in excused_once)
+    own = sorted(t for t in missing if t in own_labels)
+    if chapter.startswith("ch08") and own == ["sec-ch08-owtt"] and session.windowing == "default" and not terms:
+        pytest.xfail("chapter 8 cites its label sec-ch08-owtt (cell 4) long before the cell that defines it (cell 20) "
+                     "is rendered; the reference resolves once the reader gets there")
+    assert not terms, f"{chapter}: glossary terms unresolved in JupyterLab: {terms}"
+    assert not own, f"{chapter}: its own labels unresolved in JupyterLab: {own}"
+
+
+def test_a_glossary_link_lands_on_its_entry(session):
+    """A reader far down chapter 1 clicks a term: the term's entry (in the chapter's "Terms used" cell) is then in
+    view, not thousands of pixels away (where the browser had only estimated the cells' heights)."""
+    page = lab.open_notebook(session, CHAPTER_PATH, workspace=f"test-{next(_workspaces)}")
+    clicked: dict = {}
+    for _ in range(80):             # scroll down until a term's link is in view, far from the top
+        page.evaluate("""() => { document.querySelector('.jp-NotebookPanel:not(.lm-mod-hidden) .jp-WindowedPanel-outer')
+                                 .scrollTop += 600; }""")
+        page.wait_for_timeout(300)
+        clicked = page.evaluate("""() => {
+            const o = document.querySelector('.jp-NotebookPanel:not(.lm-mod-hidden) .jp-WindowedPanel-outer');
+            if (o.scrollTop < 4000) return {};
+            const links = Array.from(document.querySelectorAll('.jp-MarkdownCell .myst a.hover-link[href^="#term-"]'))
+                .filter(a => { const r = a.getBoundingClientRect();
+                               return r.top > 50 && r.bottom < innerHeight - 50; });
+            if (!links.length) return {};
+            links[0].click();
+            return {href: links[0].getAttribute('href'), from: o.scrollTop};
+        }""")
+        if clicked:
+            break
+    assert clicked, "no glossary link found below 4000 px in chapter 1"
+    page.wait_for_timeout(2000)
+    where = page.evaluate("""(href) => { const e = document.getElementById(decodeURIComponent(href.slice(1)));
+        if (!e) return null; const r = e.getBoundingClientRect(); return {top: r.top, bottom: r.bottom}; }""",
+                          clicked["href"])
+    _screenshot(page, f"glossary-link-{session.windowing}")
+    page.close()
+    assert where is not None, f"the entry {clicked['href']} is not in the page"
+    assert 0 <= where["top"] and where["bottom"] <= lab.VIEWPORT["height"], \
+        f"the entry {clicked['href']} is off screen after the click: {where}"

@@ -1,5 +1,5 @@
-"""The labs' hidden tests (``uwtutor.exercises.labs``): they name the mistakes the instructor notes promise, and never
-show the answer.
+"""The labs' hidden tests (``uwtutor_grader``, the instructor's package beside the lab sources): they name the
+mistakes the instructor notes promise, and never show the answer.
 
 Each lab's solution is run in this process (its given and answer cells, solution markers taken out; not its test
 cells), then one answer at a time is replaced by a typical mistake and ``check_part`` must fail with the message the
@@ -20,12 +20,14 @@ import matplotlib
 import nbformat
 import numpy as np
 import pytest
+from scipy import stats
 
 from uwtutor import acoustics, lsq
 from uwtutor.exercises.feedback import Feedback
 from uwtutor.exercises.generate import list_lab_sources
-from uwtutor.exercises.labs import LAB_NAMES, check_part, lab_parts
+from uwtutor_grader import LAB_NAMES, LabDependencyMissing, check_part, lab_parts
 from uwtutor.metrics import chi2_mean_bounds
+from uwtutor.models.bias import paper_a_process_noise
 
 matplotlib.use("Agg")
 
@@ -82,7 +84,7 @@ def test_hidden_tests_are_only_a_call_to_the_library(lab):
     for cell in nb.cells:
         for body in _HIDDEN.findall(cell.source):
             part = cell.metadata["nbgrader"]["grade_id"].split("_")[0]
-            assert body == (f"from uwtutor.exercises.labs import check_part\n"
+            assert body == (f"from uwtutor_grader import check_part\n"
                             f"_verdict = check_part(\"{lab}\", \"{part}\", globals())\n"
                             f"assert _verdict, _verdict\n"), f"{lab}: a hidden test does more than call check_part"
             parts.append(part)
@@ -229,18 +231,15 @@ def test_bias_tracking_iekf_mistakes():
     sx, sy = ns["sigma_x"], ns["sigma_y"]
     _fails_with(lab, "A", "not their sum", q_bias=sx**2 + sy**2)
     _fails_with(lab, "A", "averages the variances", q_bias=sx * sy)
-    summed = np.diag([sx**2, sy**2, sx**2 + sy**2])
-    for part in ("B", "C", "D"):
-        _fails_with(lab, part, "fix part A first", Q_a=summed)
     on_truth = lsq.precision_factor_history(ns["track"], ns["buoy"])
-    text = _fails_with(lab, "C", "*true* track", alpha_run0=on_truth, k_start_run0=int(np.argmax(on_truth < 2.0)))
+    text = _fails_with(lab, "C1", "*true* track", alpha_run0=on_truth, k_start_run0=int(np.argmax(on_truth < 2.0)))
     assert "provisional" in text
-    _fails_with(lab, "C", "`np.argmax` of an all-False array is 0", k_start_run0=0)
+    _fails_with(lab, "C1", "`np.argmax` of an all-False array is 0", k_start_run0=0)
     from uwtutor.filters import bias_ekf
 
     x0 = np.column_stack([ns["start_poor"], np.zeros(ns["n_runs"])])
     matched = bias_ekf(x0, ns["P0_good"], ns["dr"], ns["ranges"], ns["Q_a"], ns["R"], beacon=ns["buoy"])
-    _fails_with(lab, "C", "`np.eye(3)`", rmse_direct=ns["final_rmse"](matched))
+    _fails_with(lab, "C2", "`np.eye(3)`", rmse_direct=ns["final_rmse"](matched))
     _fails_with(lab, "D", "3 degrees of freedom", nees_bounds=chi2_mean_bounds(2, ns["n_runs"]))
     _fails_with(lab, "E", "α is infinite", alpha_radial=1e6)
 
@@ -312,25 +311,115 @@ def test_outlier_rejection_vmlbl_mistakes():
     _fails_with(lab, "D", "Use the filtered ranges", fix_errors=raw)
 
 
+def test_grader_doctests():
+    """The grader's own examples run (it is not under uwtutor/, whose doctests `make test` runs)."""
+    import doctest
+    import importlib
+
+    import uwtutor_grader
+
+    for name in ("", "._common", *(f".{lab}" for lab in LAB_NAMES if lab != "real_ranges_plaza")):
+        module = importlib.import_module(f"uwtutor_grader{name}")
+        result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+        assert result.failed == 0, f"{module.__name__}: {result.failed} doctest(s) failed"
+    assert uwtutor_grader.lab_requirements("real_ranges_plaza") == {"gtsam": "uwtutor[data]"}
+
+
+def test_a_missing_dependency_stops_grading_with_a_message(monkeypatch, capfd):
+    """Grading a lab whose package is missing raises (never a quiet zero) and says so on the process's stderr."""
+    monkeypatch.setitem(__import__("sys").modules, "gtsam", None)      # import gtsam -> ImportError
+    with pytest.raises(LabDependencyMissing, match=r"cannot grade the lab real_ranges_plaza: the package 'gtsam'.*"
+                                                   r"pip install \"uwtutor\[data\]\""):
+        check_part("real_ranges_plaza", "A", {})
+    assert "[uwtutor_grader] ERROR | cannot grade the lab real_ranges_plaza" in capfd.readouterr().err
+
+
+def test_bias_tracking_iekf_a_slip_in_a_costs_a_only():
+    """Parts B-D run on the student's own Q_a: the sum of the DR variances in A fails A and nothing else."""
+    lab = "bias_tracking_iekf"
+    ns = _solution(lab)
+    wrong = _with(lab)
+    wrong["Q_a"] = paper_a_process_noise(ns["sigma_x"], ns["sigma_y"], sigma_bias=float(np.sqrt(
+        ns["sigma_x"] ** 2 + ns["sigma_y"] ** 2)))
+    wrong["q_bias"] = float(wrong["Q_a"][2, 2])
+    run = dict(_student_runs(lab, wrong))
+    assert "Paper A's rule is the mean of the two DR variances" in _text(check_part(lab, "A", run))
+    for part in ("B", "C1", "C2", "D", "E"):
+        fb = check_part(lab, part, run)
+        assert fb, f"part {part}: {fb}"
+
+
+def _student_runs(lab: str, ns: dict) -> dict:
+    """Re-run the answer cells of ``lab`` after part A on ``ns`` (a student who carries part A's answer on)."""
+    import matplotlib.pyplot as plt
+
+    nb = nbformat.read(LABS_DIR / lab / f"{lab}.ipynb", as_version=4)
+    ns = dict(ns)
+    started = False
+    with contextlib.redirect_stdout(io.StringIO()), np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for index, cell in enumerate(nb.cells):
+            meta = cell.metadata.get("nbgrader", {})
+            if meta.get("grade_id") == "A_answer":
+                started = True
+                continue
+            if not started or cell.cell_type != "code" or (meta.get("grade") and not meta.get("solution")):
+                continue
+            source = "\n".join(line for line in cell.source.split("\n") if not _MARKER.match(line))
+            source = "\n".join(line for line in source.split("\n") if not re.match(r"^\w+ = None$", line))
+            exec(compile(source, f"{lab}[{index}]", "exec"), ns)
+            plt.close("all")
+    return ns
+
+
+def test_real_ranges_plaza_move_first_left_out():
+    """Leaving out order="move-first" in B is named in both of B's checks, and part D, computed from the student's
+    own result_cal, stays correct."""
+    lab = "real_ranges_plaza"
+    ns = _solution(lab)
+    from uwtutor.filters import extended_kalman_filter
+    from uwtutor.models import OdometryMotion
+
+    data = ns["data"]
+    dt = np.diff(data.times, prepend=data.times[0])
+    motion = OdometryMotion(0.01 + 0.02 * np.abs(data.odometry[:, 0]), 1e-3 * np.sqrt(dt) + 1e-9, gyro_bias=True,
+                            times=data.times, gyro_bias_walk=1e-4)                    # order left out
+    result = extended_kalman_filter(motion, ns["measurement"], ns["x0"], ns["P0"], data.odometry, ns["z"],
+                                    times=data.times, gate=ns["gate"])
+    student = _with(lab, motion=motion, result_cal=result, rmse_cal=ns["rmse"](result.x))
+    assert student["rmse_cal"] != pytest.approx(ns["rmse_cal"], rel=1e-3), "the mistake changes the RMSE"
+    _fails_with(lab, "B1", 'order="move-first"` is left out', motion=motion)
+    wrong_b = {k: student[k] for k in ("motion", "result_cal", "rmse_cal")}
+    _fails_with(lab, "B2", "default order of operations (turn-first)", **wrong_b)
+    err = result.x[:, :2] - ns["truth"][:, :2]
+    e = np.einsum("ki,ki->k", err, np.linalg.solve(result.P[:, :2, :2], err[..., None])[..., 0])
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
+    own = {**student, "nees_mean": float(np.mean(e)), "nees_inside": float(np.mean((e >= lo) & (e <= hi)))}
+    assert check_part(lab, "D1", own) and check_part(lab, "D2", own), "a correct D on the student's own filter"
+    assert check_part(lab, "C", own)
+
+
 def test_real_ranges_plaza_mistakes():
     lab = "real_ranges_plaza"
     ns = _solution(lab)
-    from uwtutor.exercises.labs import real_ranges_plaza as grader
+    from uwtutor_grader import real_ranges_plaza as grader
 
     ref = grader.reference()
     assert ns["s_cal"] == pytest.approx(ref["s_cal"], rel=1e-9) and ns["rmse_cal"] == pytest.approx(ref["rmse_cal"])
     r, d = ns["r_leg"], ns["d_leg"]
     _fails_with(lab, "A", "line with an offset", s_cal=np.polyfit(d, r, 1)[0])
     _fails_with(lab, "A", "mean of the ratios", s_cal=np.mean(r / d))
-    _fails_with(lab, "B", "filter with a scale state", rmse_cal=ns["rmse_est"])
+    _fails_with(lab, "B2", "filter with a scale state", rmse_cal=ns["rmse_est"])
+    _fails_with(lab, "B2", "raw ranges", rmse_cal=grader._rmse(grader._navigate(scale=False).x))
     _fails_with(lab, "C", "calibrated filter of part B", rmse_est=ns["rmse_cal"])
     _fails_with(lab, "C", "your calibrated scale", scale_end=ns["s_cal"])
-    _fails_with(lab, "D", "a percentage", nees_inside=100 * ns["nees_inside"])
-    _fails_with(lab, "B", "not a usable range scale", s_cal=float("nan"))
+    _fails_with(lab, "D2", "a percentage", nees_inside=100 * ns["nees_inside"])
+    _fails_with(lab, "D1", "the median", nees_mean=float(np.median(ns["nees_k"])))
+    _fails_with(lab, "B2", "not a usable range scale", s_cal=float("nan"))
     # a mistake in A is not counted again in B: the reference of B is run with the student's own scale
     affine = float(np.polyfit(d, r, 1)[0])
     assert not check_part(lab, "A", _with(lab, s_cal=affine))
-    fb = check_part(lab, "B", _with(lab, s_cal=affine, rmse_cal=grader._rmse(grader._calibrated(affine).x)))
+    fb = check_part(lab, "B2", _with(lab, s_cal=affine, rmse_cal=grader._rmse(grader._calibrated(affine).x)))
     assert fb, fb
 
 
@@ -351,7 +440,7 @@ def test_feedback_never_shows_the_expected_value():
     assert "expected" not in text and f"{ns['profile_speeds'][8]:.6g}" not in text
     lab = "bias_tracking_iekf"
     ns = _solution(lab)
-    text = _text(check_part(lab, "C", _with(lab, k_start_run0=ns["k_start_run0"] + 3)))
+    text = _text(check_part(lab, "C1", _with(lab, k_start_run0=ns["k_start_run0"] + 3)))
     assert str(ns["k_start_run0"]) not in text.replace(str(ns["k_start_run0"] + 3), "")
     lab = "depth_pf_vs_ekf"
     ns = _solution(lab)

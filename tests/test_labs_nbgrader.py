@@ -40,7 +40,7 @@ nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the te
 
 from uwtutor.exercises.cli import main  # noqa: E402
 from uwtutor.exercises.generate import CODE_STUB, list_lab_sources, write_lab_versions  # noqa: E402
-from uwtutor.exercises.labs import lab_parts  # noqa: E402
+from uwtutor_grader import lab_parts  # noqa: E402
 from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, total_points  # noqa: E402
 
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
@@ -81,6 +81,19 @@ MISTAKES = {
                           10.0, "Fit through the origin"),  # A only: B and D are checked with the student's s_cal
 }
 
+#: More typical mistakes, each a student of its own: (student, (grade_id, right, wrong), expected points, phrase).
+#: They are the instructor notes' cases where one slip must cost one part only.
+MORE_MISTAKES = {
+    "real_ranges_plaza": ("no_move_first", ("B_answer", ' order="move-first",', ""), 8.0,
+                          'order="move-first"` is left out'),    # B1 and B2 only; C and D (on its own filter) pass
+    "bias_tracking_iekf": ("summed_q", ("A_answer", "Q_a = paper_a_process_noise(sigma_x, sigma_y)",
+                                        "Q_a = paper_a_process_noise(sigma_x, sigma_y, sigma_bias=np.hypot(sigma_x, "
+                                        "sigma_y))  # the sum"),
+                           10.0, "not their sum"),               # A only: B-D run on the student's own Q_a
+}
+#: The grader's package (the instructor's; not in uwtutor's wheel), for the kernels nbgrader starts.
+GRADER_DIR = LABS_DIR / "grader"
+
 _SOLUTION_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
 
 
@@ -104,14 +117,31 @@ def _with_mistake(nb: nbformat.NotebookNode, grade_id: str, right: str, wrong: s
     return nb
 
 
-def _nbgrader(course: Path, *args: str) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
+def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None) -> subprocess.CompletedProcess:
+    """Run nbgrader in ``course``; its kernels import the grader (and ``first_on_path`` before anything else)."""
+    path = [str(GRADER_DIR), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
+    if first_on_path is not None:
+        path.insert(0, str(first_on_path))
+    env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""),
+               PYTHONPATH=os.pathsep.join(path))
     env.pop("JUPYTER_CONFIG_DIR", None)
     result = cpu_limits.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
                             text=True, cpu_seconds=900)
     assert result.returncode == 0, \
         f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return result
+
+
+def _answered_copy(copy_nb: nbformat.NotebookNode, solution: nbformat.NotebookNode) -> nbformat.NotebookNode:
+    """A student's copy (``uwtutor labs``) with every answer cell filled in as the solution fills it."""
+    answers = {c.metadata["nbgrader"]["grade_id"]: c.source for c in solution.cells
+               if c.metadata.get("nbgrader", {}).get("solution")}
+    nb = copy.deepcopy(copy_nb)
+    for cell in nb.cells:
+        grade_id = cell.metadata.get("nbgrader", {}).get("grade_id")
+        if grade_id in answers:
+            cell.source = answers[grade_id]
+    return nb
 
 
 def _grade_all(course: Path) -> dict:
@@ -128,6 +158,8 @@ def _grade_all(course: Path) -> dict:
     for lab in LABS:
         shutil.copytree(LABS_DIR / lab, course / "source" / lab)
     _nbgrader(course, "generate_assignment", "*")     # every folder of source/ (one assignment each)
+    copies = course.parent / "uwtutor-labs-copies"       # what `uwtutor labs DIR` gives a student
+    assert main(["labs", str(copies)]) == 0
     for lab, notebooks in LABS.items():
         (right_id, right, wrong), _, _ = MISTAKES[lab]
         for path in notebooks:
@@ -137,7 +169,12 @@ def _grade_all(course: Path) -> dict:
                               for c in source.cells)
             submissions = {"solution": _solution_version(source), "blank": released,
                            "wrong": _with_mistake(source, right_id, right, wrong) if has_mistake
-                           else _solution_version(source)}
+                           else _solution_version(source),
+                           "copy": _answered_copy(nbformat.read(copies / lab / path.name, as_version=4),
+                                                  _solution_version(source))}
+            if lab in MORE_MISTAKES:
+                student, (grade_id, right_text, wrong_text), _, _ = MORE_MISTAKES[lab]
+                submissions[student] = _with_mistake(source, grade_id, right_text, wrong_text)
             for student, nb in submissions.items():
                 folder = course / "submitted" / student / lab
                 folder.mkdir(parents=True, exist_ok=True)
@@ -148,7 +185,9 @@ def _grade_all(course: Path) -> dict:
     with nbgrader_api.Gradebook(f"sqlite:///{course / 'gradebook.db'}") as gradebook:
         for lab, notebooks in LABS.items():
             scores: dict = {}
-            for student in ("solution", "blank", "wrong"):
+            students = ["solution", "blank", "wrong", "copy"] + ([MORE_MISTAKES[lab][0]] if lab in MORE_MISTAKES
+                                                                  else [])
+            for student in students:
                 auto = maximum = 0.0
                 manual_pending = 0
                 for path in notebooks:
@@ -162,6 +201,16 @@ def _grade_all(course: Path) -> dict:
                 scores[student] = {"auto": auto, "max": maximum, "manual_pending": manual_pending}
             results[lab] = {"course": course, "scores": scores}
     results["_autograde_log"] = autograde.stdout + autograde.stderr
+    # the grading environment without gtsam: a stand-in package that fails to import, first on the kernels' path
+    missing = course.parent / "without-gtsam"
+    (missing / "gtsam").mkdir(parents=True)
+    (missing / "gtsam" / "__init__.py").write_text("raise ImportError('gtsam is not installed (test stand-in)')\n")
+    folder = course / "submitted" / "no_gtsam" / "real_ranges_plaza"
+    folder.mkdir(parents=True)
+    for path in LABS["real_ranges_plaza"]:
+        nbformat.write(_solution_version(nbformat.read(path, as_version=4)), folder / path.name)
+    no_gtsam = _nbgrader(course, "autograde", "real_ranges_plaza", "--student", "no_gtsam", first_on_path=missing)
+    results["_no_gtsam_log"] = no_gtsam.stdout + no_gtsam.stderr
     return results
 
 
@@ -216,6 +265,32 @@ def test_solution_gets_every_autograded_point(graded, lab):
 
 
 @pytest.mark.parametrize("lab", LABS)
+def test_a_uwtutor_labs_copy_answered_right_gets_every_point(graded, lab):
+    """A student who works in the copy `uwtutor labs` wrote (the wheel's copy is the same file: tests/test_wheel.py)
+    is graded by nbgrader like one who got nbgrader's release."""
+    scores = graded[lab]["scores"]["copy"]
+    assert scores["max"] > 0 and scores["auto"] == scores["max"], scores
+
+
+@pytest.mark.parametrize("lab", sorted(MORE_MISTAKES))
+def test_a_slip_costs_its_own_part_only(graded, lab):
+    student, _, expected, phrase = MORE_MISTAKES[lab]
+    scores = graded[lab]["scores"][student]
+    assert scores["auto"] == expected, f"{lab}: {student} got {scores['auto']} of {scores['max']}, not {expected}"
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        assert " ".join(html.unescape(phrase).split()) in _feedback_text(course, student, lab, path.stem)
+
+
+def test_a_missing_lab_dependency_is_an_error_in_the_log(graded):
+    """Autograding real_ranges_plaza where gtsam cannot be imported says so in nbgrader's own output, with what to
+    install, instead of a quiet zero."""
+    log = graded["_no_gtsam_log"]
+    assert "cannot grade the lab real_ranges_plaza: the package 'gtsam' is not installed" in log, log[-3000:]
+    assert 'pip install "uwtutor[data]"' in log
+
+
+@pytest.mark.parametrize("lab", LABS)
 def test_released_version_gets_no_point(graded, lab):
     assert graded[lab]["scores"]["blank"]["auto"] == 0.0, graded[lab]["scores"]["blank"]
 
@@ -266,14 +341,15 @@ def test_feedback_shows_no_answer(graded, lab):
             code = re.sub(r"\s+", "", text)       # highlighted code: every token in a tag of its own
             shown = [line for line in solution_lines if re.sub(r"\s+", "", line) in code]
             assert student == "wrong" or not shown, f"{lab}: the {student} feedback shows solution lines: {shown[:3]}"
-            assert "uwtutor/exercises" not in text and "site-packages" not in text, "a grader-side frame is shown"
+            assert "uwtutor_grader/" not in text and "uwtutor/exercises" not in text and "site-packages" not in text, \
+                "a grader-side frame is shown"
             assert f'_verdict=check_part("{lab}",' in code
             # every hidden test shown (in its cell, and in a traceback's context lines, which may stop inside it) is
             # the call and nothing else
             chunks = text.split("### BEGIN HIDDEN TESTS")[1:]
             assert len(chunks) >= len(lab_parts(lab))
-            calls = [f'fromuwtutor.exercises.labsimportcheck_part_verdict=check_part("{lab}","{part}",globals())'
-                     "assert_verdict,_verdict" for part in lab_parts(lab)]
+            calls = [re.sub(r"\d+", "", f'fromuwtutor_graderimportcheck_part_verdict=check_part("{lab}","{part}",'
+                                        'globals())assert_verdict,_verdict') for part in lab_parts(lab)]
             for chunk in chunks:
                 region = re.split(r"### END HIDDEN TESTS|\w+Error :|Traceback|Cell In", chunk)[0]
                 body = re.sub(r"\s+|\d+|---->", "", region)
@@ -325,7 +401,12 @@ def test_uwtutor_labs_writes_student_versions_and_never_clobbers(tmp_path, capsy
             text = "\n".join(c.source for c in student.cells)
             assert "BEGIN SOLUTION" not in text and "HIDDEN TESTS" not in text
             assert CODE_STUB[1] in text and "YOUR ANSWER HERE" in text
-            assert all("nbgrader" not in c.metadata for c in student.cells)
+            source = {c.metadata["nbgrader"]["grade_id"]: c.metadata["nbgrader"]
+                      for c in nbformat.read(path, as_version=4).cells if "nbgrader" in c.metadata}
+            copied = {c.metadata["nbgrader"]["grade_id"]: c.metadata["nbgrader"]
+                      for c in student.cells if "nbgrader" in c.metadata}
+            assert copied.keys() == source.keys(), "the copy keeps nbgrader's metadata"
+            assert all(copied[g].get("points") == source[g].get("points") for g in copied)
             assert all(not c.get("outputs") for c in student.cells if c.cell_type == "code")
     assert not (dest / "instructor-notes").exists(), "instructor notes are not a lab"
     mine = dest / "ekf_consistency" / "ekf_consistency.ipynb"

@@ -12,7 +12,9 @@ environment, from a directory outside the checkout, ``uwtutor exercises DIR`` an
 must write every student notebook, identical to what the checkout's generator makes, with no solution left in it.
 
 The wheel carries the student versions only: no file in it may hold a solution or hidden-test marker, a line of a
-solution or of a hidden test, or an instructor note (the sdist, for instructors, has the sources and the notes).
+solution or of a hidden test, or an instructor note (the sdist, for instructors, has the sources and the notes), and
+no grading code: no module of the instructor's grader (``exercises/labs/grader/uwtutor_grader``), no line of one, no
+``check_part``; a student's environment (the installed wheel) cannot import a grader.
 
 Last, what a student does (``pip install "uwtutor[lab]"``, then opens an exercise): the wheel is installed with its
 ``lab`` extra into a fresh virtual environment, offline, from a wheelhouse of the pinned versions
@@ -153,7 +155,8 @@ def test_wheel_carries_the_exercise_sources_and_the_metadata(build):
     with zipfile.ZipFile(wheel) as zf:
         for name in shipped:
             notebook = nbformat.reads(zf.read(prefix + name).decode("utf-8"), as_version=4)
-            assert notebook == make_student_version(SOURCES / name), f"{name} is not the generator's student version"
+            expected = make_student_version(SOURCES / name, nbgrader=name.startswith("labs/"))
+            assert notebook == expected, f"{name} is not the generator's student version"
     assert "uwtutor/__main__.py" in names and "uwtutor/py.typed" in names
     assert not any(n.startswith(("tests/", "exercises/", "benchmarks/", "book/")) for n in names)
     assert "License-Expression: MIT" in metadata
@@ -217,6 +220,60 @@ def test_wheel_holds_no_solution_hidden_test_or_instructor_note(build):
     assert not found, "the wheel gives students what is the instructor's:\n" + "\n".join(found[:20])
 
 
+GRADER = SOURCES / "labs" / "grader" / "uwtutor_grader"
+
+
+def _grader_lines() -> set[str]:
+    """The grader's own code lines (>= 30 characters; imports, comments and doctest lines out) that appear nowhere in
+    the library or in a notebook's given code, task text and visible tests: what only the grader says."""
+    public = "\n".join(p.read_text(encoding="utf-8") for p in (REPO / "uwtutor").rglob("*.py"))
+    notebooks = [p for p in SOURCES.rglob("*.ipynb") if ".ipynb_checkpoints" not in p.parts]
+    public += "\n".join(_REGION.sub("", c.source) for p in notebooks for c in nbformat.read(p, as_version=4).cells)
+    lines = set()
+    for module in GRADER.glob("*.py"):
+        for line in module.read_text(encoding="utf-8").split("\n"):
+            line = line.strip()
+            if len(line) >= 30 and not line.startswith(("from ", "import ", "#", '"""', ">>>", "...")) \
+                    and line not in public:
+                lines.add(line)
+    return lines
+
+
+def test_wheel_holds_no_grading_code(build):
+    """The hidden tests and the code computing their references stay with the instructor: no file of the wheel is or
+    quotes the grader (naming it, as the READMEs do, is fine)."""
+    wheel, sdist, _ = build
+    secret = _grader_lines()
+    assert len(secret) > 200, "the grader has changed shape: update this test"
+    found = []
+    with zipfile.ZipFile(wheel) as zf:
+        names = zf.namelist()
+        found += [f"{n}: a grader's file" for n in names
+                  if "uwtutor_grader" in n or "/grader/" in n or ("/labs/" in n and n.endswith(".py"))]
+        for name in names:
+            try:
+                text = zf.read(name).decode("utf-8")
+            except UnicodeDecodeError:
+                continue
+            found += [f"{name}: {word!r}" for word in ("check_part(", "def part_") if word in text]
+            found += [f"{name}: a line of the grader: {line[:70]!r}" for line in secret if line in text]
+    assert not found, "the wheel ships grading code:\n" + "\n".join(found[:20])
+    with tarfile.open(sdist) as tar:         # the instructor's distribution carries the grader
+        assert any(n.endswith("exercises/labs/grader/uwtutor_grader/real_ranges_plaza.py") for n in tar.getnames())
+
+
+def test_installed_wheel_cannot_grade(installed, tmp_path):
+    """A student's environment cannot pre-grade a lab: the grader and the old module of hidden tests are absent."""
+    python = installed / "bin" / "python"
+    probe = ("import importlib.util as u; print([m for m in ('uwtutor_grader', 'uwtutor.exercises.labs') "
+             "if u.find_spec(m) is not None])")
+    env = _clean_env()
+    proc = subprocess.run([str(python), "-c", probe], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                          env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]", proc.stdout
+
+
 def test_installed_package_is_the_wheel_not_the_checkout(installed, tmp_path):
     python = installed / "bin" / "python"
     proc = _run([str(python), "-c", "import uwtutor, uwtutor.exercises.generate as g; "
@@ -278,7 +335,9 @@ def test_installed_wheel_writes_the_labs(installed, tmp_path):
     for lab, notebooks in labs.items():
         for path in notebooks:
             student = nbformat.read(dest / lab / path.name, as_version=4)
-            assert student == make_student_version(path)
+            assert student == make_student_version(path, nbgrader=True)
+            assert any(c.metadata.get("nbgrader", {}).get("points") for c in student.cells), \
+                "a lab's copy carries nbgrader's metadata (without it autograde scores 0)"
     assert not (dest / "instructor-notes").exists()
 
 

@@ -7,12 +7,21 @@ on its own: a ``{term}`` whose entry is on another page is a dead link, and each
 not found: term-..." in the browser's console (16 to 23 per chapter). A MyST glossary *in the notebook* resolves
 them: the roles become links to the entries, with a preview on hover.
 
-So this tool writes, as the chapter's last cell, a Markdown cell "Terms used in this chapter" holding a MyST
+So this tool writes, as the chapter's second cell (right after the title and the introduction), a Markdown cell
+"Terms used in this chapter" holding a MyST
 ``{glossary}`` (definition-list syntax, which jupyterlab-myst reads) of every term the chapter's Markdown cites,
 copied from ``book/glossary.md`` (roles inside a definition turned into their text, so that they need no target of
 their own). The cell is tagged ``remove-cell``: myst-nb skips such a cell before parsing it, so the HTML book is
 unchanged and Sphinx never sees a second definition of a term. The cell is found again by its metadata
 (``uwtutor.generated == "glossary"``) and replaced, never duplicated; no other cell is touched.
+
+Why near the top and not at the end: JupyterLab's default windowing mode ("contentVisibility", and "full" and
+"defer" alike) renders the cells from the top as they come into view, and jupyterlab-myst resolves a reference only
+against cells it has already parsed. With the entries in the last cell, every rendering of an earlier cell logged
+"Cross reference target was not found: term-..." (156 messages for chapter 1 in one opening), and a click on a term
+scrolled towards an entry whose position the browser had only estimated, landing thousands of pixels away. In the
+second cell the entries are parsed before the text that cites them (only terms cited in the first cell itself can
+miss them, once) and a click scrolls to a cell whose place is known.
 
 ``--check`` writes nothing and exits 1 when a chapter's cell is missing or out of date (for a test).
 """
@@ -105,11 +114,16 @@ def glossary_cell(nb: nbformat.NotebookNode, entries: dict[str, tuple[str, str]]
     return cell
 
 
+#: Where the generated cell goes: after the chapter's first cell (its title and introduction).
+POSITION = 1
+
+
 def update(nb: nbformat.NotebookNode, entries: dict[str, tuple[str, str]]) -> bool:
-    """Put the generated cell at the end of ``nb`` (replacing an earlier one); return whether ``nb`` changed."""
+    """Put the generated cell after the first cell of ``nb`` (replacing an earlier one, wherever it is); return
+    whether ``nb`` changed."""
     old = [i for i, c in enumerate(nb.cells) if c.metadata.get("uwtutor") == MARK]
     new = glossary_cell(nb, entries)
-    if old and new is not None and old == [len(nb.cells) - 1] and nb.cells[-1].source == new.source:
+    if old and new is not None and old == [POSITION] and nb.cells[POSITION].source == new.source:
         return False
     if not old and new is None:
         return False
@@ -119,7 +133,7 @@ def update(nb: nbformat.NotebookNode, entries: dict[str, tuple[str, str]]) -> bo
             new["id"] = nb.cells[old[0]].get("id")
         elif nb.nbformat_minor >= 5:
             new["id"] = "uwtutor-terms"
-        kept.append(new)
+        kept.insert(min(POSITION, len(kept)), new)
     nb.cells = kept
     return True
 

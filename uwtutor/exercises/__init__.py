@@ -5,8 +5,8 @@
   common mistakes (a factor of 2, a wrong sign, a unit conversion, a transposed array, an exception in the student's
   code, a lower-case letter where the capital is asked);
 - ``uwtutor.exercises.ch01`` ...: the checkers of each chapter's exercises;
-- ``uwtutor.exercises.labs``: the hidden tests of the course labs (``check_part``), computed in the library so that
-  nbgrader's feedback shows a student what failed, never the answer;
+- the course labs' hidden tests are not here: they are the instructor's (the package ``uwtutor_grader`` beside the
+  lab sources, ``exercises/labs/grader/``), so that no student installation can compute a graded answer;
 - ``make_student_version``, ``write_student_versions``, ``list_exercise_sources``: turn the solution sources in the
   repository's ``exercises/`` directory into student versions (also the command ``uwtutor exercises DIR``).
 """

@@ -182,13 +182,17 @@ def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
     return nb, label
 
 
-def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
+def make_student_version(source_nb: Any, *, nbgrader: bool = False) -> nbformat.NotebookNode:
     """Make the student version of an exercise source notebook.
 
     Parameters
     ----------
     source_nb : nbformat.NotebookNode, dict, str or path
         The source notebook (with solutions), or the path of its file. It is not modified.
+    nbgrader : bool, default False
+        Keep each cell's ``nbgrader`` metadata (grade id, points, locked), and lock the cells nbgrader's release
+        locks (``editable``/``deletable`` false), as ``nbgrader generate_assignment`` would: what a lab's copy
+        needs so that ``nbgrader autograde`` finds its answer and test cells (a copy without it scores 0).
 
     Returns
     -------
@@ -198,7 +202,8 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
         ``### BEGIN HIDDEN TESTS`` ... ``### END HIDDEN TESTS`` region removed, and cells left empty by that
         dropped; outputs and execution counts cleared; notebook metadata reduced to ``kernelspec`` and
         ``language_info`` (for Python, as JupyterLab writes them: ``KERNELSPEC`` and ``python_language_info()``, so
-        that opening the notebook does not mark it modified), cell metadata to ``tags``.
+        that opening the notebook does not mark it modified), cell metadata to ``tags`` (and, with ``nbgrader``,
+        nbgrader's cell metadata).
 
     Raises
     ------
@@ -215,6 +220,12 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
     speed = None
     # YOUR CODE HERE
     raise NotImplementedError('not answered yet: ...')
+    >>> source.cells[0].metadata["nbgrader"] = {"grade_id": "A_answer", "solution": True,
+    ...     "grade": False, "locked": False, "schema_version": 3, "task": False}
+    >>> make_student_version(source, nbgrader=True).cells[0].metadata["nbgrader"]["grade_id"]
+    'A_answer'
+    >>> "nbgrader" in make_student_version(source).cells[0].metadata
+    False
     """
     nb, label = _read(source_nb)
     nb = copy.deepcopy(nb)
@@ -230,7 +241,17 @@ def make_student_version(source_nb: Any) -> nbformat.NotebookNode:
             cell.outputs = []
             cell.execution_count = None
         tags = cell.get("metadata", {}).get("tags")
+        grading = dict(cell.get("metadata", {}).get("nbgrader") or {}) if nbgrader else {}
         cell.metadata = nbformat.NotebookNode({"tags": list(tags)} if tags else {})
+        if grading:
+            grading.pop("checksum", None)           # autograde takes the checksums from its gradebook
+            cell.metadata["nbgrader"] = nbformat.NotebookNode(grading)
+            # nbgrader's LockCells: given and test cells cannot be edited or deleted, answer cells not deleted
+            if grading.get("locked") or (grading.get("grade") and not grading.get("solution")):
+                cell.metadata["editable"] = False
+                cell.metadata["deletable"] = False
+            elif grading.get("solution"):
+                cell.metadata["deletable"] = False
         cells.append(cell)
     nb.cells = cells
     kernelspec = dict(nb.metadata.get("kernelspec") or KERNELSPEC)
@@ -586,7 +607,9 @@ def write_lab_versions(labs_dir: str | os.PathLike[str] | None, dest_dir: str | 
                        overwrite: bool = False, names: Iterable[str] | None = None) -> WriteReport:
     """Write the student version of every lab into ``dest_dir/NAME/``, never clobbering existing files.
 
-    The student version of a lab notebook is made exactly as for the exercises (``make_student_version``); other
+    The student version of a lab notebook is made as for the exercises, with nbgrader's cell metadata kept
+    (``make_student_version(..., nbgrader=True)``), so that ``nbgrader autograde`` grades a copy made here exactly
+    as one released by ``nbgrader generate_assignment``; other
     files of a lab folder (data, figures) are copied as they are, also never over existing ones. Every notebook is
     converted before anything is written, so a malformed source writes nothing.
 
@@ -643,7 +666,8 @@ def write_lab_versions(labs_dir: str | os.PathLike[str] | None, dest_dir: str | 
     planned: list[tuple[Path, str | bytes]] = []
     for name, notebooks in labs.items():
         for nb_path in notebooks:
-            planned.append((Path(name) / nb_path.name, nbformat.writes(make_student_version(nb_path)) + "\n"))
+            planned.append((Path(name) / nb_path.name,
+                            nbformat.writes(make_student_version(nb_path, nbgrader=True)) + "\n"))
         for extra in sorted((directory / name).rglob("*")):
             relative = extra.relative_to(directory / name)
             if (extra.is_file() and extra.suffix != ".ipynb" and ".ipynb_checkpoints" not in relative.parts

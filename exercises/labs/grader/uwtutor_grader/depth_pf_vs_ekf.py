@@ -12,10 +12,10 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import stats
 
-from ...filters import BootstrapParticleFilter, DepthEKF, DepthSpeedPitchModel
-from ...resampling import effective_sample_size
-from ..checks import check_array, check_number
-from ..feedback import Feedback
+from uwtutor.filters import BootstrapParticleFilter, DepthEKF, DepthSpeedPitchModel
+from uwtutor.resampling import effective_sample_size
+from uwtutor.exercises.checks import check_array, check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, cached, call, fail
 
 __all__ = ["PARTS"]

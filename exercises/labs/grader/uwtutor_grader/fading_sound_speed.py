@@ -11,9 +11,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ...filters import fading_ekf, range_only_ekf
-from ..checks import check_number
-from ..feedback import Feedback
+from uwtutor.filters import fading_ekf, range_only_ekf
+from uwtutor.exercises.checks import check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, cached, fail
 
 __all__ = ["PARTS"]

@@ -12,9 +12,9 @@ from collections.abc import Iterator
 import numpy as np
 from scipy import optimize
 
-from ... import acoustics
-from ..checks import check_array, check_number
-from ..feedback import Feedback
+from uwtutor import acoustics
+from uwtutor.exercises.checks import check_array, check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, call, fail
 
 __all__ = ["PARTS"]

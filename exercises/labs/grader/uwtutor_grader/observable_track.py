@@ -11,10 +11,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ...motion import circle_track, lawnmower_track, s_turn_track, straight_track
-from ...observability import track_crlb
-from ..checks import check_number
-from ..feedback import Feedback
+from uwtutor.motion import circle_track, lawnmower_track, s_turn_track, straight_track
+from uwtutor.observability import track_crlb
+from uwtutor.exercises.checks import check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, call, fail
 
 __all__ = ["PARTS"]

@@ -12,11 +12,11 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ...filters import robust_range_kf
-from ...filters.robust import moment_gate_interval
-from ...lsq import virtual_beacon_lsq
-from ..checks import check_number
-from ..feedback import Feedback
+from uwtutor.filters import robust_range_kf
+from uwtutor.filters.robust import moment_gate_interval
+from uwtutor.lsq import virtual_beacon_lsq
+from uwtutor.exercises.checks import check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, cached, call, fail
 
 __all__ = ["PARTS"]

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..feedback import Feedback
+from uwtutor.exercises.feedback import Feedback
 
 
 #: Width the messages are wrapped at (nbgrader's feedback shows them in a fixed-width block).

@@ -10,10 +10,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ...filters import range_only_ekf
-from ...metrics import average_over_runs, chi2_mean_bounds, fraction_within, nees, nis
-from ..checks import check_array, check_number
-from ..feedback import Feedback
+from uwtutor.filters import range_only_ekf
+from uwtutor.metrics import average_over_runs, chi2_mean_bounds, fraction_within, nees, nis
+from uwtutor.exercises.checks import check_array, check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, call, cached, fail
 
 __all__ = ["PARTS"]

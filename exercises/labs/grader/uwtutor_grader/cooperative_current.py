@@ -11,11 +11,11 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from ...filters import cooperative_ekf
-from ...filters.cooperative import relative_track_deviation
-from ...observability import observability_rank
-from ..checks import check_array, check_number
-from ..feedback import Feedback
+from uwtutor.filters import cooperative_ekf
+from uwtutor.filters.cooperative import relative_track_deviation
+from uwtutor.observability import observability_rank
+from uwtutor.exercises.checks import check_array, check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, cached, fail
 
 __all__ = ["PARTS"]

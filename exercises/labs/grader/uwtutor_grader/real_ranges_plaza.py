@@ -2,14 +2,18 @@ r"""Hidden tests of the lab ``real_ranges_plaza`` (chapter 11): a mission rehear
 
 The lab treats the log as the rehearsal of an AUV mission: the truth is known on the first
 ``CALIBRATION_SECONDS`` only (a vehicle at the surface with GPS), the mission ranges to beacon ``BEACON`` alone,
-one range every ``PERIOD`` seconds (an acoustic modem's rate). The references are computed here with
-:func:`uwtutor.datasets.navigate`; parts B and D use the student's own calibrated scale, so that a mistake in part A
-is not counted again.
+one range every ``PERIOD`` seconds (an acoustic modem's rate). The references are computed here with uwtutor's
+pieces (part B, as its task lists them) and :func:`uwtutor.datasets.navigate` (part C). Each part is checked against
+the student's own earlier answers, so that one mistake is counted once: part B's filter with the student's ``s_cal``
+(part A), part D's NEES from the student's own ``result_cal`` (part B). Parts B and D are graded in two checks each
+(B1: the motion model, 1 point; B2: the filter's RMSE, 3 points; D1: the mean NEES, 2 points; D2: the fraction
+inside, 1 point).
 
 Recognised mistakes (the instructor notes list them): in A, a line with an offset, the mean of the ratios, or the
-whole log instead of the calibration leg; in B, the raw ranges (the scale not divided out) or part C's filter; in C,
-part B's filter, or the calibrated scale for the filter's own; in D, the NEES of the pose instead of the position,
-the median instead of the mean, a percentage instead of a fraction.
+whole log instead of the calibration leg; in B, the library's default order (``order="move-first"`` left out), the
+raw ranges (the scale not divided out) or part C's filter; in C, part B's filter, or the calibrated scale for the
+filter's own; in D, the NEES of the pose instead of the position, the median instead of the mean, a percentage
+instead of a fraction.
 """
 
 from __future__ import annotations
@@ -20,11 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_number
-from ..feedback import Feedback
+from uwtutor.exercises.checks import check_number
+from uwtutor.exercises.feedback import Feedback
 from ._common import Answers, cached, fail
 
-__all__ = ["PARTS", "reference", "SET", "BEACON", "PERIOD", "CALIBRATION_SECONDS"]
+__all__ = ["PARTS", "REQUIRES", "reference", "SET", "BEACON", "PERIOD", "CALIBRATION_SECONDS"]
+
+#: What grading this lab needs beyond uwtutor: the Plaza logs ship in GTSAM's wheel.
+REQUIRES = {"gtsam": "uwtutor[data]"}
 
 #: The log (Plaza 2), the mission's one beacon, its range period [s] and the calibration leg [s].
 SET, BEACON, PERIOD, CALIBRATION_SECONDS = 2, 1, 8.0, 60.0
@@ -32,7 +39,7 @@ SET, BEACON, PERIOD, CALIBRATION_SECONDS = 2, 1, 8.0, 60.0
 
 @lru_cache(maxsize=1)
 def _data() -> Any:
-    from ...datasets import plaza
+    from uwtutor.datasets import plaza
 
     return plaza(SET)
 
@@ -52,26 +59,31 @@ def _rmse(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((x[:, :2] - truth[:, :2]) ** 2, axis=1))))
 
 
-def _calibrated(s_cal: float) -> Any:
-    """The filter of part B: the scale ``s_cal`` divided out of the ranges, no scale state."""
-    from ...datasets import navigate
-    from ...datasets.study import without_scale
+def _calibrated(s_cal: float, order: str = "move-first") -> Any:
+    """The filter of part B, built from the pieces its task lists: the scale ``s_cal`` divided out of the ranges,
+    the state [x, y, heading, gyro bias] (``order`` is the task's, or the library's default for the mistake)."""
+    from uwtutor.filters import ChiSquareGate, ReacquiringGate, extended_kalman_filter
+    from uwtutor.models import BeaconRanges, OdometryMotion
 
-    return cached("real_ranges_plaza.calibrated", (float(s_cal),),
-                  lambda: navigate(without_scale(_data(), s_cal), [BEACON], min_period=PERIOD, scale=False))
+    def run() -> Any:
+        data = _data()
+        dt = np.diff(data.times, prepend=data.times[0])
+        motion = OdometryMotion(0.01 + 0.02 * np.abs(data.odometry[:, 0]), 1e-3 * np.sqrt(dt) + 1e-9,
+                                gyro_bias=True, times=data.times, order=order, gyro_bias_walk=1e-4)
+        measurement = BeaconRanges(data.beacon_positions([BEACON]), R=0.6**2, layout=motion.layout)
+        x0, P0 = motion.layout.initial_state(data.start, data.start_cov, gyro_bias=(0.0, 0.01))
+        z = data.ranges_on_epochs([BEACON], min_period=PERIOD) / s_cal
+        gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10)
+        return extended_kalman_filter(motion, measurement, x0, P0, data.odometry, z, times=data.times, gate=gate)
+
+    return cached("real_ranges_plaza.calibrated", (float(s_cal), order), run)
 
 
 def _navigate(**options: Any) -> Any:
-    from ...datasets import navigate
+    from uwtutor.datasets import navigate
 
     return cached("real_ranges_plaza.navigate", options,
                   lambda: navigate(_data(), [BEACON], min_period=PERIOD, **options))
-
-
-def _position_nees(result: Any) -> np.ndarray:
-    from ...datasets.study import nees
-
-    return nees(result.x, result.P, _data().truth, "position")
 
 
 def _s_cal_reference() -> float:
@@ -110,18 +122,39 @@ def part_a(ns: Answers) -> Iterator[Feedback]:
                             "of r = s d through the origin.")
 
 
-def part_b(ns: Answers) -> Iterator[Feedback]:
+_ORDER_HINT = ("The odometry of the Plaza logs moves, then turns: pass order=\"move-first\" to OdometryMotion (the "
+               "library's default is turn-first, chapter 11).")
+
+
+def part_b1(ns: Answers) -> Iterator[Feedback]:
+    motion = ns["motion"]
+    names = getattr(getattr(motion, "layout", None), "names", None)
+    if names != ("x", "y", "heading", "gyro_bias"):
+        yield fail(f"the state of `motion` is {names}, not [x, y, heading, gyro_bias].",
+                   hint="OdometryMotion(..., gyro_bias=True) and no scale: the scale is divided out of the ranges.")
+    order = getattr(motion, "order", None)
+    if order != "move-first":
+        yield fail(f"`motion` takes the steps in the order {order!r}: `order=\"move-first\"` is left out.",
+                   hint=_ORDER_HINT)
+    yield Feedback(True, "Correct.")
+
+
+def part_b2(ns: Answers) -> Iterator[Feedback]:
     s_cal, problem = _student_scale(ns)
     if problem is not None:
         yield problem
         return
+    mistakes = {_rmse(_calibrated(s_cal, order="turn-first").x): "That is the filter with the library's default "
+                "order of operations (turn-first): `order=\"move-first\"` is left out of OdometryMotion, and the "
+                "Plaza odometry moves, then turns.",
+                _rmse(_navigate(scale=False).x): "That is the filter on the raw ranges: divide them by your s_cal "
+                                                 "first.",
+                _rmse(_navigate().x): "That is the filter with a scale state (part C)."}
     yield check_number(ns["rmse_cal"], _rmse(_calibrated(s_cal).x), rtol=1e-4, name="rmse_cal", units="m",
-                       reveal_expected=False,
-                       common_mistakes={_rmse(_navigate(scale=False).x): "That is the filter on the raw ranges: "
-                                                                         "divide them by your s_cal first.",
-                                        _rmse(_navigate().x): "That is the filter with a scale state (part C)."},
+                       reveal_expected=False, common_mistakes=mistakes,
                        hint="Check the ranges (beacon 1, one per 8 s, divided by s_cal), the noise of each step, the "
-                            "initial state and the gate, and that the RMSE runs over every epoch.")
+                            "order of operations, the initial state and the gate, and that the RMSE runs over every "
+                            "epoch.")
 
 
 def part_c(ns: Answers) -> Iterator[Feedback]:
@@ -142,30 +175,52 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                        hint="The scale is the fifth state of [x, y, heading, gyro bias, scale]; take its last epoch.")
 
 
-def part_d(ns: Answers) -> Iterator[Feedback]:
+def _student_filter(ns: Answers) -> Any:
+    """The student's own part-B filter when it is a usable result (so that a mistake in B is not counted in D),
+    else the reference filter with the student's scale (or the reference scale)."""
+    result = ns.get("result_cal")
+    x, P = getattr(result, "x", None), getattr(result, "P", None)
+    K = len(_data().times)
+    try:
+        x, P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+        if x.ndim == 2 and x.shape[0] == K and x.shape[1] >= 2 and P.shape == (K, x.shape[1], x.shape[1]) \
+                and np.all(np.isfinite(x[:, :2])) and np.all(np.isfinite(P[:, :2, :2])):
+            return result
+    except (TypeError, ValueError):
+        pass
+    s_cal, problem = _student_scale(ns)
+    return _calibrated(_s_cal_reference() if problem is not None else s_cal)
+
+
+def _nees_of(result: Any, states: str) -> np.ndarray:
+    from uwtutor.datasets.study import nees
+
+    return nees(np.asarray(result.x, dtype=float), np.asarray(result.P, dtype=float), _data().truth, states)
+
+
+def part_d1(ns: Answers) -> Iterator[Feedback]:
+    result = _student_filter(ns)
+    e = _nees_of(result, "position")
+    mistakes = {float(np.median(e)): "That is the median; the task asks for the mean."}
+    if np.shape(result.x)[1] >= 3:
+        mistakes[float(np.mean(_nees_of(result, "pose")))] = ("That is the NEES of the pose [x, y, heading]; the "
+                                                               "task asks for the position [x, y] only.")
+    yield check_number(ns["nees_mean"], float(np.mean(e)), rtol=1e-4, name="nees_mean", reveal_expected=False,
+                       common_mistakes=mistakes,
+                       hint="The error of [x, y] against the truth and the 2 x 2 position block of your "
+                            "result_cal.P, at every epoch.")
+
+
+def part_d2(ns: Answers) -> Iterator[Feedback]:
     from scipy import stats
 
-    from ...datasets.study import nees
-
-    s_cal, problem = _student_scale(ns)
-    if problem is not None:
-        yield problem
-        return
-    calibrated = _calibrated(s_cal)
-    e = _position_nees(calibrated)
-    pose = nees(calibrated.x, calibrated.P, _data().truth, "pose")
+    e = _nees_of(_student_filter(ns), "position")
     lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
     inside = float(np.mean((e >= lo) & (e <= hi)))
-    yield check_number(ns["nees_mean"], float(np.mean(e)), rtol=1e-4, name="nees_mean", reveal_expected=False,
-                       common_mistakes={float(np.mean(pose)): "That is the NEES of the pose [x, y, heading]; the "
-                                                              "task asks for the position [x, y] only.",
-                                        float(np.median(e)): "That is the median; the task asks for the mean."},
-                       hint="The error of [x, y] against the truth and the 2 x 2 position block of the calibrated "
-                            "filter's P, at every epoch.")
     yield check_number(ns["nees_inside"], inside, rtol=1e-4, name="nees_inside", reveal_expected=False,
                        common_mistakes={100 * inside: "That is a percentage; the task asks for a fraction."},
                        hint="The two-sided 95 % interval of chi-square with 2 degrees of freedom, and the fraction "
-                            "of the epochs whose NEES lies in it.")
+                            "of the epochs of your result_cal whose NEES lies in it.")
 
 
 def reference() -> dict[str, float]:
@@ -189,7 +244,7 @@ def reference() -> dict[str, float]:
     """
     s_cal = _s_cal_reference()
     calibrated, estimated = _calibrated(s_cal), _navigate()
-    e = _position_nees(calibrated)
+    e = _nees_of(calibrated, "position")
     from scipy import stats
 
     lo, hi = stats.chi2.ppf([0.025, 0.975], 2)
@@ -198,4 +253,4 @@ def reference() -> dict[str, float]:
             "nees_inside": float(np.mean((e >= lo) & (e <= hi)))}
 
 
-PARTS = {"A": part_a, "B": part_b, "C": part_c, "D": part_d}
+PARTS = {"A": part_a, "B1": part_b1, "B2": part_b2, "C": part_c, "D1": part_d1, "D2": part_d2}
