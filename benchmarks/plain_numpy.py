@@ -175,3 +175,84 @@ def _assert_close(pairs: list[tuple[np.ndarray, np.ndarray]], rtol: float, what:
                                  f"(relative; allowed {rtol:g})")
         worst = max(worst, rel)
     return worst
+
+
+def generic_ekf(motion: Any, measurement: Any, x0: np.ndarray, P0: np.ndarray, u: np.ndarray | None,
+                z: np.ndarray) -> dict[str, np.ndarray]:
+    """``uwtutor.filters.extended_kalman_filter`` for **one run** (no gate): the model pair's own ``linearize`` for
+    f, F, Q and h, H, R (the models' arithmetic), then the engine's equations in the engine's order of operations
+    -- ``einsum`` on runs-last (n, n, 1) covariances, the masked update where some components of ``z`` are missing,
+    the Joseph form as written, symmetrized -- with no validation, no test of the values the models return and no
+    guard against a covariance that loses positive semi-definiteness.
+
+    ``x0`` (n,), ``P0`` (n, n), ``u`` (K, p) or None, ``z`` (K,) or (K, m) with NaN where missing. Returns the
+    step-major histories ``x``, ``x_prior`` (K, n), ``P``, ``P_prior`` (K, n, n), ``y`` (K, m), ``S`` (K, m, m), as
+    the engine's result holds them for an unbatched run.
+    """
+    n, m = motion.n, measurement.m
+    K = z.shape[0]
+    Z = z.reshape(K, 1, m)
+    eye = np.eye(n)
+    eye_m = np.eye(m)
+    out = {"x": np.empty((K, n)), "x_prior": np.empty((K, n)), "P": np.empty((K, n, n)),
+           "P_prior": np.empty((K, n, n)), "y": np.empty((K, m)), "S": np.empty((K, m, m))}
+    x = np.array(x0, dtype=float).reshape(1, n)
+    P = np.ascontiguousarray(np.asarray(P0, dtype=float).reshape(1, n, n).transpose(1, 2, 0))   # (n, n, 1)
+    for k in range(K):
+        # predict: x- = f(x, u), P- = F P F^T + Q, symmetrized
+        x, F, Q = motion.linearize(x, None if u is None else u[k], k)
+        if F.ndim == 2 and np.array_equal(F, eye):
+            P = P.copy()
+        elif F.ndim == 2:
+            P = np.einsum("ikm,jk->ijm", np.tensordot(F, P, axes=(1, 0)), F)
+        else:
+            Fc = np.ascontiguousarray(F.transpose(1, 2, 0))
+            P = np.einsum("ikm,jkm->ijm", np.einsum("ikm,kjm->ijm", Fc, P), Fc)
+        P += Q[:, :, None] if Q.ndim == 2 else np.ascontiguousarray(Q.transpose(1, 2, 0))
+        P += P.transpose(1, 0, 2)
+        P *= 0.5
+        out["x_prior"][k] = x[0]
+        out["P_prior"][k] = P[:, :, 0]
+        # update: S = H P- H^T + R, K = P- H^T S^-1, the Joseph form, with the missing components masked out
+        z_pred, H, _ = measurement.linearize(x, k)
+        z_pred = z_pred.reshape(1, m)
+        R = measurement.R(x, k)
+        zk = Z[k]
+        present = np.isfinite(zk)
+        has = present.any(axis=1)
+        if not np.isfinite(z_pred.sum() + H.sum() + R.sum()) or bool((has & ~present.all(axis=1)).any()):
+            H = np.where(present[:, :, None], H, 0.0)
+            R = np.where(present[:, :, None] & present[:, None, :], R, eye_m)
+            masked = True
+        else:
+            masked = False
+        Hc = np.ascontiguousarray(H.transpose(1, 2, 0))
+        Rc = R[:, :, None] if R.ndim == 2 else np.ascontiguousarray(R.transpose(1, 2, 0))
+        PHT = np.einsum("ikm,jkm->ijm", P, Hc)
+        S = np.einsum("ikm,kjm->ijm", Hc, PHT) + Rc
+        y = measurement.residual(zk, z_pred)
+        y_used = np.where(present, y, 0.0)
+        if m == 1:
+            gain = PHT / S[0, 0]
+        else:
+            gain = np.ascontiguousarray(np.swapaxes(np.linalg.solve(S.transpose(2, 0, 1),
+                                                                    PHT.transpose(2, 0, 1).swapaxes(-1, -2)),
+                                                    -1, -2)).transpose(1, 2, 0)
+            gain = np.ascontiguousarray(gain)
+        gain *= has
+        x = x + np.einsum("ijm,mj->mi", gain, y_used)
+        A = eye[:, :, None] - np.einsum("ikm,kjm->ijm", gain, Hc)
+        P = np.einsum("ikm,jkm->ijm", np.einsum("ikm,kjm->ijm", A, P), A)
+        P += np.einsum("ikm,jkm->ijm", np.einsum("ikm,kjm->ijm", gain, Rc), gain)
+        P += P.transpose(1, 0, 2)
+        P *= 0.5
+        out["x"][k] = x[0]
+        out["P"][k] = P[:, :, 0]
+        S = S.transpose(2, 0, 1)
+        if masked:
+            out["y"][k] = np.where(present, y, np.nan)[0]
+            out["S"][k] = np.where(present[:, :, None] & present[:, None, :], S, np.nan)[0]
+        else:
+            out["y"][k] = np.where(has[:, None], y, np.nan)[0]
+            out["S"][k] = np.where(has[:, None, None], S, np.nan)[0]
+    return out

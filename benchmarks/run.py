@@ -69,6 +69,8 @@ TARGETS = {
     "peak_memory_mb": ("<=", 500.0),
     "odometry_ekf_s": ("<=", 1.0),
     "navigate_plaza2_s": ("<=", 1.0),
+    "single_run_ratio": ("<=", 2.0),
+    "first_visit_ms": ("<=", 120.0),
     "pf_plaza2_s": ("<=", 10.0),
     "ekf_vs_numpy_ratio": ("<=", 1.2),
     "pf_vs_numpy_ratio": ("<=", 1.2),
@@ -223,6 +225,72 @@ def bench_ekf_vs_numpy(repeats: int) -> dict[str, Any]:
                                                           lambda: plain.range_only_ekf(*args), 3 * repeats)
     return {"ekf_vs_numpy_s": ours, "ekf_numpy_s": theirs, "ekf_vs_numpy_wall_ratio": ours / theirs,
             "ekf_vs_numpy_ratio": ours_cpu / theirs_cpu, "ekf_vs_numpy_max_rel_diff": max_rel}
+
+
+def _bit_for_bit(pairs: list[tuple[Any, Any]], what: str) -> None:
+    """Refuse a library output that is not exactly the plain-numpy reference's (NaN where it has NaN)."""
+    import numpy as np
+
+    for i, (a, b) in enumerate(pairs):
+        if not (np.shape(a) == np.shape(b) and np.array_equal(a, b, equal_nan=True)):
+            raise AssertionError(f"{what}: output {i} is not the plain-numpy reference's bit for bit")
+
+
+def bench_single_run(repeats: int) -> dict[str, Any]:
+    """One run (no Monte Carlo axis) of three filters against a plain-numpy loop doing the same arithmetic, the
+    outputs checked equal bit for bit first: the range-only EKF (``range_only_ekf`` against
+    ``plain_numpy.range_only_ekf``, 1500 steps), paper A's bias EKF (``bias_ekf``) and ``navigate``'s model pair
+    (odometry with a gyro bias and a range scale, ranges to four beacons, 4091 epochs; ``extended_kalman_filter``)
+    against ``plain_numpy.generic_ekf`` (the engine's equations with no checks). The CPU time per step of each and
+    the ratio, interleaved as in ``interleaved_best``; the goal is a ratio of at most 2."""
+    import numpy as np
+
+    from uwtutor.filters import bias_ekf, extended_kalman_filter, range_only_ekf
+    from uwtutor.filters.bias import bias_model_pair
+
+    plain = _plain_numpy()
+    out: dict[str, Any] = {}
+    study = ekf_study_inputs(M=1)
+    x0, P0, u, z, Q, R = (study[k] for k in ("x0", "P0", "u", "z", "Q", "R"))
+    Qb = np.diag([Q[0, 0], Q[1, 1], 0.01])
+    x0b = np.append(x0[0], 0.0)
+    odo = odometry_inputs()
+    cases = {
+        "range_only": (lambda: range_only_ekf(x0[0], P0, u[0], z[0], Q, R),
+                       lambda: plain.range_only_ekf(x0, P0, u, z, Q, R), z.shape[1]),
+        "bias": (lambda: bias_ekf(x0b, np.eye(3) * 400.0, u[0], z[0], Qb, R),
+                 lambda: plain.generic_ekf(*bias_model_pair(Qb, R, (0.0, 0.0), z.shape[1]), x0b,
+                                           np.eye(3) * 400.0, u[0], z[0]), z.shape[1]),
+        "navigate_model": (lambda: extended_kalman_filter(odo["motion"], odo["measurement"], odo["x0"], odo["P0"],
+                                                          odo["u"], odo["z"], times=odo["times"]),
+                           lambda: plain.generic_ekf(odo["motion"], odo["measurement"], odo["x0"], odo["P0"],
+                                                     odo["u"], odo["z"]), odo["z"].shape[0]),
+    }
+    for name, (ours, theirs, steps) in cases.items():
+        a, b = ours(), theirs()                                              # also a warm-up
+        if name == "range_only":
+            _bit_for_bit([(a.x, b["x"][:, :, 0]), (a.x_prior, b["x_prior"][:, :, 0]),
+                          (a.P.reshape(-1, 4), b["P"][:, :, 0]), (a.P_prior.reshape(-1, 4), b["P_prior"][:, :, 0]),
+                          (a.innovations[:, 0], b["y"][:, 0]), (a.innovation_cov[:, 0, 0], b["S"][:, 0])], name)
+        else:
+            _bit_for_bit([(a.x, b["x"]), (a.P, b["P"]), (a.x_prior, b["x_prior"]), (a.P_prior, b["P_prior"]),
+                          (a.innovations, b["y"]), (a.innovation_cov, b["S"])], name)
+        _, _, ours_cpu, theirs_cpu = interleaved_best(ours, theirs, 3 * repeats)
+        out[f"single_{name}_us_per_step"] = 1e6 * ours_cpu / steps
+        out[f"single_{name}_numpy_us_per_step"] = 1e6 * theirs_cpu / steps
+        out[f"single_{name}_ratio"] = ours_cpu / theirs_cpu
+    return out
+
+
+def bench_first_visit(repeats: int) -> dict[str, Any]:
+    """Every control of every widget on settings never seen before and seen before (``first_visit.py``)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("first_visit", ROOT / "benchmarks" / "first_visit.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    results = module.measure_all()
+    return {"first_visit": results, "first_visit_table": module.render(results)}
 
 
 def bench_pf_vs_numpy(repeats: int) -> dict[str, Any]:
@@ -748,8 +816,11 @@ def run_all(repeats: int, browser: bool = True) -> dict[str, Any]:
     results.update(bench_pf_batched(repeats))
     results.update(bench_depth_filters(repeats))
     results.update(bench_pf_plaza(repeats))
+    results.update(bench_single_run(repeats))
     results.update(bench_widgets(repeats))
     results.update(bench_widget_updates(repeats))
+    print("Timing every control of every widget on new settings, in this process (a few minutes)...", flush=True)
+    results.update(bench_first_visit(repeats))
     if browser:
         print("Timing every control of every widget in JupyterLab (about ten minutes)...", flush=True)
         results.update(bench_widget_latency(repeats))
@@ -840,6 +911,16 @@ def render_table(results: dict[str, Any]) -> str:
                      f"(heading, gyro bias, range scale) on the real Plaza 2 log, {results['pf_plaza2_epochs']} "
                      f"epochs × 4 beacons (position RMS error {results['pf_plaza2_rms_error_m']:.2f} m)",
                      f"{p:.2f} s", _target("pf_plaza2_s", t, " s"), _status("pf_plaza2_s", p, t)))
+    labels = {"range_only": "range-only EKF (range_only_ekf), 1500 steps",
+              "bias": "paper A's bias EKF (bias_ekf), 1500 steps",
+              "navigate_model": "navigate's model pair (odometry, gyro bias, range scale; 4 beacons), 4091 epochs"}
+    for name, label in labels.items():
+        if f"single_{name}_ratio" in results:
+            r = results[f"single_{name}_ratio"]
+            rows.append((f"One run of the {label}, CPU per step against a plain-numpy loop doing the same arithmetic "
+                         f"(outputs equal bit for bit): {results[f'single_{name}_us_per_step']:.0f} µs against "
+                         f"{results[f'single_{name}_numpy_us_per_step']:.0f} µs", f"{r:.2f}×",
+                         _target("single_run_ratio", t, "×"), _status("single_run_ratio", r, t)))
     batch = results.get("pf_batched")
     if batch:
         rows.append((f"Batched PFs: {batch['runs']} runs × N = {batch['particles']} × {batch['steps']} steps in one "
@@ -918,6 +999,7 @@ SINGLE_BENCHMARKS: dict[str, Callable[[int], dict[str, Any]]] = {
     "ekf": bench_ekf, "generic_ekf": bench_generic_ekf, "odometry_ekf": bench_odometry_ekf,
     "navigate": bench_navigate, "pf": bench_pf, "ekf_vs_numpy": bench_ekf_vs_numpy, "pf_vs_numpy": bench_pf_vs_numpy,
     "pf_batched": bench_pf_batched, "depth_filters": bench_depth_filters, "pf_plaza": bench_pf_plaza,
+    "single_run": bench_single_run, "first_visit": bench_first_visit,
 }
 
 
@@ -950,12 +1032,22 @@ def main(argv: list[str] | None = None) -> int:
             print(latency["widget_latency_note"] or render_latency_table(latency["widget_latency"], args.repeats,
                                                                          floor_ms=latency.get("widget_latency_floor_ms")))
             return 0
-        print(json.dumps(SINGLE_BENCHMARKS[args.only](args.repeats), indent=2, sort_keys=True))
+        measured = SINGLE_BENCHMARKS[args.only](args.repeats)
+        table = measured.pop("first_visit_table", None)
+        print(json.dumps(measured, indent=2, sort_keys=True))
+        if table:
+            print()
+            print(table)
         return 0
     print("Running the uwtutor benchmarks (about a minute)...", flush=True)
     results = run_all(args.repeats, browser=not args.no_browser)
     print()
     print(render_table(results))
+    if results.get("first_visit_table"):
+        print()
+        print("Every widget's worst control on a setting never seen before (first visit: compute, redraw, PNG, in "
+              "the kernel), and the same control back on a setting seen before (cached):")
+        print(results["first_visit_table"])
     if results.get("widget_latency"):
         print()
         print("Every widget control, key press -> new figure in JupyterLab (before: "

@@ -171,6 +171,8 @@ EXEMPT_EX: dict[str, str] = {
     "uwtutor.exercises.ch03:travel_time_cost_reference": _REFERENCE.format("3.4", "ch03_ch04"),
     "uwtutor.exercises.ch03:vmlbl_system_reference": _REFERENCE.format("3.3", "ch03_ch04"),
     "uwtutor.exercises.ch04:ekf_update_reference": _REFERENCE.format("4.2", "ch03_ch04"),
+    "uwtutor.exercises.ch04:ekf_run_reference": _REFERENCE.format("4.6", "ch03_ch04"),
+    "uwtutor.exercises.ch04:run_data": _NO_ARGUMENTS.format("4.6", "ch03_ch04"),
     "uwtutor.exercises.ch05:fading_factors_reference": _REFERENCE.format("5.2", "ch05"),
     "uwtutor.exercises.ch08:pair_jacobian_reference": _REFERENCE.format("8.3", "ch08"),
     "uwtutor.exercises.ch08:resolve_reference": _REFERENCE.format("8.2", "ch08"),

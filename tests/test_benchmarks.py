@@ -141,3 +141,50 @@ def test_plain_numpy_references_do_the_library_s_work():
     ref = plain.bootstrap_pf(z[0], model.R, z, 200, np.random.default_rng(2), model.motion.T,
                              model.motion.process_std, model.R)
     assert plain.assert_pf_agrees(res, ref) == 0.0
+
+
+def test_plain_generic_ekf_is_the_engine_bit_for_bit():
+    """The reference of the single-run ratios: the engine's arithmetic for one run, on navigate's kind of model pair
+    (some of the four ranges missing: the masked update) and on the bias pair; a changed output is caught."""
+    import numpy as np
+
+    from uwtutor.filters import bias_ekf, extended_kalman_filter
+    from uwtutor.filters.bias import bias_model_pair
+
+    plain = bench._plain_numpy()
+    odo = bench.odometry_inputs(K=200, seed=4)
+    lib = extended_kalman_filter(odo["motion"], odo["measurement"], odo["x0"], odo["P0"], odo["u"], odo["z"])
+    ref = plain.generic_ekf(odo["motion"], odo["measurement"], odo["x0"], odo["P0"], odo["u"], odo["z"])
+    pairs = [(lib.x, ref["x"]), (lib.P, ref["P"]), (lib.innovations, ref["y"]), (lib.innovation_cov, ref["S"])]
+    bench._bit_for_bit(pairs, "navigate's model")
+    study = bench.ekf_study_inputs(M=1, K=100, seed=2)
+    Q = np.diag([0.25, 0.25, 0.01])
+    x0 = np.append(study["x0"][0], 0.0)
+    lib = bias_ekf(x0, np.eye(3) * 400.0, study["u"][0], study["z"][0], Q, study["R"])
+    ref = plain.generic_ekf(*bias_model_pair(Q, study["R"], (0.0, 0.0), 100), x0, np.eye(3) * 400.0,
+                            study["u"][0], study["z"][0])
+    bench._bit_for_bit([(lib.x, ref["x"]), (lib.P_prior, ref["P_prior"])], "bias EKF")
+    ref["x"][50, 1] += 1e-9
+    with pytest.raises(AssertionError, match="bit for bit"):
+        bench._bit_for_bit([(lib.x, ref["x"])], "bias EKF")
+
+
+def test_first_visit_moves_to_values_never_seen():
+    import ipywidgets as w
+
+    spec = importlib.util.spec_from_file_location("first_visit", ROOT / "benchmarks" / "first_visit.py")
+    first_visit = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(first_visit)
+    slider = w.FloatSlider(value=0.0, min=-0.05, max=0.05, step=0.005)
+    assert first_visit.new_values(slider) == pytest.approx([0.005, 0.01, 0.015])
+    near_top = w.IntSlider(value=290, min=10, max=300, step=10)
+    assert first_visit.new_values(near_top) == [280, 270, 260]           # towards the farther end
+    log = w.FloatLogSlider(value=0.03, base=10, min=-3.0, max=-0.5, step=0.1)
+    values = first_visit.new_values(log)
+    assert len(values) == 3 and all(v < 0.03 for v in values) and len(set(values)) == 3
+    choice = w.Dropdown(options=["a", "b", "c"], value="b")
+    assert first_visit.new_values(choice) == ["c", "a"]
+    assert first_visit.new_values(w.Checkbox(value=True)) == [False]
+    table = first_visit.render({"ch99 demo": {"x": {"first_ms": 150.0, "first_cpu_ms": 90.0, "cached_ms": 1.0},
+                                              "y": {"first_ms": 20.0, "first_cpu_ms": 15.0, "cached_ms": 1.0}}})
+    assert "| ch99 demo | x | 150 (90) | 1 | MISS |" in table

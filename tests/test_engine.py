@@ -1,6 +1,7 @@
 """The generic batched EKF: filterpy step by step (2-, 3- and 4-state models, fixed and moving beacon),
 batched == single, NaN = predict only, the gate hook, and bad input."""
 
+import copy
 import warnings
 
 import numpy as np
@@ -9,7 +10,7 @@ from filterpy.kalman import ExtendedKalmanFilter as FilterpyEKF
 
 from uwtutor.errors import BeaconSingularityWarning, UwtutorWarning
 from uwtutor.filters import (ChiSquareGate, ExtendedKalmanFilter, Gate, KalmanFilter, extended_kalman_filter,
-                             range_only_ekf)
+                             range_only_ekf, run_filter)
 from uwtutor.models import (DeadReckoning, DirectMeasurement, LinearMeasurement, LinearMotion, MeasurementModel,
                             RangeToBeacon)
 
@@ -267,3 +268,86 @@ def test_multiplicative_range_model_equals_filterpy_with_the_range_dependent_noi
             np.testing.assert_allclose(res.P[m, k], f.P, **TOL)
     with pytest.raises(ValueError, match="mu_gamma must be > 0"):
         MultiplicativeRange((0.0, 0.0), R=0.49, mu_gamma=0.0, sigma_gamma=0.001)
+
+
+# --- the run's fast path (ExtendedKalmanFilter._run_steps) against the step-by-step loop (run_filter) -----------
+
+def _fast_path_cases():
+    from uwtutor.filters.bias import bias_model_pair
+    from uwtutor.models import BeaconRanges, OdometryMotion
+
+    rng = np.random.default_rng(5)
+    K = 120
+    theta = np.linspace(0.0, 2 * np.pi, K + 1)
+    track = 300.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    u = np.diff(track, axis=0)
+    z = np.linalg.norm(track[1:], axis=1) + rng.normal(0.0, 2.0, (4, K))
+    z[rng.random(z.shape) < 0.2] = np.nan
+    range_pair = (DeadReckoning(np.eye(2) * 0.25), RangeToBeacon((0.0, 0.0), R=4.0))
+    bias_pair = bias_model_pair(np.diag([0.25, 0.25, 0.01]), 5.0, (0.0, 0.0))
+    beacons = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 30.0]])
+    odo_u = np.column_stack([np.full(K, 0.5), np.full(K, 0.05)])
+    truth = OdometryMotion(0.0, 0.0).integrate([20.0, 5.0, 0.0], odo_u)
+    odo_z = np.linalg.norm(truth[:, None, :2] - beacons, axis=-1) + rng.normal(0, 0.05, (K, 3))
+    odo_z[rng.random(odo_z.shape) < 0.3] = np.nan                  # some components missing: the masked update
+    motion = OdometryMotion(0.02, 0.003, gyro_bias=True, times=0.5 * np.arange(K))
+    x0, P0 = motion.layout.initial_state([20.0, 5.0, 0.0], np.diag([1.0, 1.0, 0.01]), gyro_bias=(0.0, 0.01))
+    start = track[0] + rng.normal(0.0, 20.0, (4, 2))
+    return {
+        "range, batched": (*range_pair, start, np.eye(2) * 900.0, u, z, None),
+        "range, one run": (*range_pair, start[0], np.eye(2) * 900.0, u, z[0], None),
+        "range, gated": (*range_pair, start, np.eye(2) * 900.0, u, z, ChiSquareGate(0.95)),
+        "bias": (*bias_pair, np.column_stack([start, np.zeros(4)]), np.eye(3) * 100.0, u, z, None),
+        "odometry, masked": (motion, BeaconRanges(beacons, R=0.05**2, layout=motion.layout), x0, P0, odo_u,
+                             odo_z, None),
+    }
+
+
+@pytest.mark.parametrize("case", list(_fast_path_cases()))
+def test_run_fast_path_is_the_step_loop_bit_for_bit(case):
+    motion, measurement, x0, P0, u, z, gate = _fast_path_cases()[case]
+    make = lambda: ExtendedKalmanFilter(motion, measurement, x0, P0, gate=copy.deepcopy(gate))  # noqa: E731
+    fast = make()
+    assert fast._run_steps(np.asarray(z, dtype=float), u, None) is not None      # the fast path does apply
+    fast = make().run(z, u)
+    slow = run_filter(make(), z, u)
+    for name in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        a, b = getattr(fast, name), getattr(slow, name)
+        assert a.shape == b.shape and a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), name
+    assert fast.extras.keys() == slow.extras.keys()
+    for name in slow.extras:
+        assert fast.extras[name].dtype == slow.extras[name].dtype
+        assert np.array_equal(fast.extras[name], slow.extras[name], equal_nan=True), name
+
+
+def test_run_fast_path_keeps_every_error_and_warning_of_the_step_loop():
+    pair = (DeadReckoning(np.eye(2) * 0.25), RangeToBeacon((0.0, 0.0), R=4.0))
+    u = np.tile([1.0, 0.0], (10, 1))
+    z = np.full(10, 100.0)
+
+    def messages(run):
+        with pytest.raises(Exception) as caught:
+            run()
+        return type(caught.value), str(caught.value)
+
+    # an infinite input at step 3: named at that step, as predict names it
+    bad_u = u.copy()
+    bad_u[3, 0] = np.inf
+    filt, ref = (ExtendedKalmanFilter(*pair, [50.0, 0.0], np.eye(2) * 100.0) for _ in range(2))
+    assert messages(lambda: filt.run(z, bad_u)) == messages(lambda: run_filter(ref, z, bad_u))
+    assert filt.k == ref.k == 2 and np.array_equal(filt.x, ref.x)   # left where the step loop stops
+    # a covariance that float64 cannot keep PSD: refused at the same step, with the same words
+    huge = (DeadReckoning(np.eye(2) * 0.0), RangeToBeacon((0.0, 0.0), R=1e-12))
+    make = lambda: ExtendedKalmanFilter(*huge, [50.0, 3.0], np.eye(2) * 1e12)  # noqa: E731
+    slow = messages(lambda: run_filter(make(), z, u))
+    assert messages(lambda: make().run(z, u)) == slow
+    # a prediction on the beacon: the same warning, once
+    on = ExtendedKalmanFilter(*pair, [-1.0, 0.0], np.eye(2) * 100.0)
+    with warnings.catch_warnings(record=True) as fast_w:
+        warnings.simplefilter("always")
+        on.run(z[:3], u[:3])
+    with warnings.catch_warnings(record=True) as slow_w:
+        warnings.simplefilter("always")
+        run_filter(ExtendedKalmanFilter(*pair, [-1.0, 0.0], np.eye(2) * 100.0), z[:3], u[:3])
+    assert [(w.category, str(w.message)) for w in fast_w] == [(w.category, str(w.message)) for w in slow_w]
+    assert any(issubclass(w.category, BeaconSingularityWarning) for w in fast_w)

@@ -367,14 +367,14 @@ MISTAKES = [
     # (checker, wrong answer, fragment of the message, fragment of the hint)
     (ch01.check_sound_speed, mackenzie(10, 35, 1), "too small", "in metres"),
     (ch01.check_sound_speed, SPEED - (1.630e-2 * 1000 + 1.675e-7 * 1e6 - 7.139e-13 * 10 * 1e9), "too small",
-     "in metres"),
+     "depth terms (1.630e-2·D"),  # told apart from depth in km (0.016 m/s away) by the 0.005 m/s tolerance
     (ch01.check_sound_speed, SPEED + 1.340 * 35, "too large", "not 1.340·S"),
     (ch01.check_sound_speed, mackenzie(10, 70, 1000), "too large", "(S − 35), not S"),
     (ch01.check_sound_speed, mackenzie(283.15, 35, 1000), "", "not kelvin"),
     (ch01.check_sound_speed, SPEED + 5.304, "too large", "T² term is missing"),
     (ch01.check_sound_speed, SPEED + 2 * 5.304, "too large", "has a minus sign"),
     (ch01.check_sound_speed, SPEED - 2.374e-4 * 1000, "too small", "T³ term is missing"),
-    (ch01.check_sound_speed, SPEED - 1.675e-7 * 1e6, "close", "D² term is missing"),
+    (ch01.check_sound_speed, SPEED - 1.675e-7 * 1e6, "too small", "D² term is missing"),
     (ch01.check_sound_speed, 1449.2 + 46.0 - 5.5 + 0.29 + 16.0, "too small", "Medwin"),
     (ch01.check_two_way_range, 3600.0, "is twice the expected value",
      "forget that a two-way travel time covers the path twice"),

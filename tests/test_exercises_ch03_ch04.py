@@ -216,3 +216,56 @@ def test_diagnosis_checker():
     assert not ch04.check_diagnosis(under, over)
     assert "letters" in ch04.check_diagnosis("D", over).message
     assert "No answer yet" in ch04.check_diagnosis(None, over).message
+
+
+# --- exercise 4.6: a whole EKF run --------------------------------------------------------------------------------
+def _student_update(x, P, z, R, beacon):
+    d = x - np.asarray(beacon, dtype=float)
+    h = np.linalg.norm(d)
+    H = d / h
+    K = P @ H / (H @ P @ H + R)
+    return x + K * (z - h), (np.eye(2) - np.outer(K, H)) @ P
+
+
+def test_ekf_run_checker_accepts_a_loop_written_by_hand():
+    def ekf_run(x0, P0, u, z, Q, R, beacon):
+        x, P = np.array(x0, dtype=float), np.array(P0, dtype=float)
+        out = np.empty((len(z), 2))
+        for k in range(len(z)):
+            x, P = x + u[k], P + Q
+            if not np.isnan(z[k]):
+                x, P = _student_update(x, P, z[k], R, beacon)
+            out[k] = x
+        return out
+
+    assert ch04.check_ekf_run(ekf_run).correct
+    d = ch04.run_data()
+    est = ekf_run(d["x0"], d["P0"], d["u"], d["z"], d["Q"], d["R"], d["beacon"])
+    assert np.linalg.norm(d["x0"] - d["truth"][0]) == pytest.approx(40.0)
+    assert np.linalg.norm(est[-1] - d["truth"][-1]) < 10.0          # the run converges from its 40 m start
+
+
+def test_ekf_run_checker_names_the_slips():
+    def no_nan_check(x0, P0, u, z, Q, R, beacon):
+        x, P = np.array(x0, dtype=float), np.array(P0, dtype=float)
+        out = np.empty((len(z), 2))
+        for k in range(len(z)):
+            x, P = x + u[k], P + Q
+            x, P = _student_update(x, P, z[k], R, beacon)             # a NaN range poisons the rest
+            out[k] = x
+        return out
+
+    def update_then_predict(x0, P0, u, z, Q, R, beacon):
+        x, P = np.array(x0, dtype=float), np.array(P0, dtype=float)
+        out = np.empty((len(z), 2))
+        for k in range(len(z)):
+            if not np.isnan(z[k]):
+                x, P = _student_update(x, P, z[k], R, beacon)
+            x, P = x + u[k], P + Q
+            out[k] = x
+        return out
+
+    fb = ch04.check_ekf_run(no_nan_check)
+    assert not fb and "NaN" in fb.message and "missing replies" not in fb.hint
+    fb = ch04.check_ekf_run(update_then_predict)
+    assert not fb and "Predict first" in fb.hint

@@ -153,7 +153,7 @@ def _in_place(z, n, s, rho):
 
 @pytest.mark.parametrize("func, fragment", [
     (_no_max, "never below 1"),
-    (_zero_start, "V₁ = z̃₁²"),
+    (_zero_start, "V₁ = y₁²"),
     (_swapped_weights, "*old* value"),
     (_first_terms_only, "k-th entry"),
     (_in_place, "in place"),

@@ -36,7 +36,7 @@ def test_exercise_data_are_what_the_notebook_says():
 
 
 def test_right_answers_pass():
-    for check, answer in [(ch09.check_gate_upper, Y_MAX), (ch09.check_gate_upper, 0.03 * 2000.0 / 2),
+    for check, answer in [(ch09.check_gate_upper, Y_MAX), (ch09.check_gate_upper, round(Y_MAX, 2)),
                           (ch09.check_equivalent_nis, Y_MAX**2 / 3.0), (ch09.check_virtual_beacons, VB),
                           (ch09.check_virtual_beacons, VB.tolist())]:
         fb = check(answer)
@@ -84,3 +84,23 @@ def test_lockout_and_ten_percent_mistakes():
     assert ch09.check_within_ten_percent(round(fraction, 2)).correct          # the task asks for no precision
     n = int(np.sum(literal.extras["rejected"] & good))
     assert "off-by-one" in _text(ch09.check_good_rejected(n + 1))
+
+
+def test_the_approximation_of_the_gate_is_not_its_edge():
+    """δẑ/2 = 30 m lies outside the gate (30² > (1 + δ)D − ...): 9.1 asks for the largest innovation accepted."""
+    z = ch09.Z_PRED + 0.03 * 2000.0 / 2
+    assert z**2 > (1 + ch09.DELTA) * (ch09.S_INNOV + ch09.Z_PRED**2)          # the test rejects it
+    fb = ch09.check_gate_upper(0.03 * 2000.0 / 2)
+    assert not fb.correct and "first-order approximation" in fb.hint
+
+
+def test_gate_by_hand_has_its_own_hints():
+    """9.3(b) is checked with the count of (a), but its hints are those of a gate written by hand."""
+    counts = ch09._hand_gate_counts()
+    n = counts["right"]
+    assert ch09.check_gate_by_hand(n).correct
+    assert "applies δ to the range" in ch09.check_gate_by_hand(counts["on_range"]).hint
+    assert "D = S + ẑ²" in ch09.check_gate_by_hand(counts["no_s"]).hint
+    assert "must not update" in ch09.check_gate_by_hand(counts["update_rejected"]).hint
+    assert "outliers included" in ch09.check_gate_by_hand(counts["all"]).hint
+    assert "reacquire" not in ch09.check_gate_by_hand(counts["on_range"]).hint

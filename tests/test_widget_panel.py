@@ -111,3 +111,19 @@ def test_every_book_widget_updates_its_figure(name):
         slider.value = min(slider.value + slider.step, slider.max) if slider.value < slider.max else slider.min
     assert bytes(image.value).startswith(PNG_SIGNATURE) and bytes(image.value) != before
     assert not plt.get_fignums()
+
+
+def test_rescale_keeps_autoscaling_on_after_keeping_limits():
+    from matplotlib.figure import Figure
+
+    from uwtutor.widgets._panel import rescale
+
+    ax = Figure().subplots()
+    (line,) = ax.plot([0, 1], [0, 10])
+    line.set_data([0, 1], [1, 9])              # fits and spans most of the limits: kept
+    before = ax.get_ylim()
+    rescale(ax)
+    assert ax.get_ylim() == before and ax.get_autoscaley_on()
+    line.set_data([0, 1], [0, 100])            # then outgrows them: they must follow
+    rescale(ax)
+    assert ax.get_ylim()[1] >= 100.0

@@ -85,3 +85,30 @@ def test_plot_and_widget_build():
     panel = ch02.observability_widget()
     assert len(panel.children) == 3
     plt.close("all")
+
+
+def test_other_unknowns_and_tracks_update_in_place():
+    # choosing other unknowns or another track recolours, adds or removes the ellipses of the figure drawn, with
+    # no new axes: the figure is the same as one drawn for the new setting, ellipse for ellipse
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from uwtutor.widgets._panel import kept
+
+    fig = ch02.plot_observability_view(ch02.observability_view())
+    axes = list(fig.axes)
+    for setting in (dict(state="position + bias"), dict(track="lawnmower", state="position + bias"),
+                    dict(track="circle", state="position + current")):
+        view = ch02.observability_view(**setting)
+        changed = ch02.update_observability_view(fig, view)
+        assert changed is not None and fig not in changed and fig.axes == axes, setting
+        fresh = ch02.plot_observability_view(view)
+        ellipses, expected = kept(fig)["ellipses"], kept(fresh)["ellipses"]
+        assert len(ellipses) == len(expected) > 0
+        for line, ref in zip(ellipses, expected):
+            assert np.array_equal(line.get_xydata(), ref.get_xydata())
+            assert to_rgba(line.get_color()) == to_rgba(ref.get_color())
+        legend_texts = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        assert legend_texts == [t.get_text() for t in fresh.axes[0].get_legend().get_texts()]
+        plt.close(fresh)
+    plt.close(fig)

@@ -85,3 +85,17 @@ def test_fading_factor_of_the_displayed_run_comes_from_the_filter():
                      mu_gamma=1 - 30 / 1500, sigma_gamma=1 / 1500, rho=0.95, beta="range")
     np.testing.assert_allclose(view.fading_factor, res.fading_factor[0])
     np.testing.assert_allclose(view.x_fading, res.x[0])
+
+
+def test_switching_the_weakening_factor_updates_in_place():
+    view = ch05.fading_view(n_runs=5)
+    fig = ch05.plot_fading_view(view)
+    other = ch05.fading_view(n_runs=5, weakening=False)
+    changed = ch05.update_fading_view(fig, other)
+    assert changed is not None and fig not in changed
+    fresh = ch05.plot_fading_view(other)
+    for ax, ref in zip(fig.axes[:2], fresh.axes[:2]):
+        assert [t.get_text() for t in ax.get_legend().get_texts()] == \
+            [t.get_text() for t in ref.get_legend().get_texts()]
+    plt.close(fig)
+    plt.close(fresh)

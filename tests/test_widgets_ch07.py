@@ -82,3 +82,28 @@ def test_plot_and_panel():
     panel = ch07.bias_tracking_widget()
     assert type(panel).__name__ == "VBox"
     plt.close("all")
+
+
+def _within(ax, values):
+    lo, hi = sorted(ax.get_ylim())
+    finite = np.asarray(values)[np.isfinite(values)]
+    return lo <= finite.min() and finite.max() <= hi
+
+
+def test_updated_panels_follow_the_data():
+    # the bias panel kept its limits at a small drift, then must grow with the bias of a larger one; the RMSE panel
+    # must show the start of a larger initial error (limits set to keep them must not switch autoscaling off)
+    small = dict(n_runs=4, n_obs=1000)
+    fig = ch07.plot_bias_tracking_view(ch07.bias_tracking_view(**small))
+    _, ax_b, ax_r = fig.axes[:3]
+    for rate in (0.005, 0.03, 0.05):
+        view = ch07.bias_tracking_view(drift_rate=rate, **small)
+        ch07.update_bias_tracking_view(fig, view)
+        assert _within(ax_b, view.true_bias), (rate, ax_b.get_ylim(), np.nanmax(view.true_bias))
+        assert _within(ax_b, view.estimate[:, 2])
+    for d0 in (160.0, 300.0, 500.0):
+        view = ch07.bias_tracking_view(drift_rate=0.05, initial_error=d0, **small)
+        ch07.update_bias_tracking_view(fig, view)
+        assert _within(ax_r, view.rmse_unstarted), (d0, ax_r.get_ylim(), view.rmse_unstarted[0])
+        assert _within(ax_r, view.rmse)
+    plt.close(fig)

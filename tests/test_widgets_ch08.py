@@ -84,3 +84,26 @@ def test_plot_and_panel():
     panel = ch08.cooperative_widget()
     assert type(panel).__name__ == "VBox"
     plt.close("all")
+
+
+def _error_tick_labels(fig):
+    ax = fig.axes[2]
+    fig.canvas.draw()
+    lo, hi = sorted(ax.get_ylim())
+    ticks = ax.yaxis.get_major_ticks() + ax.yaxis.get_minor_ticks()
+    return [t.label1.get_text() for t in ticks if lo <= t.get_loc() <= hi and t.label1.get_text()]
+
+
+def test_median_error_labels_stay_short():
+    # plain numbers at 1, 2 and 5 times a power of ten, never matplotlib's 2×10² on the minor ticks of an axis that
+    # spans less than a decade (they crowded the axis label)
+    view = ch08.cooperative_view(n_runs=5)
+    fig = ch08.plot_cooperative_view(view)
+    for setting in (dict(), dict(pattern="parallel"), dict(pattern="parallel", tuning="paper B")):
+        if setting:
+            ch08.update_cooperative_view(fig, ch08.cooperative_view(n_runs=5, **setting))
+        labels = _error_tick_labels(fig)
+        assert len(labels) >= 2, (setting, labels)
+        assert all(len(s) <= 4 and "$" not in s and float(s) / 10 ** np.floor(np.log10(float(s))) in (1, 2, 5)
+                   for s in labels), (setting, labels)
+    plt.close(fig)

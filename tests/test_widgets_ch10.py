@@ -72,3 +72,14 @@ def test_highlighting_a_method_that_is_not_there_is_refused_by_name():
     with pytest.raises(ValueError, match="method must be"):
         ch10.plot_comparison_view(ch10.comparison_view("line", "white"), method="cooperative EKF")
     plt.close("all")
+
+
+def test_highlight_redraws_only_what_changes():
+    view = ch10.comparison_view("circle", "white")
+    fig = ch10.plot_comparison_view(view)
+    chosen = view.methods[1]
+    changed = ch10.update_comparison_view(fig, view, method=chosen)
+    assert changed is not None and fig not in changed and fig.axes[1].yaxis in changed
+    colors = [t.get_color() for t in fig.axes[1].get_yticklabels()]
+    assert colors[1] == "C3" and all(c == "0.45" for i, c in enumerate(colors) if i != 1)
+    plt.close(fig)

@@ -54,6 +54,8 @@ __all__ = [
 # -- the data of the exercises -----------------------------------------------------------------------------------------
 #: The temperature (°C), salinity (PSU) and depth (m) of exercise 1.1, where the sound speed is computed.
 SOUND_SPEED_CONDITIONS = {"temperature": 10.0, "salinity": 35.0, "depth": 1000.0}
+#: ... and the tolerance of its answer (m/s): a rounding to two decimals passes, the smallest term left out does not.
+SOUND_SPEED_ATOL = 0.005
 #: The two-way travel time (s) measured in exercise 1.2 ...
 TWO_WAY_TIME = 2.4
 #: ... and the sound speed used to convert it (m/s).
@@ -105,8 +107,9 @@ def _reference_sound_speed(t: float, s: float, d: float) -> float:
 def check_sound_speed(answer: Any) -> Feedback:
     """Check the sound speed (m/s) at T = 10 °C, S = 35 PSU, D = 1000 m by Mackenzie's (1981) equation.
 
-    Accepted within 0.02 m/s. Recognised mistakes: depth in kilometres, depth terms left out, S instead of S - 35,
-    temperature in kelvin, a missing or sign-flipped T² term, a missing T³ or D² term, Medwin's (1975) formula.
+    Accepted within ``SOUND_SPEED_ATOL`` (0.005 m/s: a two-decimal rounding). Recognised mistakes: depth in
+    kilometres, depth terms left out, S instead of S - 35, temperature in kelvin, a missing or sign-flipped T² or
+    T·D³ term, a missing T³ or D² term, Medwin's (1975) formula.
 
     Parameters
     ----------
@@ -158,8 +161,15 @@ def check_sound_speed(answer: Any) -> Feedback:
             "equation.",
         total - terms["D2"]:
             f"The 1.675e-7·D² term is missing (about +{terms['D2']:.2f} m/s at {d:g} m).",
+        total - terms["TD3"]:
+            f"The −7.139e-13·T·D³ term is missing (about {terms['TD3']:.4f} m/s here): the smallest of the nine, "
+            "but part of the equation.",
+        total - 2 * terms["TD3"]:
+            "The T·D³ term has a minus sign: −7.139e-13·T·D³.",
     }
-    return check_number(answer, expected, rtol=0.0, atol=0.02, name="the sound speed", units="m/s",
+    # A two-decimal rounding of the right value (at most 0.005 m/s off) passes; the smallest term, T·D³, left out
+    # (0.007 m/s) or with its sign flipped (0.014 m/s) does not.
+    return check_number(answer, expected, rtol=0.0, atol=SOUND_SPEED_ATOL, name="the sound speed", units="m/s",
                         common_mistakes=mistakes,
                         hint="Write out the nine terms one by one (T in °C, S in PSU, D in metres) and add them up; "
                              "print each term to compare it with its typical size.",
@@ -196,13 +206,13 @@ def check_two_way_range(answer: Any) -> Feedback:
         c / t: "You divided the speed by the time: a distance is speed × time (and then halved for a two-way "
                "path).",
         t / c: "Time divided by speed is not a distance: a distance is speed × time.",
-        c * t / 4: "You halved twice: the two-way path is 2·R, so R = c·t/2.",
+        c * t / 4: "You halved twice: the two-way path is 2·r, so r = c·t/2.",
         c * t / 2 / 1000: "That is the range in kilometres; the answer is asked in metres.",
     }
     return check_number(answer, expected, rtol=1e-3, name="the range to the beacon", units="m",
                         common_mistakes=mistakes,
                         hint="Distance = speed × time, and a two-way time covers the range twice.",
-                        explanation="A transponder's reply comes back along the same path, so R = c·t/2 (ignoring "
+                        explanation="A transponder's reply comes back along the same path, so r = c·t/2 (ignoring "
                                     "the beacon's turn-around delay).")
 
 
@@ -211,8 +221,8 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
     r"""Check the range error (m, estimated − true) from assuming 1470 m/s when the sound travels at 1500 m/s, at 3 km.
 
     In the book's notation (``book/notation.md``) the vehicle assumes :math:`c` and the sound travels at the
-    effective speed :math:`c_\mathrm{e}`: the travel time is :math:`\tau = R / c_\mathrm{e}`, the vehicle computes
-    :math:`\hat R = c\,\tau`, so the error is :math:`R\,(c / c_\mathrm{e} - 1)`.
+    effective speed :math:`c_\mathrm{e}`: the travel time is :math:`\tau = r^\mathrm{true} / c_\mathrm{e}`, the vehicle
+    computes :math:`r = c\,\tau`, so the error is :math:`r - r^\mathrm{true} = r^\mathrm{true}\,(c / c_\mathrm{e} - 1)`.
 
     Parameters
     ----------
@@ -244,9 +254,9 @@ def check_sound_speed_range_error(answer: Any) -> Feedback:
         -expected: "The sign: the error is estimated − true. The vehicle assumes a speed that is too low, so it "
                    "underestimates the range and the error is negative.",
         wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
-                     "speed, τ = R / c_e; the vehicle then computes c · τ.",
+                     "speed, τ = r_true / c_e; the vehicle then computes c · τ.",
         -wrong_ratio: "You scaled with the assumed speed (Δc / c). The travel time is set by the effective "
-                      "speed, τ = R / c_e; the vehicle then computes c · τ.",
+                      "speed, τ = r_true / c_e; the vehicle then computes c · τ.",
         estimated: "That is the range the vehicle computes; the task asks for its error, estimated − true.",
         c_a - c_t: "That is the sound-speed error in m/s; the task asks for the range error in metres.",
         2 * expected: "The error is on the one-way range: with a two-way time both the path and the time are "

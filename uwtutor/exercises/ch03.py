@@ -112,7 +112,8 @@ def check_precision_factor(answer: Any) -> Feedback:
         float(lsq.precision_factor(_design(QUARTER_TURN_BEARINGS_DEG, radians=False))):
             "NumPy's cos and sin take radians: convert the bearings with np.radians first.",
     }
-    return check_number(answer, expected, rtol=1e-4, name="the precision factor α", common_mistakes=mistakes,
+    # rtol 1e-3: α rounded to three significant digits (26.5) passes; every recognised slip is far off
+    return check_number(answer, expected, rtol=1e-3, name="the precision factor α", common_mistakes=mistakes,
                         hint="Build A with rows [cos φ, sin φ, 1] (φ in radians), then α = trace(inv(AᵀA)).",
                         explanation="Above 2, so paper A would not trust this fix yet: a quarter turn in four "
                                     "ranges leaves the bias and the range direction hard to tell apart.")
@@ -387,6 +388,43 @@ def _cost_cases() -> list[Case]:
     ]
 
 
+def _cost_slip(*, assumed_divisor: bool = False, flipped_error: bool = False, root: bool = False,
+               ranges: bool = False, assumed_start: bool = False) -> Any:
+    """A ``travel_time_cost`` written with one typical slip, for ``check_function``'s ``mistakes``."""
+
+    def cost(travel_times: Any, dr_offsets: Any, bearing: float, speed_error: float, assumed_speed: float) -> float:
+        tau, D = np.asarray(travel_times, dtype=float), np.asarray(dr_offsets, dtype=float)
+        c_e = assumed_speed + speed_error if flipped_error else assumed_speed - speed_error
+        p0 = (assumed_speed if assumed_start else c_e) * tau[0] * np.array([np.cos(bearing), np.sin(bearing)])
+        dist = np.linalg.norm(p0 + D, axis=1)
+        if ranges:
+            misfit = dist - c_e * tau
+        else:
+            misfit = dist / (assumed_speed if assumed_divisor else c_e) - tau
+        total = float(np.sum(misfit**2))
+        return float(np.sqrt(total)) if root else total
+
+    return cost
+
+
+#: Exercise 3.4's typical slips, each with the hint that names it (``check_function`` recognises them).
+_COST_SLIPS = (
+    (_cost_slip(assumed_divisor=True),
+     "The predicted travel time divides by the effective speed c_e = c − Δc, not by the assumed c: the cell's Δc "
+     "is the very thing being tested, so it must enter the prediction."),
+    (_cost_slip(assumed_divisor=True, assumed_start=True),
+     "Both the start p_0 = c_e τ_0 [cos θ, sin θ] and the prediction ‖p_k‖ / c_e use the effective speed "
+     "c_e = c − Δc; yours uses the assumed c, so every Δc gives the same cost."),
+    (_cost_slip(flipped_error=True),
+     "The book writes c = c_e + Δc (assumed = effective + error), so the effective speed is c_e = c − Δc: with "
+     "c = 1470 and Δc = −30, c_e = 1500 m/s."),
+    (_cost_slip(root=True),
+     "That is √L, the root of the sum: paper D's cost is the sum of the squared travel-time differences itself."),
+    (_cost_slip(ranges=True),
+     "Compare travel times (seconds), not ranges: L = Σ (‖p_k‖ / c_e − τ_k)²."),
+)
+
+
 def check_travel_time_cost(func: Any) -> Feedback:
     r"""Check a student's ``travel_time_cost(travel_times, dr_offsets, bearing, speed_error, assumed_speed)``.
 
@@ -414,7 +452,7 @@ def check_travel_time_cost(func: Any) -> Feedback:
     True
     """
     return check_function(func, travel_time_cost_reference, _cost_cases(), name="travel_time_cost",
-                          rtol=1e-6, atol=1e-12,
+                          rtol=1e-6, atol=1e-12, mistakes=_COST_SLIPS,
                           hint="Start on the ring of the first travel time, p_0 = c_e τ_0 [cos θ, sin θ] with "
                                "c_e = c − Δc; move by the DR offsets; sum the squared travel-time differences.",
                           explanation="lsq.grid_prelocation evaluates exactly this for every cell of the grid at "

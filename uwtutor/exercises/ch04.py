@@ -11,6 +11,7 @@ checker                                          exercise
 ``check_nees(value)``                            the NEES of one estimate
 ``check_nees_bounds(bounds)``                    the 95 % chi-square interval of a mean NEES over 50 runs
 ``check_diagnosis(consistent, overconfident)``   which of three tuned filters is consistent, which overconfident
+``check_ekf_run(ekf_run)``                       a whole EKF run over a range sequence (against ``range_only_ekf``)
 ===============================================  =======================================================================
 
 The exercises themselves are in the repository's ``exercises/ch04_range_only_ekf.ipynb``.
@@ -28,7 +29,8 @@ import numpy as np
 from scipy import stats
 
 from .._validate import as_int, as_seed, check_work
-from ..filters import RangeOnlyEKF
+from .. import motion
+from ..filters import RangeOnlyEKF, range_only_ekf
 from .checks import (Case, _answer_shape, _check_nees_letters, _row_as_vector, check_array, check_function,
                      check_number)
 from .feedback import Feedback
@@ -39,6 +41,7 @@ __all__ = [
     "check_nees",
     "check_nees_bounds",
     "check_diagnosis",
+    "check_ekf_run",
     "JACOBIAN_BEACON",
     "JACOBIAN_POSITION",
     "NEES_TRUTH",
@@ -50,6 +53,9 @@ __all__ = [
     "DIAGNOSIS_FILTERS",
     "diagnosis_studies",
     "ekf_update_reference",
+    "ekf_run_reference",
+    "run_data",
+    "RUN_SEED",
 ]
 
 # -- the data of the exercises -----------------------------------------------------------------------------------------
@@ -171,6 +177,40 @@ def _update_cases() -> list[Case]:
     ]
 
 
+def _ekf_update_slip(*, no_s: bool = False, flipped: bool = False, no_beacon: bool = False,
+                     unnormalized: bool = False, r_std: bool = False) -> Any:
+    """An ``ekf_update`` written with one typical slip, for ``check_function``'s ``mistakes``."""
+
+    def update(x: Any, P: Any, z: float, R: float, beacon: Any) -> tuple[np.ndarray, np.ndarray]:
+        x, P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+        b = np.zeros(2) if no_beacon else np.asarray(beacon, dtype=float)
+        predicted = float(np.linalg.norm(x - b))
+        H = (x - b) if unnormalized else (x - b) / predicted
+        S = H @ P @ H + (np.sqrt(R) if r_std else R)
+        K = P @ H if no_s else P @ H / S
+        innovation = predicted - z if flipped else z - predicted
+        return x + K * innovation, (np.eye(2) - np.outer(K, H)) @ P
+
+    return update
+
+
+#: Exercise 4.2's typical slips, each with the hint that names it (``check_function`` recognises them).
+_EKF_UPDATE_SLIPS = (
+    (_ekf_update_slip(no_s=True),
+     "Your gain lacks the division by the innovation variance: K = P Hᵀ / S with S = H P Hᵀ + R (a scalar for one "
+     "range). Without it the correction has the units of P and ignores how noisy the range is."),
+    (_ekf_update_slip(flipped=True),
+     "The innovation is z − h(x) (measured minus predicted): a range longer than predicted pushes the estimate "
+     "away from the beacon, not towards it."),
+    (_ekf_update_slip(no_beacon=True),
+     "Both h(x) = ‖x − b‖ and H = (x − b)ᵀ/‖x − b‖ use the beacon's position b; yours assumes it is at the origin."),
+    (_ekf_update_slip(unnormalized=True),
+     "H is the unit vector (x − b)ᵀ/‖x − b‖ (the derivative of a distance), not x − b itself."),
+    (_ekf_update_slip(r_std=True),
+     "R is the range noise *variance* (m²): S = H P Hᵀ + R, not + √R."),
+)
+
+
 def _compare_update(got: Any, expected: tuple[np.ndarray, np.ndarray]) -> Feedback:
     if not isinstance(got, (tuple, list)) or len(got) != 2:
         return Feedback(False, "Not yet: the function should return two things, `x_new, P_new`.",
@@ -227,7 +267,7 @@ def check_ekf_update(func: Any) -> Feedback:
     True
     """
     return check_function(func, ekf_update_reference, _update_cases(), name="ekf_update",
-                          compare=_compare_update,
+                          compare=_compare_update, mistakes=_EKF_UPDATE_SLIPS,
                           hint="h(x) = ‖x − b‖, H = (x − b)ᵀ/h(x), S = H P Hᵀ + R, K = P Hᵀ/S, "
                                "x⁺ = x + K (z − h(x)), P⁺ = (I − K H) P.",
                           explanation="This is the update that filterpy's ExtendedKalmanFilter and "
@@ -268,7 +308,8 @@ def check_nees(answer: Any) -> Feedback:
         float(np.sum(e**2 / np.diag(P))): "Dividing each component by its own variance ignores the correlation: "
                                           "use the full inverse, np.linalg.inv(P) or np.linalg.solve(P, e).",
     }
-    return check_number(answer, expected, rtol=1e-6, name="the NEES", common_mistakes=mistakes,
+    # rtol 3e-3: a NEES rounded to three significant digits (2.23) passes; every recognised slip is far off
+    return check_number(answer, expected, rtol=3e-3, name="the NEES", common_mistakes=mistakes,
                         hint="e = truth − estimate, NEES = e @ np.linalg.solve(P, e).",
                         explanation="For a consistent filter it follows a chi-square distribution with 2 degrees of "
                                     "freedom: mean 2.")
@@ -321,7 +362,9 @@ def check_nees_bounds(answer: Any) -> Feedback:
         (n + np.array([-1.96, 1.96]) * np.sqrt(2 * n / M), "That is the normal approximation; use the chi-square "
                                                            "quantiles (scipy.stats.chi2.ppf)."),
     ]
-    return check_array(answer, expected, rtol=1e-4, name="the interval", common_mistakes=mistakes,
+    # rtol 4e-3: bounds rounded to three significant digits ([1.48, 2.59]) pass; the nearest slip, the normal
+    # approximation, is 1.4 % off
+    return check_array(answer, expected, rtol=4e-3, name="the interval", common_mistakes=mistakes,
                        hint="Use scipy.stats.chi2.ppf([0.025, 0.975], M * n) / M.",
                        explanation="A consistent filter's mean NEES stays inside it at about 95 % of the epochs.")
 
@@ -432,3 +475,173 @@ def check_diagnosis(consistent: Any, overconfident: Any) -> Feedback:
              "it the filter claims a smaller P than its real errors (overconfident); below, a larger one "
              "(underconfident).",
         correct=correct, underconfident=" (its P is larger than its errors)")
+
+
+# -- exercise 4.6: a whole EKF run -------------------------------------------------------------------------------------
+#: Exercise 4.6: the seed of the run the notebook gives (``run_data()``) and of the checker's other cases.
+RUN_SEED = 46
+
+
+def run_data() -> dict[str, Any]:
+    """The data of exercise 4.6: a vehicle that runs at 2 m/s and turns left by 60° after 300 s, ranging every 10 s
+    (60 epochs, the beacon at the origin, the DR and range noise drawn with ``RUN_SEED``).
+
+    Returns
+    -------
+    dict
+        ``x0`` (2,) a start 40 m off, ``P0`` (2, 2), ``u`` (n, 2) the DR displacements (noisy; the first zero),
+        ``z`` (n,) the ranges (noisy, NaN where missing), ``Q`` (2, 2), ``R`` (float), ``beacon`` (2,) and
+        ``truth`` (n, 2).
+
+    Examples
+    --------
+    >>> d = run_data()
+    >>> d["z"].shape, d["u"].shape, d["truth"].shape
+    ((60,), (60, 2), (60, 2))
+    """
+    return _run_data(RUN_SEED)
+
+
+def _run_data(seed: int, n: int = 60, beacon: Any = (0.0, 0.0), missing: Any = ()) -> dict[str, Any]:
+    """``run_data()`` with another seed, length, beacon, or epochs without a reply (the checker's other cases)."""
+    rng = np.random.default_rng(seed)
+    times = 10.0 * np.arange(n)
+    track = motion.turning_track(times, start=(-900.0, 400.0), speed=2.0, headings=np.radians([0.0, 60.0]),
+                                 turn_times=[300.0])
+    truth = np.asarray(track.positions, dtype=float)
+    b = np.asarray(beacon, dtype=float)
+    q, sigma_r = 0.5, 1.5
+    u = np.diff(truth, axis=0, prepend=truth[:1]) + np.vstack([np.zeros((1, 2)), rng.normal(0.0, q, (n - 1, 2))])
+    z = np.linalg.norm(truth - b, axis=1) + rng.normal(0.0, sigma_r, n)
+    z[np.asarray(missing, dtype=int)] = np.nan
+    return {"x0": truth[0] + np.array([32.0, -24.0]), "P0": np.eye(2) * 40.0**2, "u": u, "z": z,
+            "Q": np.eye(2) * q**2, "R": sigma_r**2, "beacon": b, "truth": truth}
+
+
+def ekf_run_reference(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: float, beacon: Any) -> np.ndarray:
+    """The reference answer of exercise 4.6: ``range_only_ekf``'s estimates, one row per epoch.
+
+    Parameters
+    ----------
+    x0 : array_like, shape (2,)
+        Initial estimate [m].
+    P0 : array_like, shape (2, 2)
+        Its covariance [m²].
+    u : array_like, shape (K, 2)
+        DR displacements from epoch k − 1 to epoch k [m].
+    z : array_like, shape (K,)
+        Ranges [m], NaN where there was no reply (predict only).
+    Q : array_like, shape (2, 2)
+        Process noise covariance per step [m²].
+    R : float
+        Range noise variance [m²].
+    beacon : array_like, shape (2,)
+        Beacon position [m].
+
+    Returns
+    -------
+    ndarray, shape (K, 2)
+        The estimate after each epoch's update.
+
+    Examples
+    --------
+    >>> d = run_data()
+    >>> est = ekf_run_reference(d["x0"], d["P0"], d["u"], d["z"], d["Q"], d["R"], d["beacon"])
+    >>> bool(np.linalg.norm(est[-1] - d["truth"][-1]) < 10.0)
+    True
+    """
+    return np.array(range_only_ekf(x0, P0, u, z, Q, R, beacon=beacon).x)
+
+
+def _run_cases() -> list[Case]:
+    cases = []
+    for label, kw in (("the notebook's run", {}),
+                      ("a beacon away from the origin", {"seed": RUN_SEED + 1, "beacon": (150.0, -250.0)}),
+                      ("three epochs without a reply (NaN ranges)", {"seed": RUN_SEED + 2, "missing": (7, 8, 31)})):
+        d = _run_data(**{"seed": RUN_SEED, **kw})
+        cases.append(Case((d["x0"], d["P0"], d["u"], d["z"], d["Q"], d["R"], d["beacon"]), label=label))
+    return cases
+
+
+def _ekf_run_slip(*, no_q: bool = False, reset_p: bool = False, update_first: bool = False,
+                  priors: bool = False, no_u: bool = False) -> Any:
+    """An ``ekf_run`` written with one typical slip, for ``check_function``'s ``mistakes``."""
+
+    def run(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: float, beacon: Any) -> np.ndarray:
+        x, P0_arr = np.array(x0, dtype=float), np.array(P0, dtype=float)
+        P, u_arr, z_arr, Q_arr = P0_arr.copy(), np.asarray(u, float), np.asarray(z, float), np.asarray(Q, float)
+        out = np.empty((len(z_arr), 2))
+        right_update = _ekf_update_slip()                # exercise 4.2's update, without a slip
+
+        def update(x: np.ndarray, P: np.ndarray, zk: float) -> tuple[np.ndarray, np.ndarray]:
+            return (x, P) if np.isnan(zk) else right_update(x, P, zk, R, beacon)
+
+        for k in range(len(z_arr)):
+            if reset_p:
+                P = P0_arr.copy()
+            if update_first:
+                x, P = update(x, P, z_arr[k])
+            x = x if no_u else x + u_arr[k]
+            P = P if no_q else P + Q_arr
+            out[k] = x
+            if not update_first and not priors:
+                x, P = update(x, P, z_arr[k])
+                out[k] = x
+        return out
+
+    return run
+
+
+#: Exercise 4.6's typical slips, each with the hint that names it (``check_function`` recognises them).
+_EKF_RUN_SLIPS = (
+    (_ekf_run_slip(no_q=True),
+     "The prediction adds the process noise: P ← P + Q. Without it P only shrinks, the gain goes to zero and the "
+     "filter stops listening to the ranges while the DR drifts."),
+    (_ekf_run_slip(reset_p=True),
+     "Carry P from one epoch to the next: each update starts from the covariance the last one left (plus Q), not "
+     "from P0 again."),
+    (_ekf_run_slip(update_first=True),
+     "Predict first, then update: range k was taken at epoch k, after the displacement u_k, so it must correct "
+     "the *predicted* position x + u_k."),
+    (_ekf_run_slip(priors=True),
+     "Those are the predictions (before each update): store the estimate after the range of the epoch has "
+     "corrected it."),
+    (_ekf_run_slip(no_u=True),
+     "The prediction moves the estimate by the dead-reckoned displacement: x ← x + u_k (u[0] is zero, so the "
+     "first step is the start itself)."),
+)
+
+
+def check_ekf_run(func: Any) -> Feedback:
+    r"""Check a student's ``ekf_run(x0, P0, u, z, Q, R, beacon)`` (exercise 4.6) against ``range_only_ekf``.
+
+    At each epoch :math:`k`: predict :math:`\hat x \leftarrow \hat x + u_k`, :math:`P \leftarrow P + Q`; if
+    :math:`z_k` is not NaN, update with it (exercise 4.2's update); store the estimate. Three runs: the notebook's,
+    a beacon away from the origin, and one with three missing replies.
+
+    Parameters
+    ----------
+    func : callable or None
+        The student's function, returning the ``(K, 2)`` estimates.
+
+    Returns
+    -------
+    Feedback
+        The verdict, with the first failing case and a hint for a recognised slip (no Q, P reset to P0, update
+        before predict, the predictions stored, the displacement left out).
+
+    Examples
+    --------
+    >>> check_ekf_run(ekf_run_reference).correct
+    True
+    >>> def frozen(x0, P0, u, z, Q, R, beacon):  # never moves
+    ...     return np.tile(np.asarray(x0, dtype=float), (len(z), 1))
+    >>> check_ekf_run(frozen).correct
+    False
+    """
+    return check_function(func, ekf_run_reference, _run_cases(), name="ekf_run", rtol=1e-7, atol=1e-6,
+                          mistakes=_EKF_RUN_SLIPS,
+                          hint="For each epoch: x ← x + u_k, P ← P + Q; then, if z_k is not NaN, the update of "
+                               "exercise 4.2; store x in row k.",
+                          explanation="range_only_ekf runs exactly this loop (for many runs at once, with the Joseph "
+                                      "form); chapter 4's figures are its output.")

@@ -478,6 +478,9 @@ PF_STEP_R = np.diag([0.2, 0.05, math.radians(0.5)]) ** 2
 #: ... paper C's process noise standard deviations (m, m/s, rad), the number of particles and the seed of the cases.
 PF_STEP_PROCESS_STD = np.array([0.2, 0.01, math.radians(0.5)])
 PF_STEP_PARTICLES, PF_STEP_SEED = 200, 606
+#: ... and how far (m) the depth reading of the second case lies from its cloud: with paper C's 0.2 m depth noise
+#: every log-likelihood is below about −1100 there, so np.exp of it is 0 for every particle unless it is shifted.
+PF_STEP_FAR_OFFSET = 10.0
 
 
 def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R: Any) -> tuple[Any, Any, Any]:
@@ -551,9 +554,9 @@ def _pf_step_cases() -> list[Case]:
     cases = []
     for label, spread, offset, hint in (
             ("a cloud around the truth, readings near it", 1.0, 0.0,
-             "Predict g(x + w): add the noise *before* the kinematics (the speed and pitch noise enter the depth "
-             "equation), z ← z + (v + w_v)·sin(φ + w_φ)·T + w_z."),
-            ("a cloud 2 m off in depth: a few particles take all the weight", 1.0, 2.0,
+             "Predict g(x + w), weight by the likelihood at the moved particles, take the weighted mean, resample."),
+            (f"a cloud {PF_STEP_FAR_OFFSET:g} m off in depth: every likelihood underflows to 0 unless the log-weights "
+             "are shifted", 1.0, PF_STEP_FAR_OFFSET,
              "Weights in log space: log w = −½ (z − x)ᵀ R⁻¹ (z − x); subtract the largest before np.exp, or they "
              "all underflow to 0 (0/0 = NaN after normalizing)."),
             ("a wide cloud", 5.0, 0.0,
@@ -566,6 +569,48 @@ def _pf_step_cases() -> list[Case]:
         u = float(rng.random())
         cases.append(Case((particles, z, noise, u, PF_STEP_T, PF_STEP_R), label=label, hint=hint))
     return cases
+
+
+def _pf_step_slip(*, noise_after: bool = False, no_shift: bool = False, r_not_inverted: bool = False,
+                  estimate_after: bool = False, unweighted: bool = False) -> Any:
+    """A ``pf_step`` written with one typical slip, for ``check_function``'s ``mistakes``."""
+
+    def step(particles: Any, z: Any, noise: Any, u: float, T: float, R: Any) -> tuple[Any, Any, Any]:
+        p, w_noise, z_arr, R_arr = (np.asarray(a, dtype=float) for a in (particles, noise, z, R))
+        s = p if noise_after else p + w_noise
+        moved = np.column_stack((s[:, 0] + s[:, 1] * np.sin(s[:, 2]) * T, s[:, 1], s[:, 2]))
+        if noise_after:
+            moved = moved + w_noise
+        d = z_arr - moved
+        log_w = -0.5 * np.einsum("ni,ij,nj->n", d, R_arr if r_not_inverted else np.linalg.inv(R_arr), d)
+        with np.errstate(all="ignore"):
+            w = np.exp(log_w if no_shift else log_w - log_w.max())
+            w = w / w.sum()
+        idx = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(len(w)) + u) / len(w), side="right"), len(w) - 1)
+        resampled = moved[idx]
+        estimate = (resampled.mean(axis=0) if estimate_after else moved.mean(axis=0) if unweighted
+                    else w @ moved)
+        return estimate, w, resampled
+
+    return step
+
+
+#: Exercise 6.6's typical slips, each with the hint that names it (``check_function`` recognises them).
+_PF_STEP_SLIPS = (
+    (_pf_step_slip(noise_after=True),
+     "Predict g(x + w): add the noise *before* the kinematics (the speed and pitch noise enter the depth equation), "
+     "z ← z + (v + w_v)·sin(φ + w_φ)·T + w_z; adding it after g leaves them out."),
+    (_pf_step_slip(no_shift=True),
+     "Every likelihood underflowed: np.exp(log w) is 0 for every particle here, and 0/0 = NaN after normalizing. "
+     "Subtract the largest log-weight before np.exp (it cancels when you normalize)."),
+    (_pf_step_slip(r_not_inverted=True),
+     "The exponent is −½ (z − x)ᵀ R⁻¹ (z − x): divide by the variances (np.linalg.inv(R)), do not multiply by R."),
+    (_pf_step_slip(estimate_after=True),
+     "That is the mean of the resampled particles: the estimate is the weighted mean Σ w_i x_i of the moved "
+     "particles, taken *before* resampling (resampling only adds noise to it)."),
+    (_pf_step_slip(unweighted=True),
+     "That is the plain mean of the moved particles: weight each by w_i, Σ w_i x_i."),
+)
 
 
 def _compare_pf_step(got: Any, expected: Any) -> Feedback:
@@ -589,9 +634,9 @@ def _compare_pf_step(got: Any, expected: Any) -> Feedback:
 def check_pf_step(func: Any) -> Feedback:
     r"""Check a student's ``pf_step(particles, z, noise, u, T, R)`` (exercise 6.6) against ``pf_step_reference``.
 
-    Three cases (a cloud near the readings, one 2 m off in depth where the weights underflow without the log
-    trick, a wide one); for each the weights, the estimate and the resampled particles are compared, in that
-    order, with the step built from ``uwtutor``'s model, likelihood and systematic resampler.
+    Three cases (a cloud near the readings, one ``PF_STEP_FAR_OFFSET`` m off in depth where every weight underflows
+    without the log-space shift, a wide one); for each the weights, the estimate and the resampled particles are
+    compared, in that order, with the step built from ``uwtutor``'s model, likelihood and systematic resampler.
 
     Parameters
     ----------
@@ -615,7 +660,7 @@ def check_pf_step(func: Any) -> Feedback:
     True
     """
     return check_function(
-        func, pf_step_reference, _pf_step_cases(), name="pf_step", compare=_compare_pf_step,
+        func, pf_step_reference, _pf_step_cases(), name="pf_step", compare=_compare_pf_step, mistakes=_PF_STEP_SLIPS,
         hint="Four lines of algebra: move (g(x + w)), weight (likelihood, log space, normalize), estimate "
              "(weighted mean), resample (systematic with the given u).",
         explanation="This is one step of uwtutor's BootstrapParticleFilter on paper C's model, with the random "

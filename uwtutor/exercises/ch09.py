@@ -41,6 +41,7 @@ __all__ = [
     "check_equivalent_nis",
     "check_virtual_beacons",
     "check_good_rejected",
+    "check_gate_by_hand",
     "check_within_ten_percent",
     "lockout_dive",
     "study",
@@ -60,6 +61,9 @@ Z_PRED = 2000.0
 S_INNOV = 3.0
 DELTA = 0.03
 
+#: ... and the relative tolerance of its y_max: a rounding to centimetres passes, the approximation δẑ/2 does not.
+GATE_UPPER_RTOL = 1e-3
+
 #: Exercise 9.2: the ship's positions at four epochs (m) ...
 SHIP = np.array([[0.0, 0.0], [250.0, 180.0], [420.0, 460.0], [380.0, 800.0]])
 #: ... and the submersible's DR positions at the same epochs (m).
@@ -77,7 +81,8 @@ STUDY_SPACING = 40
 def check_gate_upper(answer: Any) -> Feedback:
     r"""Check the largest innovation :math:`y_\mathrm{max} = \sqrt{(1+\delta)(S + \hat z^2)} - \hat z` (exercise 9.1).
 
-    The approximation :math:`\delta\hat z/2` is accepted (it is within 1 %).
+    Accepted within ``GATE_UPPER_RTOL`` (0.1 %, a rounding to centimetres): the first-order approximation
+    :math:`\delta\hat z/2` (0.7 % too large, an innovation the test rejects) is recognised, not accepted.
 
     Parameters
     ----------
@@ -113,8 +118,11 @@ def check_gate_upper(answer: Any) -> Feedback:
         DELTA * D: "That is the half-width of the interval for z² (in m²); take the square root of (1 + δ)D and "
                    "subtract ẑ.",
         float(np.sqrt(DELTA * D)): "√(δD) is not the gate: solve z² = (1 + δ)D for z, then y = z − ẑ.",
+        DELTA * Z_PRED / 2: "That is the first-order approximation δẑ/2; an innovation of that size lies just "
+                            "outside the gate (z² exceeds (1 + δ)D). Solve z² = (1 + δ)D for z exactly and "
+                            "subtract ẑ.",
     }
-    return check_number(answer, float(hi), rtol=0.01, name="the largest accepted innovation", units="m",
+    return check_number(answer, float(hi), rtol=GATE_UPPER_RTOL, name="the largest accepted innovation", units="m",
                         common_mistakes=mistakes,
                         hint="Accepted means (1 − δ)D ≤ z² ≤ (1 + δ)D with D = S + ẑ²; write z = ẑ + y.",
                         explanation=f"About δẑ/2 = {DELTA * Z_PRED / 2:g} m: a gate of 1.5 % of the range, "
@@ -274,6 +282,101 @@ def _good_rejected_counts() -> tuple[int, int, int, int, int, int]:
     return (int(np.sum(literal.extras["rejected"] & good)), int(np.sum(literal.extras["rejected"])),
             int(np.sum(default.extras["rejected"] & good)), int(np.sum(default.extras["outlier"] & good)),
             int(first), int(last))
+
+
+def _hand_gate_rejected(z: np.ndarray, *, on_range: bool = False, no_s: bool = False, update_rejected: bool = False,
+                        from_first: bool = False) -> np.ndarray:
+    """Exercise 9.3(b)'s range filter and gate written out (the task's recipe), or with one typical slip.
+
+    ``on_range``: δ applied to z instead of z² ((1 − δ)√D ≤ z ≤ (1 + δ)√D); ``no_s``: D = ẑ² without S;
+    ``update_rejected``: the update made even on a rejected range; ``from_first``: the gate tried on the first
+    range too (the start itself).
+    """
+    dt, q, r = 1.0, 2.0, 2.0
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    Q = q * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    x, P = np.array([z[0], 0.0]), np.diag([r, 25.0])
+    rejected = np.zeros(len(z), dtype=bool)
+    for k in range(0 if from_first else 1, len(z)):
+        if k > 0:
+            x, P = F @ x, F @ P @ F.T + Q
+        S = P[0, 0] + r
+        D = (0.0 if no_s else S) + x[0] ** 2
+        if on_range:
+            accepted = (1 - DELTA) * np.sqrt(D) <= z[k] <= (1 + DELTA) * np.sqrt(D)
+        else:
+            accepted = (1 - DELTA) * D <= z[k] ** 2 <= (1 + DELTA) * D
+        rejected[k] = not accepted
+        if accepted or update_rejected:
+            K = P[:, 0] / S
+            x = x + K * (z[k] - x[0])
+            P = P - np.outer(K, P[0])
+    return rejected
+
+
+@functools.lru_cache(maxsize=1)
+def _hand_gate_counts() -> dict[str, int]:
+    """The good ranges rejected by the gate of exercise 9.3(b) as the task writes it and with each slip."""
+    dive = lockout_dive()
+    z = np.asarray(dive.slant_ranges[0], dtype=float)
+    good = ~np.asarray(dive.outlier_mask[0])
+    counts = {"right": int(np.sum(_hand_gate_rejected(z) & good)),
+              "all": int(np.sum(_hand_gate_rejected(z)))}
+    for slip in ("on_range", "no_s", "update_rejected"):
+        counts[slip] = int(np.sum(_hand_gate_rejected(z, **{slip: True}) & good))
+    return counts
+
+
+def check_gate_by_hand(answer: Any) -> Feedback:
+    """Check the number of good ranges rejected by the range filter and gate written by hand (exercise 9.3(b)).
+
+    The count must equal that of ``robust_range_kf(..., reacquire=None)`` (task (a)); the hints are those of a
+    gate written by hand: δ applied to the range instead of its square, D without S, an update made on a rejected
+    range, the outliers counted too.
+
+    Parameters
+    ----------
+    answer : int or None
+        The student's count.
+
+    Returns
+    -------
+    Feedback
+        The verdict, with a hint for a recognised slip of the hand-written gate.
+
+    Examples
+    --------
+    >>> dive = lockout_dive()
+    >>> z = np.asarray(dive.slant_ranges[0])
+    >>> good = ~np.asarray(dive.outlier_mask[0])
+    >>> check_gate_by_hand(int(np.sum(_hand_gate_rejected(z) & good))).correct
+    True
+    """
+    expected = _good_rejected_counts()[0]
+    counts = _hand_gate_counts()
+    if counts["right"] != expected:
+        raise RuntimeError(f"the gate written out counts {counts['right']} good ranges rejected, robust_range_kf "
+                           f"{expected}: the recipe of exercise 9.3(b) no longer matches the library")
+    hints = {
+        "all": "That counts every rejected range, the outliers included; keep only the good ones "
+               "(rejected & good).",
+        "on_range": "Your gate applies δ to the range: (1 − δ)√D ≤ z ≤ (1 + δ)√D is about twice as wide as paper "
+                    "E's test, which applies it to the square: (1 − δ)D ≤ z² ≤ (1 + δ)D.",
+        "no_s": "D = S + ẑ², with S = P₁₁ + R the innovation variance: the test compares z² with the expected value "
+                "of z², not with ẑ² alone.",
+        "update_rejected": "A rejected range must not update the filter: keep the prediction (x, P) and go on to "
+                           "the next range.",
+    }
+    mistakes = {}
+    for key, text in hints.items():
+        if counts[key] != expected:
+            mistakes.setdefault(float(counts[key]), text)
+    return check_number(answer, expected, rtol=0, atol=0.5, name="the number of good ranges your gate rejected",
+                        common_mistakes=mistakes,
+                        hint="Follow the recipe step by step: predict, S = P₁₁ + R, D = S + ẑ², test z² against "
+                             "(1 ± δ)D, update only when accepted; then count rejected & good.",
+                        explanation="The same count as robust_range_kf(..., reacquire=None): that is all paper E's "
+                                    "test is.")
 
 
 # -- exercise 9.4: the 10 % statistic ----------------------------------------------------------------------------------

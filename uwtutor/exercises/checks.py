@@ -8,7 +8,9 @@ Four checkers cover the exercises of the book:
   otherwise the worst element; with a boolean ``expected`` it compares flags and names the missed and the false ones;
 - ``check_function`` for a function the student wrote: it runs it on test cases (``Case``) against a reference and
   reports the first failing case with its inputs, the expected result and the student's result; an exception raised
-  by the student's code is caught and reported with the line it came from;
+  by the student's code is caught and reported with the line it came from; the exercise's typical slips
+  (``mistakes``, functions that make one mistake each) are run on the failing case, and the hint of the slip the
+  student's result matches beats the case's own, generic hint;
 - ``check_choice`` for a multiple-choice answer given as a capital letter: it asks for the capital when the letter is
   written in lower case and for the letter when the option's text is given, names the letters when the answer is none
   of them, and gives each wrong option its own hint (``read_letter`` does the reading, for other checkers too).
@@ -291,6 +293,17 @@ def _non_finite(value: float, name: str) -> Feedback | None:
 _SIGN_HINT = "Check the sign convention of the task (for example, error = estimated value − true value)."
 _TWICE_HINT = "Look for a factor of 2 too many (a two-way path, a diameter instead of a radius...)."
 _HALF_HINT = "Look for a missing factor of 2."
+#: The hint of a near miss: a guess (rounding), weaker than any diagnosis of a slip.
+_NEAR_MISS_HINT = ("Did you round an intermediate value or a constant? Keep full precision until the end, and check "
+                   "that no small term is missing.")
+#: Relations that name the slip (a sign, a factor of 2, a power of ten): a diagnosis of the value itself.
+_DIAGNOSING_HINTS = (_SIGN_HINT, _TWICE_HINT, _HALF_HINT)
+
+
+def _diagnoses(relation_hint: str | None) -> bool:
+    """Whether a hint of :func:`_relation` names the slip (sign, factor of 2, power of ten), not a mere guess."""
+    return relation_hint is not None and (relation_hint.startswith(_DIAGNOSING_HINTS)
+                                          or relation_hint.startswith("A factor of "))
 
 
 def _power_hint(k: int, units: str) -> str:
@@ -316,6 +329,9 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
         return "is twice the expected value", _TWICE_HINT
     if close(e / 2):
         return "is half the expected value", _HALF_HINT
+    if a == 0:          # before the powers of ten: with an absolute tolerance 0 is "close" to e / 10**k
+        return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
+                                                   "division (`//`) round the result down to 0?")
     for k in range(1, 10):
         for sign, prefix, hint_extra in ((1, "", ""), (-1, "has the wrong sign and ", " Check the sign too.")):
             if close(sign * e * 10 ** k):
@@ -323,22 +339,15 @@ def _relation(a: float, e: float, *, rtol: float, atol: float, units: str,
             if close(sign * e / 10 ** k):
                 return f"{prefix}is {10 ** k:,} times smaller than expected", _power_hint(k, units) + hint_extra
     tol = atol + rtol * abs(e)
-    if a == 0:
-        return "is zero, which it should not be", ("Did a variable keep its initial value 0, or an integer "
-                                                   "division (`//`) round the result down to 0?")
     if not reveal:
         if abs(a - e) <= 10 * tol:
-            return ("is close, but outside the tolerance",
-                    "Did you round an intermediate value or a constant? Keep full precision until the end, and check "
-                    "that no small term is missing.")
+            return "is close, but outside the tolerance", _NEAR_MISS_HINT
         if (a > 0) != (e > 0):
             return "has the wrong sign", _SIGN_HINT
         return f"is too {'large' if abs(a) > abs(e) else 'small'}{' in size' if e < 0 else ''}", None
     if abs(a - e) <= 10 * tol:
         return (f"is close, but just outside the tolerance (off by {_with_units(a - e, units, 3)}; "
-                f"the tolerance is ±{_with_units(tol, units, 3)})",
-                "Did you round an intermediate value or a constant? Keep full precision until the end, and check "
-                "that no small term is missing.")
+                f"the tolerance is ±{_with_units(tol, units, 3)})", _NEAR_MISS_HINT)
     ratio = a / e
     if ratio < 0:
         size = abs(ratio)
@@ -441,13 +450,21 @@ def check_number(answer: Any, expected: float, *, rtol: float = 1e-3, atol: floa
     for value, mistake_hint in (common_mistakes or {}).items():
         v = float(value)
         if abs(a - v) <= atol + rtol * abs(v):
-            relation = (_relation(a, e, rtol=rtol, atol=atol, units=units)[0] if e != 0 and reveal_expected
-                        else "is not right")
-            return Feedback(False, f"{subject} {relation}.", hint=mistake_hint, details={**details, "mistake": v})
+            relation = "is not right"
+            if e != 0 and reveal_expected:
+                relation, relation_hint = _relation(a, e, rtol=rtol, atol=atol, units=units)
+                if relation_hint == _NEAR_MISS_HINT:    # a recognised slip is no rounding: do not call it "close"
+                    relation = f"is off by {_with_units(a - e, units, 3)}, a known slip rather than a rounding"
+            return Feedback(False, f"{subject} {relation}.", hint=mistake_hint,
+                            details={**details, "mistake": v, "diagnosed": True})
     if e == 0:
         should = f"should be zero (within ±{_with_units(atol, units)})" if reveal_expected else "is not right"
         return Feedback(False, f"{subject} {should}.", hint=hint or DEFAULT_HINT, details=details)
     relation, special_hint = _relation(a, e, rtol=rtol, atol=atol, units=units, reveal=reveal_expected)
+    if _diagnoses(special_hint):
+        details["diagnosed"] = True
+    elif special_hint == _NEAR_MISS_HINT:
+        details["near_miss"] = True
     return Feedback(False, f"{subject} {relation}.", hint=special_hint or hint or DEFAULT_HINT, details=details)
 
 
@@ -843,10 +860,11 @@ def check_array(answer: Any, expected: Any, *, rtol: float = 1e-6, atol: float =
             cand = np.asarray(candidate, dtype=float)
             if cand.shape == arr.shape and np.allclose(arr, cand, rtol=rtol, atol=atol, equal_nan=True):
                 text = relation[0] if relation else f"has {n_wrong} of {arr.size} elements off"
-                return Feedback(False, f"{_NOT_YET}{name} {text}.", hint=mistake_hint, details=details)
+                return Feedback(False, f"{_NOT_YET}{name} {text}.", hint=mistake_hint,
+                                details={**details, "diagnosed": True})
     if relation is not None:
         return Feedback(False, f"{_NOT_YET}{name} {relation[0]}.", hint=relation[1] or hint or DEFAULT_HINT,
-                        details=details)
+                        details={**details, "diagnosed": relation[1] is not None})
     u = f" {units}" if units else ""
     verb = "is" if n_wrong == 1 else "are"
     expected_text = f", expected {_fmt(exp[worst])}{u}" if reveal_expected else ""
@@ -1045,11 +1063,54 @@ def time_limit(seconds: float):
         sys.settrace(previous_trace)
 
 
+def _recognise_slip(got: Any, case: Case, mistakes: Sequence[tuple[Callable[..., Any], str]],
+                    compare: Callable[[Any, Any], Feedback] | None, rtol: float, atol: float, reveal: bool,
+                    time_limit_s: float) -> tuple[int, str] | None:
+    """The first of the checker's known slips (``mistakes``) whose result on ``case`` the student's result matches.
+
+    Each slip is a function written like the reference but with one typical mistake; it runs on fresh copies of
+    the case's arguments and its result is compared with the student's as the reference's would be. A slip that
+    raises, or a comparison that fails or takes too long, simply does not match. Returns ``(index, hint)``.
+    """
+    for index, (slipped, slip_hint) in enumerate(mistakes):
+        try:
+            wrong = slipped(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
+            if wrong is None:
+                continue
+            with time_limit(time_limit_s):
+                same = (compare(got, wrong) if compare is not None
+                        else _default_compare(got, wrong, rtol, atol, reveal))
+        except (Exception, StudentTimeout):       # noqa: BLE001 - an unmatched slip, never a crash
+            continue
+        if isinstance(same, Feedback) and same.correct:
+            return index, slip_hint
+    return None
+
+
+def _best_hint(verdict: Feedback, slip: tuple[int, str] | None, case_hint: str | None,
+               general_hint: str | None) -> str:
+    """The hint of a failing case, the most specific diagnosis of the wrong value first.
+
+    1. a known slip of the exercise that reproduces the student's result (``mistakes`` of :func:`check_function`);
+    2. the comparison's diagnosis of the value itself (a known wrong value, a wrong sign, a factor of 2, a power of
+       ten: ``details["diagnosed"]``), then any other hint of the comparison about this value (the part of the
+       result that is wrong, a NaN, a shape), but for the mere guess of a rounding;
+    3. the case's hint (what this case tests), then that guess, the checker's general hint, the default.
+    """
+    if slip is not None:
+        return slip[1]
+    specific = verdict.hint if verdict.hint not in (None, DEFAULT_HINT) else None
+    if specific and not verdict.details.get("near_miss"):
+        return specific
+    return case_hint or specific or general_hint or DEFAULT_HINT
+
+
 def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any], *, name: str | None = None,
                    compare: Callable[[Any, Any], Feedback] | None = None, rtol: float = 1e-6, atol: float = 0.0,
                    hint: str | None = None, explanation: str | None = None,
                    allow_mutation: bool = False, time_limit_s: float | None = None,
-                   reveal_expected: bool = True) -> Feedback:
+                   reveal_expected: bool = True,
+                   mistakes: Sequence[tuple[Callable[..., Any], str]] = ()) -> Feedback:
     """Run a student's function on test cases and report the first case where it disagrees with a reference.
 
     For each case the reference and the student's function are called on separate deep copies of the arguments.
@@ -1070,7 +1131,9 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     compare : callable, optional
         ``compare(got, expected) -> Feedback``; the default uses ``check_number`` for numbers, ``check_array`` for
         arrays (boolean arrays compared as flags) and ``==`` otherwise. When the comparison recognises the cause of a
-        wrong value, it says so with ``details["diagnosed"] = True``: its hint then wins over the case's.
+        wrong value, it says so with ``details["diagnosed"] = True``. The hint of a failing case is, in this order:
+        a recognised slip (``mistakes``), the comparison's hint about the wrong value (unless it only guesses a
+        rounding, ``details["near_miss"]``), the case's hint, the general ``hint``.
     rtol, atol : float
         Tolerances of the default comparison.
     hint : str, optional
@@ -1086,12 +1149,16 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     reveal_expected : bool
         ``False`` for a graded (hidden) test: a failing case then shows its inputs and what the function returned,
         but not the expected result (the default comparison also keeps it out of its message).
+    mistakes : sequence of (callable, str)
+        The exercise's typical slips, each a function with the reference's signature that makes one mistake, and
+        the hint that explains it. When the student's result on a failing case matches a slip's result (by the
+        same comparison), that hint is given: a diagnosis of the actual wrong value beats a per-case hint.
 
     Returns
     -------
     Feedback
         For a failure, ``details`` holds ``case`` (its index from 0), ``label``, ``inputs``, ``expected`` and ``got``
-        (or ``exception``).
+        (or ``exception``), and ``slip`` (the index in ``mistakes``) when a known slip was recognised.
 
     Raises
     ------
@@ -1112,6 +1179,13 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     Inputs: x = 1
     Expected: 2
     Got: 3
+    >>> slips = [(lambda x: x + 1.0, "You added one instead of doubling.")]
+    >>> fb = check_function(
+    ...     lambda x: x + 1.0, reference,
+    ...     [Case((3.0,), hint="Double the input.")], name="double", mistakes=slips,
+    ... )
+    >>> fb.hint  # the recognised slip, not the case's generic hint
+    'You added one instead of doubling.'
     """
     case_list = [_as_case(c) for c in cases]
     if time_limit_s is None:
@@ -1210,15 +1284,14 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
             message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
                        + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else "")
                        + f"\nGot: {_fmt_value(got)}")
-            specific = verdict.hint if verdict.hint != DEFAULT_HINT else None
-            if verdict.details.get("diagnosed") and specific:  # the comparison recognised the cause
-                best_hint = specific
-            elif "n_wrong" in verdict.details:  # wrong values: the case knows best why
-                best_hint = case.hint or specific or hint or DEFAULT_HINT
-            else:  # wrong type or shape: the comparison knows best
-                best_hint = specific or case.hint or hint or DEFAULT_HINT
+            slip = _recognise_slip(got, case, mistakes, compare, rtol, atol, reveal_expected, time_limit_s)
+            if slip is not None and verdict.details.get("near_miss"):     # a known slip is no rounding
+                message = message.replace(core, f"`{fname}` returned {_fmt_value(got)}, which is not a rounding "
+                                                "of the expected result but a known slip (see the hint).")
+            best_hint = _best_hint(verdict, slip, case.hint, hint)
+            extra = {} if slip is None else {"slip": slip[0]}
             return Feedback(False, message, hint=best_hint,
-                            details={**base_details, "got": got, "comparison": verdict})
+                            details={**base_details, "got": got, "comparison": verdict, **extra})
     message = f"Correct: `{fname}` passes all {n} test cases."
     if explanation:
         message += " " + explanation

@@ -59,6 +59,8 @@ Labbe, R. *FilterPy* (``filterpy.kalman.ExtendedKalmanFilter``), the reference t
 
 from __future__ import annotations
 
+import copy
+import warnings
 from typing import Any
 
 from numpy.typing import ArrayLike
@@ -70,10 +72,15 @@ from .._validate import (as_bool_array, as_covariance, as_finite, as_float_array
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
-from .base import FilterResult, run_filter
+from .base import FilterResult, _sequence_times, run_filter
 from .gates import Gate, GateContext
 
 __all__ = ["ExtendedKalmanFilter", "extended_kalman_filter"]
+
+
+def _library(obj: Any) -> bool:
+    """Whether ``obj`` is an instance of one of the library's own classes (not a user's subclass)."""
+    return type(obj).__module__.startswith("uwtutor.")
 
 
 def _check_model(name: str, model: Any, kind: type) -> None:
@@ -408,7 +415,11 @@ class ExtendedKalmanFilter:
 
     def predict(self, u: ArrayLike | None = None) -> None:
         """Predict one step: ``x- = f(x, u)``, ``P- = F P F^T + Q`` (``u`` of shape (p,) or (M, p), or None)."""
-        u = self._step_input(u)
+        self._predict(self._step_input(u))
+
+    def _predict(self, u: np.ndarray | None, deferred: bool = False) -> None:
+        """The prediction; ``deferred``: leave out the test that f, F and Q are finite (``_run_steps`` tests the
+        priors of the whole run instead: a non-finite f, F or Q makes them non-finite)."""
         self.k += 1
         k = self.k
         M, n = self._M, self.n
@@ -419,11 +430,12 @@ class ExtendedKalmanFilter:
         x_new = _real("f", x_new)
         if x_new.shape != (M, n):
             raise ValueError(f"the motion model's f must return shape ({M}, {n}); got {x_new.shape}")
-        for method, value in (("f", x_new), ("F", F), ("Q", Q)):
-            if not np.isfinite(value).all():
-                bad = np.argwhere(~np.isfinite(value))[0]
-                where = (int(bad[0]),) if value.ndim == 3 or method == "f" else ()
-                raise _not_finite_error(self.motion, method, k, where, "")
+        if not deferred:
+            for method, value in (("f", x_new), ("F", F), ("Q", Q)):
+                if not np.isfinite(value).all():
+                    bad = np.argwhere(~np.isfinite(value))[0]
+                    where = (int(bad[0]),) if value.ndim == 3 or method == "f" else ()
+                    raise _not_finite_error(self.motion, method, k, where, "")
         self._check_Q(Q)
         if F.ndim == 2 and np.array_equal(F, self._eye):         # dead reckoning: F = I
             P_new = P.copy()
@@ -455,7 +467,12 @@ class ExtendedKalmanFilter:
     def update(self, z: ArrayLike) -> None:
         """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update
         (a NaN component: the update uses the components that are present)."""
-        z = self._measurement(z)
+        self._update(self._measurement(z))
+
+    def _update(self, z: np.ndarray, deferred: bool = False) -> None:
+        """The update with ``z`` (M, m) as ``_measurement`` returns it; ``deferred``: leave out the test that the
+        posterior covariance is positive semi-definite (``_run_steps`` tests those of the whole run at once and
+        keeps them in ``_P_tested``)."""
         k = max(self.k, 0)
         M, n, m = self._M, self.n, self.m
         x, P = self._x, self._P
@@ -528,7 +545,10 @@ class ExtendedKalmanFilter:
         P_post += _mm_t(_mm(gain, Rc), gain)
         P_post += P_post.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
         P_post *= 0.5
-        _refuse_lost_psd(P_post, Rc, k)
+        if deferred:
+            self._P_tested = P_post
+        else:
+            _refuse_lost_psd(P_post, Rc, k)
         S = _runs_first(S)
         if self.gate is not None:
             P_in = _runs_first(P_post)
@@ -580,7 +600,108 @@ class ExtendedKalmanFilter:
         """
         z = as_float_array("z", z)
         _check_nonnegative(self.measurement, z)
-        return run_filter(self, z, u, times)
+        fast = self._run_steps(z, u, times)
+        return fast if fast is not None else run_filter(self, z, u, times)
+
+    def _run_steps(self, z: np.ndarray, u: Any, times: Any) -> FilterResult | None:
+        """``run_filter(self, z, u, times)`` with the per-step cost of its checks taken out, or None where it does
+        not apply (then ``run_filter`` runs the steps, and says what is wrong with the inputs, if anything is).
+
+        The same arithmetic, step by step (``_predict`` and ``_update``), recorded into arrays allocated once. What
+        ``predict``, ``update`` and ``run_filter`` test at every step is tested here once for the whole run, before
+        (the inputs: shapes, u finite, z not infinite) or after (every prior finite, every posterior covariance
+        PSD, as ``_refuse_lost_psd`` tests it; a non-finite f, F or Q shows in the priors). Anything out of the
+        ordinary -- a test that fails, an exception, a warning -- puts the filter (and its gate) back as they were
+        and returns None: ``run_filter`` then runs the steps with every check in its place and raises or warns
+        at the step where it should. So the result is bit for bit ``run_filter``'s, and so is every error.
+
+        It applies to the library's own models and gates (whose methods keep no state between calls, so that a
+        run can be done again), and to this class or a subclass that leaves ``predict``, ``update`` and the
+        recorded attributes alone.
+        """
+        cls = type(self)
+        if not (cls.predict is ExtendedKalmanFilter.predict and cls.update is ExtendedKalmanFilter.update
+                and cls._out is ExtendedKalmanFilter._out and _library(self.motion)
+                and _library(self.measurement) and (self.gate is None or _library(self.gate))):
+            return None
+        extra = tuple(name for name in self.extra_outputs if name != "accepted")
+        if extra != self._gate_outputs or any(getattr(cls, name) is not getattr(ExtendedKalmanFilter, name)
+                                              for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted")):
+            return None
+        batched, M, m, n = self._batched, self._M, self.m, self.n
+        step_axis = 1 if batched else 0
+        if z.ndim <= step_axis or (batched and z.shape[0] != M) or z.shape[step_axis] < 1:
+            return None
+        K = z.shape[step_axis]
+        z_step = z.shape[1:] if not batched else (M,) + z.shape[2:]          # the shape update(z[k]) sees
+        steps = np.moveaxis(z, 1, 0) if batched else z
+        if int(np.prod(z_step)) == m and (len(z_step) <= 1 or not batched):
+            z_steps = np.broadcast_to(steps.reshape(K, 1, m), (K, M, m))
+        elif batched and z_step in ((M, m),) + (((M,),) if m == 1 else ()):
+            z_steps = steps.reshape(K, M, m)
+        else:
+            return None
+        if np.isinf(z).any():
+            return None
+        u_shared = False
+        if u is not None:
+            u = as_float_array("u", u)
+            u_shared = batched and u.ndim == 2
+            u_axis = 0 if u_shared else step_axis
+            if u.ndim <= u_axis or u.shape[u_axis] != K or not np.isfinite(u).all():
+                return None
+            u_step = u.shape[1:] if u_shared or not batched else (u.shape[0],) + u.shape[2:]
+            if len(u_step) == 0 or len(u_step) > 2 or (len(u_step) == 2 and (not batched or u_step[0] != M)):
+                return None
+            u_steps = u if u_shared or not batched else np.moveaxis(u, 1, 0)
+        try:
+            times = _sequence_times(K, times)
+        except (TypeError, ValueError):
+            return None
+        saved = (self._x, self._P, self._x_prior, self._P_prior, self._y, self._S, self._accepted, self.k)
+        gate_state = copy.deepcopy(self.gate.__dict__) if self.gate is not None else None
+        x = np.empty((K, M, n))
+        P = np.empty((K, M, n, n))
+        x_prior, P_prior = np.empty_like(x), np.empty_like(P)
+        y = np.empty((K, M, m))
+        S = np.empty((K, M, m, m))
+        accepted = np.empty((K, M), dtype=bool)
+        tested = np.empty((n, n, K, M))                          # the posteriors before a gate, runs-last
+        extras: dict[str, list] = {name: [] for name in extra}
+        try:
+            # the caller's warning filters stay: a warning they would show is recorded (and the steps are run
+            # again by run_filter, which shows it), one they ignore is ignored, one they turn into an error raises
+            with warnings.catch_warnings(record=True) as caught:
+                for k in range(K):
+                    self._predict(None if u is None else u_steps[k], deferred=True)
+                    x_prior[k] = self._x_prior
+                    P_prior[k] = _runs_first(self._P_prior)
+                    self._update(z_steps[k], deferred=True)
+                    tested[:, :, k] = self._P_tested
+                    x[k] = self._x
+                    P[k] = _runs_first(self._P)
+                    y[k] = self._y
+                    S[k] = self._S
+                    accepted[k] = self._accepted
+                    for name in extra:
+                        extras[name].append(np.array(getattr(self, name)))
+            with np.errstate(over="ignore", invalid="ignore"):
+                sound = not caught and bool(np.isfinite(x_prior.sum() + P_prior.sum())) and \
+                    not psd_violations(tested.reshape(n, n, K * M)).any()
+        except Exception:
+            sound = False
+        if not sound:
+            (self._x, self._P, self._x_prior, self._P_prior, self._y, self._S, self._accepted, self.k) = saved
+            if gate_state is not None:
+                self.gate.__dict__.clear()
+                self.gate.__dict__.update(gate_state)
+            return None
+        fields = dict(x=x, P=P, x_prior=x_prior, P_prior=P_prior, innovations=y, innovation_cov=S)
+        stacked = {name: np.moveaxis(h, 0, 1) if batched else h[:, 0] for name, h in fields.items()}
+        recorded = {"accepted": accepted if batched else accepted[:, 0],
+                    **{name: np.stack(v) for name, v in extras.items()}}
+        return self.result_type(times=times, **stacked,
+                                extras={name: np.moveaxis(h, 0, 1) if batched else h for name, h in recorded.items()})
 
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,

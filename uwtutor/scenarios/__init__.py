@@ -333,7 +333,7 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     n_runs : int, default 1
         Number of Monte Carlo runs.
     radius, speed : float
-        Circle radius [m] (paper: 1000-2000 m) and platform speed [m/s].
+        Circle radius [m] (paper A gives none; 1500 m chosen) and platform speed [m/s].
     interval, duration : float
         Ranging interval and total time [s].
     center : array_like, shape (2,)

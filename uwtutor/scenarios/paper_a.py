@@ -3,8 +3,9 @@ r"""Paper A (Liu et al.): a platform circling a buoy with a slowly varying range
 Two scenarios, each a parameters dataclass holding paper A's values (and, where the paper gives none, the book's
 choices, marked as such) with a ``make(rng, n_runs)``:
 
-* :class:`PaperAParameters` -- the simulation of paper A's sec. 2.1: the platform circles the buoy at 1-2 km and
-  every ``leg_time`` seconds turns towards it by a random angle (the paper's Fig. 1a); the range error is
+* :class:`PaperAParameters` -- the simulation of paper A's sec. 2.1: the platform circles the buoy (the paper gives no
+  radius; the book chooses 1500 m) and every ``leg_time`` seconds turns towards it by a random angle (the paper's
+  Fig. 1a); the range error is
 
   .. math::
 
@@ -120,7 +121,7 @@ class PaperAParameters:
     interval : float
         Ranging interval [s] (chosen: 5 s).
     radius : float
-        Starting range [m] (paper: 1-2 km; chosen 1500 m).
+        Starting range [m] (the paper gives none; chosen 1500 m).
     speed : float
         Platform speed [m/s] (chosen 2 m/s).
     track : str

@@ -136,17 +136,19 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
             inside = lo <= min(n0, n1) and max(n0, n1) <= hi
             keep = keep and inside and abs(n1 - n0) >= keep_within * (hi - lo)
             grow[i] = not inside
+        # auto=None: limits set here keep the axes' autoscaling as it was (set_xlim alone would turn it off, and the
+        # next change of the data could not move them any more)
         if keep:
-            ax.set_xlim(*old[0])
-            ax.set_ylim(*old[1])
+            ax.set_xlim(*old[0], auto=None)
+            ax.set_ylim(*old[1], auto=None)
             if getattr(ax, "_uwtutor_datalim", False):
                 ax.set_adjustable("box")
             continue
         if getattr(ax, "_uwtutor_datalim", False) and scales == ("linear", "linear"):
             ax.apply_aspect()                           # the frame a draw would give, then room on all sides
             (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-            ax.set_xlim(x0 - headroom * (x1 - x0), x1 + headroom * (x1 - x0))
-            ax.set_ylim(y0 - headroom * (y1 - y0), y1 + headroom * (y1 - y0))
+            ax.set_xlim(x0 - headroom * (x1 - x0), x1 + headroom * (x1 - x0), auto=None)
+            ax.set_ylim(y0 - headroom * (y1 - y0), y1 + headroom * (y1 - y0), auto=None)
             ax.set_adjustable("box")                    # the same ratio: the box stays where it is
             continue
         for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
@@ -164,7 +166,7 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
                 limits = (n0 - pad, n1 + pad)
             else:
                 continue
-            (ax.set_xlim if i == 0 else ax.set_ylim)(*limits)
+            (ax.set_xlim if i == 0 else ax.set_ylim)(*limits, auto=None)
 
 
 def _axes_signature(fig: Any) -> tuple:

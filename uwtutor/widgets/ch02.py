@@ -203,7 +203,7 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
                             wspace=0.3, hspace=0.32)
     ax_map = fig.add_subplot(grid[:, 0])
     ax_mis, ax_rank, ax_rmse = (fig.add_subplot(grid[i, 1]) for i in range(3))
-    colors = {"position": "C0", "position + bias": "C1", "position + current": "C2"}
+    colors = _STATE_COLORS
 
     mark_beacon(ax_map, view.beacon)
     plot_track(ax_map, view.positions, label="true track", color="black", lw=1.2)
@@ -270,6 +270,10 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
                 bounds=bounds)
 
 
+#: The colour of each choice of unknowns (its ellipses, rank and bound).
+_STATE_COLORS = {"position": "C0", "position + bias": "C1", "position + current": "C2"}
+
+
 def _ellipses(view: ObservabilityView) -> list[tuple[int, np.ndarray]]:
     """The CRLB ellipses the map shows: (epoch, points) every ``_ELLIPSE_EVERY`` epochs where the bound is finite."""
     out = []
@@ -285,13 +289,30 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     or ``None`` when it must be drawn anew (other unknowns, or another number of finite ellipses)."""
     a = kept(fig)
     ellipses = _ellipses(view)
-    if view.state != a["state"] or len(ellipses) != len(a["ellipses"]) or not ellipses:
+    if not ellipses or not a["ellipses"]:              # the legend names "no finite bound": drawn anew
         return None
     ax_map, ax_mis, ax_rank, ax_rmse = fig.axes[:4]
     a["tracks"][0].set_data(*view.positions.T)
     a["tracks"][1].set_data(*view.mirror_positions.T)
-    for line, (_, pts) in zip(a["ellipses"], ellipses):
+    # other unknowns or another number of finite ellipses: the ellipse lines are reused, added or removed and
+    # coloured for the unknowns, the legend's entry follows (no new axes: the figure is not drawn anew)
+    color = _STATE_COLORS[view.state]
+    lines = a["ellipses"]
+    while len(lines) > len(ellipses):
+        lines.pop().remove()
+    while len(lines) < len(ellipses):
+        lines.append(ax_map.plot([], [], color=color, lw=1.0)[0])
+    for line, (_, pts) in zip(lines, ellipses):
         line.set_data(pts[:, 0], pts[:, 1])
+        line.set_color(color)
+    map_legend = ax_map.get_legend()
+    changed_legend = []
+    if view.state != a["state"]:
+        a["state"] = view.state
+        handle = map_legend.legend_handles[-1]
+        handle.set_color(color)
+        map_legend.get_texts()[-1].set_text(f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")
+        changed_legend = [map_legend]
     pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
@@ -316,8 +337,8 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
         finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
     ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
     rescale(ax_rmse)
-    return [*a["tracks"], *a["ellipses"], ax_map.title, a["misfit"], a["noise"], legend, ax_mis.title, *a["ranks"],
-            *a["bounds"], ax_rmse.title]
+    return [*a["tracks"], *a["ellipses"], *changed_legend, ax_map.title, a["misfit"], a["noise"], legend,
+            ax_mis.title, *a["ranks"], *a["bounds"], ax_rmse.title]
 
 
 def observability_widget() -> Any:

@@ -207,7 +207,7 @@ def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     ax_map = fig.add_subplot(grid[:, 0])
     ax_err = fig.add_subplot(grid[0, 1])
     ax_lam = fig.add_subplot(grid[1, 1], sharex=ax_err)
-    name = "ISFEKF" if view.weakening else "fading EKF, β = 1"
+    name = _fading_name(view.weakening)
     plot_track(ax_map, view.truth, label="truth", color="black", lw=1.2)
     plot_track(ax_map, view.x_ekf, label="EKF (additive)", color="C0", lw=1)
     plot_track(ax_map, view.x_fading, label=name, color="C3", lw=1)
@@ -240,12 +240,18 @@ def _fading_titles(view: FadingView, ax_err: Any, ax_lam: Any) -> list[Any]:
 
 
 def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
-    """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (``None`` when
-    the weakening factor is switched: the labels change, the figure is drawn anew)."""
+    """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (the
+    legends among them when the weakening factor is switched: the fading filter's name changes)."""
     a = kept(fig)
-    if a["weakening"] != view.weakening:
-        return None
     ax_map, ax_err, ax_lam = fig.axes[:3]
+    legends = []
+    if a["weakening"] != view.weakening:            # the fading filter's name changes in both legends
+        old, new = (_fading_name(w) for w in (a["weakening"], view.weakening))
+        for legend in (ax_map.get_legend(), ax_err.get_legend()):
+            for text in legend.get_texts():
+                text.set_text(text.get_text().replace(old, new))
+            legends.append(legend)
+        a["weakening"] = view.weakening
     ekf, ekf0, fading, fading0 = a["tracks"]
     ekf.set_data(*view.x_ekf[:, :2].T)
     ekf0.set_data([view.x_ekf[0, 0]], [view.x_ekf[0, 1]])
@@ -258,7 +264,11 @@ def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     ax_lam.relim()
     ax_lam.autoscale_view()
     ax_lam.set_ylim(0.8, None)
-    return [*a["tracks"], *a["errors"], a["factor"], *_fading_titles(view, ax_err, ax_lam)]
+    return [*a["tracks"], *a["errors"], a["factor"], *legends, *_fading_titles(view, ax_err, ax_lam)]
+
+
+def _fading_name(weakening: bool) -> str:
+    return "ISFEKF" if weakening else "fading EKF, β = 1"
 
 
 def fading_widget() -> Any:

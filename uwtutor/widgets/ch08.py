@@ -221,10 +221,24 @@ def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
     ax_cur.legend(fontsize=6, ncol=2)
     (median,) = ax_err.semilogy(t, np.maximum(view.median_error, 1e-2), color="C1", lw=1)
     ax_err.set_ylabel("median error [m]", fontsize=8)
+    _plain_log_labels(ax_err.yaxis)
     ax_err.set_xlabel("time [s]")
     _cooperative_titles(view, ax_map, ax_err)
     fig.tight_layout()
     return keep(fig, tracks=tracks, bands=bands, currents=currents, truths=truths, median=median)
+
+
+def _plain_log_labels(axis: Any) -> None:
+    """Label a log axis at 1, 2 and 5 times the powers of ten, in plain numbers (``50``, ``100``, ``200``), and leave
+    its minor ticks unlabelled: wherever the limits go as the widget's settings change, the labels stay short
+    (matplotlib's default labels the minor ticks ``2×10²``, ``3×10²``... of an axis that spans less than a decade,
+    wide enough to crowd the axis label)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda value, _pos: f"{value:g}"))
+    axis.set_minor_formatter(NullFormatter())
+    axis.set_tick_params(labelsize=8)
 
 
 def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list[Any]:

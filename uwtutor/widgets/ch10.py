@@ -196,8 +196,8 @@ def _color_tick_labels(ax_f: Any, colors: list[Any], method: str) -> None:
 
 def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") -> list[Any] | None:
     """Put another ``ComparisonView`` (and highlight) into a figure drawn by ``plot_comparison_view``, in place;
-    returns ``[fig]`` (colours and tick labels change: the figure is drawn again, without being made anew), or
-    ``None`` when the scenario has other methods."""
+    returns the artists that changed (the method names on the right panel's y axis among them), or ``None`` when
+    the scenario has other methods."""
     a = kept(fig)
     if a["methods"] != tuple(view.methods):
         return None
@@ -219,7 +219,10 @@ def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") 
         text.remove()
     a["lost"] = _lost_labels(view, ax_f)
     _color_tick_labels(ax_f, colors, method)
-    return [fig]
+    # drawn over the kept background: the curves, the bars, the labels and the method names (the y axis of the
+    # right panel, whose tick labels take the colours)
+    return [*a["curves"], a["bound"], *a["p95"], *a["median"], a["final_bound"], *a["lost"], ax_t.title,
+            ax_f.yaxis]
 
 
 def comparison_widget(table: Any = None) -> Any:
