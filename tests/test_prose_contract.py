@@ -22,11 +22,29 @@ import prose_numbers as numbers  # noqa: E402  (tools/prose_numbers.py: the find
 
 PAGES = contract.contract_pages()
 CHAPTER = REPO / "book" / "ch01_positioning_and_errors.ipynb"
+#: Pages whose manifests still hold ``kind: TODO`` entries, each with the reason (one line a page: the page, two
+#: spaces, the reason). On such a page every other number must be bound, and the TODO entries must say in ``why``
+#: what computes them; a page that has none left must leave the list, so it only shrinks.
+PENDING_FILE = REPO / "tests" / "prose_pending.txt"
+PENDING = {line.split("  ", 1)[0].strip(): line.split("  ", 1)[1].strip()
+           for line in PENDING_FILE.read_text(encoding="utf-8").splitlines()
+           if line.strip() and not line.startswith("#")}
+
+
+def _todo(entry: dict) -> bool:
+    return entry.get("kind") == "TODO"
 
 
 @pytest.mark.parametrize("page", PAGES, ids=[p.relative_to(REPO).as_posix() for p in PAGES])
 def test_every_hand_typed_number_is_bound_or_listed(page):
     report = contract.check_page(page)
+    relative = page.relative_to(REPO).as_posix()
+    if relative in PENDING:
+        todo = [e for e, _ in report.broken if _todo(e)]
+        assert todo, f"{relative} has no TODO entry left: remove it from {PENDING_FILE.name}"
+        unexplained = [e["number"] for e in todo if not str(e.get("why", "")).strip()]
+        assert not unexplained, f"{relative}: TODO entries must say in 'why' what computes them: {unexplained}"
+        report.broken[:] = [(e, p) for e, p in report.broken if not _todo(e)]
     lines = []
     for occ in report.unclassified:
         entry = contract.draft_entry(occ, [o for o in contract.occurrences(page) if o.token == occ.token])
@@ -38,6 +56,11 @@ def test_every_hand_typed_number_is_bound_or_listed(page):
                        f"(bind them with glue, or list them in {contract.manifest_path(report.page)}; "
                        f"`python tools/prose_manifest.py --draft {report.page}` drafts the entries):\n"
                        + "\n".join(lines))
+
+
+def test_every_pending_page_exists():
+    pages = {p.relative_to(REPO).as_posix() for p in PAGES}
+    assert set(PENDING) <= pages, f"pending pages that are not pages: {sorted(set(PENDING) - pages)}"
 
 
 def test_every_manifest_belongs_to_a_page():
