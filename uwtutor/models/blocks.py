@@ -57,6 +57,8 @@ __all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "O
 
 #: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
 _MAX_STD = 1e75
+#: Longest step accepted [s]: a rate's noise q dt^3 / 3 stays finite.
+_MAX_STEP = 1e50
 
 
 def _name(value: Any, what: str = "name") -> str:
@@ -511,6 +513,9 @@ class BlockMotion(MotionModel):
                                      f"slots are {sorted(self._slots)}")
         self.names = tuple(c for block in self.blocks for c in block.components)
         self._dt, steps = _durations(times, dt)
+        if self._dt is not None and np.any(self._dt > _MAX_STEP):
+            raise ValueError(f"{'dt' if dt is not None else 'times'} gives a step longer than {_MAX_STEP:g} s (a "
+                             f"rate's noise grows as dt^3): give the step lengths in seconds")
         untimed = [b.name for b in self.blocks if b.needs_time]
         if self._dt is None and untimed:
             raise ValueError(f"the blocks {untimed} hold a rate: give times (the epoch times, s) or dt (the step "
