@@ -88,9 +88,9 @@ SPECS_BLOCKS: dict[str, Spec] = {
                    scale=_SlotName(optional=True), bias=_SlotName(optional=True), position=_SlotName()),
         call=lambda **kw: _meas_use(_blocks().BlockRanges(**kw), x=_X)),
     "uwtutor.models.clock:OneWayTravelTimeRanges": Spec(
-        lambda: dict(beacons=_BEACONS, R=0.36, state=_state(), sound_speed=1500.0, slots=None),
+        lambda: dict(beacons=_BEACONS, R=0.36, state=_state(), sound_speed=1500.0, slots=None, scale="scale"),
         kinds=dict(beacons=Real((None, 2)), R=Real((), "pos", vector_ok=True), state=Instance(),
-                   sound_speed=Real((), "pos"), slots=Kind()),
+                   sound_speed=Real((), "pos"), slots=Kind(), scale=_SlotName(optional=True)),
         call=lambda **kw: _meas_use(__import__("uwtutor.models.clock", fromlist=["x"]).OneWayTravelTimeRanges(**kw),
                                     x=_X)),
 }

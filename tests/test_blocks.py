@@ -119,3 +119,16 @@ def test_bad_block_states_get_errors_that_name_the_slot():
         OneWayTravelTimeRanges([[0.0, 0.0]], 1.0, motion)
     with pytest.raises(ValueError, match="missing"):
         BlockMotion(Position(np.eye(2)), RandomWalk("scale")).initial_state(position=(0.0, 1.0))
+
+
+def test_owtt_ranges_are_scaled_ranges_plus_the_clock_offset_times_the_sound_speed():
+    state = BlockMotion(OdometryPose(0.1, 0.01), RandomWalk("scale"), OffsetAndRate("clock", 1e-8), dt=1.0)
+    beacons = [(0.0, 0.0), (40.0, 0.0)]
+    x = _states([13.0, 14.0, 0.3, 1.07, 2e-3, 2e-5], [5.0, 5.0, 0.5, 0.02, 1e-3, 1e-5])
+    owtt = OneWayTravelTimeRanges(beacons, 0.25, state, sound_speed=1480.0, scale="scale")
+    plain = BlockRanges(beacons, 0.25, state, scale="scale")
+    z, H, _ = owtt.linearize(x, 0)
+    z0, H0, _ = plain.linearize(x, 0)
+    _assert_same(z, z0 + 1480.0 * x[:, 4:5])
+    H0[..., 4] = 1480.0
+    _assert_same(H, H0)

@@ -115,7 +115,7 @@ def _measurement_cases() -> dict[str, Callable[[], MeasurementCase]]:
                 models.RandomWalk("scale"), models.OdometryPose(0.02, 0.003), models.RandomWalk("range_bias", size=3))),
             np.array([1.07, 13.0, 14.0, 0.3, 0.5, -0.2, 0.1]), np.array([0.02, 5.0, 5.0, 0.5, 0.3, 0.3, 0.3])),
         "OneWayTravelTimeRanges": lambda: MeasurementCase(
-            models.OneWayTravelTimeRanges(BEACONS, R=0.25, state=_block_state()),
+            models.OneWayTravelTimeRanges(BEACONS, R=0.25, state=_block_state(), scale="scale"),
             np.array([13.0, 14.0, 0.3, 0.004, 1.07, 1e-3, 2e-5]),
             np.array([5.0, 5.0, 0.5, 0.002, 0.02, 1e-3, 1e-5])),
         "SquaredRangePair": lambda: MeasurementCase(

@@ -7,10 +7,12 @@ speed :math:`c`:
 .. math::
 
     z_{k,j} = c\,(t^{\text{arrival}}_{k,j} + \delta_k - t^{\text{emit}}_{k,j})
-            = \lVert p_k - b_j \rVert + c\,\delta_k + v_{k,j}, \qquad
-    H = \Big[\ \frac{(p_k - b_j)^\mathsf{T}}{\lVert p_k - b_j\rVert}\ \Big|\ c\ \Big|\ 0\ \Big]
+            = s\,\lVert p_k - b_j \rVert + c\,\delta_k + v_{k,j}, \qquad
+    H = \Big[\ s\,\frac{(p_k - b_j)^\mathsf{T}}{\lVert p_k - b_j\rVert}\ \Big|\ c\ \Big|\ 0\ \Big|\
+    \lVert p_k - b_j \rVert\ \Big]
 
-on the slots ``position`` and ``clock`` (offset :math:`\delta` [s], drift :math:`\dot\delta` [s/s]). The clock is a
+on the slots ``position``, ``clock`` (offset :math:`\delta` [s], drift :math:`\dot\delta` [s/s]) and, when the
+model is given one, a range ``scale`` :math:`s` (a sound speed that is not the one assumed; :math:`s = 1` without). The clock is a
 :class:`~uwtutor.models.blocks.OffsetAndRate` block: a clock that gains 20 µs every second adds 30 m of range
 every 1000 s at :math:`c = 1500` m/s, which a filter without the clock in its state reads as position.
 
@@ -51,6 +53,9 @@ class OneWayTravelTimeRanges(BlockMeasurement):
         :math:`c` [m/s], the speed the receiver turns travel times into ranges with.
     slots : dict of str to str, optional
         Other names for ``position`` and ``clock`` in the state.
+    scale : str, optional
+        The slot of a range scale :math:`s` to read too (e.g. ``"scale"``, a
+        :class:`~uwtutor.models.blocks.RandomWalk`).
 
     Examples
     --------
@@ -76,8 +81,10 @@ class OneWayTravelTimeRanges(BlockMeasurement):
     nonnegative = True
 
     def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, sound_speed: Any = 1500.0,
-                 slots: dict[str, str] | None = None) -> None:
-        super().__init__(state, slots=slots)
+                 slots: dict[str, str] | None = None, scale: str | None = None) -> None:
+        self.reads = ("position", "clock") + (() if scale is None else ("scale",))
+        super().__init__(state, slots=dict(slots or {}, **({} if scale is None else {"scale": scale})))
+        self._scale = None if scale is None else self.columns["scale"][0]
         self.ids, self.beacons = _beacon_table(beacons)
         self.m = len(self.beacons)
         self.sound_speed = float(as_positive("sound_speed", sound_speed, ndim=0))
@@ -88,13 +95,22 @@ class OneWayTravelTimeRanges(BlockMeasurement):
         """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask ``(M, B)`` False on a beacon."""
         r, los, defined = _line_of_sight(self.read(x, "position")[..., None, :], self.beacons)
         H = np.zeros(r.shape + (self.n,))
-        H[..., self.columns["position"]] = los
         H[..., self._offset] = self.sound_speed
+        if self._scale is None:
+            H[..., self.columns["position"]] = los
+        else:
+            s = x[..., self._scale, None]
+            H[..., self.columns["position"]] = s[..., None] * los
+            H[..., self._scale] = r
+            r = s * r
         return r + self.sound_speed * x[..., self._offset, None], H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
         d = self.read(x, "position")[..., None, :] - self.beacons
-        return np.hypot(d[..., 0], d[..., 1]) + self.sound_speed * x[..., self._offset, None]
+        r = np.hypot(d[..., 0], d[..., 1])
+        if self._scale is not None:
+            r = r * x[..., self._scale, None]
+        return r + self.sound_speed * x[..., self._offset, None]
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
         return self._noise.at(k)
