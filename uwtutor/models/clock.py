@@ -12,9 +12,10 @@ speed :math:`c`:
     \lVert p_k - b_j \rVert\ \Big]
 
 on the slots ``position``, ``clock`` (offset :math:`\delta` [s], drift :math:`\dot\delta` [s/s]) and, when the
-model is given one, a range ``scale`` :math:`s` (a sound speed that is not the one assumed; :math:`s = 1` without). The clock is a
-:class:`~uwtutor.models.blocks.OffsetAndRate` block: a clock that gains 20 µs every second adds 30 m of range
-every 1000 s at :math:`c = 1500` m/s, which a filter without the clock in its state reads as position.
+model is given one, a range ``scale`` :math:`s` (a sound speed that is not the one assumed; :math:`s = 1`
+without). The clock is a :class:`~uwtutor.models.blocks.OffsetAndRate` block: a clock that gains 20 µs every
+second adds 30 m of range every 1000 s at :math:`c = 1500` m/s, which a filter without the clock in its state
+reads as position.
 
 References
 ----------
