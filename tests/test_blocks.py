@@ -132,3 +132,21 @@ def test_owtt_ranges_are_scaled_ranges_plus_the_clock_offset_times_the_sound_spe
     _assert_same(z, z0 + 1480.0 * x[:, 4:5])
     H0[..., 4] = 1480.0
     _assert_same(H, H0)
+
+
+def test_the_posterior_bound_runs_on_blocks_and_the_ekf_covariance_meets_it():
+    # the OWTT line of the engine test, noise free: the EKF linearised at its estimates, the bound at the truth;
+    # near-linear, so the two covariances agree closely, and neither needs anything block-specific
+    from uwtutor.observability import model_posterior_crlb
+
+    K, dt, c = 200, 10.0, 1500.0
+    track = np.column_stack([np.linspace(0.0, 200.0, K), np.full(K, 50.0)])
+    u = np.diff(track, axis=0, prepend=track[:1])
+    motion = BlockMotion(Position(np.eye(2) * 0.01), OffsetAndRate("clock", rate_walk=1e-9), dt=dt)
+    ranges = OneWayTravelTimeRanges([[0.0, 0.0], [300.0, 0.0]], 0.25, motion, sound_speed=c)
+    truth = np.column_stack([track, 20e-6 * dt * np.arange(K), np.full(K, 20e-6)])
+    x0, P0 = motion.initial_state(position=(track[0], 5.0), clock=([0.0, 0.0], [1e-3, 1e-4]))
+    bound = model_posterior_crlb(motion, ranges, x0, P0, truth, u, full=True)
+    z = np.stack([ranges.h(truth[k][None], k)[0] for k in range(K)])
+    result = extended_kalman_filter(motion, ranges, x0, P0, u, z)
+    np.testing.assert_allclose(np.sqrt(np.diagonal(result.P[-1])), np.sqrt(np.diagonal(bound[-1])), rtol=0.05)
