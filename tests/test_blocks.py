@@ -150,3 +150,19 @@ def test_the_posterior_bound_runs_on_blocks_and_the_ekf_covariance_meets_it():
     z = np.stack([ranges.h(truth[k][None], k)[0] for k in range(K)])
     result = extended_kalman_filter(motion, ranges, x0, P0, u, z)
     np.testing.assert_allclose(np.sqrt(np.diagonal(result.P[-1])), np.sqrt(np.diagonal(bound[-1])), rtol=0.05)
+
+
+def test_a_block_state_runs_in_the_particle_filter_unchanged():
+    from uwtutor.filters import BootstrapParticleFilter
+
+    K = 60
+    track = np.column_stack([np.linspace(0.0, 60.0, K), np.zeros(K)])
+    odometry = np.column_stack([np.r_[0.0, np.full(K - 1, 60.0 / (K - 1))], np.zeros(K)])
+    motion = BlockMotion(OdometryPose(0.01, 1e-3), RandomWalk("scale", 1e-5), dt=1.0)
+    ranges = BlockRanges([[30.0, 40.0], [0.0, 30.0]], 0.04, motion, scale="scale")
+    z = 1.03 * np.linalg.norm(track[:, None] - np.array([[30.0, 40.0], [0.0, 30.0]]), axis=-1)
+    x0, P0 = motion.initial_state(pose=([0.0, 0.0, 0.0], [0.5, 0.5, 0.01]), scale=(1.0, 0.05))
+    pf = BootstrapParticleFilter.from_gaussian(motion, ranges, x0, P0, 2000, np.random.default_rng(0))
+    result = pf.run(z, odometry)
+    assert abs(result.x[-1, 3] - 1.03) < 0.01
+    assert np.linalg.norm(result.x[-1, :2] - track[-1]) < 1.0

@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike
 from .._linalg import line_of_sight as _line_of_sight
 from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
 from .base import MeasurementModel, MotionModel
-from .noise import per_run_generators, standard_normal_per_run
+from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
 from .odometry import ORDERS, _durations, _per_step, _wrap
 from .range import NoiseSchedule, _beacon_table
 
@@ -138,8 +138,6 @@ class StateBlock:
                eps: np.ndarray) -> np.ndarray:
         r"""Draw the block's next components from ``noise_size`` standard normal draws ``eps`` ``(..., q)``."""
         f, _, _, Q = self.linearize(own, reads, u, k, dt)
-        from .noise import psd_sqrt
-
         L = psd_sqrt(np.asarray(Q, dtype=float))
         return f + np.einsum("...ij,...j->...i", L, eps)
 
