@@ -92,11 +92,14 @@ class OneWayTravelTimeRanges(BlockMeasurement):
         self._noise = NoiseSchedule("R", R, self.m)
         self._offset = self.columns["clock"][0]
 
-    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask ``(M, B)`` False on a beacon."""
-        r, los, defined = _line_of_sight(self.read(x, "position")[..., None, :], self.beacons)
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, ...]:
+        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask
+        ``(M, B)``, False on a beacon."""
+        p = self.read(x, "position")[..., None, :]
+        r, los, defined = _line_of_sight(p, self.beacons)
+        c, offset = self.sound_speed, x[..., self._offset, None]
         H = np.zeros(r.shape + (self.n,))
-        H[..., self._offset] = self.sound_speed
+        H[..., self._offset] = c
         if self._scale is None:
             H[..., self.columns["position"]] = los
         else:
@@ -104,7 +107,7 @@ class OneWayTravelTimeRanges(BlockMeasurement):
             H[..., self.columns["position"]] = s[..., None] * los
             H[..., self._scale] = r
             r = s * r
-        return r + self.sound_speed * x[..., self._offset, None], H, defined
+        return r + c * offset, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
         d = self.read(x, "position")[..., None, :] - self.beacons
