@@ -25,7 +25,7 @@ combined linear-Gaussian transition model (block-diagonal transitions) and its m
 GTSAM's keys, by which a factor names the variables it reads.
 
 The whole thing is a motion model and a measurement model like every other of the library: it runs in
-:func:`uwtutor.filters.extended_kalman_filter`, the smoother and the particle filters unchanged. The blocks
+:func:`uwtutor.filters.engine.extended_kalman_filter`, the smoother and the particle filters unchanged. The blocks
 reproduce the library's hand-assembled models to the last bit where they describe the same state
 (``tests/test_blocks.py``): :class:`~uwtutor.models.odometry.OdometryMotion` with a gyro bias and a range scale,
 :class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`.
@@ -98,7 +98,7 @@ class StateBlock:
     #: local indices of the components that are angles (wrapped to [-pi, pi))
     angles: tuple[int, ...] = ()
     noise_size: int = 0
-    #: True when the block needs real step lengths (a rate in its state): BlockMotion then needs times or dt
+    #: Whether the block needs real step lengths, as a rate in its state does; BlockMotion then needs times or dt
     needs_time: bool = False
 
     @property
@@ -665,7 +665,7 @@ class BlockMeasurement(MeasurementModel):
     r"""A measurement model that reads the slots it names, wherever they are in the state.
 
     A subclass lists the slots it needs in ``reads`` (class attribute, or set before calling this ``__init__``)
-    and reads them through :meth:`read`; :attr:`columns` gives the state indices of a slot, for the rows of its
+    and reads them through :meth:`read`; ``columns`` gives the state indices of a slot, for the rows of its
     Jacobian. ``slots`` maps a name the model uses to the name of the slot in the state, for a state whose blocks
     are named otherwise (``slots={"clock": "receiver_clock"}``).
 
