@@ -522,3 +522,5 @@ from robustness_spec_struct import SPECS_STRUCT, EXEMPT_STRUCT  # noqa: E402
 SPECS.update(SPECS_STRUCT); EXEMPT.update(EXEMPT_STRUCT)  # noqa: E702
 from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
 SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702
+from robustness_spec_blocks import SPECS_BLOCKS, EXEMPT_BLOCKS  # noqa: E402
+SPECS.update(SPECS_BLOCKS); EXEMPT.update(EXEMPT_BLOCKS)  # noqa: E702

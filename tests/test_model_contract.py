@@ -59,6 +59,13 @@ class MeasurementCase:
 BEACONS = {"A": (0.0, 0.0), "B": (40.0, 0.0), "C": (40.0, 30.0)}
 
 
+def _block_state() -> models.BlockMotion:
+    """A state of four blocks: a pose turned by a gyro bias, the bias, a range scale and a clock."""
+    return models.BlockMotion(
+        models.OdometryPose(0.02, 0.003, gyro_bias="gyro_bias"), models.RandomWalk("gyro_bias", 1e-4),
+        models.RandomWalk("scale", 1e-5), models.OffsetAndRate("clock", rate_walk=1e-7, offset_walk=1e-6), dt=0.5)
+
+
 def _motion_cases() -> dict[str, Callable[[], MotionCase]]:
     return {
         "DeadReckoning": lambda: MotionCase(
@@ -83,6 +90,9 @@ def _motion_cases() -> dict[str, Callable[[], MotionCase]]:
             models.OdometryMotion(0.02, 0.003, gyro_bias=True, scale=True, dt=0.5),
             np.array([20.0, 5.0, 0.4, 0.004, 1.05]), np.array([10.0, 10.0, 1.0, 0.002, 0.02]),
             np.array([0.5, 0.06]), first_order=True),
+        "BlockMotion": lambda: MotionCase(
+            _block_state(), np.array([20.0, 5.0, 0.4, 0.004, 1.05, 1e-3, 2e-5]),
+            np.array([10.0, 10.0, 1.0, 0.002, 0.02, 1e-3, 1e-5]), np.array([0.5, 0.06]), k=2, first_order=True),
         "ConstantVelocity": lambda: MotionCase(
             ConstantVelocity(d=2, q=2.0, steps=step_lengths(5, dt=1.0)), np.array([1500.0, -20.0, -2.0, 1.0]),
             np.array([50.0, 50.0, 1.0, 1.0]), None, k=2),
@@ -100,6 +110,14 @@ def _measurement_cases() -> dict[str, Callable[[], MeasurementCase]]:
         "BeaconRanges": lambda: MeasurementCase(
             models.BeaconRanges(BEACONS, R=0.01, layout=models.StateLayout.odometry(scale=True)),
             np.array([13.0, 14.0, 0.3, 1.07]), np.array([5.0, 5.0, 0.5, 0.02])),
+        "BlockRanges": lambda: MeasurementCase(
+            models.BlockRanges(BEACONS, R=0.01, scale="scale", bias="range_bias", state=models.BlockMotion(
+                models.RandomWalk("scale"), models.OdometryPose(0.02, 0.003), models.RandomWalk("range_bias", size=3))),
+            np.array([1.07, 13.0, 14.0, 0.3, 0.5, -0.2, 0.1]), np.array([0.02, 5.0, 5.0, 0.5, 0.3, 0.3, 0.3])),
+        "OneWayTravelTimeRanges": lambda: MeasurementCase(
+            models.OneWayTravelTimeRanges(BEACONS, R=0.25, state=_block_state(), scale="scale"),
+            np.array([13.0, 14.0, 0.3, 0.004, 1.07, 1e-3, 2e-5]),
+            np.array([5.0, 5.0, 0.5, 0.002, 0.02, 1e-3, 1e-5])),
         "SquaredRangePair": lambda: MeasurementCase(
             SquaredRangePair(np.array([[0.0, 0.0], [5.0, 3.0]]), np.array([[30.0, 40.0]]), 10.0, np.eye(10)),
             np.array([30.0, 40.0, 0.2, -0.1]), np.array([10.0, 10.0, 0.1, 0.1])),
@@ -120,6 +138,8 @@ MOTION_CASES = _motion_cases()
 MEASUREMENT_CASES = _measurement_cases()
 #: Model pairs are checked through their two halves, which are cases above.
 PAIR_CLASSES = {"DepthSpeedPitchModel", "PitchManeuverModel", "LinearGaussianModel"}
+#: Bases a user subclasses, without a model of their own: each of their library subclasses is a case above.
+ABSTRACT_BASES = {"BlockMeasurement"}
 
 
 def _all_subclasses(base: type) -> set[type]:
@@ -139,6 +159,7 @@ def _discover() -> dict[str, set[str]]:
                 continue
     public = {c for c in _all_subclasses(MotionModel) | _all_subclasses(MeasurementModel) | _all_subclasses(ModelPair)
               if c.__module__.startswith("uwtutor.") and not c.__name__.startswith("_")}
+    public = {c for c in public if c.__name__ not in ABSTRACT_BASES}
     return {
         "motion": {c.__name__ for c in public if issubclass(c, MotionModel)},
         "measurement": {c.__name__ for c in public if issubclass(c, MeasurementModel)},

@@ -7,7 +7,10 @@ every filter, the smoother and the posterior Cramér-Rao bound; a new method is 
 """
 
 from .base import MeasurementModel, ModelPair, MotionModel
+from .blocks import (BlockMeasurement, BlockMotion, BlockRanges, Current, OdometryPose, OffsetAndRate, Position,
+                     RandomWalk, StateBlock)
 from .bias import BiasRateDeadReckoning, bias_rate_process_noise, paper_a_process_noise
+from .clock import OneWayTravelTimeRanges
 from .cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from .dead_reckoning import DeadReckoning
 from .depth import DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel, PitchManeuver, PitchManeuverModel
@@ -25,4 +28,6 @@ __all__ = [
     "BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise",
     "CooperativeMotion", "SquaredRangePair", "leader_range",
     "ConstantVelocity", "PositionMeasurement",
+    "StateBlock", "BlockMotion", "BlockMeasurement", "BlockRanges", "OdometryPose", "Position", "RandomWalk",
+    "Current", "OffsetAndRate", "OneWayTravelTimeRanges",
 ]

@@ -1,0 +1,814 @@
+r"""A state built from blocks: one motion model assembled block by block, measurement models that read slots by name.
+
+Every augmented filter of the book adds a few states next to the position: a range bias (paper A), a bias and
+its rate, a gyro bias and a range scale (a real log), a current (paper B), a clock. Here each of them is a
+**block** -- a small piece of state with a name, its own motion and its own process noise -- and
+:class:`BlockMotion` stacks them into one :class:`~uwtutor.models.base.MotionModel`:
+
+.. math::
+
+    x = \begin{bmatrix} x^{(1)} \\ \vdots \\ x^{(B)} \end{bmatrix}, \qquad
+    f(x) = \begin{bmatrix} f^{(1)}(x^{(1)}, x^{(\mathcal R_1)}, u_k) \\ \vdots \end{bmatrix}, \qquad
+    F = \begin{bmatrix} F^{(1)} & \cdots & \partial f^{(1)}/\partial x^{(j)} & \cdots \\ & \ddots & & \end{bmatrix},
+    \qquad Q = \operatorname{blkdiag}(Q^{(1)}, \dots, Q^{(B)}),
+
+where block :math:`i` may read the states of the blocks :math:`\mathcal R_i` it names (the pose reads the gyro
+bias that turns it; a position reads the current that carries it): their columns of :math:`F` are the block's
+partial derivatives. The noises of different blocks are independent, so :math:`Q` is block diagonal, and
+``sample`` draws each block's noise in turn from the same per-run streams.
+
+A block knows its **slots** by name: the block's own name (all its components) and the named parts it declares
+(the pose has ``position`` and ``heading``). :meth:`BlockMotion.slot` turns a name into indices, and a measurement
+model built on :class:`BlockMeasurement` declares the slots it reads (``reads``) and finds them there -- no index
+is written twice, and adding a block never moves another model's index by hand. The precedents: Stone Soup's
+combined linear-Gaussian transition model (block-diagonal transitions) and its measurement models' ``mapping``;
+GTSAM's keys, by which a factor names the variables it reads.
+
+The whole thing is a motion model and a measurement model like every other of the library: it runs in
+:func:`uwtutor.filters.engine.extended_kalman_filter`, the smoother and the particle filters unchanged. The blocks
+reproduce the library's hand-assembled models to the last bit where they describe the same state
+(``tests/test_blocks.py``): :class:`~uwtutor.models.odometry.OdometryMotion` with a gyro bias and a range scale,
+:class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`.
+
+References
+----------
+Bar-Shalom Y., Li X. R., Kirubarajan T. (2001). *Estimation with Applications to Tracking and Navigation*, Wiley,
+sec. 6.3 (the discretized white-noise acceleration block of :class:`OffsetAndRate`).
+Farrell, J. A. (2008). *Aided Navigation: GPS with High Rate Sensors*. McGraw-Hill. Sec. 4.9 (state augmentation
+with sensor biases, scale factors and a clock's offset and rate).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .._linalg import line_of_sight as _line_of_sight
+from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
+from .base import MeasurementModel, MotionModel
+from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
+from .odometry import ORDERS, _durations, _per_step, _wrap
+from .range import NoiseSchedule, _beacon_table
+
+__all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "OffsetAndRate", "BlockMotion",
+           "BlockMeasurement", "BlockRanges"]
+
+#: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
+_MAX_STD = 1e75
+#: Longest step accepted [s]: a rate's noise q dt^3 / 3 stays finite.
+_MAX_STEP = 1e50
+
+
+def _name(value: Any, what: str = "name") -> str:
+    if not isinstance(value, str) or not value.isidentifier():
+        raise ValueError(f"{what} must be a slot name (a Python identifier such as 'clock'); got {value!r}")
+    return value
+
+
+class StateBlock:
+    r"""One named piece of the state: its components, its motion, its process noise.
+
+    A block of your own sets ``name``, ``components`` (one label per component), optionally ``fields`` (named
+    parts, ``{name: local indices}``), ``reads`` (the slots of other blocks its motion reads) and ``noise_size``
+    (the number of standard normal draws :meth:`sample` takes), and implements :meth:`linearize`. The default
+    :meth:`sample` draws :math:`f + L\varepsilon`, :math:`L L^\mathsf{T} = Q` (Cholesky, or the
+    eigendecomposition when :math:`Q` is singular).
+
+    Examples
+    --------
+    A depth that sinks at a known rate of 0.1 m/s, with a random walk:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, StateBlock
+    >>> class Sinking(StateBlock):
+    ...     name, components, noise_size = "depth", ("z",), 1
+    ...     def linearize(self, own, reads, u, k, dt):
+    ...         F = np.ones(own.shape[:-1] + (1, 1))
+    ...         return own + 0.1 * dt, F, {}, np.array([[0.01 * dt]])
+    >>> BlockMotion(Sinking(), dt=2.0).f(np.array([[5.0]]), None, 0)
+    array([[5.2]])
+    """
+
+    name: str = ""
+    components: tuple[str, ...] = ()
+    fields: dict[str, tuple[int, ...]] = {}
+    reads: tuple[str, ...] = ()
+    #: local indices of the components that are angles (wrapped to [-pi, pi))
+    angles: tuple[int, ...] = ()
+    noise_size: int = 0
+    #: Whether the block needs real step lengths, as a rate in its state does; BlockMotion then needs times or dt
+    needs_time: bool = False
+
+    @property
+    def size(self) -> int:
+        """Number of components."""
+        return len(self.components)
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        r"""The block's prediction and its derivatives in one step.
+
+        Parameters
+        ----------
+        own : ndarray, shape (..., s)
+            The block's own components.
+        reads : dict of str to ndarray
+            The components of each slot named in ``reads``, ``(..., r)``.
+        u : array_like or None
+            The input of step ``k`` (every block gets the same one; a block that takes none ignores it).
+        k : int
+            The index of the step.
+        dt : float
+            The length of the step [s] (1 when the motion has no times).
+
+        Returns
+        -------
+        f : ndarray, shape (..., s)
+        F : ndarray, shape (..., s, s) or (s, s)
+            :math:`\partial f / \partial x^{\text{own}}`.
+        F_reads : dict of str to ndarray, shape (..., s, r) or (s, r)
+            :math:`\partial f / \partial x^{\text{slot}}` for each slot read.
+        Q : ndarray, shape (..., s, s) or (s, s)
+        """
+        raise NotImplementedError
+
+    def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
+               eps: np.ndarray) -> np.ndarray:
+        r"""Draw the block's next components from ``noise_size`` standard normal draws ``eps`` ``(..., q)``."""
+        f, _, _, Q = self.linearize(own, reads, u, k, dt)
+        L = psd_sqrt(np.asarray(Q, dtype=float))
+        return f + np.einsum("...ij,...j->...i", L, eps)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}: {', '.join(self.components)})"
+
+
+class RandomWalk(StateBlock):
+    r"""Components that stay constant up to a random walk: a range bias, a range scale, a gyro bias.
+
+    .. math::
+
+        x_k = x_{k-1} + w_k, \qquad w_k \sim N(0,\; q\,\Delta t_k\,I), \qquad q = \texttt{walk}^2.
+
+    Parameters
+    ----------
+    name : str
+        The slot name (``"scale"``, ``"gyro_bias"``, ``"range_bias"``).
+    walk : float, default 0
+        :math:`\sqrt q`: the standard deviation the components wander by in one second (per step when the motion
+        has no times); 0 for a constant.
+    size : int, default 1
+        Number of components (e.g. one range bias per beacon).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, RandomWalk
+    >>> motion = BlockMotion(RandomWalk("scale", walk=1e-3), dt=4.0)
+    >>> motion.f(np.array([[1.02]]), None, 0), motion.Q(np.array([[1.02]]), None, 0)
+    (array([[1.02]]), array([[4.e-06]]))
+    """
+
+    def __init__(self, name: str, walk: ArrayLike = 0.0, *, size: int = 1) -> None:
+        self.name = _name(name)
+        size = as_int("size", size, minimum=1)
+        self.components = (self.name,) if size == 1 else tuple(f"{self.name}_{j}" for j in range(size))
+        self.q = float(as_nonnegative("walk", walk, ndim=0, max_abs=_MAX_STD)) ** 2
+        self.noise_size = size
+        self._eye = np.eye(size)
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        return np.array(own, dtype=float), self._eye, {}, self._eye * (self.q * dt)
+
+    def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
+               eps: np.ndarray) -> np.ndarray:
+        return own + eps * np.sqrt(self.q * dt)
+
+
+class Current(RandomWalk):
+    r"""A horizontal water current :math:`[c_x, c_y]` [m/s], constant up to a random walk; a :class:`Position`
+    built with ``current="current"`` drifts with it.
+
+    Examples
+    --------
+    >>> from uwtutor.models import Current
+    >>> Current(walk=0.001).components
+    ('current_x', 'current_y')
+    """
+
+    def __init__(self, walk: ArrayLike = 0.0, *, name: str = "current") -> None:
+        super().__init__(name, walk, size=2)
+        self.components = (f"{self.name}_x", f"{self.name}_y")
+
+
+class OffsetAndRate(StateBlock):
+    r"""An offset and its rate: a clock (offset [s], drift [s/s]) or a bias that opens steadily (m, m/s).
+
+    .. math::
+
+        \begin{bmatrix} \delta_k \\ \dot\delta_k \end{bmatrix} =
+        \begin{bmatrix} 1 & \Delta t_k \\ 0 & 1 \end{bmatrix}
+        \begin{bmatrix} \delta_{k-1} \\ \dot\delta_{k-1} \end{bmatrix} + w_k, \qquad
+        Q_k = q_r \begin{bmatrix} \Delta t_k^3/3 & \Delta t_k^2/2 \\ \Delta t_k^2/2 & \Delta t_k \end{bmatrix}
+        + q_o \begin{bmatrix} \Delta t_k & 0 \\ 0 & 0 \end{bmatrix}
+
+    (the rate a random walk of density :math:`q_r`, integrated into the offset: Bar-Shalom et al. 2001, sec. 6.3;
+    :math:`q_o` a random walk of the offset itself, a clock's white frequency noise).
+
+    Parameters
+    ----------
+    name : str
+        The slot name (``"clock"``, ``"range_bias"``).
+    rate_walk : float
+        :math:`\sqrt{q_r}`: how fast the rate wanders (per √s).
+    offset_walk : float, default 0
+        :math:`\sqrt{q_o}`: how fast the offset wanders on its own (per √s).
+
+    Examples
+    --------
+    A clock 1 ms fast that gains 20 µs every second, after 10 s:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, OffsetAndRate
+    >>> clock = BlockMotion(OffsetAndRate("clock", rate_walk=1e-8), dt=10.0)
+    >>> clock.slot("clock_offset"), clock.f(np.array([[1e-3, 20e-6]]), None, 0)
+    (array([0]), array([[1.2e-03, 2.0e-05]]))
+    """
+
+    noise_size = 2
+    needs_time = True
+
+    def __init__(self, name: str, rate_walk: ArrayLike, *, offset_walk: ArrayLike = 0.0) -> None:
+        self.name = _name(name)
+        self.components = (f"{self.name}_offset", f"{self.name}_rate")
+        self.fields = {self.components[0]: (0,), self.components[1]: (1,)}
+        self.q_rate = float(as_nonnegative("rate_walk", rate_walk, ndim=0, max_abs=_MAX_STD)) ** 2
+        self.q_offset = float(as_nonnegative("offset_walk", offset_walk, ndim=0, max_abs=_MAX_STD)) ** 2
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        F = np.array([[1.0, dt], [0.0, 1.0]])
+        Q = self.q_rate * np.array([[dt**3 / 3.0, dt**2 / 2.0], [dt**2 / 2.0, dt]])
+        Q[0, 0] += self.q_offset * dt
+        return own @ F.T, F, {}, Q
+
+
+class Position(StateBlock):
+    r"""A horizontal position moved by a dead-reckoned displacement :math:`u_k = [\Delta x_k, \Delta y_k]`, and
+    carried by a current when it reads one.
+
+    .. math::
+
+        p_k = p_{k-1} + u_k \;(+\, \Delta t_k\, c_{k-1}) + w_k, \qquad w_k \sim N(0, Q).
+
+    Parameters
+    ----------
+    Q : array_like, shape (2, 2)
+        The DR noise of one step [m²] (as :class:`~uwtutor.models.dead_reckoning.DeadReckoning`'s).
+    current : str, optional
+        The slot of a :class:`Current` the position drifts with.
+    name : str, default "position"
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, Current, Position
+    >>> motion = BlockMotion(
+    ...     Position(np.eye(2) * 0.25, current="current"), Current(), dt=10.0
+    ... )
+    >>> motion.names
+    ('x', 'y', 'current_x', 'current_y')
+    >>> motion.f(np.array([[0.0, 0.0, 0.1, 0.0]]), np.array([2.0, 1.0]), 0)
+    array([[3. , 1. , 0.1, 0. ]])
+    """
+
+    noise_size = 2
+    components = ("x", "y")
+
+    def __init__(self, Q: ArrayLike, *, current: str | None = None, name: str = "position") -> None:
+        self.name = _name(name)
+        self.Q = as_covariance("Q", Q, 2, allow_singular=True)
+        if self.Q.ndim != 2:
+            raise ValueError(f"Q must be one 2x2 matrix (the DR noise of every step); got shape {self.Q.shape}")
+        self.reads = () if current is None else (_name(current, "current"),)
+        self.needs_time = current is not None
+        self._eye = np.eye(2)
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        f = np.array(own, dtype=float)
+        if u is not None:
+            u = np.asarray(u, dtype=float)
+            if u.shape[-1:] != (2,):
+                raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got "
+                                 f"shape {u.shape}")
+            f = f + u
+        F_reads = {}
+        if self.reads:
+            f = f + dt * reads[self.reads[0]]
+            F_reads[self.reads[0]] = self._eye * dt
+        return f, self._eye, F_reads, self.Q
+
+
+class OdometryPose(StateBlock):
+    r"""A pose :math:`[x, y, \theta]` moved by body-frame odometry :math:`u_k = [d_k, \Delta\theta_k]`, turned by
+    the gyro bias it reads, if any.
+
+    The kinematics and the noise are :class:`~uwtutor.models.odometry.OdometryMotion`'s (see there):
+    :math:`\delta_k = \Delta\theta_k - b_{g}\Delta t_k`, :math:`\alpha_k = \theta_{k-1} + c\,\delta_k`,
+    :math:`p_k = p_{k-1} + d_k[\cos\alpha_k, \sin\alpha_k]`, :math:`\theta_k = \theta_{k-1} + \delta_k`, and
+    :math:`Q_k = G_k \operatorname{diag}(\sigma_{d,k}^2, \sigma_{\theta,k}^2) G_k^\mathsf{T}` with :math:`G_k =
+    \partial f / \partial u`; the gyro bias's own random walk is its block's (:class:`RandomWalk`).
+
+    Parameters
+    ----------
+    sigma_distance, sigma_heading : float or array_like, shape (K,)
+        The odometry's noise per step [m], [rad].
+    order : {"turn-first", "move-first", "midpoint"}, default "turn-first"
+    gyro_bias : str, optional
+        The slot of the gyro bias [rad/s] that turns the heading (then the motion needs times or dt).
+    name : str, default "pose"
+        The block's name; its parts are the slots ``position`` (x, y) and ``heading``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, OdometryPose, RandomWalk
+    >>> motion = BlockMotion(
+    ...     OdometryPose(0.1, 0.01, gyro_bias="gyro_bias"),
+    ...     RandomWalk("gyro_bias", 1e-5),
+    ...     dt=2.0,
+    ... )
+    >>> motion.slot("position"), motion.slot("gyro_bias")
+    (array([0, 1]), array([3]))
+    >>> # a measured turn of 0.02 rad that is all bias (0.01 rad/s over 2 s)
+    >>> motion.f(np.array([[0.0, 0.0, 0.0, 0.01]]), np.array([5.0, 0.02]), 0)
+    array([[5.  , 0.  , 0.  , 0.01]])
+    """
+
+    components = ("x", "y", "heading")
+    fields = {"position": (0, 1), "heading": (2,)}
+    angles = (2,)
+    noise_size = 2
+
+    def __init__(self, sigma_distance: ArrayLike, sigma_heading: ArrayLike, *, order: str = "turn-first",
+                 gyro_bias: str | None = None, name: str = "pose") -> None:
+        self.name = _name(name)
+        self.order = as_choice("order", order, ORDERS)
+        self._c = ORDERS[order]
+        self.sigma_distance = _per_step("sigma_distance", sigma_distance)
+        self.sigma_heading = _per_step("sigma_heading", sigma_heading)
+        self.reads = () if gyro_bias is None else (_name(gyro_bias, "gyro_bias"),)
+        self.needs_time = gyro_bias is not None
+        self._eye = np.eye(3)
+
+    def _parts(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, dt: float) -> tuple[Any, ...]:
+        if u is None:
+            raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
+                             "Pass the odometry as the filter's u")
+        u = np.asarray(u, dtype=float)
+        if u.shape[-1:] != (2,):
+            raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
+                             f"2); got shape {u.shape}")
+        d, turn = u[..., 0], u[..., 1]
+        if self.reads:
+            turn = turn - reads[self.reads[0]][..., 0] * dt
+        alpha = own[..., 2] + self._c * turn if self._c else own[..., 2]
+        return d, turn, np.cos(alpha), np.sin(alpha)
+
+    def _kinematics(self, own: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        f = np.array(own, dtype=float)
+        f[..., 0] += d * ca
+        f[..., 1] += d * sa
+        f[..., 2] = _wrap(own[..., 2] + turn)
+        return f
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        d, turn, ca, sa = self._parts(own, reads, u, dt)
+        ds, dc = d * sa, d * ca
+        F = np.repeat(self._eye[None], own.shape[0], axis=0) if own.ndim == 2 else np.tile(self._eye,
+                                                                                          own.shape[:-1] + (1, 1))
+        F[..., 0, 2] = -ds
+        F[..., 1, 2] = dc
+        F_reads = {}
+        if self.reads:
+            Fb = np.zeros(own.shape[:-1] + (3, 1))
+            Fb[..., 0, 0] = self._c * dt * ds
+            Fb[..., 1, 0] = -self._c * dt * dc
+            Fb[..., 2, 0] = -dt
+            F_reads[self.reads[0]] = Fb
+        G = np.zeros(own.shape[:-1] + (3, 2))
+        G[..., 0, 0], G[..., 1, 0] = ca, sa
+        G[..., 0, 1], G[..., 1, 1] = -self._c * d * sa, self._c * d * ca
+        G[..., 2, 1] = 1.0
+        var = np.array([_at(self.sigma_distance, k) ** 2, _at(self.sigma_heading, k) ** 2])
+        Q = (G * var) @ np.swapaxes(G, -1, -2)
+        return self._kinematics(own, d, turn, ca, sa), F, F_reads, Q
+
+    def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
+               eps: np.ndarray) -> np.ndarray:
+        """Each particle moves by its own noisy reading of the odometry through the exact kinematics (the
+        sample odometry motion model, Thrun et al. 2005, sec. 5.4)."""
+        u = np.asarray(u, dtype=float) if u is not None else u
+        noisy = None if u is None else np.stack([u[..., 0] + eps[..., 0] * _at(self.sigma_distance, k),
+                                                 u[..., 1] + eps[..., 1] * _at(self.sigma_heading, k)], axis=-1)
+        return self._kinematics(own, *self._parts(own, reads, noisy, dt)[:4])
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps the per-step noise covers (None for one value for every step)."""
+        sizes = {len(a) for a in (self.sigma_distance, self.sigma_heading) if a.ndim == 1}
+        if len(sizes) > 1:
+            raise ValueError(f"sigma_distance and sigma_heading give different numbers of steps: {sorted(sizes)}")
+        return next(iter(sizes), None)
+
+
+def _at(a: np.ndarray, k: int) -> float:
+    if a.ndim == 0:
+        return float(a)
+    if not 0 <= k < len(a):
+        raise IndexError(f"step {k} is beyond the {len(a)} steps of the per-step noise")
+    return float(a[k])
+
+
+class BlockMotion(MotionModel):
+    r"""A motion model assembled from state blocks: :math:`f`, :math:`F`, :math:`Q` and ``sample`` block by block.
+
+    The state is the blocks' components in the order given (module docstring for the equations). Each block is
+    reachable by its slots: :meth:`slot` gives the indices of a block (by its name) or of a named part of one
+    (``position``, ``heading``, ``clock_offset``).
+
+    Parameters
+    ----------
+    *blocks : StateBlock
+        The blocks, in the order of the state; names and named parts must be unique, and every slot a block reads
+        must be one of them.
+    times : array_like, shape (K,), optional
+        Epoch times [s]: step ``k`` lasts ``times[k] - times[k - 1]`` (the first step 0 s), as
+        :class:`~uwtutor.models.odometry.OdometryMotion`.
+    dt : float or array_like, shape (K,), optional
+        The step lengths [s] directly, instead of ``times``. Without either, every step lasts 1 (a random walk's
+        density is then per step), which a block with a rate refuses.
+
+    Attributes
+    ----------
+    n : int
+    names : tuple of str
+        The label of each component.
+    blocks : tuple of StateBlock
+
+    Examples
+    --------
+    Dead reckoning with a range bias that opens steadily -- the state of
+    :class:`~uwtutor.models.bias.BiasRateDeadReckoning`, from two blocks:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, OffsetAndRate, Position
+    >>> motion = BlockMotion(
+    ...     Position(np.eye(2) * 0.25), OffsetAndRate("bias", rate_walk=0.01), dt=5.0
+    ... )
+    >>> motion.names
+    ('x', 'y', 'bias_offset', 'bias_rate')
+    >>> motion.f(np.array([[0.0, 0.0, 5.0, 0.1]]), np.array([1.0, 2.0]), 0)
+    array([[1. , 2. , 5.5, 0.1]])
+    >>> x0, P0 = motion.initial_state(
+    ...     position=([0.0, 0.0], [1.0, 1.0]), bias=([0.0, 0.0], [2.0, 0.1])
+    ... )
+    >>> x0, np.diag(P0)
+    (array([0., 0., 0., 0.]), array([1.  , 1.  , 4.  , 0.01]))
+    """
+
+    covariances_checked = True      # every block's Q is assembled from variances checked when it was made
+
+    def __init__(self, *blocks: StateBlock, times: ArrayLike | None = None, dt: ArrayLike | None = None) -> None:
+        if not blocks:
+            raise ValueError("BlockMotion needs at least one block (e.g. Position(Q) or OdometryPose(...))")
+        for i, block in enumerate(blocks):
+            as_instance(f"blocks[{i}]", block, StateBlock, "e.g. Position, OdometryPose, RandomWalk, OffsetAndRate")
+        self.blocks = tuple(blocks)
+        self._slots: dict[str, np.ndarray] = {}
+        self._own: list[np.ndarray] = []
+        start = 0
+        for block in self.blocks:
+            own = np.arange(start, start + block.size)
+            named = {block.name: own, **{part: own[list(local)] for part, local in block.fields.items()}}
+            for slot, idx in named.items():
+                if slot in self._slots:
+                    raise ValueError(f"two blocks are both called {slot!r}: give each block and part its own name "
+                                     "(name=...)")
+                self._slots[slot] = idx
+            self._own.append(own)
+            start += block.size
+        self.n = start
+        for block in self.blocks:
+            for slot in block.reads:
+                if slot not in self._slots:
+                    raise ValueError(f"block {block.name!r} reads the slot {slot!r}, which no block provides; the "
+                                     f"slots are {sorted(self._slots)}")
+        self.names = tuple(c for block in self.blocks for c in block.components)
+        self._dt, steps = _durations(times, dt)
+        if self._dt is not None and np.any(self._dt > _MAX_STEP):
+            raise ValueError(f"{'dt' if dt is not None else 'times'} gives a step longer than {_MAX_STEP:g} s (a "
+                             f"rate's noise grows as dt^3): give the step lengths in seconds")
+        untimed = [b.name for b in self.blocks if b.needs_time]
+        if self._dt is None and untimed:
+            raise ValueError(f"the blocks {untimed} hold a rate: give times (the epoch times, s) or dt (the step "
+                             "lengths, s)")
+        self.n_steps = steps
+        self._angles = np.array([own[i] for block, own in zip(self.blocks, self._own) for i in block.angles], int)
+        self._noise = np.cumsum([0] + [block.noise_size for block in self.blocks])
+
+    def slot(self, name: str) -> np.ndarray:
+        """The indices of a slot: a block's name or the name of one of its parts.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import BlockMotion, Position, RandomWalk
+        >>> BlockMotion(Position(np.eye(2)), RandomWalk("scale")).slot("scale")
+        array([2])
+        """
+        if name not in self._slots:
+            raise KeyError(f"no slot {name!r} in this state; its slots are {sorted(self._slots)}")
+        return self._slots[name]
+
+    @property
+    def slots(self) -> tuple[str, ...]:
+        """Every slot name of the state."""
+        return tuple(self._slots)
+
+    def dt(self, k: int) -> float:
+        """The length of step ``k`` [s] (1 when the motion has no times)."""
+        if self._dt is None:
+            return 1.0
+        if self._dt.ndim == 0:
+            return float(self._dt)
+        if not 0 <= k < len(self._dt):
+            raise IndexError(f"step {k} is beyond the {len(self._dt)} steps of times/dt")
+        return float(self._dt[k])
+
+    def _reads(self, block: StateBlock, x: np.ndarray) -> dict[str, np.ndarray]:
+        return {slot: x[..., self._slots[slot]] for slot in block.reads}
+
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x = np.asarray(x, dtype=float)
+        dt = self.dt(k)
+        f = np.empty_like(x)
+        parts = [block.linearize(x[..., own], self._reads(block, x), u, k, dt)
+                 for block, own in zip(self.blocks, self._own)]
+        # one shared (n, n) F and Q when every block gives a shared one; (..., n, n) otherwise
+        shared = all(np.ndim(Fb) == 2 and np.ndim(Qb) == 2 and all(np.ndim(J) == 2 for J in Fr.values())
+                     for _, Fb, Fr, Qb in parts)
+        lead = () if shared else x.shape[:-1]
+        F = np.zeros(lead + (self.n, self.n))
+        Q = np.zeros(lead + (self.n, self.n))
+        for (fb, Fb, F_reads, Qb), own in zip(parts, self._own):
+            sl = slice(own[0], own[-1] + 1)
+            f[..., sl] = fb
+            F[..., sl, sl] = Fb
+            Q[..., sl, sl] = Qb
+            for slot, J in F_reads.items():
+                F[..., sl, self._slots[slot]] = J
+        return f, F, Q
+
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.linearize(x, u, k)[0]
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.linearize(x, u, k)[1]
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.linearize(x, u, k)[2]
+
+    def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
+        r"""Draw the next states block by block: each block takes its ``noise_size`` standard normal draws, in the
+        order of the blocks, from run ``m``'s stream ``rng[m]`` (one Generator per run)."""
+        x = np.asarray(x, dtype=float)
+        eps = standard_normal_per_run(per_run_generators(rng, x.shape[0], spawn=False),
+                                      x.shape[1:-1] + (int(self._noise[-1]),))
+        dt = self.dt(k)
+        out = np.empty_like(x)
+        for j, (block, own) in enumerate(zip(self.blocks, self._own)):
+            out[..., own] = block.sample(x[..., own], self._reads(block, x), u, k, dt,
+                                         eps[..., self._noise[j]:self._noise[j + 1]])
+        return out
+
+    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+        if self._angles.size:
+            d[..., self._angles] = _wrap(d[..., self._angles])
+        return d
+
+    def normalize(self, x: np.ndarray) -> np.ndarray:
+        out = np.array(x, dtype=float)
+        if self._angles.size:
+            out[..., self._angles] = _wrap(out[..., self._angles])
+        return out
+
+    def initial_state(self, **slots: Any) -> tuple[np.ndarray, np.ndarray]:
+        r"""The initial state and a diagonal covariance from ``slot=(mean, std)`` for every component.
+
+        Parameters
+        ----------
+        **slots : (array_like, array_like)
+            For each slot, its mean and standard deviation (numbers, or one per component of the slot); together
+            the slots must cover every component once.
+
+        Returns
+        -------
+        x0 : ndarray, shape (n,)
+        P0 : ndarray, shape (n, n)
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import BlockMotion, OdometryPose, RandomWalk
+        >>> motion = BlockMotion(OdometryPose(0.1, 0.01), RandomWalk("scale"))
+        >>> x0, P0 = motion.initial_state(
+        ...     pose=([0.0, 0.0, 0.5], [1.0, 1.0, 0.1]), scale=(1.0, 0.05)
+        ... )
+        >>> x0, np.sqrt(np.diag(P0))
+        (array([0. , 0. , 0.5, 1. ]), array([1.  , 1.  , 0.1 , 0.05]))
+        """
+        x0 = np.zeros(self.n)
+        std = np.zeros(self.n)
+        given = np.zeros(self.n, dtype=int)
+        for name, pair in slots.items():
+            idx = self.slot(name)
+            if not isinstance(pair, (tuple, list)) or len(pair) != 2:
+                raise ValueError(f"{name} must be a pair (mean, std); got {pair!r}")
+            mean = as_finite(f"{name} mean", pair[0], ndim=(0, 1))
+            sd = as_nonnegative(f"{name} std", pair[1], ndim=(0, 1), max_abs=_MAX_STD)
+            for what, arr in (("mean", mean), ("std", sd)):
+                if arr.ndim == 1 and arr.size != idx.size:
+                    raise ValueError(f"{name} {what} must be a number or {idx.size} values (one per component of "
+                                     f"the slot); got {arr.size}")
+            if np.any(sd == 0):
+                raise ValueError(f"{name} std must be > 0 (a state the filter may correct); got {sd}")
+            x0[idx] = mean
+            std[idx] = sd
+            given[idx] += 1
+        if np.any(given != 1):
+            missing = [self.names[i] for i in np.flatnonzero(given == 0)]
+            twice = [self.names[i] for i in np.flatnonzero(given > 1)]
+            raise ValueError("initial_state needs (mean, std) for every component exactly once: "
+                             + (f"missing {missing}" if missing else "") + (f" given twice {twice}" if twice else "")
+                             + f"; the slots are {list(self.slots)}")
+        return x0, np.diag(std**2)
+
+
+class BlockMeasurement(MeasurementModel):
+    r"""A measurement model that reads the slots it names, wherever they are in the state.
+
+    A subclass lists the slots it needs in ``reads`` (class attribute, or set before calling this ``__init__``)
+    and reads them through :meth:`read`; ``columns`` gives the state indices of a slot, for the rows of its
+    Jacobian. ``slots`` maps a name the model uses to the name of the slot in the state, for a state whose blocks
+    are named otherwise (``slots={"clock": "receiver_clock"}``).
+
+    Parameters
+    ----------
+    state : BlockMotion
+        The motion model whose state the measurement reads (its :meth:`BlockMotion.slot` resolves the names).
+    slots : dict of str to str, optional
+        Renames: the model's name -> the state's slot name.
+
+    Examples
+    --------
+    A compass that reads the heading slot:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMeasurement, BlockMotion, OdometryPose, RandomWalk
+    >>> class Compass(BlockMeasurement):
+    ...     reads, m = ("heading",), 1
+    ...     def h(self, x, k):
+    ...         return self.read(x, "heading")
+    ...     def H(self, x, k):
+    ...         H = np.zeros(x.shape[:-1] + (1, self.n))
+    ...         H[..., 0, self.columns["heading"]] = 1.0
+    ...         return H
+    ...     def R(self, x, k):
+    ...         return np.array([[0.01]])
+    >>> motion = BlockMotion(RandomWalk("scale"), OdometryPose(0.1, 0.01))
+    >>> Compass(motion).h(np.array([[1.0, 5.0, 6.0, 0.3]]), 0)
+    array([[0.3]])
+    """
+
+    reads: tuple[str, ...] = ()
+
+    def __init__(self, state: BlockMotion, *, slots: dict[str, str] | None = None) -> None:
+        as_instance("state", state, BlockMotion, "the BlockMotion whose slots this model reads")
+        renames = dict(slots or {})
+        unknown = set(renames) - set(self.reads)
+        if unknown:
+            raise ValueError(f"slots renames {sorted(unknown)}, which this model does not read; it reads "
+                             f"{list(self.reads)}")
+        self.n = state.n
+        self.columns: dict[str, np.ndarray] = {}
+        for name in self.reads:
+            target = renames.get(name, name)
+            if target not in state.slots:
+                raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
+                                 f"(its slots are {list(state.slots)}); add the block, or map the name with "
+                                 f"slots={{{name!r}: ...}}")
+            self.columns[name] = state.slot(target)
+
+    def read(self, x: np.ndarray, name: str) -> np.ndarray:
+        """The components of slot ``name`` of the states ``x`` ``(..., n)``: ``(..., size of the slot)``."""
+        return x[..., self.columns[name]]
+
+    def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self.linearize(x, k)[1]
+
+
+class BlockRanges(BlockMeasurement):
+    r"""Ranges to beacons at known positions, read from the ``position`` slot, with an optional range scale and
+    range bias read from theirs: :math:`z_{k,j} = s\,\lVert p_k - b_j \rVert + \upsilon_j + v_{k,j}`.
+
+    :class:`~uwtutor.models.range.BeaconRanges` on a block state (the same ``h``, ``H`` and ``R``): the slots are
+    found by name, not given as indices.
+
+    Parameters
+    ----------
+    beacons : array_like, shape (B, 2), or dict of id to (x, y)
+        The beacons, one measurement component each.
+    R : float or array_like
+        The range noise: a variance, ``(B, B)``, or one per step (as ``BeaconRanges``).
+    state : BlockMotion
+    scale : str, optional
+        The slot of a range scale (e.g. ``"scale"``).
+    bias : str, optional
+        The slot of the range bias: one component shared by every beacon, or one per beacon.
+    position : str, default "position"
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, BlockRanges, OdometryPose, RandomWalk
+    >>> motion = BlockMotion(OdometryPose(0.1, 0.01), RandomWalk("scale"))
+    >>> ranges = BlockRanges([[0.0, 0.0], [10.0, 0.0]], 0.01, motion, scale="scale")
+    >>> ranges.h(np.array([[3.0, 4.0, 0.0, 1.1]]), 0)
+    array([[5.5       , 8.86848352]])
+    """
+
+    covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
+    nonnegative = True
+
+    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, scale: str | None = None,
+                 bias: str | None = None, position: str = "position") -> None:
+        self.ids, self.beacons = _beacon_table(beacons)
+        self.m = len(self.beacons)
+        self._scale, self._bias = scale is not None, bias is not None
+        self.reads = ("position",) + (("scale",) if self._scale else ()) + (("bias",) if self._bias else ())
+        renames = {"position": _name(position, "position")}
+        renames.update({"scale": _name(scale, "scale")} if self._scale else {})
+        renames.update({"bias": _name(bias, "bias")} if self._bias else {})
+        super().__init__(state, slots=renames)
+        if self.columns["position"].size != 2:
+            raise ValueError(f"the position slot {position!r} must have 2 components (x, y); it has "
+                             f"{self.columns['position'].size}")
+        if self._scale and self.columns["scale"].size != 1:
+            raise ValueError(f"the scale slot {scale!r} must have 1 component; it has {self.columns['scale'].size}")
+        if self._bias and self.columns["bias"].size not in (1, self.m):
+            raise ValueError(f"the bias slot {bias!r} must have 1 component (shared) or {self.m} (one per beacon); "
+                             f"it has {self.columns['bias'].size}")
+        self._bias_cols = (np.resize(self.columns["bias"], self.m) if self._bias else None)
+        self._noise = NoiseSchedule("R", R, self.m)
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps a per-step ``R`` covers (None when it is one for every step)."""
+        return self._noise.n_steps
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask ``(M, B)`` False on a beacon."""
+        pos = self.columns["position"]
+        r, los, defined = _line_of_sight(x[..., None, pos], self.beacons)
+        H = np.zeros(r.shape + (self.n,))
+        if self._scale:
+            s = x[..., self.columns["scale"]]
+            z = s * r
+            H[..., pos] = s[..., None] * los
+            H[..., self.columns["scale"][0]] = r
+        else:
+            z = r
+            H[..., pos] = los
+        if self._bias_cols is not None:
+            z = z + x[..., self._bias_cols]
+            H[..., np.arange(self.m), self._bias_cols] = 1.0
+        return z, H, defined
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        d = x[..., None, self.columns["position"]] - self.beacons
+        z = np.hypot(d[..., 0], d[..., 1])
+        if self._scale:
+            z *= x[..., self.columns["scale"]]
+        if self._bias_cols is not None:
+            z += x[..., self._bias_cols]
+        return z
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._noise.at(k)

@@ -1,0 +1,120 @@
+r"""One-way-travel-time ranges measured by a receiver whose clock drifts.
+
+A beacon sends at a scheduled time :math:`t^{\text{emit}}` on a clock that is right; the vehicle times the arrival
+on its own clock, which is :math:`\delta` seconds fast, and turns the travel time into a range with the sound
+speed :math:`c`:
+
+.. math::
+
+    z_{k,j} = c\,(t^{\text{arrival}}_{k,j} + \delta_k - t^{\text{emit}}_{k,j})
+            = s\,\lVert p_k - b_j \rVert + c\,\delta_k + v_{k,j}, \qquad
+    H = \Big[\ s\,\frac{(p_k - b_j)^\mathsf{T}}{\lVert p_k - b_j\rVert}\ \Big|\ c\ \Big|\ 0\ \Big|\
+    \lVert p_k - b_j \rVert\ \Big]
+
+on the slots ``position``, ``clock`` (offset :math:`\delta` [s], drift :math:`\dot\delta` [s/s]) and, when the
+model is given one, a range ``scale`` :math:`s` (a sound speed that is not the one assumed; :math:`s = 1`
+without). The clock is a :class:`~uwtutor.models.blocks.OffsetAndRate` block: a clock that gains 20 µs every
+second adds 30 m of range every 1000 s at :math:`c = 1500` m/s, which a filter without the clock in its state
+reads as position.
+
+References
+----------
+Eustice, R. M., Singh, H. and Whitcomb, L. L. (2011). Synchronous-clock, one-way-travel-time acoustic navigation
+for underwater vehicles. *Journal of Field Robotics* 28(1), 121-136 (the OWTT range and the clock's drift).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .._linalg import line_of_sight as _line_of_sight
+from .._validate import as_positive
+from .blocks import BlockMeasurement, BlockMotion
+from .range import NoiseSchedule, _beacon_table
+
+__all__ = ["OneWayTravelTimeRanges"]
+
+
+class OneWayTravelTimeRanges(BlockMeasurement):
+    r"""Ranges from one-way travel times timed by a drifting clock: :math:`z_j = \lVert p - b_j\rVert + c\,\delta`.
+
+    Parameters
+    ----------
+    beacons : array_like, shape (B, 2), or dict of id to (x, y)
+        The beacons, one measurement component each.
+    R : float or array_like
+        The range noise [m²]: a variance, ``(B, B)``, or one per step.
+    state : BlockMotion
+        A state with a ``position`` slot and a ``clock`` slot (an
+        :class:`~uwtutor.models.blocks.OffsetAndRate` named ``"clock"``).
+    sound_speed : float, default 1500
+        :math:`c` [m/s], the speed the receiver turns travel times into ranges with.
+    slots : dict of str to str, optional
+        Other names for ``position`` and ``clock`` in the state.
+    scale : str, optional
+        The slot of a range scale :math:`s` to read too (e.g. ``"scale"``, a
+        :class:`~uwtutor.models.blocks.RandomWalk`).
+
+    Examples
+    --------
+    A clock 2 ms fast adds 3 m to every range:
+
+    >>> import numpy as np
+    >>> from uwtutor.models import (
+    ...     BlockMotion,
+    ...     OffsetAndRate,
+    ...     OneWayTravelTimeRanges,
+    ...     Position,
+    ... )
+    >>> state = BlockMotion(
+    ...     Position(np.eye(2)), OffsetAndRate("clock", rate_walk=1e-7), dt=1.0
+    ... )
+    >>> ranges = OneWayTravelTimeRanges([[0.0, 0.0]], R=0.25, state=state)
+    >>> ranges.h(np.array([[30.0, 40.0, 2e-3, 20e-6]]), 0)
+    array([[53.]])
+    """
+
+    reads = ("position", "clock")
+    covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
+    nonnegative = True
+
+    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, sound_speed: Any = 1500.0,
+                 slots: dict[str, str] | None = None, scale: str | None = None) -> None:
+        self.reads = ("position", "clock") + (() if scale is None else ("scale",))
+        super().__init__(state, slots=dict(slots or {}, **({} if scale is None else {"scale": scale})))
+        self._scale = None if scale is None else self.columns["scale"][0]
+        self.ids, self.beacons = _beacon_table(beacons)
+        self.m = len(self.beacons)
+        self.sound_speed = float(as_positive("sound_speed", sound_speed, ndim=0))
+        self._noise = NoiseSchedule("R", R, self.m)
+        self._offset = self.columns["clock"][0]
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, ...]:
+        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask
+        ``(M, B)``, False on a beacon."""
+        p = self.read(x, "position")[..., None, :]
+        r, los, defined = _line_of_sight(p, self.beacons)
+        c, offset = self.sound_speed, x[..., self._offset, None]
+        H = np.zeros(r.shape + (self.n,))
+        H[..., self._offset] = c
+        if self._scale is None:
+            H[..., self.columns["position"]] = los
+        else:
+            s = x[..., self._scale, None]
+            H[..., self.columns["position"]] = s[..., None] * los
+            H[..., self._scale] = r
+            r = s * r
+        return r + c * offset, H, defined
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        d = self.read(x, "position")[..., None, :] - self.beacons
+        r = np.hypot(d[..., 0], d[..., 1])
+        if self._scale is not None:
+            r = r * x[..., self._scale, None]
+        return r + self.sound_speed * x[..., self._offset, None]
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._noise.at(k)
