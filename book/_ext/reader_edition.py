@@ -13,6 +13,9 @@
   at the book's 100 dpi, half that for a 2x image) in a view that pans both ways; Escape, the close button or a tap
   closes it. Lightbox extensions (lightbox2 and the like) fit the image to the window, which on a phone leaves the
   text as small as on the page: the point here is the opposite, so the dozen lines are our own.
+- **Author-year labels in the bibliography** (HTML and PDF): the text cites "Zhu et al., 2019"
+  (``bibtex_reference_style: author_year``), and the list now labels each entry the same way, instead of pybtex's
+  alpha labels ("[ZHGL19]"): the formatting style ``uwtutor_author_year`` (``bibtex_default_style`` in _config.yml).
 - **One declaration per inline script** (HTML): Sphinx 7.4 adds an inline script registered after the builder
   started twice (once as ``_JavaScript(None)`` when it is registered, once as ``_JavaScript('')`` in
   ``prepare_writing``; they compare unequal). sphinx-thebe registers ``const THEBE_JS_URL = ...`` that way, and the
@@ -155,6 +158,61 @@ class HidePlumbing(SphinxTransform):
             # A cell with neither code to show nor output (a cell of glue calls) goes altogether.
             if cell is not None and not any(isinstance(c, nodes.Element) for c in cell.children):
                 cell.parent.remove(cell)
+
+
+# --- author-year labels in the bibliography ------------------------------------------------------------------------
+
+def author_year_label(entry: Any) -> str:
+    """The label of a bibliography entry as the text cites it: "Zhu et al., 2019", "Zhou and Xi, 1990", "Urick,
+    1983"; an entry without authors by its title ("<title>, 2019").
+
+    Examples
+    --------
+    >>> from pybtex.database import Entry, Person
+    >>> entry = Entry("article", fields={"year": "1990", "title": "T"}, persons={"author": [Person("Zhou, Donghua"),
+    ...                                                                                 Person("Xi, Yugeng")]})
+    >>> author_year_label(entry)
+    'Zhou and Xi, 1990'
+    """
+    people = entry.persons.get("author") or entry.persons.get("editor") or []
+    names = [" ".join(p.last_names) for p in people]
+    if not names:
+        who = entry.fields.get("organization") or str(entry.fields.get("title", entry.key)).replace("{", "").replace(
+            "}", "")
+    elif len(names) == 1:
+        who = names[0]
+    elif len(names) == 2:
+        who = f"{names[0]} and {names[1]}"
+    else:
+        who = f"{names[0]} et al."
+    year = entry.fields.get("year")
+    return f"{who}, {year}" if year else who
+
+
+def _register_bibliography_style() -> None:
+    from pybtex.plugin import register_plugin
+    from pybtex.style.formatting.alpha import Style as AlphaStyle
+    from pybtex.style.labels import BaseLabelStyle
+
+    class AuthorYearLabels(BaseLabelStyle):
+        def format_labels(self, sorted_entries: Any) -> Any:
+            labels = [author_year_label(e) for e in sorted_entries]
+            count: dict[str, int] = {}
+            for label in labels:
+                count[label] = count.get(label, 0) + 1
+            seen: dict[str, int] = {}
+            for label in labels:  # two works of the same authors and year: 2019a, 2019b
+                if count[label] > 1:
+                    seen[label] = seen.get(label, 0) + 1
+                    yield label + "abcdefghijklmnopqrstuvwxyz"[seen[label] - 1]
+                else:
+                    yield label
+
+    class AuthorYearStyle(AlphaStyle):
+        default_label_style = "uwtutor_author_year"
+
+    register_plugin("pybtex.style.labels", "uwtutor_author_year", AuthorYearLabels, force=True)
+    register_plugin("pybtex.style.formatting", "uwtutor_author_year", AuthorYearStyle, force=True)
 
 
 # --- downloads: the wheel and the PDF edition ---------------------------------------------------------------------
@@ -302,6 +360,13 @@ FIGURE_VIEWER_JS = r"""
       img.addEventListener("keydown", function (e) { if (e.key === "Enter") open(img); });
     });
   }
+  // A frozen widget's picture is drawn after the page loads: a click on any output picture opens it too.
+  document.addEventListener("click", function (e) {
+    var img = e.target;
+    if (img.tagName === "IMG" && !img.dataset.uwtutorZoom && img.closest("div.cell_output .jupyter-widgets")) {
+      open(img);
+    }
+  });
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", wire);
   else wire();
 })();
@@ -309,6 +374,7 @@ FIGURE_VIEWER_JS = r"""
 
 
 def setup(app: Sphinx) -> dict[str, Any]:
+    _register_bibliography_style()
     app.add_transform(HidePlumbing)
     app.add_directive("uwtutor-run-it", RunItDirective)
     app.connect("builder-inited", _on_builder_inited)
