@@ -285,6 +285,12 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))
 
 
+def _inside(box: Any, points: Any) -> bool:
+    """Whether any of the display-space ``points`` (shape (K, 2)) lies in ``box``."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    return bool(((p[:, 0] >= box.x0) & (p[:, 0] <= box.x1) & (p[:, 1] >= box.y0) & (p[:, 1] <= box.y1)).any())
+
+
 def _covers(artist: Any, box: Any) -> bool:
     """Whether the display-space box ``box`` covers part of ``artist`` (a line, a collection or a patch of an axes)."""
     from matplotlib.collections import PathCollection, PolyCollection, LineCollection
@@ -294,10 +300,10 @@ def _covers(artist: Any, box: Any) -> bool:
         path = artist.get_transform().transform_path(artist.get_path())
         line = artist.get_linestyle() not in ("None", "none", "", " ") and path.intersects_bbox(box, filled=False)
         marker = artist.get_marker() not in (None, "None", "none", "", " ")
-        return bool(line or (marker and box.contains(*path.vertices.T).any()))
+        return bool(line or (marker and _inside(box, path.vertices)))
     if isinstance(artist, PathCollection):  # scatter: markers at offsets
         points = np.asarray(artist.get_offset_transform().transform(artist.get_offsets()))
-        return bool(len(points) and box.contains(*points.T).any())
+        return _inside(box, points)
     if isinstance(artist, (PolyCollection, LineCollection)):  # fill_between, error bars, segments
         transform = artist.get_transform()
         filled = isinstance(artist, PolyCollection)

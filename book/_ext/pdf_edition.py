@@ -115,6 +115,8 @@ def widget_controls(models: dict[str, Any], model_id: str) -> list[str]:
             labels = state.get("_options_labels", state.get("options"))
             if labels is not None and state.get("index") is not None:
                 value = labels[state["index"]]
+            elif labels is not None:  # a selection widget whose value matches no option (ipywidgets: index None)
+                value = "(nothing selected)"
             else:
                 value = state.get("value")
             controls.append(f"{desc} = {_fmt(value)}" if desc else _fmt(value))
