@@ -49,8 +49,14 @@ dist: setup
 	$(PY) -c "import setuptools.build_meta as b; print('dist/' + b.build_sdist('dist'))"
 	rm -rf build
 
-# The HTML book, with the wheel of `make dist` and, when `make pdf` has built it, the PDF edition as downloads.
+# The HTML book, with the wheel of `make dist` and the PDF edition as downloads (the PDF is built first where TeX Live
+# is installed; BOOK_PDF=no leaves it out, and an HTML book without TeX says so and has no PDF in its menus).
+BOOK_PDF ?= auto
+
 book: dist
+	@if [ "$(BOOK_PDF)" != no ] && command -v xelatex >/dev/null && command -v latexmk >/dev/null; then \
+	  $(PY) tools/build_pdf.py >/dev/null && echo "The PDF edition is built: _build/pdf/uwtutor.pdf"; \
+	else echo "No PDF edition in this HTML book (BOOK_PDF=$(BOOK_PDF); TeX Live: make pdf-deps)"; fi
 	$(JB) build --all -W -n --keep-going .
 	@echo
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."
