@@ -104,8 +104,11 @@ MEASURE = r"""(PHONE) => {
   let tablesScrolling = 0;
   for (const table of document.querySelectorAll('article table')) {
     if (!visible(table) || table.scrollWidth <= table.clientWidth + TOL) continue;
-    if (scrollsVisibly(table)) { tablesScrolling += 1; continue; }
-    tables.push({where: where(table), hidden_px: table.scrollWidth - table.clientWidth,
+    // the shadow is the table's background: an opaque row or cell (the theme's zebra stripes) would hide it
+    const opaque = Array.from(table.querySelectorAll('tr, th, td')).some(
+      e => /^rgb\(/.test(getComputedStyle(e).backgroundColor));
+    if (scrollsVisibly(table) && !opaque) { tablesScrolling += 1; continue; }
+    tables.push({where: where(table), hidden_px: table.scrollWidth - table.clientWidth, opaque,
                  text: table.textContent.trim().replace(/\s+/g, ' ').slice(0, 60)});
   }
   return {code, codeScrolling, equations, scrolling, tables, tablesScrolling,
@@ -203,7 +206,8 @@ def problems(facts: dict) -> list[str]:
            f"longest line {c['longest']} chars: {c['text']!r}" for c in facts["code"]]
     out += [f"display equation ({e['where']}) cut by {e['hidden_px']} px"
             f"{' (scrolls with no visible cue)' if e['scrolls'] else ''}: {e['text']!r}" for e in facts["equations"]]
-    out += [f"table ({t['where']}) scrolls {t['hidden_px']} px with no visible cue: {t['text']!r}"
+    out += [f"table ({t['where']}) scrolls {t['hidden_px']} px with no visible cue"
+            f"{' (opaque rows hide its shadow)' if t['opaque'] else ''}: {t['text']!r}"
             for t in facts["tables"]]
     out += [f"slider track ({s['where']}, {s['label']!r}) {s['width']} px wide (under {MIN_TRACK_PX})"
             for s in facts.get("sliders", []) if s["width"] < MIN_TRACK_PX]
