@@ -204,13 +204,60 @@ LONG_TABLE_ROWS = 15
 LONG_TABLE_CHARS = 1500
 
 
+def _printed_text(node: nodes.Node) -> str:
+    """About the text a cell prints: a formula's LaTeX source is some three times longer than what it prints."""
+    parts = []
+    for child in node.findall(nodes.Text):
+        inside_math = any(isinstance(a, (nodes.math, nodes.math_block)) for a in _ancestors(child))
+        text = child.astext()
+        parts.append(text[: max(1, len(text) // 3)] if inside_math else text)
+    return "".join(parts)
+
+
+def _ancestors(node: nodes.Node):
+    parent = node.parent
+    while parent is not None:
+        yield parent
+        parent = parent.parent
+
+
+#: About how many characters of the body font a line of the text block holds (17 cm at 10 pt).
+LINE_CHARS = 90
+
+
+def column_widths(texts: list[list[str]], line: int = LINE_CHARS) -> list[float]:
+    """Widths (in characters) for the columns of a table whose cells hold ``texts`` (rows of cell texts).
+
+    Each column wants its longest text (6 to 60 characters) and needs its longest word plus room for the cell's
+    padding; when the wants do not fit ``line``, the columns give up what they want beyond what they need, in
+    proportion, so that no word is wider than its column (tabulary left "Plaza" and "Unit" 3 to 6 pt past theirs,
+    and a narrow last column of a longtable "PASS").
+
+    Examples
+    --------
+    >>> [round(w) for w in column_widths([["Physics and simulation", "x " * 40], ["Unit", "m"]], line=40)]
+    [16, 24]
+    """
+    ncol = max(len(r) for r in texts)
+    want, need = [6.0] * ncol, [4.0] * ncol
+    for row in texts:
+        for i, text in enumerate(row):
+            word = max((len(w) for w in text.split()), default=0)
+            need[i] = max(need[i], word + 3.0)
+            want[i] = max(want[i], min(60.0, len(text)), need[i])
+    if sum(want) <= line or sum(need) >= line:
+        return want
+    spare = (line - sum(need)) / (sum(want) - sum(need))
+    return [n + (w - n) * spare for w, n in zip(want, need)]
+
+
 class LongTableWidths(SphinxTransform):
-    """For the LaTeX builder: make a long table (LONG_TABLE_ROWS, LONG_TABLE_CHARS) a ``longtable`` whose columns
-    wrap.
+    """For the LaTeX builder: give every table of three columns or more widths that fit its words
+    (:func:`column_widths`), and make a long table (LONG_TABLE_ROWS, LONG_TABLE_CHARS) a ``longtable``.
 
     Sphinx sets a longtable's columns ``l`` (one line each) unless widths are given, and the notation's and the
-    performance appendix's tables then run hundreds of points off the page. The widths given here follow the longest
-    text of each column (between 6 and 60 characters), and at least its longest word.
+    performance appendix's tables then ran hundreds of points off the page; tabulary, for the others, can leave a
+    column narrower than its longest word.
     """
 
     default_priority = 510
@@ -224,19 +271,14 @@ class LongTableWidths(SphinxTransform):
                 continue
             rows = list(tgroup.findall(nodes.row))
             colspecs = [c for c in tgroup.children if isinstance(c, nodes.colspec)]
-            if not colspecs or (len(rows) <= LONG_TABLE_ROWS and len(table.astext()) <= LONG_TABLE_CHARS):
+            long = len(rows) > LONG_TABLE_ROWS or len(table.astext()) > LONG_TABLE_CHARS
+            if not colspecs or (len(colspecs) < 3 and not long):
                 continue
-            table["classes"].append("longtable")
-            longest = [6] * len(colspecs)
-            for row in rows:
-                for i, entry in enumerate(e for e in row.children if isinstance(e, nodes.entry)):
-                    if i < len(longest):
-                        text = entry.astext()
-                        # room for the longest word too (a short column's "PASS" stuck out of the box)
-                        word = max((len(w) for w in text.split()), default=0) + 3
-                        longest[i] = max(longest[i], min(60, len(text)), word)
-            for colspec, width in zip(colspecs, longest):
-                colspec["colwidth"] = width
+            if long:
+                table["classes"].append("longtable")
+            texts = [[_printed_text(e) for e in row.children if isinstance(e, nodes.entry)] for row in rows]
+            for colspec, width in zip(colspecs, column_widths([t for t in texts if t])):
+                colspec["colwidth"] = max(1, round(width * 10))
             table["classes"].append("colwidths-given")
 
 
@@ -366,9 +408,10 @@ BIBLIOGRAPHY_DOC = "book/bibliography"
 #: The side margins (Sphinx's default is an inch) and how far, both sides together, a figure may spread into them.
 #: The book's figures are drawn 7.5 to 8 inches wide at 100 dpi, with 7-pt text at the smallest
 #: (uwtutor.plotting.MIN_FONT_SIZE); shrunk to Sphinx's 15.9 cm text width they printed it at 5.2-5.6 pt. In 17 cm
-#: of text and 2 cm more, 19 cm, they print at 0.93 of their size or more: 6.5 pt or more.
+#: of text (a cell's output is indented a little) and 3 cm more they print at 0.93 of their size or more: 6.5 pt or
+#: more (tests/test_pdf.py).
 SIDE_MARGIN_CM = 2.0
-FIGURE_SPILL_CM = 2.0
+FIGURE_SPILL_CM = 3.0
 
 PREAMBLE_LATEX = r"""
 \makeatletter
