@@ -353,15 +353,14 @@ def legend_overlaps(fig: Any) -> list[str]:
     from matplotlib.transforms import Bbox
 
     as_instance("fig", fig, Figure, "e.g. the figure of plt.subplots()")
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
+    fig.draw_without_rendering()  # places legends and layout on any canvas (a closed figure's too)
     legends = [(ax.get_legend(), [ax]) for ax in fig.axes if ax.get_legend() is not None]
     legends += [(legend, list(fig.axes)) for legend in fig.legends]
     found: list[str] = []
     for legend, axes in legends:
         if not legend.get_visible():
             continue
-        box = legend.get_window_extent(renderer).padded(-1.0)  # a pixel of tolerance on each side
+        box = legend.get_window_extent().padded(-1.0)  # a pixel of tolerance on each side
         texts = [t.get_text() for t in legend.get_texts()]
         for index, ax in enumerate(fig.axes):
             if ax not in axes or not ax.get_visible():
