@@ -16,7 +16,7 @@ from ._validate import as_float_array, as_instance, as_point
 
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
            "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below",
-           "legend_overlaps", "check_legends_on_display"]
+           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {

@@ -245,8 +245,10 @@ def column_widths(texts: list[list[str]], line: int = LINE_CHARS) -> list[float]
             word = max((len(w) for w in text.split()), default=0)
             need[i] = max(need[i], word + 3.0)
             want[i] = max(want[i], min(60.0, len(text)), need[i])
-    if sum(want) <= line or sum(need) >= line:
+    if sum(want) <= line:
         return want
+    if sum(need) >= line:  # even the words do not fit: share the line by the words
+        return need
     spare = (line - sum(need)) / (sum(want) - sum(need))
     return [n + (w - n) * spare for w, n in zip(want, need)]
 
