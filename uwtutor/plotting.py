@@ -406,6 +406,19 @@ def check_legends_on_display() -> bool:
         return False
     from matplotlib.figure import Figure
 
+    # The inline backend registers its figure formatter when it is loaded, which matplotlib does lazily (at the
+    # first figure): load it now. And check before every cell that the wrapper is still there (a notebook may
+    # register the formatter again, e.g. with set_matplotlib_formats).
+    plt.switch_backend(plt.get_backend())
+    if not getattr(shell, "_uwtutor_legend_hook", False):
+        shell.events.register("pre_run_cell", lambda *args: _wrap_figure_formatter(shell))
+        shell._uwtutor_legend_hook = True
+    return _wrap_figure_formatter(shell)
+
+
+def _wrap_figure_formatter(shell: Any) -> bool:
+    from matplotlib.figure import Figure
+
     formatter = shell.display_formatter.formatters["image/png"]
     try:
         draw = formatter.lookup_by_type(Figure)
