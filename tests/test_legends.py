@@ -10,6 +10,7 @@ committed outputs themselves must hold no such line (test below).
 from __future__ import annotations
 
 import json
+import re
 
 import matplotlib
 
@@ -84,6 +85,21 @@ def test_a_figure_legend_is_checked_against_every_axes():
         plt.close(fig)
 
 
+def test_an_animation_reports_a_frame_whose_legend_covers_data(capsys):
+    from matplotlib.animation import FuncAnimation
+
+    from uwtutor.plotting import animation_html
+
+    fig, ax = plt.subplots(figsize=(3, 2), dpi=40)
+    (line,) = ax.plot([0, 1], [0, 0], label="moving")
+    ax.set_ylim(0, 1)
+    ax.legend(loc="center")
+    anim = FuncAnimation(fig, lambda i: line.set_ydata([0.5 * i, 0.5 * i]), frames=2)
+    animation_html(anim)
+    plt.close(fig)
+    assert f"{LEGEND_WARNING} (animation)" in capsys.readouterr().err  # frame 1: the line through the legend
+
+
 def test_bad_input_names_the_argument():
     with pytest.raises((TypeError, ValueError), match="fig"):
         legend_overlaps("not a figure")
@@ -97,4 +113,7 @@ def test_no_committed_figure_has_a_legend_over_its_data(chapter):
         for out in cell.get("outputs", []):
             text = "".join(out.get("text", "")) if out.get("output_type") == "stream" else ""
             found += [f"cell {index}: {line}" for line in text.splitlines() if line.startswith(LEGEND_WARNING)]
+    # a widget draws into an Output widget: what it printed is in the saved widget state
+    state = json.dumps(nb.get("metadata", {}).get("widgets", {}))
+    found += [f"a widget's view: {m}" for m in set(re.findall(LEGEND_WARNING + r"[^\\\"]*", state))]
     assert not found, f"{chapter.name}: figures whose legend covers data:\n" + "\n".join(found)

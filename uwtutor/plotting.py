@@ -282,7 +282,30 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     as_instance("animation", animation, Animation, "e.g. a matplotlib.animation.FuncAnimation")
     if default_mode not in ("loop", "once", "reflect"):
         raise ValueError(f"default_mode must be 'loop', 'once' or 'reflect'; got {default_mode!r}")
-    return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))
+    # every frame's legend is checked as it is drawn (check_legends_on_display sees only figures shown whole)
+    fig = animation._fig
+    covered: list[str] = []
+    checking = [False]
+
+    def check_frame(event: Any) -> None:
+        if not checking[0]:
+            checking[0] = True
+            try:
+                covered.extend(p for p in legend_overlaps(fig) if p not in covered)
+            finally:
+                checking[0] = False
+
+    cid = fig.canvas.mpl_connect("draw_event", check_frame)
+    try:
+        html = animation.to_jshtml(default_mode=default_mode)
+    finally:
+        fig.canvas.mpl_disconnect(cid)
+    if covered:
+        import sys
+
+        for problem in covered:
+            print(f"{LEGEND_WARNING} (animation): {problem}", file=sys.stderr)
+    return HTML(_CDN_STYLESHEET.sub("", html))
 
 
 def _inside(box: Any, points: Any) -> bool:
