@@ -210,7 +210,8 @@ def _printed_text(node: nodes.Node) -> str:
     for child in node.findall(nodes.Text):
         inside_math = any(isinstance(a, (nodes.math, nodes.math_block)) for a in _ancestors(child))
         text = child.astext()
-        parts.append(text[: max(1, len(text) // 3)] if inside_math else text)
+        # a formula does not break: one "word" (no spaces) of a third of its source's length
+        parts.append(text[: max(1, len(text) // 3)].replace(" ", "_") if inside_math else text)
     return "".join(parts)
 
 
