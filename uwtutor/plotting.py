@@ -377,7 +377,8 @@ def legend_overlaps(fig: Any) -> list[str]:
 
     as_instance("fig", fig, Figure, "e.g. the figure of plt.subplots()")
     fig.draw_without_rendering()  # places legends and layout on any canvas (a closed figure's too)
-    legends = [(ax.get_legend(), [ax]) for ax in fig.axes if ax.get_legend() is not None]
+    # every legend against every axes: a legend placed outside its own axes may land on a neighbour's data
+    legends = [(ax.get_legend(), list(fig.axes)) for ax in fig.axes if ax.get_legend() is not None]
     legends += [(legend, list(fig.axes)) for legend in fig.legends]
     found: list[str] = []
     for legend, axes in legends:
