@@ -428,7 +428,6 @@ def check_legends_on_display() -> bool:
     shell = get_ipython()
     if shell is None or not hasattr(shell, "display_formatter"):
         return False
-    from matplotlib.figure import Figure
 
     # The inline backend registers its figure formatter when it is loaded, which matplotlib does lazily (at the
     # first figure): load it now. And check before every cell that the wrapper is still there (a notebook may
