@@ -49,7 +49,8 @@ FROZEN_WIDGETS_JS = r"""
     var wheel = meta ? meta.getAttribute("content") : "";
     var file = wheel.split("/").pop();
     p.appendChild(document.createTextNode("A frozen view at the default settings: its controls do nothing here. "
-      + "The live widget runs in JupyterLab: open this chapter's notebook there (the page's download menu) and run "
+      + "The live widget runs in JupyterLab: open this chapter there (make lab in the book's repository, or its "
+      + "notebook from the page's download menu) and run "
       + "its cells" + (name ? ", or run " : ".")));
     if (name) {
       var code = document.createElement("code");
