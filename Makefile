@@ -1,5 +1,5 @@
 # The two commands that do all the set-up on a fresh machine:
-#   make book   -- build the HTML book into _build/html
+#   make book   -- build the HTML book into _build/html (with the library's wheel, made by `make dist`)
 #   make test   -- run every test (unit, property, exercises, nbval, strict build, browser, PDF)
 # and, once set up:  make lab (JupyterLab on the book and the exercises), make bench (benchmarks),
 # make study (chapter 10's comparison table, written to uwtutor/data/), make study-real (chapter 11's study),
@@ -12,7 +12,7 @@ JB     := $(VENV)/bin/jupyter-book
 STAMP  := $(VENV)/.installed-stamp
 NODE_STAMP := node_modules/.installed-stamp
 
-.PHONY: setup book pdf pdf-deps test lab bench study study-real notebooks clean
+.PHONY: setup dist book pdf pdf-deps test lab bench study study-real notebooks clean
 
 # The environment: the book, JupyterLab for students (the lab extra), the tests, Dask. nbgrader comes with the tests
 # (tests/test_labs_nbgrader.py) but its JupyterLab menu, sidebars and server extensions are an instructor's
@@ -40,7 +40,23 @@ $(NODE_STAMP): package.json package-lock.json
 
 setup: $(STAMP) $(NODE_STAMP)
 
-book: setup
+# The library's wheel and source distribution in dist/ (the HTML book carries the wheel: book/_ext/reader_edition.py
+# copies dist/uwtutor-VERSION-py3-none-any.whl into it, and builds it there if it is missing). Built without
+# dependencies and without build isolation, from the set-up environment (no network).
+dist: setup
+	rm -f dist/uwtutor-*.whl dist/uwtutor-*.tar.gz
+	$(PY) -m pip wheel --no-deps --no-build-isolation --quiet --wheel-dir dist .
+	$(PY) -c "import setuptools.build_meta as b; print('dist/' + b.build_sdist('dist'))"
+	rm -rf build
+
+# The HTML book, with the wheel of `make dist` and the PDF edition as downloads (the PDF is built first where TeX Live
+# is installed; BOOK_PDF=no leaves it out, and an HTML book without TeX says so and has no PDF in its menus).
+BOOK_PDF ?= auto
+
+book: dist
+	@if [ "$(BOOK_PDF)" != no ] && command -v xelatex >/dev/null && command -v latexmk >/dev/null; then \
+	  $(PY) tools/build_pdf.py >/dev/null && echo "The PDF edition is built: _build/pdf/uwtutor.pdf"; \
+	else echo "No PDF edition in this HTML book (BOOK_PDF=$(BOOK_PDF); TeX Live: make pdf-deps)"; fi
 	$(JB) build --all -W -n --keep-going .
 	@echo
 	@echo "The book is built: open $(CURDIR)/_build/html/index.html in a browser."

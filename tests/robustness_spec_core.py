@@ -197,6 +197,8 @@ SPECS_CORE: dict[str, Spec] = {
     "uwtutor.plotting:plain_log_ticks": Spec(lambda: dict(axis="y"), call=_on_axes(_plotting("plain_log_ticks"),
                                                                                    log=True),
                                              kinds=dict(axis=Choice())),
+    "uwtutor.plotting:legend_overlaps": Spec(lambda: dict(fig=_tiny_animation()._fig),
+                                             kinds=dict(fig=Instance()), check=lambda v, b: []),
     "uwtutor.plotting:animation_html": Spec(lambda: dict(animation=_tiny_animation(), default_mode="once"),
                                             kinds=dict(animation=Instance(), default_mode=Choice()),
                                             check=lambda v, b: []),
@@ -373,4 +375,5 @@ EXEMPT_CORE: dict[str, str] = {
     "uwtutor._linalg:psd_violations": "the filter engine's per-step check of its own covariances (runs-last arrays "
                                       "the engine builds), never called with user data",
     "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
+    "uwtutor.plotting:check_legends_on_display": "no arguments: wraps IPython's figure formatter, if there is one",
 }

@@ -40,16 +40,21 @@ WAIT_FOR_WIDGETS = """() => Array.from(document.querySelectorAll(
     .every(s => s.parentElement.querySelector('.widget-subarea > *'))"""
 
 # Everything that overflows sideways on the page as it is laid out now.
-MEASURE = r"""() => {
+MEASURE = r"""(PHONE) => {
   const TOL = 1;  // px: sub-pixel rounding
   const visible = el => el.offsetParent !== null && el.clientWidth > 0;
   const where = el => {
     const sec = el.closest('section[id]');
     return sec ? '#' + sec.id : '';
   };
+  // A box that scrolls sideways and shows it (a scroll shadow: a background gradient, as _static/fit.css gives).
+  const scrollsVisibly = el => ['auto', 'scroll'].includes(getComputedStyle(el).overflowX) &&
+                               /gradient/.test(getComputedStyle(el).backgroundImage);
   const code = [];
+  let codeScrolling = 0;
   for (const pre of document.querySelectorAll('pre')) {
     if (!visible(pre) || pre.scrollWidth <= pre.clientWidth + TOL) continue;
+    if (PHONE && scrollsVisibly(pre)) { codeScrolling += 1; continue; }
     const kind = pre.closest('.cell_input') ? 'input' : pre.closest('.cell_output') ? 'output' : 'other';
     const lines = pre.textContent.split('\n');
     const longest = lines.reduce((a, b) => (b.length > a.length ? b : a), '');
@@ -94,13 +99,93 @@ MEASURE = r"""() => {
       if (culprits.length >= 5) break;
     }
   }
-  return {code, equations, scrolling, page: page ? {scrollWidth: root.scrollWidth, clientWidth: root.clientWidth,
-          culprits} : null};
+  // Tables wider than their box scroll inside it, and show that they do.
+  const tables = [];
+  let tablesScrolling = 0;
+  for (const table of document.querySelectorAll('article table')) {
+    if (!visible(table) || table.scrollWidth <= table.clientWidth + TOL) continue;
+    // the shadow is the table's background: an opaque row or cell (the theme's zebra stripes) would hide it
+    const opaque = Array.from(table.querySelectorAll('tr, th, td')).some(
+      e => /^rgb\(/.test(getComputedStyle(e).backgroundColor));
+    if (scrollsVisibly(table) && !opaque) { tablesScrolling += 1; continue; }
+    tables.push({where: where(table), hidden_px: table.scrollWidth - table.clientWidth, opaque,
+                 text: table.textContent.trim().replace(/\s+/g, ' ').slice(0, 60)});
+  }
+  return {code, codeScrolling, equations, scrolling, tables, tablesScrolling,
+          page: page ? {scrollWidth: root.scrollWidth, clientWidth: root.clientWidth, culprits} : null};
 }"""
 
+#: Slider tracks narrower than this (CSS px) cannot be set by a finger.
+MIN_TRACK_PX = 80
+#: The book's figures are drawn at 100 dpi (uwtutor.plotting.BOOK_STYLE): 10-pt text is 13.9 image pixels high.
+FIGURE_DPI = 100
+#: 10-pt text of a figure must show at least this high (CSS px) once the figure is opened full size.
+MIN_OPENED_TEXT_PX = 9.0
 
-def measure(page, url: str) -> dict:
-    """Load ``url`` in ``page`` (at its viewport) and return what overflows (see MEASURE)."""
+# Widgets, animations and figures on a phone: slider tracks, controls past the column's right edge, animations wider
+# than the column, figures that do not open, and the size of a figure's 10-pt text in the page and opened full size
+# (a tap on the figure; the view is closed again).
+MEASURE_MEDIA = r"""async () => {
+  const TOL = 1;
+  const where = el => { const sec = el.closest('section[id]'); return sec ? '#' + sec.id : ''; };
+  const article = document.querySelector('article.bd-article') || document.body;
+  const column = article.getBoundingClientRect().right;
+  const clipped = el => {
+    for (let a = el.parentElement; a && a !== document.body; a = a.parentElement) {
+      if (!['visible', 'clip'].includes(getComputedStyle(a).overflowX)) return true;
+    }
+    return false;
+  };
+  const sliders = [], pastEdge = [], animations = [], unzoomable = [], figures = [];
+  for (const track of document.querySelectorAll('.jupyter-widgets .widget-hslider .slider-container')) {
+    const w = track.getBoundingClientRect().width;
+    const label = track.parentElement.querySelector('.widget-label');
+    sliders.push({where: where(track), width: Math.round(w), label: label ? label.textContent.trim() : ''});
+  }
+  for (const el of document.querySelectorAll('.jupyter-widgets .widget-inline-hbox, .jupyter-widgets select, '
+                                             + '.jupyter-widgets button, .jupyter-widgets .widget-readout')) {
+    const r = el.getBoundingClientRect();
+    if (r.width > 0 && r.right > column + TOL && !clipped(el)) {
+      pastEdge.push({where: where(el), what: el.className.split(' ')[0] || el.tagName.toLowerCase(),
+                     past_px: Math.round(r.right - column)});
+    }
+  }
+  for (const anim of document.querySelectorAll('div.cell_output .animation')) {
+    let right = anim.getBoundingClientRect().right;
+    for (const el of anim.querySelectorAll('*')) right = Math.max(right, el.getBoundingClientRect().right);
+    if (right > column + TOL) animations.push({where: where(anim), past_px: Math.round(right - column)});
+  }
+  const natural = img => {
+    const attr = img.getAttribute('width');
+    return attr && !/%/.test(attr) && parseFloat(attr) > 0 ? parseFloat(attr) : img.naturalWidth;
+  };
+  const text10 = scale => 10 / 72 * FIGURE_DPI * scale;
+  for (const img of document.querySelectorAll('div.cell_output img')) {
+    if (img.offsetParent === null || img.closest('.animation')) continue;
+    if (img.closest('.jupyter-widgets')) continue;  // a widget's picture is measured with the widget
+    if (!img.classList.contains('uwtutor-zoomable')) { unzoomable.push({where: where(img)}); continue; }
+    const inPage = img.getBoundingClientRect().width / natural(img);
+    img.click();
+    const view = document.querySelector('div.uwtutor-zoom');
+    let opened = null, fits = false;
+    if (view) {
+      const big = view.querySelector('img');
+      opened = big.getBoundingClientRect().width / natural(img);
+      fits = document.documentElement.scrollWidth <= document.documentElement.clientWidth + TOL;
+      view.querySelector('button').click();
+    }
+    figures.push({where: where(img), natural_px: natural(img), page_text_px: +text10(inPage).toFixed(1),
+                  opened_text_px: opened === null ? null : +text10(opened).toFixed(1),
+                  device_px_per_image_px: +(3 * img.getBoundingClientRect().width / img.naturalWidth).toFixed(2),
+                  page_fits: fits, closed: !document.querySelector('div.uwtutor-zoom')});
+  }
+  return {sliders, pastEdge, animations, unzoomable, figures};
+}""".replace("FIGURE_DPI", str(FIGURE_DPI))
+
+
+def measure(page, url: str, phone: bool = False) -> dict:
+    """Load ``url`` in ``page`` (at its viewport) and return what overflows (see MEASURE), and on a phone what
+    MEASURE_MEDIA finds."""
     page.goto(url, wait_until="load", timeout=60_000)
     page.evaluate(WAIT_FOR_MATHJAX)
     if page.locator('script[type="application/vnd.jupyter.widget-state+json"]').count():
@@ -109,7 +194,11 @@ def measure(page, url: str) -> dict:
         except Exception:  # an empty widget is test_browser's failure; measure what is there
             pass
     page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
-    return page.evaluate(MEASURE)
+    facts = page.evaluate(MEASURE, phone)
+    if phone:
+        page.evaluate("() => Promise.all(Array.from(document.images).map(i => i.decode().catch(() => null)))")
+        facts.update(page.evaluate(MEASURE_MEDIA))
+    return facts
 
 
 def problems(facts: dict) -> list[str]:
@@ -117,6 +206,23 @@ def problems(facts: dict) -> list[str]:
            f"longest line {c['longest']} chars: {c['text']!r}" for c in facts["code"]]
     out += [f"display equation ({e['where']}) cut by {e['hidden_px']} px"
             f"{' (scrolls with no visible cue)' if e['scrolls'] else ''}: {e['text']!r}" for e in facts["equations"]]
+    out += [f"table ({t['where']}) scrolls {t['hidden_px']} px with no visible cue"
+            f"{' (opaque rows hide its shadow)' if t['opaque'] else ''}: {t['text']!r}"
+            for t in facts["tables"]]
+    out += [f"slider track ({s['where']}, {s['label']!r}) {s['width']} px wide (under {MIN_TRACK_PX})"
+            for s in facts.get("sliders", []) if s["width"] < MIN_TRACK_PX]
+    out += [f"widget control {c['what']} ({c['where']}) {c['past_px']} px past the column's edge"
+            for c in facts.get("pastEdge", [])]
+    out += [f"animation ({a['where']}) {a['past_px']} px wider than the column" for a in facts.get("animations", [])]
+    out += [f"figure ({u['where']}) does not open full size on a tap" for u in facts.get("unzoomable", [])]
+    for f in facts.get("figures", []):
+        if f["opened_text_px"] is None or not f["closed"]:
+            out.append(f"figure ({f['where']}): the full-size view did not open and close")
+        elif f["opened_text_px"] < MIN_OPENED_TEXT_PX:
+            out.append(f"figure ({f['where']}): 10-pt text {f['opened_text_px']} px high opened full size "
+                       f"(under {MIN_OPENED_TEXT_PX})")
+        elif not f["page_fits"]:
+            out.append(f"figure ({f['where']}): the full-size view widens the page")
     if facts["page"]:
         p = facts["page"]
         out.append(f"the page scrolls sideways ({p['scrollWidth']} px in {p['clientWidth']} px); "
@@ -145,7 +251,7 @@ def test_page_fits(pages, site, browser, docname, width):  # noqa: F811  (the fi
     external.clear()
     if not (HTML_DIR / f"{docname}.html").is_file():
         pytest.fail(f"{docname}.html was not built", pytrace=False)
-    found = problems(measure(pages[width], site + f"{docname}.html"))
+    found = problems(measure(pages[width], site + f"{docname}.html", phone=width == "phone"))
     assert not external, f"{docname}.html requested {sorted(set(external))}"
     if found:
         pytest.fail(f"{docname}.html at {WIDTHS[width]} px: {len(found)} overflow(s)\n  " + "\n  ".join(found),
@@ -155,7 +261,8 @@ def test_page_fits(pages, site, browser, docname, width):  # noqa: F811  (the fi
 # --- the counts, without pytest --------------------------------------------------------------------------------
 
 def main(argv: list[str]) -> int:
-    """Print, page by page and width by width, how many code blocks, equations and pages overflow."""
+    """Print, page by page and width by width, how many code blocks, equations, pages and tables overflow, and the
+    phone's widgets, animations and figures."""
     import tempfile
 
     from playwright.sync_api import sync_playwright
@@ -167,7 +274,9 @@ def main(argv: list[str]) -> int:
     only = [a[2:] for a in argv if a.startswith("-k")]
     paths = [a for a in argv if not a.startswith("-")]
     html = Path(paths[0]).resolve() if paths else HTML_DIR
-    totals = {w: {"code": 0, "input": 0, "output": 0, "equations": 0, "scrolling": 0, "pages": 0} for w in WIDTHS}
+    totals = {w: {"code": 0, "input": 0, "output": 0, "code_scrolling": 0, "equations": 0, "scrolling": 0,
+                  "pages": 0, "tables": 0, "tables_scrolling": 0} for w in WIDTHS}
+    media: dict[str, list] = {"sliders": [], "pastEdge": [], "animations": [], "unzoomable": [], "figures": []}
     with serve_directory(html) as base, sync_playwright() as pw, tempfile.TemporaryDirectory() as profile:
         context = pw.chromium.launch_persistent_context(
             profile, executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS, service_workers="block")
@@ -176,31 +285,50 @@ def main(argv: list[str]) -> int:
         for name, width in WIDTHS.items():
             tabs[name] = context.new_page()
             tabs[name].set_viewport_size({"width": width, "height": HEIGHT})
-        print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page':>22s}" for w in WIDTHS))
+        print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page/table':>24s}" for w in WIDTHS))
         for doc in DOCNAMES:
             if only and not any(o in doc for o in only):
                 continue
             row = []
             for name in WIDTHS:
-                facts = measure(tabs[name], base + f"{doc}.html")
+                facts = measure(tabs[name], base + f"{doc}.html", phone=name == "phone")
                 t = totals[name]
                 t["code"] += len(facts["code"])
                 for c in facts["code"]:
                     t[c["kind"]] = t.get(c["kind"], 0) + 1
+                t["code_scrolling"] += facts["codeScrolling"]
                 t["equations"] += len(facts["equations"])
                 t["scrolling"] += facts["scrolling"]
                 t["pages"] += bool(facts["page"])
+                t["tables"] += len(facts["tables"])
+                t["tables_scrolling"] += facts["tablesScrolling"]
+                for key in media:
+                    media[key] += facts.get(key, [])
                 row.append(f"{len(facts['code']):>12d}/{len(facts['equations'])}/{int(bool(facts['page']))}"
-                           f"{'':>6s}")
+                           f"/{len(facts['tables'])}{'':>6s}")
                 if verbose:
                     for line in problems(facts):
                         print(f"    [{name}] {line}")
-            print(f"{doc:38s} " + " ".join(f"{r:>22s}" for r in row))
+            print(f"{doc:38s} " + " ".join(f"{r:>24s}" for r in row))
         context.close()
     for name, t in totals.items():
         print(f"{name} ({WIDTHS[name]} px): {t['code']} code blocks overflow ({t['input']} inputs, {t['output']} "
-              f"outputs), {t['equations']} display equations cut ({t['scrolling']} scroll visibly), "
-              f"{t['pages']} pages scroll sideways")
+              f"outputs; {t['code_scrolling']} more scroll visibly), {t['equations']} display equations cut "
+              f"({t['scrolling']} scroll visibly), {t['pages']} pages scroll sideways, {t['tables']} tables scroll "
+              f"with no cue ({t['tables_scrolling']} with one)")
+    figs = media["figures"]
+    short = [s for s in media["sliders"] if s["width"] < MIN_TRACK_PX]
+    print(f"phone widgets: {len(short)} of {len(media['sliders'])} slider tracks under {MIN_TRACK_PX} px (narrowest "
+          f"{min((s['width'] for s in media['sliders']), default=0)} px), {len(media['pastEdge'])} controls past the "
+          f"column's edge; {len(media['animations'])} animations wider than the column")
+    if figs:
+        page_px = sorted(f["page_text_px"] for f in figs)
+        opened = sorted(f["opened_text_px"] or 0.0 for f in figs)
+        print(f"phone figures: {len(figs)} open full size on a tap, {len(media['unzoomable'])} do not; 10-pt text in "
+              f"the page {page_px[0]}-{page_px[-1]} px (median {page_px[len(page_px) // 2]}; "
+              f"{sum(p < 7 for p in page_px)} under 7 px), opened {opened[0]}-{opened[-1]} px; device pixels per "
+              f"image pixel on a 3x screen, in the page: median "
+              f"{sorted(f['device_px_per_image_px'] for f in figs)[len(figs) // 2]}")
     return 0
 
 

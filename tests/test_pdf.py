@@ -25,7 +25,7 @@ import build_pdf as pdf_edition  # noqa: E402  (tools/ is not a package; named u
 
 pytestmark = pytest.mark.book
 
-TOOLS = ("xelatex", "latexmk", "rsvg-convert", "pdftotext", "pdfimages")
+TOOLS = ("xelatex", "latexmk", "rsvg-convert", "pdftotext", "pdfimages", "pdffonts")
 
 # LaTeX warnings that come from the classes and packages, not from the book, with the reason.
 LATEX_NOISE = [
@@ -258,3 +258,175 @@ def test_reference_part_prints_as_appendices(pdf):
     for docname in ("book/notation", "book/glossary"):
         assert re.search(r"Appendix\s+[A-F]\s*\n*\s*" + re.escape(_title(docname)), text) or \
             re.search(r"[A-F]\s+" + re.escape(_title(docname)), text), f"{docname} is not an appendix"
+
+
+# --- the reader's defects (each once seen in a built PDF) ------------------------------------------------------------
+
+def _tex() -> str:
+    return (pdf_edition.LATEX_DIR / f"{pdf_edition.PDF_NAME}.tex").read_text(encoding="utf-8")
+
+
+def test_no_glue_call_or_nbval_marker_in_a_listing(pdf):
+    """The code as printed is what the reader needs: the glue calls that hand numbers to the text and the notebook
+    tests' markers stay in the notebooks (book/_ext/reader_edition.py strips them from the listings)."""
+    text = _text()
+    assert "glue(" not in text, f"{text.count('glue(')} glue( calls printed"
+    assert "NBVAL" not in text, f"{text.count('NBVAL')} nbval markers printed"
+
+
+def _tables_of(markdown: str) -> list[list[str]]:
+    """The first cells of the rows of each Markdown table of a page (header and separator left out)."""
+    tables, rows = [], []
+    for line in markdown.splitlines() + [""]:
+        if line.startswith("|"):
+            rows.append(line.strip("|").split("|")[0].strip())
+        elif rows:
+            tables.append([r for r in rows[2:] if r])
+            rows = []
+    return tables
+
+
+def test_no_table_row_is_lost(pdf):
+    """Every row of every table of the Markdown pages is printed: a table longer than a page breaks across pages
+    (the 29 rows under "Where the papers use other symbols" once ran off the page, four of them lost, with no LaTeX
+    warning)."""
+    def plain(text: str) -> str:  # a narrow column hyphenates: compare without hyphens
+        return _squashed(text).replace("-", "").replace("\u2010", "")
+
+    text = plain(_text())
+    missing = []
+    n_rows = 0
+    for docname in _pdf_docnames():
+        if _source(docname).suffix != ".md":
+            continue
+        for rows in _tables_of(_source(docname).read_text(encoding="utf-8")):
+            for first in rows:
+                cell = re.sub(r"[`*]|\$[^$]*\$|\{[a-z]+\}|<[^>]*>", "", first)
+                cell = re.sub(r"\\[A-Za-z]+", "", cell).strip()
+                if len(cell) < 4:
+                    continue
+                n_rows += 1
+                if plain(cell) not in text:
+                    missing.append(f"{docname}: {first[:60]!r}")
+    assert n_rows > 50
+    assert not missing, f"{len(missing)} table rows not in the PDF:\n" + "\n".join(missing[:20])
+
+
+def test_long_tables_can_break_across_pages(pdf):
+    """A table that could be longer than a page is a longtable (it breaks); LaTeX gives no warning otherwise."""
+    tex = _tex()
+    stuck = []
+    for env in ("tabulary", "tabular"):
+        for m in re.finditer(r"\\begin\{%s\}(.*?)\\end\{%s\}" % (env, env), tex, re.S):
+            rows = m[1].count("\\\\")
+            if rows > 20 or len(m[1]) > 6000:
+                stuck.append(f"{env} of {rows} rows: {m[1][:80]!r}")
+    assert not stuck, "tables that cannot break across pages:\n" + "\n".join(stuck)
+
+
+def _overfull_in_tables() -> list[str]:
+    """Overfull boxes of the LaTeX log that fall inside a table of the .tex (a cell's text past its column)."""
+    tex_lines = _tex().splitlines()
+    inside = [False] * (len(tex_lines) + 2)
+    depth = 0
+    for i, line in enumerate(tex_lines, start=1):
+        depth += len(re.findall(r"\\begin\{(longtable|tabulary|tabular)\*?\}", line))
+        inside[i] = depth > 0
+        depth -= len(re.findall(r"\\end\{(longtable|tabulary|tabular)\*?\}", line))
+    log = (pdf_edition.LATEX_DIR / f"{pdf_edition.PDF_NAME}.log").read_text(encoding="utf-8", errors="replace")
+    found = []
+    for m in re.finditer(r"Overfull \\hbox \(([0-9.]+)pt too wide\) (?:in paragraph|in alignment) at lines "
+                         r"(\d+)--(\d+)", log):
+        first = int(m[2])
+        if first < len(inside) and inside[first] and float(m[1]) > 1.0:
+            found.append(f"{m[1]} pt at .tex line {first}: {tex_lines[first - 1][:70]!r}")
+    return found
+
+
+def test_no_text_past_a_table_cell(pdf):
+    """No cell's text runs past its column (PASS/MISS once stuck out of the performance table, the library-design
+    table clipped its first column)."""
+    found = _overfull_in_tables()
+    assert not found, f"{len(found)} overfull boxes in tables:\n" + "\n".join(found[:20])
+
+
+def test_every_widget_line_names_real_values(pdf):
+    """Each printed widget line gives its controls' starting values: a dropdown's label, not None (ipywidgets 8
+    saves a dropdown's labels as _options_labels and no options)."""
+    text = " ".join(_text().split())
+    lines = re.findall(r"An interactive widget: it runs in JupyterLab.*?\.(?= [A-Z]|$)", text)
+    assert lines
+    bad = [line for line in lines if "= None" in line]
+    assert not bad, f"{len(bad)} widget lines print None:\n" + "\n".join(bad)
+    labels = []
+    for docname in _pdf_docnames():
+        path = _source(docname)
+        if path.suffix != ".ipynb":
+            continue
+        state = json.loads(path.read_text(encoding="utf-8")).get("metadata", {}).get("widgets", {}).get(
+            "application/vnd.jupyter.widget-state+json", {}).get("state", {})
+        for model in state.values():
+            s = model.get("state", {})
+            if s.get("_options_labels") and s.get("index") is not None and s.get("description"):
+                labels.append(f"{s['description']} = {s['_options_labels'][s['index']]}")
+    assert labels
+    printed = _squashed(" ".join(lines))
+    missing = [label for label in labels if _squashed(label) not in printed]
+    assert not missing, f"dropdown values not printed: {missing}"
+
+
+def test_bibliography_is_a_numbered_appendix_in_the_texts_citation_style(pdf):
+    text = _text()
+    heading = re.search(r"Appendix\s+([A-H])\s*\n+\s*Bibliography", text) or re.search(
+        r"\n([A-H])\s+Bibliography\s*\n", text)
+    assert heading, "the bibliography is not a lettered appendix"
+    after = text[heading.end():]
+    # the list follows its introduction, in the same appendix, labelled as the text cites ("Zhu et al., 2019")
+    assert re.search(r"Zhu et al\.,\s+2019", after[:20000]), "the list is not under the bibliography's heading"
+    alpha = re.findall(r"\[[A-Z][A-Za-z+]{1,5}\d\d[a-z]?\]", text)
+    assert not alpha, f"alpha labels printed (the text cites author-year): {sorted(set(alpha))[:10]}"
+    assert not re.search(r"\n\s*Bibliography\s*\n(?!.*Appendix)", text[:2000]), "an unnumbered Bibliography chapter"
+
+
+def test_figure_text_is_at_least_six_and_a_half_points(pdf):
+    """The chapters' figures are drawn at 100 dpi with 7-pt text at the smallest: printed at x ppi, that text is
+    7 * 100 / x pt high, which must be 6.5 pt or more (it was 5.2-5.6 pt)."""
+    from uwtutor.plotting import MIN_FONT_SIZE
+
+    listing = subprocess.run(["pdfimages", "-list", str(pdf_edition.PDF)], check=True, capture_output=True,
+                             text=True).stdout.splitlines()[2:]
+    ppis = [float(ln.split()[12]) for ln in listing if ln.split()[2] == "image" and int(ln.split()[3]) >= 400]
+    assert len(ppis) > 50
+    small = sorted(MIN_FONT_SIZE * 100 / ppi for ppi in ppis if MIN_FONT_SIZE * 100 / ppi < 6.5)
+    assert not small, f"{len(small)} of {len(ppis)} figures print 7-pt text under 6.5 pt (smallest {small[0]:.2f} pt)"
+
+
+def test_running_foot_fits_one_line(pdf):
+    """A long chapter title (chapter 6's) is shortened in the running foot, which holds one line."""
+    tex = _tex()
+    for m in re.finditer(r"\\chapter\{([^{}]*(?:\{[^{}]*\}[^{}]*)*)\}", tex):
+        title = re.sub(r"\\[A-Za-z]+|[{}]", "", m[1])
+        if len(title) > 50:
+            after = tex[m.end():m.end() + 400]
+            assert "\\chaptermark{" in after, f"chapter {title[:60]!r} has no short running title"
+
+
+def test_chinese_is_set_in_a_simplified_chinese_face(pdf):
+    """The glossary's Chinese is set in the Simplified Chinese face of Noto CJK.
+
+    The faces of a Noto CJK collection share one CFF font, named for Japanese ("NotoSerifCJKjp-Regular"), so
+    pdffonts shows that name whatever the face; the faces differ in which glyph a character maps to (their cmaps).
+    What xelatex loaded is in its log as ``[FILE.ttc:INDEX]``: the face at that index must be the SC one.
+    """
+    from fontTools.ttLib import TTCollection
+
+    log = (pdf_edition.LATEX_DIR / f"{pdf_edition.PDF_NAME}.log").read_text(encoding="utf-8", errors="replace")
+    loaded = set(re.findall(r"\[([^\]\[]*CJK[^\]\[]*\.ttc):(\d+)\]", log.replace("\n", "")))
+    assert loaded, "no Noto CJK face loaded by xelatex"
+    for name, index in sorted(loaded):
+        files = subprocess.run(["fc-list", "-f", "%{file}\\n"], capture_output=True, text=True).stdout.split()
+        path = next((f for f in files if f.endswith("/" + name)), None)
+        assert path is not None, f"{name} is not among the system's fonts (fc-list)"
+        faces = TTCollection(path).fonts
+        face = faces[int(index)]["name"].getDebugName(6)
+        assert face.endswith("CJKsc-Regular") or face.endswith("CJKsc-Bold"), f"{name}:{index} is {face}, not SC"

@@ -15,7 +15,8 @@ import numpy as np
 from ._validate import as_float_array, as_instance, as_point
 
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
-           "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below"]
+           "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below",
+           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {
@@ -40,12 +41,16 @@ MIN_FONT_SIZE = 7.0
 #: figure of the book; the others are drawn thin and grey behind them (eleven colours cannot be told apart).
 HIGHLIGHT_METHODS = {"EKF": "C3", "IEKF": "C0", "particle filter": "C2", "cooperative EKF": "C1"}
 
+#: How a notebook output says that a figure's legend covers data (:func:`check_legends_on_display`).
+LEGEND_WARNING = "legend covers data"
+
 #: The colour of the methods a comparison does not single out.
 OTHERS_COLOR = "0.78"
 
 
 def use_book_style() -> None:
-    """Apply :data:`BOOK_STYLE` to matplotlib (call once at the top of a chapter).
+    """Apply :data:`BOOK_STYLE` to matplotlib (call once at the top of a chapter); in a notebook, check every figure
+    it shows for a legend that covers data (:func:`check_legends_on_display`).
 
     Examples
     --------
@@ -57,6 +62,7 @@ def use_book_style() -> None:
     [7.0, 3.6]
     """
     plt.rcParams.update(BOOK_STYLE)
+    check_legends_on_display()
 
 
 def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
@@ -276,4 +282,182 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     as_instance("animation", animation, Animation, "e.g. a matplotlib.animation.FuncAnimation")
     if default_mode not in ("loop", "once", "reflect"):
         raise ValueError(f"default_mode must be 'loop', 'once' or 'reflect'; got {default_mode!r}")
-    return HTML(_CDN_STYLESHEET.sub("", animation.to_jshtml(default_mode=default_mode)))
+    # every frame's legend is checked as it is drawn (check_legends_on_display sees only figures shown whole)
+    fig = animation._fig
+    covered: list[str] = []
+    checking = [False]
+
+    def check_frame(event: Any) -> None:
+        if not checking[0]:
+            checking[0] = True
+            try:
+                covered.extend(p for p in legend_overlaps(fig) if p not in covered)
+            finally:
+                checking[0] = False
+
+    cid = fig.canvas.mpl_connect("draw_event", check_frame)
+    try:
+        html = animation.to_jshtml(default_mode=default_mode)
+    finally:
+        fig.canvas.mpl_disconnect(cid)
+    if covered:
+        import sys
+
+        for problem in covered:
+            print(f"{LEGEND_WARNING} (animation): {problem}", file=sys.stderr)
+    return HTML(_CDN_STYLESHEET.sub("", html))
+
+
+def _inside(box: Any, points: Any) -> bool:
+    """Whether any of the display-space ``points`` (shape (K, 2)) lies in ``box``."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    return bool(((p[:, 0] >= box.x0) & (p[:, 0] <= box.x1) & (p[:, 1] >= box.y0) & (p[:, 1] <= box.y1)).any())
+
+
+def _covers(artist: Any, box: Any) -> bool:
+    """Whether the display-space box ``box`` covers part of ``artist`` (a line, a collection or a patch of an axes)."""
+    from matplotlib.collections import PathCollection, PolyCollection, LineCollection
+    from matplotlib.lines import Line2D
+
+    if isinstance(artist, Line2D):
+        path = artist.get_transform().transform_path(artist.get_path())
+        line = artist.get_linestyle() not in ("None", "none", "", " ") and path.intersects_bbox(box, filled=False)
+        marker = artist.get_marker() not in (None, "None", "none", "", " ")
+        return bool(line or (marker and _inside(box, path.vertices)))
+    if isinstance(artist, PathCollection):  # scatter: markers at offsets
+        points = np.asarray(artist.get_offset_transform().transform(artist.get_offsets()))
+        return _inside(box, points)
+    if isinstance(artist, (PolyCollection, LineCollection)):  # fill_between, error bars, segments
+        transform = artist.get_transform()
+        filled = isinstance(artist, PolyCollection)
+        return any(transform.transform_path(p).intersects_bbox(box, filled=filled) for p in artist.get_paths())
+    if hasattr(artist, "get_path") and hasattr(artist, "get_fill"):  # bars, circles, polygons
+        path = artist.get_transform().transform_path(artist.get_path())
+        return bool(path.intersects_bbox(box, filled=artist.get_fill()))
+    return False  # images, meshes, text: not data here
+
+
+def legend_overlaps(fig: Any) -> list[str]:
+    """What the legends of ``fig`` cover: the drawn data (lines, markers, filled areas, bars) under each legend box.
+
+    Each legend's box (its window extent, frame or not) is clipped to each axes it lies on, and tested against the
+    display-space paths of that axes' artists: a line or an area edge that crosses the box, a marker or an area
+    inside it. Images (a heat map fills its axes) and text are not data here. Legends placed outside the axes
+    (:func:`legend_below`) cover nothing.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        A figure, drawn or not (it is drawn once to place the legends).
+
+    Returns
+    -------
+    list of str
+        One line per covered artist: the axes' title or position, the legend's first entry and the artist's label.
+        Empty when no legend covers data.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from uwtutor.plotting import legend_overlaps
+    >>> fig, ax = plt.subplots()
+    >>> _ = ax.plot([0, 1], [1, 1], label="high")
+    >>> _ = ax.plot([0, 1], [0, 0], label="low")
+    >>> _ = ax.legend(loc="upper right")
+    >>> legend_overlaps(fig)
+    ["axes 1: the legend ('high', ...) covers 'high'"]
+    >>> ax.set_ylim(-0.1, 2.0)
+    (-0.1, 2.0)
+    >>> legend_overlaps(fig)
+    []
+    >>> plt.close(fig)
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.transforms import Bbox
+
+    as_instance("fig", fig, Figure, "e.g. the figure of plt.subplots()")
+    fig.draw_without_rendering()  # places legends and layout on any canvas (a closed figure's too)
+    # every legend against every axes: a legend placed outside its own axes may land on a neighbour's data
+    legends = [(ax.get_legend(), list(fig.axes)) for ax in fig.axes if ax.get_legend() is not None]
+    legends += [(legend, list(fig.axes)) for legend in fig.legends]
+    found: list[str] = []
+    for legend, axes in legends:
+        if not legend.get_visible():
+            continue
+        box = legend.get_window_extent().padded(-1.0)  # a pixel of tolerance on each side
+        texts = [t.get_text() for t in legend.get_texts()]
+        for index, ax in enumerate(fig.axes):
+            if ax not in axes or not ax.get_visible():
+                continue
+            inside = Bbox.intersection(box, ax.bbox)
+            if inside is None or inside.width <= 0 or inside.height <= 0:
+                continue
+            name = f"axes {index + 1}" + (f" ({ax.get_title()!r})" if ax.get_title() else "")
+            for artist in [*ax.lines, *ax.collections, *ax.patches]:
+                if artist.get_visible() and _covers(artist, inside):
+                    label = artist.get_label()
+                    what = repr(label) if label and not label.startswith("_") else type(artist).__name__
+                    found.append(f"{name}: the legend ({texts[0]!r}, ...) covers {what}" if texts else
+                                 f"{name}: a legend covers {what}")
+    return found
+
+
+def check_legends_on_display() -> bool:
+    """In a notebook, warn under every figure whose legend covers data (see :func:`legend_overlaps`).
+
+    Wraps the PNG formatter that matplotlib's inline backend registers for figures, so that each figure the notebook
+    shows is checked as it is drawn: a line on stderr (:data:`LEGEND_WARNING` and what is covered) appears under it,
+    and nbval, which compares every cell's text output with the committed one, fails on it (tests/test_legends.py
+    fails on a committed one). Outside IPython it does nothing.
+
+    Returns
+    -------
+    bool
+        Whether the check is on (an IPython kernel with a PNG formatter for figures).
+
+    Examples
+    --------
+    >>> from uwtutor.plotting import check_legends_on_display
+    >>> check_legends_on_display()  # outside a notebook
+    False
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with matplotlib-inline
+        return False
+    shell = get_ipython()
+    if shell is None or not hasattr(shell, "display_formatter"):
+        return False
+
+    # The inline backend registers its figure formatter when it is loaded, which matplotlib does lazily (at the
+    # first figure): load it now. And check before every cell that the wrapper is still there (a notebook may
+    # register the formatter again, e.g. with set_matplotlib_formats).
+    plt.switch_backend(plt.get_backend())
+    if not getattr(shell, "_uwtutor_legend_hook", False):
+        shell.events.register("pre_run_cell", lambda *args: _wrap_figure_formatter(shell))
+        shell._uwtutor_legend_hook = True
+    return _wrap_figure_formatter(shell)
+
+
+def _wrap_figure_formatter(shell: Any) -> bool:
+    from matplotlib.figure import Figure
+
+    formatter = shell.display_formatter.formatters["image/png"]
+    try:
+        draw = formatter.lookup_by_type(Figure)
+    except KeyError:
+        return False
+    if getattr(draw, "_uwtutor_checks_legends", False):
+        return True
+
+    def checked(fig: Any) -> Any:
+        import sys
+
+        for problem in legend_overlaps(fig):  # plain text: a warning's file path would differ between machines
+            print(f"{LEGEND_WARNING}: {problem}", file=sys.stderr)
+        return draw(fig)
+
+    checked._uwtutor_checks_legends = True  # type: ignore[attr-defined]
+    formatter.for_type(Figure, checked)
+    return True
+

@@ -8,8 +8,9 @@ every page with widgets waits for the manager to render them and then, in each w
 - disables every control (inputs, dropdowns, check boxes, the slider handles and their editable readouts; the
   handles leave the keyboard's tab order), greys them a little, and marks the widget ``uwtutor-frozen``;
 - puts a note above it (``p.uwtutor-frozen-note``) saying that this is the view at the default settings and how to
-  run the live version: the chapter in JupyterLab (``make lab``) or, from the library alone, the widget's own call
-  (``from uwtutor.widgets import NAME``), read from the cell's code.
+  run the live version: the chapter's notebook in JupyterLab or the widget's own call (``from uwtutor.widgets
+  import NAME``, read from the cell's code), with the library's wheel that the HTML book carries (its address from
+  the ``uwtutor-wheel`` meta tag that book/_ext/reader_edition.py writes).
 
 ``tests/test_browser.py`` opens a chapter with widgets and checks all of it. Pages without widgets are left alone.
 """
@@ -44,15 +45,31 @@ FROZEN_WIDGETS_JS = r"""
   function note(name) {
     var p = document.createElement("p");
     p.className = "NOTE";
+    var meta = document.querySelector('meta[name="uwtutor-wheel"]');
+    var wheel = meta ? meta.getAttribute("content") : "";
+    var file = wheel.split("/").pop();
     p.appendChild(document.createTextNode("A frozen view at the default settings: its controls do nothing here. "
-      + "The live widget runs in JupyterLab: open this chapter there (make lab in the book's repository) and run "
+      + "The live widget runs in JupyterLab: open this chapter there (make lab in the book's repository, or its "
+      + "notebook from the page's download menu) and run "
       + "its cells" + (name ? ", or run " : ".")));
     if (name) {
       var code = document.createElement("code");
       code.textContent = "from uwtutor.widgets import " + name + "; " + name + "()";
       p.appendChild(code);
-      p.appendChild(document.createTextNode(" in any notebook (pip install \"uwtutor[lab]\")."));
+      p.appendChild(document.createTextNode(" in any notebook"));
     }
+    if (wheel) {
+      p.appendChild(document.createTextNode(" after installing the library this book was built with, "));
+      var link = document.createElement("a");
+      link.href = wheel;
+      link.textContent = file;
+      p.appendChild(link);
+      p.appendChild(document.createTextNode(": "));
+      var install = document.createElement("code");
+      install.textContent = "pip install \"./" + file + "[lab]\"";
+      p.appendChild(install);
+    }
+    p.appendChild(document.createTextNode("."));
     return p;
   }
 

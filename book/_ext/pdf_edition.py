@@ -42,12 +42,14 @@ ANIMATION_FRAMES = 4  # printed of each animation, each at the width of the page
 # xelatex: Latin, Greek and mathematical symbols from the FreeFont family (Sphinx's default) except code, in DejaVu
 # Sans Mono (FreeMono has no ✘ nor ✔). Chinese (the glossary, the papers' titles: only CJK Unified Ideographs) in Noto
 # CJK through ucharclasses (which sphinx-jupyterbook-latex loads; xeCJK needs ctex, which Debian ships only in the 98 MB texlive-lang-chinese), with a
-# line break allowed between two ideographs.
+# line break allowed between two ideographs. The face is the Simplified Chinese one of Noto Serif CJK by its index in
+# Debian's font collection (2, as `fc-list -v ":family=Noto Serif CJK SC"` says): by its family name, "Noto Serif CJK SC", xelatex loaded the
+# Japanese face (tests/test_pdf.py checks the embedded font).
 FONTPKG = r"""
 \setmainfont{FreeSerif}[Extension=.otf, UprightFont=*, ItalicFont=*Italic, BoldFont=*Bold, BoldItalicFont=*BoldItalic]
 \setsansfont{FreeSans}[Extension=.otf, UprightFont=*, ItalicFont=*Oblique, BoldFont=*Bold, BoldItalicFont=*BoldOblique]
 \setmonofont{DejaVu Sans Mono}[Scale=0.9]
-\newfontfamily\uwtutorCJKfont{Noto Serif CJK SC}
+\newfontfamily\uwtutorCJKfont{NotoSerifCJK-Regular.ttc}[FontIndex=2, BoldFont=NotoSerifCJK-Bold.ttc, BoldFeatures={FontIndex=2}]
 \PassOptionsToPackage{CJKUnifiedIdeographs}{ucharclasses}% loaded by sphinx-jupyterbook-latex's preamble
 \AtBeginDocument{\setTransitionsFor{CJKUnifiedIdeographs}{\begingroup\uwtutorCJKfont}{\endgroup}}
 \XeTeXlinebreaklocale "zh"
@@ -109,8 +111,12 @@ def widget_controls(models: dict[str, Any], model_id: str) -> list[str]:
         desc = str(state.get("description", "")).strip()
         if name.endswith(("SliderModel", "DropdownModel", "ToggleButtonsModel", "CheckboxModel",
                           "RadioButtonsModel", "SelectModel", "TextModel", "FloatTextModel", "IntTextModel")):
-            if "options" in state and "index" in state and state["index"] is not None:
-                value = state.get("_options_labels", state["options"])[state["index"]]
+            # ipywidgets 8 saves a selection's labels as _options_labels (its options are not in the state)
+            labels = state.get("_options_labels", state.get("options"))
+            if labels is not None and state.get("index") is not None:
+                value = labels[state["index"]]
+            elif labels is not None:  # a selection widget whose value matches no option (ipywidgets: index None)
+                value = "(nothing selected)"
             else:
                 value = state.get("value")
             controls.append(f"{desc} = {_fmt(value)}" if desc else _fmt(value))
@@ -191,12 +197,70 @@ class PrintableOutputs(SphinxTransform):
 
 # --- long tables ---------------------------------------------------------------------------------------------------
 
+#: A table of more rows than this, or of more text (characters), prints as a ``longtable``, which breaks across
+#: pages: Sphinx's own cut-off (30 rows) let the 29 rows of wrapped text under "Where the papers use other symbols"
+#: run off the page, with no LaTeX warning. A longtable of a few rows costs nothing.
+LONG_TABLE_ROWS = 15
+LONG_TABLE_CHARS = 1500
+
+
+def _printed_text(node: nodes.Node) -> str:
+    """About the text a cell prints: a formula's LaTeX source is some three times longer than what it prints."""
+    parts = []
+    for child in node.findall(nodes.Text):
+        inside_math = any(isinstance(a, (nodes.math, nodes.math_block)) for a in _ancestors(child))
+        text = child.astext()
+        # a formula does not break: one "word" (no spaces) of a third of its source's length
+        parts.append(text[: max(1, len(text) // 3)].replace(" ", "_") if inside_math else text)
+    return "".join(parts)
+
+
+def _ancestors(node: nodes.Node):
+    parent = node.parent
+    while parent is not None:
+        yield parent
+        parent = parent.parent
+
+
+#: About how many characters of the body font a line of the text block holds (17 cm at 10 pt).
+LINE_CHARS = 90
+
+
+def column_widths(texts: list[list[str]], line: int = LINE_CHARS) -> list[float]:
+    """Widths (in characters) for the columns of a table whose cells hold ``texts`` (rows of cell texts).
+
+    Each column wants its longest text (6 to 60 characters) and needs its longest word plus room for the cell's
+    padding; when the wants do not fit ``line``, the columns give up what they want beyond what they need, in
+    proportion, so that no word is wider than its column (tabulary left "Plaza" and "Unit" 3 to 6 pt past theirs,
+    and a narrow last column of a longtable "PASS").
+
+    Examples
+    --------
+    >>> [round(w) for w in column_widths([["Physics and simulation", "x " * 40], ["Unit", "m"]], line=40)]
+    [16, 24]
+    """
+    ncol = max(len(r) for r in texts)
+    want, need = [6.0] * ncol, [4.0] * ncol
+    for row in texts:
+        for i, text in enumerate(row):
+            word = max((len(w) for w in text.split()), default=0)
+            need[i] = max(need[i], word + 3.0)
+            want[i] = max(want[i], min(60.0, len(text)), need[i])
+    if sum(want) <= line:
+        return want
+    if sum(need) >= line:  # even the words do not fit: share the line by the words
+        return need
+    spare = (line - sum(need)) / (sum(want) - sum(need))
+    return [n + (w - n) * spare for w, n in zip(want, need)]
+
+
 class LongTableWidths(SphinxTransform):
-    """For the LaTeX builder: give a long table (over 30 rows: a ``longtable``) columns that wrap.
+    """For the LaTeX builder: give every table of three columns or more widths that fit its words
+    (:func:`column_widths`), and make a long table (LONG_TABLE_ROWS, LONG_TABLE_CHARS) a ``longtable``.
 
     Sphinx sets a longtable's columns ``l`` (one line each) unless widths are given, and the notation's and the
-    performance appendix's tables then run hundreds of points off the page. The widths given here follow the longest
-    text of each column (between 6 and 60 characters).
+    performance appendix's tables then ran hundreds of points off the page; tabulary, for the others, can leave a
+    column narrower than its longest word.
     """
 
     default_priority = 510
@@ -210,15 +274,14 @@ class LongTableWidths(SphinxTransform):
                 continue
             rows = list(tgroup.findall(nodes.row))
             colspecs = [c for c in tgroup.children if isinstance(c, nodes.colspec)]
-            if len(rows) <= 30 or not colspecs:
+            long = len(rows) > LONG_TABLE_ROWS or len(table.astext()) > LONG_TABLE_CHARS
+            if not colspecs or (len(colspecs) < 3 and not long):
                 continue
-            longest = [6] * len(colspecs)
-            for row in rows:
-                for i, entry in enumerate(e for e in row.children if isinstance(e, nodes.entry)):
-                    if i < len(longest):
-                        longest[i] = max(longest[i], min(60, len(entry.astext())))
-            for colspec, width in zip(colspecs, longest):
-                colspec["colwidth"] = width
+            if long:
+                table["classes"].append("longtable")
+            texts = [[_printed_text(e) for e in row.children if isinstance(e, nodes.entry)] for row in rows]
+            for colspec, width in zip(colspecs, column_widths([t for t in texts if t])):
+                colspec["colwidth"] = max(1, round(width * 10))
             table["classes"].append("colwidths-given")
 
 
@@ -269,12 +332,114 @@ class RootAsIntroduction(SphinxPostTransform):
                 return
 
 
+class BibliographyInItsAppendix(SphinxPostTransform):
+    """The list of references inside the bibliography's own page (an appendix, numbered like the others), under its
+    introduction, rather than as an unnumbered chapter after the last page.
+
+    Sphinx gathers every citation of the book into one ``thebibliography`` node at the end of the document (its
+    BibliographyTransform, priority 750); this moves that node to the end of BIBLIOGRAPHY_DOC's section, and
+    PREAMBLE_LATEX makes the list start there without a chapter heading or a contents line of its own.
+    """
+
+    builders = ("latex",)
+    default_priority = 760
+
+    def run(self, **kwargs: Any) -> None:
+        from sphinx import addnodes
+        from sphinx.builders.latex.nodes import thebibliography
+
+        lists = list(self.document.findall(thebibliography))
+        target = next((n for n in self.document.findall(addnodes.start_of_file)
+                       if n.get("docname") == BIBLIOGRAPHY_DOC), None)
+        section = target.next_node(nodes.section) if target is not None else None
+        if not lists or section is None:
+            return
+        for node in lists:
+            node.parent.remove(node)
+            section += node
+
+
+#: A chapter title longer than this (characters) is shortened in the running foot, which holds one line.
+RUNNING_TITLE_MAX = 50
+
+
+def running_title(title: str, limit: int = RUNNING_TITLE_MAX) -> str:
+    """A chapter's title for the running foot: the title itself if short, else its part before a colon, else its
+    first words within ``limit`` characters.
+
+    Examples
+    --------
+    >>> running_title("Particle filters for a maneuvering AUV's depth: the multiple-model and the grey particle filter")
+    "Particle filters for a maneuvering AUV's depth"
+    >>> running_title("A" * 10)
+    'AAAAAAAAAA'
+    """
+    if len(title) <= limit:
+        return title
+    head = title.split(":", 1)[0].strip()
+    if len(head) <= limit:
+        return head
+    words, out = head.split(), ""
+    for word in words:
+        if len(out) + len(word) + 1 > limit - 1:
+            break
+        out = f"{out} {word}".strip()
+    return out + "…"
+
+
+class ShortRunningTitles(SphinxPostTransform):
+    """A chapter whose title is too long for one line of the running foot gets a short one (:func:`running_title`),
+    set with ``\chaptermark`` right after its heading."""
+
+    builders = ("latex",)
+    default_priority = 800
+
+    def run(self, **kwargs: Any) -> None:
+        from sphinx import addnodes
+        from sphinx.util.texescape import escape
+
+        for start in self.document.findall(addnodes.start_of_file):
+            section = start.next_node(nodes.section)
+            title = section.next_node(nodes.title) if section is not None else None
+            if title is None or len(title.astext()) <= RUNNING_TITLE_MAX:
+                continue
+            short = escape(running_title(title.astext()))
+            section.insert(section.index(title) + 1, nodes.raw("", f"\\chaptermark{{{short}}}\n", format="latex"))
+
+
+BIBLIOGRAPHY_DOC = "book/bibliography"
+#: The side margins (Sphinx's default is an inch) and how far, both sides together, a figure may spread into them.
+#: The book's figures are drawn 7.5 to 8 inches wide at 100 dpi, with 7-pt text at the smallest
+#: (uwtutor.plotting.MIN_FONT_SIZE); shrunk to Sphinx's 15.9 cm text width they printed it at 5.2-5.6 pt. In 17 cm
+#: of text (a cell's output is indented a little) and 3 cm more they print at 0.93 of their size or more: 6.5 pt or
+#: more (tests/test_pdf.py).
+SIDE_MARGIN_CM = 2.0
+FIGURE_SPILL_CM = 3.0
+
+PREAMBLE_LATEX = r"""
+\makeatletter
+% The list of references sits in its appendix (BibliographyInItsAppendix): no chapter heading, no contents line.
+\renewenvironment{sphinxthebibliography}[1]
+  {\begingroup\let\chapter\@gobbletwo\let\addcontentsline\@gobblethree\begin{thebibliography}{#1}}
+  {\end{thebibliography}\endgroup}
+% A figure wider than the text may spread SPILLcm (in all) into the margins (centred), before Sphinx scales it down.
+\renewcommand*{\sphinxincludegraphics}[2][]{%
+  \begingroup
+  \setbox0\hbox{\linewidth\dimexpr\linewidth+SPILLcm\relax\sphinxsafeincludegraphics[#1]{#2}}%
+  \ifdim\wd0>\linewidth\makebox[\linewidth][c]{\box0}\else\box0\fi
+  \endgroup}
+\makeatother
+""".replace("SPILL", f"{FIGURE_SPILL_CM:g}")
+
+
 # --- set-up --------------------------------------------------------------------------------------------------------
 
 def _on_config_inited(app: Sphinx, config: Config) -> None:
     elements = dict(config.latex_elements or {})
     elements.setdefault("fontpkg", FONTPKG)
     elements.setdefault("papersize", "a4paper")
+    elements.setdefault("sphinxsetup", f"hmargin={{{SIDE_MARGIN_CM:g}cm,{SIDE_MARGIN_CM:g}cm}}")
+    elements["preamble"] = elements.get("preamble", "") + PREAMBLE_LATEX
     config.latex_elements = elements
     extra = list(config.latex_additional_files or [])
     stub = str(HERE / "latex" / "bbm.sty")
@@ -290,4 +455,6 @@ def setup(app: Sphinx) -> dict[str, Any]:
     app.add_transform(LongTableWidths)
     app.add_post_transform(ReferencePartAsAppendix)
     app.add_post_transform(RootAsIntroduction)
+    app.add_post_transform(BibliographyInItsAppendix)
+    app.add_post_transform(ShortRunningTitles)
     return {"version": __version__, "parallel_read_safe": True, "parallel_write_safe": True}

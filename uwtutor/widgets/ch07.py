@@ -14,7 +14,7 @@ from .._validate import as_int, as_scalar, as_seed, check_work
 from ..filters import bias_ekf
 from ..pipelines import prepositioned_bias_ekf
 from ..models import paper_a_process_noise
-from ..plotting import mark_beacon, plain_log_ticks
+from ..plotting import legend_below, mark_beacon, plain_log_ticks
 from ..scenarios import paper_a
 from ._panel import keep, kept, rescale, slider_panel
 
@@ -213,7 +213,7 @@ def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
     ax_m.set_aspect("equal", adjustable="datalim")
     ax_m.set_xlabel("x east [m]")
     ax_m.set_ylabel("y north [m]")
-    ax_m.legend(loc="upper left", fontsize=7)
+    legend_below(ax_m, ncol=2)  # under the map: the track fills it
     t, b, s = view.times, view.estimate[:, 2], view.bias_sigma
     (true_bias,) = ax_b.plot(t, view.true_bias, color="black", lw=1.0, label="true bias")
     (estimate,) = ax_b.plot(t, b, color="C0", lw=0.8, label="estimate")
