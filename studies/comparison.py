@@ -6,6 +6,8 @@ reads them from a source tree and from an installed wheel alike):
 * ``comparison.csv`` -- the table (``uwtutor.montecarlo.ComparisonTable.to_csv``: one row per method, scenario and
   condition, its seed, chunk size and versions in the header);
 * ``comparison_curves.npz`` -- each row's RMSE and bound over the epochs (``ComparisonTable.to_npz``);
+* ``comparison_runs.npz`` -- each row's final error and final NEES of every run (``ComparisonTable.to_runs_npz``):
+  the paired comparisons and rankings of chapter 10 (``uwtutor.statistics``);
 * ``comparison_run.json`` -- how it was computed: runs, seed, chunk size, workers, wall time, CPU.
 
 Run it with ``make study`` (1000 runs per row on a process pool of 2 workers). The reproducible columns depend
@@ -44,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     args.out.mkdir(parents=True, exist_ok=True)
-    paths = {k: args.out / f"comparison{k}" for k in (".csv", "_curves.npz", "_run.json")}
+    paths = {k: args.out / f"comparison{k}" for k in (".csv", "_curves.npz", "_runs.npz", "_run.json")}
     existing = [str(p) for p in paths.values() if p.exists()]
     if existing and not args.overwrite:
         print(f"refusing to replace {', '.join(existing)}: pass --overwrite (make study does)", file=sys.stderr)
@@ -62,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     wall = time.perf_counter() - start
     table.to_csv(paths[".csv"], overwrite=True)
     table.to_npz(paths["_curves.npz"], overwrite=True)
+    table.to_runs_npz(paths["_runs.npz"], overwrite=True)
     run = {"runs": args.runs, "seed": args.seed, "chunk_size": args.chunk_size, "workers": args.workers,
            "rows": len(table), "wall_seconds": round(wall, 1),
            "parent_cpu_seconds": round(time.process_time() - cpu0, 1),

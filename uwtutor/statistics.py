@@ -669,7 +669,7 @@ def _paired_converged_difference(ea: np.ndarray, eb: np.ndarray, thr: float, alp
     cov = np.cov(np.vstack([sa, sb]))
     g = np.array([0.5 / np.sqrt(ma), -0.5 / np.sqrt(mb)])
     half = stats.norm.ppf(1 - alpha / 2) * np.sqrt(max(float(g @ cov @ g), 0.0) / n_c)
-    return Interval(d, d - half, d + half, method)
+    return Interval(d, float(d - half), float(d + half), method)
 
 
 # ---------------------------------------------------------------------------------------------------------------------
