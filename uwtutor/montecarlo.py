@@ -31,8 +31,8 @@ from ._validate import as_finite, as_float_array
 from ._validate import as_int, as_positive
 from .filters.base import FilterResult
 
-__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "BestInCell", "compare",
-           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD", "MAX_STUDY_RUNS"]
+__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "BestInCell",
+           "compare", "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD", "MAX_STUDY_RUNS"]
 
 
 #: Final position error [m] above which :func:`compare` counts a run as diverged, or lost (see its docstring).
