@@ -521,3 +521,5 @@ from robustness_spec_struct import SPECS_STRUCT, EXEMPT_STRUCT  # noqa: E402
 SPECS.update(SPECS_STRUCT); EXEMPT.update(EXEMPT_STRUCT)  # noqa: E702
 from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
 SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702
+from robustness_spec_stats import SPECS_STATS, EXEMPT_STATS  # noqa: E402
+SPECS.update(SPECS_STATS); EXEMPT.update(EXEMPT_STATS)  # noqa: E702

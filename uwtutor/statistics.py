@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from ._validate import as_float_array, as_in_range, as_int, as_positive
+from ._validate import as_float_array, as_int, as_scalar
 
 __all__ = ["LOST_THRESHOLD", "MIN_LOST_FOR_RMSE", "LOST_LIMIT", "Interval", "wilson_interval", "median_interval",
            "lost_fraction_interval", "converged_rmse_interval", "final_rmse_interval", "median_nees_interval",
@@ -139,8 +139,7 @@ def _not_estimable(estimate: float, method: str, reason: str) -> Interval:
 # vectorized kernels (the last axis is the runs): what the public functions and the coverage test call
 # ---------------------------------------------------------------------------------------------------------------------
 def _alpha(confidence: Any) -> float:
-    conf = float(as_in_range("confidence", confidence, 0.0, 1.0, closed=(False, False)))
-    return 1.0 - conf
+    return 1.0 - as_scalar("confidence", confidence, domain="probability")
 
 
 def _wilson(k: Any, n: Any, alpha: float) -> tuple[np.ndarray, np.ndarray]:
@@ -241,7 +240,7 @@ def _newcombe_paired(b: np.ndarray, c: np.ndarray, a: np.ndarray, d: np.ndarray,
 
 
 def _as_errors(name: str, value: Any) -> np.ndarray:
-    """Final errors, one per run: NaN (an estimate that diverged to NaN) becomes +inf, a lost run."""
+    """Final errors, one per run (>= 0): NaN (an estimate that diverged to NaN) becomes +inf, a lost run."""
     e = as_float_array(name, value, ndim=1)
     if e.size < 2:
         raise ValueError(f"{name} must hold the final errors of at least 2 runs; got {e.size}")
@@ -252,7 +251,7 @@ def _as_errors(name: str, value: Any) -> np.ndarray:
 
 
 def _as_threshold(threshold: Any) -> float:
-    return float(as_positive("threshold", threshold))
+    return as_scalar("threshold", threshold, domain="positive", high=1e150)
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -411,6 +410,9 @@ def median_nees_interval(nees: Any, dof: int = 2, confidence: float = 0.95) -> t
     (1.39, True)
     """
     x = as_float_array("nees", nees, ndim=1)
+    if np.any(x < 0):
+        raise ValueError(f"nees must be >= 0 (a NEES is a quadratic form); got {float(x[x < 0][0])} at index "
+                         f"{int(np.flatnonzero(x < 0)[0])}")
     dof = as_int("dof", dof, minimum=1)
     ref = float(stats.chi2.median(dof))
     if x.size == 0 or np.isnan(x).all():
@@ -478,7 +480,7 @@ def cell_statistics(final_errors: Any, final_nees: Any = None, *, dof: int = 2,
     Parameters
     ----------
     final_errors : array_like, shape (n,)
-        Final position error of every run [m] (NaN: the estimate diverged to NaN, a lost run).
+        Final position error of every run [m] (NaN or +inf: the estimate diverged, a lost run).
     final_nees : array_like, shape (n,), optional
         Final NEES of every run (NaN: no covariance). ``None``: no NEES.
     dof : int, default 2
@@ -796,7 +798,7 @@ def lost_verdict(k: int, n: int, limit: float = LOST_LIMIT, confidence: float = 
     >>> lost_verdict(39, 1000), lost_verdict(20, 1000), lost_verdict(90, 1000)
     ('undecided', 'clearly below', 'clearly above')
     """
-    limit = float(as_in_range("limit", limit, 0.0, 1.0, closed=(False, False)))
+    limit = as_scalar("limit", limit, domain="probability")
     iv = wilson_interval(k, n, confidence)
     if iv.upper < limit:
         return "clearly below"
