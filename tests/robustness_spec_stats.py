@@ -15,6 +15,9 @@ _NEES = np.linspace(0.2, 6.0, 20)
 _ERR = Real((None,), "nonneg", nan_ok=True, inf_ok=True)
 
 
+_ERR_KINDS = dict(errors=_ERR, threshold=Real((), "pos"))
+
+
 def _intervals_honest(value, baseline):
     """Every Interval in the answer: NaN only where it says why (not estimable), never silently."""
     from dataclasses import fields, is_dataclass
@@ -45,11 +48,11 @@ SPECS_STATS: dict[str, Spec] = {
                                                kinds=dict(values=Real((None,), nan_ok=True, inf_ok=True)),
                                                check=_intervals_honest),
     "uwtutor.statistics:lost_fraction_interval": Spec(lambda: dict(errors=_E, threshold=50.0, confidence=0.95),
-                                                      kinds=dict(errors=_ERR, threshold=Real((), "pos")), check=_intervals_honest),
+                                                      kinds=_ERR_KINDS, check=_intervals_honest),
     "uwtutor.statistics:converged_rmse_interval": Spec(lambda: dict(errors=_E, threshold=50.0, confidence=0.95),
-                                                       kinds=dict(errors=_ERR, threshold=Real((), "pos")), check=_intervals_honest),
+                                                       kinds=_ERR_KINDS, check=_intervals_honest),
     "uwtutor.statistics:final_rmse_interval": Spec(lambda: dict(errors=_E, threshold=50.0, confidence=0.95),
-                                                   kinds=dict(errors=_ERR, threshold=Real((), "pos")), check=_intervals_honest),
+                                                   kinds=_ERR_KINDS, check=_intervals_honest),
     "uwtutor.statistics:median_nees_interval": Spec(lambda: dict(nees=_NEES, dof=2, confidence=0.95),
                                                     kinds=dict(nees=Real((20,), "nonneg", nan_ok=True),
                                                                dof=Int(minimum=1)), check=_intervals_honest),
