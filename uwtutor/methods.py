@@ -703,7 +703,9 @@ def dataset_inputs(data: Any, beacon_id: int, schedules: Any = None, *, min_peri
     Returns
     -------
     SuiteInputs
-        ``scenario`` and ``condition`` are ``"log"`` and ``"schedule"``; ``moving`` is False.
+        ``scenario`` and ``condition`` are ``"log"`` and ``"schedule"``; ``moving`` is False. Paper D's grid
+        pre-location and the LS-ISFEKF start from the ring of the first range: they refuse a log (or a schedule)
+        without a range at epoch 0.
 
     Examples
     --------
