@@ -1023,6 +1023,37 @@ class ComparisonTable:
                                 final_error=self.final_errors.astype(np.float32),
                                 final_nees=self.final_nees.astype(np.float32))
 
+    @classmethod
+    def concatenate(cls, tables: Any) -> "ComparisonTable":
+        """One table from several with the same seed, chunk size and confidence, their rows in the given order (the
+        studies of :func:`compare` are independent row by row: a table computed in parts is the whole one).
+
+        Examples
+        --------
+        >>> from uwtutor.methods import load_comparison
+        >>> from uwtutor.montecarlo import ComparisonTable
+        >>> t = load_comparison()
+        >>> len(ComparisonTable.concatenate([t, t])) == 2 * len(t)
+        True
+        """
+        parts = list(tables)
+        if not parts or not all(isinstance(t, cls) for t in parts):
+            raise TypeError("tables must be a non-empty sequence of ComparisonTable")
+        first = parts[0]
+        for t in parts[1:]:
+            if (t.seed, t.chunk_size, t.confidence) != (first.seed, first.chunk_size, first.confidence):
+                raise ValueError("tables must share seed, chunk_size and confidence to be one table; got "
+                                 f"{(t.seed, t.chunk_size, t.confidence)} and "
+                                 f"{(first.seed, first.chunk_size, first.confidence)}")
+        cols = {c: np.concatenate([getattr(t, c) for t in parts]) for c in cls.columns}
+        extra: dict[str, Any] = {}
+        for name in ("rmse_curves", "bound_curves", "final_errors", "final_nees"):
+            arrays = [getattr(t, name) for t in parts]
+            if all(a is not None for a in arrays) and len({a.shape[1:] for a in arrays}) == 1:
+                extra[name] = np.concatenate(arrays)
+        return cls(**cols, seed=first.seed, chunk_size=first.chunk_size, confidence=first.confidence,
+                   versions=first.versions, **extra)
+
     # -- verdicts: every comparison paired on the same runs (uwtutor.statistics) ------------------------------------
     def _runs(self) -> tuple[np.ndarray, np.ndarray]:
         if self.final_errors is None or self.final_nees is None:
