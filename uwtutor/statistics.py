@@ -274,7 +274,7 @@ def wilson_interval(k: int, n: int, confidence: float = 0.95) -> Interval:
 
     >>> from uwtutor.statistics import wilson_interval
     >>> wilson_interval(2, 1000).format(".2f", scale=100)
-    '0.20 [0.05, 0.73]'
+    '0.20 [0.02, 0.73]'
     """
     n = as_int("n", n, minimum=1)
     k = as_int("k", k, minimum=0, maximum=n)
@@ -692,7 +692,9 @@ class Ranking:
     best : tuple of str
         The leader and every method tied with it (paired interval containing zero).
     comparisons : dict
-        ``(a, b) -> PairedComparison`` for every pair compared (``a`` before ``b`` in ``order``).
+        ``(a, b) -> PairedComparison`` for the pairs compared so far (``a`` before ``b`` in ``order``): the leader with
+        every other method and each method with the next; any other pair is compared when asked
+        (:meth:`relation`, :meth:`interval`).
 
     Examples
     --------
@@ -712,24 +714,31 @@ class Ranking:
     estimates: dict[str, float]
     best: tuple[str, ...]
     comparisons: dict[tuple[str, str], PairedComparison] = field(repr=False)
+    _compare: Any = field(default=None, repr=False, compare=False)
+
+    def _pair(self, a: str, b: str) -> tuple[PairedComparison, float]:
+        for key, sign in (((a, b), 1.0), ((b, a), -1.0)):
+            if key in self.comparisons:
+                return self.comparisons[key], sign
+        if a not in self.order or b not in self.order or self._compare is None:
+            raise KeyError(f"no comparison of {a!r} and {b!r} in this ranking (methods: {list(self.order)})")
+        first, second = (a, b) if self.order.index(a) < self.order.index(b) else (b, a)
+        self.comparisons[first, second] = self._compare(first, second)
+        return self._pair(a, b)
 
     def relation(self, a: str, b: str) -> str:
         """``"below"`` (``a`` better), ``"above"`` or ``"tie"``, from the paired interval of ``a`` and ``b``."""
-        if (a, b) in self.comparisons:
-            iv, sign = self.comparisons[a, b].interval(self.criterion), 1.0
-        elif (b, a) in self.comparisons:
-            iv, sign = self.comparisons[b, a].interval(self.criterion), -1.0
-        else:
-            raise KeyError(f"no comparison of {a!r} and {b!r} in this ranking (methods: {list(self.order)})")
+        iv = self.interval(a, b)
         if not iv.excludes(0.0):
             return "tie"
-        return "below" if (iv.upper < 0) == (sign > 0) else "above"
+        return "below" if iv.upper < 0 else "above"
 
     def interval(self, a: str, b: str) -> Interval:
-        """The paired interval of ``a`` minus ``b`` for the criterion (sign flipped if stored as ``b`` minus ``a``)."""
-        if (a, b) in self.comparisons:
-            return self.comparisons[a, b].interval(self.criterion)
-        iv = self.comparisons[b, a].interval(self.criterion)
+        """The paired interval of ``a`` minus ``b`` for the criterion."""
+        pc, sign = self._pair(a, b)
+        iv = pc.interval(self.criterion)
+        if sign > 0:
+            return iv
         return Interval(-iv.estimate, -iv.upper, -iv.lower, iv.method, iv.reason)
 
 
@@ -778,14 +787,15 @@ def rank(errors: dict[str, Any], criterion: str = "median", *, threshold: float 
             kept = e[e <= thr]
             point[name] = float(np.sqrt(np.mean(kept**2))) if kept.size else np.inf
     order = tuple(sorted(point, key=lambda m: (point[m], list(point).index(m))))
-    comps = {}
-    for i, a in enumerate(order):
-        for b in order[i + 1:]:
-            comps[a, b] = paired_comparison(arrays[a], arrays[b], names=(a, b), threshold=thr,
-                                            confidence=confidence, seed=seed)
+
+    def compare(a: str, b: str) -> PairedComparison:
+        return paired_comparison(arrays[a], arrays[b], names=(a, b), threshold=thr, confidence=confidence, seed=seed)
+
     leader = order[0]
+    pairs = [(leader, b) for b in order[1:]] + [(a, b) for a, b in zip(order[1:], order[2:])]
+    comps = {pair: compare(*pair) for pair in pairs}
     best = (leader,) + tuple(b for b in order[1:] if not comps[leader, b].interval(criterion).excludes(0.0))
-    return Ranking(criterion, order, point, best, comps)
+    return Ranking(criterion, order, point, best, comps, compare)
 
 
 def lost_verdict(k: int, n: int, limit: float = LOST_LIMIT, confidence: float = 0.95) -> str:
