@@ -44,7 +44,7 @@ def test_exercise_data_are_what_the_notebook_says(table):
     assert (ch10.BOUND_SCENARIO, ch10.BOUND_CONDITION, ch10.START_METHOD) == ("line", "bias", "IEKF")
     assert (ch10.TABLE_METHOD, ch10.TABLE_SCENARIO, ch10.TABLE_CONDITION) == ("EKF", "line", "white")
     assert (ch10.CHOICE_SCENARIO, ch10.CHOICE_CONDITION, ch10.MAX_LOST) == ("turn", "sound speed", 0.05)
-    assert ch10.CHOICES == {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "particle filter"}
+    assert ch10.CHOICES == {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "gated EKF"}
     source = SOURCE.read_text()
     for letter, method in ch10.CHOICES.items():
         assert f"| {letter} | {method} |" in source

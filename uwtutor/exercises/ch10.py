@@ -75,7 +75,7 @@ TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION = "EKF", "line", "white"
 #: Exercise 10.3: the cell of the situation, the largest fraction of runs that may be lost, and the options.
 CHOICE_SCENARIO, CHOICE_CONDITION = "turn", "sound speed"
 MAX_LOST = 0.05
-CHOICES = {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "particle filter"}
+CHOICES = {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "gated EKF"}
 
 
 def _pct(fraction: float) -> str:
