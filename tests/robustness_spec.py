@@ -524,3 +524,5 @@ from robustness_spec_ex import SPECS_EX, EXEMPT_EX  # noqa: E402
 SPECS.update(SPECS_EX); EXEMPT.update(EXEMPT_EX)  # noqa: E702
 from robustness_spec_blocks import SPECS_BLOCKS, EXEMPT_BLOCKS  # noqa: E402
 SPECS.update(SPECS_BLOCKS); EXEMPT.update(EXEMPT_BLOCKS)  # noqa: E702
+from robustness_spec_stats import SPECS_STATS, EXEMPT_STATS  # noqa: E402
+SPECS.update(SPECS_STATS); EXEMPT.update(EXEMPT_STATS)  # noqa: E702

@@ -27,7 +27,7 @@ LAYERS: list[tuple[str, frozenset[str]]] = [
                                           "resampling"})),
     ("models", frozenset({"models"})),
     ("filters", frozenset({"filters"})),
-    ("least squares, bounds and metrics", frozenset({"lsq", "observability", "metrics"})),
+    ("least squares, bounds and metrics", frozenset({"lsq", "observability", "metrics", "statistics"})),
     ("pipelines", frozenset({"pipelines"})),
     ("real logs", frozenset({"datasets"})),
     ("studies", frozenset({"montecarlo", "methods"})),

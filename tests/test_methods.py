@@ -50,9 +50,9 @@ def test_claims_match_the_needs():
     assert claims["cooperative EKF"] == ["moving beacon"]
     for name in ("grid pre-location", "pre-positioned IEKF", "SFEKF", "ISFEKF", "LS-ISFEKF"):
         assert "moving beacon" not in claims[name] and len(claims[name]) == 4
-    for name in ("EKF", "IEKF", "LS pre-positioning", "OR-VMLBL-KF", "particle filter"):
+    for name in ("EKF", "IEKF", "LS pre-positioning", "OR-VMLBL-KF", "particle filter", "gated EKF"):
         assert claims[name] == list(suite.SCENARIOS)
-    assert len(methods.names()) == len(set(methods.names())) == 11
+    assert len(methods.names()) == len(set(methods.names())) == 12
 
 
 def test_a_method_refuses_a_scenario_it_does_not_claim():

@@ -17,7 +17,7 @@ def test_registered_compute_function_runs_at_its_defaults():
     v = ch10.COMPUTE_FUNCTIONS["ch10 comparison"]()
     assert (v.scenario, v.condition) == ("circle", "white")
     assert v.methods == tuple(m for m in methods.names() if methods.get(m).runs_on("circle"))
-    assert v.rmse.shape == (len(v.methods), len(v.times)) == (10, 150)
+    assert v.rmse.shape == (len(v.methods), len(v.times)) == (len(v.methods), 150)
     assert v.bound.shape == v.times.shape and (v.rmse > v.bound).all()
     assert v.n_runs == 1000
 

@@ -30,7 +30,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ._validate import as_choice, as_flag, as_int, as_rng
+from ._validate import as_choice, as_flag, as_int, as_positive, as_rng
 from .errors import IllConditionedWarning
 from .filters import (BootstrapParticleFilter, FilterResult, bias_ekf, cooperative_ekf, fading_ekf,
                       range_only_ekf)
@@ -40,7 +40,8 @@ from .scenarios.suite import CONDITIONS, SCENARIOS, SuiteInputs
 
 __all__ = ["Method", "REGISTRY", "names", "get", "run", "claims", "suite_bounds", "compare_suite", "load_comparison",
            "ls_prepositioning", "grid_prelocation", "prelocate", "ekf", "iekf", "prepositioned_iekf", "sfekf",
-           "isfekf", "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter"]
+           "isfekf", "ls_isfekf", "cooperative", "or_vmlbl", "particle_filter", "gated_ekf", "dataset_inputs",
+           "log_draw"]
 
 
 def _inputs(inputs: Any) -> SuiteInputs:
@@ -214,6 +215,34 @@ def ekf(inputs: SuiteInputs) -> FilterResult:
     """
     s = _inputs(inputs)
     return range_only_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, beacon=s.beacon, times=s.times)
+
+
+#: The gated EKF's chi-square gate probability and the rejections in a row after which it re-acquires.
+GATE_PROBABILITY, GATE_PATIENCE = 0.999, 10
+
+
+def gated_ekf(inputs: SuiteInputs) -> FilterResult:
+    r"""The EKF of chapter 4 with chapter 9's gate: each range tested against :math:`\chi^2_1` at
+    ``GATE_PROBABILITY`` (:class:`~uwtutor.filters.ChiSquareGate`), inside a
+    :class:`~uwtutor.filters.ReacquiringGate` that inflates the covariance and forces an update after
+    ``GATE_PATIENCE`` rejections in a row (a gate alone can lock a lost filter out for good).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.scenarios import suite
+    >>> rng = np.random.default_rng(0)
+    >>> inputs, truth = suite.CONDITIONS["outliers"](rng, suite.SCENARIOS["circle"](rng, 2))
+    >>> result = methods.gated_ekf(inputs)
+    >>> result.x.shape, result.extras["updated"].shape
+    ((2, 150, 2), (2, 150))
+    """
+    from .filters import ChiSquareGate, ReacquiringGate
+
+    s = _inputs(inputs)
+    gate = ReacquiringGate(ChiSquareGate(GATE_PROBABILITY), patience=GATE_PATIENCE)
+    return range_only_ekf(s.x0, s.P0, s.u, s.z, s.Q, s.R, beacon=s.beacon, times=s.times, gate=gate)
 
 
 def _bias_noise(s: SuiteInputs) -> tuple[np.ndarray, np.ndarray]:
@@ -502,6 +531,7 @@ _METHODS = (
     Method("cooperative EKF", cooperative, "B", 8, "leader", "EKF on range pairs with a current state"),
     Method("OR-VMLBL-KF", or_vmlbl, "E", 9, "any", "outlier-rejecting virtual long-baseline fixes, filtered"),
     Method("particle filter", particle_filter, "", 6, "any", "bootstrap particle filter, 500 particles"),
+    Method("gated EKF", gated_ekf, "", 9, "any", "EKF with a chi-square gate (99.9 %) and re-acquisition"),
 )
 
 #: Every method by name, in the chapter's order.
@@ -638,6 +668,145 @@ def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[st
             for c in _names("conditions", conditions, CONDITIONS)}
 
 
+# ---------------------------------------------------------------------------------------------------------------------
+# real logs: the same methods, the same inputs
+# ---------------------------------------------------------------------------------------------------------------------
+def dataset_inputs(data: Any, beacon_id: int, schedules: Any = None, *, min_period: Any = None,
+                   range_sigma: Any = None, distance_sigma: Any = None, method_seed: int = 0) -> SuiteInputs:
+    r"""A recorded log as the :class:`~uwtutor.scenarios.suite.SuiteInputs` every registered method takes: one run per
+    range schedule.
+
+    The log's epochs are the method's epochs (``times``; epoch 0 is the first row of the log, reached from the start
+    pose by a zero displacement), the displacements are the differences of the log's own dead reckoning
+    (:func:`uwtutor.datasets.baselines.world_displacements`), the ranges are those of ``beacon_id`` on the epochs
+    (:meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs`, thinned to one per ``min_period`` seconds), and
+    each run keeps the ranges its schedule keeps (NaN elsewhere: the method predicts only). The noise the methods
+    are told: :math:`\sigma_r` = ``range_sigma`` (0.6 m), :math:`\mathbf Q` the mean over the steps of
+    :math:`(a + c\,d_k)^2\mathbf I` (``distance_sigma`` = ``(a, c)``, (0.01, 0.02)), :math:`\mathbf P_0` the log's
+    start covariance; a bias state (IEKF) starts at 0 with 5 m standard deviation.
+
+    Parameters
+    ----------
+    data : uwtutor.datasets.RangeDataset
+        The log, with a start pose.
+    beacon_id : int
+        The one beacon the methods range to (every method of the registry is a single-beacon method).
+    schedules : array_like of bool, shape (n, K), optional
+        ``schedules[j, k]``: run ``j`` uses the range of epoch ``k`` (if there is one). Default: one run, every range.
+    min_period : float, optional
+        At most one range every ``min_period`` seconds (before the schedules).
+    range_sigma, distance_sigma : optional
+        The noise the methods are told (defaults of :mod:`uwtutor.datasets.baselines`).
+    method_seed : int, default 0
+        The seed of a method that draws random numbers (the particle filter).
+
+    Returns
+    -------
+    SuiteInputs
+        ``scenario`` and ``condition`` are ``"log"`` and ``"schedule"``; ``moving`` is False. Paper D's grid
+        pre-location and the LS-ISFEKF start from the ring of the first range: they refuse a log (or a schedule)
+        without a range at epoch 0.
+
+    Examples
+    --------
+    The small synthetic log, every range and every other range: two runs, each registered method runs on them:
+
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.datasets import square_log
+    >>> data = square_log()
+    >>> K = data.n_epochs
+    >>> schedules = np.array([np.ones(K, bool), np.arange(K) % 2 == 0])
+    >>> inputs = methods.dataset_inputs(data, 3, schedules)
+    >>> inputs.n_runs, inputs.n_epochs
+    (2, 81)
+    >>> result = methods.get("EKF")(inputs)
+    >>> err = np.linalg.norm(result.x[:, -1] - data.truth[-1, :2], axis=-1)
+    >>> bool(np.all(err < 1.0))
+    True
+    """
+    from dataclasses import replace
+
+    from .datasets import RangeDataset
+    from .datasets.baselines import DISTANCE_SIGMA, RANGE_SIGMA, displacement_covariance, world_displacements
+    from .scenarios.suite import PARAMETERS
+
+    if not isinstance(data, RangeDataset):
+        raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
+    if data.start is None:
+        raise ValueError("data has no start pose: build the RangeDataset with start= (or truth=)")
+    beacon_id = as_int("beacon_id", beacon_id)
+    if beacon_id not in data.beacons:
+        raise ValueError(f"beacon_id must be one of the log's beacons {sorted(data.beacons)}; got {beacon_id}")
+    K = data.n_epochs
+    z1 = data.ranges_on_epochs([beacon_id], min_period=min_period)[:, 0]
+    if schedules is None:
+        keep = np.ones((1, K), dtype=bool)
+    else:
+        keep = np.asarray(schedules)
+        if keep.dtype != bool or keep.ndim != 2 or keep.shape[1] != K or keep.shape[0] < 1:
+            raise ValueError(f"schedules must be a boolean array of shape (n_runs, {K}) (one row per run, one "
+                             f"column per epoch of the log); got {keep.dtype} of shape {keep.shape}")
+    n = keep.shape[0]
+    sigma_r = float(RANGE_SIGMA if range_sigma is None else as_positive("range_sigma", range_sigma))
+    Q = displacement_covariance(data, DISTANCE_SIGMA if distance_sigma is None else distance_sigma).mean(axis=0)
+    P0 = np.asarray(data.start_cov[:2, :2], dtype=float)
+    x0 = np.broadcast_to(np.asarray(data.start[:2], dtype=float), (n, 2)).copy()
+    b = np.asarray(data.beacons[beacon_id], dtype=float)
+    times = np.asarray(data.times, dtype=float)
+    interval = float(np.median(np.diff(times))) if K > 1 else 1.0
+    params = replace(PARAMETERS, n_epochs=K, interval=interval, dr_sigma=float(np.sqrt(Q[0, 0])),
+                     range_sigma=sigma_r, start_sigma=float(np.sqrt(np.mean(np.diag(P0)))), bias_mean=0.0,
+                     bias_sigma=5.0)
+    return SuiteInputs(scenario="log", condition="schedule", times=times, interval=interval, x0=x0, P0=P0,
+                       u=np.broadcast_to(world_displacements(data), (n, K, 2)).copy(),
+                       z=np.where(keep, z1, np.nan), z0=np.full(n, np.nan),
+                       beacon=np.broadcast_to(b, (n, K, 2)).copy(), beacon0=np.broadcast_to(b, (n, 2)).copy(),
+                       moving=False, Q=Q, R=sigma_r**2, method_seed=as_int("method_seed", method_seed, minimum=0),
+                       parameters=params)
+
+
+def _log_draw(data: Any, beacon_id: int, schedules: np.ndarray, options: dict[str, Any], rng: Any,
+              n: int) -> tuple[SuiteInputs, np.ndarray]:
+    if n != len(schedules):
+        raise ValueError(f"a log's runs are its {len(schedules)} schedules, drawn in one chunk: call the study with "
+                         f"n_runs = chunk_size = {len(schedules)}; got a chunk of {n}")
+    seed = int(rng.integers(2**31))
+    inputs = dataset_inputs(data, beacon_id, schedules, method_seed=seed, **options)
+    truth = np.broadcast_to(np.asarray(data.truth, dtype=float)[:, :2], (n, data.n_epochs, 2))
+    return inputs, truth
+
+
+def log_draw(data: Any, beacon_id: int, schedules: Any, **options: Any) -> Callable[..., Any]:
+    """The ``draw(rng, n)`` of :func:`uwtutor.montecarlo.run_study` for a recorded log: its runs are the log under
+    each schedule (:func:`dataset_inputs`), the truth the log's ground truth. ``n`` must be the number of schedules
+    (one chunk); ``rng`` only seeds a method that draws random numbers. Picklable (a process pool takes it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor import methods
+    >>> from uwtutor.datasets import square_log
+    >>> from uwtutor.montecarlo import run_study
+    >>> data = square_log()
+    >>> schedules = np.array([np.arange(data.n_epochs) % s == 0 for s in (1, 2, 3)])
+    >>> draw = methods.log_draw(data, 3, schedules)
+    >>> study = run_study(draw, methods.get("IEKF").estimate, 3, seed=0, chunk_size=3, components=(0, 1))
+    >>> study.final_errors.shape, bool(study.final_errors.max() < 1.0)
+    ((3,), True)
+    """
+    import functools
+
+    from .datasets import RangeDataset
+
+    if not isinstance(data, RangeDataset) or data.truth is None:
+        raise TypeError("data must be a uwtutor.datasets.RangeDataset with a ground truth (truth=): a study scores "
+                        f"against it; got {type(data).__name__}")
+    keep = np.asarray(schedules)
+    dataset_inputs(data, beacon_id, keep, **options)          # every argument checked here, once
+    return functools.partial(_log_draw, data, int(beacon_id), keep, dict(options))
+
+
 #: Most runs per row :func:`compare_suite` accepts (the book's table has 1000; a million takes about a day).
 MAX_STUDY_RUNS = 10**6
 
@@ -685,12 +854,13 @@ def compare_suite(n_runs: int, seed: int, executor: Any = None, *, methods: Any 
 
 
 def load_comparison() -> Any:
-    """The committed comparison of chapter 10 (``make study``: 1000 runs per row), with its curves.
+    """The committed comparison of chapter 10 (``make study``: 1000 runs per row), with its curves and its runs.
 
     Returns
     -------
     uwtutor.montecarlo.ComparisonTable
-        Read from the package's ``data/comparison.csv`` and ``data/comparison_curves.npz``.
+        Read from the package's ``data/comparison.csv``, ``data/comparison_curves.npz`` and
+        ``data/comparison_runs.npz`` (every row's final errors and final NEES: the paired comparisons).
 
     Examples
     --------
@@ -704,4 +874,12 @@ def load_comparison() -> Any:
     from .montecarlo import ComparisonTable
 
     data = Path(__file__).parent / "data"
-    return ComparisonTable.from_csv(data / "comparison.csv", curves=data / "comparison_curves.npz")
+    with np.load(data / "comparison_runs.npz") as runs:
+        n_rows = len(runs["method"])
+    table = ComparisonTable.from_csv(data / "comparison.csv", curves=data / "comparison_curves.npz")
+    if n_rows != len(table):              # a runs file older than the table: the table without its runs
+        warnings.warn(f"{data / 'comparison_runs.npz'} holds {n_rows} rows, the table {len(table)}: the paired "
+                      "comparisons need both from the same make study", RuntimeWarning, stacklevel=2)
+        return table
+    return ComparisonTable.from_csv(data / "comparison.csv", curves=data / "comparison_curves.npz",
+                                    runs=data / "comparison_runs.npz")

@@ -31,8 +31,12 @@ from ._validate import as_finite, as_float_array
 from ._validate import as_int, as_positive, as_scalar
 from .filters.base import FilterResult
 
-__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "compare",
-           "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD", "MAX_STUDY_RUNS"]
+__all__ = ["MonteCarloResult", "run_monte_carlo", "StudyResult", "run_study", "ComparisonTable", "BestInCell",
+           "compare", "scenario_draw", "DEFAULT_DIVERGENCE_THRESHOLD", "MAX_STUDY_RUNS"]
+
+
+#: Final position error [m] above which :func:`compare` counts a run as diverged, or lost (see its docstring).
+DEFAULT_DIVERGENCE_THRESHOLD = 50.0
 
 
 class _StudyStatistics:
@@ -391,6 +395,7 @@ class _ChunkSums:
     nis_counts: np.ndarray | None  # (K,) how many runs had one
     nis_dof: int
     final_errors: np.ndarray     # (n,)
+    final_nees: np.ndarray       # (n,)  NEES at the last step (inf: collapsed covariance; NaN: none)
 
 
 def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_sequence: np.random.SeedSequence,
@@ -413,7 +418,7 @@ def _study_chunk(draw: Callable[..., Any], estimate: Callable[..., Any], seed_se
     times = np.asarray(getattr(result, "times", np.arange(K, dtype=float)), dtype=float)
     return _ChunkSums(times=times, sq_errors=(scores.errors**2).sum(axis=0), nees=scores.nees.sum(axis=0),
                       nees_dof=len(scores.components), nis=nis_sum, nis_counts=nis_counts, nis_dof=scores.nis_dof,
-                      final_errors=scores.errors[:, -1].copy())
+                      final_errors=scores.errors[:, -1].copy(), final_nees=scores.nees[:, -1].copy())
 
 
 def _versions() -> dict[str, str]:
@@ -468,6 +473,9 @@ class StudyResult(_StudyStatistics):
         The root of the random streams: chunk ``i`` drew from ``SeedSequence(seed).spawn(n_chunks)[i]``.
     versions : dict of str
         Versions of uwtutor, NumPy, SciPy and Python that computed it.
+    final_nees : ndarray, shape (M,), or None
+        NEES of every run at the last step, in run order (inf where the covariance collapsed, NaN where the
+        filter reports none): with ``final_errors``, what :mod:`uwtutor.statistics` reads.
 
     Examples
     --------
@@ -505,11 +513,20 @@ class StudyResult(_StudyStatistics):
     n_chunks: int
     seed: int
     versions: dict[str, str]
+    final_nees: np.ndarray | None = None
 
     @property
     def n_steps(self) -> int:
         """Number of steps ``K``."""
         return len(self.rmse)
+
+    def statistics(self, threshold: float = DEFAULT_DIVERGENCE_THRESHOLD) -> Any:
+        """Every number of the study with its interval (:func:`uwtutor.statistics.cell_statistics` of its final
+        errors and final NEES, ``threshold`` the lost-run threshold [m])."""
+        from .statistics import cell_statistics
+
+        return cell_statistics(self.final_errors, self.final_nees, dof=len(self.components), threshold=threshold,
+                               confidence=self.confidence)
 
     def as_dict(self) -> dict[str, Any]:
         """The numbers and the metadata by name (e.g. for :func:`numpy.savez` or a results file)."""
@@ -667,6 +684,7 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
         partials = (f.result() for f in futures)          # in chunk order, whatever order they finish in
 
     final_errors = np.empty(n_runs)
+    final_nees = np.empty(n_runs)
     total: dict[str, Any] = {}
     start = 0
     for i, part in enumerate(partials):
@@ -687,6 +705,7 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
                 total["nis"] += part.nis
                 total["nis_n"] += part.nis_counts
         final_errors[start:start + sizes[i]] = part.final_errors
+        final_nees[start:start + sizes[i]] = part.final_nees
         start += sizes[i]
         if executor is not None:
             futures[i] = None                               # let the finished chunk go
@@ -702,14 +721,13 @@ def run_study(draw: Callable[[np.random.Generator, int], tuple[Any, Any]], estim
         nees_bounds=metrics.chi2_mean_bounds(d, n_runs, conf), mean_nis=mean_nis, nis_bounds=nis_bounds,
         times=total["times"], components=comps if comps is not None else tuple(range(d)), confidence=conf,
         n_runs=n_runs, chunk_size=chunk_size, n_chunks=len(sizes), seed=seed, versions=_versions(),
+        final_nees=final_nees,
     )
 
 
 # ---------------------------------------------------------------------------------------------------------------------
 # comparing methods on common scenarios and error conditions
 # ---------------------------------------------------------------------------------------------------------------------
-#: Final position error [m] above which :func:`compare` counts a run as diverged (see its docstring).
-DEFAULT_DIVERGENCE_THRESHOLD = 50.0
 
 
 def _scenario_condition_draw(scenario: Callable[..., Any], condition: Callable[..., Any],
@@ -752,6 +770,12 @@ _NUMBER_COLUMNS = ("n_runs", "n_steps", "final_rmse", "median_final_error", "p95
                    "final_bound", "mean_bound", "efficiency", "final_efficiency", "mean_nees", "nees_fraction",
                    "divergence_threshold", "divergence_fraction")
 _TIMING_COLUMNS = ("cost_per_step",)
+#: The intervals of :mod:`uwtutor.statistics` (after the timing column: the older columns keep their places).
+_INTERVAL_COLUMNS = ("n_lost", "final_rmse_lower", "final_rmse_upper", "median_final_error_lower",
+                     "median_final_error_upper", "converged_rmse", "converged_rmse_lower", "converged_rmse_upper",
+                     "divergence_fraction_lower", "divergence_fraction_upper", "median_nees", "median_nees_lower",
+                     "median_nees_upper", "nees_median_reference")
+_INT_COLUMNS = ("n_runs", "n_steps", "n_lost")
 
 
 @dataclass(frozen=True)
@@ -803,6 +827,21 @@ class ComparisonTable:
         The fraction of the row's runs whose final error is above it (or NaN).
     cost_per_step : ndarray
         Wall-clock seconds per run and step of the method on one batch (not reproducible).
+    n_lost : ndarray of int
+        Runs lost (final error above the threshold, or NaN).
+    final_rmse_lower, final_rmse_upper : ndarray
+        Interval of ``final_rmse`` (:func:`uwtutor.statistics.final_rmse_interval`); NaN where it is not estimable
+        (fewer than ``uwtutor.statistics.MIN_LOST_FOR_RMSE`` lost runs: the RMSE rests on them).
+    median_final_error_lower, median_final_error_upper : ndarray
+        Distribution-free interval of the median.
+    converged_rmse, converged_rmse_lower, converged_rmse_upper : ndarray
+        RMSE of the runs within the threshold, with its interval [m].
+    divergence_fraction_lower, divergence_fraction_upper : ndarray
+        Wilson interval of the lost fraction.
+    median_nees, median_nees_lower, median_nees_upper : ndarray
+        Median over the runs of the final NEES, with its interval (NaN for a method with no covariance).
+    nees_median_reference : ndarray
+        The median of :math:`\chi^2_d` it is compared with (1.39 for the position, d = 2).
     seed : int
         Root seed of every study of the table.
     chunk_size : int
@@ -816,6 +855,12 @@ class ComparisonTable:
         all rows have the same ``K``); saved with :meth:`to_npz`, not in the CSV.
     bound_curves : ndarray or None
         The supplied bound :math:`B_k` of every row, the same shape (NaN in rows without one).
+    final_errors : ndarray or None
+        Final error of every run, one row per table row ``(rows, n_runs)`` [m]: the runs are the same for every
+        method of a (scenario, condition), so two rows are compared **paired** (:meth:`paired`). Saved with
+        :meth:`to_runs_npz`.
+    final_nees : ndarray or None
+        Final NEES of every run, the same shape.
 
     Examples
     --------
@@ -848,17 +893,33 @@ class ComparisonTable:
     divergence_threshold: np.ndarray
     divergence_fraction: np.ndarray
     cost_per_step: np.ndarray
+    n_lost: np.ndarray
+    final_rmse_lower: np.ndarray
+    final_rmse_upper: np.ndarray
+    median_final_error_lower: np.ndarray
+    median_final_error_upper: np.ndarray
+    converged_rmse: np.ndarray
+    converged_rmse_lower: np.ndarray
+    converged_rmse_upper: np.ndarray
+    divergence_fraction_lower: np.ndarray
+    divergence_fraction_upper: np.ndarray
+    median_nees: np.ndarray
+    median_nees_lower: np.ndarray
+    median_nees_upper: np.ndarray
+    nees_median_reference: np.ndarray
     seed: int
     chunk_size: int
     confidence: float
     versions: dict[str, str]
     rmse_curves: np.ndarray | None = None
     bound_curves: np.ndarray | None = None
+    final_errors: np.ndarray | None = None
+    final_nees: np.ndarray | None = None
 
     #: The columns, in order.
-    columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS
+    columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS + _INTERVAL_COLUMNS
     #: The columns that are the same on every machine and executor for the same seed and chunk size.
-    reproducible_columns = _TEXT_COLUMNS + _NUMBER_COLUMNS
+    reproducible_columns = _TEXT_COLUMNS + _NUMBER_COLUMNS + _INTERVAL_COLUMNS
     #: The wall-clock columns (not reproducible).
     timing_columns = _TIMING_COLUMNS
 
@@ -866,7 +927,7 @@ class ComparisonTable:
         return len(self.method)
 
     def _row(self, i: int) -> dict[str, Any]:
-        return {c: (str(v) if c in _TEXT_COLUMNS else (int(v) if c in ("n_runs", "n_steps") else float(v)))
+        return {c: (str(v) if c in _TEXT_COLUMNS else (int(v) if c in _INT_COLUMNS else float(v)))
                 for c in self.columns for v in (getattr(self, c)[i],)}
 
     def rows(self) -> list[dict[str, Any]]:
@@ -946,9 +1007,129 @@ class ComparisonTable:
             np.savez_compressed(fh, method=self.method, scenario=self.scenario, condition=self.condition,
                                 rmse_curves=self.rmse_curves, bound_curves=self.bound_curves)
 
+    def to_runs_npz(self, path: Any, *, overwrite: bool = False) -> None:
+        """Write every row's per-run ``final_errors`` and ``final_nees`` (float32, keys ``final_error`` and
+        ``final_nees``) with the rows' names; an existing file is not replaced unless ``overwrite=True``."""
+        from pathlib import Path
+
+        if self.final_errors is None or self.final_nees is None:
+            raise ValueError("this table holds no runs (its rows have different numbers of runs, or it was read "
+                             "without runs=)")
+        p = Path(path)
+        if p.exists() and not overwrite:
+            raise FileExistsError(f"{p} exists; pass overwrite=True to replace it")
+        with p.open("wb") as fh:
+            np.savez_compressed(fh, method=self.method, scenario=self.scenario, condition=self.condition,
+                                final_error=self.final_errors.astype(np.float32),
+                                final_nees=self.final_nees.astype(np.float32))
+
     @classmethod
-    def from_csv(cls, path: Any, curves: Any = None) -> "ComparisonTable":
-        """Read a table written by :meth:`to_csv` (and its curves, written by :meth:`to_npz`, from ``curves``)."""
+    def concatenate(cls, tables: Any) -> "ComparisonTable":
+        """One table from several with the same seed, chunk size and confidence, their rows in the given order (the
+        studies of :func:`compare` are independent row by row: a table computed in parts is the whole one).
+
+        Examples
+        --------
+        >>> from uwtutor.methods import load_comparison
+        >>> from uwtutor.montecarlo import ComparisonTable
+        >>> t = load_comparison()
+        >>> len(ComparisonTable.concatenate([t, t])) == 2 * len(t)
+        True
+        """
+        parts = list(tables)
+        if not parts or not all(isinstance(t, cls) for t in parts):
+            raise TypeError("tables must be a non-empty sequence of ComparisonTable")
+        first = parts[0]
+        for t in parts[1:]:
+            if (t.seed, t.chunk_size, t.confidence) != (first.seed, first.chunk_size, first.confidence):
+                raise ValueError("tables must share seed, chunk_size and confidence to be one table; got "
+                                 f"{(t.seed, t.chunk_size, t.confidence)} and "
+                                 f"{(first.seed, first.chunk_size, first.confidence)}")
+        cols = {c: np.concatenate([getattr(t, c) for t in parts]) for c in cls.columns}
+        extra: dict[str, Any] = {}
+        for name in ("rmse_curves", "bound_curves", "final_errors", "final_nees"):
+            arrays = [getattr(t, name) for t in parts]
+            if all(a is not None for a in arrays) and len({a.shape[1:] for a in arrays}) == 1:
+                extra[name] = np.concatenate(arrays)
+        return cls(**cols, seed=first.seed, chunk_size=first.chunk_size, confidence=first.confidence,
+                   versions=first.versions, **extra)
+
+    # -- verdicts: every comparison paired on the same runs (uwtutor.statistics) ------------------------------------
+    def _runs(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.final_errors is None or self.final_nees is None:
+            raise ValueError("this table holds no runs: read it with from_csv(path, runs=npz_path) "
+                             "(uwtutor.methods.load_comparison() does)")
+        return self.final_errors, self.final_nees
+
+    def methods_in(self, scenario: str, condition: str) -> list[str]:
+        """The methods with a row in the cell (scenario, condition), in the table's order."""
+        return [str(m) for m in self.method[(self.scenario == scenario) & (self.condition == condition)]]
+
+    def cell_errors(self, scenario: str, condition: str, methods: Any = None) -> dict[str, np.ndarray]:
+        """``method -> final errors`` of a (scenario, condition): the same runs for every method."""
+        errors, _ = self._runs()
+        names = self.methods_in(scenario, condition) if methods is None else list(methods)
+        if not names:
+            raise KeyError(f"no row for scenario {scenario!r}, condition {condition!r}")
+        return {m: errors[self.index(m, scenario, condition)] for m in names}
+
+    def cell_statistics(self, method: str, scenario: str, condition: str) -> Any:
+        """Every number of one row with its interval (:class:`uwtutor.statistics.CellStatistics`)."""
+        from .statistics import cell_statistics
+
+        errors, nees = self._runs()
+        i = self.index(method, scenario, condition)
+        return cell_statistics(errors[i], nees[i], threshold=float(self.divergence_threshold[i]),
+                               confidence=self.confidence)
+
+    def paired(self, a: str, b: str, scenario: str, condition: str, *, seed: int = 0) -> Any:
+        """Method ``a`` minus method ``b`` on the same runs of a cell (:func:`uwtutor.statistics.paired_comparison`)."""
+        from .statistics import paired_comparison
+
+        errors, _ = self._runs()
+        i, j = self.index(a, scenario, condition), self.index(b, scenario, condition)
+        return paired_comparison(errors[i], errors[j], names=(a, b), threshold=float(self.divergence_threshold[i]),
+                                 confidence=self.confidence, seed=seed)
+
+    def ranking(self, scenario: str, condition: str, criterion: str = "median", methods: Any = None, *,
+                seed: int = 0) -> Any:
+        """The methods of a cell ordered by ``criterion`` where the paired intervals allow it
+        (:func:`uwtutor.statistics.rank`; ``methods`` chooses some)."""
+        from .statistics import rank
+
+        cell = self.cell_errors(scenario, condition, methods)
+        thr = float(self.divergence_threshold[self.index(next(iter(cell)), scenario, condition)])
+        return rank(cell, criterion, threshold=thr, confidence=self.confidence, seed=seed)
+
+    def best(self, scenario: str, condition: str, limit: float = 0.05, *, seed: int = 0) -> "BestInCell":
+        """The best methods of a cell by median final error, among those whose lost fraction is clearly below
+        ``limit`` (Wilson interval), with the ties and the methods whose lost fraction is undecided.
+
+        Examples
+        --------
+        >>> from uwtutor.methods import load_comparison
+        >>> best = load_comparison().best("moving beacon", "white")
+        >>> "particle filter" in best.best and "EKF" in best.best
+        True
+        """
+        from .statistics import lost_verdict, rank
+
+        verdicts = {m: lost_verdict(int(self.n_lost[self.index(m, scenario, condition)]),
+                                    int(self.n_runs[self.index(m, scenario, condition)]), limit, self.confidence)
+                    for m in self.methods_in(scenario, condition)}
+        eligible = [m for m, v in verdicts.items() if v == "clearly below"]
+        ranking = None
+        if eligible:
+            ranking = rank(self.cell_errors(scenario, condition, eligible), "median",
+                           threshold=float(self.divergence_threshold[self.index(eligible[0], scenario, condition)]),
+                           confidence=self.confidence, seed=seed)
+        return BestInCell(scenario, condition, limit, verdicts, ranking)
+
+    @classmethod
+    def from_csv(cls, path: Any, curves: Any = None, runs: Any = None) -> "ComparisonTable":
+        """Read a table written by :meth:`to_csv` (its curves, written by :meth:`to_npz`, from ``curves``; its runs,
+        written by :meth:`to_runs_npz`, from ``runs``). A table written before the interval columns reads with
+        them NaN (``n_lost`` -1)."""
         import csv
         import json
         from pathlib import Path
@@ -960,17 +1141,21 @@ class ComparisonTable:
             raise ValueError(f"{path} is not a table written by ComparisonTable.to_csv (no metadata line)")
         records = list(csv.reader(ln for ln in lines if not ln.startswith("#")))
         header, body = records[0], records[1:]
-        if tuple(header) != cls.columns:
+        older = _TEXT_COLUMNS + _NUMBER_COLUMNS + _TIMING_COLUMNS       # a table written before the intervals
+        if tuple(header) not in (cls.columns, older):
             raise ValueError(f"{path} has columns {header}; expected {list(cls.columns)}")
         cols: dict[str, Any] = {}
         for j, c in enumerate(header):
             values = [r[j] for r in body]
             if c in _TEXT_COLUMNS:
                 cols[c] = np.array(values, dtype=str)
-            elif c in ("n_runs", "n_steps"):
+            elif c in _INT_COLUMNS:
                 cols[c] = np.array([int(v) for v in values], dtype=int)
             else:
                 cols[c] = np.array([float(v) for v in values])
+        for c in cls.columns:
+            if c not in cols:                                           # the older table: intervals unknown
+                cols[c] = np.full(len(body), -1 if c in _INT_COLUMNS else np.nan)
         extra: dict[str, Any] = {}
         if curves is not None:
             with np.load(curves) as data:
@@ -978,8 +1163,63 @@ class ComparisonTable:
                     if not np.array_equal(data[name].astype(str), cols[name]):
                         raise ValueError(f"{curves} does not hold the rows of {path} (its {name} column differs)")
                 extra = dict(rmse_curves=np.array(data["rmse_curves"]), bound_curves=np.array(data["bound_curves"]))
+        if runs is not None:
+            with np.load(runs) as data:
+                for name in _TEXT_COLUMNS:
+                    if not np.array_equal(data[name].astype(str), cols[name]):
+                        raise ValueError(f"{runs} does not hold the rows of {path} (its {name} column differs)")
+                extra.update(final_errors=np.array(data["final_error"], dtype=float),
+                             final_nees=np.array(data["final_nees"], dtype=float))
         return cls(**cols, seed=int(meta["seed"]), chunk_size=int(meta["chunk_size"]),
                    confidence=float(meta["confidence"]), versions=dict(meta["versions"]), **extra)
+
+
+@dataclass(frozen=True)
+class BestInCell:
+    """The best methods of one (scenario, condition) of a :class:`ComparisonTable` (see :meth:`ComparisonTable.best`).
+
+    Attributes
+    ----------
+    scenario, condition : str
+    limit : float
+        The lost fraction a method must be clearly below to be eligible.
+    lost_verdicts : dict of str to str
+        ``method -> "clearly below" | "clearly above" | "undecided"`` against ``limit``.
+    ranking : uwtutor.statistics.Ranking or None
+        The eligible methods by median final error (None if none is eligible).
+
+    Examples
+    --------
+    >>> from uwtutor.methods import load_comparison
+    >>> cell = load_comparison().best("line", "bias")
+    >>> cell.lost_verdicts["IEKF"], cell.best[:1]
+    ('clearly below', ('IEKF',))
+    """
+
+    scenario: str
+    condition: str
+    limit: float
+    lost_verdicts: dict[str, str]
+    ranking: Any
+
+    @property
+    def best(self) -> tuple[str, ...]:
+        """The leader by median and the eligible methods tied with it (empty if none is eligible)."""
+        return () if self.ranking is None else self.ranking.best
+
+    @property
+    def undecided(self) -> tuple[str, ...]:
+        """Methods whose lost fraction's interval straddles the limit (neither eligible nor excluded)."""
+        return tuple(m for m, v in self.lost_verdicts.items() if v == "undecided")
+
+    def runner_up(self) -> tuple[str, Any] | None:
+        """The first eligible method clearly behind the best, with the paired interval of the leader minus it."""
+        if self.ranking is None:
+            return None
+        rest = [m for m in self.ranking.order if m not in self.best]
+        if not rest:
+            return None
+        return rest[0], self.ranking.interval(self.ranking.order[0], rest[0])
 
 
 def _named_callables(name: str, value: Any) -> dict[str, Callable[..., Any]]:
@@ -1158,8 +1398,11 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
             raise TypeError(f"bounds must be a dict keyed by scenario or (scenario, condition); got "
                             f"{type(mapping).__name__}")
 
+    from .statistics import cell_statistics
+
     cols: dict[str, list[Any]] = {c: [] for c in ComparisonTable.columns}
     curves: list[tuple[np.ndarray, np.ndarray]] = []
+    runs: list[tuple[np.ndarray, np.ndarray]] = []
     versions: dict[str, str] = {}
     for s_name, scenario in scenarios.items():
         for c_name, condition in conditions.items():
@@ -1203,21 +1446,29 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                                    ("divergence_threshold", thr), ("divergence_fraction", float(diverged.mean())),
                                    ("cost_per_step", cost)):
                     cols[key].append(value)
+                cell = cell_statistics(study.final_errors, study.final_nees, dof=len(study.components),
+                                       threshold=thr, confidence=confidence)
+                for key, value in cell.as_columns().items():
+                    cols[key].append(value)
+                runs.append((study.final_errors, study.final_nees))
     if not cols["method"]:
         raise ValueError("no (method, scenario) pair to run: check only")
     arrays: dict[str, Any] = {}
     for c, values in cols.items():
         if c in _TEXT_COLUMNS:
             arrays[c] = np.array(values, dtype=str)
-        elif c in ("n_runs", "n_steps"):
+        elif c in _INT_COLUMNS:
             arrays[c] = np.array(values, dtype=int)
         else:
             arrays[c] = np.array(values, dtype=float)
     same_k = len({len(r) for r, _ in curves}) == 1
+    same_n = len({len(e) for e, _ in runs}) == 1
     return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
                            versions=versions,
                            rmse_curves=np.array([r for r, _ in curves]) if same_k else None,
-                           bound_curves=np.array([b for _, b in curves]) if same_k else None)
+                           bound_curves=np.array([b for _, b in curves]) if same_k else None,
+                           final_errors=np.array([e for e, _ in runs]) if same_n else None,
+                           final_nees=np.array([v for _, v in runs]) if same_n else None)
 
 
 def _cost_per_step(draw: Callable[..., Any], method: Callable[..., Any], n: int, seed: int, K: int) -> float:

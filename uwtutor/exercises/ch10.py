@@ -14,7 +14,8 @@ checker                                             exercise
 ``check_final_efficiency(eff)``                     10.2: the EKF's final RMSE over the bound, on the line
 ``check_median_over_bound(ratio)``                  10.2: its median final error over the bound
 ``check_lost_runs(n)``                              10.2: the number of its runs that diverged
-``check_method_choice(letter)``                     10.3: which method for an approach with a wrong sound speed
+``check_method_choice(letter)``                     10.3: which method for an approach with a wrong sound speed, with
+                                                    intervals
 ``check_pcrb_recursion(func)``                      10.4: the PCRB recursion written by the student (a function)
 ==================================================  ====================================================================
 
@@ -74,7 +75,7 @@ TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION = "EKF", "line", "white"
 #: Exercise 10.3: the cell of the situation, the largest fraction of runs that may be lost, and the options.
 CHOICE_SCENARIO, CHOICE_CONDITION = "turn", "sound speed"
 MAX_LOST = 0.05
-CHOICES = {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "particle filter"}
+CHOICES = {"A": "EKF", "B": "IEKF", "C": "LS-ISFEKF", "D": "gated EKF"}
 
 
 def _pct(fraction: float) -> str:
@@ -391,20 +392,32 @@ def choice_rows() -> dict[str, dict[str, Any]]:
     return {rows[i]["method"]: rows[i] for i in hit}
 
 
-def _winner(rows: dict[str, dict[str, Any]]) -> str:
-    within = {m: r for m, r in rows.items() if r["divergence_fraction"] <= MAX_LOST}
-    if not within:
-        raise RuntimeError(f"no method loses at most {_pct(MAX_LOST)} of the runs in ({CHOICE_SCENARIO}, "
+def _choice_verdicts() -> tuple[dict[str, Any], Any]:
+    """The lost-fraction verdicts of the options against ``MAX_LOST`` and the ranking, by median final error on the
+    same runs, of the options whose lost fraction is clearly below it."""
+    from ..statistics import lost_verdict
+
+    table = methods.load_comparison()
+    verdicts = {}
+    for method in CHOICES.values():
+        i = table.index(method, CHOICE_SCENARIO, CHOICE_CONDITION)
+        verdicts[method] = (lost_verdict(int(table.n_lost[i]), int(table.n_runs[i]), MAX_LOST),
+                            table.cell_statistics(method, CHOICE_SCENARIO, CHOICE_CONDITION))
+    eligible = [m for m, (v, _) in verdicts.items() if v == "clearly below"]
+    if not eligible:
+        raise RuntimeError(f"no option loses clearly fewer than {_pct(MAX_LOST)} of the runs in ({CHOICE_SCENARIO}, "
                            f"{CHOICE_CONDITION}): the exercise needs a new cell")
-    return min(within, key=lambda m: within[m]["median_final_error"])
+    return verdicts, table.ranking(CHOICE_SCENARIO, CHOICE_CONDITION, "median", methods=eligible)
 
 
 def check_method_choice(answer: Any) -> Feedback:
-    """Check the method chosen for an approach with one turn and a wrong sound speed, when at most ``MAX_LOST`` of
-    the runs may be lost (exercise 10.3; a letter of ``CHOICES``).
+    """Check the method chosen for an approach with one turn and a wrong sound speed, when the mission needs a lost
+    fraction *clearly* below ``MAX_LOST`` (exercise 10.3; a letter of ``CHOICES``).
 
-    The right choice is read off the committed table: the lowest median final error among the methods of the cell
-    that lose at most ``MAX_LOST`` of their runs (chapter 10's rule). It must be one of the options.
+    The right choice is read off the committed table with intervals (chapter 10's rule): keep the options whose lost
+    fraction's 95 % Wilson interval lies below ``MAX_LOST`` (:func:`uwtutor.statistics.lost_verdict`), then take the
+    lowest median final error; an option whose paired difference from it on the same runs contains zero is tied, and
+    as right.
 
     Parameters
     ----------
@@ -414,13 +427,9 @@ def check_method_choice(answer: Any) -> Feedback:
     Returns
     -------
     Feedback
-        The verdict; each wrong option gets its own hint, with its numbers from the table: a method that loses too
-        many runs (however low its median) and one that is within the limit but ends farther off.
-
-    Raises
-    ------
-    RuntimeError
-        If the table no longer makes one of the options the answer (the exercise must then be revised).
+        The verdict; each wrong option gets its own hint, with its numbers from the table: a lost fraction whose
+        interval reaches above the limit (however low its median), and one within the limit that ends farther off
+        (with the paired interval).
 
     Examples
     --------
@@ -428,37 +437,37 @@ def check_method_choice(answer: Any) -> Feedback:
     ✘ Not yet: the method for this situation should be one of the letters "A", "B", "C", "D"; got an int, 4.
       Hint: Write the letter in quotes, e.g. `choice = "A"`.
     """
-    rows = choice_rows()
-    best = _winner(rows)
+    verdicts, ranking = _choice_verdicts()
     letters = {m: k for k, m in CHOICES.items()}
-    if best not in letters:
-        raise RuntimeError(f"the committed table's choice for ({CHOICE_SCENARIO}, {CHOICE_CONDITION}) is {best}, "
-                           f"which is not among the options {CHOICES}: revise the exercise")
-    medians = {k: rows[m]["median_final_error"] for k, m in CHOICES.items()}
-    lowest = min(medians, key=medians.get)
+    best = ranking.best
+    given = answer.strip() if isinstance(answer, str) else answer
+    right = letters[best[0]]
+    if isinstance(given, str) and given in CHOICES and CHOICES[given] in best:
+        right = given                                   # a tie with the leader is as right
     mistakes = {}
     for key, method in CHOICES.items():
-        r = rows[method]
-        lost, median = r["divergence_fraction"], r["median_final_error"]
-        if lost > MAX_LOST:
-            lowest_note = ", the lowest of the four" if key == lowest else ""
-            mistakes[key] = (f"{key} ({method}) loses {_pct(lost)} of its runs in this cell, more than the 1 in 20 "
-                             f"you can afford, although its median final error is {median:.1f} m{lowest_note}: the "
-                             "median says nothing about the runs that are lost.")
-        elif method != best:
-            mistakes[key] = (f"{key} ({method}) loses {_pct(lost)} of its runs (within the limit), but ends at "
-                             f"{median:.1f} m in median, against {rows[best]['median_final_error']:.1f} m for "
-                             "another method within the limit.")
-    b = rows[best]
-    explanation = (f"{best} loses {_pct(b['divergence_fraction'])} of the runs and ends at "
-                   f"{b['median_final_error']:.1f} m in median.")
-    if CHOICES[lowest] != best:
-        explanation += (f" {CHOICES[lowest]} ends lower in median ({medians[lowest]:.1f} m) but loses "
-                        f"{_pct(rows[CHOICES[lowest]]['divergence_fraction'])} of them.")
-    return check_choice(answer, letters[best], CHOICES, name="the method for this situation",
-                        common_mistakes=mistakes,
-                        hint="Keep the methods whose divergence_fraction is at most 0.05, then take the lowest "
-                             "median_final_error.",
+        verdict, cs = verdicts[method]
+        lost, median = cs.lost_fraction.format(".1f", 100), cs.median_final_error.estimate
+        if verdict != "clearly below":
+            what = "straddles" if verdict == "undecided" else "lies above"
+            mistakes[key] = (f"{key} ({method}) loses {lost} % of its runs: that interval {what} the "
+                             f"{_pct(MAX_LOST)} the mission can afford, so 1000 runs cannot show it meets the limit, "
+                             f"although its median final error is {median:.1f} m.")
+        elif method not in best:
+            iv = ranking.interval(method, ranking.order[0])
+            mistakes[key] = (f"{key} ({method}) loses clearly fewer than one run in twenty ({lost} %), but on the same "
+                             f"runs its median is {iv.format('.1f')} m above {ranking.order[0]}'s: the interval "
+                             "excludes zero.")
+    lead = verdicts[best[0]][1]
+    explanation = (f"{best[0]} loses {lead.lost_fraction.format('.1f', 100)} % of the runs and ends at "
+                   f"{lead.median_final_error.estimate:.1f} m in median.")
+    tied = [m for m in best[1:] if m in letters]
+    if tied:
+        explanation += " Tied with it on the same runs: " + ", ".join(f"{letters[m]} ({m})" for m in tied) + "."
+    return check_choice(answer, right, CHOICES, name="the method for this situation", common_mistakes=mistakes,
+                        hint="Keep the methods whose lost fraction's interval (table.cell_statistics(...)"
+                             ".lost_fraction) lies below 0.05, then compare their medians on the same runs "
+                             "(table.paired(a, b, 'turn', 'sound speed').median_difference).",
                         explanation=explanation)
 
 
