@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import (as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive, as_times,
+from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive, as_times,
                          readonly)
 from ..motion import integrate_odometry
 
@@ -344,25 +344,30 @@ class RangeDataset:
                              "with start=(x, y, heading), or with truth= (whose first row is the start)")
         return integrate_odometry(self.start, self.odometry)
 
-    def _thin(self, rows: np.ndarray, min_period: float) -> np.ndarray:
-        """Indices into ``rows`` (one beacon, sorted by time) kept by the greedy ``min_period`` rule."""
+    def _thin(self, rows: np.ndarray, min_period: float, start: float = -np.inf) -> np.ndarray:
+        """Indices into ``rows`` (sorted by time) kept by the greedy ``min_period`` rule from ``start`` on."""
         keep: list[int] = []
-        last = -np.inf
+        last = start - min_period
         for j, t in enumerate(rows[:, 0]):
             if t - last >= min_period:
                 keep.append(j)
                 last = t
         return np.asarray(keep, dtype=int)
 
-    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: Any = None) -> np.ndarray:
+    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: Any = None, offset: Any = 0.0,
+                         thinning: str = "per beacon") -> np.ndarray:
         r"""The range log placed on the odometry epochs: one column per beacon, NaN where a beacon was not heard.
 
         The rules, in order, beacon by beacon:
 
-        1. **Thinning** (with ``min_period``): the first range is kept, then every range at least ``min_period``
-           seconds after the last one kept; the others are dropped. This turns a fast radio log (the Plaza sets
-           range each beacon about every 1-2 s) into the sparse pings of an acoustic modem (every few seconds or
-           more), without randomness.
+        1. **Thinning** (with ``min_period``): the first range at or after ``times[0] + offset`` is kept, then
+           every range at least ``min_period`` seconds after the last one kept; the others are dropped. This turns
+           a fast radio log (the Plaza sets range each beacon about every 1-2 s) into the sparse pings of an
+           acoustic modem (every few seconds or more), without randomness; each ``offset`` in
+           ``[0, min_period)`` gives another schedule of the same log. ``thinning="per beacon"`` thins each
+           beacon's ranges on its own (B beacons give about B ranges per period); ``"in total"`` thins the
+           ranges of all the chosen beacons together, one range per period in all (a modem that interrogates one
+           beacon at a time).
         2. **Placement**: each range goes to the epoch nearest in time, :math:`k = \arg\min_k |t - t_k|` (a tie
            goes to the earlier epoch). Its time is thus moved by at most half an epoch spacing; the vehicle's
            motion in that time is the error this adds (at 1 m/s and 5 epochs per second, 0.1 m at most).
@@ -376,7 +381,12 @@ class RangeDataset:
         beacon_ids : int or sequence of int, optional
             The beacons, one column each, in this order (default: all, sorted by id).
         min_period : float, optional
-            The shortest time [s] between two ranges kept for one beacon, > 0 (default: keep every range).
+            The shortest time [s] between two ranges kept (for one beacon, or in all), > 0 (default: keep every
+            range).
+        offset : float, default 0
+            The thinning starts this many seconds after ``times[0]`` (>= 0; needs ``min_period``).
+        thinning : {"per beacon", "in total"}, default "per beacon"
+            Thin each beacon on its own, or all the chosen beacons' ranges together.
 
         Returns
         -------
@@ -413,16 +423,41 @@ class RangeDataset:
                [nan],
                [nan],
                [13.]])
+
+        The same schedule started 0.5 s later, and one range every 2 s to either beacon:
+
+        >>> data.ranges_on_epochs([5], min_period=2.0, offset=0.5)
+        array([[nan],
+               [11.],
+               [nan],
+               [13.]])
+        >>> data.ranges_on_epochs(min_period=2.0, thinning="in total")
+        array([[10., nan],
+               [nan, nan],
+               [nan, nan],
+               [13., nan]])
         """
         ids = self._ids(beacon_ids)
         period = None if min_period is None else float(as_positive("min_period", min_period, ndim=0))
+        thinning = as_choice("thinning", thinning, ("per beacon", "in total"))
+        shift = float(as_finite("offset", offset, ndim=0, max_abs=1e12))
+        if shift < 0.0:
+            raise ValueError(f"offset must be >= 0 (seconds after times[0]); got {shift:g}")
+        if shift > 0.0 and period is None:
+            raise ValueError("offset shifts the thinning's schedule: give min_period too (e.g. min_period=10.0, "
+                             "offset=3.0)")
         K = self.n_epochs
         out = np.full((K, len(ids)), np.nan)
         times = self.times
+        start = float(times[0]) + shift
+        log = self.ranges
+        if period is not None and thinning == "in total":
+            log = log[np.isin(log[:, 1], ids)]
+            log = log[self._thin(log, period, start)]
         for col, beacon in enumerate(ids):
-            rows = self.ranges[self.ranges[:, 1] == beacon]
-            if period is not None and len(rows):
-                rows = rows[self._thin(rows, period)]
+            rows = log[log[:, 1] == beacon]
+            if period is not None and thinning == "per beacon" and len(rows):
+                rows = rows[self._thin(rows, period, start)]
             if not len(rows):
                 continue
             t = rows[:, 0]
