@@ -11,23 +11,26 @@ default, the graph of **the same model as** :func:`~uwtutor.datasets.navigate` (
   :math:`s_0 \sim \mathcal N(1, \sigma_{s,0}^2)` (``PriorFactorDouble``);
 * the random walks :math:`b_k - b_{k-1} \sim \mathcal N(0, q_b\Delta t_k)`, :math:`s_k - s_{k-1} \sim
   \mathcal N(0, q_s\Delta t_k)` (``BetweenFactorDouble``);
-* one odometry factor per step, the error
+* the odometry, navigate's move-then-turn step with its noise
+  :math:`\operatorname{diag}(a + c\,|d_k|,\ \sigma_\perp,\ q_\theta\sqrt{\Delta t_k})` along, across and in
+  heading (the filter has no across-track noise; the graph needs a small one, ``across_sigma``), with the error
+  of a step
 
   .. math::
 
       \mathbf e_k = \begin{bmatrix} R(\theta_{k-1})^\mathsf{T}(p_k - p_{k-1}) - (d_k, 0) \\
-      \theta_k - \theta_{k-1} - \Delta\theta_k + b_{k-1}\Delta t_k \end{bmatrix},
-      \qquad \operatorname{diag}(a + c\,|d_k|,\ \sigma_\perp,\ q_\theta\sqrt{\Delta t_k}),
+      \theta_k - \theta_{k-1} - \Delta\theta_k + b_{k-1}\Delta t_k \end{bmatrix};
 
-  navigate's move-then-turn step and noise (the filter has no across-track noise; the graph needs a small one,
-  ``across_sigma``);
+  with a gyro bias, the steps between two pose variables (at every range, and at least every ``pose_interval``)
+  are pre-integrated into one factor, as GTSAM's IMU factors pre-integrate;
 * one factor per range, :math:`e = s_k\,\lVert p_k - b_j\rVert - z_{k,j}` with :math:`\sigma_r`, optionally
   behind a robust kernel (Huber).
 
 GTSAM's Python wheel has compiled factors for the priors, the scalar random walks, a ``Pose2`` odometry without a
 bias (``BetweenFactorPose2``) and a range without a scale (``RangeFactor2D``), and none for a relative pose that
 depends on a third, scalar variable (the bias) or a range multiplied by one (the scale): those two are
-``CustomFactor``\ s (Python callbacks, hence most of the solve time). With ``gyro_bias=False`` or ``scale=False``
+``CustomFactor``\ s, Python callbacks at about 0.1 ms a call -- most of the solve time, and the reason the biased
+odometry is pre-integrated between pose variables rather than written step by step. With ``gyro_bias=False`` or ``scale=False``
 the compiled factors take their place.
 
 ``model="pose"`` gives the graph of poses alone (no bias, no scale): a heading that drifts can then only be
@@ -43,6 +46,7 @@ GTSAM 4.3 (BSD): ``examples/RangeISAMExample_plaza2.cpp`` solves the same data (
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -86,6 +90,8 @@ class GraphSolution:
         :math:`s_k` (NaN when the graph has none).
     model, solver : str
         What was built and how it was solved.
+    n_poses : int
+        Pose variables in the graph (every epoch, or fewer with a gyro bias: ``pose_interval``).
 
     Examples
     --------
@@ -112,6 +118,7 @@ class GraphSolution:
     scale: np.ndarray = field(default_factory=lambda: np.empty(0))
     model: str = "navigate"
     solver: str = "lm"
+    n_poses: int = 0
 
 
 def _positive(name: str, value: Any) -> float:
@@ -120,30 +127,7 @@ def _positive(name: str, value: Any) -> float:
 
 
 def _wrap(angle: float) -> float:
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def _odometry_error(d: float, turn: float, dt: float) -> Callable[..., np.ndarray]:
-    r"""The error of one odometry step with a gyro bias (module docstring) and its Jacobians in GTSAM's local
-    coordinates of ``Pose2`` (a translation perturbation acts in the pose's own frame, :math:`p \leftarrow p +
-    R(\theta)\delta`)."""
-
-    def error(this: Any, values: Any, H: list[np.ndarray] | None) -> np.ndarray:
-        keys = this.keys()
-        p0, p1 = values.atPose2(keys[0]), values.atPose2(keys[1])
-        b = values.atDouble(keys[2])
-        c, s = np.cos(p0.theta()), np.sin(p0.theta())
-        dx, dy = p1.x() - p0.x(), p1.y() - p0.y()
-        e = np.array([c * dx + s * dy - d, -s * dx + c * dy, _wrap(p1.theta() - p0.theta() - turn + b * dt)])
-        if H is not None:
-            c1, s1 = np.cos(p1.theta()), np.sin(p1.theta())
-            cd, sd = c * c1 + s * s1, s * c1 - c * s1          # R(theta_0)^T R(theta_1) = R(theta_1 - theta_0)
-            H[0] = np.array([[-1.0, 0.0, -s * dx + c * dy], [0.0, -1.0, -c * dx - s * dy], [0.0, 0.0, -1.0]])
-            H[1] = np.array([[cd, -sd, 0.0], [sd, cd, 0.0], [0.0, 0.0, 1.0]])
-            H[2] = np.array([[0.0], [0.0], [dt]])
-        return e
-
-    return error
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _scaled_range_error(beacon: np.ndarray, z: float) -> Callable[..., np.ndarray]:
@@ -154,11 +138,11 @@ def _scaled_range_error(beacon: np.ndarray, z: float) -> Callable[..., np.ndarra
         keys = this.keys()
         pose, s = values.atPose2(keys[0]), values.atDouble(keys[1])
         ex, ey = pose.x() - bx, pose.y() - by
-        dist = float(np.hypot(ex, ey))
+        dist = math.hypot(ex, ey)
         if H is not None:
             ux, uy = ex / max(dist, 1e-9), ey / max(dist, 1e-9)
-            c, sn = np.cos(pose.theta()), np.sin(pose.theta())
-            H[0] = s * np.array([[ux * c + uy * sn, -ux * sn + uy * c, 0.0]])
+            c, sn = math.cos(pose.theta()), math.sin(pose.theta())
+            H[0] = np.array([[s * (ux * c + uy * sn), s * (-ux * sn + uy * c), 0.0]])
             H[1] = np.array([[dist]])
         return np.array([s * dist - z])
 
@@ -170,7 +154,8 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
               range_sigma: Any = 0.6, distance_sigma: Any = (0.01, 0.02), across_sigma: Any = 0.002,
               heading_noise: Any = None, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
               scale_prior: Any = 0.1, scale_walk: Any = 1e-5, range_scale: Any = 1.0, robust: Any = None,
-              solver: str = "lm", initial: Any = None, max_iterations: int = 100) -> GraphSolution:
+              solver: str = "lm", initial: Any = None, max_iterations: int = 100,
+              pose_interval: Any = 2.0) -> GraphSolution:
     r"""GTSAM's MAP solution of a log: by default the graph of navigate's model (module docstring), batch or iSAM2.
 
     Parameters
@@ -204,6 +189,11 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         The initial guess of the poses (default: the dead reckoning; the bias starts at 0, the scale at 1).
     max_iterations : int, default 100
         Levenberg--Marquardt's limit.
+    pose_interval : float, default 2
+        With a gyro bias: the longest time [s] between two pose variables. Every epoch with a range has one; the
+        odometry between two is pre-integrated into one factor (its noise propagated step by step), and the
+        poses between are the odometry from the earlier variable with its bias, the mismatch at the later one
+        spread over the segment.
 
     Returns
     -------
@@ -271,13 +261,27 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     guess = data.dead_reckoning() if initial is None else as_finite("initial", initial, shape=(K, 3))
     dt = np.diff(data.times, prepend=data.times[0])
 
-    # the factors and initial values of each epoch, so that iSAM2 can take them one epoch at a time
+    # the pose variables: every epoch, except with a gyro bias, where the odometry between two variables is
+    # pre-integrated (one factor per segment; _Segment) and the poses between are filled in after the solve
+    if with_bias:
+        interval = _positive("pose_interval", pose_interval)
+        keep = np.isfinite(z).any(axis=1)
+        keep[[0, K - 1]] = True
+        last = data.times[0]
+        for k in range(K):
+            if keep[k] or data.times[k] - last >= interval:
+                keep[k] = True
+                last = data.times[k]
+        kept = np.nonzero(keep)[0]
+    else:
+        kept = np.arange(K)
     unit = gtsam.noiseModel.Isotropic.Sigma(1, sigma_r)
     range_noise = (gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), unit)
                    if robust == "huber" else unit)
-    epoch_factors: list[list[Any]] = [[] for _ in range(K)]
-    epoch_values = [gtsam.Values() for _ in range(K)]
-    first = epoch_factors[0]
+    n = len(kept)
+    node_factors: list[list[Any]] = [[] for _ in range(n)]
+    node_values = [gtsam.Values() for _ in range(n)]
+    first = node_factors[0]
     first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, data.start)),
                                         gtsam.noiseModel.Gaussian.Covariance(np.asarray(data.start_cov, float))))
     if with_bias:
@@ -291,40 +295,44 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     if not with_scale:
         for j, b in enumerate(beacons):
             point = gtsam.Point2(float(b[0]), float(b[1]))
-            epoch_values[0].insert(L(j), point)
+            node_values[0].insert(L(j), point)
             first.append(gtsam.NonlinearEqualityPoint2(L(j), point))
-    for k in range(K):
-        values = epoch_values[k]
-        values.insert(X(k), gtsam.Pose2(*map(float, guess[k])))
+    sigma_d = a + c * np.abs(data.odometry[:, 0])
+    sigma_theta = q_heading * np.sqrt(dt) + 1e-9
+    for i, k in enumerate(kept.tolist()):
+        values, factors = node_values[i], node_factors[i]
+        values.insert(X(i), gtsam.Pose2(*map(float, guess[k])))
         if with_bias:
-            values.insert(B(k), 0.0)
+            values.insert(B(i), 0.0)
         if with_scale:
-            values.insert(S(k), 1.0)
-        factors = epoch_factors[k]
-        if k > 0:
-            d, turn = (float(v) for v in data.odometry[k])
-            odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([a + c * abs(d), across,
-                                                                   q_heading * np.sqrt(dt[k]) + 1e-9]))
+            values.insert(S(i), 1.0)
+        if i > 0:
+            before = int(kept[i - 1])
+            span = float(data.times[k] - data.times[before])
             if with_bias:
-                factors.append(gtsam.CustomFactor(odo_noise, [X(k - 1), X(k), B(k - 1)],
-                                                  _odometry_error(d, turn, float(dt[k]))))
-                factors.append(gtsam.BetweenFactorDouble(B(k - 1), B(k), 0.0, gtsam.noiseModel.Isotropic.Sigma(
-                    1, walk_b * np.sqrt(dt[k]) + 1e-12)))
+                steps = slice(before + 1, k + 1)
+                segment = _Segment(data.odometry[steps], dt[steps], sigma_d[steps], sigma_theta[steps], across)
+                factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(segment.covariance),
+                                                  [X(i - 1), X(i), B(i - 1)], segment.error))
+                factors.append(gtsam.BetweenFactorDouble(B(i - 1), B(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+                    1, walk_b * np.sqrt(span) + 1e-12)))
             else:
-                factors.append(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(d, 0.0, turn), odo_noise))
+                d, turn = (float(v) for v in data.odometry[k])
+                odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([sigma_d[k], across, sigma_theta[k]]))
+                factors.append(gtsam.BetweenFactorPose2(X(i - 1), X(i), gtsam.Pose2(d, 0.0, turn), odo_noise))
             if with_scale:
-                factors.append(gtsam.BetweenFactorDouble(S(k - 1), S(k), 0.0, gtsam.noiseModel.Isotropic.Sigma(
-                    1, walk_s * np.sqrt(dt[k]) + 1e-12)))
+                factors.append(gtsam.BetweenFactorDouble(S(i - 1), S(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+                    1, walk_s * np.sqrt(span) + 1e-12)))
         for j in np.nonzero(np.isfinite(z[k]))[0].tolist():
             if with_scale:
-                factors.append(gtsam.CustomFactor(range_noise, [X(k), S(k)],
+                factors.append(gtsam.CustomFactor(range_noise, [X(i), S(i)],
                                                   _scaled_range_error(beacons[j], float(z[k, j]))))
             else:
-                factors.append(gtsam.RangeFactor2D(X(k), L(j), float(z[k, j]), range_noise))
+                factors.append(gtsam.RangeFactor2D(X(i), L(j), float(z[k, j]), range_noise))
 
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
-    for factors, vals in zip(epoch_factors, epoch_values):
+    for factors, vals in zip(node_factors, node_values):
         for f in factors:
             graph.add(f)
         values.insert(vals)
@@ -337,7 +345,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         n_iter = int(optimizer.iterations())
     else:
         isam = gtsam.ISAM2(gtsam.ISAM2Params())
-        for factors, vals in zip(epoch_factors, epoch_values):
+        for factors, vals in zip(node_factors, node_values):
             step = gtsam.NonlinearFactorGraph()
             for f in factors:
                 step.add(f)
@@ -345,11 +353,81 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         solution = isam.calculateEstimate()
         n_iter = 0
     seconds = time.perf_counter() - start
-    poses = np.array([[p.x(), p.y(), p.theta()] for p in (solution.atPose2(X(k)) for k in range(K))])
+    nodes = np.array([[p.x(), p.y(), p.theta()] for p in (solution.atPose2(X(i)) for i in range(n))])
+    bias = np.array([solution.atDouble(B(i)) for i in range(n)]) if with_bias else np.zeros(n)
+    poses = _fill_between(nodes, kept, bias, data.odometry, dt) if with_bias else nodes
+    per_epoch = np.searchsorted(kept, np.arange(K), side="right") - 1       # the node at or before each epoch
     nan = np.full(K, np.nan)
     return GraphSolution(times=data.times, poses=poses, n_ranges=int(np.isfinite(z).sum()), iterations=n_iter,
                          initial_error=float(graph.error(values)), final_error=float(graph.error(solution)),
-                         seconds=seconds,
-                         gyro_bias=np.array([solution.atDouble(B(k)) for k in range(K)]) if with_bias else nan,
-                         scale=np.array([solution.atDouble(S(k)) for k in range(K)]) if with_scale else nan,
-                         model=model, solver=solver)
+                         seconds=seconds, gyro_bias=bias[per_epoch] if with_bias else nan,
+                         scale=np.array([solution.atDouble(S(i)) for i in range(n)])[per_epoch] if with_scale
+                         else nan, model=model, solver=solver, n_poses=n)
+
+
+class _Segment:
+    r"""The odometry between two pose variables, pre-integrated at zero gyro bias with its first-order bias
+    correction (as GTSAM's IMU factors pre-integrate), and the covariance of its noise propagated through the
+    filter's own linearization (each step's :math:`\operatorname{diag}(\sigma_d, \sigma_\perp, \sigma_\theta)`
+    along, across and in heading): the same model as one factor per step, with one Python callback instead of
+    one per step. :math:`\Delta p(b) = \Delta p_0 + J b`, :math:`\varphi(b) = \varphi_0 - T b`."""
+
+    def __init__(self, odometry: np.ndarray, dt: np.ndarray, sigma_d: np.ndarray, sigma_theta: np.ndarray,
+                 across: float) -> None:
+        phi = elapsed = 0.0
+        delta = np.zeros(2)
+        jac = np.zeros(2)
+        cov = np.zeros((3, 3))
+        for (d, turn), step, sd, st in zip(odometry.tolist(), dt.tolist(), sigma_d.tolist(), sigma_theta.tolist()):
+            c, s = math.cos(phi), math.sin(phi)
+            F = np.array([[1.0, 0.0, -d * s], [0.0, 1.0, d * c], [0.0, 0.0, 1.0]])
+            G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            cov = F @ cov @ F.T + (G * np.array([sd, across, st]) ** 2) @ G.T
+            delta += d * np.array([c, s])
+            jac += d * np.array([-s, c]) * -elapsed
+            phi += turn
+            elapsed += step
+        self.delta, self.jac, self.phi, self.elapsed = delta, jac, phi, elapsed
+        self.covariance = cov
+        self._bias_column = np.array([[-jac[0]], [-jac[1]], [elapsed]])
+
+    def error(self, this: Any, values: Any, H: list[np.ndarray] | None) -> np.ndarray:
+        keys = this.keys()
+        p0, p1 = values.atPose2(keys[0]), values.atPose2(keys[1])
+        b = values.atDouble(keys[2])
+        t0, t1 = p0.theta(), p1.theta()
+        c, s = math.cos(t0), math.sin(t0)
+        dx, dy = p1.x() - p0.x(), p1.y() - p0.y()
+        along, across = c * dx + s * dy, -s * dx + c * dy
+        e = np.array([along - self.delta[0] - self.jac[0] * b, across - self.delta[1] - self.jac[1] * b,
+                      _wrap(t1 - t0 - self.phi + self.elapsed * b)])
+        if H is not None:
+            cd, sd = math.cos(t1 - t0), math.sin(t1 - t0)        # R(theta_0)^T R(theta_1) = R(theta_1 - theta_0)
+            H[0] = np.array([[-1.0, 0.0, across], [0.0, -1.0, -along], [0.0, 0.0, -1.0]])
+            H[1] = np.array([[cd, -sd, 0.0], [sd, cd, 0.0], [0.0, 0.0, 1.0]])
+            H[2] = self._bias_column
+        return e
+
+
+def _fill_between(nodes: np.ndarray, kept: np.ndarray, bias: np.ndarray, odometry: np.ndarray,
+                  dt: np.ndarray) -> np.ndarray:
+    """The poses of every epoch: the odometry integrated from each pose variable with its gyro bias, and the
+    mismatch at the next variable spread over the segment in proportion to the steps (so that every variable's
+    pose is kept exactly)."""
+    poses = np.empty((int(kept[-1]) + 1, 3))
+    for i in range(len(kept) - 1):
+        a, b = int(kept[i]), int(kept[i + 1])
+        x, y, th = nodes[i]
+        track = [(x, y, th)]
+        for k in range(a + 1, b + 1):
+            d, turn = odometry[k]
+            x, y = x + d * math.cos(th), y + d * math.sin(th)
+            th = th + turn - bias[i] * dt[k]
+            track.append((x, y, th))
+        track_arr = np.array(track)
+        miss = nodes[i + 1] - track_arr[-1]
+        miss[2] = _wrap(miss[2])
+        weight = np.linspace(0.0, 1.0, b - a + 1)[:, None]
+        poses[a:b + 1] = track_arr + weight * miss
+    poses[int(kept[-1])] = nodes[-1]
+    return poses

@@ -205,7 +205,8 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     nav, result, (_, per_range) = runs[chosen]
     _check_plausible(data, nav, result, per_range)
     extras = dict(result.extras, ranges=nav.z)
-    fields = dict(state_names=nav.motion.layout.names, chosen=chosen, evidence=evidence)
+    fields = dict(state_names=nav.motion.layout.names, chosen=chosen, evidence=evidence, models=nav,
+                  candidates={name: run[1] for name, run in runs.items()})
     if not smooth:
         return NavigationResult(result.times, result.x, result.P, result.x_prior, result.P_prior,
                                 result.innovations, result.innovation_cov, extras, **fields)
@@ -274,6 +275,10 @@ class NavigationResult(FilterResult):
         The candidate returned (a key of ``CANDIDATES``).
     evidence : dict
         Every candidate run -> its log predictive likelihood of the log's ranges (navigate's Notes).
+    candidates : dict
+        Every candidate run -> its filter's :class:`~uwtutor.filters.FilterResult`.
+    models : NavigationModels or None
+        The chosen candidate's model pair and inputs (e.g. for :func:`uwtutor.filters.rts_smoother`).
 
     Examples
     --------
@@ -289,6 +294,8 @@ class NavigationResult(FilterResult):
     state_names: tuple[str, ...] = ()
     chosen: str = ""
     evidence: dict[str, float] = field(default_factory=dict)
+    candidates: dict[str, FilterResult] = field(default_factory=dict)
+    models: "NavigationModels | None" = None
 
 
 @dataclass(frozen=True)
