@@ -114,6 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--period", type=float, default=10.0, help="range period [s] (default 10)")
     parser.add_argument("--offsets", type=int, default=None, help="offsets 0, 1, ... (default: every second of "
                                                                     "the period)")
+    parser.add_argument("--offset-step", type=float, default=1.0, help="seconds between offsets (default 1)")
     parser.add_argument("--no-gtsam", action="store_true", help="leave out GTSAM's same-model graph")
     parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
@@ -122,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"refusing to replace {args.out}: pass --overwrite", file=sys.stderr)
         return 2
     gtsam = not args.no_gtsam
-    n_offsets = int(args.period) if args.offsets is None else args.offsets
-    offsets = [float(o) for o in range(n_offsets)]
+    n_offsets = int(round(args.period / args.offset_step)) if args.offsets is None else args.offsets
+    offsets = [float(o * args.offset_step) for o in range(n_offsets)]
     methods = methods_of(gtsam)
     start = time.perf_counter()
     cells = []

@@ -344,12 +344,16 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         solution = optimizer.optimize()
         n_iter = int(optimizer.iterations())
     else:
-        isam = gtsam.ISAM2(gtsam.ISAM2Params())
+        isam_params = gtsam.ISAM2Params()
+        isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
+        isam = gtsam.ISAM2(isam_params)
         for factors, vals in zip(node_factors, node_values):
             step = gtsam.NonlinearFactorGraph()
             for f in factors:
                 step.add(f)
             isam.update(step, vals)
+        for _ in range(iterations if iterations < 10 else 10):   # let the last relinearizations settle
+            isam.update()
         solution = isam.calculateEstimate()
         n_iter = 0
     seconds = time.perf_counter() - start
