@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import types
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -116,6 +117,20 @@ class RangeDataset:
         A label for plots and summaries.
     notes : tuple of str, default ()
         Provenance: what a loader found and changed in the files (shown by :meth:`summary`).
+    heading_unit : {"rad", "deg"}, default "rad"
+        The unit of the heading changes (``odometry[:, 1]``), of the truth's and the start's headings, and of
+        the heading entries of ``start_cov``. Degrees are converted to radians on construction.
+    heading_convention : {"ccw-from-x", "cw-from-north"}, default "ccw-from-x"
+        How those headings are measured: counter-clockwise from +x (the library's), or clockwise from north
+        (a compass's, with x east and y north): :math:`\theta = \pi/2 - \psi`, a turn to the right positive.
+        Converted on construction; the dataset then holds the library's convention (and says so in ``notes``).
+
+    Warns
+    -----
+    UserWarning
+        When the headings look like another unit or convention than the one given: a heading change of more than
+        :math:`\pi` in one step or a truth heading beyond :math:`\pm 4\pi` (degrees read as radians), or
+        odometry that turns against the truth (a clockwise convention read as counter-clockwise).
 
     Notes
     -----
@@ -165,6 +180,8 @@ class RangeDataset:
     start_cov: np.ndarray | None = None
     name: str = "dataset"
     notes: tuple[str, ...] = field(default=())
+    heading_unit: str = "rad"
+    heading_convention: str = "ccw-from-x"
 
     def __post_init__(self) -> None:
         t = as_times("times", self.times)
@@ -213,6 +230,11 @@ class RangeDataset:
         if isinstance(notes, str) or not all(isinstance(n, str) for n in notes):
             raise TypeError("notes must be a tuple of strings, e.g. ('ranges sorted by time',)")
 
+        odo, truth, start, cov, notes = _to_library_headings(self.heading_unit, self.heading_convention, odo, truth,
+                                                             start, cov, tuple(notes))
+        _check_headings(odo, truth, t)
+        object.__setattr__(self, "heading_unit", "rad")
+        object.__setattr__(self, "heading_convention", "ccw-from-x")
         for key, value in (("times", t), ("odometry", odo), ("ranges", rng), ("truth", truth), ("start", start),
                            ("start_cov", cov)):
             object.__setattr__(self, key, None if value is None else readonly(value))
@@ -617,6 +639,52 @@ class RangeDataset:
                          f"{np.degrees(self.start[2]):.4g} deg")
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
+
+
+def _to_library_headings(unit: Any, convention: Any, odo: np.ndarray, truth: np.ndarray | None,
+                         start: np.ndarray | None, cov: np.ndarray | None, notes: tuple[str, ...]) -> tuple[Any, ...]:
+    """The headings in radians, counter-clockwise from +x (RangeDataset's heading_unit and heading_convention)."""
+    unit = as_choice("heading_unit", unit, ("rad", "deg"))
+    convention = as_choice("heading_convention", convention, ("ccw-from-x", "cw-from-north"))
+    if unit == "rad" and convention == "ccw-from-x":
+        return odo, truth, start, cov, notes
+    factor = np.pi / 180.0 if unit == "deg" else 1.0
+    sign = -1.0 if convention == "cw-from-north" else 1.0
+    turn = np.array([1.0, 1.0, sign * factor])            # d(library heading) / d(given heading), per component
+    odo = odo * np.array([1.0, sign * factor])
+    if truth is not None:
+        truth = truth.copy()
+        truth[:, 2] = truth[:, 2] * sign * factor + (np.pi / 2 if sign < 0 else 0.0)
+    if start is not None:
+        start = start.copy()
+        start[2] = start[2] * sign * factor + (np.pi / 2 if sign < 0 else 0.0)
+    if cov is not None:
+        cov = cov * np.outer(turn, turn)
+    what = ("degrees" if unit == "deg" else "radians") + (", clockwise from north" if sign < 0 else "")
+    return odo, truth, start, cov, notes + (f"headings converted from {what} to radians counter-clockwise from +x",)
+
+
+def _check_headings(odo: np.ndarray, truth: np.ndarray | None, times: np.ndarray) -> None:
+    """Warn when the headings look like another unit or convention (RangeDataset's Warns section)."""
+    hint = ("pass heading_unit='deg' if they are in degrees, heading_convention='cw-from-north' if they are "
+            "measured clockwise from north")
+    big = np.abs(odo[1:, 1]) > np.pi
+    if big.any():
+        warnings.warn(f"odometry[:, 1] holds heading changes of up to {np.abs(odo[1:, 1]).max():.4g} rad in one "
+                      f"step ({int(big.sum())} steps beyond pi): not radians? {hint}", UserWarning, stacklevel=4)
+    if truth is None or len(times) < 3:
+        return
+    true_turn = np.diff(np.unwrap(truth[:, 2]))
+    if np.abs(truth[:, 2]).max() > 4.0 * np.pi:
+        warnings.warn(f"truth[:, 2] reaches {np.abs(truth[:, 2]).max():.4g} rad: not radians? {hint}", UserWarning,
+                      stacklevel=4)
+    moving = np.abs(odo[1:, 1]) + np.abs(true_turn) > 0
+    if moving.sum() >= 10 and np.std(odo[1:, 1][moving]) > 0 and np.std(true_turn[moving]) > 0:
+        corr = float(np.corrcoef(odo[1:, 1][moving], true_turn[moving])[0, 1])
+        if corr < -0.5:
+            warnings.warn(f"the odometry turns against the truth (correlation {corr:.2f} of their heading "
+                          f"changes): the two headings are measured in opposite senses; {hint}", UserWarning,
+                          stacklevel=4)
 
 
 def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeDataset:
