@@ -85,8 +85,9 @@ def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, 
     table = {m: np.array([r.get(m, np.nan) for r in cell_runs]) for m in methods}
     candidates = np.array([[r[f"navigate: {n}"] for n in CANDIDATES] for r in cell_runs])
     best = candidates.min(axis=1)
-    out = {m: {"median": float(np.median(v)), "min": float(np.min(v)), "max": float(np.max(v))}
-           for m, v in table.items()}
+    out = {m: {"median": float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan"),
+               "min": float(np.nanmin(v)) if np.isfinite(v).any() else float("nan"),
+               "max": float(np.nanmax(v)) if np.isfinite(v).any() else float("nan")} for m, v in table.items()}
     out["n_runs"] = len(cell_runs)
     out["default_worse_than_odometry"] = int(np.sum(table[DEFAULT] > table[ODOMETRY]))
     out["default_over_best"] = {"median": float(np.median(table[DEFAULT] - best)),
@@ -108,6 +109,26 @@ def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, 
     return out
 
 
+def plan(sets: list[int], beacon_args: list[str] | None, period: float,
+         offsets: list[float]) -> Iterator[tuple[int, list[int], dict[str, Any]]]:
+    """Every run of the study, the cheap and the first offset of every cell first (so that a study cut short
+    still has every cell once)."""
+    logs = {n: plaza(n) for n in sets}
+    choices = {}
+    for n, data in logs.items():
+        choices[n] = [[b] for b in data.beacon_ids] + [list(data.beacon_ids)]
+        if beacon_args is not None:
+            choices[n] = [list(data.beacon_ids) if b == "all" else [int(b)] for b in beacon_args]
+    schedules = {}
+    for n in sets:
+        for beacons in choices[n]:
+            for schedule in runs(logs[n], beacons, period, offsets):
+                schedules.setdefault((schedule["offset"], schedule["rate"] != "full"), []).append((n, beacons,
+                                                                                                 schedule))
+    for key in sorted(schedules, key=lambda k: (k[0], not k[1])):
+        yield from schedules[key]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sets", type=int, nargs="+", default=[1, 2], help="Plaza logs (default: 1 2)")
@@ -119,43 +140,47 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-gtsam-full-all", action="store_true",
                         help="leave out GTSAM at the logged rate with all four beacons (its slowest graphs)")
     parser.add_argument("--no-gtsam", action="store_true", help="leave out GTSAM's same-model graph")
+    parser.add_argument("--runs", type=Path, default=None, help="append every run as a JSON line here")
+    parser.add_argument("--summarize", type=Path, nargs="+", default=None,
+                        help="only print the table of runs files written before")
     parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     args = parser.parse_args(argv)
     if args.out is not None and args.out.exists() and not args.overwrite:
         print(f"refusing to replace {args.out}: pass --overwrite", file=sys.stderr)
         return 2
-    gtsam = not args.no_gtsam
-    n_offsets = int(round(args.period / args.offset_step)) if args.offsets is None else args.offsets
-    offsets = [float(o * args.offset_step) for o in range(n_offsets)]
-    methods = methods_of(gtsam)
-    start = time.perf_counter()
-    cells = []
-    for number in args.sets:
-        data = plaza(number)
-        choices = [[b] for b in data.beacon_ids] + [list(data.beacon_ids)]
-        if args.beacons is not None:
-            choices = [list(data.beacon_ids) if b == "all" else [int(b)] for b in args.beacons]
-        for beacons in choices:
-            by_cell: dict[tuple[str, str], list[dict[str, Any]]] = {}
-            for schedule in runs(data, beacons, args.period, offsets):
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    skip = args.no_gtsam_full_all and schedule["rate"] == "full" and len(beacons) > 1
-                    result = run_methods(data, beacons, schedule, gtsam and not skip)
-                result.update(schedule)
-                by_cell.setdefault((schedule["rate"], schedule["thinning"]), []).append(result)
-                print(f"[{time.perf_counter() - start:6.0f} s] Plaza {number} {beacons} {schedule['rate']} "
-                      f"{schedule['thinning']} offset {schedule['offset']:g}: default {result[DEFAULT]:.2f} m "
-                      f"({result['chosen']}), odometry {result[ODOMETRY]:.2f} m", file=sys.stderr, flush=True)
-            for (rate, thinning), cell_runs in by_cell.items():
-                cells.append({"set": f"Plaza {number}", "beacons": "all 4" if len(beacons) > 1 else str(beacons[0]),
-                              "rate": rate, "thinning": thinning, "summary": summarize(cell_runs, methods),
-                              "runs": [{k: v for k, v in r.items()} for r in cell_runs]})
+    if args.summarize is not None:
+        done = [json.loads(line) for path in args.summarize for line in path.read_text().splitlines() if line]
+    else:
+        done = []
+        gtsam = not args.no_gtsam
+        n_offsets = int(round(args.period / args.offset_step)) if args.offsets is None else args.offsets
+        offsets = [float(o * args.offset_step) for o in range(n_offsets)]
+        start = time.perf_counter()
+        for number, beacons, schedule in plan(args.sets, args.beacons, args.period, offsets):
+            data = plaza(number)
+            skip = args.no_gtsam_full_all and schedule["rate"] == "full" and len(beacons) > 1
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                result = run_methods(data, beacons, schedule, gtsam and not skip)
+            result.update(schedule, set=f"Plaza {number}", beacons="all 4" if len(beacons) > 1 else str(beacons[0]))
+            done.append(result)
+            if args.runs is not None:
+                with args.runs.open("a", encoding="utf-8") as f:
+                    f.write(json.dumps(result) + "\n")
+            print(f"[{time.perf_counter() - start:6.0f} s] Plaza {number} {beacons} {schedule['rate']} "
+                  f"{schedule['thinning']} offset {schedule['offset']:g}: default {result[DEFAULT]:.2f} m "
+                  f"({result['chosen']}), odometry {result[ODOMETRY]:.2f} m", file=sys.stderr, flush=True)
+    methods = [m for m in methods_of(True) if any(m in r for r in done)]
+    by_cell: dict[tuple[str, str, str, str], list[dict[str, Any]]] = {}
+    for r in done:
+        by_cell.setdefault((r["set"], r["beacons"], r["rate"], r["thinning"]), []).append(r)
+    order = sorted(by_cell, key=lambda c: (c[0], c[1] == "all 4", c[1], c[2] != "full", c[3]))
+    cells = [{"set": c[0], "beacons": c[1], "rate": c[2], "thinning": c[3],
+              "summary": summarize(by_cell[c], methods), "runs": by_cell[c]} for c in order]
     print_table(cells, methods)
     if args.out is not None:
-        args.out.write_text(json.dumps({"period": args.period, "offsets": offsets, "methods": methods,
-                                        "cells": cells}, indent=1) + "\n", encoding="utf-8")
+        args.out.write_text(json.dumps({"methods": methods, "cells": cells}, indent=1) + "\n", encoding="utf-8")
     return 0
 
 

@@ -129,8 +129,7 @@ class RangeDataset:
     -----
     UserWarning
         When the headings look like another unit or convention than the one given: a heading change of more than
-        :math:`\pi` in one step or a truth heading beyond :math:`\pm 4\pi` (degrees read as radians), or
-        odometry that turns against the truth (a clockwise convention read as counter-clockwise).
+        :math:`\pi` in one step (degrees read as radians), or odometry that turns against the truth (a clockwise convention read as counter-clockwise).
 
     Notes
     -----
@@ -675,9 +674,6 @@ def _check_headings(odo: np.ndarray, truth: np.ndarray | None, times: np.ndarray
     if truth is None or len(times) < 3:
         return
     true_turn = np.diff(np.unwrap(truth[:, 2]))
-    if np.abs(truth[:, 2]).max() > 4.0 * np.pi:
-        warnings.warn(f"truth[:, 2] reaches {np.abs(truth[:, 2]).max():.4g} rad: not radians? {hint}", UserWarning,
-                      stacklevel=4)
     moving = np.abs(odo[1:, 1]) + np.abs(true_turn) > 0
     if moving.sum() >= 10 and np.std(odo[1:, 1][moving]) > 0 and np.std(true_turn[moving]) > 0:
         corr = float(np.corrcoef(odo[1:, 1][moving], true_turn[moving])[0, 1])

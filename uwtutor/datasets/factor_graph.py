@@ -279,6 +279,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     range_noise = (gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), unit)
                    if robust == "huber" else unit)
     n = len(kept)
+    steps_of: list[Any] = [None] * n           # what moves node i - 1 to node i (iSAM2's initial guesses)
     node_factors: list[list[Any]] = [[] for _ in range(n)]
     node_values = [gtsam.Values() for _ in range(n)]
     first = node_factors[0]
@@ -312,12 +313,14 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
             if with_bias:
                 steps = slice(before + 1, k + 1)
                 segment = _Segment(data.odometry[steps], dt[steps], sigma_d[steps], sigma_theta[steps], across)
+                steps_of[i] = segment
                 factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(segment.covariance),
                                                   [X(i - 1), X(i), B(i - 1)], segment.error))
                 factors.append(gtsam.BetweenFactorDouble(B(i - 1), B(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
                     1, walk_b * np.sqrt(span) + 1e-12)))
             else:
                 d, turn = (float(v) for v in data.odometry[k])
+                steps_of[i] = (d, turn)
                 odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([sigma_d[k], across, sigma_theta[k]]))
                 factors.append(gtsam.BetweenFactorPose2(X(i - 1), X(i), gtsam.Pose2(d, 0.0, turn), odo_noise))
             if with_scale:
@@ -347,10 +350,27 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         isam_params = gtsam.ISAM2Params()
         isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
         isam = gtsam.ISAM2(isam_params)
-        for factors, vals in zip(node_factors, node_values):
+        for i, (factors, vals) in enumerate(zip(node_factors, node_values)):
             step = gtsam.NonlinearFactorGraph()
             for f in factors:
                 step.add(f)
+            if i > 0:
+                # each new node starts where the current estimate and its odometry put it (the dead reckoning
+                # of the whole log can be far off by then, and iSAM2's Gauss-Newton steps are not damped)
+                vals = gtsam.Values()
+                before = isam.calculateEstimatePose2(X(i - 1))
+                bias_now = isam.calculateEstimateDouble(B(i - 1)) if with_bias else 0.0
+                if with_bias:
+                    seg = steps_of[i]
+                    dx, dy = seg.delta + seg.jac * bias_now
+                    c0, s0 = math.cos(before.theta()), math.sin(before.theta())
+                    vals.insert(X(i), gtsam.Pose2(before.x() + c0 * dx - s0 * dy, before.y() + s0 * dx + c0 * dy,
+                                                  before.theta() + seg.phi - seg.elapsed * bias_now))
+                    vals.insert(B(i), bias_now)
+                else:
+                    vals.insert(X(i), before.compose(gtsam.Pose2(steps_of[i][0], 0.0, steps_of[i][1])))
+                if with_scale:
+                    vals.insert(S(i), isam.calculateEstimateDouble(S(i - 1)))
             isam.update(step, vals)
         for _ in range(iterations if iterations < 10 else 10):   # let the last relinearizations settle
             isam.update()
