@@ -241,3 +241,16 @@ def test_gtsam_same_model_finds_the_scale_and_bias_and_isam2_agrees():
     assert np.abs(incremental.poses[:, :2] - batch.poses[:, :2]).max() < 0.05
     huber = gtsam_map(data, range_sigma=0.3, robust="huber")     # Gaussian ranges: a Huber kernel costs little
     assert _rmse(huber.poses[:, :2], data.truth) < 1.25 * _rmse(batch.poses[:, :2], data.truth)
+
+
+def test_the_readme_real_data_example_runs(capsys):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Real data"):]
+    code = section[section.index("```python") + len("```python"):section.index("```\n", section.index("```python") + 9)]
+    assert len(code.strip().splitlines()) <= 12
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    assert namespace["result"].chosen == "+ scale"
+    assert "+ scale" in capsys.readouterr().out
