@@ -11,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive, as_times,
-                         readonly)
+from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive,
+                         as_times, readonly)
 from ..motion import integrate_odometry
 
 __all__ = ["RangeDataset", "DEFAULT_START_SIGMAS", "square_log"]
@@ -129,7 +129,8 @@ class RangeDataset:
     -----
     UserWarning
         When the headings look like another unit or convention than the one given: a heading change of more than
-        :math:`\pi` in one step (degrees read as radians), or odometry that turns against the truth (a clockwise convention read as counter-clockwise).
+        :math:`\pi` in one step (degrees read as radians), or odometry that turns against the truth (a clockwise
+        convention read as counter-clockwise).
 
     Notes
     -----

@@ -30,8 +30,8 @@ GTSAM's Python wheel has compiled factors for the priors, the scalar random walk
 bias (``BetweenFactorPose2``) and a range without a scale (``RangeFactor2D``), and none for a relative pose that
 depends on a third, scalar variable (the bias) or a range multiplied by one (the scale): those two are
 ``CustomFactor``\ s, Python callbacks at about 0.1 ms a call -- most of the solve time, and the reason the biased
-odometry is pre-integrated between pose variables rather than written step by step. With ``gyro_bias=False`` or ``scale=False``
-the compiled factors take their place.
+odometry is pre-integrated between pose variables rather than written step by step. With ``gyro_bias=False`` or
+``scale=False`` the compiled factors take their place.
 
 ``model="pose"`` gives the graph of poses alone (no bias, no scale): a heading that drifts can then only be
 absorbed by a looser heading noise of the odometry factors, and a scale only removed from the ranges before they

@@ -264,7 +264,8 @@ def _grid_rmse(states: str, part: str = "filter", key: str = "rmse") -> float:
 
 def check_scale_gain(answer: Any) -> Feedback:
     r"""Check the gain of the scale state, :math:`\mathrm{RMSE}` of ``navigate(data, gyro_bias=True, scale=False)``
-    over that of ``navigate(data, gyro_bias=True, scale=True)`` on Plaza 2 with all four beacons at the logged rate (exercise 11.3).
+    over that of ``navigate(data, gyro_bias=True, scale=True)`` on Plaza 2 with all four beacons at the logged rate
+    (exercise 11.3).
 
     The reference is the committed study's grid (:func:`uwtutor.datasets.study.load_real_data_study`), the same
     runs.
@@ -298,9 +299,9 @@ def check_scale_gain(answer: Any) -> Feedback:
     }
     return check_number(answer, without / with_both, rtol=2e-3, name="the gain of the scale state",
                         common_mistakes=mistakes,
-                        hint="rmse(navigate(data, gyro_bias=True, scale=False).x) / rmse(navigate(data, gyro_bias=True, "
-                             "scale=True).x), both with "
-                             "all four beacons and every range.",
+                        hint="rmse(navigate(data, gyro_bias=True, scale=False).x) / "
+                             "rmse(navigate(data, gyro_bias=True, scale=True).x), both with all four beacons and "
+                             "every range.",
                         explanation="Without the scale state the 7 % scale is explained away by the other states: "
                                     "the gyro bias learns a false drift.")
 
