@@ -1,83 +1,212 @@
-"""The library's filters on the real Plaza logs: odometry alone, the position-only EKF, and ``datasets.navigate``.
+"""navigate on the real Plaza logs, judged over range schedules: odometry alone, navigate's default (the states
+chosen from the log) and each of its candidates, the RTS smoother and GTSAM's MAP on the same model.
 
-For Plaza 1 and 2, each beacon alone and all four, at the logged rate and at an acoustic rate (one range per
-beacon every 10 s): RMSE, median and final position error against the ground truth, of
+For Plaza 1 and 2, each beacon alone and all four, at the logged rate and at one range every ``--period`` seconds
+(default 10 s): every offset of the thinning (0, 1, ..., period - 1 s after the first epoch), each a schedule of
+the same log, and both kinds of thinning, "per beacon" (each beacon thinned on its own) and "in total" (one range
+per period to any beacon; the same as per beacon with one beacon, so run for all four only). A source of runs is
+log x beacons x schedule (:func:`runs`); each run gives every method's RMSE (:func:`run_methods`); a cell's runs are
+paired (every method on the same schedules), and the table gives the median and the range over the offsets, and
+the paired verdicts of the default against odometry alone and against the best candidate (uwtutor.statistics).
 
-* odometry alone (dead reckoning from the start pose);
-* the position-only EKF the book used on simulations: state [x, y], the odometry turned into world-frame
-  displacements by dead reckoning, ranges taken at face value (``DeadReckoning`` + ``BeaconRanges`` on the generic
-  engine; with one beacon this is ``range_only_ekf``'s model);
-* ``navigate``: heading, gyro bias and range scale in the state, gated (filtered and RTS-smoothed);
-* ``navigate`` without the gyro-bias state (Plaza 1's heading does not drift);
+    .venv/bin/python studies/plaza_navigation.py                  # the whole study (long; run it with nice)
+    .venv/bin/python studies/plaza_navigation.py --sets 2 --beacons 5 --offsets 3 --no-gtsam   # a small case
+    .venv/bin/python studies/plaza_navigation.py --out uwtutor/data/real_data_schedules.json
 
-and the time of one ``navigate`` call on Plaza 2 with four beacons. Deterministic (no randomness).
-
-    .venv/bin/python studies/plaza_navigation.py            # about a minute
+Deterministic (no randomness): the same command prints the same table.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import sys
 import time
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from uwtutor.datasets import navigate, plaza
-from uwtutor.filters import extended_kalman_filter
-from uwtutor.models import BeaconRanges, DeadReckoning
+from uwtutor.datasets import CANDIDATES, RangeDataset, navigate, plaza
+from uwtutor.filters import rts_smoother
 
-ACOUSTIC_PERIOD = 10.0  # s: one range per beacon every 10 s, an acoustic modem's rate
-
-
-def errors(positions: np.ndarray, truth: np.ndarray) -> tuple[float, float, float]:
-    e = np.linalg.norm(positions[:, :2] - truth[:, :2], axis=1)
-    return float(np.sqrt(np.mean(e**2))), float(np.median(e)), float(e[-1])
+ODOMETRY = "odometry alone"
+DEFAULT = "navigate"
+RTS = "navigate, RTS"
+GRAPH = "GTSAM, same model"
 
 
-def position_only_ekf(data, ids, min_period=None, range_sigma=0.6, distance_sigma=(0.01, 0.02)):
-    """[x, y] moved by dead-reckoned world displacements, ranges as logged (no scale, no heading)."""
-    dr = data.dead_reckoning()
-    u = np.diff(dr[:, :2], axis=0, prepend=dr[:1, :2])
-    sigma = distance_sigma[0] + distance_sigma[1] * np.abs(data.odometry[:, 0])
-    Q = sigma[:, None, None] ** 2 * np.eye(2)
-    z = data.ranges_on_epochs(ids, min_period=min_period)
-    P0 = data.start_cov[:2, :2]
-    return extended_kalman_filter(DeadReckoning(Q), BeaconRanges(data.beacon_positions(ids), R=range_sigma**2),
-                                  data.start[:2], P0, u, z, times=data.times).x
+def rmse(positions: np.ndarray, truth: np.ndarray) -> float:
+    e = np.hypot(*(np.asarray(positions)[:, :2] - truth[:, :2]).T)
+    return float(np.sqrt(np.mean(e**2)))
 
 
-def main() -> None:
-    rows = []
-    for number in (1, 2):
-        data = plaza(number)
-        ids = list(data.beacons)
-        alone = errors(data.dead_reckoning(), data.truth)
-        for rate, period in (("full", None), ("10 s", ACOUSTIC_PERIOD)):
-            for chosen in [[b] for b in ids] + [ids]:
-                label = "all 4" if len(chosen) > 1 else f"beacon {chosen[0]}"
-                row = {"set": f"Plaza {number}", "beacons": label, "rate": rate, "odometry": alone,
-                       "position EKF": errors(position_only_ekf(data, chosen, period), data.truth)}
-                filtered = navigate(data, chosen, min_period=period)
-                smoothed = navigate(data, chosen, min_period=period, smooth=True)
-                no_gyro = navigate(data, chosen, min_period=period, gyro_bias=False)
-                row["navigate"] = errors(filtered.x, data.truth)
-                row["navigate RTS"] = errors(smoothed.x, data.truth)
-                row["no gyro state"] = errors(no_gyro.x, data.truth)
-                row["scale"] = float(filtered.x[-1, 4])
-                rows.append(row)
-    columns = ["odometry", "position EKF", "navigate", "navigate RTS", "no gyro state"]
-    print("RMSE / median / final position error [m]")
-    print(f"{'set':8} {'beacons':9} {'rate':5} " + " ".join(f"{c:>19}" for c in columns) + f" {'scale':>7}")
-    for row in rows:
-        cells = " ".join(f"{row[c][0]:6.2f}/{row[c][1]:5.2f}/{row[c][2]:6.2f}" for c in columns)
-        print(f"{row['set']:8} {row['beacons']:9} {row['rate']:5} {cells} {row['scale']:7.4f}")
-    data = plaza(2)
-    times = []
-    for _ in range(3):
+def runs(data: RangeDataset, beacons: list[int], period: float, offsets: list[float]) -> Iterator[dict[str, Any]]:
+    """The source of runs of one (log, beacons): the logged rate, then every offset of each kind of thinning."""
+    yield {"rate": "full", "thinning": "", "offset": 0.0, "min_period": None}
+    kinds = ["per beacon"] + (["in total"] if len(beacons) > 1 else [])
+    for kind in kinds:
+        for offset in offsets:
+            yield {"rate": f"{period:g} s", "thinning": kind, "offset": float(offset), "min_period": period}
+
+
+def run_methods(data: RangeDataset, beacons: list[int], schedule: dict[str, Any], gtsam: bool) -> dict[str, Any]:
+    """Every method's RMSE on one run (log x beacons x schedule), the states chosen and their evidence."""
+    options = dict(min_period=schedule["min_period"], offset=schedule["offset"],
+                   thinning=schedule["thinning"] or "per beacon")
+    truth = data.truth
+    result = navigate(data, beacons, **options)
+    nav_runs = result.candidates
+    out: dict[str, Any] = {ODOMETRY: rmse(data.dead_reckoning(), truth), DEFAULT: rmse(result.x, truth)}
+    for name, run in nav_runs.items():
+        out[f"navigate: {name}"] = rmse(run.x, truth)
+    smoothed = rts_smoother(result, result.models.motion, result.models.u)
+    out[RTS] = rmse(smoothed.x, truth)
+    if gtsam:
+        from uwtutor.datasets.factor_graph import gtsam_map
+
+        with_bias, with_scale = CANDIDATES[result.chosen]
+        out[GRAPH] = rmse(gtsam_map(data, beacons, gyro_bias=with_bias, scale=with_scale, **options).poses, truth)
+    out["chosen"] = result.chosen
+    out["evidence"] = result.evidence
+    out["n_ranges"] = int(np.isfinite(result.extras["ranges"]).sum())
+    return out
+
+
+def methods_of(gtsam: bool) -> list[str]:
+    return [ODOMETRY, DEFAULT] + [f"navigate: {n}" for n in CANDIDATES] + [RTS] + ([GRAPH] if gtsam else [])
+
+
+def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, Any]:
+    """Median and range over a cell's runs for every method; how often the default is worse than odometry alone;
+    its excess over the best candidate of each run; the paired verdicts (when uwtutor.statistics is there)."""
+    table = {m: np.array([r.get(m, np.nan) for r in cell_runs]) for m in methods}
+    candidates = np.array([[r[f"navigate: {n}"] for n in CANDIDATES] for r in cell_runs])
+    best = candidates.min(axis=1)
+    out = {m: {"median": float(np.nanmedian(v)) if np.isfinite(v).any() else float("nan"),
+               "min": float(np.nanmin(v)) if np.isfinite(v).any() else float("nan"),
+               "max": float(np.nanmax(v)) if np.isfinite(v).any() else float("nan")} for m, v in table.items()}
+    out["n_runs"] = len(cell_runs)
+    out["default_worse_than_odometry"] = int(np.sum(table[DEFAULT] > table[ODOMETRY]))
+    out["default_over_best"] = {"median": float(np.median(table[DEFAULT] - best)),
+                                "max": float(np.max(table[DEFAULT] - best))}
+    out["chosen"] = {n: sum(r["chosen"] == n for r in cell_runs) for n in CANDIDATES}
+    try:
+        from uwtutor import statistics
+    except ImportError:         # the statistics module comes with the study runner
+        return out
+    if len(cell_runs) >= 6:
+        versus = {"odometry alone": table[ODOMETRY], "best candidate": best}
+        if np.isfinite(table[GRAPH]).all() if GRAPH in table else False:
+            versus[GRAPH] = table[GRAPH]
+        for name, other in versus.items():
+            paired = statistics.paired_comparison(table[DEFAULT], other, names=(DEFAULT, name), threshold=1e9)
+            interval = paired.interval("median")
+            out[f"vs {name}"] = {"verdict": paired.verdict("median"), "estimate": interval.estimate,
+                                 "lower": interval.lower, "upper": interval.upper}
+    return out
+
+
+def plan(sets: list[int], beacon_args: list[str] | None, period: float,
+         offsets: list[float]) -> Iterator[tuple[int, list[int], dict[str, Any]]]:
+    """Every run of the study, the cheap and the first offset of every cell first (so that a study cut short
+    still has every cell once)."""
+    logs = {n: plaza(n) for n in sets}
+    choices = {}
+    for n, data in logs.items():
+        choices[n] = [[b] for b in data.beacon_ids] + [list(data.beacon_ids)]
+        if beacon_args is not None:
+            choices[n] = [list(data.beacon_ids) if b == "all" else [int(b)] for b in beacon_args]
+    schedules = {}
+    for n in sets:
+        for beacons in choices[n]:
+            for schedule in runs(logs[n], beacons, period, offsets):
+                schedules.setdefault((schedule["offset"], schedule["rate"] != "full"), []).append((n, beacons,
+                                                                                                 schedule))
+    for key in sorted(schedules, key=lambda k: (k[0], not k[1])):
+        yield from schedules[key]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sets", type=int, nargs="+", default=[1, 2], help="Plaza logs (default: 1 2)")
+    parser.add_argument("--beacons", nargs="+", default=None, help="beacon ids and/or 'all' (default: each, all)")
+    parser.add_argument("--period", type=float, default=10.0, help="range period [s] (default 10)")
+    parser.add_argument("--offsets", type=int, default=None, help="offsets 0, 1, ... (default: every second of "
+                                                                    "the period)")
+    parser.add_argument("--offset-step", type=float, default=1.0, help="seconds between offsets (default 1)")
+    parser.add_argument("--no-gtsam-full-all", action="store_true",
+                        help="leave out GTSAM at the logged rate with all four beacons (its slowest graphs)")
+    parser.add_argument("--no-gtsam", action="store_true", help="leave out GTSAM's same-model graph")
+    parser.add_argument("--runs", type=Path, default=None, help="append every run as a JSON line here")
+    parser.add_argument("--summarize", type=Path, nargs="+", default=None,
+                        help="only print the table of runs files written before")
+    parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    args = parser.parse_args(argv)
+    if args.out is not None and args.out.exists() and not args.overwrite:
+        print(f"refusing to replace {args.out}: pass --overwrite", file=sys.stderr)
+        return 2
+    if args.summarize is not None:
+        done = [json.loads(line) for path in args.summarize for line in path.read_text().splitlines() if line]
+    else:
+        done = []
+        gtsam = not args.no_gtsam
+        n_offsets = int(round(args.period / args.offset_step)) if args.offsets is None else args.offsets
+        offsets = [float(o * args.offset_step) for o in range(n_offsets)]
         start = time.perf_counter()
-        navigate(data)
-        times.append(time.perf_counter() - start)
-    print(f"navigate on Plaza 2 ({data.times.size} epochs, 4 beacons): {min(times):.2f} s (best of 3)")
+        for number, beacons, schedule in plan(args.sets, args.beacons, args.period, offsets):
+            data = plaza(number)
+            skip = args.no_gtsam_full_all and schedule["rate"] == "full" and len(beacons) > 1
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                result = run_methods(data, beacons, schedule, gtsam and not skip)
+            result.update(schedule, set=f"Plaza {number}", beacons="all 4" if len(beacons) > 1 else str(beacons[0]))
+            done.append(result)
+            if args.runs is not None:
+                with args.runs.open("a", encoding="utf-8") as f:
+                    f.write(json.dumps(result) + "\n")
+            print(f"[{time.perf_counter() - start:6.0f} s] Plaza {number} {beacons} {schedule['rate']} "
+                  f"{schedule['thinning']} offset {schedule['offset']:g}: default {result[DEFAULT]:.2f} m "
+                  f"({result['chosen']}), odometry {result[ODOMETRY]:.2f} m", file=sys.stderr, flush=True)
+    methods = [m for m in methods_of(True) if any(m in r for r in done)]
+    by_cell: dict[tuple[str, str, str, str], list[dict[str, Any]]] = {}
+    for r in done:
+        by_cell.setdefault((r["set"], r["beacons"], r["rate"], r["thinning"]), []).append(r)
+    order = sorted(by_cell, key=lambda c: (c[0], c[1] == "all 4", c[1], c[2] != "full", c[3]))
+    cells = [{"set": c[0], "beacons": c[1], "rate": c[2], "thinning": c[3],
+              "summary": summarize(by_cell[c], methods), "runs": by_cell[c]} for c in order]
+    print_table(cells, methods)
+    if args.out is not None:
+        args.out.write_text(json.dumps({"methods": methods, "cells": cells}, indent=1) + "\n", encoding="utf-8")
+    return 0
+
+
+def print_table(cells: list[dict[str, Any]], methods: list[str]) -> None:
+    short = {ODOMETRY: "odometry", DEFAULT: "default", RTS: "RTS", GRAPH: "GTSAM",
+             **{f"navigate: {n}": n.replace("+ scale and gyro bias", "+ both") for n in CANDIDATES}}
+    print("RMSE [m] over the schedules of each cell: median [min-max] (one value at the logged rate)")
+    print(f"{'set':8} {'beacons':7} {'rate':5} {'thinning':10} {'n':>3} " + " ".join(f"{short[m]:>19}" for m in methods)
+          + "  worse/odo  chosen")
+    for cell in cells:
+        s = cell["summary"]
+        parts = []
+        for m in methods:
+            v = s[m]
+            parts.append(f"{v['median']:6.2f}" + (f" [{v['min']:5.2f}-{v['max']:5.2f}]" if s["n_runs"] > 1
+                                                  else " " * 14))
+        chosen = ", ".join(f"{n} x{c}" for n, c in s["chosen"].items() if c)
+        print(f"{cell['set']:8} {cell['beacons']:7} {cell['rate']:5} {cell['thinning'] or '-':10} {s['n_runs']:3d} "
+              + " ".join(f"{p:>19}" for p in parts) + f"  {s['default_worse_than_odometry']:3d}      {chosen}")
+    for cell in cells:
+        s = cell["summary"]
+        verdicts = [f"{k}: {v['verdict']} ({v['estimate']:+.2f} m, [{v['lower']:+.2f}, {v['upper']:+.2f}])"
+                    for k, v in s.items() if k.startswith("vs ")]
+        if verdicts:
+            print(f"{cell['set']} {cell['beacons']} {cell['rate']} {cell['thinning']}: default " + "; ".join(verdicts))
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

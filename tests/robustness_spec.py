@@ -467,6 +467,7 @@ EXEMPT: dict[str, str] = {
     "uwtutor.montecarlo:ComparisonTable": "the table container compare builds (and from_csv reads back)",
     "uwtutor.datasets.factor_graph:GraphSolution": "a result container gtsam_map builds",
     "uwtutor.datasets.navigation:NavigationModels": "a container navigation_models builds",
+    "uwtutor.datasets.navigation:NavigationResult": "a result container navigate builds",
     "uwtutor.widgets.ch11:RealDataView": "a view container real_data_view builds",
     "uwtutor.exercises.ch11:scale_variants": "no arguments: the data of exercise 11.1 (covered by its tests)",
     "uwtutor.exercises.ch11:drift_variants": "no arguments: the data of exercise 11.2 (covered by its tests)",

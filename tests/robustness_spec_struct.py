@@ -229,6 +229,14 @@ class _NoRangesOk(Real):
 
 
 _POS = Real((), "pos")
+
+
+@dataclass(frozen=True)
+class _OptionalFlag(Flag):
+    """A bool or None (navigate's gyro_bias and scale: None lets the log choose)."""
+
+    def hostile(self, valid: Any) -> list[Any]:
+        return [h for h in super().hostile(valid) if h.value is not None]
 _NONNEG = Real((), "nonneg")
 _COUNT = Int(minimum=1)
 
@@ -527,7 +535,8 @@ SPECS_STRUCT: dict[str, Spec] = {
                      range_sigma=0.6, distance_sigma=(0.01, 0.02), heading_noise=1e-3, gyro_bias_prior=0.01,
                      gyro_bias_walk=1e-4, scale_prior=0.1, scale_walk=1e-5, gate=True),
         kinds=dict(data=Instance(), beacon_ids=Kind(), min_period=Real((), "pos", optional=True), smooth=Flag(),
-                   gyro_bias=Flag(), scale=Flag(), range_sigma=_POS, distance_sigma=Real((2,), "nonneg"),
+                   gyro_bias=_OptionalFlag(), scale=_OptionalFlag(), range_sigma=_POS,
+                   distance_sigma=Real((2,), "nonneg"),
                    heading_noise=_POS, gyro_bias_prior=_POS, gyro_bias_walk=_POS, scale_prior=_POS,
                    scale_walk=_POS, gate=Flag()), per_argument=4),
 }

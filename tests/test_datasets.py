@@ -542,3 +542,21 @@ def test_plaza_from_a_folder_without_the_file(tmp_path):
         plaza(2, folder=tmp_path)
     with pytest.raises(TypeError, match="folder must be a path"):
         plaza(2, folder=3)
+
+
+def test_schedule_offsets_and_thinning_in_total():
+    from uwtutor.datasets import square_log
+
+    data = square_log()
+    per_beacon = data.ranges_on_epochs(min_period=10.0)
+    shifted = data.ranges_on_epochs(min_period=10.0, offset=3.0)
+    in_total = data.ranges_on_epochs(min_period=10.0, thinning="in total")
+    heard = [np.nonzero(np.isfinite(a).any(axis=1))[0] for a in (per_beacon, shifted, in_total)]
+    assert heard[1][0] >= 3 and not np.array_equal(heard[0], heard[1])
+    assert np.isfinite(in_total).sum() == np.isfinite(in_total).any(axis=1).sum()      # one range per epoch at most
+    assert np.diff(data.times[heard[2]]).min() >= 10.0
+    assert np.isfinite(in_total).sum() < np.isfinite(per_beacon).sum()
+    with pytest.raises(ValueError, match="min_period"):
+        data.ranges_on_epochs(offset=2.0)
+    with pytest.raises(ValueError, match="thinning"):
+        data.ranges_on_epochs(min_period=5.0, thinning="each")

@@ -152,3 +152,105 @@ def test_plaza2_one_beacon_beats_odometry_alone_and_four_beacons_reach_decimetre
     four = navigate(plaza2)
     assert _rmse(four.x[:, :2], plaza2.truth) < 0.5
     assert abs(four.x[-1, 4] - 1.07) < 0.005
+
+
+# -- the states chosen from the log ------------------------------------------------------------------------------------
+def test_the_default_chooses_the_candidate_the_ranges_make_most_likely():
+    data = simulated_log(seed=5, K=1201)
+    result = navigate(data, range_sigma=0.3)
+    from uwtutor.datasets import CANDIDATES
+
+    assert set(result.evidence) == set(CANDIDATES) == set(result.candidates)
+    penalized = {name: value - sum(CANDIDATES[name]) for name, value in result.evidence.items()}
+    assert result.chosen == max(penalized, key=penalized.get)
+    # a log with a scale and a gyro bias: both states, and the returned run is that candidate's
+    assert result.chosen == "+ scale and gyro bias"
+    np.testing.assert_array_equal(result.x, result.candidates[result.chosen].x)
+    assert result.state_names == ("x", "y", "heading", "gyro_bias", "scale")
+
+
+def test_explicit_switches_restrict_the_candidates():
+    data = simulated_log(seed=6, K=401)
+    assert set(navigate(data, range_sigma=0.3, gyro_bias=False).evidence) == {"pose only", "+ scale"}
+    both = navigate(data, range_sigma=0.3, gyro_bias=True, scale=True)
+    assert set(both.evidence) == {"+ scale and gyro bias"} and both.chosen == "+ scale and gyro bias"
+    assert navigate(data, range_sigma=0.3, scale=False, gyro_bias=False).x.shape[-1] == 3
+
+
+def test_every_candidate_is_scored_on_every_range_even_those_its_gate_rejected():
+    from uwtutor.datasets.navigation import _log_predictive, navigation_models
+
+    data = simulated_log(seed=7, K=401)
+    result = navigate(data, range_sigma=0.3, scale=False, gyro_bias=False)     # 7 % long ranges: many rejected
+    assert int(result.extras["rejected"].sum()) > 0
+    nav = navigation_models(data, range_sigma=0.3, scale=False, gyro_bias=False)
+    score, per_range = _log_predictive(nav, result)
+    assert per_range.size == np.isfinite(nav.z).any(axis=1).sum()          # every epoch with a range
+    assert score == pytest.approx(result.evidence["pose only"])
+
+
+def test_implausible_headings_are_reported():
+    data = simulated_log(seed=8, K=401)
+    degrees = RangeDataset(times=data.times, odometry=np.column_stack([data.odometry[:, 0],
+                                                                        np.degrees(data.odometry[:, 1])]),
+                           ranges=data.ranges, beacons=dict(data.beacons), start=data.start, heading_unit="deg")
+    np.testing.assert_allclose(degrees.odometry, data.odometry, atol=1e-12)
+    with pytest.warns(UserWarning, match="heading_unit='deg'"):
+        wrong = RangeDataset(times=data.times, odometry=degrees.odometry * [1.0, 180.0 / np.pi],
+                             ranges=data.ranges, beacons=dict(data.beacons), start=data.start)
+    with pytest.warns(UserWarning, match="disagree with the odometry|far from 1"):
+        navigate(wrong, range_sigma=0.3)
+
+
+def test_clockwise_from_north_is_converted():
+    data = simulated_log(seed=9, K=801, turn_every=100)
+    truth = data.truth.copy()
+    truth[:, 2] = np.pi / 2 - truth[:, 2]
+    compass = RangeDataset(times=data.times, odometry=data.odometry * [1.0, -1.0], ranges=data.ranges,
+                           beacons=dict(data.beacons), truth=truth, heading_convention="cw-from-north")
+    np.testing.assert_allclose(compass.odometry, data.odometry, atol=1e-12)
+    np.testing.assert_allclose(wrap_angle(compass.truth[:, 2] - data.truth[:, 2]), 0.0, atol=1e-12)
+    with pytest.warns(UserWarning, match="opposite senses"):
+        RangeDataset(times=data.times, odometry=data.odometry * [1.0, -1.0], ranges=data.ranges,
+                     beacons=dict(data.beacons), truth=data.truth)
+
+
+def test_plaza1_without_drift_the_default_leaves_out_the_gyro_bias_and_beats_odometry():
+    pytest.importorskip("gtsam", reason="the Plaza logs come with the optional extra uwtutor[data]")
+    from uwtutor.datasets import plaza
+
+    data = plaza(1)
+    alone = _rmse(data.dead_reckoning()[:, :2], data.truth)
+    result = navigate(data, [6], min_period=10.0)
+    assert result.chosen == "+ scale"
+    assert _rmse(result.x[:, :2], data.truth) < 0.6 * alone
+    assert _rmse(result.candidates["+ scale and gyro bias"].x[:, :2], data.truth) > alone   # what it avoided
+
+
+def test_gtsam_same_model_finds_the_scale_and_bias_and_isam2_agrees():
+    pytest.importorskip("gtsam")
+    from uwtutor.datasets.factor_graph import gtsam_map
+
+    data = simulated_log(seed=10, K=801)
+    batch = gtsam_map(data, range_sigma=0.3)
+    incremental = gtsam_map(data, range_sigma=0.3, solver="isam2")
+    assert batch.scale[-1] == pytest.approx(1.07, abs=0.01)
+    assert batch.gyro_bias[-1] == pytest.approx(-0.004, abs=0.001)
+    assert batch.n_poses < data.n_epochs                  # the biased odometry is pre-integrated between ranges
+    assert _rmse(batch.poses[:, :2], data.truth) < 0.5
+    assert np.abs(incremental.poses[:, :2] - batch.poses[:, :2]).max() < 0.05
+    huber = gtsam_map(data, range_sigma=0.3, robust="huber")     # Gaussian ranges: a Huber kernel costs little
+    assert _rmse(huber.poses[:, :2], data.truth) < 1.25 * _rmse(batch.poses[:, :2], data.truth)
+
+
+def test_the_readme_real_data_example_runs(capsys):
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Real data"):]
+    code = section[section.index("```python") + len("```python"):section.index("```\n", section.index("```python") + 9)]
+    assert len(code.strip().splitlines()) <= 12
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    assert namespace["result"].chosen == "+ scale"
+    assert "+ scale" in capsys.readouterr().out

@@ -41,7 +41,8 @@ array([[nan],
 
 from ._core import DEFAULT_START_SIGMAS, RangeDataset, square_log
 from ._plaza import PLAZA_HEADING_OFFSET, plaza
-from .navigation import NavigationModels, navigate, navigation_models
+from .navigation import CANDIDATES, NavigationModels, NavigationResult, navigate, navigation_models
 
-__all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "NavigationModels", "DEFAULT_START_SIGMAS",
+__all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "NavigationModels", "NavigationResult",
+           "CANDIDATES", "DEFAULT_START_SIGMAS",
            "PLAZA_HEADING_OFFSET", "square_log"]

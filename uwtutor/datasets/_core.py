@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import os
 import types
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .._validate import (as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive, as_times,
-                         readonly)
+from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive,
+                         as_times, readonly)
 from ..motion import integrate_odometry
 
 __all__ = ["RangeDataset", "DEFAULT_START_SIGMAS", "square_log"]
@@ -116,6 +117,20 @@ class RangeDataset:
         A label for plots and summaries.
     notes : tuple of str, default ()
         Provenance: what a loader found and changed in the files (shown by :meth:`summary`).
+    heading_unit : {"rad", "deg"}, default "rad"
+        The unit of the heading changes (``odometry[:, 1]``), of the truth's and the start's headings, and of
+        the heading entries of ``start_cov``. Degrees are converted to radians on construction.
+    heading_convention : {"ccw-from-x", "cw-from-north"}, default "ccw-from-x"
+        How those headings are measured: counter-clockwise from +x (the library's), or clockwise from north
+        (a compass's, with x east and y north): :math:`\theta = \pi/2 - \psi`, a turn to the right positive.
+        Converted on construction; the dataset then holds the library's convention (and says so in ``notes``).
+
+    Warns
+    -----
+    UserWarning
+        When the headings look like another unit or convention than the one given: a heading change of more than
+        :math:`\pi` in one step (degrees read as radians), or odometry that turns against the truth (a clockwise
+        convention read as counter-clockwise).
 
     Notes
     -----
@@ -165,6 +180,8 @@ class RangeDataset:
     start_cov: np.ndarray | None = None
     name: str = "dataset"
     notes: tuple[str, ...] = field(default=())
+    heading_unit: str = "rad"
+    heading_convention: str = "ccw-from-x"
 
     def __post_init__(self) -> None:
         t = as_times("times", self.times)
@@ -213,6 +230,11 @@ class RangeDataset:
         if isinstance(notes, str) or not all(isinstance(n, str) for n in notes):
             raise TypeError("notes must be a tuple of strings, e.g. ('ranges sorted by time',)")
 
+        odo, truth, start, cov, notes = _to_library_headings(self.heading_unit, self.heading_convention, odo, truth,
+                                                             start, cov, tuple(notes))
+        _check_headings(odo, truth, t)
+        object.__setattr__(self, "heading_unit", "rad")
+        object.__setattr__(self, "heading_convention", "ccw-from-x")
         for key, value in (("times", t), ("odometry", odo), ("ranges", rng), ("truth", truth), ("start", start),
                            ("start_cov", cov)):
             object.__setattr__(self, key, None if value is None else readonly(value))
@@ -344,25 +366,30 @@ class RangeDataset:
                              "with start=(x, y, heading), or with truth= (whose first row is the start)")
         return integrate_odometry(self.start, self.odometry)
 
-    def _thin(self, rows: np.ndarray, min_period: float) -> np.ndarray:
-        """Indices into ``rows`` (one beacon, sorted by time) kept by the greedy ``min_period`` rule."""
+    def _thin(self, rows: np.ndarray, min_period: float, start: float = -np.inf) -> np.ndarray:
+        """Indices into ``rows`` (sorted by time) kept by the greedy ``min_period`` rule from ``start`` on."""
         keep: list[int] = []
-        last = -np.inf
+        last = start - min_period
         for j, t in enumerate(rows[:, 0]):
             if t - last >= min_period:
                 keep.append(j)
                 last = t
         return np.asarray(keep, dtype=int)
 
-    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: Any = None) -> np.ndarray:
+    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: Any = None, offset: Any = 0.0,
+                         thinning: str = "per beacon") -> np.ndarray:
         r"""The range log placed on the odometry epochs: one column per beacon, NaN where a beacon was not heard.
 
         The rules, in order, beacon by beacon:
 
-        1. **Thinning** (with ``min_period``): the first range is kept, then every range at least ``min_period``
-           seconds after the last one kept; the others are dropped. This turns a fast radio log (the Plaza sets
-           range each beacon about every 1-2 s) into the sparse pings of an acoustic modem (every few seconds or
-           more), without randomness.
+        1. **Thinning** (with ``min_period``): the first range at or after ``times[0] + offset`` is kept, then
+           every range at least ``min_period`` seconds after the last one kept; the others are dropped. This turns
+           a fast radio log (the Plaza sets range each beacon about every 1-2 s) into the sparse pings of an
+           acoustic modem (every few seconds or more), without randomness; each ``offset`` in
+           ``[0, min_period)`` gives another schedule of the same log. ``thinning="per beacon"`` thins each
+           beacon's ranges on its own (B beacons give about B ranges per period); ``"in total"`` thins the
+           ranges of all the chosen beacons together, one range per period in all (a modem that interrogates one
+           beacon at a time).
         2. **Placement**: each range goes to the epoch nearest in time, :math:`k = \arg\min_k |t - t_k|` (a tie
            goes to the earlier epoch). Its time is thus moved by at most half an epoch spacing; the vehicle's
            motion in that time is the error this adds (at 1 m/s and 5 epochs per second, 0.1 m at most).
@@ -376,7 +403,12 @@ class RangeDataset:
         beacon_ids : int or sequence of int, optional
             The beacons, one column each, in this order (default: all, sorted by id).
         min_period : float, optional
-            The shortest time [s] between two ranges kept for one beacon, > 0 (default: keep every range).
+            The shortest time [s] between two ranges kept (for one beacon, or in all), > 0 (default: keep every
+            range).
+        offset : float, default 0
+            The thinning starts this many seconds after ``times[0]`` (>= 0; needs ``min_period``).
+        thinning : {"per beacon", "in total"}, default "per beacon"
+            Thin each beacon on its own, or all the chosen beacons' ranges together.
 
         Returns
         -------
@@ -413,16 +445,41 @@ class RangeDataset:
                [nan],
                [nan],
                [13.]])
+
+        The same schedule started 0.5 s later, and one range every 2 s to either beacon:
+
+        >>> data.ranges_on_epochs([5], min_period=2.0, offset=0.5)
+        array([[nan],
+               [11.],
+               [nan],
+               [13.]])
+        >>> data.ranges_on_epochs(min_period=2.0, thinning="in total")
+        array([[10., nan],
+               [nan, nan],
+               [nan, nan],
+               [13., nan]])
         """
         ids = self._ids(beacon_ids)
         period = None if min_period is None else float(as_positive("min_period", min_period, ndim=0))
+        thinning = as_choice("thinning", thinning, ("per beacon", "in total"))
+        shift = float(as_finite("offset", offset, ndim=0, max_abs=1e12))
+        if shift < 0.0:
+            raise ValueError(f"offset must be >= 0 (seconds after times[0]); got {shift:g}")
+        if shift > 0.0 and period is None:
+            raise ValueError("offset shifts the thinning's schedule: give min_period too (e.g. min_period=10.0, "
+                             "offset=3.0)")
         K = self.n_epochs
         out = np.full((K, len(ids)), np.nan)
         times = self.times
+        start = float(times[0]) + shift
+        log = self.ranges
+        if period is not None and thinning == "in total":
+            log = log[np.isin(log[:, 1], ids)]
+            log = log[self._thin(log, period, start)]
         for col, beacon in enumerate(ids):
-            rows = self.ranges[self.ranges[:, 1] == beacon]
-            if period is not None and len(rows):
-                rows = rows[self._thin(rows, period)]
+            rows = log[log[:, 1] == beacon]
+            if period is not None and thinning == "per beacon" and len(rows):
+                rows = rows[self._thin(rows, period, start)]
             if not len(rows):
                 continue
             t = rows[:, 0]
@@ -582,6 +639,49 @@ class RangeDataset:
                          f"{np.degrees(self.start[2]):.4g} deg")
         lines.extend(f"note: {n}" for n in self.notes)
         return "\n".join(lines)
+
+
+def _to_library_headings(unit: Any, convention: Any, odo: np.ndarray, truth: np.ndarray | None,
+                         start: np.ndarray | None, cov: np.ndarray | None, notes: tuple[str, ...]) -> tuple[Any, ...]:
+    """The headings in radians, counter-clockwise from +x (RangeDataset's heading_unit and heading_convention)."""
+    unit = as_choice("heading_unit", unit, ("rad", "deg"))
+    convention = as_choice("heading_convention", convention, ("ccw-from-x", "cw-from-north"))
+    if unit == "rad" and convention == "ccw-from-x":
+        return odo, truth, start, cov, notes
+    factor = np.pi / 180.0 if unit == "deg" else 1.0
+    sign = -1.0 if convention == "cw-from-north" else 1.0
+    turn = np.array([1.0, 1.0, sign * factor])            # d(library heading) / d(given heading), per component
+    odo = odo * np.array([1.0, sign * factor])
+    if truth is not None:
+        truth = truth.copy()
+        truth[:, 2] = truth[:, 2] * sign * factor + (np.pi / 2 if sign < 0 else 0.0)
+    if start is not None:
+        start = start.copy()
+        start[2] = start[2] * sign * factor + (np.pi / 2 if sign < 0 else 0.0)
+    if cov is not None:
+        cov = cov * np.outer(turn, turn)
+    what = ("degrees" if unit == "deg" else "radians") + (", clockwise from north" if sign < 0 else "")
+    return odo, truth, start, cov, notes + (f"headings converted from {what} to radians counter-clockwise from +x",)
+
+
+def _check_headings(odo: np.ndarray, truth: np.ndarray | None, times: np.ndarray) -> None:
+    """Warn when the headings look like another unit or convention (RangeDataset's Warns section)."""
+    hint = ("pass heading_unit='deg' if they are in degrees, heading_convention='cw-from-north' if they are "
+            "measured clockwise from north")
+    big = np.abs(odo[1:, 1]) > np.pi
+    if big.any():
+        warnings.warn(f"odometry[:, 1] holds heading changes of up to {np.abs(odo[1:, 1]).max():.4g} rad in one "
+                      f"step ({int(big.sum())} steps beyond pi): not radians? {hint}", UserWarning, stacklevel=4)
+    if truth is None or len(times) < 3:
+        return
+    true_turn = np.diff(np.unwrap(truth[:, 2]))
+    moving = np.abs(odo[1:, 1]) + np.abs(true_turn) > 0
+    if moving.sum() >= 10 and np.std(odo[1:, 1][moving]) > 0 and np.std(true_turn[moving]) > 0:
+        corr = float(np.corrcoef(odo[1:, 1][moving], true_turn[moving])[0, 1])
+        if corr < -0.5:
+            warnings.warn(f"the odometry turns against the truth (correlation {corr:.2f} of their heading "
+                          f"changes): the two headings are measured in opposite senses; {hint}", UserWarning,
+                          stacklevel=4)
 
 
 def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeDataset:

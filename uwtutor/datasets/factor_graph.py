@@ -1,49 +1,66 @@
-r"""An outside anchor: GTSAM's batch solution of a log, a factor graph of poses, odometry and ranges (chapter 11).
+r"""An outside anchor: GTSAM's MAP solution of a log as a factor graph (chapter 11).
 
-GTSAM (Dellaert and contributors) solves navigation as a **factor graph**: one unknown ``Pose2`` per epoch,
-:math:`\mathbf x_k = (x_k, y_k, \theta_k)`, and one factor per piece of information,
+GTSAM (Dellaert and contributors) solves navigation as a **factor graph**: unknowns and one factor per piece of
+information, solved for the maximum a posteriori (MAP) trajectory -- the values minimizing the sum of the factors'
+squared whitened errors -- by Levenberg--Marquardt (batch) or iSAM2 (incremental). :func:`gtsam_map` builds, by
+default, the graph of **the same model as** :func:`~uwtutor.datasets.navigate` (``model="navigate"``):
 
-* a prior on the start pose, :math:`\mathcal N(\mathbf x_0;\ \text{start},\ \mathbf P_0)`
-  (``PriorFactorPose2``);
-* between consecutive poses, the odometry as a relative pose, ``BetweenFactorPose2`` with the measurement
-  ``Pose2(d_k, 0, Δθ_k)``: move :math:`d_k` along the previous heading, then turn -- the composition
-  :math:`\mathbf x_k = \mathbf x_{k-1} \oplus (d_k, 0, \Delta\theta_k)`, the odometry's own convention
-  (:meth:`~uwtutor.datasets.RangeDataset.dead_reckoning`);
-* for every range, ``RangeFactor2D`` between the pose of its epoch and the beacon, a ``Point2`` held at its surveyed
-  position by a ``NonlinearEqualityPoint2`` (a hard constraint: the beacons are known, as in this book);
+* one ``Pose2`` :math:`\mathbf x_k = (x_k, y_k, \theta_k)` per epoch, a gyro bias :math:`b_k` and a range scale
+  :math:`s_k` per epoch (the chains of navigate's random walks);
+* priors: the start pose (``PriorFactorPose2``), :math:`b_0 \sim \mathcal N(0, \sigma_{b,0}^2)` and
+  :math:`s_0 \sim \mathcal N(1, \sigma_{s,0}^2)` (``PriorFactorDouble``);
+* the random walks :math:`b_k - b_{k-1} \sim \mathcal N(0, q_b\Delta t_k)`, :math:`s_k - s_{k-1} \sim
+  \mathcal N(0, q_s\Delta t_k)` (``BetweenFactorDouble``);
+* the odometry, navigate's move-then-turn step with its noise
+  :math:`\operatorname{diag}(a + c\,|d_k|,\ \sigma_\perp,\ q_\theta\sqrt{\Delta t_k})` along, across and in
+  heading (the filter has no across-track noise; the graph needs a small one, ``across_sigma``), with the error
+  of a step
 
-and finds the maximum a posteriori (MAP) trajectory, the poses minimizing the sum of the factors' squared
-whitened errors, with Levenberg--Marquardt from an initial guess (here the dead reckoning). Each factor's noise
-is diagonal in the frame of the previous pose: :math:`[\sigma_{\text{along}}, \sigma_{\text{across}},
-\sigma_{\theta}]`.
+  .. math::
 
-The graph holds the same information as the filter of :func:`~uwtutor.datasets.navigate` with two differences:
-it uses *every* range for *every* pose (it is a smoother), and its standard factors have no gyro bias and no range
-scale. A heading that drifts can only be absorbed by the heading noise of the odometry factors
-(``heading_noise``); a scale can only be removed from the ranges before they enter (``range_scale``).
+      \mathbf e_k = \begin{bmatrix} R(\theta_{k-1})^\mathsf{T}(p_k - p_{k-1}) - (d_k, 0) \\
+      \theta_k - \theta_{k-1} - \Delta\theta_k + b_{k-1}\Delta t_k \end{bmatrix};
+
+  with a gyro bias, the steps between two pose variables (at every range, and at least every ``pose_interval``)
+  are pre-integrated into one factor, as GTSAM's IMU factors pre-integrate;
+* one factor per range, :math:`e = s_k\,\lVert p_k - b_j\rVert - z_{k,j}` with :math:`\sigma_r`, optionally
+  behind a robust kernel (Huber).
+
+GTSAM's Python wheel has compiled factors for the priors, the scalar random walks, a ``Pose2`` odometry without a
+bias (``BetweenFactorPose2``) and a range without a scale (``RangeFactor2D``), and none for a relative pose that
+depends on a third, scalar variable (the bias) or a range multiplied by one (the scale): those two are
+``CustomFactor``\ s, Python callbacks at about 0.1 ms a call -- most of the solve time, and the reason the biased
+odometry is pre-integrated between pose variables rather than written step by step. With ``gyro_bias=False`` or
+``scale=False`` the compiled factors take their place.
+
+``model="pose"`` gives the graph of poses alone (no bias, no scale): a heading that drifts can then only be
+absorbed by a looser heading noise of the odometry factors, and a scale only removed from the ranges before they
+enter (``range_scale``) -- the graph a user of GTSAM's standard factors writes first.
 
 References
 ----------
 Dellaert, F. and Kaess, M. (2017). Factor graphs for robot perception. *Foundations and Trends in Robotics* 6(1-2).
-GTSAM 4.3 (BSD): ``examples/RangeISAMExample_plaza2.cpp`` builds the same graph on the same data (with iSAM2 and
-unknown beacons).
+Kaess, M. et al. (2012). iSAM2: incremental smoothing and mapping using the Bayes tree. *IJRR* 31(2).
+GTSAM 4.3 (BSD): ``examples/RangeISAMExample_plaza2.cpp`` solves the same data (with unknown beacons).
 """
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
-from .._validate import as_finite, as_int, as_nonnegative, as_scalar
+from .._validate import as_choice, as_finite, as_flag, as_int, as_nonnegative, as_scalar
 from ._core import RangeDataset
 
 __all__ = ["GraphSolution", "gtsam_map", "HEADING_NOISE"]
 
-#: Default heading noise density of the odometry factors [rad/√s], loose enough that a heading random walk can
-#: follow a drift of a few mrad/s (a one-sigma step of 0.01 rad per second), as the Plaza 2 heading drifts.
+#: Default heading noise density [rad/√s] of the pose-only graph's odometry factors (``model="pose"``): loose enough
+#: that a heading random walk can follow a drift of a few mrad/s, as the Plaza 2 heading drifts. The same-model
+#: graph uses navigate's own (1e-3), since its gyro-bias chain follows the drift.
 HEADING_NOISE = 0.01
 
 
@@ -60,13 +77,21 @@ class GraphSolution:
     n_ranges : int
         Range factors in the graph.
     iterations : int
-        Levenberg--Marquardt iterations.
+        Levenberg--Marquardt iterations (0 for iSAM2).
     initial_error : float
         The graph's error (half the sum of squared whitened residuals) at the initial guess.
     final_error : float
         The same at the solution.
     seconds : float
         Wall time of the optimization (the graph's construction excluded).
+    gyro_bias : ndarray, shape (K,)
+        :math:`b_k` [rad/s] (NaN when the graph has none).
+    scale : ndarray, shape (K,)
+        :math:`s_k` (NaN when the graph has none).
+    model, solver : str
+        What was built and how it was solved.
+    n_poses : int
+        Pose variables in the graph (every epoch, or fewer with a gyro bias: ``pose_interval``).
 
     Examples
     --------
@@ -76,8 +101,8 @@ class GraphSolution:
     >>> data = square_log()
     >>> from uwtutor.datasets.factor_graph import gtsam_map
     >>> sol = gtsam_map(data, [3, 7], range_sigma=0.1)
-    >>> sol.poses.shape, sol.n_ranges
-    ((81, 3), 80)
+    >>> sol.poses.shape, sol.n_ranges, sol.model
+    ((81, 3), 80, 'navigate')
     >>> bool(sol.final_error <= sol.initial_error)
     True
     """
@@ -89,6 +114,11 @@ class GraphSolution:
     initial_error: float
     final_error: float
     seconds: float
+    gyro_bias: np.ndarray = field(default_factory=lambda: np.empty(0))
+    scale: np.ndarray = field(default_factory=lambda: np.empty(0))
+    model: str = "navigate"
+    solver: str = "lm"
+    n_poses: int = 0
 
 
 def _positive(name: str, value: Any) -> float:
@@ -96,10 +126,37 @@ def _positive(name: str, value: Any) -> float:
     return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
-def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, range_scale: Any = 1.0,
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _scaled_range_error(beacon: np.ndarray, z: float) -> Callable[..., np.ndarray]:
+    r"""The error :math:`s_k\,\lVert p_k - b_j\rVert - z` of a range with a scale, and its Jacobians."""
+    bx, by = float(beacon[0]), float(beacon[1])
+
+    def error(this: Any, values: Any, H: list[np.ndarray] | None) -> np.ndarray:
+        keys = this.keys()
+        pose, s = values.atPose2(keys[0]), values.atDouble(keys[1])
+        ex, ey = pose.x() - bx, pose.y() - by
+        dist = math.hypot(ex, ey)
+        if H is not None:
+            ux, uy = ex / max(dist, 1e-9), ey / max(dist, 1e-9)
+            c, sn = math.cos(pose.theta()), math.sin(pose.theta())
+            H[0] = np.array([[s * (ux * c + uy * sn), s * (-ux * sn + uy * c), 0.0]])
+            H[1] = np.array([[dist]])
+        return np.array([s * dist - z])
+
+    return error
+
+
+def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
+              thinning: str = "per beacon", model: str = "navigate", gyro_bias: bool = True, scale: bool = True,
               range_sigma: Any = 0.6, distance_sigma: Any = (0.01, 0.02), across_sigma: Any = 0.002,
-              heading_noise: Any = HEADING_NOISE, initial: Any = None, max_iterations: int = 100) -> GraphSolution:
-    r"""GTSAM's batch MAP solution of a log: ``Pose2`` odometry factors, ``RangeFactor2D`` to known beacons, LM.
+              heading_noise: Any = None, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
+              scale_prior: Any = 0.1, scale_walk: Any = 1e-5, range_scale: Any = 1.0, robust: Any = None,
+              solver: str = "lm", initial: Any = None, max_iterations: int = 100,
+              pose_interval: Any = 2.0) -> GraphSolution:
+    r"""GTSAM's MAP solution of a log: by default the graph of navigate's model (module docstring), batch or iSAM2.
 
     Parameters
     ----------
@@ -107,25 +164,36 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         The log, with a start pose.
     beacon_ids : sequence of int, optional
         The beacons used (default: all).
-    min_period : float, optional
-        At most one range per beacon every ``min_period`` seconds (as
-        :meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs`).
-    range_scale : float, default 1
-        Every range is divided by it before it enters the graph (1: the ranges as logged; the log's scale: the
-        scale removed).
-    range_sigma : float, default 0.6
-        Standard deviation of a range factor [m].
-    distance_sigma : (float, float), default (0.01, 0.02)
-        :math:`(a, c)`: the along-track noise of an odometry factor, :math:`a + c\,d_k` [m].
+    min_period, offset, thinning
+        The range schedule, as :meth:`~uwtutor.datasets.RangeDataset.ranges_on_epochs` thins the log.
+    model : {"navigate", "pose"}, default "navigate"
+        The same model as :func:`~uwtutor.datasets.navigate` (with ``gyro_bias`` and ``scale`` as there), or
+        poses alone.
+    gyro_bias, scale : bool, default True
+        The gyro-bias and range-scale chains of ``model="navigate"`` (ignored by ``"pose"``). Pass the states
+        navigate chose (``result.extras["states"]``) to solve the same model as its default.
+    range_sigma, distance_sigma, gyro_bias_prior, gyro_bias_walk, scale_prior, scale_walk
+        navigate's noise, with its defaults and meaning.
     across_sigma : float, default 0.002
-        Its across-track noise [m] (the odometry moves straight along the previous heading: nearly zero).
-    heading_noise : float, default ``HEADING_NOISE``
-        :math:`q_\theta` [rad/√s]: the heading noise of a step of :math:`\Delta t_k` seconds is
-        :math:`q_\theta\sqrt{\Delta t_k}`.
+        The across-track noise of an odometry factor [m] (nearly zero: the odometry moves along its heading).
+    heading_noise : float, optional
+        :math:`q_\theta` [rad/√s]; default navigate's 1e-3 for ``"navigate"`` and ``HEADING_NOISE`` for ``"pose"``.
+    range_scale : float, default 1
+        Every range is divided by it before it enters the graph (the pose-only graph's way to remove a scale
+        measured elsewhere -- against the truth, in chapter 11).
+    robust : {None, "huber"}, default None
+        A Huber kernel (k = 1.345) on the range factors.
+    solver : {"lm", "isam2"}, default "lm"
+        Batch Levenberg--Marquardt, or iSAM2 fed epoch by epoch (its estimate after the last epoch).
     initial : array_like, shape (K, 3), optional
-        The initial guess of the poses (default: the dead reckoning from the start).
+        The initial guess of the poses (default: the dead reckoning; the bias starts at 0, the scale at 1).
     max_iterations : int, default 100
         Levenberg--Marquardt's limit.
+    pose_interval : float, default 2
+        With a gyro bias: the longest time [s] between two pose variables. Every epoch with a range has one; the
+        odometry between two is pre-integrated into one factor (its noise propagated step by step), and the
+        poses between are the odometry from the earlier variable with its bias, the mismatch at the later one
+        spread over the segment.
 
     Returns
     -------
@@ -138,44 +206,32 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
 
     Examples
     --------
-    A square with a range to one of two beacons at every epoch, odometry without error: the MAP is the truth.
+    A square with a range to one of two beacons at every epoch, odometry without error and ranges 3 % long: the
+    same-model graph finds the scale and the track.
 
     >>> import numpy as np
     >>> import pytest
     >>> gtsam = pytest.importorskip("gtsam")
-    >>> from uwtutor.datasets import RangeDataset
+    >>> from uwtutor.datasets import square_log
     >>> from uwtutor.datasets.factor_graph import gtsam_map
-    >>> K = 41
-    >>> turn = np.where(np.arange(K) % 10 == 1, np.pi / 2, 0.0)
-    >>> turn[:2] = 0.0
-    >>> odo = np.column_stack([np.r_[0.0, np.ones(K - 1)], turn])
-    >>> truth = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odo,
-    ...     ranges=np.zeros((0, 3)),
-    ...     beacons={1: (5.0, 12.0)},
-    ...     start=[0.0, 0.0, 0.0],
-    ... ).dead_reckoning()
-    >>> beacons = {1: (5.0, 12.0), 2: (-4.0, 3.0)}
-    >>> ids = np.where(np.arange(1, K) % 2 == 0, 1, 2)
-    >>> b = np.array([beacons[int(i)] for i in ids])
-    >>> r = np.linalg.norm(truth[1:, :2] - b, axis=1)
-    >>> data = RangeDataset(
-    ...     times=np.arange(K, dtype=float),
-    ...     odometry=odo,
-    ...     ranges=np.column_stack([np.arange(1.0, K), ids, r]),
-    ...     beacons=beacons,
-    ...     truth=truth,
-    ... )
-    >>> solution = gtsam_map(data, initial=truth + [0.5, -0.3, 0.05])
+    >>> data = square_log(range_scale=1.03)
+    >>> solution = gtsam_map(data, range_sigma=0.05)
     >>> solution.poses.shape, solution.n_ranges
-    ((41, 3), 40)
-    >>> bool(np.abs(solution.poses[:, :2] - truth[:, :2]).max() < 1e-3)
+    ((81, 3), 80)
+    >>> round(float(solution.scale[-1]), 3)
+    1.03
+    >>> bool(np.abs(solution.poses[:, :2] - data.truth[:, :2]).max() < 0.05)
+    True
+
+    The pose-only graph, solved incrementally, with the scale removed beforehand:
+
+    >>> pose_only = gtsam_map(data, model="pose", range_scale=1.03, solver="isam2")
+    >>> bool(np.abs(pose_only.poses[:, :2] - data.truth[:, :2]).max() < 0.05)
     True
     """
     try:
         import gtsam  # type: ignore[import-not-found]
-        from gtsam.symbol_shorthand import L, X  # type: ignore[import-not-found]
+        from gtsam.symbol_shorthand import B, L, S, X  # type: ignore[import-not-found]
     except ModuleNotFoundError:
         raise ModuleNotFoundError('gtsam_map needs GTSAM: pip install "uwtutor[data]" (or pip install '
                                   '"gtsam>=4.3,<4.4")') from None
@@ -183,46 +239,219 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.start is None:
         raise ValueError("data has no start pose: build the RangeDataset with start= (or truth=)")
+    model = as_choice("model", model, ("navigate", "pose"))
+    solver = as_choice("solver", solver, ("lm", "isam2"))
+    if robust is not None:
+        robust = as_choice("robust", robust, ("huber",))
+    with_bias = model == "navigate" and as_flag("gyro_bias", gyro_bias)
+    with_scale = model == "navigate" and as_flag("scale", scale)
     ids = list(data.beacons) if beacon_ids is None else list(np.atleast_1d(beacon_ids).tolist())
-    z = data.ranges_on_epochs(ids, min_period=min_period) / _positive("range_scale", range_scale)
+    z = (data.ranges_on_epochs(ids, min_period=min_period, offset=offset, thinning=thinning)
+         / _positive("range_scale", range_scale))
     beacons = data.beacon_positions(ids)
     a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     across = _positive("across_sigma", across_sigma)
-    q_heading = _positive("heading_noise", heading_noise)
+    q_heading = _positive("heading_noise", (1e-3 if model == "navigate" else HEADING_NOISE)
+                          if heading_noise is None else heading_noise)
     sigma_r = _positive("range_sigma", range_sigma)
     iterations = as_int("max_iterations", max_iterations, minimum=1, maximum=10_000)
     K = data.n_epochs
     guess = data.dead_reckoning() if initial is None else as_finite("initial", initial, shape=(K, 3))
+    dt = np.diff(data.times, prepend=data.times[0])
+
+    # the pose variables: every epoch, except with a gyro bias, where the odometry between two variables is
+    # pre-integrated (one factor per segment; _Segment) and the poses between are filled in after the solve
+    if with_bias:
+        interval = _positive("pose_interval", pose_interval)
+        keep = np.isfinite(z).any(axis=1)
+        keep[[0, K - 1]] = True
+        last = data.times[0]
+        for k in range(K):
+            if keep[k] or data.times[k] - last >= interval:
+                keep[k] = True
+                last = data.times[k]
+        kept = np.nonzero(keep)[0]
+    else:
+        kept = np.arange(K)
+    unit = gtsam.noiseModel.Isotropic.Sigma(1, sigma_r)
+    range_noise = (gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), unit)
+                   if robust == "huber" else unit)
+    n = len(kept)
+    steps_of: list[Any] = [None] * n           # what moves node i - 1 to node i (iSAM2's initial guesses)
+    node_factors: list[list[Any]] = [[] for _ in range(n)]
+    node_values = [gtsam.Values() for _ in range(n)]
+    first = node_factors[0]
+    first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, data.start)),
+                                        gtsam.noiseModel.Gaussian.Covariance(np.asarray(data.start_cov, float))))
+    if with_bias:
+        first.append(gtsam.PriorFactorDouble(B(0), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, _positive("gyro_bias_prior", gyro_bias_prior))))
+        walk_b = _positive("gyro_bias_walk", gyro_bias_walk)
+    if with_scale:
+        first.append(gtsam.PriorFactorDouble(S(0), 1.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, _positive("scale_prior", scale_prior))))
+        walk_s = _positive("scale_walk", scale_walk)
+    if not with_scale:
+        for j, b in enumerate(beacons):
+            point = gtsam.Point2(float(b[0]), float(b[1]))
+            node_values[0].insert(L(j), point)
+            first.append(gtsam.NonlinearEqualityPoint2(L(j), point))
+    sigma_d = a + c * np.abs(data.odometry[:, 0])
+    sigma_theta = q_heading * np.sqrt(dt) + 1e-9
+    for i, k in enumerate(kept.tolist()):
+        values, factors = node_values[i], node_factors[i]
+        values.insert(X(i), gtsam.Pose2(*map(float, guess[k])))
+        if with_bias:
+            values.insert(B(i), 0.0)
+        if with_scale:
+            values.insert(S(i), 1.0)
+        if i > 0:
+            before = int(kept[i - 1])
+            span = float(data.times[k] - data.times[before])
+            if with_bias:
+                steps = slice(before + 1, k + 1)
+                segment = _Segment(data.odometry[steps], dt[steps], sigma_d[steps], sigma_theta[steps], across)
+                steps_of[i] = segment
+                factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(segment.covariance),
+                                                  [X(i - 1), X(i), B(i - 1)], segment.error))
+                factors.append(gtsam.BetweenFactorDouble(B(i - 1), B(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+                    1, walk_b * np.sqrt(span) + 1e-12)))
+            else:
+                d, turn = (float(v) for v in data.odometry[k])
+                steps_of[i] = (d, turn)
+                odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([sigma_d[k], across, sigma_theta[k]]))
+                factors.append(gtsam.BetweenFactorPose2(X(i - 1), X(i), gtsam.Pose2(d, 0.0, turn), odo_noise))
+            if with_scale:
+                factors.append(gtsam.BetweenFactorDouble(S(i - 1), S(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+                    1, walk_s * np.sqrt(span) + 1e-12)))
+        for j in np.nonzero(np.isfinite(z[k]))[0].tolist():
+            if with_scale:
+                factors.append(gtsam.CustomFactor(range_noise, [X(i), S(i)],
+                                                  _scaled_range_error(beacons[j], float(z[k, j]))))
+            else:
+                factors.append(gtsam.RangeFactor2D(X(i), L(j), float(z[k, j]), range_noise))
 
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
-    graph.add(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, data.start)),
-                                     gtsam.noiseModel.Gaussian.Covariance(np.asarray(data.start_cov, dtype=float))))
-    dt = np.diff(data.times, prepend=data.times[0])
-    for k in range(K):
-        values.insert(X(k), gtsam.Pose2(*map(float, guess[k])))
-    for k in range(1, K):
-        d, turn = (float(v) for v in data.odometry[k])
-        sigmas = np.array([a + c * abs(d), across, q_heading * np.sqrt(dt[k]) + 1e-9])
-        graph.add(gtsam.BetweenFactorPose2(X(k - 1), X(k), gtsam.Pose2(d, 0.0, turn),
-                                           gtsam.noiseModel.Diagonal.Sigmas(sigmas)))
-    for j, b in enumerate(beacons):
-        point = gtsam.Point2(float(b[0]), float(b[1]))
-        values.insert(L(j), point)
-        graph.add(gtsam.NonlinearEqualityPoint2(L(j), point))
-    noise = gtsam.noiseModel.Isotropic.Sigma(1, sigma_r)
-    epochs, which = np.nonzero(np.isfinite(z))
-    for k, j in zip(epochs.tolist(), which.tolist()):
-        graph.add(gtsam.RangeFactor2D(X(k), L(j), float(z[k, j]), noise))
-    params = gtsam.LevenbergMarquardtParams()
-    params.setMaxIterations(iterations)
-    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
+    for factors, vals in zip(node_factors, node_values):
+        for f in factors:
+            graph.add(f)
+        values.insert(vals)
     start = time.perf_counter()
-    solution = optimizer.optimize()
+    if solver == "lm":
+        params = gtsam.LevenbergMarquardtParams()
+        params.setMaxIterations(iterations)
+        optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
+        solution = optimizer.optimize()
+        n_iter = int(optimizer.iterations())
+    else:
+        isam_params = gtsam.ISAM2Params()
+        isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
+        isam = gtsam.ISAM2(isam_params)
+        for i, (factors, vals) in enumerate(zip(node_factors, node_values)):
+            step = gtsam.NonlinearFactorGraph()
+            for f in factors:
+                step.add(f)
+            if i > 0:
+                # each new node starts where the current estimate and its odometry put it (the dead reckoning
+                # of the whole log can be far off by then, and iSAM2's Gauss-Newton steps are not damped)
+                vals = gtsam.Values()
+                before = isam.calculateEstimatePose2(X(i - 1))
+                bias_now = isam.calculateEstimateDouble(B(i - 1)) if with_bias else 0.0
+                if with_bias:
+                    seg = steps_of[i]
+                    dx, dy = seg.delta + seg.jac * bias_now
+                    c0, s0 = math.cos(before.theta()), math.sin(before.theta())
+                    vals.insert(X(i), gtsam.Pose2(before.x() + c0 * dx - s0 * dy, before.y() + s0 * dx + c0 * dy,
+                                                  before.theta() + seg.phi - seg.elapsed * bias_now))
+                    vals.insert(B(i), bias_now)
+                else:
+                    vals.insert(X(i), before.compose(gtsam.Pose2(steps_of[i][0], 0.0, steps_of[i][1])))
+                if with_scale:
+                    vals.insert(S(i), isam.calculateEstimateDouble(S(i - 1)))
+            isam.update(step, vals)
+        for _ in range(iterations if iterations < 10 else 10):   # let the last relinearizations settle
+            isam.update()
+        solution = isam.calculateEstimate()
+        n_iter = 0
     seconds = time.perf_counter() - start
-    poses = np.array(gtsam.utilities.extractPose2(solution), dtype=float).reshape(K, 3)
-    return GraphSolution(times=data.times, poses=poses, n_ranges=int(epochs.size),
-                         iterations=int(optimizer.iterations()), initial_error=float(graph.error(values)),
-                         final_error=float(graph.error(solution)), seconds=seconds)
+    nodes = np.array([[p.x(), p.y(), p.theta()] for p in (solution.atPose2(X(i)) for i in range(n))])
+    bias = np.array([solution.atDouble(B(i)) for i in range(n)]) if with_bias else np.zeros(n)
+    poses = _fill_between(nodes, kept, bias, data.odometry, dt) if with_bias else nodes
+    per_epoch = np.searchsorted(kept, np.arange(K), side="right") - 1       # the node at or before each epoch
+    nan = np.full(K, np.nan)
+    return GraphSolution(times=data.times, poses=poses, n_ranges=int(np.isfinite(z).sum()), iterations=n_iter,
+                         initial_error=float(graph.error(values)), final_error=float(graph.error(solution)),
+                         seconds=seconds, gyro_bias=bias[per_epoch] if with_bias else nan,
+                         scale=np.array([solution.atDouble(S(i)) for i in range(n)])[per_epoch] if with_scale
+                         else nan, model=model, solver=solver, n_poses=n)
+
+
+class _Segment:
+    r"""The odometry between two pose variables, pre-integrated at zero gyro bias with its first-order bias
+    correction (as GTSAM's IMU factors pre-integrate), and the covariance of its noise propagated through the
+    filter's own linearization (each step's :math:`\operatorname{diag}(\sigma_d, \sigma_\perp, \sigma_\theta)`
+    along, across and in heading): the same model as one factor per step, with one Python callback instead of
+    one per step. :math:`\Delta p(b) = \Delta p_0 + J b`, :math:`\varphi(b) = \varphi_0 - T b`."""
+
+    def __init__(self, odometry: np.ndarray, dt: np.ndarray, sigma_d: np.ndarray, sigma_theta: np.ndarray,
+                 across: float) -> None:
+        phi = elapsed = 0.0
+        delta = np.zeros(2)
+        jac = np.zeros(2)
+        cov = np.zeros((3, 3))
+        for (d, turn), step, sd, st in zip(odometry.tolist(), dt.tolist(), sigma_d.tolist(), sigma_theta.tolist()):
+            c, s = math.cos(phi), math.sin(phi)
+            F = np.array([[1.0, 0.0, -d * s], [0.0, 1.0, d * c], [0.0, 0.0, 1.0]])
+            G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            cov = F @ cov @ F.T + (G * np.array([sd, across, st]) ** 2) @ G.T
+            delta += d * np.array([c, s])
+            jac += d * np.array([-s, c]) * -elapsed
+            phi += turn
+            elapsed += step
+        self.delta, self.jac, self.phi, self.elapsed = delta, jac, phi, elapsed
+        self.covariance = cov
+        self._bias_column = np.array([[-jac[0]], [-jac[1]], [elapsed]])
+
+    def error(self, this: Any, values: Any, H: list[np.ndarray] | None) -> np.ndarray:
+        keys = this.keys()
+        p0, p1 = values.atPose2(keys[0]), values.atPose2(keys[1])
+        b = values.atDouble(keys[2])
+        t0, t1 = p0.theta(), p1.theta()
+        c, s = math.cos(t0), math.sin(t0)
+        dx, dy = p1.x() - p0.x(), p1.y() - p0.y()
+        along, across = c * dx + s * dy, -s * dx + c * dy
+        e = np.array([along - self.delta[0] - self.jac[0] * b, across - self.delta[1] - self.jac[1] * b,
+                      _wrap(t1 - t0 - self.phi + self.elapsed * b)])
+        if H is not None:
+            cd, sd = math.cos(t1 - t0), math.sin(t1 - t0)        # R(theta_0)^T R(theta_1) = R(theta_1 - theta_0)
+            H[0] = np.array([[-1.0, 0.0, across], [0.0, -1.0, -along], [0.0, 0.0, -1.0]])
+            H[1] = np.array([[cd, -sd, 0.0], [sd, cd, 0.0], [0.0, 0.0, 1.0]])
+            H[2] = self._bias_column
+        return e
+
+
+def _fill_between(nodes: np.ndarray, kept: np.ndarray, bias: np.ndarray, odometry: np.ndarray,
+                  dt: np.ndarray) -> np.ndarray:
+    """The poses of every epoch: the odometry integrated from each pose variable with its gyro bias, and the
+    mismatch at the next variable spread over the segment in proportion to the steps (so that every variable's
+    pose is kept exactly)."""
+    poses = np.empty((int(kept[-1]) + 1, 3))
+    for i in range(len(kept) - 1):
+        a, b = int(kept[i]), int(kept[i + 1])
+        x, y, th = nodes[i]
+        track = [(x, y, th)]
+        for k in range(a + 1, b + 1):
+            d, turn = odometry[k]
+            x, y = x + d * math.cos(th), y + d * math.sin(th)
+            th = th + turn - bias[i] * dt[k]
+            track.append((x, y, th))
+        track_arr = np.array(track)
+        miss = nodes[i + 1] - track_arr[-1]
+        miss[2] = _wrap(miss[2])
+        weight = np.linspace(0.0, 1.0, b - a + 1)[:, None]
+        poses[a:b + 1] = track_arr + weight * miss
+    poses[int(kept[-1])] = nodes[-1]
+    return poses

@@ -31,7 +31,8 @@ odometry good to about 0.1 m over 2 s); pass your own for other sensors.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -41,7 +42,7 @@ from ..filters import ChiSquareGate, FilterResult, ReacquiringGate, extended_kal
 from ..models import BeaconRanges, OdometryMotion
 from ._core import RangeDataset
 
-__all__ = ["navigate", "navigation_models", "NavigationModels"]
+__all__ = ["navigate", "navigation_models", "NavigationModels", "NavigationResult", "CANDIDATES"]
 
 
 def _positive(name: str, value: Any) -> float:
@@ -49,11 +50,11 @@ def _positive(name: str, value: Any) -> float:
     return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
-def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, smooth: bool = False,
-             gyro_bias: bool = True, scale: bool = True, range_sigma: Any = 0.6,
-             distance_sigma: tuple[float, float] = (0.01, 0.02), heading_noise: Any = 1e-3,
-             gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4, scale_prior: Any = 0.1,
-             scale_walk: Any = 1e-5, gate: bool = True) -> FilterResult:
+def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
+             thinning: str = "per beacon", smooth: bool = False, gyro_bias: bool | None = None,
+             scale: bool | None = None, range_sigma: Any = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
+             heading_noise: Any = 1e-3, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
+             scale_prior: Any = 0.1, scale_walk: Any = 1e-5, gate: bool = True) -> "NavigationResult":
     r"""Navigate a range log from its start pose: odometry, ranges to known beacons, heading, gyro bias and scale.
 
     The state is :math:`[x, y, \theta, b_g, s]` (fewer with ``gyro_bias=False`` or ``scale=False``), the motion
@@ -80,9 +81,18 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     smooth : bool, default False
         Return the Rauch--Tung--Striebel smoothed estimates (every range, past and future, behind every epoch)
         instead of the filtered ones.
-    gyro_bias, scale : bool, default True
-        Estimate a gyro bias [rad/s] and a range scale. Leave out what your log does not have: an unneeded state
-        that a single beacon observes weakly costs accuracy.
+    offset : float, default 0
+        With ``min_period``: the thinning's schedule starts ``offset`` seconds after the first epoch (one log gives
+        one schedule per offset; see :meth:`RangeDataset.ranges_on_epochs`).
+    thinning : {"per beacon", "in total"}, default "per beacon"
+        With ``min_period``: one range per beacon per period, or one range per period in total (a modem that
+        interrogates one beacon at a time).
+    gyro_bias, scale : bool or None, default None
+        Estimate a gyro bias [rad/s] and a range scale (True), leave it out (False), or let the log decide
+        (None): the candidates -- pose only, + scale, + gyro bias, + both, those that the switches given allow --
+        are each run and the one whose innovations the ranges make most likely is returned (Notes). An unneeded
+        state that a single beacon observes weakly costs accuracy: on a log whose heading does not drift, the
+        gyro-bias state lets the heading wander.
     range_sigma : float, default 0.6
         :math:`\sigma_r` [m], the range noise.
     distance_sigma : (float, float), default (0.01, 0.02)
@@ -99,11 +109,37 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
 
     Returns
     -------
-    FilterResult
+    NavigationResult
         At ``data.times``: ``x[:, :2]`` the positions, ``x[:, 2]`` the heading, then :math:`b_g` and :math:`s`
-        (those estimated, in that order); with ``smooth=True`` the smoothed ``x`` and ``P`` beside the filter's
-        priors and innovations. ``extras["ranges"]`` holds the ranges used, ``(K, B)``, NaN where none;
-        with ``smooth=True``, ``extras["filtered"]`` holds the filter's own result (its ``x`` and ``P``).
+        (those estimated, in that order: ``state_names``); with ``smooth=True`` the smoothed ``x`` and ``P``
+        beside the filter's priors and innovations. ``extras["ranges"]`` holds the ranges used, ``(K, B)``, NaN
+        where none; with ``smooth=True``, ``extras["filtered"]`` holds the filter's own result (its ``x`` and
+        ``P``). ``chosen`` names the candidate returned and ``evidence`` gives every candidate's log predictive
+        likelihood (Notes).
+
+    Warns
+    -----
+    UserWarning
+        When the log looks wrong for the model: the ranges disagree with the odometry far beyond their noise
+        (median normalized innovation more than 20 times its chi-square median) or the range scale comes out
+        more than 30 % from 1 -- most often a heading in degrees or measured clockwise from north, beacons in
+        another frame, or ranges in other units.
+
+    Notes
+    -----
+    **Choosing the states from the log.** Each candidate :math:`c` is run through the gated filter, and scored by
+    the log predictive likelihood of *every* range of the log (the gate's rejects included, from the candidate's
+    own prediction, so that every candidate is scored on the same ranges):
+
+    .. math::
+
+        \ell_c = \sum_k \log \mathcal N\big(z_k;\ h(\hat x^c_{k|k-1}),\ H P^c_{k|k-1} H^\mathsf{T} + R\big),
+
+    the sum of each epoch's ranges' joint density given everything before them (the prequential score of Dawid
+    1984; a Bayes factor between the candidates when the filters are exact). A candidate that lost the track
+    predicts the next ranges badly or vaguely and scores low, however few ranges its gate let in. The largest
+    :math:`\ell_c` wins; a candidate with more states must beat a smaller one by more than one unit per extra
+    state (Akaike's penalty). The cost is one filter run per candidate.
 
     Raises
     ------
@@ -150,21 +186,116 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     True
     """
     smooth, gate = as_flag("smooth", smooth), as_flag("gate", gate)
-    nav = navigation_models(data, beacon_ids, min_period=min_period, gyro_bias=gyro_bias, scale=scale,
-                            range_sigma=range_sigma, distance_sigma=distance_sigma, heading_noise=heading_noise,
-                            gyro_bias_prior=gyro_bias_prior, gyro_bias_walk=gyro_bias_walk,
-                            scale_prior=scale_prior, scale_walk=scale_walk)
-    chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
-    result = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z, times=nav.times,
-                                    gate=chosen_gate)
+    fixed_bias = None if gyro_bias is None else as_flag("gyro_bias", gyro_bias)
+    fixed_scale = None if scale is None else as_flag("scale", scale)
+    options = dict(min_period=min_period, offset=offset, thinning=thinning, range_sigma=range_sigma,
+                   distance_sigma=distance_sigma, heading_noise=heading_noise, gyro_bias_prior=gyro_bias_prior,
+                   gyro_bias_walk=gyro_bias_walk, scale_prior=scale_prior, scale_walk=scale_walk)
+    candidates = [(name, flags) for name, flags in CANDIDATES.items()
+                  if fixed_bias in (None, flags[0]) and fixed_scale in (None, flags[1])]
+    runs = {}
+    for name, (with_bias, with_scale) in candidates:
+        nav = navigation_models(data, beacon_ids, gyro_bias=with_bias, scale=with_scale, **options)
+        chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
+        result = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z,
+                                        times=nav.times, gate=chosen_gate)
+        runs[name] = (nav, result, _log_predictive(nav, result))
+    evidence = {name: float(run[2][0]) for name, run in runs.items()}
+    chosen = min(runs, key=lambda name: (-(evidence[name] - _n_extra(name)), _n_extra(name)))
+    nav, result, (_, per_range) = runs[chosen]
+    _check_plausible(data, nav, result, per_range)
     extras = dict(result.extras, ranges=nav.z)
+    fields = dict(state_names=nav.motion.layout.names, chosen=chosen, evidence=evidence, models=nav,
+                  candidates={name: run[1] for name, run in runs.items()})
     if not smooth:
-        return FilterResult(result.times, result.x, result.P, result.x_prior, result.P_prior, result.innovations,
-                            result.innovation_cov, extras)
+        return NavigationResult(result.times, result.x, result.P, result.x_prior, result.P_prior,
+                                result.innovations, result.innovation_cov, extras, **fields)
     smoothed = rts_smoother(result, nav.motion, nav.u)
     extras["filtered"] = result
-    return FilterResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior, result.innovations,
-                        result.innovation_cov, extras)
+    return NavigationResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior,
+                            result.innovations, result.innovation_cov, extras, **fields)
+
+
+#: navigate's candidate models: name -> ``(gyro_bias, scale)``.
+CANDIDATES: dict[str, tuple[bool, bool]] = {"pose only": (False, False), "+ scale": (False, True),
+                                            "+ gyro bias": (True, False), "+ scale and gyro bias": (True, True)}
+
+
+def _n_extra(name: str) -> int:
+    return sum(CANDIDATES[name])
+
+
+def _log_predictive(nav: "NavigationModels", result: FilterResult) -> tuple[float, np.ndarray]:
+    """The log predictive likelihood of every range (Notes of :func:`navigate`), and the normalized innovation
+    squared per range of every epoch with ranges, from the filter's priors (the gate's rejects included)."""
+    z = nav.z
+    heard = np.isfinite(z)
+    epochs = np.nonzero(heard.any(axis=1))[0]
+    if epochs.size == 0:
+        return 0.0, np.empty(0)
+    predicted, H, _ = nav.measurement.linearize(result.x_prior[epochs], 0)
+    S = H @ result.P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(None, 0) * np.eye(z.shape[1])
+    mask = heard[epochs]
+    y = np.where(mask, z[epochs] - predicted, 0.0)
+    # the missing components decoupled (unit variance, zero innovation): their terms are then 0 and dropped
+    S = np.where(mask[:, :, None] & mask[:, None, :], S, 0.0) + np.einsum("kb,bc->kbc", ~mask, np.eye(z.shape[1]))
+    q = np.einsum("kb,kb->k", y, np.linalg.solve(S, y[..., None])[..., 0])
+    m = mask.sum(axis=1)
+    logdet = np.linalg.slogdet(S)[1]
+    return float(-0.5 * np.sum(q + logdet + m * np.log(2.0 * np.pi))), q / m
+
+
+def _check_plausible(data: RangeDataset, nav: "NavigationModels", result: FilterResult, per_range: np.ndarray) -> None:
+    """Warn when the log looks wrong for the model (navigate's Warns section)."""
+    hints = ("check that headings are in radians, counter-clockwise from +x (RangeDataset's heading_unit and "
+             "heading_convention), that the beacons are in the frame of the start pose, and that the ranges are "
+             "in metres")
+    if per_range.size >= 10 and np.median(per_range) > 20.0 * _CHI2_1_MEDIAN:
+        warnings.warn(f"{data.name}: the ranges disagree with the odometry far beyond their noise (median "
+                      f"normalized innovation {np.median(per_range):.3g}, about {_CHI2_1_MEDIAN:.2f} expected): "
+                      + hints, UserWarning, stacklevel=3)
+    scale_index = nav.motion.layout.scale
+    if scale_index is not None and abs(result.x[-1, scale_index] - 1.0) > 0.3:
+        warnings.warn(f"{data.name}: the range scale came out {result.x[-1, scale_index]:.3g}, far from 1: "
+                      + hints, UserWarning, stacklevel=3)
+
+
+_CHI2_1_MEDIAN = 0.454936
+
+
+@dataclass(frozen=True)
+class NavigationResult(FilterResult):
+    """:func:`navigate`'s result: a :class:`~uwtutor.filters.FilterResult` and the model chosen from the log.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        The names of the state's components, e.g. ``('x', 'y', 'heading', 'scale')``.
+    chosen : str
+        The candidate returned (a key of ``CANDIDATES``).
+    evidence : dict
+        Every candidate run -> its log predictive likelihood of the log's ranges (navigate's Notes).
+    candidates : dict
+        Every candidate run -> its filter's :class:`~uwtutor.filters.FilterResult`.
+    models : NavigationModels or None
+        The chosen candidate's model pair and inputs (e.g. for :func:`uwtutor.filters.rts_smoother`).
+
+    Examples
+    --------
+    >>> from uwtutor.datasets import navigate, square_log
+    >>> # a 10 m square driven twice, ranging to two beacons; the ranges 5 % long
+    >>> result = navigate(square_log(range_scale=1.05), range_sigma=0.1)
+    >>> result.chosen, result.state_names
+    ('+ scale', ('x', 'y', 'heading', 'scale'))
+    >>> max(result.evidence, key=result.evidence.get)
+    '+ scale'
+    """
+
+    state_names: tuple[str, ...] = ()
+    chosen: str = ""
+    evidence: dict[str, float] = field(default_factory=dict)
+    candidates: dict[str, FilterResult] = field(default_factory=dict)
+    models: "NavigationModels | None" = None
 
 
 @dataclass(frozen=True)
@@ -210,7 +341,8 @@ class NavigationModels:
     times: np.ndarray
 
 
-def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, gyro_bias: bool = True,
+def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
+                      thinning: str = "per beacon", gyro_bias: bool = True,
                       scale: bool = True, range_sigma: Any = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
                       heading_noise: Any = 1e-3, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
                       scale_prior: Any = 0.1, scale_walk: Any = 1e-5) -> NavigationModels:
@@ -272,7 +404,7 @@ def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period:
                          "start_cov), or with truth, whose first row is the default start")
     gyro_bias, scale = as_flag("gyro_bias", gyro_bias), as_flag("scale", scale)
     ids = list(data.beacons) if beacon_ids is None else beacon_ids
-    z = data.ranges_on_epochs(ids, min_period=min_period)
+    z = data.ranges_on_epochs(ids, min_period=min_period, offset=offset, thinning=thinning)
     beacons = data.beacon_positions(ids)
     sigma_r = _positive("range_sigma", range_sigma)
     # standard deviations: their squares stay within the covariances' bound, 1e150
