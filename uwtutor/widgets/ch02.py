@@ -236,11 +236,11 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     (misfit,) = ax_mis.semilogy(t_min, np.maximum(np.abs(view.mirror_misfit), floor), color="C3",
                                 label="|mirror − true range| (0 drawn at 0.1)")
     noise = ax_mis.axhline(view.sigma, color="gray", ls=":", label=f"range noise σ = {view.sigma:g} m")
-    ax_mis.set_ylim(floor / 1.5, 1e4)
+    ax_mis.set_ylim(floor / 1.5, 1e6)   # two decades of headroom for the legend above the largest misfit
     ax_mis.tick_params(labelbottom=False)
     ax_mis.set_ylabel("misfit [m]", fontsize=8)
     ax_mis.set_title(f"mirror track: ranges off by {abs(view.mirror_misfit[-1]):.0f} m at the end", fontsize=8)
-    ax_mis.legend(loc="lower right", fontsize=6.5)
+    ax_mis.legend(loc="upper left", fontsize=6.5)
     ax_mis.tick_params(labelsize=7)
     ax_mis.minorticks_off()             # hundreds of minor log ticks would slow every redraw
 
@@ -249,10 +249,10 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
         ranks += ax_rank.step(t_min, r + 0.06 * (i - 1), where="post", color=colors[name],
                      label=f"{name} (full: {view.n_states[name]})")
     ax_rank.set_yticks(range(0, 5))
-    ax_rank.set_ylim(0.5, 4.5)
+    ax_rank.set_ylim(0.5, 6.5)          # room above full rank for the legend
     ax_rank.tick_params(labelbottom=False)
     ax_rank.set_ylabel("rank", fontsize=8)
-    ax_rank.legend(loc="lower right", fontsize=6.5, ncol=1)
+    ax_rank.legend(loc="upper left", fontsize=6.5, ncol=2)
     ax_rank.tick_params(labelsize=7)
 
     finals, bounds = [], []

@@ -219,6 +219,12 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
                        fix_times=out.fix_times, fix_error=fix_err, track_error=track_err, summary=summary)
 
 
+def _range_limit(view: OutlierView) -> float:
+    """The range-error axis: symmetric, with a band above the largest outlier or filter error for the legend."""
+    reach = max(view.amplitude, float(np.nanmax(np.abs(view.plain_error))), float(np.nanmax(np.abs(view.robust_error))))
+    return max(10.0, 1.6 * reach)
+
+
 def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
     """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom).
 
@@ -238,10 +244,10 @@ def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
     (plain,) = ax_r.plot(t, view.plain_error, color="C0", lw=1, label="standard KF")
     (robust,) = ax_r.plot(t, view.robust_error, color="C3", lw=1, label=f"KF with the {view.test} test")
     (flagged,) = ax_r.plot(t[view.flagged], view.range_error[view.flagged], "x", ms=3, color="k", label="flagged")
-    lim = max(10.0, 1.3 * view.amplitude)
+    lim = _range_limit(view)
     ax_r.set_ylim(-lim, lim)
     ax_r.set_ylabel("range error [m]")
-    ax_r.legend(fontsize=6, ncol=4, loc="lower left")
+    ax_r.legend(fontsize=6, ncol=4, loc="upper left")
     (fixes,) = ax_p.semilogy(view.fix_times, view.fix_error, color="0.5", lw=0.8, label="OR-VMLBL (fixes)")
     (track,) = ax_p.semilogy(view.fix_times, view.track_error, color="C3", lw=1.2, label="OR-VMLBL-KF")
     ax_p.set_xlabel("time [s]")
@@ -276,7 +282,7 @@ def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
     a["plain"].set_ydata(view.plain_error)
     a["robust"].set_ydata(view.robust_error)
     a["flagged"].set_data(t[view.flagged], view.range_error[view.flagged])
-    lim = max(10.0, 1.3 * view.amplitude)
+    lim = _range_limit(view)
     if ax_r.get_ylim() != (-lim, lim):
         ax_r.set_ylim(-lim, lim)
     a["fixes"].set_data(view.fix_times, view.fix_error)
