@@ -223,8 +223,8 @@ GATE_PROBABILITY, GATE_PATIENCE = 0.999, 10
 
 def gated_ekf(inputs: SuiteInputs) -> FilterResult:
     r"""The EKF of chapter 4 with chapter 9's gate: each range tested against :math:`\chi^2_1` at
-    ``GATE_PROBABILITY`` (:class:`~uwtutor.filters.ChiSquareGate`), inside a
-    :class:`~uwtutor.filters.ReacquiringGate` that inflates the covariance and forces an update after
+    ``GATE_PROBABILITY`` (:class:`~uwtutor.filters.gates.ChiSquareGate`), inside a
+    :class:`~uwtutor.filters.gates.ReacquiringGate` that inflates the covariance and forces an update after
     ``GATE_PATIENCE`` rejections in a row (a gate alone can lock a lost filter out for good).
 
     Examples
@@ -791,7 +791,9 @@ def log_draw(data: Any, beacon_id: int, schedules: Any, **options: Any) -> Calla
     >>> data = square_log()
     >>> schedules = np.array([np.arange(data.n_epochs) % s == 0 for s in (1, 2, 3)])
     >>> draw = methods.log_draw(data, 3, schedules)
-    >>> study = run_study(draw, methods.get("IEKF").estimate, 3, seed=0, chunk_size=3, components=(0, 1))
+    >>> study = run_study(
+    ...     draw, methods.get("IEKF").estimate, 3, seed=0, chunk_size=3, components=(0, 1)
+    ... )
     >>> study.final_errors.shape, bool(study.final_errors.max() < 1.0)
     ((3,), True)
     """

@@ -829,16 +829,31 @@ class ComparisonTable:
         Wall-clock seconds per run and step of the method on one batch (not reproducible).
     n_lost : ndarray of int
         Runs lost (final error above the threshold, or NaN).
-    final_rmse_lower, final_rmse_upper : ndarray
+    final_rmse_lower : ndarray
         Interval of ``final_rmse`` (:func:`uwtutor.statistics.final_rmse_interval`); NaN where it is not estimable
         (fewer than ``uwtutor.statistics.MIN_LOST_FOR_RMSE`` lost runs: the RMSE rests on them).
-    median_final_error_lower, median_final_error_upper : ndarray
+    final_rmse_upper : ndarray
+        Interval of ``final_rmse`` (:func:`uwtutor.statistics.final_rmse_interval`); NaN where it is not estimable
+        (fewer than ``uwtutor.statistics.MIN_LOST_FOR_RMSE`` lost runs: the RMSE rests on them).
+    median_final_error_lower : ndarray
         Distribution-free interval of the median.
-    converged_rmse, converged_rmse_lower, converged_rmse_upper : ndarray
+    median_final_error_upper : ndarray
+        Distribution-free interval of the median.
+    converged_rmse : ndarray
         RMSE of the runs within the threshold, with its interval [m].
-    divergence_fraction_lower, divergence_fraction_upper : ndarray
+    converged_rmse_lower : ndarray
+        RMSE of the runs within the threshold, with its interval [m].
+    converged_rmse_upper : ndarray
+        RMSE of the runs within the threshold, with its interval [m].
+    divergence_fraction_lower : ndarray
         Wilson interval of the lost fraction.
-    median_nees, median_nees_lower, median_nees_upper : ndarray
+    divergence_fraction_upper : ndarray
+        Wilson interval of the lost fraction.
+    median_nees : ndarray
+        Median over the runs of the final NEES, with its interval (NaN for a method with no covariance).
+    median_nees_lower : ndarray
+        Median over the runs of the final NEES, with its interval (NaN for a method with no covariance).
+    median_nees_upper : ndarray
         Median over the runs of the final NEES, with its interval (NaN for a method with no covariance).
     nees_median_reference : ndarray
         The median of :math:`\chi^2_d` it is compared with (1.39 for the position, d = 2).
@@ -1180,10 +1195,11 @@ class BestInCell:
 
     Attributes
     ----------
-    scenario, condition : str
+    scenario : str
+    condition : str
     limit : float
         The lost fraction a method must be clearly below to be eligible.
-    lost_verdicts : dict of str to str
+    lost_verdicts : dict
         ``method -> "clearly below" | "clearly above" | "undecided"`` against ``limit``.
     ranking : uwtutor.statistics.Ranking or None
         The eligible methods by median final error (None if none is eligible).

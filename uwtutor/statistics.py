@@ -91,7 +91,9 @@ class Interval:
     ----------
     estimate : float
         The point estimate (NaN if there is none).
-    lower, upper : float
+    lower : float
+        The interval (NaN when not estimable).
+    upper : float
         The interval (NaN when not estimable).
     method : str
         How the interval was computed (e.g. ``"Wilson"``).
@@ -410,12 +412,17 @@ def median_nees_interval(nees: Any, dof: int = 2, confidence: float = 0.95) -> t
     (1.39, True)
     """
     x = as_float_array("nees", nees, ndim=1)
+    if x.size == 0:
+        raise ValueError("nees must hold the NEES of at least one run (NaN for a run without a covariance); got none")
+    if np.isinf(x).any():
+        raise ValueError(f"nees must be finite, or NaN for a run without a covariance; got {float(x[np.isinf(x)][0])} "
+                         f"at index {int(np.flatnonzero(np.isinf(x))[0])}")
     if np.any(x < 0):
         raise ValueError(f"nees must be >= 0 (a NEES is a quadratic form); got {float(x[x < 0][0])} at index "
                          f"{int(np.flatnonzero(x < 0)[0])}")
     dof = as_int("dof", dof, minimum=1)
     ref = float(stats.chi2.median(dof))
-    if x.size == 0 or np.isnan(x).all():
+    if np.isnan(x).all():
         return _not_estimable(np.nan, "order statistics", "no covariance: no NEES"), ref
     return median_interval(x, confidence), ref
 
@@ -433,7 +440,11 @@ class CellStatistics:
     n_lost : int
         Runs whose final error is above ``threshold`` (or NaN).
     threshold : float
-    final_rmse, median_final_error, converged_rmse, lost_fraction, median_nees : Interval
+    final_rmse : Interval
+    median_final_error : Interval
+    converged_rmse : Interval
+    lost_fraction : Interval
+    median_nees : Interval
     nees_reference : float
         The :math:`\\chi^2_d` median the median NEES is compared with.
 
@@ -529,7 +540,9 @@ class PairedComparison:
 
     Attributes
     ----------
-    a, b : str
+    a : str
+        The two methods' names.
+    b : str
         The two methods' names.
     n_runs : int
     median_difference : Interval
@@ -687,7 +700,7 @@ class Ranking:
         ``"median"``, ``"lost"`` or ``"converged_rmse"``.
     order : tuple of str
         The methods by their point estimate, best first.
-    estimates : dict of str to float
+    estimates : dict
         Each method's point estimate of the criterion.
     best : tuple of str
         The leader and every method tied with it (paired interval containing zero).

@@ -88,7 +88,9 @@ class GraphSolution:
         :math:`b_k` [rad/s] (NaN when the graph has none).
     scale : ndarray, shape (K,)
         :math:`s_k` (NaN when the graph has none).
-    model, solver : str
+    model : str
+        What was built and how it was solved.
+    solver : str
         What was built and how it was solved.
     n_poses : int
         Pose variables in the graph (every epoch, or fewer with a gyro bias: ``pose_interval``).
@@ -249,7 +251,11 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     z = (data.ranges_on_epochs(ids, min_period=min_period, offset=offset, thinning=thinning)
          / _positive("range_scale", range_scale))
     beacons = data.beacon_positions(ids)
+    # bounded like the other standard deviations, so that the factors' information neither underflows nor overflows
     a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
+    if max(a, c) > 1e6:
+        raise ValueError(f"distance_sigma must be at most 1e+06 (a standard deviation in m and m/m); got "
+                         f"({a:.3g}, {c:.3g}). Check its units")
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     across = _positive("across_sigma", across_sigma)

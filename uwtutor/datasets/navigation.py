@@ -13,7 +13,7 @@ state :math:`[x, y, \theta, b_g, s]` with :class:`uwtutor.models.odometry.Odomet
 previous heading, then turns: the convention of the data, :meth:`RangeDataset.dead_reckoning`) and
 :class:`uwtutor.models.BeaconRanges` (:math:`z_j = s\,\lVert p - b_j\rVert + v_j`, the beacons heard at an epoch,
 the others skipped), behind a chi-square gate that cannot lock out (:class:`uwtutor.filters.gates.ReacquiringGate`),
-and smooths it with :func:`uwtutor.filters.rts_smoother` when asked. Nothing here is a new loop: a model pair,
+and smooths it with :func:`uwtutor.filters.smoother.rts_smoother` when asked. Nothing here is a new loop: a model pair,
 the engine and its gate.
 
 :func:`navigation_models` gives that model pair, its start and the log's inputs and measurements, so that the
@@ -265,7 +265,7 @@ _CHI2_1_MEDIAN = 0.454936
 
 @dataclass(frozen=True)
 class NavigationResult(FilterResult):
-    """:func:`navigate`'s result: a :class:`~uwtutor.filters.FilterResult` and the model chosen from the log.
+    """:func:`navigate`'s result: a :class:`~uwtutor.filters.base.FilterResult` and the model chosen from the log.
 
     Attributes
     ----------
@@ -276,9 +276,9 @@ class NavigationResult(FilterResult):
     evidence : dict
         Every candidate run -> its log predictive likelihood of the log's ranges (navigate's Notes).
     candidates : dict
-        Every candidate run -> its filter's :class:`~uwtutor.filters.FilterResult`.
+        Every candidate run -> its filter's :class:`~uwtutor.filters.base.FilterResult`.
     models : NavigationModels or None
-        The chosen candidate's model pair and inputs (e.g. for :func:`uwtutor.filters.rts_smoother`).
+        The chosen candidate's model pair and inputs (e.g. for :func:`uwtutor.filters.smoother.rts_smoother`).
 
     Examples
     --------

@@ -30,7 +30,7 @@ subclass), the same, field for field, as :func:`run_filter` ``(filt, z, u, times
 A filter may run its sequence faster than that loop (the packed range-only EKF does), but its result must equal
 the loop's: ``tests/test_filter_contract.py`` holds every filter to this.
 
-The same rule holds for a filter's **configuration** (:class:`Configurable`): its noise covariances ``Q`` and ``R``
+The same rule holds for a filter's **configuration** (``Configurable``): its noise covariances ``Q`` and ``R``
 and its other parameters either take effect when assigned (``f.Q = ...`` is checked like the constructor's ``Q``,
 and everything computed from it is computed again, so the next step uses it) or refuse the assignment with a
 message saying to build a new filter; they are shown read-only (``f.Q[0, 0] = 1`` raises). The diagnostics of the

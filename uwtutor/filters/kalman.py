@@ -79,6 +79,8 @@ class KalmanFilter(ExtendedKalmanFilter):
     B : ndarray or None
         Control-input matrix (None without input).
 
+    Notes
+    -----
     ``F``, ``H``, ``Q``, ``R`` and ``B`` are shown read-only; assigning one takes effect from the next step, checked
     as in the constructor (``kf.R = 4.0`` runs exactly as ``KalmanFilter(..., R=4.0)``). ``y`` and ``S`` are
     read-only.

