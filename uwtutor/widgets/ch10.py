@@ -103,7 +103,7 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
     >>> # no method beats the bound
     >>> bool(np.all(view.rmse[:, -1] >= view.bound[-1]))
     True
-    >>> # the gated EKF is a method of the suite (which of the EKFs ends lowest is a tie: chapter 10)
+    >>> # the gated EKF is one of the methods (which EKF ends lowest is a tie)
     >>> "gated EKF" in view.methods
     True
     """
