@@ -49,7 +49,7 @@ from .._linalg import line_of_sight as _line_of_sight
 from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
 from .base import MeasurementModel, MotionModel
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
-from .odometry import ORDERS, _durations, _per_step, _wrap
+from .odometry import ORDERS, _durations, _odometry_input, _per_step, _wrap
 from .range import NoiseSchedule, _beacon_table
 
 __all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "OffsetAndRate", "BlockMotion",
@@ -366,14 +366,7 @@ class OdometryPose(StateBlock):
         self._eye = np.eye(3)
 
     def _parts(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, dt: float) -> tuple[Any, ...]:
-        if u is None:
-            raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
-                             "Pass the odometry as the filter's u")
-        u = np.asarray(u, dtype=float)
-        if u.shape[-1:] != (2,):
-            raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
-                             f"2); got shape {u.shape}")
-        d, turn = u[..., 0], u[..., 1]
+        d, turn = _odometry_input(u)
         if self.reads:
             turn = turn - reads[self.reads[0]][..., 0] * dt
         alpha = own[..., 2] + self._c * turn if self._c else own[..., 2]

@@ -134,6 +134,19 @@ def _index(name: str, value: Any, n: int, taken: dict[int, str]) -> int:
     return i
 
 
+def _odometry_input(u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The distance and heading change of one step's odometry ``u`` (last axis [distance, heading change]), checked
+    (shared by :class:`OdometryMotion` and the odometry pose block of :mod:`uwtutor.models.blocks`)."""
+    if u is None:
+        raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
+                         "Pass the odometry as the filter's u")
+    u = np.asarray(u, dtype=float)
+    if u.shape[-1:] != (2,):
+        raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
+                         f"2); got shape {u.shape}")
+    return u[..., 0], u[..., 1]
+
+
 @dataclass(frozen=True)
 class StateLayout:
     r"""Which component of the state is what: the contract between a motion and a measurement model.
@@ -451,14 +464,7 @@ class OdometryMotion(MotionModel):
         return float(a if a.ndim == 0 else a[k])
 
     def _input(self, u: Any) -> tuple[np.ndarray, np.ndarray]:
-        if u is None:
-            raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
-                             "Pass the odometry as the filter's u")
-        u = np.asarray(u, dtype=float)
-        if u.shape[-1:] != (2,):
-            raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
-                             f"2); got shape {u.shape}")
-        return u[..., 0], u[..., 1]
+        return _odometry_input(u)
 
     def _parts(self, x: np.ndarray, u: Any, k: int) -> tuple[Any, Any, np.ndarray, np.ndarray, float]:
         """Distance d_k, turn delta_k, cos and sin of the move heading alpha_k, and dt of step k."""
