@@ -32,9 +32,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._linalg import quadratic_form
-from .._validate import MAX_COORDINATE, as_bool_array, as_finite, as_flag, as_float_array, as_int, as_scalar
+from .._validate import (MAX_COORDINATE, as_bool_array, as_finite, as_flag, as_float_array, as_int, as_nonnegative,
+                         as_positive, as_scalar)
 
-__all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared"]
+__all__ = ["Gate", "GateContext", "ChiSquareGate", "ReacquiringGate", "normalized_innovation_squared",
+           "SecondMomentGate", "RobustGate", "moment_gate_interval", "make_test"]
 
 
 @dataclass(frozen=True)
@@ -422,3 +424,291 @@ class ReacquiringGate(Gate):
                 self._due |= due
         self.rejected, self.inflated = rejected, due
         return x, P
+
+
+#: The tests ``robust_range_kf`` and ``cascade_kf`` know by name.
+TESTS = ("paper", "chi2", "none")
+
+
+#: What a rejected measurement is replaced by.
+ON_OUTLIER = ("predict", "extrapolate")
+
+
+class SecondMomentGate(Gate):
+    r"""Paper E's outlier test :math:`H_0` (eqs. 10-11): the measurement's second moment against its prediction.
+
+    With the prediction :math:`\hat z = H\hat x^-` and :math:`S = H P^- H^T + R`, the expected second moment of
+    the measurement is :math:`D = S + \hat z \hat z^T`; the measurement is accepted (no outlier) when
+
+    .. math::
+
+        (1 - \delta)\,\operatorname{tr} D \;\le\; z^T z \;\le\; (1 + \delta)\,\operatorname{tr} D,
+
+    which for a scalar range is paper E's :math:`z z^T \in [D(1-\delta), D(1+\delta)]`.
+    (:func:`moment_gate_interval` gives the accepted innovations.)
+
+    Parameters
+    ----------
+    delta : float, default 0.03
+        The tolerance :math:`\delta`, in (0, 1) (paper E: 0.03).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters import GateContext
+    >>> from uwtutor.filters.gates import SecondMomentGate
+    >>> z = np.array([[1510.0], [1530.0]])
+    >>> zp = np.full((2, 1), 1500.0)
+    >>> S = np.full((2, 1, 1), 4.0)
+    >>> ctx = GateContext(
+    ...     k=0,
+    ...     z=z,
+    ...     z_pred=zp,
+    ...     y=z - zp,
+    ...     S=S,
+    ...     H=np.ones((2, 1, 2)),
+    ...     R=np.eye(1),
+    ...     x_prior=np.zeros((2, 2)),
+    ...     P_prior=np.tile(np.eye(2), (2, 1, 1)),
+    ... )
+    >>> # 10 m in, 30 m out (the gate is about 22.5 m)
+    >>> SecondMomentGate(0.03).accept(ctx)
+    array([ True, False])
+    """
+
+    def __init__(self, delta: Any = 0.03) -> None:
+        d = as_scalar("delta", delta)
+        if not 0.0 < d < 1.0:
+            raise ValueError(f"delta must lie strictly between 0 and 1 (paper E uses 0.03); got {d:g}")
+        self.delta = d
+
+    def accept(self, ctx: GateContext) -> np.ndarray:
+        present = ctx.present
+        if present is None or present.all():
+            zz = np.sum(ctx.z**2, axis=-1)
+            D = np.trace(ctx.S, axis1=-2, axis2=-1) + np.sum(ctx.z_pred**2, axis=-1)
+        else:                                      # the components present (a run with none is rejected)
+            zz = np.where(present.any(axis=-1), np.sum(np.where(present, ctx.z, 0.0) ** 2, axis=-1), np.nan)
+            D = (np.sum(np.where(present, np.diagonal(ctx.S, axis1=-2, axis2=-1), 0.0), axis=-1)
+                 + np.sum(np.where(present, ctx.z_pred, 0.0) ** 2, axis=-1))
+        with np.errstate(invalid="ignore"):
+            return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
+
+
+def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
+                         delta: Any = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    r"""The innovations :math:`y = z - \hat z` that paper E's test accepts for a scalar measurement :math:`z > 0`.
+
+    .. math::
+
+        \sqrt{(1-\delta)(S + \hat z^2)} - \hat z \;\le\; y \;\le\; \sqrt{(1+\delta)(S + \hat z^2)} - \hat z,
+        \qquad \text{about } \pm\frac{\delta}{2}\hat z \text{ when } S \ll \hat z^2 .
+
+    Parameters
+    ----------
+    z_pred : array_like
+        Predicted measurement :math:`\hat z` [m], > 0.
+    S : array_like
+        Innovation variance [m²], >= 0 (broadcast against ``z_pred``).
+    delta : float, default 0.03
+        Paper E's tolerance.
+
+    Returns
+    -------
+    lower, upper : ndarray
+        The accepted interval of the innovation [m].
+
+    Examples
+    --------
+    >>> from uwtutor.filters.gates import moment_gate_interval
+    >>> lo, hi = moment_gate_interval(1500.0, 4.0)
+    >>> round(float(lo), 2), round(float(hi), 2)
+    (-22.67, 22.34)
+    """
+    zp = as_positive("z_pred", z_pred, max_abs=MAX_COORDINATE)
+    S = as_float_array("S", S)
+    if not np.all(np.isfinite(S)) or np.any(S < 0):
+        raise ValueError("S must be finite and >= 0 (an innovation variance)")
+    d = SecondMomentGate(delta).delta
+    D = S + zp**2
+    return np.sqrt((1.0 - d) * D) - zp, np.sqrt((1.0 + d) * D) - zp
+
+
+def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate | None:
+    """The gate named by ``test``: ``"paper"`` (``SecondMomentGate(delta)``), ``"chi2"``
+    (``ChiSquareGate(probability)``), ``"none"`` (None: every measurement used), or a ``Gate`` itself.
+
+    ``delta`` and ``probability`` are checked whichever test uses them, so that a bad value is never silently
+    ignored (``make_test("chi2", delta=nan)`` is refused).
+
+    Examples
+    --------
+    >>> from uwtutor.filters.gates import make_test
+    >>> type(make_test("paper", delta=0.03)).__name__
+    'SecondMomentGate'
+    >>> gate = make_test("chi2", probability=0.99)
+    >>> type(gate).__name__, round(gate.threshold(1), 3)
+    ('ChiSquareGate', 6.635)
+    >>> make_test("none") is None
+    True
+    """
+    paper, chi2 = SecondMomentGate(delta), ChiSquareGate(probability)      # both checked, whichever is used
+    if isinstance(test, Gate):
+        return test
+    if not isinstance(test, str) or test not in TESTS:
+        raise ValueError(f"test must be one of {list(TESTS)} or a uwtutor.filters.Gate; got {test!r}")
+    return {"paper": paper, "chi2": chi2, "none": None}[test]
+
+
+class RobustGate(Gate):
+    r"""An outlier test plus what to do with what it rejects, for a constant-velocity state :math:`[p, v]`.
+
+    A rejected measurement leaves the run at its prediction (``on_outlier="predict"``; for a constant-velocity
+    state that *is* a linear extrapolation at the estimated rate) or, with ``on_outlier="extrapolate"``, at paper
+    E's eq. (12), :math:`\hat x_k = 2\hat x_{k-1} - \hat x_{k-2}` (the whole state extrapolated from the last two
+    estimates; the covariance stays the prediction's). With ``reacquire=n``, after ``n`` consecutive rejections the
+    ``n`` rejected measurements are fitted with a straight line in time,
+    :math:`z_j \approx a + b\,(t_j - t_k)`; if :math:`\sum_j \lVert z_j - a - b (t_j - t_k)\rVert^2_{R^{-1}} \le
+    \chi^2_{d(n-2)}(1 - 10^{-3})` the run restarts from :math:`\hat x_k = [a, b]` with the least-squares
+    covariance of the fit, and those ``n`` measurements are classed as good after all.
+
+    The gate keeps per-run memory; it is reset at step 0, so one object can serve one run of a filter at a time.
+
+    Parameters
+    ----------
+    test : Gate or None
+        The accept/reject rule (e.g. ``SecondMomentGate``, ``ChiSquareGate``); None accepts everything.
+    steps : array_like, shape (K,)
+        The step lengths of the run (``models.robust.step_lengths``), to know the epochs' times.
+    on_outlier : {"predict", "extrapolate"}, default "predict"
+        What a rejected run's estimate becomes.
+    reacquire : int or None, default None
+        ``n`` >= 3 for re-acquisition after ``n`` consecutive rejections; None: never (a lock-out is permanent).
+
+    Attributes
+    ----------
+    rejected : list of ndarray
+        Per step, bool ``(M,)``: the test rejected the measurement.
+    reacquired : list of ndarray
+        Per step, bool ``(M,)``: the run was restarted.
+    cleared : list of tuple
+        The ``(run, step)`` pairs of rejected measurements reclassified as good by a re-acquisition.
+
+    Examples
+    --------
+    Paper E's test on a range track with a spike at step 3: rejected, and predicted through:
+
+    >>> import numpy as np
+    >>> from uwtutor.filters import extended_kalman_filter
+    >>> from uwtutor.filters.gates import RobustGate, SecondMomentGate
+    >>> from uwtutor.models import ConstantVelocity, PositionMeasurement
+    >>> from uwtutor.models.robust import step_lengths
+    >>> steps = step_lengths(6)
+    >>> gate = RobustGate(SecondMomentGate(0.03), steps)
+    >>> z = np.array([1000.0, 999.0, 998.1, 1150.0, 996.0, 995.1])
+    >>> res = extended_kalman_filter(
+    ...     ConstantVelocity(1, 0.01, steps),
+    ...     PositionMeasurement(1, 2.0),
+    ...     [1000.0, -1.0],
+    ...     np.diag([2.0, 1.0]),
+    ...     None,
+    ...     z,
+    ...     gate=gate,
+    ... )
+    >>> res.extras["accepted"].tolist()
+    [True, True, True, False, True, True]
+    >>> # the spike's step: the prediction [m]
+    >>> round(float(res.x[3, 0]), 1)
+    997.1
+    """
+
+    estimates_checked = True      # the engine's own estimate, extrapolated or restarted from a fit
+
+    def __init__(self, test: Gate | None, steps: ArrayLike, *, on_outlier: str = "predict",
+                 reacquire: int | None = None) -> None:
+        if test is not None and not isinstance(test, Gate):
+            raise TypeError(f"test must be a uwtutor.filters.Gate or None; got {type(test).__name__}")
+        if on_outlier not in ON_OUTLIER:
+            raise ValueError(f"on_outlier must be one of {ON_OUTLIER}; got {on_outlier!r}")
+        if reacquire is not None:
+            reacquire = as_int("reacquire", reacquire, minimum=3)
+        self.test, self.on_outlier, self.reacquire = test, on_outlier, reacquire
+        # step lengths (models.robust.step_lengths): finite, >= 0, one per epoch
+        self.times = np.cumsum(as_nonnegative("steps", steps, ndim=1, nonempty=True, max_abs=MAX_COORDINATE))
+        self.rejected: list[np.ndarray] = []
+        self.reacquired: list[np.ndarray] = []
+        self.cleared: list[tuple[int, int]] = []
+
+    def _reset(self, M: int, d: int) -> None:
+        n = self.reacquire or 1
+        self.rejected, self.reacquired, self.cleared = [], [], []
+        self._x1 = self._x2 = None
+        self._count = np.zeros(M, dtype=int)
+        self._zbuf = np.zeros((M, n, d))
+        self._kbuf = np.zeros((M, n), dtype=int)
+
+    def accept(self, ctx: GateContext) -> np.ndarray:
+        M, d = ctx.z.shape
+        if ctx.k == 0 or not hasattr(self, "_count") or self._count.shape[0] != M:
+            self._reset(M, d)
+        has = np.isfinite(ctx.z).all(axis=-1)
+        verdict = (np.ones(M, dtype=bool) if self.test is None else
+                   as_bool_array(f"the gate {type(self.test).__name__}.accept", self.test.accept(ctx), ((M,),)))
+        self._pending = (ctx.k, has & ~verdict, np.array(ctx.z), np.asarray(ctx.R))
+        return verdict
+
+    def after_update(self, x: np.ndarray, P: np.ndarray, accepted: np.ndarray,
+                     k: int) -> tuple[np.ndarray, np.ndarray]:
+        _, rejected, z, R = self._pending
+        M, n_state = x.shape
+        d = z.shape[1]
+        x, P = x.copy(), P.copy()
+        if self.on_outlier == "extrapolate" and self._x2 is not None and rejected.any():
+            x[rejected] = 2.0 * self._x1[rejected] - self._x2[rejected]
+        reacq = np.zeros(M, dtype=bool)
+        if self.reacquire is not None:
+            n = self.reacquire
+            self._count[accepted] = 0
+            rows = np.flatnonzero(rejected)
+            slot = self._count[rows] % n
+            self._zbuf[rows, slot] = z[rows]
+            self._kbuf[rows, slot] = k
+            self._count[rows] += 1
+            due = rows[self._count[rows] >= n]              # only runs whose measurement was just rejected
+            if due.size:
+                ok, x_fit, P_fit = self._refit(due, R, k, n, d, n_state)
+                good = due[ok]
+                reacq[good] = True
+                x[good], P[good] = x_fit[ok], P_fit[ok]
+                for run in good:
+                    self.cleared.extend((int(run), int(j)) for j in self._kbuf[run])
+                self._count[good] = 0
+        self.rejected.append(rejected)
+        self.reacquired.append(reacq)
+        self._x2, self._x1 = self._x1, x.copy()
+        return x, P
+
+    def _refit(self, runs: np.ndarray, R: np.ndarray, k: int, n: int, d: int,
+               n_state: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Line fits through the buffered measurements of ``runs``: (ok, x, P) for those runs."""
+        if n_state != 2 * d:
+            raise ValueError("RobustGate's re-acquisition (a line fit through the rejected measurements) needs a "
+                             "constant-velocity state [position, velocity] whose position is measured: a state of "
+                             f"size {2 * d} for measurements of size {d}; got {n_state}. For any other state use "
+                             "uwtutor.filters.ReacquiringGate (covariance inflation after repeated rejections)")
+        t = self.times[self._kbuf[runs]] - self.times[k]                     # (m, n)
+        A = np.stack([np.ones_like(t), t], axis=-1)                          # (m, n, 2)
+        G = np.swapaxes(A, -1, -2) @ A                                       # (m, 2, 2)
+        coef = np.linalg.solve(G, np.swapaxes(A, -1, -2) @ self._zbuf[runs])  # (m, 2, d)
+        res = self._zbuf[runs] - A @ coef
+        Rm = np.broadcast_to(R, (len(R) if R.ndim == 3 else 1, d, d))
+        var = np.diagonal(Rm, axis1=-2, axis2=-1)
+        var = var[runs] if var.shape[0] > 1 else np.broadcast_to(var, (len(runs), d))
+        chi = np.sum(res**2 / var[:, None, :], axis=(1, 2))
+        from scipy import stats          # imported where used: scipy.stats costs about 1 s of CPU to import
+        ok = chi <= stats.chi2.ppf(1.0 - 1e-3, d * (n - 2))
+        x_new = coef.reshape(len(runs), 2 * d)                               # [a (d), b (d)]
+        C = np.linalg.inv(G)
+        P_new = np.einsum("mij,ma,ab->miajb", C, var, np.eye(d)).reshape(len(runs), 2 * d, 2 * d)
+        P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+        return ok, x_new, P_new
