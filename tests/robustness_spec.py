@@ -180,7 +180,7 @@ SPECS: dict[str, Spec] = {
         lambda: dict(ranges=np.array([100.0, 101.0, 102.5, 104.0, 180.0, 106.0, 107.0]), dt=1.0, q=2.0, r=2.0,
                      delta=0.03, test="paper", probability=0.99),
         kinds=dict(ranges=Real((None,), "nonneg", nan_ok=True), test=Choice(("paper", "chi2", "none")))),
-    "uwtutor.filters.robust:make_test": Spec(
+    "uwtutor.filters.gates:make_test": Spec(
         lambda: dict(test="chi2", delta=0.03, probability=0.99),
         kinds=dict(test=Choice(("paper", "chi2", "none"))), check=lambda v, b: []),
     "uwtutor.filters.gates:normalized_innovation_squared": Spec(
@@ -246,22 +246,22 @@ SPECS: dict[str, Spec] = {
         check=lambda v, b: _feedback_check(v[1], b[1]) if v[1] is not None else [],
         refused=lambda v: v[1] is not None, crash_is_obscure=True),
     # Monte Carlo studies (the filter and the draws are the user's functions)
-    "uwtutor.montecarlo:run_monte_carlo": Spec(
+    "uwtutor.montecarlo.batch:run_monte_carlo": Spec(
         lambda: dict(filter_fn=_batched_ekf, truth=np.broadcast_to(_TRACK[1:], (3, 5, 2)),
                      x0=np.tile(_X0, (3, 1)), z=np.tile(_Z, (3, 1)), components=[0, 1], confidence=0.95),
         call=lambda filter_fn, truth, **kw: __import__("uwtutor.montecarlo", fromlist=["x"]).run_monte_carlo(
             filter_fn, truth, **kw),
         kinds=dict(filter_fn=Func(), truth=Real((3, 5, 2)), x0=Real((3, 2)), z=Real((3, 5), "nonneg", nan_ok=True),
                    components=Real((2,)))),
-    "uwtutor.montecarlo:run_study": Spec(
+    "uwtutor.montecarlo.study:run_study": Spec(
         lambda: dict(draw=_study_draw, estimate=_study_estimate, n_runs=4, seed=1, chunk_size=2, executor=None,
                      components=[0, 1], confidence=0.95),
         kinds=dict(draw=Func(), estimate=Func(), chunk_size=Int(minimum=1), executor=Instance(optional=True),
                    components=Real((2,)))),
-    "uwtutor.montecarlo:scenario_draw": Spec(
+    "uwtutor.montecarlo.comparison:scenario_draw": Spec(
         lambda: dict(scenario=_study_draw, condition=lambda rng, runs: runs),
         kinds=dict(scenario=Func(), condition=Func()), check=lambda v, b: []),
-    "uwtutor.montecarlo:compare": Spec(
+    "uwtutor.montecarlo.comparison:compare": Spec(
         lambda: dict(methods={"ekf": _study_estimate}, scenarios={"circle": _compare_scenario},
                      conditions={"gauss": _compare_condition}, n_runs=4, seed=1, chunk_size=2),
         kinds=dict(methods=Mapping({"ekf": 3}), scenarios=Mapping({"circle": "abc"}),
@@ -286,20 +286,20 @@ SPECS: dict[str, Spec] = {
                                             kinds=dict(values=Real((None,), nan_ok=True, inf_ok=True), lower=Real(()),
                                                        upper=Real(()))),
     # observability
-    "uwtutor.observability:cramer_rao_bound": Spec(lambda: dict(information=np.eye(2) * 2.0),
+    "uwtutor.observability.bounds:cramer_rao_bound": Spec(lambda: dict(information=np.eye(2) * 2.0),
                                                    kinds=dict(information=Covariance(definite=True, any_size=True))),
-    "uwtutor.observability:rmse_bound": Spec(lambda: dict(covariance=np.eye(2) * 2.0),
+    "uwtutor.observability.bounds:rmse_bound": Spec(lambda: dict(covariance=np.eye(2) * 2.0),
                                              kinds=dict(covariance=Covariance(inf_ok=True, any_size=True)),
                                              check=lambda v, b: ["NaN bound"] if np.isnan(v).any() else []),
-    "uwtutor.observability:error_ellipse": Spec(lambda: dict(covariance=np.eye(2) * 2.0, center=(0.0, 0.0), scale=2.0),
+    "uwtutor.observability.geometry:error_ellipse": Spec(lambda: dict(covariance=np.eye(2) * 2.0, center=(0.0, 0.0), scale=2.0),
                                                 kinds=dict(covariance=Covariance(), center=Real((2,)),
                                                            scale=Real((), "pos"))),
-    "uwtutor.observability:range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
-    "uwtutor.observability:position_crlb": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0], sigma=1.0)),
-    "uwtutor.observability:fisher_information": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
+    "uwtutor.observability.jacobians:range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
+    "uwtutor.observability.bounds:position_crlb": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0], sigma=1.0)),
+    "uwtutor.observability.information:fisher_information": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
                                                                   sigma=1.0)),
-    "uwtutor.observability:gdop": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0])),
-    "uwtutor.observability:posterior_crlb": Spec(
+    "uwtutor.observability.bounds:gdop": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0])),
+    "uwtutor.observability.posterior:posterior_crlb": Spec(
         lambda: dict(positions=_TRACK, beacon=np.zeros(2), sigma=1.0, Q=np.eye(2) * 0.1, P0=np.eye(2) * 100.0,
                      times=np.arange(6.0)),
         kinds=dict(times=Real((6,), optional=True), P0=Covariance(definite=True), sigma=Real((), "pos", inf_ok=True,
@@ -462,9 +462,9 @@ EXEMPT: dict[str, str] = {
                                            "in tests/test_real_data_study.py",
     "uwtutor.datasets.study:RealDataStudy": "the committed study's container, built by run_real_data_study or load",
     "uwtutor.datasets.baselines:BaselineRun": "a result container the baselines build",
-    "uwtutor.montecarlo:MonteCarloResult": "a result container run_monte_carlo builds (its scores are checked there)",
-    "uwtutor.montecarlo:StudyResult": "a result container run_study builds (its scores are checked there)",
-    "uwtutor.montecarlo:ComparisonTable": "the table container compare builds (and from_csv reads back)",
+    "uwtutor.montecarlo.batch:MonteCarloResult": "a result container run_monte_carlo builds (its scores are checked there)",
+    "uwtutor.montecarlo.study:StudyResult": "a result container run_study builds (its scores are checked there)",
+    "uwtutor.montecarlo.comparison:ComparisonTable": "the table container compare builds (and from_csv reads back)",
     "uwtutor.datasets.factor_graph:GraphSolution": "a result container gtsam_map builds",
     "uwtutor.datasets.navigation:NavigationModels": "a container navigation_models builds",
     "uwtutor.datasets.navigation:NavigationResult": "a result container navigate builds",

@@ -246,45 +246,45 @@ SPECS_CORE: dict[str, Spec] = {
         lambda: dict(start=[0.0, 0.0, 0.1], odometry=[[0.0, 0.0], [1.0, 0.1], [1.0, -0.2]]),
         kinds=dict(start=Real((3,)), odometry=Real((None, 2)))),
     # observability and bounds
-    "uwtutor.observability:squared_range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
-    "uwtutor.observability:beacons_at_bearings": Spec(
+    "uwtutor.observability.jacobians:squared_range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
+    "uwtutor.observability.jacobians:beacons_at_bearings": Spec(
         lambda: dict(position=[30.0, -40.0], bearings=[0.0, 1.0, 2.5], distances=1000.0),
         kinds=dict(bearings=Real((None,)), distances=Real((), "pos", vector_ok=True))),
-    "uwtutor.observability:virtual_beacons": Spec(lambda: dict(beacon=(0.0, 0.0), positions=_TRACK, reference=-1),
+    "uwtutor.observability.jacobians:virtual_beacons": Spec(lambda: dict(beacon=(0.0, 0.0), positions=_TRACK, reference=-1),
                                                   kinds=dict(reference=Int())),
-    "uwtutor.observability:precision_factor": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
+    "uwtutor.observability.bounds:precision_factor": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
                                                                 unknown_bias=True),
                                                    kinds=dict(unknown_bias=Flag())),
-    "uwtutor.observability:track_jacobian": Spec(
+    "uwtutor.observability.jacobians:track_jacobian": Spec(
         lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), times=np.arange(6.0), unknown_bias=True,
                      unknown_current=True, reference=-1),
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
                    reference=Int())),
-    "uwtutor.observability:track_fisher_information": Spec(
+    "uwtutor.observability.information:track_fisher_information": Spec(
         lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), sigma=1.0, times=np.arange(6.0), unknown_bias=True,
                      unknown_current=False, cumulative=True),
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), sigma=Real((), "pos", vector_ok=True),
                    unknown_bias=Flag(), unknown_current=Flag(), cumulative=Flag())),
-    "uwtutor.observability:track_crlb": Spec(
+    "uwtutor.observability.bounds:track_crlb": Spec(
         lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), sigma=1.0, times=np.arange(6.0), unknown_bias=False,
                      unknown_current=False, rtol=1e-6),
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), sigma=Real((), "pos", vector_ok=True),
                    unknown_bias=Flag(), unknown_current=Flag(), rtol=Real((), "open01"))),
-    "uwtutor.observability:observability_rank": Spec(
+    "uwtutor.observability.information:observability_rank": Spec(
         lambda: dict(positions=_TRACK, beacon=(0.0, 0.0), times=np.arange(6.0), unknown_bias=True,
                      unknown_current=False, cumulative=True, rtol=1e-6),
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
                    cumulative=Flag(), rtol=Real((), "open01"))),
-    "uwtutor.observability:numerical_rank": Spec(lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
+    "uwtutor.observability.information:numerical_rank": Spec(lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
                                                  kinds=dict(matrix=Real((None, 2), extra_axis_ok=True),
                                                             rtol=Real((), "open01"))),
-    "uwtutor.observability:two_range_fix": Spec(
+    "uwtutor.observability.geometry:two_range_fix": Spec(
         lambda: dict(beacon=(0.0, 0.0), ranges=[100.0, 104.0], displacement=[10.0, 0.0]),
         kinds=dict(ranges=Real((2,), "nonneg"), displacement=Real((2,)))),
-    "uwtutor.observability:mirror_point": Spec(
+    "uwtutor.observability.geometry:mirror_point": Spec(
         lambda: dict(point=[30.0, -40.0], beacon=(0.0, 0.0), direction=[1.0, 0.5]),
         kinds=dict(point=Real((2,)), direction=Real((2,)))),
-    "uwtutor.observability:model_posterior_crlb": Spec(
+    "uwtutor.observability.posterior:model_posterior_crlb": Spec(
         lambda: dict(motion=_models()[0], measurement=_models()[1], x0=_TRACK[0], P0=np.eye(2) * 100.0,
                      truth=_TRACK[1:], u=np.diff(_TRACK, axis=0), measured=np.ones(5, dtype=bool), full=True),
         kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)),

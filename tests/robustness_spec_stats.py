@@ -84,5 +84,5 @@ EXEMPT_STATS: dict[str, str] = {
     "uwtutor.statistics:CellStatistics": "a result container cell_statistics builds (specified)",
     "uwtutor.statistics:PairedComparison": "a result container paired_comparison builds (specified)",
     "uwtutor.statistics:Ranking": "a result container rank builds (specified)",
-    "uwtutor.montecarlo:BestInCell": "a result container ComparisonTable.best builds",
+    "uwtutor.montecarlo.comparison:BestInCell": "a result container ComparisonTable.best builds",
 }

@@ -452,12 +452,12 @@ SPECS_STRUCT: dict[str, Spec] = {
                    ess_threshold=_NONNEG),
         call=_run_depth("uwtutor.filters.particle.multiple_model.MultipleModelParticleFilter"), per_argument=4,
         names=("motion model",)),
-    "uwtutor.filters.robust:RobustGate": Spec(
+    "uwtutor.filters.gates:RobustGate": Spec(
         lambda: dict(test=None, steps=np.r_[0.0, np.ones(4)], on_outlier="extrapolate", reacquire=3),
         kinds=dict(test=Instance(optional=True), steps=Real((None,), "nonneg"),
                    on_outlier=Choice(("predict", "extrapolate")), reacquire=_OptInt(minimum=3)),
         call=_robust_gated),
-    "uwtutor.filters.robust:SecondMomentGate": Spec(
+    "uwtutor.filters.gates:SecondMomentGate": Spec(
         lambda: dict(delta=0.03), kinds=dict(delta=Real((), "open01")),
         call=lambda **kw: _robust_gated(__import__("uwtutor.filters.robust", fromlist=["x"]).SecondMomentGate(**kw),
                                         np.r_[0.0, np.ones(4)])),
@@ -467,7 +467,7 @@ SPECS_STRUCT: dict[str, Spec] = {
         kinds=dict(fixes=Real((8, 2), nan_ok=True), dt=_POS, q=_NONNEG, r=Real((), "pos", vector_ok=True),
                    test=Choice(("paper", "chi2", "none")), on_outlier=Choice(("predict", "extrapolate")),
                    reacquire=_OptInt(minimum=3), times=Real((8,), optional=True))),
-    "uwtutor.filters.robust:moment_gate_interval": Spec(
+    "uwtutor.filters.gates:moment_gate_interval": Spec(
         lambda: dict(z_pred=1500.0, S=4.0, delta=0.03),
         kinds=dict(z_pred=Real((), "pos", vector_ok=True), S=Real((), "nonneg", vector_ok=True))),
     "uwtutor.filters.robust:robust_track_kf": Spec(

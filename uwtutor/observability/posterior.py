@@ -2,11 +2,10 @@ r"""The posterior (Bayesian) Cramér–Rao bound of a filter with process noise 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from .._linalg import line_of_sight as _line_of_sight
 from .._validate import (
     as_covariance,
     as_finite,
@@ -17,6 +16,7 @@ from .._validate import (
 )
 from ..errors import IllConditionedError
 from ..models.base import MeasurementModel, MotionModel
+from ..models.range import RangeToBeacon
 from ._common import _state_labels, _warn
 
 __all__ = ["posterior_crlb", "model_posterior_crlb"]
@@ -101,6 +101,22 @@ def _spd_inverse(J: np.ndarray) -> np.ndarray:
     return np.swapaxes(L_inv, -1, -2) @ L_inv
 
 
+def _range_rows(positions: np.ndarray, beacon: np.ndarray, n: int, bias: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The rows :math:`H_k` of the range measurement model (``RangeToBeacon``, the filters' own) at the true
+    positions ``(M, K, 2)``, state ``[x, y, (bias), (Ux, Uy)]``, zero where the line of sight is undefined; and
+    where it is defined ``(M, K)``."""
+    M, K, _ = positions.shape
+    ranges = RangeToBeacon(beacon, R=1.0, n=n, bias_index=2 if bias else None)
+    state = np.zeros((M, n))
+    h = np.empty((M, K, n))
+    defined = np.empty((M, K), dtype=bool)
+    for k in range(K):
+        state[:, :2] = positions[:, k]
+        _, H, defined[:, k] = ranges.linearize(state, k)
+        h[:, k] = H[:, 0]
+    return np.where(defined[..., None], h, 0.0), defined
+
+
 def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, times: Any = None, *,
                    bias: bool = False, current: bool = False, full: bool = False,
                    mean_over_runs: bool = False) -> np.ndarray:
@@ -161,6 +177,9 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
     matrix whose eigenvalues are all :math:`\ge 1`. This holds for a singular :math:`Q_k` (a constant bias or
     current; :math:`Q = 0`) and a nearly uninformative :math:`P_0`, and :math:`J` is symmetrized at every step.
     The bound itself is :math:`J_k^{-1}` through a Cholesky factor.
+    The recursion is :func:`model_posterior_crlb`'s own (one implementation), run with this linear motion and the
+    rows :math:`H_k` of the filters' range model (:class:`~uwtutor.models.RangeToBeacon`) at the true positions;
+    what this function adds is the closed-form state, the per-epoch :math:`\sigma_k` and ``mean_over_runs``.
 
     Parameters
     ----------
@@ -280,17 +299,11 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
     dt = _pcrb_steps(times, K, current)
     Qk = _pcrb_process_noise(Q, n, K)
 
-    pb = np.broadcast_to(p, (M, K, 2))
-    bb = np.broadcast_to(b, (M, K, 2))
-    _, los, defined = _line_of_sight(pb, bb)
+    h, defined = _range_rows(np.broadcast_to(p, (M, K, 2)), np.broadcast_to(b, (M, K, 2)), n, bias)
     if not defined.all():
         j, k = (int(i) for i in np.argwhere(~defined)[0])
         _warn(f"positions coincide with the beacon at {np.count_nonzero(~defined)} epoch(s) (the first: run {j}, "
               f"epoch {k}): the line of sight is undefined there, so those ranges add no information")
-    h = np.zeros((M, K, n))
-    h[..., :2] = los
-    if bias:
-        h[..., 2] = np.where(defined, 1.0, 0.0)
     info = np.einsum("mki,mkj->mkij", h, h) * info_scale[..., None, None]   # H^T R^-1 H, (M, K, n, n)
 
     if mean_over_runs:
@@ -300,20 +313,11 @@ def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, tim
         info = info.mean(axis=0, keepdims=True)
         M, batched = 1, False
 
-    J = np.broadcast_to(_spd_inverse(P0_arr), (M, n, n)).copy()
-    eye = np.eye(n)
-    F_inv = np.broadcast_to(eye, (K, n, n)).copy()
+    F = np.broadcast_to(np.eye(n), (K, n, n)).copy()                        # x_k = F_k x_{k-1} + ...
     if current:
         c = 3 if bias else 2
-        F_inv[:, 0, c] = F_inv[:, 1, c + 1] = -dt
-    bounds = np.empty((M, K, n, n))
-    for k in range(K):
-        Jt = np.swapaxes(F_inv[k], -1, -2) @ J @ F_inv[k] if current else J      # F^-T J F^-1
-        A = eye + Qk[k] @ Jt                                                     # eigenvalues >= 1
-        J_pred = np.swapaxes(np.linalg.solve(np.swapaxes(A, -1, -2), Jt), -1, -2)  # Jt (I + Q Jt)^-1
-        J = _sym(J_pred) + info[:, k]
-        J = _sym(J)
-        bounds[:, k] = _sym(_spd_inverse(J))
+        F[:, 0, c] = F[:, 1, c + 1] = dt
+    bounds = _information_recursion(P0_arr, M, K, lambda k: (F[k], Qk[k]), lambda k, J: J + info[:, k])
     out = bounds if full else bounds[..., :2, :2]
     return out if batched else out[0]
 
@@ -373,6 +377,55 @@ def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) 
     except np.linalg.LinAlgError:
         raise IllConditionedError(f"the predicted covariance F J^-1 F^T + Q is singular at step {k} (a singular "
                                   "F with a singular Q): the bound is infinite along some direction") from None
+
+
+def _information_recursion(P0: np.ndarray, M: int, K: int,
+                           transition: Callable[[int], tuple[np.ndarray, np.ndarray]],
+                           update: Callable[[int, np.ndarray], np.ndarray]) -> np.ndarray:
+    r"""The posterior information recursion (Tichavský et al. 1998, additive Gaussian noise), the one both bounds run.
+
+    :math:`J_0 = P_0^{-1}`; step :math:`k` predicts, :math:`J \leftarrow (Q_k + F_k J^{-1} F_k^\mathsf{T})^{-1}`
+    with ``transition(k) = (F_k, Q_k)``, then adds its measurements' information, ``J <- update(k, J)``
+    (:math:`J + \operatorname{E}[H_k^\mathsf{T} R_k^{-1} H_k]`), symmetrized. Returns the bounds
+    :math:`J_k^{-1}`, shape ``(M, K, n, n)``.
+    """
+    n = P0.shape[-1]
+    J = np.array(np.broadcast_to(_spd_inverse(P0), (M, n, n)))
+    bounds = np.empty((M, K, n, n))
+    for k in range(K):
+        F, Q = transition(k)
+        J = _sym(_predicted_information(J, F, Q, k))
+        J = _sym(update(k, J))
+        bounds[:, k] = _sym(_spd_inverse(J))
+    return bounds
+
+
+def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: int, present: np.ndarray, M: int,
+                             m: int, n: int) -> tuple[np.ndarray | None, int]:
+    r""":math:`H_k^\mathsf{T} R_k^{-1} H_k` of the components ``present`` (M, m) at the true ``x_k`` (None: none),
+    and how many present components had an undefined Jacobian (they add nothing)."""
+    if not present.any():
+        return None, 0
+    _, H, defined = measurement.linearize(x_k, k)
+    H = np.asarray(H, dtype=float)
+    if H.shape != (M, m, n):
+        raise ValueError(f"{type(measurement).__name__}'s H must have shape ({M}, {m}, {n}); got {H.shape}")
+    d = np.asarray(defined, dtype=bool)
+    d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
+    undefined = int((present & ~d).sum())
+    present = present & d
+    R = _as_batch(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
+    bad = present & ~np.isfinite(H).all(axis=-1)
+    if bad.any():
+        raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
+                         f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+    both = present[:, :, None] & present[:, None, :]
+    if (both & ~np.isfinite(R)).any():
+        raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
+                         "measurement is present")
+    Hm = np.where(present[:, :, None], H, 0.0)
+    Rm = np.where(both, R, np.eye(m))
+    return np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm), undefined           # H^T R^-1 H
 
 
 def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth: Any, u: Any = None, *,
@@ -502,50 +555,31 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth:
     M = 1 if runs is None else runs
     batched = runs is not None
     xs = np.broadcast_to(truth, (M, K, n))
-    x_prev = np.array(np.broadcast_to(x0, (M, n)))
+    x0_batch = np.array(np.broadcast_to(x0, (M, n)))
     uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))
     present_all = _measured_mask(measured, M, K, m)
 
-    J = np.array(np.broadcast_to(_spd_inverse(P0), (M, n, n)))
-    bounds = np.empty((M, K, n, n))
-    singular = 0
-    for k in range(K):
+    def transition(k: int) -> tuple[np.ndarray, np.ndarray]:
         u_k = None if uu is None else uu[:, k]
+        x_prev = x0_batch if k == 0 else np.ascontiguousarray(xs[:, k - 1])
         F = _as_batch(motion.F(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.F")
         Q = _as_batch(motion.Q(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.Q")
         for method, value in (("F", F), ("Q", Q)):
             if not np.isfinite(value).all():
                 raise ValueError(f"{type(motion).__name__}.{method} returned a non-finite value at step {k}")
-        J = _sym(_predicted_information(J, F, Q, k))
-        x_k = np.ascontiguousarray(xs[:, k])
-        present = present_all[:, k]
-        if present.any():
-            _, H, defined = measurement.linearize(x_k, k)
-            H = np.asarray(H, dtype=float)
-            if H.shape != (M, m, n):
-                raise ValueError(f"{type(measurement).__name__}'s H must have shape ({M}, {m}, {n}); got {H.shape}")
-            d = np.asarray(defined, dtype=bool)
-            d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
-            if (present & ~d).any():
-                singular += int((present & ~d).sum())
-            present = present & d
-            R = _as_batch(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
-            bad = present & ~np.isfinite(H).all(axis=-1)
-            if bad.any():
-                raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
-                                 f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
-            both = present[:, :, None] & present[:, None, :]
-            if (both & ~np.isfinite(R)).any():
-                raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
-                                 "measurement is present")
-            Hm = np.where(present[:, :, None], H, 0.0)
-            Rm = np.where(both, R, np.eye(m))
-            J = J + np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm)            # H^T R^-1 H
-            J = _sym(J)
-        bounds[:, k] = _sym(_spd_inverse(J))
-        x_prev = x_k
-    if singular:
-        _warn(f"the Jacobian is undefined for {singular} measured component(s) (a position on a beacon): those "
+        return F, Q
+
+    singular = [0]
+
+    def update(k: int, J: np.ndarray) -> np.ndarray:
+        increment, undefined = _measurement_information(measurement, np.ascontiguousarray(xs[:, k]), k,
+                                                        present_all[:, k], M, m, n)
+        singular[0] += undefined
+        return J if increment is None else J + increment
+
+    bounds = _information_recursion(P0, M, K, transition, update)
+    if singular[0]:
+        _warn(f"the Jacobian is undefined for {singular[0]} measured component(s) (a position on a beacon): those "
               "measurements add no information")
     out = bounds if full else bounds[..., :2, :2]
     return out if batched else out[0]
