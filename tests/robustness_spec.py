@@ -252,12 +252,12 @@ SPECS: dict[str, Spec] = {
         call=lambda filter_fn, truth, **kw: __import__("uwtutor.montecarlo", fromlist=["x"]).run_monte_carlo(
             filter_fn, truth, **kw),
         kinds=dict(filter_fn=Func(), truth=Real((3, 5, 2)), x0=Real((3, 2)), z=Real((3, 5), "nonneg", nan_ok=True),
-                   components=Real((2,)))),
+                   components=Real((2,), optional=True))),   # None: every component (the default)
     "uwtutor.montecarlo.study:run_study": Spec(
         lambda: dict(draw=_study_draw, estimate=_study_estimate, n_runs=4, seed=1, chunk_size=2, executor=None,
                      components=[0, 1], confidence=0.95),
         kinds=dict(draw=Func(), estimate=Func(), chunk_size=Int(minimum=1), executor=Instance(optional=True),
-                   components=Real((2,)))),
+                   components=Real((2,), optional=True))),
     "uwtutor.montecarlo.comparison:scenario_draw": Spec(
         lambda: dict(scenario=_study_draw, condition=lambda rng, runs: runs),
         kinds=dict(scenario=Func(), condition=Func()), check=lambda v, b: []),

@@ -40,8 +40,6 @@ KNOWN: dict[str, str] = {
     "uwtutor.metrics:nees/covariances/nan": "metrics (statistics work): a NaN covariance is a lost run",
     "uwtutor.metrics:nis/innovation_cov/nan": "metrics (statistics work): a NaN innovation covariance is a missing "
     "measurement",
-    "uwtutor.montecarlo.study:run_study/components/None": "montecarlo (statistics work): None is its documented default "
-    "(every component); the spec's kind needs optional=True there",
 }
 
 
