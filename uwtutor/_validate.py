@@ -96,7 +96,9 @@ def _first_bad_index(mask: np.ndarray) -> str:
 
 def _describe(value: Any) -> str:
     if isinstance(value, (str, bytes)):
-        text = value if len(value) <= 40 else value[:37] + "..."
+        text: str | bytes = value
+        if len(value) > 40:     # cut with an ellipsis of the value's own type (bytes + str is a TypeError)
+            text = value[:37] + "..." if isinstance(value, str) else value[:37] + b"..."
         return f"the string {text!r}"
     return f"a {type(value).__name__}"
 
@@ -642,7 +644,8 @@ class CovarianceCheck:
     model's."""
 
     def __init__(self, name: str, model: Any = None, method: str = "") -> None:
-        self.name, self._seen = name, None
+        self.name = name
+        self._seen: np.ndarray | None = None
         own = getattr(type(model), method, None)
         self._trusted = bool(getattr(model, "covariances_checked", False)) and own is not None and \
             getattr(own, "__module__", "").startswith("uwtutor.")

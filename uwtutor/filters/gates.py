@@ -638,6 +638,8 @@ class RobustGate(Gate):
         self.rejected: list[np.ndarray] = []
         self.reacquired: list[np.ndarray] = []
         self.cleared: list[tuple[int, int]] = []
+        self._x1: np.ndarray | None = None         # the last two estimates (eq. 12's extrapolation)
+        self._x2: np.ndarray | None = None
 
     def _reset(self, M: int, d: int) -> None:
         n = self.reacquire or 1
@@ -663,7 +665,7 @@ class RobustGate(Gate):
         M, n_state = x.shape
         d = z.shape[1]
         x, P = x.copy(), P.copy()
-        if self.on_outlier == "extrapolate" and self._x2 is not None and rejected.any():
+        if self.on_outlier == "extrapolate" and self._x1 is not None and self._x2 is not None and rejected.any():
             x[rejected] = 2.0 * self._x1[rejected] - self._x2[rejected]
         reacq = np.zeros(M, dtype=bool)
         if self.reacquire is not None:

@@ -77,7 +77,7 @@ class OneWayTravelTimeRanges(BlockMeasurement):
     array([[53.]])
     """
 
-    reads = ("position", "clock")
+    reads: tuple[str, ...] = ("position", "clock")
     covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
     nonnegative = True
 
@@ -92,7 +92,7 @@ class OneWayTravelTimeRanges(BlockMeasurement):
         self._noise = NoiseSchedule("R", R, self.m)
         self._offset = self.columns["clock"][0]
 
-    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, ...]:
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask
         ``(M, B)``, False on a beacon."""
         p = self.read(x, "position")[..., None, :]

@@ -20,9 +20,9 @@ class _StudyStatistics:
 
     final_errors: np.ndarray
     mean_nees: np.ndarray
-    nees_bounds: tuple[np.ndarray, np.ndarray]
+    nees_bounds: tuple[float | np.ndarray, float | np.ndarray]
     mean_nis: np.ndarray | None
-    nis_bounds: tuple[np.ndarray, np.ndarray] | None
+    nis_bounds: tuple[float | np.ndarray, float | np.ndarray] | None
 
     def final_error_percentile(self, q: float) -> float:
         """The ``q``-th percentile (0-100) of the final error over the runs, e.g. ``q=95``."""

@@ -80,10 +80,10 @@ class MonteCarloResult(_StudyStatistics):
     final_errors: np.ndarray
     nees: np.ndarray
     mean_nees: np.ndarray
-    nees_bounds: tuple[float, float]
+    nees_bounds: tuple[float | np.ndarray, float | np.ndarray]
     nis: np.ndarray | None
     mean_nis: np.ndarray | None
-    nis_bounds: tuple[np.ndarray, np.ndarray] | None
+    nis_bounds: tuple[float | np.ndarray, float | np.ndarray] | None
     confidence: float
 
     @property

@@ -712,7 +712,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
 
     cols: dict[str, list[Any]] = {c: [] for c in ComparisonTable.columns}
     curves: list[tuple[np.ndarray, np.ndarray]] = []
-    runs: list[tuple[np.ndarray, np.ndarray]] = []
+    runs: list[tuple[np.ndarray, np.ndarray | None]] = []
     versions: dict[str, str] = {}
     for s_name, scenario in scenarios.items():
         for c_name, condition in conditions.items():

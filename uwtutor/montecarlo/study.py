@@ -138,9 +138,9 @@ class StudyResult(_StudyStatistics):
     final_errors: np.ndarray
     rmse: np.ndarray
     mean_nees: np.ndarray
-    nees_bounds: tuple[float, float]
+    nees_bounds: tuple[float | np.ndarray, float | np.ndarray]
     mean_nis: np.ndarray | None
-    nis_bounds: tuple[np.ndarray, np.ndarray] | None
+    nis_bounds: tuple[float | np.ndarray, float | np.ndarray] | None
     times: np.ndarray
     components: tuple[int, ...]
     confidence: float

@@ -38,7 +38,8 @@ def _as_rtol(rtol: Any) -> float:
 
 def _broadcast(name_a: str, a: np.ndarray, name_b: str, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     try:
-        return np.broadcast_arrays(a, b)
+        a_b, b_a = np.broadcast_arrays(a, b)
+        return a_b, b_a
     except ValueError:
         raise ValueError(f"{name_a} of shape {a.shape} does not broadcast against {name_b} of shape "
                          f"{b.shape}") from None

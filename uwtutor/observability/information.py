@@ -143,11 +143,11 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     rows = _track_rows(p, b, t, bool(unknown_bias), bool(unknown_current), 0) / s[:, None]
     if not cumulative:
         J0 = rows.T @ rows
-        if not unknown_current:
+        if not unknown_current or t is None:       # (the times are required with a current)
             return J0
         return _refer_current(J0[None], (t[-1] - t[0])[None], bool(unknown_bias))[0]
     J0 = np.cumsum(np.einsum("ki,kj->kij", rows, rows), axis=0)
-    if not unknown_current:
+    if not unknown_current or t is None:
         return J0
     return _refer_current(J0, t - t[0], bool(unknown_bias))
 

@@ -250,8 +250,8 @@ def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: A
                          "collinear or too close together: a straight track to a fixed beacon, or epochs too few "
                          "apart); lengthen spacing, or turn")
     if not usable.all():
-        _warn(IllConditionedWarning(f"{int((~usable).sum())} of {M} runs have no usable virtual-beacon fix at all "
-                                    "(collinear virtual beacons in every window); their track is NaN"))
+        _warn(f"{int((~usable).sum())} of {M} runs have no usable virtual-beacon fix at all (collinear virtual "
+              "beacons in every window); their track is NaN", IllConditionedWarning)
     track = cascade_kf(fix.position[usable], times=fix_t, q=fix_q, r=fix_cov[usable], test=fix_test,
                        **(fix_options or {}))
     smoothed = None

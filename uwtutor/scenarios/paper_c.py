@@ -144,7 +144,7 @@ FILTER_NAMES = ("EKF", "MMPF", "GPF", "PF", "PF + wavelet R", "EKF + wavelet R")
 PITCH_OFFSET = 1.0
 
 
-def _ramps(t: np.ndarray, ramps: Sequence[tuple[float, float]], values: Sequence[float]) -> np.ndarray:
+def _ramps(t: np.ndarray, ramps: Sequence[tuple[float, float]], values: Sequence[float] | np.ndarray) -> np.ndarray:
     """``values[0]`` then a smooth (raised-cosine) ramp to ``values[i+1]`` over each ``ramps[i] = (start, end)``."""
     out = np.full(t.shape, float(values[0]))
     for (a, b), v0, v1 in zip(ramps, values[:-1], values[1:]):
