@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import line_of_sight as _line_of_sight
 from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar, common_runs
 from ..errors import IllConditionedWarning
 from ._common import (as_ranges_and_beacons, as_thresholds, batched_lstsq, sigma_and_cov, unit_los,
@@ -191,7 +192,7 @@ def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias:
     gain = np.sqrt(alpha)
     well = warn_conditioning(cond, gain, mc, mg, "the linearized least-squares problem")
     with np.errstate(invalid="ignore"):
-        predicted = np.hypot(*(p[:, None, :] - b).transpose(2, 0, 1)) + (bias[:, None] if unknown_bias else 0.0)
+        predicted = _line_of_sight(p[:, None, :], b)[0] + (bias[:, None] if unknown_bias else 0.0)
     residuals = r - predicted
     s, cov = sigma_and_cov(sigma, residuals, n_unknowns, inv_normal)
     estimate = np.concatenate([p, bias[:, None]], axis=-1) if unknown_bias else p
@@ -354,13 +355,10 @@ def nonlinear_lsq(ranges: Any, beacons: Any, initial: Any, *, unknown_bias: bool
     N = len(r)
 
     def residual(x: np.ndarray) -> np.ndarray:
-        return np.hypot(*(x[:2] - b).T) + (x[2] if unknown_bias else 0.0) - r
+        return _line_of_sight(x[:2], b)[0] + (x[2] if unknown_bias else 0.0) - r
 
     def jacobian(x: np.ndarray) -> np.ndarray:
-        d = x[:2] - b
-        rho = np.hypot(*d.T)
-        rho = np.where(rho > 0, rho, 1.0)        # at a beacon: any unit direction (a measure-zero case)
-        h = d / rho[:, None]
+        h = _line_of_sight(x[:2], b)[1]          # at a beacon: a zero row (a measure-zero case)
         return np.column_stack([h, np.ones(N)]) if unknown_bias else h
 
     method = "lm" if N >= n_unknowns else "trf"
