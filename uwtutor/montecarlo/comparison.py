@@ -552,6 +552,84 @@ def _lookup(mapping: Any, scenario: str, condition: str) -> Any:
     return mapping.get(scenario)
 
 
+def _check_cell_options(methods: dict[str, Any], scenarios: dict[str, Any], conditions: dict[str, Any], only: Any,
+                        bounds: Any, divergence_threshold: Any) -> None:
+    """``compare``'s ``only``, ``bounds`` and ``divergence_threshold`` name existing methods, scenarios and cells."""
+    if only is not None:
+        if not isinstance(only, dict):
+            raise TypeError(f"only must be a dict method name -> scenario names; got {type(only).__name__}")
+        for m, names in only.items():
+            if m not in methods:
+                raise ValueError(f"only names the method {m!r}, which is not in methods ({list(methods)})")
+            unknown = set(names) - set(scenarios)
+            if unknown:
+                raise ValueError(f"only[{m!r}] names scenarios that are not in scenarios: {sorted(unknown)}")
+    for name, mapping in (("bounds", bounds), ("divergence_threshold", divergence_threshold)):
+        if isinstance(mapping, dict):
+            for key in mapping:
+                s = key[0] if isinstance(key, tuple) else key
+                c = key[1] if isinstance(key, tuple) and len(key) == 2 else None
+                if s not in scenarios or (isinstance(key, tuple) and (len(key) != 2 or c not in conditions)):
+                    raise ValueError(f"{name} has the key {key!r}; keys must be scenario names or (scenario, "
+                                     "condition) pairs of the given scenarios and conditions")
+        elif name == "bounds" and mapping is not None:
+            raise TypeError(f"bounds must be a dict keyed by scenario or (scenario, condition); got "
+                            f"{type(mapping).__name__}")
+
+
+def _cell_bound(bound: Any, s_name: str, c_name: str, K: int) -> np.ndarray | None:
+    """A cell's bound curve, checked to have the studies' ``K`` steps (None: no bound)."""
+    if bound is None:
+        return None
+    b = as_positive(f"bounds[{s_name!r}]", bound, ndim=1)
+    if len(b) != K:
+        raise ValueError(f"the bound of scenario {s_name!r}, condition {c_name!r} has {len(b)} "
+                         f"steps; the studies have {K}")
+    return b
+
+
+def _row_columns(study: Any, names: tuple[str, str, str], n_runs: int, b: np.ndarray | None, thr: float,
+                 cost: float) -> dict[str, Any]:
+    """The columns of one row of the table read off a study (the intervals of ``cell_statistics`` come after)."""
+    m_name, s_name, c_name = names
+    K = study.n_steps
+    final_b, mean_b = (float(b[-1]), float(b.mean())) if b is not None else (np.nan, np.nan)
+    final_rmse, mean_rmse = float(study.rmse[-1]), float(study.rmse.mean())
+    lost = np.where(np.isnan(study.final_errors), np.inf, study.final_errors)   # NaN: diverged
+    with np.errstate(invalid="ignore"):
+        diverged = ~(study.final_errors <= thr)
+    return {"method": m_name, "scenario": s_name, "condition": c_name, "n_runs": n_runs, "n_steps": K,
+            "final_rmse": final_rmse, "median_final_error": float(np.median(lost)),
+            "p95_final_error": float(np.percentile(lost, 95.0)), "mean_rmse": mean_rmse, "final_bound": final_b,
+            "mean_bound": mean_b, "efficiency": mean_rmse / mean_b, "final_efficiency": final_rmse / final_b,
+            "mean_nees": float(np.mean(study.mean_nees)),
+            "nees_fraction": np.nan if np.isnan(study.mean_nees).all()
+            else study.nees_fraction_within(),                                 # no covariance: no NEES
+            "divergence_threshold": thr, "divergence_fraction": float(diverged.mean()), "cost_per_step": cost}
+
+
+def _as_table(cols: dict[str, list[Any]], curves: list[tuple[np.ndarray, np.ndarray]],
+              runs: list[tuple[np.ndarray, np.ndarray | None]], *, seed: int, chunk_size: int, confidence: float,
+              versions: dict[str, str]) -> ComparisonTable:
+    """The table of the collected columns (typed), with the curves and final errors when every cell has as many."""
+    arrays: dict[str, Any] = {}
+    for c, values in cols.items():
+        if c in _TEXT_COLUMNS:
+            arrays[c] = np.array(values, dtype=str)
+        elif c in _INT_COLUMNS:
+            arrays[c] = np.array(values, dtype=int)
+        else:
+            arrays[c] = np.array(values, dtype=float)
+    same_k = len({len(r) for r, _ in curves}) == 1
+    same_n = len({len(e) for e, _ in runs}) == 1
+    return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=confidence,
+                           versions=versions,
+                           rmse_curves=np.array([r for r, _ in curves]) if same_k else None,
+                           bound_curves=np.array([b for _, b in curves]) if same_k else None,
+                           final_errors=np.array([e for e, _ in runs]) if same_n else None,
+                           final_nees=np.array([v for _, v in runs]) if same_n else None)
+
+
 def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[str, Callable[..., Any]],
             conditions: dict[str, Callable[..., Any]], n_runs: int, seed: int, executor: Any = None, *,
             chunk_size: int = 1000, bounds: Any = None, divergence_threshold: Any = DEFAULT_DIVERGENCE_THRESHOLD,
@@ -687,26 +765,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
     seed = as_int("seed", seed, minimum=0)
     if timing_runs is not None:
         timing_runs = as_int("timing_runs", timing_runs, minimum=1)
-    if only is not None:
-        if not isinstance(only, dict):
-            raise TypeError(f"only must be a dict method name -> scenario names; got {type(only).__name__}")
-        for m, names in only.items():
-            if m not in methods:
-                raise ValueError(f"only names the method {m!r}, which is not in methods ({list(methods)})")
-            unknown = set(names) - set(scenarios)
-            if unknown:
-                raise ValueError(f"only[{m!r}] names scenarios that are not in scenarios: {sorted(unknown)}")
-    for name, mapping in (("bounds", bounds), ("divergence_threshold", divergence_threshold)):
-        if isinstance(mapping, dict):
-            for key in mapping:
-                s = key[0] if isinstance(key, tuple) else key
-                c = key[1] if isinstance(key, tuple) and len(key) == 2 else None
-                if s not in scenarios or (isinstance(key, tuple) and (len(key) != 2 or c not in conditions)):
-                    raise ValueError(f"{name} has the key {key!r}; keys must be scenario names or (scenario, "
-                                     "condition) pairs of the given scenarios and conditions")
-        elif name == "bounds" and mapping is not None:
-            raise TypeError(f"bounds must be a dict keyed by scenario or (scenario, condition); got "
-                            f"{type(mapping).__name__}")
+    _check_cell_options(methods, scenarios, conditions, only, bounds, divergence_threshold)
 
     from ..statistics import cell_statistics
 
@@ -727,34 +786,13 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                 study = run_study(draw, method, n_runs, seed=seed, chunk_size=chunk_size, executor=executor,
                                   components=components, confidence=confidence)
                 versions = study.versions
-                K = study.n_steps
-                if bound is not None:
-                    b = as_positive(f"bounds[{s_name!r}]", bound, ndim=1)
-                    if len(b) != K:
-                        raise ValueError(f"the bound of scenario {s_name!r}, condition {c_name!r} has {len(b)} "
-                                         f"steps; the studies have {K}")
-                    final_b, mean_b = float(b[-1]), float(b.mean())
-                else:
-                    final_b = mean_b = np.nan
-                final_rmse, mean_rmse = float(study.rmse[-1]), float(study.rmse.mean())
-                curves.append((study.rmse, np.full(K, np.nan) if bound is None else b))
-                lost = np.where(np.isnan(study.final_errors), np.inf, study.final_errors)   # NaN: diverged
-                with np.errstate(invalid="ignore"):
-                    diverged = ~(study.final_errors <= thr)
+                b = _cell_bound(bound, s_name, c_name, study.n_steps)
+                curves.append((study.rmse, np.full(study.n_steps, np.nan) if b is None else b))
                 cost = np.nan
                 if measure_cost:
-                    cost = _cost_per_step(draw, method, timing_runs or min(n_runs, chunk_size), seed, K)
-                for key, value in (("method", m_name), ("scenario", s_name), ("condition", c_name),
-                                   ("n_runs", n_runs), ("n_steps", K), ("final_rmse", final_rmse),
-                                   ("median_final_error", float(np.median(lost))),
-                                   ("p95_final_error", float(np.percentile(lost, 95.0))),
-                                   ("mean_rmse", mean_rmse), ("final_bound", final_b), ("mean_bound", mean_b),
-                                   ("efficiency", mean_rmse / mean_b), ("final_efficiency", final_rmse / final_b),
-                                   ("mean_nees", float(np.mean(study.mean_nees))),
-                                   ("nees_fraction", np.nan if np.isnan(study.mean_nees).all()
-                                    else study.nees_fraction_within()),        # no covariance: no NEES
-                                   ("divergence_threshold", thr), ("divergence_fraction", float(diverged.mean())),
-                                   ("cost_per_step", cost)):
+                    cost = _cost_per_step(draw, method, timing_runs or min(n_runs, chunk_size), seed, study.n_steps)
+                row = _row_columns(study, (m_name, s_name, c_name), n_runs, b, thr, cost)
+                for key, value in row.items():
                     cols[key].append(value)
                 cell = cell_statistics(study.final_errors, study.final_nees, dof=len(study.components),
                                        threshold=thr, confidence=confidence)
@@ -763,22 +801,8 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
                 runs.append((study.final_errors, study.final_nees))
     if not cols["method"]:
         raise ValueError("no (method, scenario) pair to run: check only")
-    arrays: dict[str, Any] = {}
-    for c, values in cols.items():
-        if c in _TEXT_COLUMNS:
-            arrays[c] = np.array(values, dtype=str)
-        elif c in _INT_COLUMNS:
-            arrays[c] = np.array(values, dtype=int)
-        else:
-            arrays[c] = np.array(values, dtype=float)
-    same_k = len({len(r) for r, _ in curves}) == 1
-    same_n = len({len(e) for e, _ in runs}) == 1
-    return ComparisonTable(**arrays, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
-                           versions=versions,
-                           rmse_curves=np.array([r for r, _ in curves]) if same_k else None,
-                           bound_curves=np.array([b for _, b in curves]) if same_k else None,
-                           final_errors=np.array([e for e, _ in runs]) if same_n else None,
-                           final_nees=np.array([v for _, v in runs]) if same_n else None)
+    return _as_table(cols, curves, runs, seed=seed, chunk_size=chunk_size, confidence=float(confidence),
+                     versions=versions)
 
 
 def _cost_per_step(draw: Callable[..., Any], method: Callable[..., Any], n: int, seed: int, K: int) -> float:
