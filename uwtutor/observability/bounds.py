@@ -6,9 +6,9 @@ unobserved (with an ``UnobservableWarning`` that names them); RMSE bound, GDOP, 
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (
     PSD_RTOL,
@@ -26,7 +26,7 @@ from .jacobians import range_jacobian
 __all__ = ["cramer_rao_bound", "position_crlb", "rmse_bound", "gdop", "precision_factor", "track_crlb"]
 
 
-def cramer_rao_bound(information: Any, *, rtol: float = DEFAULT_RTOL) -> np.ndarray:
+def cramer_rao_bound(information: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> NDArray[np.float64]:
     r"""The Cramér–Rao lower bound :math:`J^{-1}` of an information matrix, infinite where :math:`J` is singular.
 
     Any unbiased estimator satisfies :math:`\operatorname{Cov}(\hat x) \succeq J^{-1}`. When :math:`J` is singular
@@ -73,8 +73,8 @@ def cramer_rao_bound(information: Any, *, rtol: float = DEFAULT_RTOL) -> np.ndar
     return bounds
 
 
-def position_crlb(beacons: Any, position: Any, sigma: Any, unknown_bias: bool = False, *,
-                  rtol: float = DEFAULT_RTOL) -> np.ndarray:
+def position_crlb(beacons: ArrayLike, position: ArrayLike, sigma: ArrayLike, unknown_bias: bool = False, *,
+                  rtol: float = DEFAULT_RTOL) -> NDArray[np.float64]:
     r"""Cramér–Rao lower bound of a static position (and bias) ranged from the given beacons.
 
     The inverse of ``fisher_information``: :math:`C = J^{-1}`, a 2×2 covariance bound (3×3 with the bias, order
@@ -135,7 +135,7 @@ def _refuse_negative_bounds(bounds: np.ndarray) -> None:
                                   "negative or NaN variances): rescale sigma or the positions (e.g. kilometres)")
 
 
-def rmse_bound(covariance: Any) -> float | np.ndarray:
+def rmse_bound(covariance: ArrayLike) -> float | np.ndarray:
     r"""The bound on the RMS position error: :math:`\sqrt{C_{xx} + C_{yy}}` of a bound :math:`C` (position first).
 
     Parameters
@@ -181,7 +181,8 @@ def rmse_bound(covariance: Any) -> float | np.ndarray:
     return float(out) if out.ndim == 0 else out
 
 
-def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float = DEFAULT_RTOL) -> float | np.ndarray:
+def gdop(beacons: ArrayLike, position: ArrayLike, unknown_bias: bool = False, *,
+         rtol: float = DEFAULT_RTOL) -> float | np.ndarray:
     r"""Geometric dilution of precision: :math:`\sqrt{\operatorname{tr}\,(H^\mathsf{T} H)^{-1}}`.
 
     The factor by which the geometry magnifies a unit range error: with equal, independent range errors
@@ -224,7 +225,7 @@ def gdop(beacons: Any, position: Any, unknown_bias: bool = False, *, rtol: float
     return float(out) if out.ndim == 0 else out
 
 
-def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> float | np.ndarray:
+def precision_factor(beacons: ArrayLike, position: ArrayLike, unknown_bias: bool = True) -> float | np.ndarray:
     r"""Paper A's precision factor :math:`\alpha = \operatorname{tr}\,(X^\mathsf{T} X)^{-1} = \sum_i 1/\lambda_i`
     of a geometry: beacons (or a track's virtual beacons) and a vehicle position.
 
@@ -283,8 +284,9 @@ def precision_factor(beacons: Any, position: Any, unknown_bias: bool = True) -> 
     return float(alpha) if alpha.ndim == 0 else alpha
 
 
-def track_crlb(positions: Any, beacon: Any, sigma: Any, *, times: Any = None, unknown_bias: bool = False,
-               unknown_current: bool = False, rtol: float = DEFAULT_RTOL) -> np.ndarray:
+def track_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, *, times: ArrayLike | None = None,
+               unknown_bias: bool = False,
+               unknown_current: bool = False, rtol: float = DEFAULT_RTOL) -> NDArray[np.float64]:
     r"""The CRLB of the state at every epoch of a track, from the ranges up to that epoch.
 
     The inverse (``cramer_rao_bound``) of ``track_fisher_information(..., cumulative=True)``: entry ``k`` bounds

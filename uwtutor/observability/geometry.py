@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (
     MAX_COORDINATE,
@@ -19,7 +19,7 @@ from ._common import _warn
 __all__ = ["two_range_fix", "mirror_point", "error_ellipse"]
 
 
-def two_range_fix(beacon: Any, ranges: Any, displacement: Any) -> np.ndarray:
+def two_range_fix(beacon: ArrayLike, ranges: ArrayLike, displacement: ArrayLike) -> NDArray[np.float64]:
     r"""The two positions that fit two ranges to one beacon and the displacement between them (a mirror pair).
 
     The vehicle measures :math:`r_1` at :math:`p - u`, moves by the dead-reckoned :math:`u`, and measures
@@ -104,7 +104,7 @@ def _best_on_line(r1: float, r2: float, dist: float) -> float:
     return float(candidates[int(np.argmin(cost))])
 
 
-def mirror_point(point: Any, beacon: Any, direction: Any) -> np.ndarray:
+def mirror_point(point: ArrayLike, beacon: ArrayLike, direction: ArrayLike) -> NDArray[np.float64]:
     r"""Reflect points across the line through the beacon along ``direction``.
 
     .. math::
@@ -148,7 +148,8 @@ def mirror_point(point: Any, beacon: Any, direction: Any) -> np.ndarray:
     return b + 2.0 * (rel @ e)[..., None] * e - rel
 
 
-def error_ellipse(covariance: Any, center: Any = (0.0, 0.0), scale: float = 1.0, n_points: int = 73) -> np.ndarray:
+def error_ellipse(covariance: ArrayLike, center: ArrayLike = (0.0, 0.0), scale: float = 1.0,
+                  n_points: int = 73) -> NDArray[np.float64]:
     r"""Points on the ellipse :math:`\{c + s\,x : x^\mathsf{T} C^{-1} x = 1\}` of a 2×2 covariance, for plotting.
 
     With ``scale=1`` it is the one-standard-deviation ellipse: its semi-axes are the square roots of the eigenvalues

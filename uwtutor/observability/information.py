@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (
     as_finite,
@@ -30,7 +31,8 @@ def _static_rows(beacons: Any, position: Any, unknown_bias: bool) -> np.ndarray:
     return h
 
 
-def fisher_information(beacons: Any, position: Any, sigma: Any, unknown_bias: bool = False) -> np.ndarray:
+def fisher_information(beacons: ArrayLike, position: ArrayLike, sigma: ArrayLike,
+                       unknown_bias: bool = False) -> NDArray[np.float64]:
     r"""Fisher information of a static position (and optionally a range bias) from ranges to several beacons.
 
     With range :math:`r_i = \|p - b_i\| + \upsilon + \eta_i`, :math:`\eta_i \sim N(0, \sigma_i^2)` independent,
@@ -87,9 +89,10 @@ def _refer_current(J0: np.ndarray, tau: np.ndarray, unknown_bias: bool) -> np.nd
     return np.einsum("kai,kab,kbj->kij", T_inv, J0, T_inv)
 
 
-def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: Any = None,
+def track_fisher_information(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, *,
+                             times: ArrayLike | None = None,
                              unknown_bias: bool = False, unknown_current: bool = False,
-                             cumulative: bool = False) -> np.ndarray:
+                             cumulative: bool = False) -> NDArray[np.float64]:
     r"""Fisher information of the ranges along a track (the observability Gramian weighted by the noise).
 
     .. math::
@@ -152,7 +155,8 @@ def track_fisher_information(positions: Any, beacon: Any, sigma: Any, *, times: 
     return _refer_current(J0, t - t[0], bool(unknown_bias))
 
 
-def observability_rank(positions: Any, beacon: Any, *, times: Any = None, unknown_bias: bool = False,
+def observability_rank(positions: ArrayLike, beacon: ArrayLike, *, times: ArrayLike | None = None,
+                       unknown_bias: bool = False,
                        unknown_current: bool = False, cumulative: bool = True,
                        rtol: float = DEFAULT_RTOL) -> int | np.ndarray:
     r"""Numerical rank of the range information along a track: how many state directions the ranges fix.
@@ -226,7 +230,7 @@ def _information_rank(J: np.ndarray, rtol: float) -> np.ndarray:
     return np.count_nonzero(lam > rtol ** 2 * top, axis=-1)
 
 
-def numerical_rank(matrix: Any, *, rtol: float = DEFAULT_RTOL) -> int | np.ndarray:
+def numerical_rank(matrix: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> int | np.ndarray:
     r"""The numerical rank of a matrix (or a stack), with its columns scaled to unit length first.
 
     Counts the singular values above ``rtol`` times the largest. Scaling the columns makes the answer independent

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._linalg import line_of_sight as _line_of_sight
 from .._validate import (
@@ -24,7 +25,7 @@ from ._common import _as_reference, _broadcast, _warn
 __all__ = ["range_jacobian", "squared_range_jacobian", "beacons_at_bearings", "virtual_beacons", "track_jacobian"]
 
 
-def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
+def range_jacobian(position: ArrayLike, beacons: ArrayLike) -> NDArray[np.float64]:
     r"""Jacobian of the horizontal range with respect to the vehicle position: the unit line-of-sight vector.
 
     .. math::
@@ -66,7 +67,7 @@ def range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     return los
 
 
-def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
+def squared_range_jacobian(position: ArrayLike, beacons: ArrayLike) -> NDArray[np.float64]:
     r"""Jacobian of the squared horizontal range with respect to the vehicle position.
 
     .. math::
@@ -102,7 +103,7 @@ def squared_range_jacobian(position: Any, beacons: Any) -> np.ndarray:
     return 2.0 * (p - b)
 
 
-def beacons_at_bearings(position: Any, bearings: Any, distances: Any = 1000.0) -> np.ndarray:
+def beacons_at_bearings(position: ArrayLike, bearings: ArrayLike, distances: ArrayLike = 1000.0) -> NDArray[np.float64]:
     r"""Beacons placed at given bearings and distances from a position: :math:`b_i = p + \rho_i [\cos\beta_i,
     \sin\beta_i]`.
 
@@ -137,7 +138,7 @@ def beacons_at_bearings(position: Any, bearings: Any, distances: Any = 1000.0) -
     return p + np.asarray(rho)[..., None] * np.stack([np.cos(beta), np.sin(beta)], axis=-1)
 
 
-def virtual_beacons(beacon: Any, positions: Any, reference: int = -1) -> np.ndarray:
+def virtual_beacons(beacon: ArrayLike, positions: ArrayLike, reference: int = -1) -> NDArray[np.float64]:
     r"""The virtual beacons of a track: one beacon pinged from several epochs, seen from the reference epoch.
 
     If the vehicle is at :math:`p_k` at epoch :math:`k` and at :math:`p` at the reference epoch, write
@@ -222,8 +223,9 @@ def _track_rows(p: np.ndarray, b: np.ndarray, t: np.ndarray | None, unknown_bias
     return np.concatenate(cols, axis=1)
 
 
-def track_jacobian(positions: Any, beacon: Any, *, times: Any = None, unknown_bias: bool = False,
-                   unknown_current: bool = False, reference: int = -1) -> np.ndarray:
+def track_jacobian(positions: ArrayLike, beacon: ArrayLike, *, times: ArrayLike | None = None,
+                   unknown_bias: bool = False,
+                   unknown_current: bool = False, reference: int = -1) -> NDArray[np.float64]:
     r"""The stacked Jacobian of the ranges along a track with respect to the state at one epoch.
 
     The dead-reckoned displacements are taken as known, so the unknowns are the position :math:`p` at the

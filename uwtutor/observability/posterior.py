@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .._validate import (
     as_covariance,
@@ -117,9 +118,10 @@ def _range_rows(positions: np.ndarray, beacon: np.ndarray, n: int, bias: bool) -
     return np.where(defined[..., None], h, 0.0), defined
 
 
-def posterior_crlb(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any, times: Any = None, *,
+def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q: ArrayLike, P0: ArrayLike,
+                   times: ArrayLike | None = None, *,
                    bias: bool = False, current: bool = False, full: bool = False,
-                   mean_over_runs: bool = False) -> np.ndarray:
+                   mean_over_runs: bool = False) -> NDArray[np.float64]:
     r"""The posterior Cramér–Rao bound of dead reckoning with process noise and ranges to one beacon, epoch by epoch.
 
     The state :math:`x_k = [p_k,\; \upsilon,\; U]` (position; with ``bias`` a range bias, paper A; with
@@ -428,8 +430,9 @@ def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: 
     return np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm), undefined           # H^T R^-1 H
 
 
-def model_posterior_crlb(motion: Any, measurement: Any, x0: Any, P0: Any, truth: Any, u: Any = None, *,
-                         measured: Any = None, full: bool = False) -> np.ndarray:
+def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: ArrayLike, truth: ArrayLike,
+                         u: ArrayLike | None = None, *,
+                         measured: ArrayLike | None = None, full: bool = False) -> NDArray[np.float64]:
     r"""The posterior Cramér–Rao bound of any motion/measurement model pair, along a given true track.
 
     For :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`, and :math:`z_k = h_k(x_k) + v_k`,
