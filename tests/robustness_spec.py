@@ -291,11 +291,12 @@ SPECS: dict[str, Spec] = {
     "uwtutor.observability.bounds:rmse_bound": Spec(lambda: dict(covariance=np.eye(2) * 2.0),
                                              kinds=dict(covariance=Covariance(inf_ok=True, any_size=True)),
                                              check=lambda v, b: ["NaN bound"] if np.isnan(v).any() else []),
-    "uwtutor.observability.geometry:error_ellipse": Spec(lambda: dict(covariance=np.eye(2) * 2.0, center=(0.0, 0.0), scale=2.0),
-                                                kinds=dict(covariance=Covariance(), center=Real((2,)),
-                                                           scale=Real((), "pos"))),
+    "uwtutor.observability.geometry:error_ellipse": Spec(
+        lambda: dict(covariance=np.eye(2) * 2.0, center=(0.0, 0.0), scale=2.0),
+        kinds=dict(covariance=Covariance(), center=Real((2,)), scale=Real((), "pos"))),
     "uwtutor.observability.jacobians:range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
-    "uwtutor.observability.bounds:position_crlb": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0], sigma=1.0)),
+    "uwtutor.observability.bounds:position_crlb": Spec(
+        lambda: dict(beacons=_BEACONS, position=[30.0, -40.0], sigma=1.0)),
     "uwtutor.observability.information:fisher_information": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
                                                                   sigma=1.0)),
     "uwtutor.observability.bounds:gdop": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0])),
@@ -462,7 +463,8 @@ EXEMPT: dict[str, str] = {
                                            "in tests/test_real_data_study.py",
     "uwtutor.datasets.study:RealDataStudy": "the committed study's container, built by run_real_data_study or load",
     "uwtutor.datasets.baselines:BaselineRun": "a result container the baselines build",
-    "uwtutor.montecarlo.batch:MonteCarloResult": "a result container run_monte_carlo builds (its scores are checked there)",
+    "uwtutor.montecarlo.batch:MonteCarloResult": "a result container run_monte_carlo builds (its scores are checked "
+    "there)",
     "uwtutor.montecarlo.study:StudyResult": "a result container run_study builds (its scores are checked there)",
     "uwtutor.montecarlo.comparison:ComparisonTable": "the table container compare builds (and from_csv reads back)",
     "uwtutor.datasets.factor_graph:GraphSolution": "a result container gtsam_map builds",

@@ -246,12 +246,13 @@ SPECS_CORE: dict[str, Spec] = {
         lambda: dict(start=[0.0, 0.0, 0.1], odometry=[[0.0, 0.0], [1.0, 0.1], [1.0, -0.2]]),
         kinds=dict(start=Real((3,)), odometry=Real((None, 2)))),
     # observability and bounds
-    "uwtutor.observability.jacobians:squared_range_jacobian": Spec(lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
+    "uwtutor.observability.jacobians:squared_range_jacobian": Spec(
+        lambda: dict(position=[30.0, -40.0], beacons=_BEACONS)),
     "uwtutor.observability.jacobians:beacons_at_bearings": Spec(
         lambda: dict(position=[30.0, -40.0], bearings=[0.0, 1.0, 2.5], distances=1000.0),
         kinds=dict(bearings=Real((None,)), distances=Real((), "pos", vector_ok=True))),
-    "uwtutor.observability.jacobians:virtual_beacons": Spec(lambda: dict(beacon=(0.0, 0.0), positions=_TRACK, reference=-1),
-                                                  kinds=dict(reference=Int())),
+    "uwtutor.observability.jacobians:virtual_beacons": Spec(
+        lambda: dict(beacon=(0.0, 0.0), positions=_TRACK, reference=-1), kinds=dict(reference=Int())),
     "uwtutor.observability.bounds:precision_factor": Spec(lambda: dict(beacons=_BEACONS, position=[30.0, -40.0],
                                                                 unknown_bias=True),
                                                    kinds=dict(unknown_bias=Flag())),
@@ -275,9 +276,9 @@ SPECS_CORE: dict[str, Spec] = {
                      unknown_current=False, cumulative=True, rtol=1e-6),
         kinds=dict(positions=Real((6, 2)), times=Real((6,), optional=True), unknown_bias=Flag(), unknown_current=Flag(),
                    cumulative=Flag(), rtol=Real((), "open01"))),
-    "uwtutor.observability.information:numerical_rank": Spec(lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
-                                                 kinds=dict(matrix=Real((None, 2), extra_axis_ok=True),
-                                                            rtol=Real((), "open01"))),
+    "uwtutor.observability.information:numerical_rank": Spec(
+        lambda: dict(matrix=[[1.0, 2.0], [2.0, 4.0], [0.0, 1.0]], rtol=1e-6),
+        kinds=dict(matrix=Real((None, 2), extra_axis_ok=True), rtol=Real((), "open01"))),
     "uwtutor.observability.geometry:two_range_fix": Spec(
         lambda: dict(beacon=(0.0, 0.0), ranges=[100.0, 104.0], displacement=[10.0, 0.0]),
         kinds=dict(ranges=Real((2,), "nonneg"), displacement=Real((2,)))),
