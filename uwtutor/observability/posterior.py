@@ -180,7 +180,7 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     current; :math:`Q = 0`) and a nearly uninformative :math:`P_0`, and :math:`J` is symmetrized at every step.
     The bound itself is :math:`J_k^{-1}` through a Cholesky factor.
     The recursion is :func:`model_posterior_crlb`'s own (one implementation), run with this linear motion and the
-    rows :math:`H_k` of the filters' range model (:class:`~uwtutor.models.RangeToBeacon`) at the true positions;
+    rows :math:`H_k` of the filters' range model (:class:`~uwtutor.models.range.RangeToBeacon`) at the true positions;
     what this function adds is the closed-form state, the per-epoch :math:`\sigma_k` and ``mean_over_runs``.
 
     Parameters
