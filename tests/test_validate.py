@@ -126,3 +126,11 @@ def test_large_arrays_get_the_same_answers_as_small_ones(layout):
     assert v.as_range_array("z", np.full(2000, np.nan), allow_nan=True).shape == (2000,)   # all missing
     with pytest.raises(ValueError, match="must be finite"):
         v.as_finite("u", np.full(2000, np.nan))
+
+
+@pytest.mark.parametrize("value", ["a" * 50, b"a" * 50])
+def test_a_long_string_is_named_cut_short(value):
+    """A long str or bytes is refused with its first 37 characters (bytes were cut with a str suffix: a TypeError
+    inside the message itself)."""
+    with pytest.raises(TypeError, match=r"x must be numeric .* got the string b?'a{37}\.\.\.'"):
+        v.as_finite("x", value)
