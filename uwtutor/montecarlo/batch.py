@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .. import metrics
 from ..filters.base import FilterResult
@@ -97,16 +98,16 @@ class MonteCarloResult(_StudyStatistics):
         return self.errors.shape[1]
 
     @property
-    def x(self) -> np.ndarray:
+    def x(self) -> NDArray[np.float64]:
         """The per-run estimates ``result.x``, shape (M, K, n_state)."""
         return self.result.x
 
     @property
-    def times(self) -> np.ndarray:
+    def times(self) -> NDArray[np.float64]:
         """Time of each step, from the filter's result."""
         return self.result.times
 
-    def final_error_cdf(self) -> tuple[np.ndarray, np.ndarray]:
+    def final_error_cdf(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Empirical CDF ``(values, probabilities)`` of the final error (see :func:`uwtutor.metrics.error_cdf`)."""
         return metrics.error_cdf(self.final_errors)
 
@@ -128,7 +129,7 @@ class MonteCarloResult(_StudyStatistics):
         return out
 
 
-def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: Any, /, *, components: Any = None,
+def run_monte_carlo(filter_fn: Callable[..., FilterResult], truth: ArrayLike, /, *, components: ArrayLike | None = None,
                     confidence: float = 0.95, **inputs: Any) -> MonteCarloResult:
     r"""Run a batched filter over ``M`` Monte Carlo draws and score the runs.
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .._validate import as_int, as_positive
 from ..filters.base import FilterResult
@@ -295,7 +296,8 @@ class ComparisonTable:
             for r in self.rows():
                 writer.writerow([repr(v) if isinstance(v, float) else v for v in r.values()])
 
-    def curves(self, method: str, scenario: str, condition: str) -> tuple[np.ndarray, np.ndarray]:
+    def curves(self, method: str, scenario: str,
+               condition: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(rmse, bound)`` over the steps of one row (``rmse_curves`` and ``bound_curves``)."""
         if self.rmse_curves is None or self.bound_curves is None:
             raise ValueError("this table holds no curves: read it with from_csv(path, curves=npz_path)")
