@@ -83,6 +83,24 @@ def _library(obj: Any) -> bool:
     return type(obj).__module__.startswith("uwtutor.")
 
 
+def _initial_covariance(P0: Any, n: int, known_states: Any) -> np.ndarray:
+    """``P0`` checked: positive definite, or with ``known_states`` (bool ``(n,)`` or ``(M, n)``) zero in the rows and
+    columns of the states known exactly and positive definite on the others."""
+    if known_states is None:
+        return as_covariance("P0", P0, n)
+    known = np.asarray(known_states)
+    if known.dtype.kind != "b" or known.ndim not in (1, 2) or known.shape[-1] != n:
+        raise ValueError(f"known_states must be bools, one per state ({n},) or per run and state (M, {n}); got "
+                         f"{known.dtype} of shape {known.shape}")
+    P = as_covariance("P0", P0, n, allow_singular=True)
+    coupled = known[..., :, None] | known[..., None, :]
+    if np.any(np.where(coupled, P, 0.0) != 0.0):
+        raise ValueError("P0 must be 0 in the rows and columns of the known_states (a state known exactly has no "
+                         "variance and no correlation)")
+    as_covariance("P0 (on the states not known)", P + known[..., :, None] * np.eye(n), n)
+    return P
+
+
 def _check_model(name: str, model: Any, kind: type) -> None:
     if not isinstance(model, kind):
         raise TypeError(f"{name} must be a {kind.__module__}.{kind.__name__} (see uwtutor.models); "
@@ -272,7 +290,7 @@ class ExtendedKalmanFilter(Configurable):
     _diagnostics = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
-                 gate: Gate | None = None) -> None:
+                 gate: Gate | None = None, *, known_states: ArrayLike | None = None) -> None:
         _check_model("motion", motion, MotionModel)
         _check_model("measurement", measurement, MeasurementModel)
         if gate is not None and not isinstance(gate, Gate):
@@ -286,7 +304,7 @@ class ExtendedKalmanFilter(Configurable):
         x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
         if x0.shape[-1] != n:
             raise ValueError(f"x0 must have {n} entries per run (the models' state size); got shape {x0.shape}")
-        P0 = as_covariance("P0", P0, n)
+        P0 = _initial_covariance(P0, n, known_states)
         if P0.ndim not in (2, 3):
             raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
@@ -698,7 +716,7 @@ class ExtendedKalmanFilter(Configurable):
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                            u: ArrayLike | None, z: ArrayLike, *,
-        times: Any = None, gate: Gate | None = None) -> FilterResult:
+        times: Any = None, gate: Gate | None = None, known_states: ArrayLike | None = None) -> FilterResult:
     r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
 
     The functional form of :class:`ExtendedKalmanFilter`: the argument order of every functional filter of the
@@ -721,6 +739,11 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
         Time stamps for the result.
     gate : Gate, optional
         Outlier test applied to each innovation.
+    known_states : array_like of bool, shape (n,) or (M, n), optional
+        States known exactly at the start: ``P0`` is 0 in their rows and columns (and positive definite on the
+        others). A known state whose process noise is 0 stays known: its gain and its rows of ``P`` stay exactly
+        0, so the other states see the model with that state fixed. Runs that pin different states are variants
+        of one model stepped as one batch (:func:`uwtutor.datasets.navigate` runs its candidate models so).
 
     Returns
     -------
@@ -758,7 +781,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
     if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
         raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
-    P0 = as_covariance("P0", P0, motion.n)
+    P0 = _initial_covariance(P0, motion.n, known_states)
     z = as_float_array("z", z, nonempty=True)
     if u is not None:
         u = as_finite("u", u)
@@ -772,6 +795,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     sizes = {
         "x0": x0.shape[0] if x0.ndim == 2 else None,
         "P0": P0.shape[0] if P0.ndim == 3 else None,
+        "known_states": np.shape(known_states)[0] if np.ndim(known_states) == 2 else None,
         "z": z.shape[0] if z.ndim > single_z_ndim else None,
         "u": u.shape[0] if u is not None and u.ndim == 3 else None,
         "the measurement model": getattr(measurement, "n_runs", None),
@@ -784,7 +808,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
             z = np.broadcast_to(z, (M,) + z.shape)
         if u is not None and u.ndim == 2:
             u = np.broadcast_to(u, (M,) + u.shape)
-    filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate)
+    filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate, known_states=known_states)
     return filt.run(z, u, times)
 
 
