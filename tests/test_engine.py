@@ -419,3 +419,42 @@ def test_navigate_runs_its_candidates_as_one_batch_equal_to_each_alone():
         for key, value in alone.extras.items():
             np.testing.assert_array_equal(batch.extras[key], value, err_msg=f"{name}: {key}")
         assert result.evidence[name] == pytest.approx(_log_predictive(nav, alone)[0], rel=1e-9)
+
+
+# -- keep_priors=False: the same run without the priors -----------------------------------------------------------
+@pytest.mark.parametrize("family", ["engine", "bias_ekf", "range_only_ekf", "range_only_ekf gated", "step loop"])
+def test_without_the_priors_every_other_field_is_the_same_bit_for_bit(family):
+    from uwtutor.filters import bias_ekf, rts_smoother
+    from uwtutor.models import paper_a_process_noise
+
+    _, _, x0, P0, u, z = study(2, M=4, K=60)
+    Q, R = np.eye(2) * 0.5, 9.0
+    if family == "engine":
+        def run(**kw):
+            return extended_kalman_filter(DeadReckoning(Q), RangeToBeacon((0.0, 0.0), R), x0, P0, u, z,
+                                          gate=ChiSquareGate(0.99), **kw)
+    elif family == "bias_ekf":
+        def run(**kw):
+            return bias_ekf(np.column_stack([x0, np.zeros(4)]), np.eye(3) * 100.0, u, z + 5.0,
+                            paper_a_process_noise(0.5), R, **kw)
+    elif family.startswith("range_only_ekf"):
+        def run(**kw):
+            return range_only_ekf(x0, P0, u, z, Q, R, gate=ChiSquareGate(0.99) if "gated" in family else None, **kw)
+    else:                         # a model run_filter must step through: the fast path refuses a user's model
+        class Users(DeadReckoning):
+            pass
+
+        def run(**kw):
+            return extended_kalman_filter(Users(Q), RangeToBeacon((0.0, 0.0), R), x0, P0, u, z, **kw)
+    kept, dropped = run(), run(keep_priors=False)
+    assert dropped.x_prior is None and dropped.P_prior is None and kept.x_prior is not None
+    for name in ("times", "x", "P", "innovations", "innovation_cov"):
+        np.testing.assert_array_equal(getattr(dropped, name), getattr(kept, name))
+    assert dropped.extras.keys() == kept.extras.keys()
+    for name, value in kept.extras.items():
+        np.testing.assert_array_equal(dropped.extras[name], value)
+    if family == "engine":
+        with pytest.raises(ValueError, match="result has no priors"):
+            rts_smoother(dropped, DeadReckoning(Q), u)
+        with pytest.raises(TypeError, match="keep_priors must be True or False"):
+            run(keep_priors="no")
