@@ -139,7 +139,8 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     1984; a Bayes factor between the candidates when the filters are exact). A candidate that lost the track
     predicts the next ranges badly or vaguely and scores low, however few ranges its gate let in. The largest
     :math:`\ell_c` wins; a candidate with more states must beat a smaller one by more than one unit per extra
-    state (Akaike's penalty). The cost is one filter run per candidate.
+    state (Akaike's penalty). The candidates run as the runs of one batched filter (each with the states it
+    leaves out known exactly), at about the cost of one run.
 
     Raises
     ------
