@@ -48,6 +48,13 @@ def test_table_marks_targets(tmp_path):
     results["pf_steps_per_s"] = 1e6
     results["ekf_vs_numpy_ratio"] = results["pf_vs_numpy_ratio"] = 1.1     # the committed ones may miss
     results["peak_memory_mb"] = 100.0
+    results["targets"] = {k: list(v) for k, v in bench.TARGETS.items()}
+    results["navigate_plaza2_s"], results["navigate_plaza2_epochs"] = 0.5, 4091    # the committed ones may miss
+    results["odometry_ekf_s"], results["generic_ekf_speedup_vs_filterpy"] = 0.5, 100.0
+    for key in [k for k in results if k.startswith("single_") and k.endswith("_ratio")]:
+        results[key] = 1.5
+    results["first_visit"] = {"ch09 w": {"size": {"first_ms": 300.0, "first_cpu_ms": 250.0, "cached_ms": 2.0},
+                                         "pattern": {"first_ms": 90.0, "first_cpu_ms": 80.0, "cached_ms": 1.0}}}
     results["widgets_ms"] = {"slow one": 400.0}
     results["widget_updates_ms"] = {"ch09 quick_widget": 40.0, "ch09 slow_widget": 90.0}
     results["widget_latency"] = {
@@ -55,8 +62,13 @@ def test_table_marks_targets(tmp_path):
         "ch09 slow_widget": {"median_ms": 180.0, "max_ms": 200.0, "legacy_median_ms": 400.0, "legacy_max_ms": 450.0},
     }
     table = bench.render_table(results)
-    assert table.count("| MISS |") == 3                       # the EKF time, the slow compute, the slow widget
+    # the EKF time, the slow compute, the slow widget, the slow control on a first visit
+    assert table.count("| MISS |") == 4
     assert "Widget “slow one”" in table
+    first = next(row for row in table.splitlines() if "ch09 w”" in row)
+    assert "“size”" in first and "| 300 ms |" in first and "CPU 250 ms" in first and "| MISS |" in first
+    navigate = next(row for row in table.splitlines() if row.startswith("| navigate on the real Plaza 2 log"))
+    assert "| 0.50 s |" in navigate and "| PASS |" in navigate
     quick = next(row for row in table.splitlines() if "ch09 quick_widget" in row)
     assert "| 120 ms |" in quick and "| PASS |" in quick and "in the kernel 40 ms" in quick and "300 ms" in quick
     slow = next(row for row in table.splitlines() if "ch09 slow_widget" in row)

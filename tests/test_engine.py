@@ -351,3 +351,110 @@ def test_run_fast_path_keeps_every_error_and_warning_of_the_step_loop():
         run_filter(ExtendedKalmanFilter(*pair, [-1.0, 0.0], np.eye(2) * 100.0), z[:3], u[:3])
     assert [(w.category, str(w.message)) for w in fast_w] == [(w.category, str(w.message)) for w in slow_w]
     assert any(issubclass(w.category, BeaconSingularityWarning) for w in fast_w)
+
+
+# -- states known exactly (known_states) -------------------------------------------------------------------------------
+def test_known_states_stay_known_and_the_others_see_the_model_with_them_fixed():
+    from uwtutor.models import BeaconRanges, OdometryMotion
+
+    rng = np.random.default_rng(4)
+    K = 120
+    u = np.column_stack([np.full(K, 1.0), np.where(np.arange(K) % 30 == 0, np.pi / 2, 0.0) + 0.002])
+    beacons = np.array([[20.0, 5.0], [-5.0, 15.0]])
+    z = rng.normal(20.0, 5.0, (K, 2))
+    z[rng.random((K, 2)) < 0.5] = np.nan
+    times = np.arange(K, dtype=float)
+    small = OdometryMotion(0.05, 0.01, order="move-first", times=times)             # [x, y, heading]
+    full = OdometryMotion(0.05, 0.01, gyro_bias=True, scale=True, order="move-first", times=times,
+                          gyro_bias_walk=1e-4, scale_walk=1e-5)                     # + gyro bias, scale
+    P0 = np.diag([4.0, 4.0, 0.01, 1e-4, 1e-2])
+    pinned = P0.copy()
+    pinned[3:, :] = pinned[:, 3:] = 0.0
+    batched = extended_kalman_filter(
+        full._with_walks_per_run(np.array([[0.0, 0.0, 0.0, 1e-4, 1e-5], [0.0] * 5])),
+        BeaconRanges(beacons, R=0.25, layout=full.layout), [0.0, 0.0, 0.0, 0.0, 1.0], np.stack([P0, pinned]),
+        u, z, times=times, gate=ChiSquareGate(0.999, per_component=True),
+        known_states=np.array([[False] * 5, [False, False, False, True, True]]))
+    alone = extended_kalman_filter(small, BeaconRanges(beacons, R=0.25, layout=small.layout), [0.0, 0.0, 0.0],
+                                   P0[:3, :3], u, z, times=times, gate=ChiSquareGate(0.999, per_component=True))
+    # the pinned run: its bias and scale never move, their rows of P stay exactly 0
+    np.testing.assert_array_equal(batched.x[1, :, 3:], np.tile([0.0, 1.0], (K, 1)))
+    assert not batched.P[1, :, 3:, :].any() and not batched.P[1, :, :, 3:].any()
+    # and the rest of it is the three-state filter's run, up to round-off, with the same gate decisions
+    np.testing.assert_allclose(batched.x[1, :, :3], alone.x, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(batched.P[1, :, :3, :3], alone.P, rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(batched.extras["accepted"][1], alone.extras["accepted"])
+    # the free run estimates them
+    assert batched.P[0, -1, 3, 3] > 0 and batched.x[0, -1, 4] != 1.0
+
+
+@pytest.mark.parametrize("known, P0, message", [
+    (np.array([1, 0]), np.eye(2), "known_states must be bools"),
+    (np.array([True]), np.eye(2), "known_states must be bools"),
+    (np.array([True, False]), np.eye(2), "P0 must be 0 in the rows and columns of the known_states"),
+    (np.array([True, False]), np.diag([0.0, -1.0]), "P0 must be positive semi-definite"),
+    (np.array([True, False]), np.zeros((2, 2)), "P0 \\(on the states not known\\) must be positive definite"),
+])
+def test_known_states_bad_input_is_named(known, P0, message):
+    with pytest.raises(ValueError, match=message):
+        extended_kalman_filter(DeadReckoning(np.eye(2)), RangeToBeacon((0.0, 0.0), R=1.0), [10.0, 0.0], P0,
+                               np.ones((3, 2)), np.ones(3) * 10.0, known_states=known)
+
+
+def test_navigate_runs_its_candidates_as_one_batch_equal_to_each_alone():
+    from uwtutor.datasets import CANDIDATES, navigate, navigation_models, square_log
+    from uwtutor.datasets.navigation import _log_predictive
+    from uwtutor.filters import ReacquiringGate
+
+    data = square_log(range_scale=1.05)
+    result = navigate(data, range_sigma=0.1)
+    for name, (bias, scale) in CANDIDATES.items():
+        nav = navigation_models(data, gyro_bias=bias, scale=scale, range_sigma=0.1)
+        alone = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z, times=nav.times,
+                                       gate=ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10))
+        batch = result.candidates[name]
+        for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+            np.testing.assert_allclose(getattr(batch, field), getattr(alone, field), rtol=1e-9, atol=1e-12,
+                                       err_msg=f"{name}: {field}")
+        for key, value in alone.extras.items():
+            np.testing.assert_array_equal(batch.extras[key], value, err_msg=f"{name}: {key}")
+        assert result.evidence[name] == pytest.approx(_log_predictive(nav, alone)[0], rel=1e-9)
+
+
+# -- keep_priors=False: the same run without the priors -----------------------------------------------------------
+@pytest.mark.parametrize("family", ["engine", "bias_ekf", "range_only_ekf", "range_only_ekf gated", "step loop"])
+def test_without_the_priors_every_other_field_is_the_same_bit_for_bit(family):
+    from uwtutor.filters import bias_ekf, rts_smoother
+    from uwtutor.models import paper_a_process_noise
+
+    _, _, x0, P0, u, z = study(2, M=4, K=60)
+    Q, R = np.eye(2) * 0.5, 9.0
+    if family == "engine":
+        def run(**kw):
+            return extended_kalman_filter(DeadReckoning(Q), RangeToBeacon((0.0, 0.0), R), x0, P0, u, z,
+                                          gate=ChiSquareGate(0.99), **kw)
+    elif family == "bias_ekf":
+        def run(**kw):
+            return bias_ekf(np.column_stack([x0, np.zeros(4)]), np.eye(3) * 100.0, u, z + 5.0,
+                            paper_a_process_noise(0.5), R, **kw)
+    elif family.startswith("range_only_ekf"):
+        def run(**kw):
+            return range_only_ekf(x0, P0, u, z, Q, R, gate=ChiSquareGate(0.99) if "gated" in family else None, **kw)
+    else:                         # a model run_filter must step through: the fast path refuses a user's model
+        class Users(DeadReckoning):
+            pass
+
+        def run(**kw):
+            return extended_kalman_filter(Users(Q), RangeToBeacon((0.0, 0.0), R), x0, P0, u, z, **kw)
+    kept, dropped = run(), run(keep_priors=False)
+    assert dropped.x_prior is None and dropped.P_prior is None and kept.x_prior is not None
+    for name in ("times", "x", "P", "innovations", "innovation_cov"):
+        np.testing.assert_array_equal(getattr(dropped, name), getattr(kept, name))
+    assert dropped.extras.keys() == kept.extras.keys()
+    for name, value in kept.extras.items():
+        np.testing.assert_array_equal(dropped.extras[name], value)
+    if family == "engine":
+        with pytest.raises(ValueError, match="result has no priors"):
+            rts_smoother(dropped, DeadReckoning(Q), u)
+        with pytest.raises(TypeError, match="keep_priors must be True or False"):
+            run(keep_priors="no")

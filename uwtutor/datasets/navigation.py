@@ -139,7 +139,8 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     1984; a Bayes factor between the candidates when the filters are exact). A candidate that lost the track
     predicts the next ranges badly or vaguely and scores low, however few ranges its gate let in. The largest
     :math:`\ell_c` wins; a candidate with more states must beat a smaller one by more than one unit per extra
-    state (Akaike's penalty). The cost is one filter run per candidate.
+    state (Akaike's penalty). The candidates run as the runs of one batched filter (each with the states it
+    leaves out known exactly), at about the cost of one run.
 
     Raises
     ------
@@ -193,13 +194,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
                    gyro_bias_walk=gyro_bias_walk, scale_prior=scale_prior, scale_walk=scale_walk)
     candidates = [(name, flags) for name, flags in CANDIDATES.items()
                   if fixed_bias in (None, flags[0]) and fixed_scale in (None, flags[1])]
-    runs = {}
-    for name, (with_bias, with_scale) in candidates:
-        nav = navigation_models(data, beacon_ids, gyro_bias=with_bias, scale=with_scale, **options)
-        chosen_gate = ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
-        result = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z,
-                                        times=nav.times, gate=chosen_gate)
-        runs[name] = (nav, result, _log_predictive(nav, result))
+    runs = _run_candidates(data, beacon_ids, candidates, gate, options)
     evidence = {name: float(run[2][0]) for name, run in runs.items()}
     chosen = min(runs, key=lambda name: (-(evidence[name] - _n_extra(name)), _n_extra(name)))
     nav, result, (_, per_range) = runs[chosen]
@@ -223,6 +218,59 @@ CANDIDATES: dict[str, tuple[bool, bool]] = {"pose only": (False, False), "+ scal
 
 def _n_extra(name: str) -> int:
     return sum(CANDIDATES[name])
+
+
+def _run_candidates(data: RangeDataset, beacon_ids: Any, candidates: list[tuple[str, tuple[bool, bool]]],
+                    gate: bool, options: dict[str, Any]) -> dict[str, tuple["NavigationModels", FilterResult, Any]]:
+    """Run every candidate through the gated filter and score it: name -> (its models, its result, its
+    ``_log_predictive``).
+
+    A single candidate runs alone. Several run as the runs of one batched filter on the largest model,
+    :math:`[x, y, \theta, b_g, s]`: a candidate without a state starts it with zero variance (at :math:`b_g = 0`,
+    :math:`s = 1`, where its own model has it) and gives it no random walk, so that the state never moves, its
+    rows of :math:`P` stay exactly 0 and the other states see that candidate's own model. The engine then steps
+    the candidates at the per-step cost of one run (about 4 times faster than one run each). Each candidate's
+    result is its states' part of its run: the same numbers as the candidate run alone up to round-off
+    (tests/test_navigate.py checks it).
+    """
+    def new_gate() -> ReacquiringGate | None:
+        return ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
+
+    models = {name: navigation_models(data, beacon_ids, gyro_bias=with_bias, scale=with_scale, **options)
+              for name, (with_bias, with_scale) in candidates}
+    if len(candidates) == 1:
+        nav = next(iter(models.values()))
+        result = extended_kalman_filter(nav.motion, nav.measurement, nav.x0, nav.P0, nav.u, nav.z,
+                                        times=nav.times, gate=new_gate())
+        return {name: (nav, result, _log_predictive(nav, result)) for name in models}
+    full = models.get("+ scale and gyro bias") or navigation_models(data, beacon_ids, gyro_bias=True, scale=True,
+                                                                    **options)
+    layout = full.motion.layout
+    walks = np.zeros((len(candidates), layout.n))
+    P0 = np.repeat(full.P0[None], len(candidates), axis=0)
+    known = np.zeros((len(candidates), layout.n), dtype=bool)
+    kept = {}
+    for run, (name, (with_bias, with_scale)) in enumerate(candidates):
+        for index, present, walk in ((layout.gyro_bias, with_bias, options["gyro_bias_walk"]),
+                                     (layout.scale, with_scale, options["scale_walk"])):
+            if present:
+                walks[run, index] = float(walk)               # validated by navigation_models above
+            else:
+                P0[run, index, :] = P0[run, :, index] = 0.0
+                known[run, index] = True
+        kept[name] = [layout.names.index(state) for state in models[name].motion.layout.names]
+    batch = extended_kalman_filter(full.motion._with_walks_per_run(walks), full.measurement, full.x0, P0, full.u,
+                                   full.z, times=full.times, gate=new_gate(), known_states=known)
+    runs = {}
+    for run, (name, _) in enumerate(candidates):
+        states, block = kept[name], np.ix_(kept[name], kept[name])
+        result = FilterResult(times=batch.times, x=batch.x[run][:, states], P=batch.P[run][:, block[0], block[1]],
+                              x_prior=batch.x_prior[run][:, states],
+                              P_prior=batch.P_prior[run][:, block[0], block[1]],
+                              innovations=batch.innovations[run], innovation_cov=batch.innovation_cov[run],
+                              extras={key: value[run] for key, value in batch.extras.items()})
+        runs[name] = (models[name], result, _log_predictive(models[name], result))
+    return runs
 
 
 def _log_predictive(nav: "NavigationModels", result: FilterResult) -> tuple[float, np.ndarray]:

@@ -333,14 +333,15 @@ def runs_first(a: np.ndarray, batched: bool) -> np.ndarray:
 
 
 def result_fields(times: np.ndarray, post: np.ndarray, prior: np.ndarray, innov: np.ndarray,
-                   innov_var: np.ndarray, batched: bool) -> dict[str, np.ndarray]:
-    """The common ``FilterResult`` fields of a run held in packed (K, rows, M) buffers, runs axis first."""
+                   innov_var: np.ndarray, batched: bool, keep_priors: bool = True) -> dict[str, Any]:
+    """The common ``FilterResult`` fields of a run held in packed (K, rows, M) buffers, runs axis first (the
+    priors None without ``keep_priors``: the result then holds no view of the ``prior`` buffer)."""
     return dict(
         times=times,
         x=runs_first(np.moveaxis(x_view(post), 0, 1), batched),
         P=runs_first(np.moveaxis(P_view(post), 0, 1), batched),
-        x_prior=runs_first(np.moveaxis(x_view(prior), 0, 1), batched),
-        P_prior=runs_first(np.moveaxis(P_view(prior), 0, 1), batched),
+        x_prior=runs_first(np.moveaxis(x_view(prior), 0, 1), batched) if keep_priors else None,
+        P_prior=runs_first(np.moveaxis(P_view(prior), 0, 1), batched) if keep_priors else None,
         innovations=runs_first(innov.T[:, :, None], batched),
         innovation_cov=runs_first(innov_var.T[:, :, None, None], batched),
     )

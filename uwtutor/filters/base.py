@@ -170,10 +170,11 @@ class FilterResult:
         Posterior state estimate after each step's update.
     P : ndarray, shape (K, n, n) or (M, K, n, n)
         Posterior covariance after each step.
-    x_prior : ndarray
-        The prediction of the state before each step's update (same shape as ``x``).
-    P_prior : ndarray
-        The covariance of that prediction (same shape as ``P``).
+    x_prior : ndarray or None
+        The prediction of the state before each step's update (same shape as ``x``); None from a run asked not
+        to keep it (``keep_priors=False``).
+    P_prior : ndarray or None
+        The covariance of that prediction (same shape as ``P``), or None as ``x_prior``.
     innovations : ndarray, shape (K, m) or (M, K, m)
         Measurement minus predicted measurement; NaN where no measurement was used.
     innovation_cov : ndarray, shape (K, m, m) or (M, K, m, m)

@@ -68,7 +68,7 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_range_array, common_runs, readonly
+from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_range_array, common_runs, readonly
 from ..errors import BeaconSingularityWarning
 from .base import Configurable, FilterResult
 from .gates import Gate
@@ -87,7 +87,7 @@ _BLOCK_STEPS = 32
 
 def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
          beacon: tuple[float, float] | np.ndarray, times: np.ndarray,
-         batched: bool) -> tuple[FilterResult, np.ndarray]:
+         batched: bool, keep_priors: bool = True) -> tuple[FilterResult, np.ndarray]:
     """Run K steps from the packed states ``s0`` (6, M). ``u`` is (M, K, 2) or (K, 2); ``z`` (M, K) or (K,);
     ``q4`` (4, 1), or (K, 4, 1) one per step; ``R`` a float, or (K,) one per step (finite);
     ``beacon`` a fixed ``(bx, by)`` or a path of shape (K, 2, M) or (K, 2, 1), one position per step.
@@ -143,7 +143,7 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
     innov[unused] = np.nan
     innov_var[unused] = np.nan
 
-    fields = result_fields(times, post, prior, innov, innov_var, batched)
+    fields = result_fields(times, post, prior, innov, innov_var, batched, keep_priors)
     result = FilterResult(**fields, extras={"updated": runs_first(~unused.T, batched)})
     return result, post[-1].copy()
 
@@ -151,7 +151,7 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
 
 def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
                    beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, *,
-                   gate: Gate | None = None) -> FilterResult:
+                   gate: Gate | None = None, keep_priors: bool = True) -> FilterResult:
     r"""Run the range-only EKF over whole range sequences, for one run or ``M`` Monte Carlo runs at once.
 
     Each step ``k`` predicts :math:`\hat x^-_k = \hat x_{k-1} + u_k`, :math:`P^-_k = P_{k-1} + Q_k` and, when the
@@ -182,6 +182,9 @@ def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: 
         An outlier test on each innovation (e.g. ``ChiSquareGate(0.99)``, or ``ReacquiringGate()``, which cannot
         lock out). The filter then runs on the generic engine (``uwtutor.filters.extended_kalman_filter``, the
         same arithmetic to rounding) and ``extras`` also holds the gate's per-step outputs.
+    keep_priors : bool, default True
+        False: the result's ``x_prior`` and ``P_prior`` are None (the other fields unchanged, bit for bit), for a
+        study that needs only the estimates: they are almost half of the result's memory.
 
     Returns
     -------
@@ -252,18 +255,18 @@ def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: 
     Q_arr, R_val, q4 = noise_parameters(Q, R, len(times))
     R_val = check_variances_where_measured(R_val, z)
     if gate is not None:
-        return _gated(x0, P0, u, z, Q_arr, R_val, beacon, times, gate)
+        return _gated(x0, P0, u, z, Q_arr, R_val, beacon, times, gate, keep_priors)
     b, run_sizes["beacon"] = beacon_path(beacon, len(times))
     M = common_runs(run_sizes)
     batched = M is not None
     M = M or 1
     s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
-    result, _ = _run(s0, u, z, q4, R_val, b, times, batched)
+    result, _ = _run(s0, u, z, q4, R_val, b, times, batched, keep_priors=as_flag("keep_priors", keep_priors))
     return result
 
 
 def _gated(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, Q: np.ndarray, R: Any, beacon: Any,
-           times: np.ndarray, gate: Any) -> FilterResult:
+           times: np.ndarray, gate: Any, keep_priors: bool) -> FilterResult:
     """The range-only EKF with a gate: the generic engine on DeadReckoning(Q) + RangeToBeacon(beacon, R), its
     ``accepted`` reported as ``updated`` (the key of the fast path)."""
     from ..models import DeadReckoning, RangeToBeacon
@@ -272,7 +275,8 @@ def _gated(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, Q: np.n
     if not isinstance(gate, Gate):
         raise TypeError(f"gate must be a uwtutor.filters.Gate (e.g. ChiSquareGate(0.99)) or None; got "
                         f"{type(gate).__name__}")
-    res = extended_kalman_filter(DeadReckoning(Q), RangeToBeacon(beacon, R), x0, P0, u, z, times=times, gate=gate)
+    res = extended_kalman_filter(DeadReckoning(Q), RangeToBeacon(beacon, R), x0, P0, u, z, times=times, gate=gate,
+                                 keep_priors=keep_priors)
     extras = dict(res.extras)
     extras = {"updated": extras.pop("accepted"), **extras}
     return dataclasses.replace(res, extras=extras)

@@ -60,6 +60,7 @@ Labbe, R. *FilterPy* (``filterpy.kalman.ExtendedKalmanFilter``), the reference t
 from __future__ import annotations
 
 import copy
+import dataclasses
 import warnings
 from typing import Any
 
@@ -67,8 +68,8 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_float_array, as_model_output,
-                        check_model_covariance, common_runs, readonly)
+from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag, as_float_array,
+                         as_model_output, check_model_covariance, common_runs, readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -81,6 +82,24 @@ __all__ = ["ExtendedKalmanFilter", "extended_kalman_filter"]
 def _library(obj: Any) -> bool:
     """Whether ``obj`` is an instance of one of the library's own classes (not a user's subclass)."""
     return type(obj).__module__.startswith("uwtutor.")
+
+
+def _initial_covariance(P0: Any, n: int, known_states: Any) -> np.ndarray:
+    """``P0`` checked: positive definite, or with ``known_states`` (bool ``(n,)`` or ``(M, n)``) zero in the rows and
+    columns of the states known exactly and positive definite on the others."""
+    if known_states is None:
+        return as_covariance("P0", P0, n)
+    known = np.asarray(known_states)
+    if known.dtype.kind != "b" or known.ndim not in (1, 2) or known.shape[-1] != n:
+        raise ValueError(f"known_states must be bools, one per state ({n},) or per run and state (M, {n}); got "
+                         f"{known.dtype} of shape {known.shape}")
+    P = as_covariance("P0", P0, n, allow_singular=True)
+    coupled = known[..., :, None] | known[..., None, :]
+    if np.any(np.where(coupled, P, 0.0) != 0.0):
+        raise ValueError("P0 must be 0 in the rows and columns of the known_states (a state known exactly has no "
+                         "variance and no correlation)")
+    as_covariance("P0 (on the states not known)", P + known[..., :, None] * np.eye(n), n)
+    return P
 
 
 def _check_model(name: str, model: Any, kind: type) -> None:
@@ -272,7 +291,7 @@ class ExtendedKalmanFilter(Configurable):
     _diagnostics = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
-                 gate: Gate | None = None) -> None:
+                 gate: Gate | None = None, *, known_states: ArrayLike | None = None) -> None:
         _check_model("motion", motion, MotionModel)
         _check_model("measurement", measurement, MeasurementModel)
         if gate is not None and not isinstance(gate, Gate):
@@ -286,7 +305,7 @@ class ExtendedKalmanFilter(Configurable):
         x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
         if x0.shape[-1] != n:
             raise ValueError(f"x0 must have {n} entries per run (the models' state size); got shape {x0.shape}")
-        P0 = as_covariance("P0", P0, n)
+        P0 = _initial_covariance(P0, n, known_states)
         if P0.ndim not in (2, 3):
             raise ValueError(f"P0 must have shape ({n}, {n}) or (M, {n}, {n}); got {P0.shape}")
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
@@ -583,19 +602,25 @@ class ExtendedKalmanFilter(Configurable):
             raise _not_finite_error(model, "R", k, (run, i), what)
         return False
 
-    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None, *,
+            keep_priors: bool = True) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step (see
         :func:`~uwtutor.filters.base.run_filter`); the filter is left at the last step.
 
         ``z`` has shape (K,) or (K, m) -- (M, K) or (M, K, m) for a batched filter -- with NaN for missing
-        measurements; ``u`` has shape (K, p) or (M, K, p), or is None.
+        measurements; ``u`` has shape (K, p) or (M, K, p), or is None. ``keep_priors=False``: the result's
+        ``x_prior`` and ``P_prior`` are None (see :func:`extended_kalman_filter`).
         """
         z = as_float_array("z", z)
         _check_nonnegative(self.measurement, z)
-        fast = self._run_steps(z, u, times)
-        return fast if fast is not None else run_filter(self, z, u, times)
+        keep_priors = as_flag("keep_priors", keep_priors)
+        fast = self._run_steps(z, u, times, keep_priors)
+        if fast is not None:
+            return fast
+        result = run_filter(self, z, u, times)
+        return result if keep_priors else dataclasses.replace(result, x_prior=None, P_prior=None)
 
-    def _run_steps(self, z: np.ndarray, u: Any, times: Any) -> FilterResult | None:
+    def _run_steps(self, z: np.ndarray, u: Any, times: Any, keep_priors: bool = True) -> FilterResult | None:
         """``run_filter(self, z, u, times)`` with the per-step cost of its checks taken out, or None where it does
         not apply (then ``run_filter`` runs the steps, and says what is wrong with the inputs, if anything is).
 
@@ -609,7 +634,8 @@ class ExtendedKalmanFilter(Configurable):
 
         It applies to the library's own models and gates (whose methods keep no state between calls, so that a
         run can be done again), and to this class or a subclass that leaves ``predict``, ``update`` and the
-        recorded attributes alone.
+        recorded attributes alone. Without ``keep_priors`` the priors are summed step by step for the test
+        instead of being recorded.
         """
         cls = type(self)
         if not (cls.predict is ExtendedKalmanFilter.predict and cls.update is ExtendedKalmanFilter.update
@@ -654,7 +680,8 @@ class ExtendedKalmanFilter(Configurable):
         gate_state = copy.deepcopy(self.gate.__dict__) if self.gate is not None else None
         x = np.empty((K, M, n))
         P = np.empty((K, M, n, n))
-        x_prior, P_prior = np.empty_like(x), np.empty_like(P)
+        x_prior, P_prior = (np.empty_like(x), np.empty_like(P)) if keep_priors else (None, None)
+        prior_sum = 0.0                                          # without keep_priors: the priors' finiteness test
         y = np.empty((K, M, m))
         S = np.empty((K, M, m, m))
         accepted = np.empty((K, M), dtype=bool)
@@ -666,8 +693,11 @@ class ExtendedKalmanFilter(Configurable):
             with warnings.catch_warnings(record=True) as caught:
                 for k in range(K):
                     self._predict(None if u is None else u_steps[k], deferred=True)
-                    x_prior[k] = self._x_prior
-                    P_prior[k] = _runs_first(self._P_prior)
+                    if keep_priors:
+                        x_prior[k] = self._x_prior
+                        P_prior[k] = _runs_first(self._P_prior)
+                    else:
+                        prior_sum += self._x_prior.sum() + self._P_prior.sum()
                     self._update(z_steps[k], deferred=True)
                     tested[:, :, k] = self._P_tested
                     x[k] = self._x
@@ -678,7 +708,9 @@ class ExtendedKalmanFilter(Configurable):
                     for name in extra:
                         extras[name].append(np.array(getattr(self, name)))
             with np.errstate(over="ignore", invalid="ignore"):
-                sound = not caught and bool(np.isfinite(x_prior.sum() + P_prior.sum())) and \
+                if keep_priors:
+                    prior_sum = x_prior.sum() + P_prior.sum()
+                sound = not caught and bool(np.isfinite(prior_sum)) and \
                     not psd_violations(tested.reshape(n, n, K * M)).any()
         except Exception:
             sound = False
@@ -689,7 +721,8 @@ class ExtendedKalmanFilter(Configurable):
                 self.gate.__dict__.update(gate_state)
             return None
         fields = dict(x=x, P=P, x_prior=x_prior, P_prior=P_prior, innovations=y, innovation_cov=S)
-        stacked = {name: np.moveaxis(h, 0, 1) if batched else h[:, 0] for name, h in fields.items()}
+        stacked = {name: None if h is None else np.moveaxis(h, 0, 1) if batched else h[:, 0]
+                   for name, h in fields.items()}
         recorded = {"accepted": accepted if batched else accepted[:, 0],
                     **{name: np.stack(v) for name, v in extras.items()}}
         return self.result_type(times=times, **stacked,
@@ -698,7 +731,8 @@ class ExtendedKalmanFilter(Configurable):
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                            u: ArrayLike | None, z: ArrayLike, *,
-        times: Any = None, gate: Gate | None = None) -> FilterResult:
+        times: Any = None, gate: Gate | None = None, known_states: ArrayLike | None = None,
+        keep_priors: bool = True) -> FilterResult:
     r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
 
     The functional form of :class:`ExtendedKalmanFilter`: the argument order of every functional filter of the
@@ -721,6 +755,15 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
         Time stamps for the result.
     gate : Gate, optional
         Outlier test applied to each innovation.
+    known_states : array_like of bool, shape (n,) or (M, n), optional
+        States known exactly at the start: ``P0`` is 0 in their rows and columns (and positive definite on the
+        others). A known state whose process noise is 0 stays known: its gain and its rows of ``P`` stay exactly
+        0, so the other states see the model with that state fixed. Runs that pin different states are variants
+        of one model stepped as one batch (:func:`uwtutor.datasets.navigate` runs its candidate models so).
+    keep_priors : bool, default True
+        Keep the predictions ``x_prior`` and ``P_prior`` in the result. False: they are None and every other
+        field is the same, bit for bit. They are almost half of a result's memory; a study that needs only the
+        estimates (or their errors, or NEES) can leave them out. The smoother needs them.
 
     Returns
     -------
@@ -758,7 +801,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     x0 = as_finite("x0", x0, ndim=(1, 2), nonempty=True)
     if x0.shape[-1] != motion.n:          # before any broadcasting: (M, 1) must not become (M, n)
         raise ValueError(f"x0 must have {motion.n} entries per run (the models' state size); got shape {x0.shape}")
-    P0 = as_covariance("P0", P0, motion.n)
+    P0 = _initial_covariance(P0, motion.n, known_states)
     z = as_float_array("z", z, nonempty=True)
     if u is not None:
         u = as_finite("u", u)
@@ -772,6 +815,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     sizes = {
         "x0": x0.shape[0] if x0.ndim == 2 else None,
         "P0": P0.shape[0] if P0.ndim == 3 else None,
+        "known_states": np.shape(known_states)[0] if np.ndim(known_states) == 2 else None,
         "z": z.shape[0] if z.ndim > single_z_ndim else None,
         "u": u.shape[0] if u is not None and u.ndim == 3 else None,
         "the measurement model": getattr(measurement, "n_runs", None),
@@ -784,8 +828,8 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
             z = np.broadcast_to(z, (M,) + z.shape)
         if u is not None and u.ndim == 2:
             u = np.broadcast_to(u, (M,) + u.shape)
-    filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate)
-    return filt.run(z, u, times)
+    filt = ExtendedKalmanFilter(motion, measurement, x0, P0, gate=gate, known_states=known_states)
+    return filt.run(z, u, times, keep_priors=keep_priors)
 
 
 def _check_nonnegative(measurement: MeasurementModel, z: np.ndarray) -> None:

@@ -148,6 +148,10 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: ArrayLike | None 
     if n != motion.n:
         raise ValueError(f"the result's state has size {n} but the motion model's has {motion.n}")
 
+    if result.x_prior is None or result.P_prior is None:
+        raise ValueError("result has no priors (x_prior, P_prior): run the filter with keep_priors=True (the "
+                         "default) to smooth it")
+
     def runs(a: Any) -> np.ndarray:
         a = np.asarray(a, dtype=float)
         return a if batched else a[None]

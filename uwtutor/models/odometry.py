@@ -89,6 +89,7 @@ rate; state augmentation with sensor biases and scale factors).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -432,10 +433,7 @@ class OdometryMotion(MotionModel):
             for i in idx:
                 if i is not None:
                     self._walk[i] = q
-        self._has_walk = bool(self._walk.any())
-        self._walking = np.flatnonzero(self._walk)                # the states with a walk, and its std per 1 s
-        self._walk_std = np.sqrt(self._walk[self._walking])
-        self._walk_diag = np.diag(self._walk)
+        self._set_walks(self._walk)
         self._eye = np.eye(self.n)
         sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
                                               ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
@@ -445,6 +443,31 @@ class OdometryMotion(MotionModel):
             described = ", ".join(f"{name} has {k}" for name, k in sizes.items())
             raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
         self.n_steps = next(iter(sizes.values()), None)
+
+    def _set_walks(self, walk: np.ndarray) -> None:
+        """Keep the walks' variances per second, ``(n,)`` shared by every run or ``(M, n)`` one row per run."""
+        self._walk = walk
+        self._has_walk = bool(walk.any())
+        self._walking = np.flatnonzero(walk if walk.ndim == 1 else walk.any(axis=0))   # the states with a walk
+        self._walk_std = np.sqrt(walk[..., self._walking])                             # its std per 1 s
+        self._walk_diag = walk[..., :, None] * np.eye(self.n)
+        if walk.ndim == 2:
+            self.n_runs = walk.shape[0]
+
+    def _with_walks_per_run(self, walks: np.ndarray) -> "OdometryMotion":
+        """This model for ``M`` runs at once, run ``m`` with the random walks ``walks[m]`` ``(M, n)`` [per √s] on
+        the states (0 elsewhere; a state without a walk stays at its start when its variance starts at 0).
+
+        It lets several variants of one model -- some states pinned, others free -- run as the runs of one
+        batched filter (:func:`uwtutor.datasets.navigate`'s candidate models): the engine then steps them all at
+        the per-step cost of one.
+        """
+        walks = np.asarray(walks, dtype=float)
+        if walks.ndim != 2 or walks.shape[1] != self.n or not (np.isfinite(walks).all() and (walks >= 0).all()):
+            raise ValueError(f"walks must be finite and >= 0, one row of {self.n} per run; got shape {walks.shape}")
+        out = copy.copy(self)
+        out._set_walks(walks**2)
+        return out
 
     # -- per-step parameters --
     def _step(self, k: int) -> int:
@@ -563,7 +586,8 @@ class OdometryMotion(MotionModel):
         noisy[..., 1] += dth
         out = self.f(x, noisy, k)
         if walking.size:
-            out[..., walking] += eps[..., 2:] * (self._walk_std * np.sqrt(self.dt(k)))
+            std = self._walk_std if self._walk_std.ndim == 1 else self._walk_std[:, None, :]
+            out[..., walking] += eps[..., 2:] * (std * np.sqrt(self.dt(k)))
         return out
 
     def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:

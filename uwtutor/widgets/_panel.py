@@ -229,11 +229,29 @@ class BlitRenderer:
         self.dynamic: list[Any] = []
 
     def png(self, dynamic: Sequence[Any] | None) -> bytes:
+        if not self._background(dynamic):          # drawn anew, or changed all over: a full draw
+            return figure_png(self.fig)
+        renderer = self.canvas.get_renderer()
+        for artist in sorted(self.dynamic, key=lambda a: a.get_zorder()):
+            if artist.get_visible():
+                artist.draw(renderer)
+        return _encode_png(self.canvas)
+
+    def prime(self, dynamic: Sequence[Any] | None) -> None:
+        """Draw and keep the background for these ``dynamic`` artists now (e.g. when the panel is built), so that
+        the first update only draws them over it."""
+        self._background(dynamic)
+        for artist in self.dynamic:
+            artist.set_animated(False)
+
+    def _background(self, dynamic: Sequence[Any] | None) -> bool:
+        """The background for ``dynamic`` in the canvas (drawn, or restored when the axes are as they were);
+        False when the picture needs a full draw instead."""
         for artist in self.dynamic:                  # the last picture's dynamic artists: back to normal
             artist.set_animated(False)
         if dynamic is None or self.fig in dynamic:     # drawn anew, or changed all over: a full draw
             self.background, self.signature, self.dynamic = None, None, []
-            return figure_png(self.fig)
+            return False
         self.dynamic = [a for a in dynamic if a is not None]
         for artist in self.dynamic:
             artist.set_animated(True)
@@ -243,11 +261,7 @@ class BlitRenderer:
             self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
         else:
             self.canvas.restore_region(self.background)
-        renderer = self.canvas.get_renderer()
-        for artist in sorted(self.dynamic, key=lambda a: a.get_zorder()):
-            if artist.get_visible():
-                artist.draw(renderer)
-        return _encode_png(self.canvas)
+        return True
 
 
 #: How many pictures a panel keeps, by control values, to show again at once (about 60 kB each).
@@ -318,6 +332,8 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     # Shown at its own size (a flex box would stretch it to the cell's width, blurred), narrower on a narrow screen.
     image = w.Image(value=renderer.png(None), format="png",
                     layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))
+    if update is not None:      # the background of the first update drawn now, while the reader reads
+        renderer.prime(update(fig, **values()))
     messages = w.Output()
     state = {"failed": False}
     shown: OrderedDict[tuple, bytes] = OrderedDict([(_key(values()), bytes(image.value))])
