@@ -11,7 +11,8 @@ the paired verdicts of the default against odometry alone and against the best c
 
     .venv/bin/python studies/plaza_navigation.py                  # the whole study (long; run it with nice)
     .venv/bin/python studies/plaza_navigation.py --sets 2 --beacons 5 --offsets 3 --no-gtsam   # a small case
-    .venv/bin/python studies/plaza_navigation.py --out uwtutor/data/real_data_schedules.json
+    .venv/bin/python studies/plaza_navigation.py --runs RUNS.jsonl          # every run, as it is done
+    .venv/bin/python studies/plaza_navigation.py --summarize RUNS.jsonl ... --csv uwtutor/data/real_data_schedules.csv
 
 Deterministic (no randomness): the same command prints the same table.
 """
@@ -19,6 +20,7 @@ Deterministic (no randomness): the same command prints the same table.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import sys
 import time
@@ -43,9 +45,11 @@ def rmse(positions: np.ndarray, truth: np.ndarray) -> float:
     return float(np.sqrt(np.mean(e**2)))
 
 
-def runs(data: RangeDataset, beacons: list[int], period: float, offsets: list[float]) -> Iterator[dict[str, Any]]:
+def runs(data: RangeDataset, beacons: list[int], period: float, offsets: list[float],
+         full_rate: bool = True) -> Iterator[dict[str, Any]]:
     """The source of runs of one (log, beacons): the logged rate, then every offset of each kind of thinning."""
-    yield {"rate": "full", "thinning": "", "offset": 0.0, "min_period": None}
+    if full_rate:
+        yield {"rate": "full", "thinning": "", "offset": 0.0, "min_period": None}
     kinds = ["per beacon"] + (["in total"] if len(beacons) > 1 else [])
     for kind in kinds:
         for offset in offsets:
@@ -110,7 +114,7 @@ def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, 
 
 
 def plan(sets: list[int], beacon_args: list[str] | None, period: float,
-         offsets: list[float]) -> Iterator[tuple[int, list[int], dict[str, Any]]]:
+         offsets: list[float], full_rate: bool = True) -> Iterator[tuple[int, list[int], dict[str, Any]]]:
     """Every run of the study, the cheap and the first offset of every cell first (so that a study cut short
     still has every cell once)."""
     logs = {n: plaza(n) for n in sets}
@@ -122,7 +126,7 @@ def plan(sets: list[int], beacon_args: list[str] | None, period: float,
     schedules = {}
     for n in sets:
         for beacons in choices[n]:
-            for schedule in runs(logs[n], beacons, period, offsets):
+            for schedule in runs(logs[n], beacons, period, offsets, full_rate):
                 schedules.setdefault((schedule["offset"], schedule["rate"] != "full"), []).append((n, beacons,
                                                                                                  schedule))
     for key in sorted(schedules, key=lambda k: (k[0], not k[1])):
@@ -137,27 +141,46 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--offsets", type=int, default=None, help="offsets 0, 1, ... (default: every second of "
                                                                     "the period)")
     parser.add_argument("--offset-step", type=float, default=1.0, help="seconds between offsets (default 1)")
+    parser.add_argument("--offset-list", type=float, nargs="+", default=None,
+                        help="these offsets [s] instead (e.g. to add offsets to a study run before)")
     parser.add_argument("--no-gtsam-full-all", action="store_true",
                         help="leave out GTSAM at the logged rate with all four beacons (its slowest graphs)")
     parser.add_argument("--no-gtsam", action="store_true", help="leave out GTSAM's same-model graph")
+    parser.add_argument("--no-full-rate", action="store_true",
+                        help="leave out the logged rate (when adding another period to a study)")
     parser.add_argument("--runs", type=Path, default=None, help="append every run as a JSON line here")
     parser.add_argument("--summarize", type=Path, nargs="+", default=None,
                         help="only print the table of runs files written before")
     parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
-    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    parser.add_argument("--csv", type=Path, default=None,
+                        help="write every run as one CSV row here (RMSEs to 0.1 mm; the chapter's file: "
+                             "uwtutor/data/real_data_schedules.csv)")
+    parser.add_argument("--overwrite", action="store_true", help="replace --out or --csv if it exists")
     args = parser.parse_args(argv)
-    if args.out is not None and args.out.exists() and not args.overwrite:
-        print(f"refusing to replace {args.out}: pass --overwrite", file=sys.stderr)
-        return 2
+    for path in (args.out, args.csv):
+        if path is not None and path.exists() and not args.overwrite:
+            print(f"refusing to replace {path}: pass --overwrite", file=sys.stderr)
+            return 2
     if args.summarize is not None:
-        done = [json.loads(line) for path in args.summarize for line in path.read_text().splitlines() if line]
+        # a run written twice (a study resumed or extended) counts once: the later file's values win
+        merged: dict[tuple[Any, ...], dict[str, Any]] = {}
+        for path in args.summarize:
+            for line in path.read_text(encoding="utf-8").splitlines():
+                if line:
+                    r = json.loads(line)
+                    key = (r["set"], r["beacons"], r["rate"], r["thinning"], r["offset"])
+                    merged[key] = {**merged.get(key, {}), **r}
+        done = list(merged.values())
     else:
         done = []
         gtsam = not args.no_gtsam
         n_offsets = int(round(args.period / args.offset_step)) if args.offsets is None else args.offsets
         offsets = [float(o * args.offset_step) for o in range(n_offsets)]
+        if args.offset_list is not None:
+            offsets = [float(o) for o in args.offset_list]
         start = time.perf_counter()
-        for number, beacons, schedule in plan(args.sets, args.beacons, args.period, offsets):
+        for number, beacons, schedule in plan(args.sets, args.beacons, args.period, offsets,
+                                               not args.no_full_rate):
             data = plaza(number)
             skip = args.no_gtsam_full_all and schedule["rate"] == "full" and len(beacons) > 1
             with warnings.catch_warnings():
@@ -181,7 +204,23 @@ def main(argv: list[str] | None = None) -> int:
     print_table(cells, methods)
     if args.out is not None:
         args.out.write_text(json.dumps({"methods": methods, "cells": cells}, indent=1) + "\n", encoding="utf-8")
+    if args.csv is not None:
+        write_csv(args.csv, [r for cell in cells for r in cell["runs"]], methods)
     return 0
+
+
+CSV_KEYS = ["set", "beacons", "rate", "thinning", "offset", "n_ranges", "chosen"]
+
+
+def write_csv(path: Path, done: list[dict[str, Any]], methods: list[str]) -> None:
+    """Every run as one row: the schedule, the states navigate chose, every method's RMSE [m] to 0.1 mm (empty
+    where a method was not run)."""
+    with path.open("w", encoding="utf-8", newline="") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        writer.writerow(CSV_KEYS + methods)
+        for r in done:
+            writer.writerow([r[k] for k in CSV_KEYS]
+                            + [f"{r[m]:.4f}" if m in r and np.isfinite(r[m]) else "" for m in methods])
 
 
 def print_table(cells: list[dict[str, Any]], methods: list[str]) -> None:
