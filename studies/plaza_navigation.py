@@ -9,10 +9,17 @@ log x beacons x schedule (:func:`runs`); each run gives every method's RMSE (:fu
 paired (every method on the same schedules), and the table gives the median and the range over the offsets, and
 the paired verdicts of the default against odometry alone and against the best candidate (uwtutor.statistics).
 
-    .venv/bin/python studies/plaza_navigation.py                  # the whole study (long; run it with nice)
+    .venv/bin/python studies/plaza_navigation.py --runs RUNS.jsonl      # the whole study (hours; run it with nice)
     .venv/bin/python studies/plaza_navigation.py --sets 2 --beacons 5 --offsets 3 --no-gtsam   # a small case
-    .venv/bin/python studies/plaza_navigation.py --runs RUNS.jsonl          # every run, as it is done
-    .venv/bin/python studies/plaza_navigation.py --summarize RUNS.jsonl ... --csv uwtutor/data/real_data_schedules.csv
+    .venv/bin/python studies/plaza_navigation.py --offset-list 1 2 --no-full-rate --runs MORE.jsonl  # more offsets
+    .venv/bin/python studies/plaza_navigation.py --summarize RUNS.jsonl MORE.jsonl --complete-offsets \
+        --csv uwtutor/data/real_data_schedules.csv --overwrite               # the table, and chapter 11's file
+
+``--runs`` appends every run as a JSON line as soon as it is done, so a study cut short keeps its runs;
+``--summarize`` merges runs files (a run written twice counts once), ``--complete-offsets`` keeps only the offsets
+run in every cell (every cell then has the same schedules). The offsets of one log are schedules of one
+realisation (the same odometry, noise and track), not independent trials: the paired verdicts say whether a method
+beats another on this log whatever the schedule, not on another log. ``make study-schedules`` runs it all.
 
 Deterministic (no randomness): the same command prints the same table.
 """
@@ -85,7 +92,8 @@ def methods_of(gtsam: bool) -> list[str]:
 
 def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, Any]:
     """Median and range over a cell's runs for every method; how often the default is worse than odometry alone;
-    its excess over the best candidate of each run; the paired verdicts (when uwtutor.statistics is there)."""
+    its excess over the best candidate of each run; the paired verdicts of the default against odometry alone, the
+    best candidate and the graph, and of the graph against the smoother (median difference, 95 % paired bootstrap)."""
     table = {m: np.array([r.get(m, np.nan) for r in cell_runs]) for m in methods}
     candidates = np.array([[r[f"navigate: {n}"] for n in CANDIDATES] for r in cell_runs])
     best = candidates.min(axis=1)
@@ -105,11 +113,14 @@ def summarize(cell_runs: list[dict[str, Any]], methods: list[str]) -> dict[str, 
         versus = {"odometry alone": table[ODOMETRY], "best candidate": best}
         if np.isfinite(table[GRAPH]).all() if GRAPH in table else False:
             versus[GRAPH] = table[GRAPH]
-        for name, other in versus.items():
-            paired = statistics.paired_comparison(table[DEFAULT], other, names=(DEFAULT, name), threshold=1e9)
+        pairs = [(DEFAULT, table[DEFAULT], name, other) for name, other in versus.items()]
+        if GRAPH in versus:
+            pairs.append((GRAPH, table[GRAPH], RTS, table[RTS]))
+        for a_name, a, name, other in pairs:
+            paired = statistics.paired_comparison(a, other, names=(a_name, name), threshold=1e9)
             interval = paired.interval("median")
-            out[f"vs {name}"] = {"verdict": paired.verdict("median"), "estimate": interval.estimate,
-                                 "lower": interval.lower, "upper": interval.upper}
+            out[f"{a_name} vs {name}"] = {"verdict": paired.verdict("median"), "estimate": interval.estimate,
+                                          "lower": interval.lower, "upper": interval.upper}
     return out
 
 
@@ -152,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--summarize", type=Path, nargs="+", default=None,
                         help="only print the table of runs files written before")
     parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
+    parser.add_argument("--complete-offsets", action="store_true",
+                        help="with --summarize: keep a thinned offset only where it was run in every cell of its "
+                             "period (a study cut short then gives every cell the same schedules)")
     parser.add_argument("--csv", type=Path, default=None,
                         help="write every run as one CSV row here (RMSEs to 0.1 mm; the chapter's file: "
                              "uwtutor/data/real_data_schedules.csv)")
@@ -171,6 +185,8 @@ def main(argv: list[str] | None = None) -> int:
                     key = (r["set"], r["beacons"], r["rate"], r["thinning"], r["offset"])
                     merged[key] = {**merged.get(key, {}), **r}
         done = list(merged.values())
+        if args.complete_offsets:
+            done = complete_offsets(done)
     else:
         done = []
         gtsam = not args.no_gtsam
@@ -209,6 +225,18 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def complete_offsets(done: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The runs at the logged rate, and the thinned runs of the offsets run in every cell of their period."""
+    cells_of: dict[str, set[tuple[str, ...]]] = {}
+    offsets_of: dict[tuple[str, float], set[tuple[str, ...]]] = {}
+    for r in done:
+        if r["rate"] != "full":
+            cell = (r["set"], r["beacons"], r["thinning"])
+            cells_of.setdefault(r["rate"], set()).add(cell)
+            offsets_of.setdefault((r["rate"], r["offset"]), set()).add(cell)
+    return [r for r in done if r["rate"] == "full" or offsets_of[(r["rate"], r["offset"])] == cells_of[r["rate"]]]
+
+
 CSV_KEYS = ["set", "beacons", "rate", "thinning", "offset", "n_ranges", "chosen"]
 
 
@@ -241,10 +269,10 @@ def print_table(cells: list[dict[str, Any]], methods: list[str]) -> None:
               + " ".join(f"{p:>19}" for p in parts) + f"  {s['default_worse_than_odometry']:3d}      {chosen}")
     for cell in cells:
         s = cell["summary"]
-        verdicts = [f"{k}: {v['verdict']} ({v['estimate']:+.2f} m, [{v['lower']:+.2f}, {v['upper']:+.2f}])"
-                    for k, v in s.items() if k.startswith("vs ")]
+        verdicts = [f"{v['verdict']} ({v['estimate']:+.2f} m, [{v['lower']:+.2f}, {v['upper']:+.2f}])"
+                    for k, v in s.items() if " vs " in k]
         if verdicts:
-            print(f"{cell['set']} {cell['beacons']} {cell['rate']} {cell['thinning']}: default " + "; ".join(verdicts))
+            print(f"{cell['set']} {cell['beacons']} {cell['rate']} {cell['thinning']}: " + "; ".join(verdicts))
 
 
 if __name__ == "__main__":
