@@ -17,9 +17,9 @@ the paired verdicts of the default against odometry alone and against the best c
 
 ``--runs`` appends every run as a JSON line as soon as it is done, so a study cut short keeps its runs;
 ``--summarize`` merges runs files (a run written twice counts once), ``--complete-offsets`` keeps only the offsets
-run in every cell (every cell then has the same schedules). The offsets of one log are schedules of one
-realisation (the same odometry, noise and track), not independent trials: the paired verdicts say whether a method
-beats another on this log whatever the schedule, not on another log. ``make study-schedules`` runs it all.
+run in every cell of a log (every cell of a log then has the same schedules). The offsets of one log are schedules
+of one realisation (the same odometry, noise and track), not independent trials: the paired verdicts say whether a
+method beats another on this log whatever the schedule, not on another log. ``make study-schedules`` runs it all.
 
 Deterministic (no randomness): the same command prints the same table.
 """
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="write the cells and every run as JSON here")
     parser.add_argument("--complete-offsets", action="store_true",
                         help="with --summarize: keep a thinned offset only where it was run in every cell of its "
-                             "period (a study cut short then gives every cell the same schedules)")
+                             "log and period (a study cut short then gives every cell of a log the same schedules)")
     parser.add_argument("--csv", type=Path, default=None,
                         help="write every run as one CSV row here (RMSEs to 0.1 mm; the chapter's file: "
                              "uwtutor/data/real_data_schedules.csv)")
@@ -226,15 +226,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def complete_offsets(done: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The runs at the logged rate, and the thinned runs of the offsets run in every cell of their period."""
-    cells_of: dict[str, set[tuple[str, ...]]] = {}
-    offsets_of: dict[tuple[str, float], set[tuple[str, ...]]] = {}
+    """The runs at the logged rate, and the thinned runs of the offsets run in every cell of their log and period."""
+    cells_of: dict[tuple[str, str], set[tuple[str, str]]] = {}
+    offsets_of: dict[tuple[str, str, float], set[tuple[str, str]]] = {}
     for r in done:
         if r["rate"] != "full":
-            cell = (r["set"], r["beacons"], r["thinning"])
-            cells_of.setdefault(r["rate"], set()).add(cell)
-            offsets_of.setdefault((r["rate"], r["offset"]), set()).add(cell)
-    return [r for r in done if r["rate"] == "full" or offsets_of[(r["rate"], r["offset"])] == cells_of[r["rate"]]]
+            cells_of.setdefault((r["set"], r["rate"]), set()).add((r["beacons"], r["thinning"]))
+            offsets_of.setdefault((r["set"], r["rate"], r["offset"]), set()).add((r["beacons"], r["thinning"]))
+    return [r for r in done if r["rate"] == "full"
+            or offsets_of[(r["set"], r["rate"], r["offset"])] == cells_of[(r["set"], r["rate"])]]
 
 
 CSV_KEYS = ["set", "beacons", "rate", "thinning", "offset", "n_ranges", "chosen"]
