@@ -12,7 +12,7 @@ JB     := $(VENV)/bin/jupyter-book
 STAMP  := $(VENV)/.installed-stamp
 NODE_STAMP := node_modules/.installed-stamp
 
-.PHONY: setup dist book pdf pdf-deps test lab bench study study-real notebooks clean
+.PHONY: setup dist book pdf pdf-deps test lab bench study study-real study-schedules notebooks clean
 
 # The environment: the book, JupyterLab for students (the lab extra), the tests, Dask. nbgrader comes with the tests
 # (tests/test_labs_nbgrader.py) but its JupyterLab menu, sidebars and server extensions are an instructor's
@@ -107,6 +107,14 @@ study: setup
 # uwtutor/data/; commit the two files it writes. About 15 minutes on 2 cores.
 study-real: setup
 	$(PY) studies/real_data.py --overwrite
+
+# Chapter 11's schedule study (navigate, its candidates, the RTS smoother and the same-model GTSAM graph over every
+# offset of the thinning; hours of CPU): every run appended to studies/plaza_navigation_runs.jsonl as it is done
+# (a run written twice counts once), then the chapter's uwtutor/data/real_data_schedules.csv; commit both.
+study-schedules: setup
+	$(PY) studies/plaza_navigation.py --runs studies/plaza_navigation_runs.jsonl
+	$(PY) studies/plaza_navigation.py --summarize studies/plaza_navigation_runs.jsonl --complete-offsets \
+		--csv uwtutor/data/real_data_schedules.csv --overwrite
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
 # The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.

@@ -113,6 +113,18 @@ def test_usual_mistakes_get_their_hint(data, fit, drift_rate, lockout):
         "the recognised mistakes must differ from the answer by more than the tolerance"
 
 
+def test_another_estimator_of_the_scale_is_named_first(fit):
+    """The mean of the ratios is a choice of formula, not a near miss: the message leads with it; a printout of the
+    right value copied back is called rounded, not a wrong formula."""
+    r, d = fit["r"], fit["d"]
+    fb = ch11.check_scale(np.mean(r / d))
+    assert fb.message.startswith("Not yet: ") and "the mean of the ratios r/d" in fb.message, fb.message
+    assert "close" not in fb.message.lower(), fb.message
+    rounded = ch11.check_scale(round(fit["s"], 4))
+    assert not rounded.correct and "rounded to 4 decimals" in rounded.message, rounded.message
+    assert ch11.check_scale(round(fit["s"], 6)).correct
+
+
 def test_scale_gain_mistakes(data):
     g = ch11.check_scale_gain
     grid = {s: _rmse(navigate(data, gyro_bias=gb, scale=sc).x, data.truth)

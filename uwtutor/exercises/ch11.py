@@ -25,6 +25,7 @@ per kernel (the filters of exercise 11.4 take a few seconds).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import lru_cache
 from typing import Any
 
@@ -143,15 +144,49 @@ def check_scale(answer: Any) -> Feedback:
         mistakes[value] += (f" (As an estimate of the scale it lies {abs(value - v['scale']) / se:.1f} standard "
                             f"errors from the least-squares one, whose standard error is {se:.1e}: the data cannot "
                             "tell them apart; the task asks for the least-squares formula.)")
+    rounded = _rounded_scale(answer, v["scale"], 0.1 * se)
+    if rounded is not None:
+        # a printout copied back (1.0697 also lies within a tenth of a standard error of the mean ratio: a rounded
+        # least-squares value is the likelier reading, and is not called a wrong formula)
+        return Feedback(False, f"Not yet: {answer!r} is the least-squares scale rounded to {rounded} decimals.",
+                        hint="Give the value as computed (s_hat = (r @ d) / (d @ d)), not a printout of it: the "
+                             "check compares it to a tenth of its standard error.",
+                        details={"answer": float(answer), "rounded": rounded})
     # a tenth of the standard error: any correct computation of the formula passes, an estimate by another
     # formula (all of them 0.1 to 0.8 standard errors away) is named
-    return check_number(answer, v["scale"], rtol=0.0, atol=0.1 * se, name="the range scale s",
-                        common_mistakes=mistakes,
+    feedback = check_number(answer, v["scale"], rtol=0.0, atol=0.1 * se, name="the range scale s",
+                            common_mistakes=mistakes,
                         hint="r = data.ranges_on_epochs(), d = data.true_ranges(); keep the entries where r is "
                              "not NaN; s = (r @ d) / (d @ d).",
                         explanation=f"Every range is that many times the true distance, on every beacon: a scale, "
                                     f"not an offset. Its standard error is {se:.1e} (the ranges taken as "
                                     "independent): the fourth decimal is the last that means something.")
+    estimator = _ESTIMATOR_NAMES.get(next((k for k, value in v.items()
+                                           if value == feedback.details.get("mistake")), ""))
+    if estimator is not None:
+        # another estimator of the scale is a choice of formula, not a slip: the message names it first
+        feedback = replace(feedback, message=f"Not yet: {feedback.details['answer']:.6g} is {estimator}, not the "
+                                             "least-squares slope through the origin that the task asks for.")
+    return feedback
+
+
+#: The other estimators of the scale a student may compute, as the message names them.
+_ESTIMATOR_NAMES = {"mean_ratio": "the mean of the ratios r/d", "median_ratio": "the median of the ratios r/d",
+                    "affine_slope": "the slope of a straight line with an offset",
+                    "inverse": "the inverse of the slope of d on r", "reversed": "the slope of d on r"}
+
+
+def _rounded_scale(answer: Any, scale: float, tolerance: float) -> int | None:
+    """The number of decimals (3 to 5) to which ``answer`` is ``scale`` rounded, if it is, and further from it than
+    ``tolerance``."""
+    if isinstance(answer, (bool, np.bool_)) or not isinstance(answer, (int, float, np.floating)):
+        return None
+    if abs(float(answer) - scale) <= tolerance:
+        return None
+    for decimals in (3, 4, 5):
+        if float(answer) == round(scale, decimals) != scale:
+            return decimals
+    return None
 
 
 def check_residual_std(answer: Any) -> Feedback:
