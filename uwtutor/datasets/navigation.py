@@ -264,9 +264,9 @@ def _run_candidates(data: RangeDataset, beacon_ids: Any, candidates: list[tuple[
     runs = {}
     for run, (name, _) in enumerate(candidates):
         states, block = kept[name], np.ix_(kept[name], kept[name])
+        x_prior, P_prior = batch.priors()
         result = FilterResult(times=batch.times, x=batch.x[run][:, states], P=batch.P[run][:, block[0], block[1]],
-                              x_prior=batch.x_prior[run][:, states],
-                              P_prior=batch.P_prior[run][:, block[0], block[1]],
+                              x_prior=x_prior[run][:, states], P_prior=P_prior[run][:, block[0], block[1]],
                               innovations=batch.innovations[run], innovation_cov=batch.innovation_cov[run],
                               extras={key: value[run] for key, value in batch.extras.items()})
         runs[name] = (models[name], result, _log_predictive(models[name], result))
@@ -281,8 +281,9 @@ def _log_predictive(nav: "NavigationModels", result: FilterResult) -> tuple[floa
     epochs = np.nonzero(heard.any(axis=1))[0]
     if epochs.size == 0:
         return 0.0, np.empty(0)
-    predicted, H, _ = nav.measurement.linearize(result.x_prior[epochs], 0)
-    S = H @ result.P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(None, 0) * np.eye(z.shape[1])
+    x_prior, P_prior = result.priors()
+    predicted, H, _ = nav.measurement.linearize(x_prior[epochs], 0)
+    S = H @ P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(None, 0) * np.eye(z.shape[1])
     mask = heard[epochs]
     y = np.where(mask, z[epochs] - predicted, 0.0)
     # the missing components decoupled (unit variance, zero innovation): their terms are then 0 and dropped

@@ -207,8 +207,8 @@ class FilterResult:
     times: np.ndarray
     x: np.ndarray
     P: np.ndarray
-    x_prior: np.ndarray
-    P_prior: np.ndarray
+    x_prior: np.ndarray | None
+    P_prior: np.ndarray | None
     innovations: np.ndarray
     innovation_cov: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
@@ -217,6 +217,24 @@ class FilterResult:
     def n_steps(self) -> int:
         """Number of steps K."""
         return len(self.times)
+
+    def priors(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(x_prior, P_prior)``, or a ValueError when the filter ran with ``keep_priors=False`` (then both are None).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> res = FilterResult(np.arange(2.0), np.zeros((2, 1)), np.ones((2, 1, 1)), None, None,
+        ...                    np.zeros((2, 1)), np.ones((2, 1, 1)))
+        >>> res.priors()
+        Traceback (most recent call last):
+        ...
+        ValueError: this result has no priors (x_prior, P_prior): run the filter with keep_priors=True (the default)
+        """
+        if self.x_prior is None or self.P_prior is None:
+            raise ValueError("this result has no priors (x_prior, P_prior): run the filter with keep_priors=True "
+                             "(the default)")
+        return self.x_prior, self.P_prior
 
     def nis(self) -> np.ndarray:
         """Normalized innovation squared ``y^T S^-1 y`` per step (NaN where no measurement was used).

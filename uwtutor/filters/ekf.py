@@ -477,8 +477,8 @@ class RangeOnlyEKF(Configurable):
         times = steps_and_times(K, times)
         result, self._s = _run(self._s, u, z, self._q4, self.R, (float(self.beacon[0]), float(self.beacon[1])),
                                times, self._batched)
-        self._prior = pack(np.array(result.x_prior[..., -1, :], ndmin=2),
-                            np.array(result.P_prior[..., -1, :, :], ndmin=3))
+        x_prior, P_prior = result.priors()
+        self._prior = pack(np.array(x_prior[..., -1, :], ndmin=2), np.array(P_prior[..., -1, :, :], ndmin=3))
         self._set_updated(np.array(result.extras["updated"][..., -1], ndmin=1))
         last_y = result.innovations[..., -1, 0] if self._batched else result.innovations[-1:, 0]
         last_S = result.innovation_cov[..., -1, 0, 0] if self._batched else result.innovation_cov[-1:, 0, 0]

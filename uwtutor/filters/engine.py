@@ -680,7 +680,8 @@ class ExtendedKalmanFilter(Configurable):
         gate_state = copy.deepcopy(self.gate.__dict__) if self.gate is not None else None
         x = np.empty((K, M, n))
         P = np.empty((K, M, n, n))
-        x_prior, P_prior = (np.empty_like(x), np.empty_like(P)) if keep_priors else (None, None)
+        x_prior: np.ndarray | None = np.empty_like(x) if keep_priors else None
+        P_prior: np.ndarray | None = np.empty_like(P) if keep_priors else None
         prior_sum = 0.0                                          # without keep_priors: the priors' finiteness test
         y = np.empty((K, M, m))
         S = np.empty((K, M, m, m))
@@ -693,7 +694,7 @@ class ExtendedKalmanFilter(Configurable):
             with warnings.catch_warnings(record=True) as caught:
                 for k in range(K):
                     self._predict(None if u is None else u_steps[k], deferred=True)
-                    if keep_priors:
+                    if x_prior is not None and P_prior is not None:
                         x_prior[k] = self._x_prior
                         P_prior[k] = _runs_first(self._P_prior)
                     else:
@@ -708,7 +709,7 @@ class ExtendedKalmanFilter(Configurable):
                     for name in extra:
                         extras[name].append(np.array(getattr(self, name)))
             with np.errstate(over="ignore", invalid="ignore"):
-                if keep_priors:
+                if x_prior is not None and P_prior is not None:
                     prior_sum = x_prior.sum() + P_prior.sum()
                 sound = not caught and bool(np.isfinite(prior_sum)) and \
                     not psd_violations(tested.reshape(n, n, K * M)).any()
@@ -721,7 +722,7 @@ class ExtendedKalmanFilter(Configurable):
                 self.gate.__dict__.update(gate_state)
             return None
         fields = dict(x=x, P=P, x_prior=x_prior, P_prior=P_prior, innovations=y, innovation_cov=S)
-        stacked = {name: None if h is None else np.moveaxis(h, 0, 1) if batched else h[:, 0]
+        stacked: dict[str, Any] = {name: None if h is None else np.moveaxis(h, 0, 1) if batched else h[:, 0]
                    for name, h in fields.items()}
         recorded = {"accepted": accepted if batched else accepted[:, 0],
                     **{name: np.stack(v) for name, v in extras.items()}}
@@ -815,7 +816,7 @@ def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x
     sizes = {
         "x0": x0.shape[0] if x0.ndim == 2 else None,
         "P0": P0.shape[0] if P0.ndim == 3 else None,
-        "known_states": np.shape(known_states)[0] if np.ndim(known_states) == 2 else None,
+        "known_states": np.asarray(known_states).shape[0] if np.ndim(np.asarray(known_states)) == 2 else None,
         "z": z.shape[0] if z.ndim > single_z_ndim else None,
         "u": u.shape[0] if u is not None and u.ndim == 3 else None,
         "the measurement model": getattr(measurement, "n_runs", None),

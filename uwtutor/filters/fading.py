@@ -819,8 +819,8 @@ class FadingEKF(Configurable):
         times = steps_and_times(K, times)
         result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
         self._s = self._shown = last
-        self._prior = pack(np.array(result.x_prior[..., -1, :], ndmin=2),
-                            np.array(result.P_prior[..., -1, :, :], ndmin=3))
+        x_prior, P_prior = result.priors()
+        self._prior = pack(np.array(x_prior[..., -1, :], ndmin=2), np.array(P_prior[..., -1, :, :], ndmin=3))
         self._mem = mem
         self._started = started
         ys = np.array(result.innovations[..., -1, 0], ndmin=1)

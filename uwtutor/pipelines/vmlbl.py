@@ -292,15 +292,18 @@ def _with_runs(res: FilterResult, rows: np.ndarray) -> FilterResult:
     def fill(a: np.ndarray) -> np.ndarray:
         return _spread(np.asarray(a), rows, False if np.asarray(a).dtype == bool else np.nan)
 
-    return FilterResult(times=res.times, x=fill(res.x), P=fill(res.P), x_prior=fill(res.x_prior),
-                        P_prior=fill(res.P_prior), innovations=fill(res.innovations),
+    return FilterResult(times=res.times, x=fill(res.x), P=fill(res.P),
+                        x_prior=None if res.x_prior is None else fill(res.x_prior),
+                        P_prior=None if res.P_prior is None else fill(res.P_prior), innovations=fill(res.innovations),
                         innovation_cov=fill(res.innovation_cov),
                         extras={k: fill(v) for k, v in res.extras.items()})
 
 
 def _first_run(res: FilterResult) -> FilterResult:
     """Run 0 of a batched result, without the runs axis."""
-    return FilterResult(times=res.times, x=res.x[0], P=res.P[0], x_prior=res.x_prior[0], P_prior=res.P_prior[0],
+    return FilterResult(times=res.times, x=res.x[0], P=res.P[0],
+                        x_prior=None if res.x_prior is None else res.x_prior[0],
+                        P_prior=None if res.P_prior is None else res.P_prior[0],
                         innovations=res.innovations[0], innovation_cov=res.innovation_cov[0],
                         extras={name: a[0] for name, a in res.extras.items()})
 
