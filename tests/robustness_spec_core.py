@@ -376,4 +376,5 @@ EXEMPT_CORE: dict[str, str] = {
                                       "the engine builds), never called with user data",
     "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
     "uwtutor.plotting:check_legends_on_display": "no arguments: wraps IPython's figure formatter, if there is one",
+    "uwtutor.plotting:use_sharp_figures": "no arguments: sets IPython's figure format, if there is one",
 }

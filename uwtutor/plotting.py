@@ -16,7 +16,7 @@ from ._validate import as_float_array, as_instance, as_point
 
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
            "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below",
-           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING"]
+           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING", "PIXEL_RATIO", "use_sharp_figures"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {
@@ -32,6 +32,13 @@ BOOK_STYLE = {
     "legend.frameon": False,
     "image.cmap": "viridis",
 }
+
+#: Image pixels per figure pixel (``figure.dpi``) in the PNGs a notebook shows and in the frames of an animation:
+#: 2, a "retina" PNG shown at half its pixel size (IPython records the display size in the output's metadata, which
+#: the HTML book and JupyterLab honour). On a phone's 3x screen a figure opened full size gets 1.5 screen pixels per
+#: image pixel instead of 3, and in the page the image is sampled down instead of up. SVG would be sharper still,
+#: but the book's Monte Carlo figures draw thousands of points and lines: as SVG they are many times larger.
+PIXEL_RATIO = 2
 
 #: The smallest font size (points) of any text in a book figure. A figure 7.8 inches wide at 100 dpi is shown at
 #: about 0.96 of its size in the 1280 px layout, so 7 points there still read as 7.
@@ -62,7 +69,46 @@ def use_book_style() -> None:
     [7.0, 3.6]
     """
     plt.rcParams.update(BOOK_STYLE)
+    use_sharp_figures()
     check_legends_on_display()
+
+
+def use_sharp_figures() -> bool:
+    """In a notebook, show figures as PNGs of :data:`PIXEL_RATIO` image pixels per figure pixel (IPython's
+    ``retina`` format: the PNG at twice ``figure.dpi``, its display size in the output's metadata). Outside IPython
+    it does nothing.
+
+    Returns
+    -------
+    bool
+        Whether the notebook's figures are now shown sharp (an IPython kernel with matplotlib's inline backend).
+
+    Examples
+    --------
+    >>> from uwtutor.plotting import use_sharp_figures
+    >>> use_sharp_figures()  # outside a notebook
+    False
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with matplotlib-inline
+        return False
+    shell = get_ipython()
+    if shell is None or not hasattr(shell, "display_formatter"):
+        return False
+    # The inline backend is loaded lazily (at the first figure) and then registers the formats of its configuration:
+    # load it now, and set the format in the configuration, so that a later load keeps it.
+    plt.switch_backend(plt.get_backend())
+    try:
+        from matplotlib_inline.backend_inline import InlineBackend
+    except ImportError:  # pragma: no cover - another backend: nothing to do
+        return False
+    from IPython.core.pylabtools import select_figure_formats
+
+    config = InlineBackend.instance()
+    config.figure_formats = {"retina"}
+    select_figure_formats(shell, config.figure_formats, **config.print_figure_kwargs)
+    return True
 
 
 def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
@@ -113,6 +159,8 @@ def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) 
 # from outside (it is read offline, at sea), and its theme already bundles Font Awesome, whose ``fa fa-play``-style
 # classes the buttons use, so the link is dropped rather than vendored a second time.
 _CDN_STYLESHEET = re.compile(r"<link[^>]*href=\"https?://[^\"]*font-awesome[^\"]*\"[^>]*>\s*", re.IGNORECASE)
+#: The player's picture in matplotlib's HTML animation template (``<img id="_anim_img{id}">``).
+_PLAYER_IMAGE = re.compile(r'<img id="_anim_img[0-9a-f]*">')
 
 
 def plain_log_ticks(ax: Any, axis: str = "y") -> None:
@@ -275,6 +323,8 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     >>> plt.close(fig)
     >>> "<img" in html.data, "font-awesome" in html.data
     (True, False)
+    >>> 'width="20"' in html.data  # frames of 40 pixels (PIXEL_RATIO), shown 20 wide
+    True
     """
     from IPython.display import HTML
     from matplotlib.animation import Animation
@@ -296,10 +346,13 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
                 checking[0] = False
 
     cid = fig.canvas.mpl_connect("draw_event", check_frame)
-    try:
-        html = animation.to_jshtml(default_mode=default_mode)
+    try:  # frames of PIXEL_RATIO image pixels per figure pixel, shown at the figure's size (as use_sharp_figures)
+        with plt.rc_context({"savefig.dpi": fig.dpi * PIXEL_RATIO}):
+            html = animation.to_jshtml(default_mode=default_mode)
     finally:
         fig.canvas.mpl_disconnect(cid)
+    width = round(fig.get_figwidth() * fig.dpi)
+    html = _PLAYER_IMAGE.sub(lambda m: f'{m.group(0)[:-1]} width="{width}">', html, count=1)
     if covered:
         import sys
 

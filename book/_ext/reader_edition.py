@@ -319,9 +319,13 @@ FIGURE_VIEWER_JS = r"""
 (function () {
   "use strict";
   var SELECTOR = "div.cell_output img, figure img, div.figure img";
-  function natural(img) {  // the width in CSS px that shows the image at its own size
+  // The width in CSS px that shows the image at its own size: a figure's PNG has twice its pixels (a "retina" PNG)
+  // and says its size in its width attribute (a notebook figure) or its style (a widget's picture, a layout width).
+  function natural(img) {
     var attr = parseFloat(img.getAttribute("width"));
-    return attr > 0 && !/%/.test(img.getAttribute("width")) ? attr : img.naturalWidth;
+    if (attr > 0 && !/%/.test(img.getAttribute("width"))) return attr;
+    var styled = /^([0-9.]+)px$/.exec(img.style.width || "");
+    return styled ? parseFloat(styled[1]) : img.naturalWidth;
   }
   function open(img) {
     var view = document.createElement("div");
