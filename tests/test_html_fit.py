@@ -15,9 +15,9 @@ widgets have rendered:
 
 The phone is 390x844 CSS px at device scale 3 with touch (Chromium's device emulation). There, also (MEASURE_MEDIA):
 slider tracks under MIN_TRACK_PX, widget controls past the column's right edge, animations wider than the column,
-figures that do not open full size on a tap, and, for every figure (a cell's PNG or a frozen widget's picture): the
-height of its 10-pt text opened full size (MIN_OPENED_TEXT_PX, from the PNG's own resolution) and its sharpness
-there (screen pixels per image pixel, MAX_SCREEN_PX_PER_IMAGE_PX).
+figures that do not open full size on a tap, and, for every figure (a cell's PNG, a frozen widget's picture, an
+animation's frame): the height of its 10-pt text opened full size (MIN_OPENED_TEXT_PX, from the PNG's own
+resolution), its sharpness there (screen pixels per image pixel, MAX_SCREEN_PX_PER_IMAGE_PX) and its proportions.
 
 ``python tests/test_html_fit.py [HTML_DIR]`` prints the same counts for a built book without pytest
 (``-v``: every overflow; ``-kNAME``: only the pages whose name holds NAME) (for instance
@@ -135,8 +135,8 @@ MAX_ASPECT_ERROR = 0.02
 PHONE = {"width": 390, "height": 844, "deviceScaleFactor": 3, "mobile": True}
 
 # Widgets, animations and figures on a phone: slider tracks, controls past the column's right edge, animations wider
-# than the column, figures (a cell's PNG or a widget's picture) that do not open, and, for every figure and
-# animation, the size of its 10-pt text in the page and opened full size (a tap on the figure; the view is closed
+# than the column, figures (a cell's PNG, a widget's picture, an animation's frame) that do not open, and for each
+# the size of its 10-pt text in the page and opened full size (a tap on the figure; the view is closed
 # again) and how many screen pixels each of its image pixels covers. A figure's text size comes from its real
 # resolution: the PNG's own pHYs chunk (matplotlib writes the dpi it drew at; a "retina" PNG has twice the figure's).
 MEASURE_MEDIA = r"""async () => {
@@ -188,7 +188,7 @@ MEASURE_MEDIA = r"""async () => {
   for (const img of document.querySelectorAll('div.cell_output img')) {
     if (img.offsetParent === null || !img.naturalWidth) continue;
     const kind = img.closest('.animation') ? 'animation' : img.closest('.jupyter-widgets') ? 'widget' : 'figure';
-    if (kind === 'figure' && !img.classList.contains('uwtutor-zoomable')) {
+    if (kind !== 'widget' && !img.classList.contains('uwtutor-zoomable')) {
       unzoomable.push({where: where(img)});
       continue;
     }
@@ -197,17 +197,15 @@ MEASURE_MEDIA = r"""async () => {
     const inPage = box.width / img.naturalWidth;  // CSS px per image px
     // a width and a height attribute (a retina PNG's display size) must not squash the picture in a narrow column
     const squashed = box.height > 0 && Math.abs(box.width / box.height * img.naturalHeight / img.naturalWidth - 1);
-    let opened = null, fits = false, closed = true;
-    if (kind !== 'animation') {  // an animation plays in the page
-      img.click();
-      const view = document.querySelector('div.uwtutor-zoom');
-      if (view) {
-        opened = view.querySelector('img').getBoundingClientRect().width / img.naturalWidth;
-        fits = document.documentElement.scrollWidth <= document.documentElement.clientWidth + TOL;
-        view.querySelector('button').click();
-      }
-      closed = !document.querySelector('div.uwtutor-zoom');
+    let opened = null, fits = false;
+    img.click();  // a tap opens the figure, the widget's picture, the animation's frame
+    const view = document.querySelector('div.uwtutor-zoom');
+    if (view) {
+      opened = view.querySelector('img').getBoundingClientRect().width / img.naturalWidth;
+      fits = document.documentElement.scrollWidth <= document.documentElement.clientWidth + TOL;
+      view.querySelector('button').click();
     }
+    const closed = !document.querySelector('div.uwtutor-zoom');
     figures.push({where: where(img), kind, dpi: dpi === null ? null : Math.round(dpi),
                   image_px: img.naturalWidth, page_text_px: text10(dpi, inPage),
                   opened_text_px: opened === null ? null : text10(dpi, opened),
@@ -268,8 +266,6 @@ def problems(facts: dict) -> list[str]:
             out.append(f"{name}: its PNG does not say its resolution (no pHYs): its text size cannot be measured")
         if f["squashed"] > MAX_ASPECT_ERROR:
             out.append(f"{name}: shown {100 * f['squashed']:.0f} % out of its proportions")
-        if f["kind"] == "animation":
-            continue  # measured in the counts; it is not opened
         if f["opened_text_px"] is None or not f["closed"]:
             out.append(f"{name}: the full-size view did not open and close")
             continue
@@ -384,12 +380,11 @@ def main(argv: list[str]) -> int:
                 f"{page_px[len(group) // 2]}; {sum(p < 7 for p in page_px)} under 7 px); screen px per image px in "
                 f"the page: median {page_scr[len(group) // 2]}; no resolution (pHYs): "
                 f"{sum(f['dpi'] is None for f in group)}; dpi {sorted({f['dpi'] for f in group}, key=str)}")
-        if kind != "animation":
-            opened = sorted(f["opened_text_px"] or 0.0 for f in group)
-            opened_scr = sorted(f["opened_screen_px"] or 0.0 for f in group)
-            line += (f"; opened: 10-pt text {opened[0]}-{opened[-1]} px, screen px per image px {opened_scr[0]}-"
-                     f"{opened_scr[-1]} ({sum(x > MAX_SCREEN_PX_PER_IMAGE_PX for x in opened_scr)} over "
-                     f"{MAX_SCREEN_PX_PER_IMAGE_PX})")
+        opened = sorted(f["opened_text_px"] or 0.0 for f in group)
+        opened_scr = sorted(f["opened_screen_px"] or 0.0 for f in group)
+        line += (f"; opened: 10-pt text {opened[0]}-{opened[-1]} px, screen px per image px {opened_scr[0]}-"
+                 f"{opened_scr[-1]} ({sum(x > MAX_SCREEN_PX_PER_IMAGE_PX for x in opened_scr)} over "
+                 f"{MAX_SCREEN_PX_PER_IMAGE_PX})")
         print(line)
     print(f"phone figures that do not open on a tap: {len(media['unzoomable'])}")
     return 0

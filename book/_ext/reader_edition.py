@@ -353,7 +353,8 @@ FIGURE_VIEWER_JS = r"""
   }
   function wire() {
     document.querySelectorAll(SELECTOR).forEach(function (img) {
-      if (img.closest("a") || img.closest(".anim-state, .animation, .jupyter-widgets") ||
+      // an animation's picture opens too: the frame it shows at the tap
+      if (img.closest("a") || img.closest(".anim-state, .jupyter-widgets") ||
           img.dataset.uwtutorZoom) return;
       img.dataset.uwtutorZoom = "1";
       img.classList.add("uwtutor-zoomable");
