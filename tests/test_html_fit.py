@@ -266,7 +266,7 @@ def problems(facts: dict) -> list[str]:
             out.append(f"{name}: its PNG does not say its resolution (no pHYs): its text size cannot be measured")
         if f["squashed"] > MAX_ASPECT_ERROR:
             out.append(f"{name}: shown {100 * f['squashed']:.0f} % out of its proportions")
-        if f["opened_text_px"] is None or not f["closed"]:
+        if f["opened_screen_px"] is None or not f["closed"]:
             out.append(f"{name}: the full-size view did not open and close")
             continue
         if f["dpi"] is not None and f["opened_text_px"] < MIN_OPENED_TEXT_PX:
