@@ -15,13 +15,14 @@ the chapter's plot function. ``make bench`` times every control of every widget 
 from __future__ import annotations
 
 import io
+import sys
 from collections import OrderedDict
 from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..plotting import PIXEL_RATIO
+from ..plotting import LEGEND_WARNING, PIXEL_RATIO, legend_overlaps
 
 __all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale"]
 
@@ -316,6 +317,8 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     values = lambda: {name: s.value for name, s in sliders.items()}  # noqa: E731
     fig = draw(None, **values())
     plt.close(fig)                      # off pyplot's list: the inline backend must not show it a second time
+    for problem in legend_overlaps(fig):  # as for a notebook's figures (check_legends_on_display): the first view
+        print(f"{LEGEND_WARNING} (widget): {problem}", file=sys.stderr)  # is the one the HTML book shows
     width_px = round(fig.get_figwidth() * fig.dpi)
     # Drawn at PIXEL_RATIO image pixels per figure pixel and shown at the figure's size, as the notebooks' figures
     # are (uwtutor.plotting.use_sharp_figures): sharp on a phone's 3x screen and in the book's full-size view.
