@@ -47,8 +47,8 @@ def test_a_plot_keeps_its_pixels_and_resolution_in_half_the_bytes():
 
 
 def test_a_palette_never_moves_a_pixel_more_than_allowed():
-    """Lines over an area blended with transparency (thousands of colours): a palette PNG within PALETTE_MAX_ERROR of the PNG, or
-    the PNG itself when no palette is close enough."""
+    """Lines over an area blended with transparency (thousands of colours): a palette PNG within PALETTE_MAX_ERROR
+    of the PNG, or the PNG itself when no palette is close enough."""
     fig, ax = plt.subplots(figsize=(7.0, 3.6), dpi=100)
     x = np.linspace(0.0, 10.0, 400)
     for k in range(5):
