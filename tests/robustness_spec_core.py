@@ -73,6 +73,14 @@ def _tiny_animation():
     return anim
 
 
+def _tiny_png():
+    import io
+    fig = _tiny_animation()._fig
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
+
+
 _WEIGHTS = np.array([0.1, 0.0, 0.5, 0.4])
 _SIGNAL = np.sin(np.arange(40) / 5.0) + 0.01 * np.cos(np.arange(40) * 7.0)
 _SERIES = np.array([10.0, 11.0, 12.5, 13.0, 14.2, 15.1])
@@ -199,6 +207,10 @@ SPECS_CORE: dict[str, Spec] = {
                                              kinds=dict(axis=Choice())),
     "uwtutor.plotting:legend_overlaps": Spec(lambda: dict(fig=_tiny_animation()._fig),
                                              kinds=dict(fig=Instance()), check=lambda v, b: []),
+    "uwtutor.plotting:palette_png": Spec(lambda: dict(png=_tiny_png(), colors=256, max_error=24),
+                                         kinds=dict(png=Instance(), colors=Int(minimum=2, maximum=256),
+                                                    max_error=Int(minimum=0, maximum=255)),
+                                         check=lambda v, b: []),
     "uwtutor.plotting:animation_html": Spec(lambda: dict(animation=_tiny_animation(), default_mode="once"),
                                             kinds=dict(animation=Instance(), default_mode=Choice()),
                                             check=lambda v, b: []),
@@ -377,4 +389,5 @@ EXEMPT_CORE: dict[str, str] = {
                                       "the engine builds), never called with user data",
     "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
     "uwtutor.plotting:check_legends_on_display": "no arguments: wraps IPython's figure formatter, if there is one",
+    "uwtutor.plotting:use_sharp_figures": "no arguments: sets IPython's figure format, if there is one",
 }

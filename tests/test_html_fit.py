@@ -10,7 +10,14 @@ widgets have rendered:
   (a scroll shadow, a background gradient, as ``_static/fit.css`` gives ``div.math``). An equation that can be
   broken is broken (``aligned``/``split``); the visible scroll is for what cannot be;
 - **the page itself**: ``document.documentElement.scrollWidth > clientWidth`` (the reader would scroll the whole
-  page sideways); the test names the widest elements that stick out.
+  page sideways); the test names the widest elements that stick out;
+- **tables** wider than their box: they must scroll and show it (a scroll shadow no opaque row hides).
+
+The phone is 390x844 CSS px at device scale 3 with touch (Chromium's device emulation). There, also (MEASURE_MEDIA):
+slider tracks under MIN_TRACK_PX, widget controls past the column's right edge, animations wider than the column,
+figures that do not open full size on a tap, and, for every figure (a cell's PNG, a frozen widget's picture, an
+animation's frame): the height of its 10-pt text opened full size (MIN_OPENED_TEXT_PX, from the PNG's own
+resolution), its sharpness there (screen pixels per image pixel, MAX_SCREEN_PX_PER_IMAGE_PX) and its proportions.
 
 ``python tests/test_html_fit.py [HTML_DIR]`` prints the same counts for a built book without pytest
 (``-v``: every overflow; ``-kNAME``: only the pages whose name holds NAME) (for instance
@@ -117,14 +124,21 @@ MEASURE = r"""(PHONE) => {
 
 #: Slider tracks narrower than this (CSS px) cannot be set by a finger.
 MIN_TRACK_PX = 80
-#: The book's figures are drawn at 100 dpi (uwtutor.plotting.BOOK_STYLE): 10-pt text is 13.9 image pixels high.
-FIGURE_DPI = 100
 #: 10-pt text of a figure must show at least this high (CSS px) once the figure is opened full size.
 MIN_OPENED_TEXT_PX = 9.0
+#: A figure opened full size is sharp when each of its image pixels covers at most this many screen pixels across
+#: (a PNG at the figure's resolution, 100 dpi, covers 3 on a 3x screen: blurry; a "retina" PNG 1.5).
+MAX_SCREEN_PX_PER_IMAGE_PX = 2.0
+#: A picture shown out of its proportions by more than this (relative error of the aspect ratio) is squashed.
+MAX_ASPECT_ERROR = 0.02
+#: The phone: CSS px, device scale, touch (as tools/screenshots.py --phone).
+PHONE = {"width": 390, "height": 844, "deviceScaleFactor": 3, "mobile": True}
 
 # Widgets, animations and figures on a phone: slider tracks, controls past the column's right edge, animations wider
-# than the column, figures that do not open, and the size of a figure's 10-pt text in the page and opened full size
-# (a tap on the figure; the view is closed again).
+# than the column, figures (a cell's PNG, a widget's picture, an animation's frame) that do not open, and for each
+# the size of its 10-pt text in the page and opened full size (a tap on the figure; the view is closed
+# again) and how many screen pixels each of its image pixels covers. A figure's text size comes from its real
+# resolution: the PNG's own pHYs chunk (matplotlib writes the dpi it drew at; a "retina" PNG has twice the figure's).
 MEASURE_MEDIA = r"""async () => {
   const TOL = 1;
   const where = el => { const sec = el.closest('section[id]'); return sec ? '#' + sec.id : ''; };
@@ -135,6 +149,20 @@ MEASURE_MEDIA = r"""async () => {
       if (!['visible', 'clip'].includes(getComputedStyle(a).overflowX)) return true;
     }
     return false;
+  };
+  // The PNG's resolution (pHYs, pixels per metre) in dots per inch; null when it has none.
+  const dpiOf = async img => {
+    try {
+      const data = new DataView(await (await fetch(img.currentSrc || img.src)).arrayBuffer());
+      for (let at = 8; at + 12 <= data.byteLength; ) {
+        const length = data.getUint32(at);
+        const type = String.fromCharCode(...[4, 5, 6, 7].map(i => data.getUint8(at + i)));
+        if (type === 'pHYs') return data.getUint8(at + 16) === 1 ? data.getUint32(at + 8) * 0.0254 : null;
+        if (type === 'IDAT') return null;
+        at += 12 + length;
+      }
+    } catch (e) { /* not a PNG */ }
+    return null;
   };
   const sliders = [], pastEdge = [], animations = [], unzoomable = [], figures = [];
   for (const track of document.querySelectorAll('.jupyter-widgets .widget-hslider .slider-container')) {
@@ -155,32 +183,49 @@ MEASURE_MEDIA = r"""async () => {
     for (const el of anim.querySelectorAll('*')) right = Math.max(right, el.getBoundingClientRect().right);
     if (right > column + TOL) animations.push({where: where(anim), past_px: Math.round(right - column)});
   }
-  const natural = img => {
-    const attr = img.getAttribute('width');
-    return attr && !/%/.test(attr) && parseFloat(attr) > 0 ? parseFloat(attr) : img.naturalWidth;
-  };
-  const text10 = scale => 10 / 72 * FIGURE_DPI * scale;
+  const ratio = window.devicePixelRatio;
+  const text10 = (dpi, cssPerImagePx) => dpi === null ? null : +(10 / 72 * dpi * cssPerImagePx).toFixed(1);
   for (const img of document.querySelectorAll('div.cell_output img')) {
-    if (img.offsetParent === null || img.closest('.animation')) continue;
-    if (img.closest('.jupyter-widgets')) continue;  // a widget's picture is measured with the widget
-    if (!img.classList.contains('uwtutor-zoomable')) { unzoomable.push({where: where(img)}); continue; }
-    const inPage = img.getBoundingClientRect().width / natural(img);
-    img.click();
-    const view = document.querySelector('div.uwtutor-zoom');
+    if (img.offsetParent === null || !img.naturalWidth) continue;
+    const kind = img.closest('.animation') ? 'animation' : img.closest('.jupyter-widgets') ? 'widget' : 'figure';
+    if (kind !== 'widget' && !img.classList.contains('uwtutor-zoomable')) {
+      unzoomable.push({where: where(img)});
+      continue;
+    }
+    const dpi = await dpiOf(img);
+    const box = img.getBoundingClientRect();
+    const inPage = box.width / img.naturalWidth;  // CSS px per image px
+    // a width and a height attribute (a retina PNG's display size) must not squash the picture in a narrow column
+    const squashed = box.height > 0 && Math.abs(box.width / box.height * img.naturalHeight / img.naturalWidth - 1);
     let opened = null, fits = false;
+    img.click();  // a tap opens the figure, the widget's picture, the animation's frame
+    const view = document.querySelector('div.uwtutor-zoom');
     if (view) {
-      const big = view.querySelector('img');
-      opened = big.getBoundingClientRect().width / natural(img);
+      opened = view.querySelector('img').getBoundingClientRect().width / img.naturalWidth;
       fits = document.documentElement.scrollWidth <= document.documentElement.clientWidth + TOL;
       view.querySelector('button').click();
     }
-    figures.push({where: where(img), natural_px: natural(img), page_text_px: +text10(inPage).toFixed(1),
-                  opened_text_px: opened === null ? null : +text10(opened).toFixed(1),
-                  device_px_per_image_px: +(3 * img.getBoundingClientRect().width / img.naturalWidth).toFixed(2),
-                  page_fits: fits, closed: !document.querySelector('div.uwtutor-zoom')});
+    const closed = !document.querySelector('div.uwtutor-zoom');
+    figures.push({where: where(img), kind, dpi: dpi === null ? null : Math.round(dpi),
+                  image_px: img.naturalWidth, page_text_px: text10(dpi, inPage),
+                  opened_text_px: opened === null ? null : text10(dpi, opened),
+                  page_screen_px: +(ratio * inPage).toFixed(2),
+                  opened_screen_px: opened === null ? null : +(ratio * opened).toFixed(2),
+                  squashed: +(squashed || 0).toFixed(3), page_fits: fits, closed});
   }
-  return {sliders, pastEdge, animations, unzoomable, figures};
-}""".replace("FIGURE_DPI", str(FIGURE_DPI))
+  return {sliders, pastEdge, animations, unzoomable, figures, devicePixelRatio: ratio};
+}"""
+
+
+def phone_tab(context):
+    """A tab of ``context`` that plays the phone (PHONE: 390x844 CSS px, device scale 3, touch), by Chromium's
+    device emulation (the shared browser context is not a phone's)."""
+    tab = context.new_page()
+    cdp = context.new_cdp_session(tab)
+    cdp.send("Emulation.setDeviceMetricsOverride", PHONE)
+    cdp.send("Emulation.setTouchEmulationEnabled", {"enabled": True, "maxTouchPoints": 5})
+    tab._uwtutor_cdp = cdp  # kept alive with the tab
+    return tab
 
 
 def measure(page, url: str, phone: bool = False) -> dict:
@@ -216,13 +261,22 @@ def problems(facts: dict) -> list[str]:
     out += [f"animation ({a['where']}) {a['past_px']} px wider than the column" for a in facts.get("animations", [])]
     out += [f"figure ({u['where']}) does not open full size on a tap" for u in facts.get("unzoomable", [])]
     for f in facts.get("figures", []):
-        if f["opened_text_px"] is None or not f["closed"]:
-            out.append(f"figure ({f['where']}): the full-size view did not open and close")
-        elif f["opened_text_px"] < MIN_OPENED_TEXT_PX:
-            out.append(f"figure ({f['where']}): 10-pt text {f['opened_text_px']} px high opened full size "
+        name = f"{f['kind']} ({f['where']})"
+        if f["dpi"] is None:
+            out.append(f"{name}: its PNG does not say its resolution (no pHYs): its text size cannot be measured")
+        if f["squashed"] > MAX_ASPECT_ERROR:
+            out.append(f"{name}: shown {100 * f['squashed']:.0f} % out of its proportions")
+        if f["opened_screen_px"] is None or not f["closed"]:
+            out.append(f"{name}: the full-size view did not open and close")
+            continue
+        if f["dpi"] is not None and f["opened_text_px"] < MIN_OPENED_TEXT_PX:
+            out.append(f"{name}: 10-pt text {f['opened_text_px']} px high opened full size "
                        f"(under {MIN_OPENED_TEXT_PX})")
-        elif not f["page_fits"]:
-            out.append(f"figure ({f['where']}): the full-size view widens the page")
+        if f["opened_screen_px"] > MAX_SCREEN_PX_PER_IMAGE_PX:
+            out.append(f"{name}: blurry opened full size: each image pixel covers {f['opened_screen_px']} screen "
+                       f"pixels (over {MAX_SCREEN_PX_PER_IMAGE_PX}; a PNG at twice the figure's resolution is sharp)")
+        if not f["page_fits"]:
+            out.append(f"{name}: the full-size view widens the page")
     if facts["page"]:
         p = facts["page"]
         out.append(f"the page scrolls sideways ({p['scrollWidth']} px in {p['clientWidth']} px); "
@@ -234,11 +288,8 @@ def problems(facts: dict) -> list[str]:
 def pages(browser):  # noqa: F811  (the fixture imported above)
     """One tab per width, reused for every page of the book."""
     context, _external = browser
-    tabs = {}
-    for name, width in WIDTHS.items():
-        tab = context.new_page()
-        tab.set_viewport_size({"width": width, "height": HEIGHT})
-        tabs[name] = tab
+    tabs = {"laptop": context.new_page(), "phone": phone_tab(context)}
+    tabs["laptop"].set_viewport_size({"width": WIDTHS["laptop"], "height": HEIGHT})
     yield tabs
     for tab in tabs.values():
         tab.close()
@@ -281,10 +332,8 @@ def main(argv: list[str]) -> int:
         context = pw.chromium.launch_persistent_context(
             profile, executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS, service_workers="block")
         context.route("**/*", lambda r: r.continue_() if r.request.url.startswith(base) else r.abort())
-        tabs = {}
-        for name, width in WIDTHS.items():
-            tabs[name] = context.new_page()
-            tabs[name].set_viewport_size({"width": width, "height": HEIGHT})
+        tabs = {"laptop": context.new_page(), "phone": phone_tab(context)}
+        tabs["laptop"].set_viewport_size({"width": WIDTHS["laptop"], "height": HEIGHT})
         print(f"{'page':38s} " + " ".join(f"{w + ' code/eq/page/table':>24s}" for w in WIDTHS))
         for doc in DOCNAMES:
             if only and not any(o in doc for o in only):
@@ -321,14 +370,23 @@ def main(argv: list[str]) -> int:
     print(f"phone widgets: {len(short)} of {len(media['sliders'])} slider tracks under {MIN_TRACK_PX} px (narrowest "
           f"{min((s['width'] for s in media['sliders']), default=0)} px), {len(media['pastEdge'])} controls past the "
           f"column's edge; {len(media['animations'])} animations wider than the column")
-    if figs:
-        page_px = sorted(f["page_text_px"] for f in figs)
-        opened = sorted(f["opened_text_px"] or 0.0 for f in figs)
-        print(f"phone figures: {len(figs)} open full size on a tap, {len(media['unzoomable'])} do not; 10-pt text in "
-              f"the page {page_px[0]}-{page_px[-1]} px (median {page_px[len(page_px) // 2]}; "
-              f"{sum(p < 7 for p in page_px)} under 7 px), opened {opened[0]}-{opened[-1]} px; device pixels per "
-              f"image pixel on a 3x screen, in the page: median "
-              f"{sorted(f['device_px_per_image_px'] for f in figs)[len(figs) // 2]}")
+    for kind in ("figure", "widget", "animation"):
+        group = [f for f in figs if f["kind"] == kind]
+        if not group:
+            continue
+        page_px = sorted(f["page_text_px"] or 0.0 for f in group)
+        page_scr = sorted(f["page_screen_px"] for f in group)
+        line = (f"phone {kind}s: {len(group)}; 10-pt text in the page {page_px[0]}-{page_px[-1]} px (median "
+                f"{page_px[len(group) // 2]}; {sum(p < 7 for p in page_px)} under 7 px); screen px per image px in "
+                f"the page: median {page_scr[len(group) // 2]}; no resolution (pHYs): "
+                f"{sum(f['dpi'] is None for f in group)}; dpi {sorted({f['dpi'] for f in group}, key=str)}")
+        opened = sorted(f["opened_text_px"] or 0.0 for f in group)
+        opened_scr = sorted(f["opened_screen_px"] or 0.0 for f in group)
+        line += (f"; opened: 10-pt text {opened[0]}-{opened[-1]} px, screen px per image px {opened_scr[0]}-"
+                 f"{opened_scr[-1]} ({sum(x > MAX_SCREEN_PX_PER_IMAGE_PX for x in opened_scr)} over "
+                 f"{MAX_SCREEN_PX_PER_IMAGE_PX})")
+        print(line)
+    print(f"phone figures that do not open on a tap: {len(media['unzoomable'])}")
     return 0
 
 

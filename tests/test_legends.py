@@ -117,3 +117,22 @@ def test_no_committed_figure_has_a_legend_over_its_data(chapter):
     state = json.dumps(nb.get("metadata", {}).get("widgets", {}))
     found += [f"a widget's view: {m}" for m in set(re.findall(LEGEND_WARNING + r"[^\\\"]*", state))]
     assert not found, f"{chapter.name}: figures whose legend covers data:\n" + "\n".join(found)
+
+
+def test_a_widget_says_when_its_first_view_has_a_legend_over_its_data(capsys):
+    """The first view of a widget is the one the HTML book shows: slider_panel checks it as a notebook's figures
+    are checked, on stderr (so that it is in the committed cell output that the test above reads)."""
+    import ipywidgets as w
+
+    from uwtutor.widgets._panel import slider_panel
+
+    def draw(fig, level):
+        fig = fig or plt.figure()
+        ax = fig.subplots()
+        ax.plot([0, 1], [level, level], label="high")
+        ax.plot([0, 1], [0, 0], label="low")
+        ax.legend(loc="upper right")
+        return fig
+
+    slider_panel({"level": w.FloatSlider(value=1.0, min=0.5, max=1.0)}, draw)
+    assert f"{LEGEND_WARNING} (widget): axes 1: the legend ('high', ...) covers 'high'" in capsys.readouterr().err

@@ -388,17 +388,41 @@ def test_bibliography_is_a_numbered_appendix_in_the_texts_citation_style(pdf):
     assert not re.search(r"\n\s*Bibliography\s*\n(?!.*Appendix)", text[:2000]), "an unnumbered Bibliography chapter"
 
 
+def _figure_resolutions() -> dict[tuple[int, int], set[float]]:
+    """The resolution (dpi, from each PNG's pHYs chunk, as matplotlib writes it) of the PNGs the LaTeX build
+    includes, by their size in pixels: a figure drawn at ``figure.dpi`` or a "retina" PNG of twice as many pixels."""
+    from PIL import Image
+
+    found: dict[tuple[int, int], set[float]] = {}
+    for path in pdf_edition.LATEX_DIR.glob("*.png"):
+        with Image.open(path) as image:
+            dpi = image.info.get("dpi")
+            found.setdefault(image.size, set()).add(float(dpi[0]) if dpi else float("nan"))
+    return found
+
+
 def test_figure_text_is_at_least_six_and_a_half_points(pdf):
-    """The chapters' figures are drawn at 100 dpi with 7-pt text at the smallest: printed at x ppi, that text is
-    7 * 100 / x pt high, which must be 6.5 pt or more (it was 5.2-5.6 pt)."""
+    """The chapters' figures have 7-pt text at the smallest, drawn at the PNG's resolution (its pHYs: 100 dpi at
+    the figure's own size, 200 for a "retina" PNG): printed at x ppi, that text is 7 * dpi / x pt high, which must be
+    6.5 pt or more (it was 5.2-5.6 pt). An image whose resolution is unknown fails."""
     from uwtutor.plotting import MIN_FONT_SIZE
 
     listing = subprocess.run(["pdfimages", "-list", str(pdf_edition.PDF)], check=True, capture_output=True,
                              text=True).stdout.splitlines()[2:]
-    ppis = [float(ln.split()[12]) for ln in listing if ln.split()[2] == "image" and int(ln.split()[3]) >= 400]
-    assert len(ppis) > 50
-    small = sorted(MIN_FONT_SIZE * 100 / ppi for ppi in ppis if MIN_FONT_SIZE * 100 / ppi < 6.5)
-    assert not small, f"{len(small)} of {len(ppis)} figures print 7-pt text under 6.5 pt (smallest {small[0]:.2f} pt)"
+    resolutions = _figure_resolutions()
+    printed = [(int(ln.split()[3]), int(ln.split()[4]), float(ln.split()[12])) for ln in listing
+               if ln.split()[2] == "image" and int(ln.split()[3]) >= 400]
+    assert len(printed) > 50
+    sizes, unknown = [], []
+    for width, height, ppi in printed:
+        dpis = resolutions.get((width, height), set())
+        if not dpis or any(d != d for d in dpis):  # not a PNG of the build, or one without pHYs
+            unknown.append(f"{width}x{height}")
+            continue
+        sizes.append(MIN_FONT_SIZE * min(dpis) / ppi)  # two PNGs of one size: the smaller text
+    assert not unknown, f"{len(unknown)} printed images of unknown resolution: {unknown[:5]}"
+    small = sorted(size for size in sizes if size < 6.5)
+    assert not small, f"{len(small)} of {len(sizes)} figures print 7-pt text under 6.5 pt (smallest {small[0]:.2f} pt)"
 
 
 def test_running_foot_fits_one_line(pdf):

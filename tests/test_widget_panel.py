@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from uwtutor import widgets  # noqa: E402
+from uwtutor.plotting import PIXEL_RATIO  # noqa: E402
 from uwtutor.widgets._panel import figure_png, slider_panel  # noqa: E402
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -47,7 +48,9 @@ def test_panel_redraws_the_same_figure_in_place():
     assert [c for row in rows for c in row.children] == list(sliders.values())
     assert isinstance(image, w.Image) and image.format == "png" and isinstance(messages, w.Output)
     assert bytes(image.value).startswith(PNG_SIGNATURE)
-    assert _pixels(bytes(image.value)).shape[:2] == (100, 150)            # 3 x 2 inches at 50 dpi
+    # 3 x 2 inches at 50 dpi, drawn at PIXEL_RATIO image pixels per figure pixel and shown at the figure's size
+    assert _pixels(bytes(image.value)).shape[:2] == (100 * PIXEL_RATIO, 150 * PIXEL_RATIO)
+    assert Image.open(io.BytesIO(bytes(image.value))).info["dpi"] == pytest.approx((50 * PIXEL_RATIO,) * 2, abs=0.01)
     assert image.layout.width == "150px"                          # shown at its own size, not stretched
     assert calls == [None] and not plt.get_fignums()              # made once, and not left to pyplot to show again
 

@@ -30,6 +30,7 @@ sys.path.insert(0, str(REPO / "tests"))
 
 from conftest import HTML_DIR, toc_docnames  # noqa: E402
 from test_browser import CHROMIUM, CHROMIUM_FLAGS, IMAGES_LOADED, LOCAL_HOSTS, WAIT_FOR_MATHJAX  # noqa: E402
+from test_html_fit import WAIT_FOR_WIDGETS  # noqa: E402
 
 
 def main() -> int:
@@ -78,6 +79,8 @@ def main() -> int:
             for doc in args.pages or toc_docnames():
                 page.goto(base + f"{doc}.html", wait_until="load")
                 page.evaluate(WAIT_FOR_MATHJAX)
+                if page.locator('script[type="application/vnd.jupyter.widget-state+json"]').count():
+                    page.wait_for_function(WAIT_FOR_WIDGETS, timeout=20_000)  # the frozen widgets drawn
                 page.evaluate(IMAGES_LOADED)
                 page.wait_for_load_state("networkidle")
                 page.wait_for_timeout(500)

@@ -5,6 +5,7 @@ Nothing here computes anything a chapter relies on: the numbers come from the li
 
 from __future__ import annotations
 
+from binascii import b2a_base64
 from typing import Any
 
 import re
@@ -16,7 +17,8 @@ from ._validate import as_float_array, as_instance, as_point
 
 __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_log_ticks", "animation_html",
            "MIN_FONT_SIZE", "HIGHLIGHT_METHODS", "OTHERS_COLOR", "method_style", "method_legend", "legend_below",
-           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING"]
+           "legend_overlaps", "check_legends_on_display", "LEGEND_WARNING", "PIXEL_RATIO", "use_sharp_figures",
+           "PALETTE_COLORS", "PALETTE_MAX_ERROR", "palette_png"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
 BOOK_STYLE = {
@@ -32,6 +34,19 @@ BOOK_STYLE = {
     "legend.frameon": False,
     "image.cmap": "viridis",
 }
+
+#: Image pixels per figure pixel (``figure.dpi``) in the PNGs a notebook shows and in the frames of an animation:
+#: 2, a "retina" PNG shown at half its pixel size (IPython records the display size in the output's metadata, which
+#: the HTML book and JupyterLab honour). On a phone's 3x screen a figure opened full size gets 1.5 screen pixels per
+#: image pixel instead of 3, and in the page the image is sampled down instead of up. Not SVG: nbval compares an SVG
+#: output as text (coordinates to the last printed digit, a date), and a widget's live picture must stay fast.
+PIXEL_RATIO = 2
+
+#: A notebook figure's PNG is stored with a palette of this many colours (about a third of the bytes of the
+#: full-colour PNG: a chapter's figures at PIXEL_RATIO then weigh less than at the figure's own resolution),
+#: unless that changes some pixel by more than PALETTE_MAX_ERROR (of 255) in a channel: then in full colour.
+PALETTE_COLORS = 256
+PALETTE_MAX_ERROR = 24
 
 #: The smallest font size (points) of any text in a book figure. A figure 7.8 inches wide at 100 dpi is shown at
 #: about 0.96 of its size in the 1280 px layout, so 7 points there still read as 7.
@@ -62,7 +77,112 @@ def use_book_style() -> None:
     [7.0, 3.6]
     """
     plt.rcParams.update(BOOK_STYLE)
+    use_sharp_figures()
     check_legends_on_display()
+
+
+def use_sharp_figures() -> bool:
+    """In a notebook, show figures as PNGs of :data:`PIXEL_RATIO` image pixels per figure pixel (IPython's
+    ``retina`` format: the PNG at twice ``figure.dpi``, its display size in the output's metadata), stored with a
+    palette (:func:`palette_png`). Outside IPython it does nothing.
+
+    Returns
+    -------
+    bool
+        Whether the notebook's figures are now shown sharp (an IPython kernel with matplotlib's inline backend).
+
+    Examples
+    --------
+    >>> from uwtutor.plotting import use_sharp_figures
+    >>> use_sharp_figures()  # outside a notebook
+    False
+    """
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with matplotlib-inline
+        return False
+    shell = get_ipython()
+    if shell is None or not hasattr(shell, "display_formatter"):
+        return False
+    # The inline backend is loaded lazily (at the first figure) and then registers the formats of its configuration:
+    # load it now, and set the format in the configuration, so that a later load keeps it.
+    plt.switch_backend(plt.get_backend())
+    try:
+        from matplotlib_inline.backend_inline import InlineBackend
+    except ImportError:  # pragma: no cover - another backend: nothing to do
+        return False
+    from IPython.core.pylabtools import retina_figure, select_figure_formats
+    from matplotlib.figure import Figure
+
+    config = InlineBackend.instance()
+    config.figure_formats = {"retina"}
+    select_figure_formats(shell, config.figure_formats, **config.print_figure_kwargs)
+
+    def sharp_png(fig: Any) -> Any:
+        out = retina_figure(fig, base64=False, **config.print_figure_kwargs)
+        if out is None:  # an empty figure: nothing shown
+            return None
+        png, metadata = out
+        return b2a_base64(palette_png(png), newline=False).decode("ascii"), metadata
+
+    shell.display_formatter.formatters["image/png"].for_type(Figure, sharp_png)
+    return True
+
+
+def palette_png(png: bytes, colors: int = PALETTE_COLORS, max_error: int = PALETTE_MAX_ERROR) -> bytes:
+    """``png`` with a palette of ``colors`` colours, its resolution (pHYs) kept; ``png`` itself when that would
+    change some pixel by more than ``max_error`` (of 255) in a channel (a smooth colour map, a photograph) or would
+    not be smaller.
+
+    A plot is a few colours and their antialiased edges: a palette (Pillow's ``FASTOCTREE`` quantizer, or
+    ``MAXCOVERAGE`` where that moves a pixel too far; no dithering) keeps them within a few levels of 255 and takes
+    about a third of the bytes or less.
+
+    Examples
+    --------
+    >>> import io
+    >>> import matplotlib.pyplot as plt
+    >>> from PIL import Image
+    >>> from uwtutor.plotting import palette_png
+    >>> fig, ax = plt.subplots(figsize=(3.0, 2.0), dpi=100)
+    >>> _ = ax.plot([0, 1, 2], [0, 1, 0], label="a line")
+    >>> buffer = io.BytesIO()
+    >>> fig.savefig(buffer, format="png", dpi=200)
+    >>> plt.close(fig)
+    >>> small = palette_png(buffer.getvalue())
+    >>> len(small) < len(buffer.getvalue()) / 2
+    True
+    >>> image = Image.open(io.BytesIO(small))
+    >>> image.mode, image.size, [round(d) for d in image.info["dpi"]]
+    ('P', (600, 400), [200, 200])
+    """
+    import io
+
+    from PIL import Image
+
+    if not isinstance(png, (bytes, bytearray)) or not bytes(png[:8]) == b"\x89PNG\r\n\x1a\n":
+        what = "bytes without the PNG signature" if isinstance(png, (bytes, bytearray)) else type(png).__name__
+        raise ValueError(f"png must be the bytes of a PNG image (e.g. from fig.savefig(buffer, format='png')); "
+                         f"got {what}")
+    if isinstance(colors, bool) or not isinstance(colors, int) or not 2 <= colors <= 256:
+        raise ValueError(f"colors must be an integer from 2 to 256 (a PNG palette); got {colors!r}")
+    if isinstance(max_error, bool) or not isinstance(max_error, int) or not 0 <= max_error <= 255:
+        raise ValueError(f"max_error must be an integer from 0 to 255; got {max_error!r}")
+    with Image.open(io.BytesIO(bytes(png))) as source:
+        dpi = source.info.get("dpi")
+        rgb = source.convert("RGB")
+    # the fast quantizer first; where it moves a pixel too far (areas blended with transparency), the one that
+    # gives every colour cluster its share
+    for method in (Image.Quantize.FASTOCTREE, Image.Quantize.MAXCOVERAGE):
+        paletted = rgb.quantize(colors, method=method, dither=Image.Dither.NONE)
+        error = np.abs(np.asarray(paletted.convert("RGB"), dtype=np.int16) - np.asarray(rgb, dtype=np.int16))
+        if error.max(initial=0) <= max_error:
+            break
+    else:
+        return png
+    buffer = io.BytesIO()
+    paletted.save(buffer, format="png", optimize=True, **({"dpi": dpi} if dpi else {}))
+    return buffer.getvalue() if buffer.tell() < len(png) else png
 
 
 def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
@@ -113,6 +233,17 @@ def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) 
 # from outside (it is read offline, at sea), and its theme already bundles Font Awesome, whose ``fa fa-play``-style
 # classes the buttons use, so the link is dropped rather than vendored a second time.
 _CDN_STYLESHEET = re.compile(r"<link[^>]*href=\"https?://[^\"]*font-awesome[^\"]*\"[^>]*>\s*", re.IGNORECASE)
+#: The player's picture in matplotlib's HTML animation template (``<img id="_anim_img{id}">``).
+_PLAYER_IMAGE = re.compile(r'<img id="_anim_img[0-9a-f]*">')
+#: A frame of the player: ``frames[i] = "data:image/png;base64,..."`` (base64 lines joined by backslash-newlines).
+_FRAME = re.compile(r'(frames\[\d+\]\s*=\s*"data:image/png;base64,)([^"]*)"')
+
+
+def _palette_frame(match: Any) -> str:
+    from base64 import b64decode
+
+    png = b64decode(match.group(2).replace("\\\n", "").replace("\n", ""))
+    return match.group(1) + b2a_base64(palette_png(png), newline=False).decode("ascii") + '"'
 
 
 def plain_log_ticks(ax: Any, axis: str = "y") -> None:
@@ -275,6 +406,8 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
     >>> plt.close(fig)
     >>> "<img" in html.data, "font-awesome" in html.data
     (True, False)
+    >>> 'width="20"' in html.data  # frames of 40 pixels (PIXEL_RATIO), shown 20 wide
+    True
     """
     from IPython.display import HTML
     from matplotlib.animation import Animation
@@ -296,10 +429,14 @@ def animation_html(animation: Any, default_mode: str = "loop") -> Any:
                 checking[0] = False
 
     cid = fig.canvas.mpl_connect("draw_event", check_frame)
-    try:
-        html = animation.to_jshtml(default_mode=default_mode)
+    try:  # frames of PIXEL_RATIO image pixels per figure pixel, shown at the figure's size (as use_sharp_figures)
+        with plt.rc_context({"savefig.dpi": fig.dpi * PIXEL_RATIO}):
+            html = animation.to_jshtml(default_mode=default_mode)
     finally:
         fig.canvas.mpl_disconnect(cid)
+    width = round(fig.get_figwidth() * fig.dpi)
+    html = _PLAYER_IMAGE.sub(lambda m: f'{m.group(0)[:-1]} width="{width}">', html, count=1)
+    html = _FRAME.sub(_palette_frame, html)  # each frame with a palette, as a notebook's figures
     if covered:
         import sys
 

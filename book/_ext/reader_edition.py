@@ -9,9 +9,11 @@
   the wheel of the library the book was built with, copied into the HTML build (``_downloads/``; built into
   ``dist/`` by ``make dist`` or, if missing, here). The ``uwtutor-run-it`` directive writes how to install the
   wheel and open a chapter in JupyterLab; the frozen widgets' notes point at the same wheel.
-- **Figures that open full size** (HTML): a tap on a figure opens it at its own size (one image pixel per CSS pixel
-  at the book's 100 dpi, half that for a 2x image) in a view that pans both ways; Escape, the close button or a tap
-  closes it. Lightbox extensions (lightbox2 and the like) fit the image to the window, which on a phone leaves the
+- **Figures that open full size** (HTML): a tap on a figure, a frozen widget's picture or an animation's frame
+  opens it at its own size (its display size: a notebook figure is a PNG of twice its pixels, sharp on a 3x screen,
+  uwtutor.plotting.use_sharp_figures) in a view that pans both ways; Escape, the close button or a tap closes it.
+  A figure given a width and a height keeps the width only (:class:`FiguresKeepTheirProportions`), so that a narrow
+  column does not squash it. Lightbox extensions (lightbox2 and the like) fit the image to the window, which on a phone leaves the
   text as small as on the page: the point here is the opposite, so the dozen lines are our own.
 - **Author-year labels in the bibliography** (HTML and PDF): the text cites "Zhu et al., 2019"
   (``bibtex_reference_style: author_year``), and the list now labels each entry the same way, instead of pybtex's
@@ -130,6 +132,20 @@ def strip_plumbing(source: str, glue_names: set[str] | None = None) -> str:
     kept = [line for i, line in enumerate(lines) if i not in drop]
     text = re.sub(r"\n{3,}", "\n\n", "\n".join(kept))  # no double blank lines where a block went
     return text.strip("\n")
+
+
+class FiguresKeepTheirProportions(SphinxTransform):
+    """A notebook figure's PNG has twice its pixels and says its display size (width and height) in its output's
+    metadata, which myst-nb puts on the image. Both as an inline style would squash it in a column narrower than its
+    width (``max-width: 100%`` narrows it, the height stays): keep the width only, the height follows."""
+
+    default_priority = 400
+
+    def apply(self, **kwargs: Any) -> None:
+        for image in self.document.findall(nodes.image):
+            width, height = str(image.get("width", "")), str(image.get("height", ""))
+            if width and height and not width.endswith("%"):
+                del image["height"]
 
 
 class HidePlumbing(SphinxTransform):
@@ -319,9 +335,13 @@ FIGURE_VIEWER_JS = r"""
 (function () {
   "use strict";
   var SELECTOR = "div.cell_output img, figure img, div.figure img";
-  function natural(img) {  // the width in CSS px that shows the image at its own size
+  // The width in CSS px that shows the image at its own size: a figure's PNG has twice its pixels (a "retina" PNG)
+  // and says its size in its width attribute (a notebook figure) or its style (a widget's picture, a layout width).
+  function natural(img) {
     var attr = parseFloat(img.getAttribute("width"));
-    return attr > 0 && !/%/.test(img.getAttribute("width")) ? attr : img.naturalWidth;
+    if (attr > 0 && !/%/.test(img.getAttribute("width"))) return attr;
+    var styled = /^([0-9.]+)px$/.exec(img.style.width || "");
+    return styled ? parseFloat(styled[1]) : img.naturalWidth;
   }
   function open(img) {
     var view = document.createElement("div");
@@ -349,7 +369,8 @@ FIGURE_VIEWER_JS = r"""
   }
   function wire() {
     document.querySelectorAll(SELECTOR).forEach(function (img) {
-      if (img.closest("a") || img.closest(".anim-state, .animation, .jupyter-widgets") ||
+      // an animation's picture opens too: the frame it shows at the tap
+      if (img.closest("a") || img.closest(".anim-state, .jupyter-widgets") ||
           img.dataset.uwtutorZoom) return;
       img.dataset.uwtutorZoom = "1";
       img.classList.add("uwtutor-zoomable");
@@ -376,6 +397,7 @@ FIGURE_VIEWER_JS = r"""
 def setup(app: Sphinx) -> dict[str, Any]:
     _register_bibliography_style()
     app.add_transform(HidePlumbing)
+    app.add_transform(FiguresKeepTheirProportions)
     app.add_directive("uwtutor-run-it", RunItDirective)
     app.connect("builder-inited", _on_builder_inited)
     app.connect("build-finished", _on_build_finished)

@@ -15,11 +15,14 @@ the chapter's plot function. ``make bench`` times every control of every widget 
 from __future__ import annotations
 
 import io
+import sys
 from collections import OrderedDict
 from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
+
+from ..plotting import LEGEND_WARNING, PIXEL_RATIO, legend_overlaps
 
 __all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale"]
 
@@ -37,8 +40,9 @@ def _encode_png(canvas: Any) -> bytes:
 
     width, height = canvas.get_width_height(physical=True)
     buffer = io.BytesIO()
+    dpi = canvas.figure.dpi  # in the PNG (pHYs), as savefig writes it: what a reader of the picture sizes it by
     Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB").save(
-        buffer, format="png", compress_level=1)
+        buffer, format="png", compress_level=1, dpi=(dpi, dpi))
     return buffer.getvalue()
 
 
@@ -327,8 +331,13 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     values = lambda: {name: s.value for name, s in sliders.items()}  # noqa: E731
     fig = draw(None, **values())
     plt.close(fig)                      # off pyplot's list: the inline backend must not show it a second time
-    renderer = BlitRenderer(fig)
+    for problem in legend_overlaps(fig):  # as for a notebook's figures (check_legends_on_display): the first view
+        print(f"{LEGEND_WARNING} (widget): {problem}", file=sys.stderr)  # is the one the HTML book shows
     width_px = round(fig.get_figwidth() * fig.dpi)
+    # Drawn at PIXEL_RATIO image pixels per figure pixel and shown at the figure's size, as the notebooks' figures
+    # are (uwtutor.plotting.use_sharp_figures): sharp on a phone's 3x screen and in the book's full-size view.
+    fig.set_dpi(fig.dpi * PIXEL_RATIO)
+    renderer = BlitRenderer(fig)
     # Shown at its own size (a flex box would stretch it to the cell's width, blurred), narrower on a narrow screen.
     image = w.Image(value=renderer.png(None), format="png",
                     layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))

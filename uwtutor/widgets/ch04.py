@@ -197,7 +197,8 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     ax_n.set_xlabel("time [s]")
     ax_n.set_ylabel("NEES")
     plain_log_ticks(ax_n)
-    ax_n.legend(loc="upper right", fontsize=7)
+    # beside the axes: the mean NEES and its band fill the whole panel
+    ax_n.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7, handlelength=1.2)
     inside = ax_n.text(0.01, 0.04, " ", transform=ax_n.transAxes, fontsize=8)
     keep(fig, runs=runs, rmse=rmse, nees=nees, inside=inside, bounds=(lo, hi))
     _ekf_texts(view, fig)
