@@ -35,6 +35,7 @@ import nbformat
 import pytest
 
 import cpu_limits
+from lab_mistakes import TYPICAL_MISTAKES
 
 nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the test extra: pip install -e '.[test]'")
 
@@ -46,51 +47,15 @@ from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, t
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
 LABS = list_lab_sources(LABS_DIR)
 
-#: One typical mistake per lab: (grade_id of the answer cell, text of the solution, the wrong text), and the points
-#: the wrong submission is expected to get (the tests recompute everything, so a mistake costs every part it
-#: propagates into), and a phrase its feedback must contain.
-MISTAKES = {
-    "range_error_budget": (("B_answer", "c_e = effective_sound_speed(cast_depth, profile_speeds, z_vehicle, z_beacon)",
-                            "c_e = float(np.mean(profile_speeds))  # the cast's arithmetic mean"),
-                           2.0, "mean of the whole cast"),
-    "observable_track": (("A_answer", "return float(np.sqrt(bound[0, 0] + bound[1, 1])), float(np.sqrt(bound[2, 2]))",
-                          "return float(bound[0, 0] + bound[1, 1]), float(np.sqrt(bound[2, 2]))"),
-                         7.0, "Take the square root"),  # A, and B (its table uses final_bounds) fail
-    "ekf_consistency": (("A_answer", "nees_bounds = chi2_mean_bounds(2, n_runs)",
-                         "nees_bounds = chi2_mean_bounds(1, n_runs)"),
-                        9.0, "the bounds of a mean NEES bracket n = 2"),
-    "fading_sound_speed": (("A_answer", "mu_gamma, sigma_gamma = range_factor_moments(c_nav, c_e, sigma_c)",
-                            "mu_gamma, sigma_gamma = c_e / c_nav, c_nav * sigma_c / c_e**2"),
-                           6.0, "mu_gamma &gt; 1"),
-    "depth_pf_vs_ekf": (("B_answer",
-                         "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",  # noqa: E501 (a line of the lab, verbatim)
-                         "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),  # noqa: E501 (a line of the lab, verbatim)
-                        9.0, "must stay finite far out"),
-    "cooperative_current": (("A_answer", "clock_bias = owtt.clock_range_error(scenarios[\"zigzag\"].times, offset=clock_offset, "  # noqa: E501 (a line of the lab, verbatim)
-                                         "drift=clock_drift, sound_speed=c)",
-                             "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),  # noqa: E501 (a line of the lab, verbatim)
-                            10.0, "the offset alone"),
-    "bias_tracking_iekf": (("D_answer", "nees_bounds = chi2_mean_bounds(3, n_runs)",
-                            "nees_bounds = chi2_mean_bounds(2, n_runs)"),
-                           10.0, "its NEES has 3 degrees of freedom"),
-    "outlier_rejection_vmlbl": (("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)",
-                                 "epochs = k_fix - s * np.arange(4)  # newest first"),
-                                8.0, "List the epochs oldest first"),
-    "real_ranges_plaza": (("A_answer", "s_cal = (r_leg @ d_leg) / (d_leg @ d_leg)",
-                           "s_cal = np.polyfit(d_leg, r_leg, 1)[0]  # a line with an offset"),
-                          10.0, "Fit through the origin"),  # A only: B and D are checked with the student's s_cal
-}
-
-#: More typical mistakes, each a student of its own: (student, (grade_id, right, wrong), expected points, phrase).
-#: They are the instructor notes' cases where one slip must cost one part only.
-MORE_MISTAKES = {
-    "real_ranges_plaza": ("no_move_first", ("B_answer", ' order="move-first",', ""), 8.0,
-                          'order="move-first"` is left out'),    # B1 and B2 only; C and D (on its own filter) pass
-    "bias_tracking_iekf": ("summed_q", ("A_answer", "Q_a = paper_a_process_noise(sigma_x, sigma_y)",
-                                        "Q_a = paper_a_process_noise(sigma_x, sigma_y, sigma_bias=np.hypot(sigma_x, "
-                                        "sigma_y))  # the sum"),
-                           10.0, "not their sum"),               # A only: B-D run on the student's own Q_a
-}
+#: The typical-mistake students (tests/lab_mistakes.py): the first of each lab is its ``wrong`` student, whose
+#: feedback is also checked for answers shown; every one must score exactly the points the instructor notes state.
+MISTAKES = {}
+MORE_MISTAKES: dict = {}
+for _student, (_lab, _change, _points, _cells, _phrase) in TYPICAL_MISTAKES.items():
+    if _lab not in MISTAKES:
+        MISTAKES[_lab] = (_change, _points, _phrase)
+    else:
+        MORE_MISTAKES.setdefault(_lab, []).append((_student, _change, _points, _phrase))
 #: The grader's package (the instructor's; not in uwtutor's wheel), for the kernels nbgrader starts.
 GRADER_DIR = LABS_DIR / "grader"
 
@@ -172,8 +137,7 @@ def _grade_all(course: Path) -> dict:
                            else _solution_version(source),
                            "copy": _answered_copy(nbformat.read(copies / lab / path.name, as_version=4),
                                                   _solution_version(source))}
-            if lab in MORE_MISTAKES:
-                student, (grade_id, right_text, wrong_text), _, _ = MORE_MISTAKES[lab]
+            for student, (grade_id, right_text, wrong_text), _, _ in MORE_MISTAKES.get(lab, []):
                 submissions[student] = _with_mistake(source, grade_id, right_text, wrong_text)
             for student, nb in submissions.items():
                 folder = course / "submitted" / student / lab
@@ -185,8 +149,7 @@ def _grade_all(course: Path) -> dict:
     with nbgrader_api.Gradebook(f"sqlite:///{course / 'gradebook.db'}") as gradebook:
         for lab, notebooks in LABS.items():
             scores: dict = {}
-            students = ["solution", "blank", "wrong", "copy"] + ([MORE_MISTAKES[lab][0]] if lab in MORE_MISTAKES
-                                                                  else [])
+            students = ["solution", "blank", "wrong", "copy"] + [m[0] for m in MORE_MISTAKES.get(lab, [])]
             for student in students:
                 auto = maximum = 0.0
                 manual_pending = 0
@@ -272,9 +235,9 @@ def test_a_uwtutor_labs_copy_answered_right_gets_every_point(graded, lab):
     assert scores["max"] > 0 and scores["auto"] == scores["max"], scores
 
 
-@pytest.mark.parametrize("lab", sorted(MORE_MISTAKES))
-def test_a_slip_costs_its_own_part_only(graded, lab):
-    student, _, expected, phrase = MORE_MISTAKES[lab]
+@pytest.mark.parametrize("lab, student, expected, phrase", [(lab, m[0], m[2], m[3]) for lab in sorted(MORE_MISTAKES)
+                                                            for m in MORE_MISTAKES[lab]])
+def test_a_slip_costs_its_own_part_only(graded, lab, student, expected, phrase):
     scores = graded[lab]["scores"][student]
     assert scores["auto"] == expected, f"{lab}: {student} got {scores['auto']} of {scores['max']}, not {expected}"
     course = graded[lab]["course"]
