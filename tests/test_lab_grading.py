@@ -494,3 +494,4 @@ def test_a_typical_mistake_costs_its_own_step_only(student):
     assert failed == failing, {gid: cells[gid][1] for gid in failed}
     assert sum(p for p, error in cells.values() if error is None) == points
     assert any(phrase in " ".join(cells[gid][1].split()) for gid in failing), "the feedback names the mistake"
+    assert not any("close, but" in cells[gid][1] for gid in failing), "a conceptual slip is not called a rounding"
