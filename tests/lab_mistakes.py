@@ -31,6 +31,11 @@ TYPICAL_MISTAKES = {
         ("A_answer", "return float(np.sqrt(bound[0, 0] + bound[1, 1])), float(np.sqrt(bound[2, 2]))",
          "return float(bound[0, 0] + bound[1, 1]), float(np.sqrt(bound[2, 2]))"),
         10.0, {"A_tests"}, "Take the square root"),
+    "bias_in_position_bound": (
+        "observable_track",
+        ("A_answer", "return float(np.sqrt(bound[0, 0] + bound[1, 1])), float(np.sqrt(bound[2, 2]))",
+         "return float(np.sqrt(bound[0, 0] + bound[1, 1] + bound[2, 2])), float(np.sqrt(bound[2, 2]))"),
+        10.0, {"A_tests"}, "uses the x and y entries only"),
     "nees_one_dof": (
         "ekf_consistency",
         ("A_answer", "nees_bounds = chi2_mean_bounds(2, n_runs)", "nees_bounds = chi2_mean_bounds(1, n_runs)"),
@@ -50,6 +55,12 @@ TYPICAL_MISTAKES = {
         ("D_answer", "mu_hat = float(np.sum(measured * true) / np.sum(true**2))",
          "mu_hat = float(np.sum(measured * true) / np.sum(measured**2))"),
         10.0, {"D1_tests"}, "regresses the true ranges on the measured ones"),
+    "fading_in_multiplicative_ekf": (
+        "fading_sound_speed",
+        ("B_answer", '"multiplicative EKF": final_rmse(fading_ekf(*inputs, mu_gamma=mu_gamma, sigma_gamma=sigma_gamma, '
+                     'fading=False)),',
+         '"multiplicative EKF": final_rmse(fading_ekf(*inputs, mu_gamma=mu_gamma, sigma_gamma=sigma_gamma)),'),
+        8.0, {"B_tests"}, "a \"multiplicative EKF\" has `fading=False`"),
     "log_of_sum": (
         "depth_pf_vs_ekf",
         ("B_answer",
@@ -81,6 +92,10 @@ TYPICAL_MISTAKES = {
         "outlier_rejection_vmlbl",
         ("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)", "epochs = k_fix - s * np.arange(4)  # newest first"),
         10.0, {"D1_tests"}, "List the epochs oldest first"),
+    "raw_ranges_in_fix": (
+        "outlier_rejection_vmlbl",
+        ("D_answer", "fix = virtual_beacon_lsq(filtered[epochs]", "fix = virtual_beacon_lsq(ranges[epochs]"),
+        10.0, {"D1_tests"}, "Use the filtered ranges"),
     "outlier_count_as_patch": (
         "outlier_rejection_vmlbl",
         ("C_answer", "longest_patch = max(length for _, length in runs_of_true(is_outlier))",

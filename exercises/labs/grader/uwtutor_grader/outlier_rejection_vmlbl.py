@@ -2,9 +2,9 @@
 
 Each step is checked with the student's own earlier answers: ``n_reacquire`` against the student's
 ``longest_patch``, the re-acquiring filter of part C with the student's ``n_reacquire``, the noise gains of part D
-with the order of epochs the student's fixes used. Part C is graded in two checks (C1: the lock-out's start, the
-longest patch and ``n_reacquire``, 1 point; C2: the re-acquisition epoch and the RMS errors, 2 points) and part D in
-two (D1: the fix errors, 2 points; D2: the noise gains, 2 points).
+from the fix the student's fix errors come from (the raw ranges give another noise gain). Part C is graded in two
+checks (C1: the lock-out's start, the longest patch and ``n_reacquire``, 1 point; C2: the re-acquisition epoch and
+the RMS errors, 2 points) and part D in two (D1: the fix errors, 2 points; D2: the noise gains, 2 points).
 
 Recognised mistakes (the instructor notes list them): the small-S approximation ±δẑ/2 and D without S in paper E's
 gate; the default ``reacquire=20`` left on in part B; the number of outliers for the longest patch; ``n_reacquire``
@@ -170,11 +170,11 @@ def part_d2(ns: Answers) -> Iterator[Feedback]:
     for s in (10, 60):
         fixes = _fixes(ns, s)
         gain = float(fixes["right"].noise_gain)
-        newest = fixes["newest first"]
         own_error = own_number(Answers(fix_errors), s) if isinstance(fix_errors, dict) else None
-        if own_error is not None and np.isclose(own_error, float(np.linalg.norm(newest.position - truth[k_fix])),
-                                                rtol=1e-6):
-            gain = float(newest.noise_gain)      # the order of epochs of the student's fix (counted in D1)
+        for kind, fix in fixes.items():     # the fix the student's fix_errors[s] comes from (a slip counted in D1)
+            if own_error is not None and np.isclose(own_error, float(np.linalg.norm(fix.position - truth[k_fix])),
+                                                    rtol=1e-6):
+                gain = float(fix.noise_gain)
         yield check_number(noise_gains[s], gain, rtol=1e-6, name=f"noise_gains[{s}]",
                            hint="`noise_gain` of the same fix as fix_errors.", reveal_expected=False)
 
