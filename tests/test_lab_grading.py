@@ -320,7 +320,7 @@ def test_grader_doctests():
 
     import uwtutor_grader
 
-    for name in ("", "._common", *(f".{lab}" for lab in LAB_NAMES if lab != "real_ranges_plaza")):
+    for name in ("", "._common", ".course", *(f".{lab}" for lab in LAB_NAMES if lab != "real_ranges_plaza")):
         module = importlib.import_module(f"uwtutor_grader{name}")
         result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
         assert result.failed == 0, f"{module.__name__}: {result.failed} doctest(s) failed"

@@ -82,8 +82,10 @@ def _with_mistake(nb: nbformat.NotebookNode, grade_id: str, right: str, wrong: s
     return nb
 
 
-def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None) -> subprocess.CompletedProcess:
-    """Run nbgrader in ``course``; its kernels import the grader (and ``first_on_path`` before anything else)."""
+def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None,
+             expect_failure: bool = False) -> subprocess.CompletedProcess:
+    """Run nbgrader in ``course``; its kernels import the grader (and ``first_on_path`` before anything else). It
+    must succeed, or with ``expect_failure`` fail."""
     path = [str(GRADER_DIR), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
     if first_on_path is not None:
         path.insert(0, str(first_on_path))
@@ -92,8 +94,8 @@ def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None) -> su
     env.pop("JUPYTER_CONFIG_DIR", None)
     result = cpu_limits.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
                             text=True, cpu_seconds=900)
-    assert result.returncode == 0, \
-        f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    assert (result.returncode != 0) == expect_failure, \
+        f"nbgrader {' '.join(args)} returned {result.returncode}:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return result
 
 
@@ -112,13 +114,12 @@ def _answered_copy(copy_nb: nbformat.NotebookNode, solution: nbformat.NotebookNo
 def _grade_all(course: Path) -> dict:
     """One course with every lab: generate them, autograde three students, write their feedback; report the scores."""
     (course / "source").mkdir(parents=True)
-    stub = CODE_STUB[0] + "\n" + CODE_STUB[1]
+    # the course configuration shipped with the labs, with this course's id, root and gradebook
+    shipped = (LABS_DIR / "nbgrader_config.py").read_text(encoding="utf-8")
     (course / "nbgrader_config.py").write_text(
-        "c = get_config()\n"
-        "c.CourseDirectory.course_id = 'uwtutor-labs-test'\n"
+        shipped.replace('"uwtutor-labs"', '"uwtutor-labs-test"') + "\n"
         f"c.CourseDirectory.root = {str(course)!r}\n"
         f"c.CourseDirectory.db_url = 'sqlite:///{course / 'gradebook.db'}'\n"
-        f"c.ClearSolutions.code_stub = {{'python': {stub!r}}}\n"
         "c.ExecutePreprocessor.timeout = 600\n", encoding="utf-8")
     for lab in LABS:
         shutil.copytree(LABS_DIR / lab, course / "source" / lab)
@@ -174,6 +175,19 @@ def _grade_all(course: Path) -> dict:
         nbformat.write(_solution_version(nbformat.read(path, as_version=4)), folder / path.name)
     no_gtsam = _nbgrader(course, "autograde", "real_ranges_plaza", "--student", "no_gtsam", first_on_path=missing)
     results["_no_gtsam_log"] = no_gtsam.stdout + no_gtsam.stderr
+    # a copy without nbgrader's metadata (an older uwtutor's `uwtutor labs`, or re-typed), answered right
+    lab = "ekf_consistency"
+    folder = course / "submitted" / "no_metadata" / lab
+    folder.mkdir(parents=True)
+    for path in LABS[lab]:
+        nb = _answered_copy(nbformat.read(copies / lab / path.name, as_version=4),
+                            _solution_version(nbformat.read(path, as_version=4)))
+        for cell in nb.cells:
+            cell.metadata.pop("nbgrader", None)
+        nbformat.write(nb, folder / path.name)
+    refused = _nbgrader(course, "autograde", lab, "--student", "no_metadata", expect_failure=True)
+    results["_no_metadata"] = {"log": refused.stdout + refused.stderr, "returncode": refused.returncode,
+                               "autograded": (course / "autograded" / "no_metadata" / lab).exists()}
     return results
 
 
@@ -251,6 +265,42 @@ def test_a_missing_lab_dependency_is_an_error_in_the_log(graded):
     log = graded["_no_gtsam_log"]
     assert "cannot grade the lab real_ranges_plaza: the package 'gtsam' is not installed" in log, log[-3000:]
     assert 'pip install "uwtutor[data]"' in log
+
+
+def test_a_copy_without_nbgrader_metadata_is_refused_loudly(graded):
+    """A student's copy whose cells lost nbgrader's metadata would get no hidden test and 0 points in silence; the
+    course configuration (exercises/labs/nbgrader_config.py) refuses it: autograde fails, its log says why and
+    what to do, and no autograded notebook (no score) is written."""
+    refused = graded["_no_metadata"]
+    log = " ".join(refused["log"].split())
+    assert refused["returncode"] != 0
+    assert "no_metadata/ekf_consistency/ekf_consistency.ipynb has no nbgrader metadata at all" in log, log[-3000:]
+    assert "missing: A1_tests, A2_tests" in log and "nbgrader would run none of their tests and score them 0" in log
+    assert "Ask the student to copy their answers into a fresh copy" in log
+    assert not refused["autograded"]
+
+
+_PART_LABEL = re.compile(r'<a href="#(?P<gid>\w+?)_(?:tests|written)">(?P<label>[^<]*)</a>')
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_feedback_names_each_graded_cell_by_its_part(graded, lab):
+    """The course's feedback template names each test cell by its part ("Part B, check B1"), not "Test cell"."""
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        source = nbformat.read(path, as_version=4)
+        graded_ids = [c.metadata["nbgrader"]["grade_id"] for c in source.cells
+                      if c.metadata.get("nbgrader", {}).get("grade")]
+        for student in ("solution", "wrong"):
+            page = (course / "feedback" / student / lab / f"{path.stem}.html").read_text(encoding="utf-8")
+            assert "Test cell</a>" not in page and "Written response</a>" not in page
+            labels = {m["gid"]: m["label"] for m in _PART_LABEL.finditer(page)}
+            for gid in graded_ids:
+                part = gid.split("_")[0]
+                expected = f"Part {part}" if len(part) == 1 else f"Part {part[0]}, check {part}"
+                if gid.endswith("_written"):
+                    expected += " (written)"
+                assert labels.get(part) == expected, f"{lab} {student}: {gid} is labelled {labels.get(part)!r}"
 
 
 @pytest.mark.parametrize("lab", LABS)
