@@ -1,0 +1,145 @@
+"""The results of the labs' own solutions that their model answers and instructor notes quote, stored so that the
+prose contract can bind those numbers (``kind: data`` in ``tests/prose_manifest/exercises/labs/**``).
+
+The lab notebooks are committed without outputs and nothing in them is glued, so a number such as "c_e is about
+1481 m/s" in a model answer has no computation to point at. This tool runs each lab's solution (every code cell but
+the test cells, solution markers taken out, in one namespace, as ``tests/test_lab_grading.py`` does), evaluates the
+quantities listed in ``RESULTS`` in that namespace, and writes them to ``exercises/labs/solution_results.json``
+(six significant digits: the text quotes two or three, and the last bits of a float sum must not decide a
+committed value). ``tests/test_lab_results.py`` recomputes them and compares.
+
+Usage::
+
+    PYTHONPATH=. python tools/lab_results.py            # write exercises/labs/solution_results.json
+    PYTHONPATH=. python tools/lab_results.py --check    # recompute and compare, exit 1 on a difference
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import re
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+LABS_DIR = REPO / "exercises" / "labs"
+RESULTS_FILE = LABS_DIR / "solution_results.json"
+#: Relative tolerance of ``--check`` (the stored values have six significant digits).
+RTOL = 2e-6
+
+#: lab -> quantity -> the expression that computes it in the namespace of the lab's solution. The names say what the
+#: text quotes; where the text does arithmetic on a result (a better oscillator's drift, 1 m/s of speed error), the
+#: expression spells out that arithmetic with the text's own numbers.
+RESULTS: dict[str, dict[str, str]] = {
+    "range_error_budget": {
+        "c_e": "c_e",
+        "delta_c_over_c_e": "delta_c / c_e",
+        "sound_speed_error_at_2500": "budget['sound speed']",
+        "geometry_error_at_300": "float(geometry_range_error(300.0))",
+        "clock_error_after_mission": "budget['clock']",
+        "timing_noise": "budget['timing noise']",
+        "error_per_metre_per_second_at_2500": "2500.0 * 1.0 / c_e",          # 1 m/s of error in c_e, at 2.5 km
+        "clock_error_after_mission_at_0_05ppm": "c_e * 0.05e-6 * mission_hours * 3600.0",  # a 0.05 ppm oscillator
+    },
+    "ekf_consistency": {
+        "average_nis_tuned": "nis_by_R[2.25]",
+        "small_q_average_nis": "small_q[1]",
+        "rmse_colleague": "rmse_colleague",
+        "rmse_tuned": "rmse_tuned",
+    },
+    "observable_track": {
+        "offset_pass_position_bound": "table['offset pass'][0]",
+        "model_track_position_bound": "final_bounds(my_track)[0]",
+        "model_track_bias_bound": "final_bounds(my_track)[1]",
+    },
+    "depth_pf_vs_ekf": {
+        "depth_sensor_rmse": "rmse_table['depth sensor']",
+        "three_sigma_innovation_median": "3.0 * float(np.sqrt(np.median(ekf_result.innovation_cov[..., 0, 0])))",
+        "detection_rate": "detection_rate",
+        "false_alarm_rate": "false_alarm_rate",
+    },
+}
+
+_MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
+
+
+def solution_namespace(lab: str) -> dict[str, Any]:
+    """The namespace of ``lab``'s solution: every code cell but the test cells, solution markers removed, in order.
+
+    Parameters
+    ----------
+    lab : str
+        The lab's folder name in ``exercises/labs/``.
+
+    Returns
+    -------
+    dict
+        The notebook's globals after its last cell.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import nbformat
+
+    nb = nbformat.read(LABS_DIR / lab / f"{lab}.ipynb", as_version=4)
+    ns: dict[str, Any] = {"__name__": "__lab__"}
+    with contextlib.redirect_stdout(io.StringIO()), np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for index, cell in enumerate(nb.cells):
+            meta = cell.metadata.get("nbgrader", {})
+            if cell.cell_type != "code" or (meta.get("grade") and not meta.get("solution")):
+                continue
+            source = "\n".join(line for line in cell.source.split("\n") if not _MARKER.match(line))
+            exec(compile(source, f"{lab}[{index}]", "exec"), ns)
+            plt.close("all")
+    return ns
+
+
+def compute(labs: list[str] | None = None) -> dict[str, dict[str, float]]:
+    """The quantities of ``RESULTS`` (of ``labs``, default all), each to six significant digits."""
+    results: dict[str, dict[str, float]] = {}
+    for lab in labs or sorted(RESULTS):
+        ns = solution_namespace(lab)
+        results[lab] = {name: float(f"{float(eval(expression, ns)):.6g}")  # noqa: S307 (our own expressions)
+                        for name, expression in RESULTS[lab].items()}
+    return results
+
+
+def differences(stored: dict, computed: dict) -> list[str]:
+    """Where ``stored`` and ``computed`` disagree (a missing or extra quantity, or a value beyond ``RTOL``)."""
+    problems = []
+    for lab in sorted(set(stored) | set(computed)):
+        old, new = stored.get(lab, {}), computed.get(lab, {})
+        for name in sorted(set(old) | set(new)):
+            if name not in old or name not in new:
+                problems.append(f"{lab}.{name}: {'not stored' if name not in old else 'no longer computed'}")
+            elif not np.isclose(old[name], new[name], rtol=RTOL, atol=0.0):
+                problems.append(f"{lab}.{name}: stored {old[name]!r}, computed {new[name]!r}")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", action="store_true", help="recompute and compare with the stored file")
+    args = parser.parse_args(argv)
+    computed = compute()
+    if args.check:
+        stored = json.loads(RESULTS_FILE.read_text(encoding="utf-8"))
+        problems = differences(stored, computed)
+        print("\n".join(problems) or f"{RESULTS_FILE.relative_to(REPO)} matches the labs' solutions")
+        return 1 if problems else 0
+    RESULTS_FILE.write_text(json.dumps(computed, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    print(f"wrote {RESULTS_FILE.relative_to(REPO)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
