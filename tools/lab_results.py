@@ -113,8 +113,8 @@ RESULTS: dict[str, dict[str, Any]] = {
 def _plaza_raw_rmse(ns: dict[str, Any]) -> float:
     """real_ranges_plaza: part B's filter on the raw ranges (no scale), the notes' "all" row."""
     z_raw = ns["data"].ranges_on_epochs([ns["BEACON"]], min_period=ns["PERIOD"])
-    result = ns["extended_kalman_filter"](ns["motion"], ns["measurement"], ns["x0"], ns["P0"], ns["data"].odometry, z_raw,
-                                          times=ns["data"].times, gate=ns["gate"])
+    result = ns["extended_kalman_filter"](ns["motion"], ns["measurement"], ns["x0"], ns["P0"], ns["data"].odometry,
+                                          z_raw, times=ns["data"].times, gate=ns["gate"])
     return float(ns["rmse"](result.x))
 
 
