@@ -150,6 +150,54 @@ RESULTS["real_ranges_plaza"] = {
     "pose_nees_mean": _plaza_pose_nees,
 }
 
+def _outlier_gate_at_lockout(ns: dict[str, Any]) -> tuple[float, float]:
+    """outlier_rejection_vmlbl: paper E's accepted interval's lower end at the lock-out's first epoch, and that
+    range's innovation (the cell after part C prints both)."""
+    k, run = ns["lockout_start"], ns["no_reacq"]
+    predicted = float(run.x_prior[k, 0])
+    innovation_variance = float(run.P_prior[k, 0, 0]) + ns["r"]
+    lower, _, _ = ns["paper_gate"](float(ns["ranges"][k]), predicted, innovation_variance, ns["delta"])
+    return lower, float(ns["ranges"][k]) - predicted
+
+
+def _outlier_second_lockout(ns: dict[str, Any]) -> float:
+    """outlier_rejection_vmlbl: the first epoch of the run of rejected ranges that the second re-acquisition ends."""
+    rejected = np.asarray(ns["with_reacq"].extras["rejected"], dtype=bool)
+    k = int(np.flatnonzero(ns["with_reacq"].extras["reacquired"])[1]) - 1
+    while k > 0 and rejected[k - 1]:
+        k -= 1
+    return float(k)
+
+
+def _rms(errors: Any) -> float:
+    return float(np.sqrt(np.mean(np.square(errors))))
+
+
+RESULTS["outlier_rejection_vmlbl"] = {
+    "paper_flagged": "counts['paper']['flagged']",
+    "paper_false": "counts['paper']['false']",
+    "chi2_flagged": "counts['chi2']['flagged']",
+    "chi2_missed": "counts['chi2']['missed']",
+    "chi2_false": "counts['chi2']['false']",
+    "gate_half_width_at_largest_range": "delta * float(np.nanmax(ranges)) / 2.0",   # paper E's gate, about δẑ/2
+    "lockout_start": "lockout_start",
+    "gate_lower_at_lockout": lambda ns: _outlier_gate_at_lockout(ns)[0],
+    "innovation_at_lockout": lambda ns: _outlier_gate_at_lockout(ns)[1],
+    "rms_no_reacquisition": "rms_after['no re-acquisition']",
+    "recovered_at": "recovered_at",
+    "rms_reacquisition": "rms_after['re-acquisition']",
+    "rms_prediction_only": lambda ns: _rms(ns["with_reacq"].x[ns["lockout_start"]:ns["recovered_at"], 0]
+                                           - ns["true_ranges"][ns["lockout_start"]:ns["recovered_at"]]),
+    "rms_after_restart": lambda ns: _rms(ns["with_reacq"].x[ns["recovered_at"]:, 0]
+                                         - ns["true_ranges"][ns["recovered_at"]:]),
+    "second_lockout_start": _outlier_second_lockout,
+    "second_recovery": "float(np.flatnonzero(with_reacq.extras['reacquired'])[1])",
+    "fix_error_10": "fix_errors[10]",
+    "noise_gain_10": "noise_gains[10]",
+    "fix_error_60": "fix_errors[60]",
+    "noise_gain_60": "noise_gains[60]",
+}
+
 _MARKER = re.compile(r"^\s*#+\s*(BEGIN|END)\s+SOLUTION\s*$")
 
 
