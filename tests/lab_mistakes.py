@@ -40,6 +40,10 @@ TYPICAL_MISTAKES = {
         "ekf_consistency",
         ("A_answer", "nees_bounds = chi2_mean_bounds(2, n_runs)", "nees_bounds = chi2_mean_bounds(1, n_runs)"),
         11.0, {"A1_tests"}, "the bounds of a mean NEES bracket n = 2"),
+    "nis_two_dof": (
+        "ekf_consistency",
+        ("B_answer", "nis_bounds = chi2_mean_bounds(1, n_runs)", "nis_bounds = chi2_mean_bounds(2, n_runs)"),
+        11.0, {"B1_tests"}, "the bounds of a mean NIS bracket 1"),
     "best_r_smallest_nis": (
         "ekf_consistency",
         ("C_answer", "best_R = min(nis_by_R, key=lambda R: abs(nis_by_R[R] - 1.0))",
