@@ -447,6 +447,14 @@ def test_a_known_slip_is_not_called_a_rounding():
         assert "close" not in fb.message and "a known slip rather than a rounding" in fb.message
 
 
+@pytest.mark.parametrize("slip", CORPUS, ids=[f"{s.exercise}-{s.slip}" for s in CORPUS])
+def test_no_slip_is_led_by_close_but(slip):
+    """Every wrong answer of the corpus is a conceptual slip: its message never opens with "is close, but (just)
+    outside the tolerance", which would send the student looking for a rounding."""
+    _, text = diagnose(slip)
+    assert "close, but" not in text.split("\n")[0], text
+
+
 if __name__ == "__main__":
     results = [(s, *diagnose(s)) for s in CORPUS]
     for s, right, text in results:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -928,3 +929,20 @@ def test_an_empty_dir_argument_is_refused_not_taken_for_the_current_directory(tm
         assert main([command, ""]) == 2
         assert "DIR is empty" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_instruction_names_the_stub_line_the_notebooks_have():
+    """Every exercise notebook's text that tells the student which line to delete quotes the stub as the student
+    version has it (`raise NotImplementedError('not answered yet: …')`), not nbgrader's bare `raise
+    NotImplementedError()`."""
+    stub_start = f"raise NotImplementedError({STUB_MESSAGE!r}"[:len("raise NotImplementedError('not answered yet:")]
+    root = Path(__file__).resolve().parents[1] / "exercises"
+    told = 0
+    for path in sorted(root.glob("ch*.ipynb")):
+        for cell in nbformat.read(path, as_version=4).cells:
+            if cell.cell_type != "markdown":
+                continue
+            for quoted in re.findall(r"delete the line `([^`]*)`", " ".join(cell.source.split())):
+                told += 1
+                assert quoted.startswith(stub_start), f"{path.name}: 'delete the line `{quoted}`'"
+    assert told >= 11, "every chapter's exercise notebook says which line to delete"

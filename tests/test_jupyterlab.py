@@ -328,9 +328,6 @@ def test_chapter_opens_without_reference_errors(session, chapter):
     excused_once = _first_cell_terms(nb)
     terms = sorted(t for t in missing if t.startswith("term-") and t not in excused_once)
     own = sorted(t for t in missing if t in own_labels)
-    if chapter.startswith("ch08") and own == ["sec-ch08-owtt"] and session.windowing == "default" and not terms:
-        pytest.xfail("chapter 8 cites its label sec-ch08-owtt (cell 4) long before the cell that defines it (cell 20) "
-                     "is rendered; the reference resolves once the reader gets there")
     assert not terms, f"{chapter}: glossary terms unresolved in JupyterLab: {terms}"
     assert not own, f"{chapter}: its own labels unresolved in JupyterLab: {own}"
 

@@ -29,6 +29,8 @@ from uwtutor_grader import LAB_NAMES, LabDependencyMissing, check_part, lab_part
 from uwtutor.metrics import chi2_mean_bounds
 from uwtutor.models.bias import paper_a_process_noise
 
+from lab_mistakes import TYPICAL_MISTAKES
+
 matplotlib.use("Agg")
 
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
@@ -94,7 +96,7 @@ def test_hidden_tests_are_only_a_call_to_the_library(lab):
 def test_bad_lab_or_part_is_named():
     with pytest.raises(ValueError, match="lab must be one of"):
         check_part("no_such_lab", "A", {})
-    with pytest.raises(ValueError, match="part must be one of A, B, C, D, E"):
+    with pytest.raises(ValueError, match="part must be one of A, B1, B2, C, D1, D2, E for the lab range_error_budget"):
         check_part("range_error_budget", "Z", {})
     with pytest.raises(TypeError, match="namespace must be a mapping"):
         check_part("range_error_budget", "A", [1, 2])
@@ -115,14 +117,14 @@ def test_range_error_budget_mistakes():
     lab = "range_error_budget"
     ns = _solution(lab)
     c_e = ns["c_e"]
-    _fails_with(lab, "B", "mean of the whole cast", c_e=float(np.mean(ns["profile_speeds"])))
-    _fails_with(lab, "B", "The sign: Δc = c − c_e", delta_c=c_e - ns["c_nav"])
+    _fails_with(lab, "B1", "mean of the whole cast", c_e=float(np.mean(ns["profile_speeds"])))
+    _fails_with(lab, "B2", "The sign: Δc = c − c_e", delta_c=c_e - ns["c_nav"])
     _fails_with(lab, "C", "scales the horizontal range",
                 speed_range_error=lambda x: acoustics.sound_speed_error_range_bias(np.asarray(x, dtype=float),
                                                                                    ns["c_nav"], c_e))
-    _fails_with(lab, "D", "convert the hours to seconds",
+    _fails_with(lab, "D2", "convert the hours to seconds",
                 clock_range_error=lambda h: c_e * ns["clock_drift"] * np.asarray(h, dtype=float))
-    _fails_with(lab, "D", "An hour is 3600 s, not 60 s",
+    _fails_with(lab, "D2", "An hour is 3600 s, not 60 s",
                 clock_range_error=lambda h: c_e * ns["clock_drift"] * 60.0 * np.asarray(h, dtype=float))
     text = _fails_with(lab, "E", "is not the largest term", dominant="clock")
     assert "sound speed" not in text, "the feedback does not say which term is the largest"
@@ -151,15 +153,15 @@ def test_observable_track_mistakes():
 def test_ekf_consistency_mistakes():
     lab = "ekf_consistency"
     n_runs = _solution(lab)["n_runs"]
-    _fails_with(lab, "A", "has 2 degrees of freedom", nees_bounds=chi2_mean_bounds(1, n_runs))
-    _fails_with(lab, "B", "its NIS has 1 degree of freedom", nis_bounds=chi2_mean_bounds(2, n_runs))
-    _fails_with(lab, "C", "closest to 1", best_R=9.0)
+    _fails_with(lab, "A1", "has 2 degrees of freedom", nees_bounds=chi2_mean_bounds(1, n_runs))
+    _fails_with(lab, "B1", "its NIS has 1 degree of freedom", nis_bounds=chi2_mean_bounds(2, n_runs))
+    _fails_with(lab, "C2", "closest to 1", best_R=9.0)
 
 
 def test_fading_sound_speed_mistakes():
     lab = "fading_sound_speed"
     ns = _solution(lab)
-    _fails_with(lab, "A", "Upside down", mu_gamma=ns["c_e"] / ns["c_nav"])
+    _fails_with(lab, "A1", "Upside down", mu_gamma=ns["c_e"] / ns["c_nav"])
     from uwtutor.filters import fading_ekf
 
     sc = ns["scenario"]
@@ -172,16 +174,16 @@ def test_fading_sound_speed_mistakes():
     rmse["multiplicative EKF, mu=1"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=1.0, fading=False))
     _fails_with(lab, "B", "Pass `sigma_gamma` too", rmse=rmse)
     measured, true = sc.ranges[:, :60], sc.true_ranges[:, :60]
-    _fails_with(lab, "D", "regresses the true ranges on the measured ones",
+    _fails_with(lab, "D1", "regresses the true ranges on the measured ones",
                 mu_hat=float(np.sum(measured * true) / np.sum(measured**2)))
-    _fails_with(lab, "D", "run 0 only", mu_hat=float(np.sum(measured[0] * true[0]) / np.sum(true[0] ** 2)))
-    _fails_with(lab, "D", "the whole mission",
+    _fails_with(lab, "D1", "run 0 only", mu_hat=float(np.sum(measured[0] * true[0]) / np.sum(true[0] ** 2)))
+    _fails_with(lab, "D1", "the whole mission",
                 mu_hat=float(np.nansum(sc.ranges * sc.true_ranges) / np.nansum(sc.true_ranges**2)))
-    # part B computed with a wrong mu_gamma from part A: "fix part A first"
-    wrong = dict(ns["rmse"])
-    wrong["multiplicative EKF"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=ns["c_e"] / ns["c_nav"],
-                                                               sigma_gamma=ns["sigma_gamma"], fading=False))
-    _fails_with(lab, "B", "fix part A first", rmse=wrong, mu_gamma=ns["c_e"] / ns["c_nav"])
+    # part B computed with the student's own (upside-down) mu_gamma of part A: correct, the slip counts in A1 only
+    own = dict(ns["rmse"])
+    own["multiplicative EKF"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=ns["c_e"] / ns["c_nav"],
+                                                             sigma_gamma=ns["sigma_gamma"], fading=False))
+    assert check_part(lab, "B", _with(lab, rmse=own, mu_gamma=ns["c_e"] / ns["c_nav"]))
 
 
 def test_depth_pf_vs_ekf_mistakes():
@@ -207,10 +209,10 @@ def test_depth_pf_vs_ekf_mistakes():
         return ns["mixture_log_likelihood"](d, sigma, p, sigma_spike) + 0.5 * np.log(2 * np.pi)
 
     _fails_with(lab, "A", "Normalise the weights first", ess=ess_unnormalised)
-    text = _fails_with(lab, "B", "must stay finite far out", mixture_log_likelihood=log_of_sum)
+    text = _fails_with(lab, "B2", "must stay finite far out", mixture_log_likelihood=log_of_sum)
     assert "np.logaddexp" in text
-    _fails_with(lab, "B", "normalising constants", mixture_log_likelihood=no_constants)
-    _fails_with(lab, "B", "normalising constants", mixture_log_likelihood=shifted)
+    _fails_with(lab, "B1", "normalising constants", mixture_log_likelihood=no_constants)
+    _fails_with(lab, "B1", "normalising constants", mixture_log_likelihood=shifted)
     from uwtutor.filters import DepthEKF
 
     model, meas = ns["model"], ns["measurements"]
@@ -218,7 +220,7 @@ def test_depth_pf_vs_ekf_mistakes():
     R[0, 0] = ns["spike_sigma"] ** 2
     table = dict(ns["rmse_table"])
     table["EKF, inflated R"] = ns["depth_rmse"](DepthEKF(x0=meas[:, 0], P0=model.R, Q=ns["Q"], R=R).run(meas).x)
-    _fails_with(lab, "C", "spike variance alone", rmse_table=table)
+    _fails_with(lab, "C1", "spike variance alone", rmse_table=table)
     inflated = DepthEKF(x0=meas[:, 0], P0=model.R, Q=ns["Q"], R=ns["R_inflated"]).run(meas)
     flags = np.abs(inflated.innovations[..., 0]) > 3.0 * np.sqrt(inflated.innovation_cov[..., 0, 0])
     _fails_with(lab, "D", "inflated R", flags=flags)
@@ -240,7 +242,7 @@ def test_bias_tracking_iekf_mistakes():
     x0 = np.column_stack([ns["start_poor"], np.zeros(ns["n_runs"])])
     matched = bias_ekf(x0, ns["P0_good"], ns["dr"], ns["ranges"], ns["Q_a"], ns["R"], beacon=ns["buoy"])
     _fails_with(lab, "C2", "`np.eye(3)`", rmse_direct=ns["final_rmse"](matched))
-    _fails_with(lab, "D", "3 degrees of freedom", nees_bounds=chi2_mean_bounds(2, ns["n_runs"]))
+    _fails_with(lab, "D1", "3 degrees of freedom", nees_bounds=chi2_mean_bounds(2, ns["n_runs"]))
     _fails_with(lab, "E", "α is infinite", alpha_radial=1e6)
 
 
@@ -294,8 +296,8 @@ def test_outlier_rejection_vmlbl_mistakes():
         counts[test] = {"flagged": int(flagged.sum()), "missed": int(np.sum(is_outlier & ~flagged)),
                         "false": int(np.sum(flagged & ~is_outlier))}
     _fails_with(lab, "B", "pass reacquire=None", counts=counts)
-    _fails_with(lab, "C", "the number of outliers", longest_patch=int(is_outlier.sum()))
-    _fails_with(lab, "C", "longest_patch + 5", n_reacquire=20)
+    _fails_with(lab, "C1", "the number of outliers", longest_patch=int(is_outlier.sum()))
+    _fails_with(lab, "C1", "longest_patch + 5", n_reacquire=20)
     filtered = robust_range_kf(ns["ranges"], q=ns["q"], r=ns["r"], delta=ns["delta"], test="paper",
                                reacquire=30).x[:, 0]
     k, ship, dr, truth = ns["k_fix"], ns["ship"], ns["dr"], ns["truth"]
@@ -306,9 +308,9 @@ def test_outlier_rejection_vmlbl_mistakes():
 
     warnings.simplefilter("ignore")          # the 10 s spacing is ill-conditioned: that is the lab's point
     newest_first = {s: fix_error(filtered, k - s * np.arange(4)) for s in (10, 60)}
-    _fails_with(lab, "D", "List the epochs oldest first", fix_errors=newest_first)
+    _fails_with(lab, "D1", "List the epochs oldest first", fix_errors=newest_first)
     raw = {s: fix_error(ns["ranges"], k - s * np.arange(3, -1, -1)) for s in (10, 60)}
-    _fails_with(lab, "D", "Use the filtered ranges", fix_errors=raw)
+    _fails_with(lab, "D1", "Use the filtered ranges", fix_errors=raw)
 
 
 def test_grader_doctests():
@@ -318,7 +320,7 @@ def test_grader_doctests():
 
     import uwtutor_grader
 
-    for name in ("", "._common", *(f".{lab}" for lab in LAB_NAMES if lab != "real_ranges_plaza")):
+    for name in ("", "._common", ".course", *(f".{lab}" for lab in LAB_NAMES if lab != "real_ranges_plaza")):
         module = importlib.import_module(f"uwtutor_grader{name}")
         result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
         assert result.failed == 0, f"{module.__name__}: {result.failed} doctest(s) failed"
@@ -344,7 +346,7 @@ def test_bias_tracking_iekf_a_slip_in_a_costs_a_only():
     wrong["q_bias"] = float(wrong["Q_a"][2, 2])
     run = dict(_student_runs(lab, wrong))
     assert "Paper A's rule is the mean of the two DR variances" in _text(check_part(lab, "A", run))
-    for part in ("B", "C1", "C2", "D", "E"):
+    for part in ("B", "C1", "C2", "D1", "D2", "E"):
         fb = check_part(lab, part, run)
         assert fb, f"part {part}: {fb}"
 
@@ -429,7 +431,7 @@ def test_feedback_never_shows_the_expected_value():
     ns = _solution(lab)
     c_e = ns["c_e"]
     for wrong in (c_e + 0.05, c_e * 1.004, c_e + 40.0, c_e * 3.5, -c_e / 7):
-        text = _text(check_part(lab, "B", _with(lab, c_e=wrong)))
+        text = _text(check_part(lab, "B1", _with(lab, c_e=wrong)))
         assert not re.search(r"\d+(\.\d+)? ?%", text), f"a percentage tells the answer: {text}"
         hidden = ["times the expected", "off by", "tolerance is", "expected"]
         if abs(wrong - c_e) > 1:          # a near miss shows the student's own value, which is close to the answer
@@ -448,3 +450,48 @@ def test_feedback_never_shows_the_expected_value():
     flags[0, :5] = ~flags[0, :5]
     text = _text(check_part(lab, "D", _with(lab, flags=flags)))
     assert "5 of 4800 flags of flags differ" in text and "indices" not in text and "index" not in text
+
+
+# -- what each typical-mistake student scores (tests/lab_mistakes.py; nbgrader confirms in test_labs_nbgrader) ------
+def _graded_cells(lab: str, change: tuple[str, str, str] | None = None) -> dict[str, tuple[float, str | None]]:
+    """Run the lab's solution (with ``change`` = (grade_id, right, wrong) applied) cell by cell, test cells included,
+    as nbgrader's autograde does: each test cell's points, and the error that stopped it (``None`` if it passed)."""
+    import matplotlib.pyplot as plt
+
+    nb = nbformat.read(LABS_DIR / lab / f"{lab}.ipynb", as_version=4)
+    ns: dict = {"__name__": "__lab__"}
+    cells: dict[str, tuple[float, str | None]] = {}
+    for index, cell in enumerate(nb.cells):
+        if cell.cell_type != "code":
+            continue
+        meta = cell.metadata.get("nbgrader", {})
+        source = "\n".join(line for line in cell.source.split("\n") if not _MARKER.match(line))
+        if change is not None and meta.get("grade_id") == change[0]:
+            assert change[1] in source, f"{lab}: {change[1]!r} is not in {change[0]} (update tests/lab_mistakes.py)"
+            source = source.replace(change[1], change[2])
+        error = None
+        try:
+            with contextlib.redirect_stdout(io.StringIO()), np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                exec(compile(source, f"{lab}[{index}]", "exec"), ns)
+        except Exception as exc:  # a failing test cell scores 0, as in nbgrader
+            error = f"{type(exc).__name__}: {exc}"
+        plt.close("all")
+        if meta.get("grade") and cell.cell_type == "code":
+            cells[meta["grade_id"]] = (float(meta["points"]), error)
+    return cells
+
+
+@pytest.mark.parametrize("student", sorted(TYPICAL_MISTAKES))
+def test_a_typical_mistake_costs_its_own_step_only(student):
+    """Each typical-mistake student of the instructor notes loses the points of the step with the slip, and no
+    other: the later parts are checked against the student's own earlier answers."""
+    lab, change, points, failing, phrase = TYPICAL_MISTAKES[student]
+    if lab == "real_ranges_plaza":
+        pytest.importorskip("gtsam", reason="the Plaza logs come with gtsam: pip install -e '.[data]'")
+    cells = _graded_cells(lab, change)
+    failed = {gid for gid, (_, error) in cells.items() if error is not None}
+    assert failed == failing, {gid: cells[gid][1] for gid in failed}
+    assert sum(p for p, error in cells.values() if error is None) == points
+    assert any(phrase in " ".join(cells[gid][1].split()) for gid in failing), "the feedback names the mistake"
+    assert not any("close, but" in cells[gid][1] for gid in failing), "a conceptual slip is not called a rounding"

@@ -35,6 +35,7 @@ import nbformat
 import pytest
 
 import cpu_limits
+from lab_mistakes import TYPICAL_MISTAKES
 
 nbgrader_api = pytest.importorskip("nbgrader.api", reason="nbgrader is in the test extra: pip install -e '.[test]'")
 
@@ -46,51 +47,15 @@ from uwtutor.exercises.nbgrader_meta import SCHEMA_VERSION, nbgrader_problems, t
 LABS_DIR = Path(__file__).resolve().parents[1] / "exercises" / "labs"
 LABS = list_lab_sources(LABS_DIR)
 
-#: One typical mistake per lab: (grade_id of the answer cell, text of the solution, the wrong text), and the points
-#: the wrong submission is expected to get (the tests recompute everything, so a mistake costs every part it
-#: propagates into), and a phrase its feedback must contain.
-MISTAKES = {
-    "range_error_budget": (("B_answer", "c_e = effective_sound_speed(cast_depth, profile_speeds, z_vehicle, z_beacon)",
-                            "c_e = float(np.mean(profile_speeds))  # the cast's arithmetic mean"),
-                           2.0, "mean of the whole cast"),
-    "observable_track": (("A_answer", "return float(np.sqrt(bound[0, 0] + bound[1, 1])), float(np.sqrt(bound[2, 2]))",
-                          "return float(bound[0, 0] + bound[1, 1]), float(np.sqrt(bound[2, 2]))"),
-                         7.0, "Take the square root"),  # A, and B (its table uses final_bounds) fail
-    "ekf_consistency": (("A_answer", "nees_bounds = chi2_mean_bounds(2, n_runs)",
-                         "nees_bounds = chi2_mean_bounds(1, n_runs)"),
-                        9.0, "the bounds of a mean NEES bracket n = 2"),
-    "fading_sound_speed": (("A_answer", "mu_gamma, sigma_gamma = range_factor_moments(c_nav, c_e, sigma_c)",
-                            "mu_gamma, sigma_gamma = c_e / c_nav, c_nav * sigma_c / c_e**2"),
-                           6.0, "mu_gamma &gt; 1"),
-    "depth_pf_vs_ekf": (("B_answer",
-                         "return np.logaddexp(np.log1p(-p) + log_normal(d, sigma), np.log(p) + log_normal(d, sigma_spike))",  # noqa: E501 (a line of the lab, verbatim)
-                         "return np.log((1 - p) * np.exp(log_normal(d, sigma)) + p * np.exp(log_normal(d, sigma_spike)))"),  # noqa: E501 (a line of the lab, verbatim)
-                        9.0, "must stay finite far out"),
-    "cooperative_current": (("A_answer", "clock_bias = owtt.clock_range_error(scenarios[\"zigzag\"].times, offset=clock_offset, "  # noqa: E501 (a line of the lab, verbatim)
-                                         "drift=clock_drift, sound_speed=c)",
-                             "clock_bias = np.full(scenarios[\"zigzag\"].times.shape, c * clock_offset)  # the offset alone"),  # noqa: E501 (a line of the lab, verbatim)
-                            10.0, "the offset alone"),
-    "bias_tracking_iekf": (("D_answer", "nees_bounds = chi2_mean_bounds(3, n_runs)",
-                            "nees_bounds = chi2_mean_bounds(2, n_runs)"),
-                           10.0, "its NEES has 3 degrees of freedom"),
-    "outlier_rejection_vmlbl": (("D_answer", "epochs = k_fix - s * np.arange(3, -1, -1)",
-                                 "epochs = k_fix - s * np.arange(4)  # newest first"),
-                                8.0, "List the epochs oldest first"),
-    "real_ranges_plaza": (("A_answer", "s_cal = (r_leg @ d_leg) / (d_leg @ d_leg)",
-                           "s_cal = np.polyfit(d_leg, r_leg, 1)[0]  # a line with an offset"),
-                          10.0, "Fit through the origin"),  # A only: B and D are checked with the student's s_cal
-}
-
-#: More typical mistakes, each a student of its own: (student, (grade_id, right, wrong), expected points, phrase).
-#: They are the instructor notes' cases where one slip must cost one part only.
-MORE_MISTAKES = {
-    "real_ranges_plaza": ("no_move_first", ("B_answer", ' order="move-first",', ""), 8.0,
-                          'order="move-first"` is left out'),    # B1 and B2 only; C and D (on its own filter) pass
-    "bias_tracking_iekf": ("summed_q", ("A_answer", "Q_a = paper_a_process_noise(sigma_x, sigma_y)",
-                                        "Q_a = paper_a_process_noise(sigma_x, sigma_y, sigma_bias=np.hypot(sigma_x, "
-                                        "sigma_y))  # the sum"),
-                           10.0, "not their sum"),               # A only: B-D run on the student's own Q_a
-}
+#: The typical-mistake students (tests/lab_mistakes.py): the first of each lab is its ``wrong`` student, whose
+#: feedback is also checked for answers shown; every one must score exactly the points the instructor notes state.
+MISTAKES = {}
+MORE_MISTAKES: dict = {}
+for _student, (_lab, _change, _points, _cells, _phrase) in TYPICAL_MISTAKES.items():
+    if _lab not in MISTAKES:
+        MISTAKES[_lab] = (_change, _points, _phrase)
+    else:
+        MORE_MISTAKES.setdefault(_lab, []).append((_student, _change, _points, _phrase))
 #: The grader's package (the instructor's; not in uwtutor's wheel), for the kernels nbgrader starts.
 GRADER_DIR = LABS_DIR / "grader"
 
@@ -117,8 +82,10 @@ def _with_mistake(nb: nbformat.NotebookNode, grade_id: str, right: str, wrong: s
     return nb
 
 
-def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None) -> subprocess.CompletedProcess:
-    """Run nbgrader in ``course``; its kernels import the grader (and ``first_on_path`` before anything else)."""
+def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None,
+             expect_failure: bool = False) -> subprocess.CompletedProcess:
+    """Run nbgrader in ``course``; its kernels import the grader (and ``first_on_path`` before anything else). It
+    must succeed, or with ``expect_failure`` fail."""
     path = [str(GRADER_DIR), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
     if first_on_path is not None:
         path.insert(0, str(first_on_path))
@@ -127,8 +94,8 @@ def _nbgrader(course: Path, *args: str, first_on_path: Path | None = None) -> su
     env.pop("JUPYTER_CONFIG_DIR", None)
     result = cpu_limits.run([sys.executable, "-m", "nbgrader", *args], cwd=course, env=env, capture_output=True,
                             text=True, cpu_seconds=900)
-    assert result.returncode == 0, \
-        f"nbgrader {' '.join(args)} failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
+    assert (result.returncode != 0) == expect_failure, \
+        f"nbgrader {' '.join(args)} returned {result.returncode}:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}"
     return result
 
 
@@ -147,13 +114,12 @@ def _answered_copy(copy_nb: nbformat.NotebookNode, solution: nbformat.NotebookNo
 def _grade_all(course: Path) -> dict:
     """One course with every lab: generate them, autograde three students, write their feedback; report the scores."""
     (course / "source").mkdir(parents=True)
-    stub = CODE_STUB[0] + "\n" + CODE_STUB[1]
+    # the course configuration shipped with the labs, with this course's id, root and gradebook
+    shipped = (LABS_DIR / "nbgrader_config.py").read_text(encoding="utf-8")
     (course / "nbgrader_config.py").write_text(
-        "c = get_config()\n"
-        "c.CourseDirectory.course_id = 'uwtutor-labs-test'\n"
+        shipped.replace('"uwtutor-labs"', '"uwtutor-labs-test"') + "\n"
         f"c.CourseDirectory.root = {str(course)!r}\n"
         f"c.CourseDirectory.db_url = 'sqlite:///{course / 'gradebook.db'}'\n"
-        f"c.ClearSolutions.code_stub = {{'python': {stub!r}}}\n"
         "c.ExecutePreprocessor.timeout = 600\n", encoding="utf-8")
     for lab in LABS:
         shutil.copytree(LABS_DIR / lab, course / "source" / lab)
@@ -172,8 +138,7 @@ def _grade_all(course: Path) -> dict:
                            else _solution_version(source),
                            "copy": _answered_copy(nbformat.read(copies / lab / path.name, as_version=4),
                                                   _solution_version(source))}
-            if lab in MORE_MISTAKES:
-                student, (grade_id, right_text, wrong_text), _, _ = MORE_MISTAKES[lab]
+            for student, (grade_id, right_text, wrong_text), _, _ in MORE_MISTAKES.get(lab, []):
                 submissions[student] = _with_mistake(source, grade_id, right_text, wrong_text)
             for student, nb in submissions.items():
                 folder = course / "submitted" / student / lab
@@ -185,8 +150,7 @@ def _grade_all(course: Path) -> dict:
     with nbgrader_api.Gradebook(f"sqlite:///{course / 'gradebook.db'}") as gradebook:
         for lab, notebooks in LABS.items():
             scores: dict = {}
-            students = ["solution", "blank", "wrong", "copy"] + ([MORE_MISTAKES[lab][0]] if lab in MORE_MISTAKES
-                                                                  else [])
+            students = ["solution", "blank", "wrong", "copy"] + [m[0] for m in MORE_MISTAKES.get(lab, [])]
             for student in students:
                 auto = maximum = 0.0
                 manual_pending = 0
@@ -211,6 +175,19 @@ def _grade_all(course: Path) -> dict:
         nbformat.write(_solution_version(nbformat.read(path, as_version=4)), folder / path.name)
     no_gtsam = _nbgrader(course, "autograde", "real_ranges_plaza", "--student", "no_gtsam", first_on_path=missing)
     results["_no_gtsam_log"] = no_gtsam.stdout + no_gtsam.stderr
+    # a copy without nbgrader's metadata (an older uwtutor's `uwtutor labs`, or re-typed), answered right
+    lab = "ekf_consistency"
+    folder = course / "submitted" / "no_metadata" / lab
+    folder.mkdir(parents=True)
+    for path in LABS[lab]:
+        nb = _answered_copy(nbformat.read(copies / lab / path.name, as_version=4),
+                            _solution_version(nbformat.read(path, as_version=4)))
+        for cell in nb.cells:
+            cell.metadata.pop("nbgrader", None)
+        nbformat.write(nb, folder / path.name)
+    refused = _nbgrader(course, "autograde", lab, "--student", "no_metadata", expect_failure=True)
+    results["_no_metadata"] = {"log": refused.stdout + refused.stderr, "returncode": refused.returncode,
+                               "autograded": (course / "autograded" / "no_metadata" / lab).exists()}
     return results
 
 
@@ -272,9 +249,9 @@ def test_a_uwtutor_labs_copy_answered_right_gets_every_point(graded, lab):
     assert scores["max"] > 0 and scores["auto"] == scores["max"], scores
 
 
-@pytest.mark.parametrize("lab", sorted(MORE_MISTAKES))
-def test_a_slip_costs_its_own_part_only(graded, lab):
-    student, _, expected, phrase = MORE_MISTAKES[lab]
+@pytest.mark.parametrize("lab, student, expected, phrase", [(lab, m[0], m[2], m[3]) for lab in sorted(MORE_MISTAKES)
+                                                            for m in MORE_MISTAKES[lab]])
+def test_a_slip_costs_its_own_part_only(graded, lab, student, expected, phrase):
     scores = graded[lab]["scores"][student]
     assert scores["auto"] == expected, f"{lab}: {student} got {scores['auto']} of {scores['max']}, not {expected}"
     course = graded[lab]["course"]
@@ -288,6 +265,42 @@ def test_a_missing_lab_dependency_is_an_error_in_the_log(graded):
     log = graded["_no_gtsam_log"]
     assert "cannot grade the lab real_ranges_plaza: the package 'gtsam' is not installed" in log, log[-3000:]
     assert 'pip install "uwtutor[data]"' in log
+
+
+def test_a_copy_without_nbgrader_metadata_is_refused_loudly(graded):
+    """A student's copy whose cells lost nbgrader's metadata would get no hidden test and 0 points in silence; the
+    course configuration (exercises/labs/nbgrader_config.py) refuses it: autograde fails, its log says why and
+    what to do, and no autograded notebook (no score) is written."""
+    refused = graded["_no_metadata"]
+    log = " ".join(refused["log"].split())
+    assert refused["returncode"] != 0
+    assert "no_metadata/ekf_consistency/ekf_consistency.ipynb has no nbgrader metadata at all" in log, log[-3000:]
+    assert "missing: A1_tests, A2_tests" in log and "nbgrader would run none of their tests and score them 0" in log
+    assert "Ask the student to copy their answers into a fresh copy" in log
+    assert not refused["autograded"]
+
+
+_PART_LABEL = re.compile(r'<a href="#(?P<gid>\w+?)_(?:tests|written)">(?P<label>[^<]*)</a>')
+
+
+@pytest.mark.parametrize("lab", LABS)
+def test_feedback_names_each_graded_cell_by_its_part(graded, lab):
+    """The course's feedback template names each test cell by its part ("Part B, check B1"), not "Test cell"."""
+    course = graded[lab]["course"]
+    for path in LABS[lab]:
+        source = nbformat.read(path, as_version=4)
+        graded_ids = [c.metadata["nbgrader"]["grade_id"] for c in source.cells
+                      if c.metadata.get("nbgrader", {}).get("grade")]
+        for student in ("solution", "wrong"):
+            page = (course / "feedback" / student / lab / f"{path.stem}.html").read_text(encoding="utf-8")
+            assert "Test cell</a>" not in page and "Written response</a>" not in page
+            labels = {m["gid"]: m["label"] for m in _PART_LABEL.finditer(page)}
+            for gid in graded_ids:
+                part = gid.split("_")[0]
+                expected = f"Part {part}" if len(part) == 1 else f"Part {part[0]}, check {part}"
+                if gid.endswith("_written"):
+                    expected += " (written)"
+                assert labels.get(part) == expected, f"{lab} {student}: {gid} is labelled {labels.get(part)!r}"
 
 
 @pytest.mark.parametrize("lab", LABS)

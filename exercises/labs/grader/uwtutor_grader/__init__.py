@@ -27,7 +27,7 @@ Examples
 >>> import numpy as np
 >>> from uwtutor_grader import check_part, lab_parts
 >>> lab_parts("range_error_budget")
-('A', 'B', 'C', 'D', 'E')
+('A', 'B1', 'B2', 'C', 'D1', 'D2', 'E')
 >>> cast = dict(
 ...     cast_temperature=np.array([14.2, 7.0]),
 ...     cast_salinity=np.array([30.5, 34.9]),

@@ -231,3 +231,65 @@ def call(func: Any, *args: Any, name: str) -> tuple[Any, Feedback | None]:
         return None, fail(f"`{name}` raised {type(exc).__name__}{': ' + text if text else ''} on the hidden test's "
                           "inputs.", hint="Your function must work on inputs other than the task's: numbers and "
                                           "arrays, and values at the edges of the range.")
+
+
+def own_number(ns: Answers, name: str) -> float | None:
+    """The student's answer ``name`` as a finite float, or ``None`` when it is missing or no usable number.
+
+    The checks of a later part that builds on ``name`` run with this value (the student's own), so that a slip in
+    the earlier part is counted once, in its own check.
+
+    Examples
+    --------
+    >>> own_number(Answers({"c_e": 1487.3}), "c_e"), own_number(Answers({"c_e": None}), "c_e")
+    (1487.3, None)
+    >>> own_number(Answers({}), "c_e") is None
+    True
+    """
+    try:
+        value = float(ns.get(name))
+    except (TypeError, ValueError):
+        return None
+    return value if np.isfinite(value) else None
+
+
+def own_function(ns: Answers, name: str, *args: Any) -> Any:
+    """The student's function ``name`` called on ``args``, or ``None`` when it is missing, raises or gives a
+    non-finite result: a later part that uses that function is then checked against the student's own values.
+
+    Examples
+    --------
+    >>> own_function(Answers({"f": lambda x: 2 * x}), "f", 3.0)
+    6.0
+    >>> own_function(Answers({"f": None}), "f", 3.0) is None
+    True
+    """
+    func = ns.get(name)
+    if not callable(func):
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            value = np.asarray(func(*args), dtype=float)
+    except Exception:  # the student's function's own failure is reported by its own part
+        return None
+    if not np.all(np.isfinite(value)):
+        return None
+    return float(value) if value.ndim == 0 else value
+
+
+def own_interval(ns: Answers, name: str) -> tuple[float, float] | None:
+    """The student's answer ``name`` as an interval ``(low, high)`` of finite numbers with ``low < high``, or
+    ``None``: a later step that uses the interval (a fraction of epochs inside it) is checked with the student's own.
+
+    Examples
+    --------
+    >>> own_interval(Answers({"b": (1.5, 2.6)}), "b"), own_interval(Answers({"b": (3, 1)}), "b")
+    ((1.5, 2.6), None)
+    """
+    try:
+        value = np.asarray(ns.get(name), dtype=float)
+    except (TypeError, ValueError):
+        return None
+    if value.shape != (2,) or not np.all(np.isfinite(value)) or not value[0] < value[1]:
+        return None
+    return float(value[0]), float(value[1])

@@ -2,7 +2,8 @@
 
 Parts B-D build on part A's ``Q_a``: they are checked with the student's own ``Q_a`` (when it is a usable 3 x 3
 covariance), so that a slip in part A costs part A only. Part C is graded in two checks (C1: the precision factor
-and the start epoch of run 0, 1 point; C2: the two filters from the poor start, 2 points).
+and the start epoch of run 0, 1 point; C2: the two filters from the poor start, 2 points), and part D in two (D1:
+the NEES bounds, 1 point; D2: the two mean NEES and the fraction inside the student's own bounds, 1 point).
 
 Recognised mistakes (the instructor notes list them): the sum or the product of the DR variances for ``q_bias``;
 the precision factor of part C on the *true* track instead of
@@ -23,7 +24,7 @@ from uwtutor.metrics import average_over_runs, chi2_mean_bounds, fraction_within
 from uwtutor.models.bias import paper_a_process_noise
 from uwtutor.exercises.checks import check_array, check_number
 from uwtutor.exercises.feedback import Feedback
-from ._common import Answers, cached, fail
+from ._common import Answers, cached, fail, own_interval
 
 __all__ = ["PARTS"]
 
@@ -133,8 +134,8 @@ def part_c2(ns: Answers) -> Iterator[Feedback]:
                        reveal_expected=False)
 
 
-def part_d(ns: Answers) -> Iterator[Feedback]:
-    n_runs, K = ns["n_runs"], ns["K"]
+def part_d1(ns: Answers) -> Iterator[Feedback]:
+    n_runs = ns["n_runs"]
     bounds = chi2_mean_bounds(3, n_runs)
     yield check_array(np.asarray(ns["nees_bounds"], dtype=float), np.asarray(bounds, dtype=float), rtol=1e-6,
                       name="nees_bounds", common_mistakes=[
@@ -143,6 +144,11 @@ def part_d(ns: Answers) -> Iterator[Feedback]:
                            "(chi2_mean_bounds(3, ...)).")],
                       hint="The 95 % interval of a mean of n_runs NEES values of a 3-state filter.",
                       reveal_expected=False)
+
+
+def part_d2(ns: Answers) -> Iterator[Feedback]:
+    K = ns["K"]
+    bounds = own_interval(ns, "nees_bounds") or chi2_mean_bounds(3, ns["n_runs"])
     Q = _student_q(ns)
     true_state = ns["true_state"]
     paper_a = _iekf(ns, "start_good", ns["P0_good"], Q)
@@ -158,7 +164,7 @@ def part_d(ns: Answers) -> Iterator[Feedback]:
                        reveal_expected=False)
     yield check_number(ns["inside_const"], fraction_within(mean_c[K // 2:], *bounds), atol=1e-9,
                        name="inside_const", hint="The fraction of the second half's epochs where the colleague's mean "
-                                                 "NEES lies inside nees_bounds (`fraction_within`).",
+                                                 "NEES lies inside your nees_bounds (`fraction_within`).",
                        reveal_expected=False)
 
 
@@ -177,4 +183,5 @@ def part_e(ns: Answers) -> Iterator[Feedback]:
     yield Feedback(True, "Correct.")
 
 
-PARTS = {"A": part_a, "B": part_b, "C1": part_c1, "C2": part_c2, "D": part_d, "E": part_e}
+PARTS = {"A": part_a, "B": part_b, "C1": part_c1, "C2": part_c2, "D1": part_d1, "D2": part_d2,
+         "E": part_e}

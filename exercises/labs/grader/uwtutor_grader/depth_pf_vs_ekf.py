@@ -1,5 +1,9 @@
 """Hidden tests of the lab ``depth_pf_vs_ekf`` (chapter 6, paper C): wave spikes on a depth sensor.
 
+Part B is graded in two checks: B1 the log-density near zero (2 points), B2 far out, where ``np.log(a + b)`` is
+−inf (1 point), so that the log of the sum costs B2 only. Part C too: C1 the sensor and the two EKFs (2 points), C2
+the two particle filters (2 points).
+
 Recognised mistakes (the instructor notes list them): weights not normalised in ``ess``; the normalising constants
 of the mixture density dropped; ``np.log(a + b)``, which is −inf far out; R inflated with the spike variance alone;
 spikes flagged with the inflated-R EKF instead of the plain one; the fraction *not* flagged as the false-alarm rate.
@@ -32,7 +36,7 @@ def part_a(ns: Answers) -> Iterator[Feedback]:
                        reveal_expected=False)
 
 
-def part_b(ns: Answers) -> Iterator[Feedback]:
+def part_b1(ns: Answers) -> Iterator[Feedback]:
     p, s, s_spike = 0.08, 0.2, 2.0
     x = np.linspace(-6.0, 6.0, 61)
     got, problem = call(ns["mixture_log_likelihood"], x.copy(), s, p, s_spike, name="mixture_log_likelihood(d, ...)")
@@ -51,6 +55,11 @@ def part_b(ns: Answers) -> Iterator[Feedback]:
         pass
     yield check_array(got, expected, rtol=1e-9, atol=1e-9, name="mixture_log_likelihood(d) on 61 residuals from "
                       "−6 to 6 m", common_mistakes=mistakes, reveal_expected=False)
+
+
+def part_b2(ns: Answers) -> Iterator[Feedback]:
+    p, s_spike = 0.08, 2.0
+    s = 0.2
     far = np.array([30.0, -80.0])
     got, problem = call(ns["mixture_log_likelihood"], far.copy(), s, p, s_spike, name="mixture_log_likelihood(d, ...)")
     if problem is not None:
@@ -101,7 +110,7 @@ def _pf_rmse(ns: Answers, which: str) -> float:
     return cached("depth_pf_vs_ekf.pf." + which, (meas, model.R, ns["truth"], p, s_spike), compute)
 
 
-def part_c(ns: Answers) -> Iterator[Feedback]:
+def part_c1(ns: Answers) -> Iterator[Feedback]:
     table, model, p = ns["rmse_table"], ns["model"], ns["spike_probability"]
     depth_rmse = ns["depth_rmse"]
     var = model.R[0, 0]
@@ -120,6 +129,10 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                                           "variance is (1 − p)σ² + p(σ² + σ_s²).")
         yield check_number(table[key], value, rtol=1e-6, name=f"rmse_table[{key!r}]", units="m",
                            common_mistakes=known, reveal_expected=False)
+
+
+def part_c2(ns: Answers) -> Iterator[Feedback]:
+    table = ns["rmse_table"]
     for key, which in (("PF, Gaussian", "gaussian"), ("PF, mixture", "mixture")):
         if key not in table:
             yield fail(f"rmse_table has no entry {key!r}.")
@@ -153,4 +166,4 @@ def part_d(ns: Answers) -> Iterator[Feedback]:
                        hint="The fraction of the samples without a spike that are flagged.", reveal_expected=False)
 
 
-PARTS = {"A": part_a, "B": part_b, "C": part_c, "D": part_d}
+PARTS = {"A": part_a, "B1": part_b1, "B2": part_b2, "C1": part_c1, "C2": part_c2, "D": part_d}

@@ -1,5 +1,8 @@
 """Hidden tests of the lab ``observable_track`` (chapter 2): the CRLB of position and range bias along tracks.
 
+Part B builds on part A's ``final_bounds``: its table is checked against the student's own function (when it runs),
+so that a slip in part A is counted once, in part A.
+
 Recognised mistakes (the instructor notes list them): the bias variance included in the position bound; the square
 root forgotten (variances instead of standard deviations); a finite bound for the radial track; a ranking by another
 key; a track of one's own whose bounds miss the targets.
@@ -15,7 +18,7 @@ from uwtutor.motion import circle_track, lawnmower_track, s_turn_track, straight
 from uwtutor.observability import track_crlb
 from uwtutor.exercises.checks import check_number
 from uwtutor.exercises.feedback import Feedback
-from ._common import Answers, call, fail
+from ._common import Answers, call, fail, own_function
 
 __all__ = ["PARTS"]
 
@@ -61,14 +64,18 @@ def part_a(ns: Answers) -> Iterator[Feedback]:
 
 def part_b(ns: Answers) -> Iterator[Feedback]:
     candidates, table, ranking = ns["candidates"], ns["table"], ns["ranking"]
-    pos = {name: _final(ns, track.positions)[0] for name, track in candidates.items()}
+    pos = {}
+    for name, track in candidates.items():
+        own = own_function(ns, "final_bounds", track)       # part A's function, the student's own (None if inf)
+        pos[name] = float(own[0]) if own is not None and np.shape(own) == (2,) else _final(ns, track.positions)[0]
     for name in candidates:
         if name not in table:
             yield fail(f"table has no entry {name!r}.")
         got = table[name][0]
         if not (np.isinf(pos[name]) and np.isinf(got)):
             yield check_number(got, pos[name], rtol=1e-6, name=f"the position bound of table[{name!r}]", units="m",
-                               hint="table maps each name to final_bounds(track).", reveal_expected=False)
+                               hint="table maps each name to final_bounds(track) (your function of part A).",
+                               reveal_expected=False)
     if list(ranking) != sorted(pos, key=pos.get):
         yield fail("ranking is not ordered from the smallest to the largest position bound.",
                    hint="Sort the names by their position bound, the first element of each entry of table.")

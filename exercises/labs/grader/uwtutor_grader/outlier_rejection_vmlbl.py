@@ -1,5 +1,11 @@
 """Hidden tests of the lab ``outlier_rejection_vmlbl`` (chapter 9, paper E): multipath patches and a lock-out.
 
+Each step is checked with the student's own earlier answers: ``n_reacquire`` against the student's
+``longest_patch``, the re-acquiring filter of part C with the student's ``n_reacquire``, the noise gains of part D
+from the fix the student's fix errors come from (the raw ranges give another noise gain). Part C is graded in two
+checks (C1: the lock-out's start, the longest patch and ``n_reacquire``, 1 point; C2: the re-acquisition epoch and
+the RMS errors, 2 points) and part D in two (D1: the fix errors, 2 points; D2: the noise gains, 2 points).
+
 Recognised mistakes (the instructor notes list them): the small-S approximation ±δẑ/2 and D without S in paper E's
 gate; the default ``reacquire=20`` left on in part B; the number of outliers for the longest patch; ``n_reacquire``
 not ``longest_patch + 5``; the epochs of the virtual-beacon fix listed newest first; the raw ranges instead of the
@@ -17,7 +23,7 @@ from uwtutor.filters.robust import moment_gate_interval
 from uwtutor.lsq import virtual_beacon_lsq
 from uwtutor.exercises.checks import check_number
 from uwtutor.exercises.feedback import Feedback
-from ._common import Answers, cached, call, fail
+from ._common import Answers, cached, call, fail, own_number
 
 __all__ = ["PARTS"]
 
@@ -81,26 +87,46 @@ def part_b(ns: Answers) -> Iterator[Feedback]:
                                reveal_expected=False)
 
 
-def part_c(ns: Answers) -> Iterator[Feedback]:
-    is_outlier = ns["is_outlier"]
-    false_rejections = _filter(ns, "paper", None).extras["outlier"] & ~is_outlier
+def _lockout_start(ns: Answers) -> int:
+    false_rejections = _filter(ns, "paper", None).extras["outlier"] & ~ns["is_outlier"]
     k = next((s for s, n in _runs(false_rejections) if n >= 15), None)
     if k is None:  # pragma: no cover - the lab's scenario has a lock-out
         raise RuntimeError("the lab's scenario has no lock-out")
-    yield check_number(ns["lockout_start"], k, atol=0.5, name="lockout_start",
+    return k
+
+
+def part_c1(ns: Answers) -> Iterator[Feedback]:
+    is_outlier = ns["is_outlier"]
+    yield check_number(ns["lockout_start"], _lockout_start(ns), atol=0.5, name="lockout_start",
                        hint="The start of the first run of at least 15 consecutive *good* ranges rejected by paper E's "
                             "gate without re-acquisition.", reveal_expected=False)
     longest = max(n for _, n in _runs(is_outlier))
     yield check_number(ns["longest_patch"], longest, atol=0.5, name="longest_patch", common_mistakes={
         float(is_outlier.sum()): "That is the number of outliers; the question asks for the longest run of them."},
-        reveal_expected=False)
-    if ns["n_reacquire"] != longest + 5:
+        hint="The longest run of consecutive True values of `is_outlier`.", reveal_expected=False)
+    own_longest = own_number(ns, "longest_patch")
+    if own_longest is None or ns["n_reacquire"] != own_longest + 5:
         yield fail(f"n_reacquire = {ns['n_reacquire']!r} is not longest_patch + 5.",
                    hint="Below the longest patch, the patch itself is taken for the truth.")
-    with_reacq = _filter(ns, "paper", longest + 5)
+    yield Feedback(True, "Correct.")
+
+
+def _student_reacquire(ns: Answers) -> int:
+    """The student's ``n_reacquire`` (C1) when it is a positive whole number, else the longest patch + 5: C2 runs the
+    re-acquiring filter with it."""
+    own = own_number(ns, "n_reacquire")
+    if own is not None and own >= 1 and own == int(own):
+        return int(own)
+    return max(n for _, n in _runs(ns["is_outlier"])) + 5
+
+
+def part_c2(ns: Answers) -> Iterator[Feedback]:
+    k = _lockout_start(ns)
+    with_reacq = _filter(ns, "paper", _student_reacquire(ns))
     yield check_number(ns["recovered_at"], k + int(np.argmax(with_reacq.extras["reacquired"][k:])), atol=0.5,
-                       name="recovered_at", hint="The first epoch from the lock-out's start on where the filter "
-                                                 "re-acquired (`extras['reacquired']`).", reveal_expected=False)
+                       name="recovered_at", hint="The first epoch from the lock-out's start on where the filter with "
+                                                 "your n_reacquire re-acquired (`extras['reacquired']`).",
+                       reveal_expected=False)
     rms_after, truth = ns["rms_after"], ns["true_ranges"]
 
     def rms(e: np.ndarray) -> float:
@@ -111,27 +137,46 @@ def part_c(ns: Answers) -> Iterator[Feedback]:
                        name="rms_after['no re-acquisition']", units="m",
                        hint="The RMS range error from the lock-out's start to the end.", reveal_expected=False)
     yield check_number(rms_after["re-acquisition"], rms(with_reacq.x[k:, 0] - truth[k:]), rtol=1e-6,
-                       name="rms_after['re-acquisition']", units="m", reveal_expected=False)
+                       name="rms_after['re-acquisition']", units="m",
+                       hint="The same, for the filter with your n_reacquire.", reveal_expected=False)
 
 
-def part_d(ns: Answers) -> Iterator[Feedback]:
-    k_fix, ship, dr, truth, depth, ranges = ns["k_fix"], ns["ship"], ns["dr"], ns["truth"], ns["depth"], ns["ranges"]
+def _fixes(ns: Answers, s: int) -> dict:
+    """Part D's fix for spacing ``s`` from the filtered ranges (epochs oldest first), and its two recognised slips."""
+    k_fix, ship, dr, depth = ns["k_fix"], ns["ship"], ns["dr"], ns["depth"]
     filtered = _filter(ns, "paper", 30).x[:, 0]
-    fix_errors, noise_gains = ns["fix_errors"], ns["noise_gains"]
+    epochs = k_fix - s * np.arange(3, -1, -1)
+    return {"right": virtual_beacon_lsq(filtered[epochs], ship[epochs], dr[epochs], depth=depth),
+            "newest first": virtual_beacon_lsq(filtered[epochs[::-1]], ship[epochs[::-1]], dr[epochs[::-1]],
+                                               depth=depth),
+            "raw": virtual_beacon_lsq(ns["ranges"][epochs], ship[epochs], dr[epochs], depth=depth)}
+
+
+def part_d1(ns: Answers) -> Iterator[Feedback]:
+    truth, k_fix, fix_errors = ns["truth"], ns["k_fix"], ns["fix_errors"]
     for s in (10, 60):
-        epochs = k_fix - s * np.arange(3, -1, -1)
-        fix = virtual_beacon_lsq(filtered[epochs], ship[epochs], dr[epochs], depth=depth)
-        newest_first = virtual_beacon_lsq(filtered[epochs[::-1]], ship[epochs[::-1]], dr[epochs[::-1]], depth=depth)
-        raw = virtual_beacon_lsq(ranges[epochs], ship[epochs], dr[epochs], depth=depth)
-        yield check_number(fix_errors[s], float(np.linalg.norm(fix.position - truth[k_fix])), rtol=1e-6,
-                           name=f"fix_errors[{s}]", units="m", common_mistakes={
-                               float(np.linalg.norm(newest_first.position - truth[k_fix])):
-                                   "List the epochs oldest first: the fix is the position at the last epoch passed.",
-                               float(np.linalg.norm(raw.position - truth[k_fix])):
-                                   "Use the filtered ranges, not the raw ones."},
-                           reveal_expected=False)
-        yield check_number(noise_gains[s], float(fix.noise_gain), rtol=1e-6, name=f"noise_gains[{s}]",
+        fixes = _fixes(ns, s)
+        error = {kind: float(np.linalg.norm(fix.position - truth[k_fix])) for kind, fix in fixes.items()}
+        yield check_number(fix_errors[s], error["right"], rtol=1e-6, name=f"fix_errors[{s}]", units="m",
+                           common_mistakes={
+                               error["newest first"]: "List the epochs oldest first: the fix is the position at the "
+                                                      "last epoch passed.",
+                               error["raw"]: "Use the filtered ranges, not the raw ones."},
                            reveal_expected=False)
 
 
-PARTS = {"A": part_a, "B": part_b, "C": part_c, "D": part_d}
+def part_d2(ns: Answers) -> Iterator[Feedback]:
+    truth, k_fix, fix_errors, noise_gains = ns["truth"], ns["k_fix"], ns["fix_errors"], ns["noise_gains"]
+    for s in (10, 60):
+        fixes = _fixes(ns, s)
+        gain = float(fixes["right"].noise_gain)
+        own_error = own_number(Answers(fix_errors), s) if isinstance(fix_errors, dict) else None
+        for kind, fix in fixes.items():     # the fix the student's fix_errors[s] comes from (a slip counted in D1)
+            if own_error is not None and np.isclose(own_error, float(np.linalg.norm(fix.position - truth[k_fix])),
+                                                    rtol=1e-6):
+                gain = float(fix.noise_gain)
+        yield check_number(noise_gains[s], gain, rtol=1e-6, name=f"noise_gains[{s}]",
+                           hint="`noise_gain` of the same fix as fix_errors.", reveal_expected=False)
+
+
+PARTS = {"A": part_a, "B": part_b, "C1": part_c1, "C2": part_c2, "D1": part_d1, "D2": part_d2}
