@@ -109,12 +109,15 @@ study-real: setup
 	$(PY) studies/real_data.py --overwrite
 
 # Chapter 11's schedule study (navigate, its candidates, the RTS smoother and the same-model GTSAM graph over every
-# offset of the thinning; hours of CPU): every run appended to studies/plaza_navigation_runs.jsonl as it is done
+# offset of the 10 s thinning; then 5 s and 30 s without the graph; about an hour of CPU): every run appended to studies/plaza_navigation_runs.jsonl as it is done
 # (a run written twice counts once), then the chapter's uwtutor/data/real_data_schedules.csv; commit both.
 study-schedules: setup
 	$(PY) studies/plaza_navigation.py --runs studies/plaza_navigation_runs.jsonl
+	$(PY) studies/plaza_navigation.py --period 5 --no-full-rate --no-gtsam --runs studies/plaza_navigation_runs.jsonl
+	$(PY) studies/plaza_navigation.py --period 30 --offset-step 3 --no-full-rate --no-gtsam \
+		--runs studies/plaza_navigation_runs.jsonl
 	$(PY) studies/plaza_navigation.py --summarize studies/plaza_navigation_runs.jsonl --complete-offsets \
-		--csv uwtutor/data/real_data_schedules.csv --overwrite
+		--csv uwtutor/data/real_data_schedules.csv --overwrite > studies/plaza_navigation_table.txt
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
 # The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.
