@@ -63,10 +63,12 @@ def pdf(pdf_build):
     return pdf_build
 
 
-@functools.lru_cache(maxsize=1)
-def _text() -> str:
-    return subprocess.run(["pdftotext", "-enc", "UTF-8", str(pdf_edition.PDF), "-"], check=True,
-                          capture_output=True, text=True).stdout
+@functools.lru_cache(maxsize=2)
+def _text(raw: bool = False) -> str:
+    """The PDF's text; ``raw=True`` keeps the order in which LaTeX wrote it, so a table cell that wraps onto several
+    lines comes out whole (the default reading order interleaves the wrapped lines of neighbouring cells)."""
+    return subprocess.run(["pdftotext", *(["-raw"] if raw else []), "-enc", "UTF-8", str(pdf_edition.PDF), "-"],
+                          check=True, capture_output=True, text=True).stdout
 
 
 _QUOTES = str.maketrans({"’": "'", "‘": "'", "“": '"', "”": '"'})
@@ -293,7 +295,7 @@ def test_no_table_row_is_lost(pdf):
     def plain(text: str) -> str:  # a narrow column hyphenates: compare without hyphens
         return _squashed(text).replace("-", "").replace("\u2010", "")
 
-    text = plain(_text())
+    text = plain(_text(raw=True))
     missing = []
     n_rows = 0
     for docname in _pdf_docnames():

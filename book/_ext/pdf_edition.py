@@ -254,6 +254,38 @@ def column_widths(texts: list[list[str]], line: int = LINE_CHARS) -> list[float]
     return [n + (w - n) * spare for w, n in zip(want, need)]
 
 
+#: LaTeX sizes a wide table may be set in, with their size in points (the body is 10 pt).
+TABLE_FONTS = (("small", 9.0), ("footnotesize", 8.0), ("scriptsize", 7.0))
+
+
+def table_font(texts: list[list[str]], line: int = LINE_CHARS) -> tuple[str, int]:
+    """The LaTeX size (``""`` for the body's) in which a table's longest words fit side by side, and how many
+    characters of that size a line holds.
+
+    A table of many columns (chapter 11's ten) cannot give each its longest word at 10 pt: the columns were then
+    shared in proportion and "Plaza" ran 3 pt past its cell. The smallest size tried is 7 pt; a table whose words do
+    not fit even then keeps it and its words share the line (:func:`column_widths`).
+
+    Examples
+    --------
+    >>> table_font([["Physics", "m"]])
+    ('', 90)
+    >>> table_font([["schedules", "odometry"] * 4])
+    ('small', 100)
+    """
+    need = [0.0] * max(len(r) for r in texts)
+    for row in texts:
+        for i, text in enumerate(row):
+            need[i] = max(need[i], max((len(w) for w in text.split()), default=0) + 3.0, 4.0)
+    if sum(need) <= line:
+        return "", line
+    for size, points in TABLE_FONTS:
+        chars = int(line * 10.0 / points)
+        if sum(need) <= chars:
+            return size, chars
+    return TABLE_FONTS[-1][0], int(line * 10.0 / TABLE_FONTS[-1][1])
+
+
 class LongTableWidths(SphinxTransform):
     """For the LaTeX builder: give every table of three columns or more widths that fit its words
     (:func:`column_widths`), and make a long table (LONG_TABLE_ROWS, LONG_TABLE_CHARS) a ``longtable``.
@@ -280,9 +312,14 @@ class LongTableWidths(SphinxTransform):
             if long:
                 table["classes"].append("longtable")
             texts = [[_printed_text(e) for e in row.children if isinstance(e, nodes.entry)] for row in rows]
-            for colspec, width in zip(colspecs, column_widths([t for t in texts if t])):
+            texts = [t for t in texts if t]
+            size, line = table_font(texts)
+            for colspec, width in zip(colspecs, column_widths(texts, line=line)):
                 colspec["colwidth"] = max(1, round(width * 10))
             table["classes"].append("colwidths-given")
+            if size:  # a group around the table sets it in the smaller face
+                table.parent.insert(table.parent.index(table), nodes.raw("", rf"\begingroup\{size}", format="latex"))
+                table.parent.insert(table.parent.index(table) + 1, nodes.raw("", r"\endgroup", format="latex"))
 
 
 # --- the Reference part as the appendices ------------------------------------------------------------------------
@@ -388,7 +425,7 @@ def running_title(title: str, limit: int = RUNNING_TITLE_MAX) -> str:
 
 
 class ShortRunningTitles(SphinxPostTransform):
-    """A chapter whose title is too long for one line of the running foot gets a short one (:func:`running_title`),
+    r"""A chapter whose title is too long for one line of the running foot gets a short one (:func:`running_title`),
     set with ``\chaptermark`` right after its heading."""
 
     builders = ("latex",)

@@ -229,7 +229,7 @@ class FilterResult:
         >>> res.priors()
         Traceback (most recent call last):
         ...
-        ValueError: this result has no priors (x_prior, P_prior): run the filter with keep_priors=True (the default)
+        ValueError: this result has no priors (x_prior, P_prior): run the filter with ...
         """
         if self.x_prior is None or self.P_prior is None:
             raise ValueError("this result has no priors (x_prior, P_prior): run the filter with keep_priors=True "
