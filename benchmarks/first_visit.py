@@ -9,6 +9,12 @@ back through the values it just had (the *cached* time: a picture kept, or a res
 default. The median of each control's moves is reported (wall time, and this process's CPU time beside it: on a
 shared machine the wall time carries the other processes' load), and for each widget its worst control.
 
+A widget that gives a coarse answer first (``slider_panel``'s ``refine``) is measured as a reader in JupyterLab meets
+it: background refinement on (``_panel.REFINE_IN_BACKGROUND = True``), the first-visit time is the time to the
+*first* picture (the coarse one); the CPU time is the whole process's, so it also counts what the refining thread
+ran meanwhile. The time until the full picture is shown is reported beside it ("full ms", wall); the benchmark
+waits for it (untimed) before the next move, so one move's refinement is not counted in the next.
+
 Run on its own (``.venv/bin/python benchmarks/first_visit.py [ch07 ...]``) or through ``benchmarks/run.py``
 (``--only first_visit``). Speed is measured here, never asserted by the tests.
 """
@@ -74,24 +80,30 @@ def measure_widget(factory: Any, count: int = NEW_VALUES) -> dict[str, dict[str,
     cached moves (see the module docstring)."""
     import matplotlib.pyplot as plt
 
+    from uwtutor.widgets import _panel
+
+    _panel.REFINE_IN_BACKGROUND = True              # as in a live kernel: the coarse picture first
     panel = factory()
     out = {}
     for control in controls(panel):
         default = control.value
         values = new_values(control, count)
-        first, first_cpu, cached = [], [], []
+        first, first_cpu, full, cached = [], [], [], []
         for v in values:
             t0, c0 = time.perf_counter(), time.process_time()
             control.value = v
             first.append((time.perf_counter() - t0) * 1000.0)
             first_cpu.append((time.process_time() - c0) * 1000.0)
+            _panel.wait_refined(panel)
+            full.append((time.perf_counter() - t0) * 1000.0)
         for v in list(reversed(values[:-1])) + [default]:
             t0 = time.perf_counter()
             control.value = v
             cached.append((time.perf_counter() - t0) * 1000.0)
+            _panel.wait_refined(panel)
         label = control.description or type(control).__name__
         out[label] = {"first_ms": statistics.median(first), "first_max_ms": max(first),
-                      "first_cpu_ms": statistics.median(first_cpu),
+                      "first_cpu_ms": statistics.median(first_cpu), "full_ms": statistics.median(full),
                       "cached_ms": statistics.median(cached), "moves": len(first)}
     plt.close("all")
     return out
@@ -118,20 +130,20 @@ def measure_all(only: list[str] | None = None, count: int = NEW_VALUES) -> dict[
 
 def render(results: dict[str, dict[str, dict[str, float]]], every_control: bool = False) -> str:
     """The table: each widget's worst control on a first visit, its ms, and the same control's cached ms."""
-    lines = [f"| widget | worst control (first visit) | first visit ms (CPU ms) | cached ms | ≤ {TARGET_MS:.0f} ms |",
-             "|---|---|---|---|---|"]
+    lines = [f"| widget | worst control (first visit) | first visit ms (CPU ms) | full ms | cached ms "
+             f"| ≤ {TARGET_MS:.0f} ms |", "|---|---|---|---|---|---|"]
     for label, per in results.items():
         if not per:
             continue
         name, worst = max(per.items(), key=lambda kv: kv[1]["first_ms"])
         status = "PASS" if worst["first_ms"] <= TARGET_MS else "MISS"
         lines.append(f"| {label} | {name} | {worst['first_ms']:.0f} ({worst['first_cpu_ms']:.0f}) | "
-                     f"{worst['cached_ms']:.0f} | {status} |")
+                     f"{worst['full_ms']:.0f} | {worst['cached_ms']:.0f} | {status} |")
         if every_control:
             for cname, v in per.items():
                 if cname != name:
                     lines.append(f"|  | {cname} | {v['first_ms']:.0f} ({v['first_cpu_ms']:.0f}) | "
-                                 f"{v['cached_ms']:.0f} | |")
+                                 f"{v['full_ms']:.0f} | {v['cached_ms']:.0f} | |")
     return "\n".join(lines)
 
 

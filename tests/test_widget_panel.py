@@ -14,7 +14,7 @@ from PIL import Image  # noqa: E402
 
 from uwtutor import widgets  # noqa: E402
 from uwtutor.plotting import PIXEL_RATIO  # noqa: E402
-from uwtutor.widgets._panel import figure_png, slider_panel  # noqa: E402
+from uwtutor.widgets._panel import figure_png, keep, kept, rescale, slider_panel, wait_refined  # noqa: E402
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -130,3 +130,102 @@ def test_rescale_keeps_autoscaling_on_after_keeping_limits():
     line.set_data([0, 1], [0, 100])            # then outgrows them: they must follow
     rescale(ax)
     assert ax.get_ylim()[1] >= 100.0
+
+
+def _refined_panel(monkeypatch, background):
+    """A panel over y = a x whose full answer is computed by ``refine`` (counted) and whose coarse answer is a
+    flat line; background refinement as asked."""
+    from uwtutor.widgets import _panel
+
+    monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
+    sliders = {"a": w.FloatSlider(value=1.0, min=-2.0, max=2.0, step=0.5, continuous_update=False)}
+    full, jobs = {}, []
+
+    def answer(a, coarse):
+        return full[a] if a in full or not coarse else 0.0
+
+    def draw(fig, a, coarse):
+        fig = fig or plt.figure(figsize=(3.0, 2.0), dpi=50)
+        ax = fig.subplots()
+        ax.plot([0.0, 1.0], [0.0, answer(a, coarse)])
+        ax.set_title("coarse" if coarse and a not in full else "full")
+        return keep(fig, line=ax.lines[0])
+
+    def update(fig, a, coarse):
+        line = kept(fig)["line"]
+        line.set_ydata([0.0, answer(a, coarse)])
+        fig.axes[0].set_title("coarse" if coarse and a not in full else "full")
+        rescale(fig.axes[0])
+        return [line, fig.axes[0].title]
+
+    def refine(a):
+        if a in full:
+            return None
+        return lambda: (jobs.append(a), full.setdefault(a, float(a)))
+
+    full[1.0] = 1.0
+    return sliders, slider_panel(sliders, draw, update, refine=refine), jobs
+
+
+def _full_png(a):
+    """The picture of the same panel moved to ``a`` with no refinement (computed at once)."""
+    sliders = {"a": w.FloatSlider(value=1.0, min=-2.0, max=2.0, step=0.5, continuous_update=False)}
+
+    def draw(fig, a):
+        fig = fig or plt.figure(figsize=(3.0, 2.0), dpi=50)
+        ax = fig.subplots()
+        ax.plot([0.0, 1.0], [0.0, a])
+        ax.set_title("full")
+        return keep(fig, line=ax.lines[0])
+
+    def update(fig, a):
+        kept(fig)["line"].set_ydata([0.0, a])
+        fig.axes[0].set_title("full")
+        rescale(fig.axes[0])
+        return [kept(fig)["line"], fig.axes[0].title]
+
+    panel = slider_panel(sliders, draw, update)
+    sliders["a"].value = a
+    return bytes(panel.children[2].children[0].value)
+
+
+def test_refine_outside_a_kernel_computes_the_full_answer_at_once(monkeypatch):
+    sliders, panel, jobs = _refined_panel(monkeypatch, None)     # no kernel here: as REFINE_IN_BACKGROUND = False
+    image = panel.children[2].children[0]
+    sliders["a"].value = 2.0
+    assert jobs == [2.0] and wait_refined(panel)
+    assert bytes(image.value) == _full_png(2.0)
+
+
+def test_refine_in_the_background_shows_coarse_then_the_same_full_picture(monkeypatch):
+    import threading
+
+    sliders, panel, jobs = _refined_panel(monkeypatch, True)
+    image = panel.children[2].children[0]
+    gate = threading.Event()
+    refiner = panel._uwtutor_refiner
+    refiner.submit(gate.wait)                     # the worker busy: the coarse picture is seen before the full one
+    sliders["a"].value = 2.0
+    coarse = bytes(image.value)
+    assert jobs == [] and coarse != _full_png(2.0)
+    gate.set()
+    assert wait_refined(panel, timeout=30.0)
+    assert jobs == [2.0] and bytes(image.value) == _full_png(2.0)   # as computed at once, limits included
+    sliders["a"].value = 1.0
+    sliders["a"].value = 2.0                      # kept: no new work
+    assert jobs == [2.0] and bytes(image.value) == _full_png(2.0)
+
+
+def test_a_refinement_left_behind_is_not_shown(monkeypatch):
+    import threading
+
+    sliders, panel, jobs = _refined_panel(monkeypatch, True)
+    image = panel.children[2].children[0]
+    gate = threading.Event()
+    panel._uwtutor_refiner.submit(gate.wait)
+    sliders["a"].value = 2.0                      # its refinement waits behind the gate ...
+    sliders["a"].value = -2.0                     # ... and a newer setting comes first
+    gate.set()
+    assert wait_refined(panel, timeout=30.0)
+    assert jobs == [-2.0]                         # the older setting's work skipped, not drawn over the newer
+    assert bytes(image.value) == _full_png(-2.0)

@@ -107,3 +107,46 @@ def test_updated_panels_follow_the_data():
         assert _within(ax_r, view.rmse_unstarted), (d0, ax_r.get_ylim(), view.rmse_unstarted[0])
         assert _within(ax_r, view.rmse)
     plt.close(fig)
+
+
+def test_the_early_view_is_the_full_view_on_its_epochs(monkeypatch):
+    # the widget's first answer for a new setting: the same runs, filters over the first epochs only
+    monkeypatch.setattr(ch07, "_CURVES", {})               # nothing at hand yet
+    first = ch07._early_view(0.01, 200.0, 2.0)
+    first_full = ch07.bias_tracking_view(drift_rate=0.01, initial_error=200.0)
+    # an α move: the IEKF from the start at hand, whole; the pre-positioned one over more epochs
+    later = ch07._early_view(0.01, 200.0, 3.0)
+    full_later = ch07.bias_tracking_view(drift_rate=0.01, initial_error=200.0, max_alpha=3.0)
+    for early, full, E in ((first, first_full, ch07.EARLY_EPOCHS[0]), (later, full_later, ch07.EARLY_EPOCHS[1])):
+        assert early.epochs_run == E and full.epochs_run is None and np.isnan(early.final_rmse)
+        for name in ("estimate", "bias_sigma", "rmse", "true_bias"):
+            np.testing.assert_array_equal(getattr(early, name)[:E], getattr(full, name)[:E])
+            assert np.isnan(getattr(early, name)[E:]).all()
+        K = len(full.times)
+        assert np.array_equal(early.start_epochs, np.where(full.start_epochs < E, full.start_epochs, K))
+    np.testing.assert_array_equal(first.rmse_unstarted[:200], first_full.rmse_unstarted[:200])
+    assert np.isnan(first.rmse_unstarted[200:]).all()
+    np.testing.assert_array_equal(later.rmse_unstarted, full_later.rmse_unstarted)
+
+
+def test_the_panel_refined_in_the_background_ends_as_computed_at_once(monkeypatch):
+    import threading
+
+    from uwtutor.widgets import _panel
+
+    def moved(background):
+        monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
+        panel = ch07.bias_tracking_widget()
+        image = panel.children[2].children[0]
+        gate = threading.Event()
+        panel._uwtutor_refiner.submit(gate.wait)       # the worker held: the first picture is seen as it is
+        panel.children[0].children[1].value = 160.0     # initial error
+        first = bytes(image.value)
+        gate.set()
+        assert _panel.wait_refined(panel, timeout=120.0)
+        return first, bytes(image.value)
+
+    coarse, refined = moved(True)
+    _, at_once = moved(False)
+    assert refined == at_once and coarse != at_once
+    plt.close("all")

@@ -10,13 +10,25 @@ pixels; each update restores those pixels and draws only the changed artists on 
 changed (limits, scale, position), which draws the background again. The PNG goes to an ``ipywidgets.Image`` as bytes
 (one comm message, no base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
 the chapter's plot function. ``make bench`` times every control of every widget in JupyterLab.
+
+A widget whose full answer takes longer than a reader should wait (a long filter run) may give a *coarse* answer
+first (``slider_panel``'s ``refine``): in a live kernel the panel shows the coarse picture at once, labelled as such by
+the widget, and computes the full answer in one background thread; when it is done, and if the controls still hold
+that setting, the full picture replaces the coarse one (a refinement for a setting left meanwhile is dropped: its
+result stays in the widget's cache). The full picture is drawn from the axes as they were before the coarse one,
+so it is the picture the panel draws without refinement. Outside a kernel (tests, scripts, the book's static
+pages) and with ``REFINE_IN_BACKGROUND = False`` the full answer is computed at once, as without ``refine``.
 """
 
 from __future__ import annotations
 
+import functools
 import io
 import sys
+import threading
+import traceback
 from collections import OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
@@ -24,7 +36,13 @@ import numpy as np
 
 from ..plotting import LEGEND_WARNING, PIXEL_RATIO, legend_overlaps
 
-__all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale"]
+__all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale", "wait_refined",
+           "REFINE_IN_BACKGROUND"]
+
+#: Whether a panel with ``refine`` shows a coarse answer at once and computes the full one in a background thread:
+#: ``None`` (the default) does so only inside a live IPython kernel; ``False`` computes the full answer at once
+#: (deterministic: tests, scripts, executing the book); ``True`` always refines in the background (the benchmark).
+REFINE_IN_BACKGROUND: bool | None = None
 
 
 def _agg_canvas(fig: Any) -> Any:
@@ -284,8 +302,89 @@ def _key(values: dict[str, Any]) -> tuple:
     return tuple(out)
 
 
+def _in_kernel() -> bool:
+    """Whether this code runs inside an IPython kernel (where a reader moves the controls), not a plain process."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with ipywidgets
+        return False
+    shell = get_ipython()
+    return shell is not None and getattr(shell, "kernel", None) is not None
+
+
+def _refine_in_background() -> bool:
+    return _in_kernel() if REFINE_IN_BACKGROUND is None else bool(REFINE_IN_BACKGROUND)
+
+
+def _axes_state(fig: Any) -> list[tuple]:
+    """What an ``update`` reads of the axes besides the data (limits, autoscaling, the equal-aspect state kept by
+    ``rescale``): taken before a coarse picture and put back before the full one, which ``rescale`` then fits as
+    it would have without the coarse picture."""
+    return [(ax, ax.get_xlim(), ax.get_ylim(), ax.get_autoscalex_on(), ax.get_autoscaley_on(), ax.get_adjustable(),
+             getattr(ax, "_uwtutor_datalim", None)) for ax in fig.axes]
+
+
+def _restore_axes(state: list[tuple]) -> None:
+    for ax, xlim, ylim, auto_x, auto_y, adjustable, datalim in state:
+        ax.set_xlim(*xlim, auto=None)
+        ax.set_ylim(*ylim, auto=None)
+        ax.set_autoscalex_on(auto_x)
+        ax.set_autoscaley_on(auto_y)
+        ax.set_adjustable(adjustable)
+        if datalim is None:
+            ax.__dict__.pop("_uwtutor_datalim", None)
+        else:
+            ax._uwtutor_datalim = datalim
+
+
+class _Refiner:
+    """The background side of a panel with ``refine``: one worker thread (made at the first refinement), the
+    number of the latest setting (a refinement for an older one is dropped), and the lock every use of the figure
+    takes (the reader's updates and the worker's full picture never draw at the same time)."""
+
+    def __init__(self) -> None:
+        self.lock = threading.RLock()
+        self.generation = 0
+        self.executor: ThreadPoolExecutor | None = None
+        self.pending: list[Future] = []
+
+    def submit(self, task: Callable[[], None]) -> None:
+        if self.executor is None:
+            self.executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="uwtutor-refine")
+        self.pending = [f for f in self.pending if not f.done()] + [self.executor.submit(task)]
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for every refinement submitted so far; True if none is left running."""
+        for future in list(self.pending):
+            try:
+                future.result(timeout)
+            except TimeoutError:
+                return False
+        return all(f.done() for f in self.pending)
+
+
+def wait_refined(panel: Any, timeout: float | None = None) -> bool:
+    """Wait until the background refinements of ``panel`` (made by ``slider_panel`` with ``refine``) are done;
+    True when none is left running (also for a panel without refinement).
+
+    Examples
+    --------
+    >>> import ipywidgets as w
+    >>> from matplotlib.figure import Figure
+    >>> def draw(fig, a):
+    ...     fig = fig or Figure(figsize=(2.0, 1.5), dpi=50)
+    ...     fig.add_subplot().plot([0, 1], [0, a])
+    ...     return fig
+    >>> wait_refined(slider_panel({"a": w.FloatSlider(value=1.0)}, draw))
+    True
+    """
+    refiner = getattr(panel, "_uwtutor_refiner", None)
+    return True if refiner is None else refiner.wait(timeout)
+
+
 def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
-                 update: Callable[..., Sequence[Any] | None] | None = None) -> Any:
+                 update: Callable[..., Sequence[Any] | None] | None = None,
+                 refine: Callable[..., Callable[[], Any] | None] | None = None) -> Any:
     """Sliders (and other controls) above one figure that is updated whenever a control's value changes.
 
     Parameters
@@ -302,6 +401,14 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
         and returns every artist it changed (they are drawn over the kept background, see ``BlitRenderer``; the
         figure itself among them draws it all again, in place), or ``None`` when the figure must be made anew (the
         panel then clears it and calls ``draw``).
+    refine : callable, optional
+        ``refine(**values)`` returns ``None`` when the full answer for these values is at hand (cached), or else a
+        zero-argument callable that computes it into the widget's cache (it must be safe to run in another thread
+        while the controls move). With ``refine``, ``draw`` and ``update`` take a keyword ``coarse``: ``True`` asks
+        for the widget's coarse answer, labelled as such in the figure. When refining in the background (see
+        ``REFINE_IN_BACKGROUND``) a new setting is drawn coarse at once and the full picture follows; otherwise the
+        callable is run at once and the full picture drawn, as without ``refine``. ``wait_refined(panel)`` waits
+        for the full picture.
 
     Returns
     -------
@@ -329,7 +436,8 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     import ipywidgets as w
 
     values = lambda: {name: s.value for name, s in sliders.items()}  # noqa: E731
-    fig = draw(None, **values())
+    mode = {} if refine is None else {"coarse": False}  # the keyword draw and update take with refine
+    fig = draw(None, **values(), **mode)
     plt.close(fig)                      # off pyplot's list: the inline backend must not show it a second time
     for problem in legend_overlaps(fig):  # as for a notebook's figures (check_legends_on_display): the first view
         print(f"{LEGEND_WARNING} (widget): {problem}", file=sys.stderr)  # is the one the HTML book shows
@@ -342,36 +450,81 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     image = w.Image(value=renderer.png(None), format="png",
                     layout=w.Layout(width=f"{width_px}px", max_width="100%", height="auto"))
     if update is not None:      # the background of the first update drawn now, while the reader reads
-        renderer.prime(update(fig, **values()))
+        renderer.prime(update(fig, **values(), **mode))
     messages = w.Output()
     state = {"failed": False}
     shown: OrderedDict[tuple, bytes] = OrderedDict([(_key(values()), bytes(image.value))])
+    refiner = _Refiner()
+
+    def picture(current: dict[str, Any], coarse: bool, anew: bool = False) -> tuple[bytes, bool]:
+        """The PNG of ``current`` (coarse or full), drawn in place where ``update`` can, else anew; and whether it
+        was drawn anew."""
+        kw = {"coarse": coarse} if refine is not None else {}
+        dynamic = None if anew or update is None or state["failed"] else update(fig, **current, **kw)
+        if dynamic is None:
+            fig.clear()
+            draw(fig, **current, **kw)
+        return renderer.png(dynamic), dynamic is None
+
+    def keep_picture(key: tuple, png: bytes) -> None:
+        image.value = shown[key] = png
+        if len(shown) > PICTURES_KEPT:
+            shown.popitem(last=False)
+
+    def refined(key: tuple, generation: int, current: dict[str, Any], job: Callable[[], Any],
+                axes: list[tuple], anew: bool) -> None:
+        """In the worker: the full answer for ``current``, drawn if the controls still hold it."""
+        if refiner.generation != generation:            # left before its turn came: computed if visited again
+            return
+        try:
+            job()
+            with refiner.lock:
+                if refiner.generation != generation:    # left while computing: the result waits in the cache
+                    return
+                if not anew:
+                    _restore_axes(axes)                 # fitted from where the coarse picture started
+                png, _ = picture(current, coarse=False, anew=anew)
+                keep_picture(key, png)
+        except Exception:                               # no caller to raise to: shown under the figure
+            state["failed"] = True
+            messages.clear_output(wait=True)
+            messages.append_stderr(traceback.format_exc())
 
     def refresh(_change: Any = None) -> None:
-        key = _key(values())
-        try:
-            if key in shown and not state["failed"]:   # a view shown before (a dropdown's option, a slider's
-                shown.move_to_end(key)                  # earlier value): its picture again
-                image.value = shown[key]
+        current = values()
+        key = _key(current)
+        with refiner.lock:
+            refiner.generation += 1
+            try:
+                if key in shown and not state["failed"]:   # a view shown before (a dropdown's option, a slider's
+                    shown.move_to_end(key)                  # earlier value): its picture again
+                    image.value = shown[key]
+                    return
+                job = None if refine is None else refine(**current)
+                if job is not None and not _refine_in_background():
+                    job()                               # the full answer now: no coarse picture
+                    job = None
+                if job is None:
+                    png, _ = picture(current, coarse=False)
+                    keep_picture(key, png)
+                else:
+                    axes = _axes_state(fig)
+                    png, anew = picture(current, coarse=True)
+                    image.value = png                   # not kept: the full picture will be
+                    refiner.submit(functools.partial(refined, key, refiner.generation, current, job, axes, anew))
+            except Exception:
+                state["failed"] = True
+                with messages:              # in a kernel, the Output widget shows the traceback and swallows it
+                    messages.clear_output(wait=True)
+                    raise                   # outside a kernel the error goes on to the caller
                 return
-            dynamic = None if update is None or state["failed"] else update(fig, **values())
-            if dynamic is None:
-                fig.clear()
-                draw(fig, **values())
-            image.value = shown[key] = renderer.png(dynamic)
-            if len(shown) > PICTURES_KEPT:
-                shown.popitem(last=False)
-        except Exception:
-            state["failed"] = True
-            with messages:              # in a kernel, the Output widget shows the traceback and swallows it
-                messages.clear_output(wait=True)
-                raise                   # outside a kernel the error goes on to the caller
-            return
-        if state["failed"]:
-            state["failed"] = False
-            messages.clear_output()
+            if state["failed"]:
+                state["failed"] = False
+                messages.clear_output()
 
     for s in sliders.values():
         s.observe(refresh, names="value")
     controls = list(sliders.values())
-    return w.VBox([w.HBox(controls[:3]), w.HBox(controls[3:]), w.VBox([image, messages])])
+    panel = w.VBox([w.HBox(controls[:3]), w.HBox(controls[3:]), w.VBox([image, messages])])
+    panel._uwtutor_refiner = refiner                    # for wait_refined
+    return panel

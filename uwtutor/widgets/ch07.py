@@ -54,6 +54,12 @@ class BiasTrackingView:
         RMS position error over the last 500 epochs, pre-positioned IEKF [m].
     n_runs : int
         Number of runs.
+    epochs_run : int or None
+        ``None``: the filters ran over every epoch. Otherwise the pre-positioned IEKF ran over the first
+        ``epochs_run`` epochs only (the widget's first answer for a new setting, while the rest is computed): its
+        arrays and ``true_bias`` are those of the full run there and NaN after, ``final_rmse`` is NaN, and
+        ``start_epochs`` is ``len(times)`` for a run not started by then; ``rmse_unstarted`` is the same, or whole
+        when it was at hand (it does not depend on the α threshold).
 
     Examples
     --------
@@ -77,6 +83,7 @@ class BiasTrackingView:
     rmse_unstarted: np.ndarray
     final_rmse: float
     n_runs: int
+    epochs_run: int | None = None
 
 
 @functools.lru_cache(maxsize=4)
@@ -90,16 +97,31 @@ def _scenario(M: int, K: int, seed: int) -> tuple[Any, Any, np.ndarray, np.ndarr
     return params, sc, bias, direction / np.linalg.norm(direction, axis=1, keepdims=True)
 
 
-@functools.lru_cache(maxsize=64)
-def _from_the_start(rate: float, d0: float, M: int, K: int, seed: int) -> np.ndarray:
+#: The curves of ``_from_the_start`` computed, by arguments (the last 64).
+_CURVES: dict[tuple, np.ndarray] = {}
+
+
+def _from_the_start(rate: float, d0: float, M: int, K: int, seed: int, epochs: int | None = None) -> np.ndarray:
     """The RMSE per epoch of the IEKF started at epoch 0 from the provisional start (no pre-positioning: the α
-    threshold does not enter); the curve only is kept, not the filter's result (the cache holds up to 64)."""
+    threshold does not enter), over the first ``epochs`` epochs (``None``: all); the curve only is kept, not the
+    filter's result (the cache holds the last 64)."""
+    key = (rate, d0, M, K, seed, epochs)
+    if key not in _CURVES:
+        curve = _run_from_the_start(rate, d0, M, K, seed, epochs)
+        if len(_CURVES) >= 64:
+            _CURVES.pop(next(iter(_CURVES)), None)
+        _CURVES[key] = curve
+    return _CURVES[key]
+
+
+def _run_from_the_start(rate: float, d0: float, M: int, K: int, seed: int, epochs: int | None) -> np.ndarray:
     params, sc, _, direction = _scenario(M, K, seed)
-    t = np.asarray(sc.times)
-    z = np.asarray(sc.ranges) + rate * t
-    truth = np.asarray(sc.true_positions[0])
+    n = slice(None, epochs)
+    t = np.asarray(sc.times)[n]
+    z = np.asarray(sc.ranges)[:, n] + rate * t
+    truth = np.asarray(sc.true_positions[0])[n]
     start = truth[0] + d0 * direction
-    plain = bias_ekf(np.column_stack([start, np.zeros(M)]), np.eye(3), sc.dr_displacements, z,
+    plain = bias_ekf(np.column_stack([start, np.zeros(M)]), np.eye(3), np.asarray(sc.dr_displacements)[:, n], z,
                      paper_a_process_noise(params.dr_sigma), params.noise_variance, times=t, keep_priors=False)
     rmse = np.sqrt(np.mean(np.sum((plain.x[..., :2] - truth) ** 2, axis=-1), axis=0))
     rmse.setflags(write=False)
@@ -162,7 +184,15 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     M = as_int("n_runs", n_runs, minimum=2)
     K = as_int("n_obs", n_obs, minimum=600)
     check_work("n_runs", 20 * M * K, "floats (n_runs x n_obs x 20)")
-    params, sc, bias, direction = _scenario(M, K, as_seed("seed", seed))
+    return _view(rate, d0, a_max, M, K, as_seed("seed", seed))
+
+
+def _view(rate: float, d0: float, a_max: float, M: int, K: int, seed: int,
+          epochs: int | None = None) -> BiasTrackingView:
+    """``bias_tracking_view`` on checked arguments, with the filters run over the first ``epochs`` epochs only
+    (``None``: all). A filter's estimate at an epoch depends on the epochs up to it only, so the first ``epochs``
+    epochs are those of the full run (see ``BiasTrackingView.epochs_run``)."""
+    params, sc, bias, direction = _scenario(M, K, seed)
     t = np.asarray(sc.times)
     z = np.asarray(sc.ranges) + rate * t
     if np.any(z < 0.0):
@@ -174,20 +204,33 @@ def bias_tracking_view(drift_rate: float = 0.0, initial_error: float = 150.0, ma
     start = truth[0] + d0 * direction
     Q = paper_a_process_noise(params.dr_sigma)
     R = params.noise_variance
-    pre = prepositioned_bias_ekf(start, np.eye(3), sc.dr_displacements, z, Q, R, max_alpha=a_max, times=t)
-    rmse_plain = _from_the_start(rate, d0, M, K, int(seed))
+    n = slice(None, epochs)
+    k_run = K if epochs is None else epochs
+    pre = prepositioned_bias_ekf(start, np.eye(3), np.asarray(sc.dr_displacements)[:, n], z[:, n], Q, R,
+                                 max_alpha=a_max, times=t[n])
+    whole = (rate, d0, M, K, seed, None)
+    # the whole curve when it is at hand (an α move), else over the same epochs as the pre-positioned IEKF
+    rmse_plain = _CURVES[whole] if epochs is not None and whole in _CURVES else \
+        _from_the_start(rate, d0, M, K, seed, epochs)
     started = pre.extras["started"]
     k0 = np.where(started.any(axis=1), np.argmax(started, axis=1), K)
-    sq = np.sum((pre.x[..., :2] - truth) ** 2, axis=-1)
+    sq = np.sum((pre.x[..., :2] - truth[n]) ** 2, axis=-1)
     all_started = started.all(axis=0)
     rmse = np.full(K, np.nan)
-    rmse[all_started] = np.sqrt(np.mean(sq[:, all_started], axis=0))
+    rmse[:k_run][all_started] = np.sqrt(np.mean(sq[:, all_started], axis=0))
     tail = sq[:, -500:]
-    final = float(np.sqrt(np.mean(tail))) if np.isfinite(tail).all() else float("nan")
+    final = float(np.sqrt(np.mean(tail))) if epochs is None and np.isfinite(tail).all() else float("nan")
+    estimate, bias_sigma = np.full((K, 3), np.nan), np.full(K, np.nan)
+    estimate[:k_run] = pre.x[0]
+    bias_sigma[:k_run] = np.sqrt(pre.P[0, :, 2, 2])
+    if len(rmse_plain) < K:
+        rmse_plain = np.concatenate([rmse_plain, np.full(K - len(rmse_plain), np.nan)])
+    true_bias = np.array(true_bias[0])
+    true_bias[k_run:] = np.nan                      # shown as far as the estimates, in a partial view
     return BiasTrackingView(drift_rate=rate, initial_error=d0, max_alpha=a_max, times=t, truth=truth,
-                            estimate=np.array(pre.x[0]), bias_sigma=np.sqrt(np.array(pre.P[0, :, 2, 2])),
-                            true_bias=np.array(true_bias[0]), start_epochs=k0, rmse=rmse,
-                            rmse_unstarted=rmse_plain, final_rmse=final, n_runs=M)
+                            estimate=estimate, bias_sigma=bias_sigma, true_bias=true_bias,
+                            start_epochs=k0, rmse=rmse, rmse_unstarted=rmse_plain, final_rmse=final, n_runs=M,
+                            epochs_run=epochs)
 
 
 def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
@@ -239,33 +282,38 @@ def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
 
 
 def _bias_tracking_title(view: BiasTrackingView, ax_b: Any) -> Any:
-    # the threshold rounded as its slider shows it (three significant digits)
+    # the threshold rounded as its slider shows it (three significant digits); a partial answer says so
+    runs = f"{view.n_runs} runs" if view.epochs_run is None else f"first {view.times[view.epochs_run - 1]:.0f} s…"
     ax_b.set_title(f"drift {view.drift_rate:.3f} m/s, start {view.initial_error:g} m off, α < {view.max_alpha:.3g}; "
-                   f"{view.n_runs} runs", fontsize=9)
+                   f"{runs}", fontsize=9)
     return ax_b.title
 
 
 def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | None:
     """Put another ``BiasTrackingView`` into a figure drawn by ``plot_bias_tracking_view``; returns what changed
-    (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears)."""
+    (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears; in a partial view, see
+    ``BiasTrackingView.epochs_run``, a fix not reached yet is hidden instead)."""
     a = kept(fig)
     k0 = int(view.start_epochs[0])
-    if (a["fix"] is None) != (k0 >= len(view.times)):
+    if (a["fix"] is None) != (k0 >= len(view.times)) and view.epochs_run is None:
         return None
     ax_m, ax_b, ax_r = fig.axes[:3]
     a["track"].set_data(*view.estimate[:, :2].T)
     changed = [a["track"]]
     if a["fix"] is not None:
-        a["fix"].set_data([view.estimate[k0, 0]], [view.estimate[k0, 1]])
+        fix = view.estimate[k0, :2] if k0 < len(view.times) else (np.nan, np.nan)
+        a["fix"].set_data([fix[0]], [fix[1]])
         changed.append(a["fix"])
     t, b, s = view.times, view.estimate[:, 2], view.bias_sigma
     a["true_bias"].set_ydata(view.true_bias)
     a["estimate"].set_ydata(b)
-    a["band"].remove()
-    a["band"] = ax_b.fill_between(t, b - 2 * s, b + 2 * s, color="C0", alpha=0.25, lw=0)
+    # the band's outline in place: a new fill_between would ask the axes to autoscale at the next draw, moving
+    # its limits (and so drawing the whole figure again) at every update
+    a["band"].set_data(t, b - 2 * s, b + 2 * s)
     a["unstarted"].set_ydata(view.rmse_unstarted)
     a["rmse"].set_ydata(view.rmse)
-    rescale(ax_m, ax_b, ax_r)
+    if view.epochs_run is None:     # a partial view keeps the limits: drawn over the kept background, at once
+        rescale(ax_m, ax_b, ax_r)
     return changed + [a["true_bias"], a["estimate"], a["band"], a["unstarted"], a["rmse"],
                       _bias_tracking_title(view, ax_b)]
 
@@ -292,8 +340,36 @@ def bias_tracking_widget() -> Any:
                                       continuous_update=False, style=style),
     }
     view = functools.lru_cache(maxsize=256)(bias_tracking_view)
-    return slider_panel(sliders, lambda fig, **p: plot_bias_tracking_view(view(**p), fig),
-                        lambda fig, **p: update_bias_tracking_view(fig, view(**p)))
+    full: dict[tuple, BiasTrackingView] = {}           # the full answers computed, by setting (as view's cache)
+
+    def answer(coarse: bool, drift_rate: float, initial_error: float, max_alpha: float) -> BiasTrackingView:
+        key = (drift_rate, initial_error, max_alpha)
+        if key in full or not coarse:
+            return full.setdefault(key, view(drift_rate=drift_rate, initial_error=initial_error, max_alpha=max_alpha))
+        # the first epochs of the same runs at once: the same numbers as the full answer there
+        return _early_view(drift_rate, initial_error, max_alpha)
+
+    def refine(**p: float) -> Callable[[], Any] | None:
+        key = (p["drift_rate"], p["initial_error"], p["max_alpha"])
+        return None if key in full else functools.partial(answer, False, **p)
+
+    return slider_panel(sliders, lambda fig, coarse, **p: plot_bias_tracking_view(answer(coarse, **p), fig),
+                        lambda fig, coarse, **p: update_bias_tracking_view(fig, answer(coarse, **p)), refine=refine)
+
+
+#: Epochs the widget's first answer for a new setting runs the filters over (of the chapter's 2000), while the full
+#: answer is computed in the background: about a tenth of its time; twice as many when only the pre-positioned IEKF
+#: runs (an α move: the IEKF from the start is at hand), which starts at about epoch 250.
+EARLY_EPOCHS = (200, 400)
+
+
+def _early_view(drift_rate: float, initial_error: float, max_alpha: float) -> BiasTrackingView:
+    """The chapter's view over its first ``EARLY_EPOCHS`` epochs (the widget's coarse answer)."""
+    rate = as_scalar("drift_rate", drift_rate, low=-1.0, high=1.0)
+    d0 = as_scalar("initial_error", initial_error, low=0.0, high=1e6)
+    a_max = as_scalar("max_alpha", max_alpha, domain="positive", high=1e3)
+    at_hand = (rate, d0, 30, 2000, 0, None) in _CURVES
+    return _view(rate, d0, a_max, 30, 2000, 0, EARLY_EPOCHS[at_hand])
 
 
 #: Zero-argument callables running the chapter-7 widget's computation at its defaults (for ``make bench``).
