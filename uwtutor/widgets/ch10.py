@@ -209,7 +209,11 @@ def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") 
         line.set_ydata(view.rmse[i])
         line.set(color=colors[i], lw=2.0 if chosen else 1.1, zorder=3 if chosen else 2)
     a["bound"].set_ydata(view.bound)
-    ax_t.set_ylim(max(0.5, 0.5 * float(np.min(view.bound))), 5e3)
+    # the lower limit a fresh plot would take, or the one shown while that is at most 4 times lower (a little
+    # more room under the bound): the bounds of the committed table are all within that, so the axes, and the
+    # pixels kept of them, stay as they are after the first move
+    low, shown_low = max(0.5, 0.5 * float(np.min(view.bound))), ax_t.get_ylim()[0]
+    ax_t.set_ylim(low if not shown_low <= low <= 4.0 * shown_low else shown_low, 5e3)
     ax_t.set_title(f"{view.scenario}, {view.condition}: {view.n_runs} runs", fontsize=9)
     for bars, values in ((a["p95"], view.p95_final), (a["median"], view.median_final)):
         for rect, value, color in zip(bars, values, colors):
@@ -257,8 +261,16 @@ def comparison_widget(table: Any = None) -> Any:
         v = view(scenario, condition)
         return plot_comparison_view(v, fig, method=method if method in v.methods else "all")
 
+    # the lowest lower limit of the RMSE axis over the table's scenarios: set before the first update (the first
+    # picture is drawn by then), so that the background kept for the updates fits every scenario's bound
+    lowest = max(0.5, 0.5 * float(np.nanmin(t.bound_curves))) if t.bound_curves is not None else None
+
     def update(fig: Any, scenario: str, condition: str, method: str) -> Any:
         v = view(scenario, condition)
+        ax_t = fig.axes[0]
+        if lowest is not None and not getattr(ax_t, "_uwtutor_lowest", False):    # once per axes (a redraw makes
+            ax_t._uwtutor_lowest = True                                          # new ones)
+            ax_t.set_ylim(min(lowest, ax_t.get_ylim()[0]), 5e3)
         return update_comparison_view(fig, v, method=method if method in v.methods else "all")
 
     return slider_panel(sliders, draw, update)
