@@ -224,15 +224,30 @@ def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
     a["ess"].set_ydata(view.ess)
     top = ax[2].get_ylim()[1]
     if not 0.5 * top <= view.n_particles * 1.05 <= top:     # N outgrew the axis, or fills under half of it
-        ax[2].set_ylim(0, view.n_particles * 1.05 * (1.3 if view.n_particles * 1.05 > top else 1.0))
+        # up to the next 1, 2 or 5 x 10^k particles: the next moves of N fit (and blit) until N passes it
+        ax[2].set_ylim(0, _round_up(view.n_particles) * 1.05)
     ax[2].set_title(f"N = {view.n_particles}, {view.n_grey} grey", fontsize=9)
     changed = [a["readings"], *a["pitch"].values(), a["true_noise"], a["noise"], a["ess"], ax[2].title]
     for name, bars in a["bars"].items():
         for rect, height in zip(bars, view.rmse[name] * _RMSE_SCALE):
             rect.set_height(height)
             changed.append(rect)
-    rescale(ax[0], ax[1], ax[3])
+    # a quarter of the limits spanned is enough to keep them: the noise estimate and the bars change their
+    # extent with every setting, and new limits draw the whole figure again
+    rescale(ax[0], ax[1], ax[3], keep_within=0.25)
     return changed
+
+
+def _round_up(n: int) -> float:
+    """The smallest 1, 2 or 5 x 10^k that is >= ``n`` (``n`` > 0).
+
+    Examples
+    --------
+    >>> _round_up(200), _round_up(250), _round_up(550)
+    (200.0, 500.0, 1000.0)
+    """
+    power = 10.0 ** np.floor(np.log10(n))
+    return float(next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= n))
 
 
 def gpf_widget() -> Any:
