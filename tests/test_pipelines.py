@@ -145,3 +145,25 @@ def test_a_filtered_range_below_zero_near_the_beacon_is_read_as_zero():
     raw = out.ranges.x[..., 0]
     assert (raw < 0).any()                      # the case the clipping is for
     np.testing.assert_array_equal(out.used_ranges, np.maximum(raw, 0.0))
+
+
+def test_pipeline_reuses_a_range_filter_result():
+    # another spacing on the same ranges: the range filter's result given back gives the same answer
+    dive = paper_e.make(np.random.default_rng(5), 2)
+    args = dict(ship_positions=dive.ship_positions, depth=dive.depth, spacing=60)
+    for i in (None, 1):                                   # batched, and one run
+        pick = (lambda a: a) if i is None else (lambda a: a[i])
+        kw = {**args, "ship_positions": pick(dive.ship_positions)}
+        first = or_vmlbl_kf(pick(dive.dr_positions), pick(dive.slant_ranges), **{**kw, "spacing": 100})
+        again = or_vmlbl_kf(pick(dive.dr_positions), pick(dive.slant_ranges), **kw, range_result=first.ranges)
+        fresh = or_vmlbl_kf(pick(dive.dr_positions), pick(dive.slant_ranges), **kw)
+        np.testing.assert_array_equal(again.filtered, fresh.filtered)
+        np.testing.assert_array_equal(again.fixes, fresh.fixes)
+        np.testing.assert_array_equal(again.ranges.x, fresh.ranges.x)
+        np.testing.assert_array_equal(again.ranges.extras["outlier"], fresh.ranges.extras["outlier"])
+    one = fresh.ranges                                    # after the loop: run 1's result, without a runs axis
+    with pytest.raises(ValueError, match="preprocess=False"):
+        or_vmlbl_kf(dive.dr_positions[1], dive.slant_ranges[1], **{**args, "ship_positions": dive.ship_positions[1]},
+                    range_result=one, preprocess=False)
+    with pytest.raises(ValueError, match="range_result"):
+        or_vmlbl_kf(dive.dr_positions, dive.slant_ranges, **args, range_result=one)     # one run's, for two

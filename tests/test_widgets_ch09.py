@@ -67,3 +67,14 @@ def test_plot_and_panel():
     panel = ch09.outlier_widget()
     assert len(panel.children) == 3
     plt.close("all")
+
+
+def test_a_new_spacing_reuses_the_range_filter_and_gives_the_same_view(monkeypatch):
+    monkeypatch.setattr(ch09, "_RANGE_RUNS", {})
+    ch09.outlier_view(amplitude=60.0, spacing=200)                # the range filter kept
+    reused = ch09.outlier_view(amplitude=60.0, spacing=250)
+    monkeypatch.setattr(ch09, "_RANGE_RUNS", {})
+    fresh = ch09.outlier_view(amplitude=60.0, spacing=250)
+    for name in ("robust_error", "flagged", "fix_error", "track_error"):
+        np.testing.assert_array_equal(getattr(reused, name), getattr(fresh, name))
+    assert reused.summary == fresh.summary

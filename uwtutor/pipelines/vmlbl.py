@@ -140,7 +140,8 @@ class VMLBLResult:
 def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: Any, dt: Any = 1.0,
                 times: ArrayLike | None = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
                 range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
-                fix_options: dict[str, Any] | None = None, smooth: bool = False) -> VMLBLResult:
+                fix_options: dict[str, Any] | None = None, smooth: bool = False,
+                range_result: FilterResult | None = None) -> VMLBLResult:
     r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.
 
     The arguments come in the filters' order, the dead reckoning ``u`` before the ranges ``z``; the ship's path
@@ -177,6 +178,10 @@ def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: A
         Further keyword arguments for :func:`~uwtutor.filters.robust.cascade_kf`.
     smooth : bool, default False
         Also run the RTS smoother over the cascade filter.
+    range_result : FilterResult, optional
+        The range filter's result on these ``ranges`` with these ``range_options`` (``ranges`` of a call made
+        before, e.g. with another ``spacing``): used as it is instead of running the range filter again. It must
+        have been computed on the same ranges; only its shape is checked.
 
     Returns
     -------
@@ -222,7 +227,17 @@ def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: A
     check_slant_ranges("ranges", rb, h)                     # the measured ones, before any preprocessing
     steps = step_lengths(K, dt, times)
     t = np.cumsum(steps) if times is None else as_finite("times", times, ndim=1)
-    if preprocess:
+    if range_result is not None and not preprocess:
+        raise ValueError("range_result is the range filter's result: it cannot be used with preprocess=False")
+    if range_result is not None:
+        if np.shape(range_result.x) not in ((M, K, 2), (K, 2)) or (np.ndim(range_result.x) == 2) == batched:
+            raise ValueError(f"range_result must be the range filter's result on these ranges, x of shape "
+                             f"{(M, K, 2) if batched else (K, 2)}; got {np.shape(range_result.x)}")
+        # with a runs axis, as the range filter gives it on the broadcast ranges
+        range_run = range_result if batched else _with_runs_axis(range_result)
+        used = np.maximum(range_run.x[..., 0], 0.0)
+        var = range_run.P[..., 0, 0]
+    elif preprocess:
         range_run = robust_range_kf(rb, dt, times=times, **(range_options or {}))
         # Near the beacon the constant-velocity range filter can extrapolate below zero (the range rate flips
         # sign at the closest approach); a range is a length, so the fix gets zero there.
@@ -297,6 +312,15 @@ def _with_runs(res: FilterResult, rows: np.ndarray) -> FilterResult:
                         P_prior=None if res.P_prior is None else fill(res.P_prior), innovations=fill(res.innovations),
                         innovation_cov=fill(res.innovation_cov),
                         extras={k: fill(v) for k, v in res.extras.items()})
+
+
+def _with_runs_axis(res: FilterResult) -> FilterResult:
+    """A single run's result with a runs axis of one (the inverse of ``_first_run``)."""
+    return FilterResult(times=res.times, x=res.x[None], P=res.P[None],
+                        x_prior=None if res.x_prior is None else res.x_prior[None],
+                        P_prior=None if res.P_prior is None else res.P_prior[None],
+                        innovations=res.innovations[None], innovation_cov=res.innovation_cov[None],
+                        extras={name: np.asarray(a)[None] for name, a in res.extras.items()})
 
 
 def _first_run(res: FilterResult) -> FilterResult:

@@ -124,6 +124,22 @@ def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) 
     return _PLAIN[key]
 
 
+#: The range filter's results, by (amplitude, pattern, seed, range options): the last few.
+_RANGE_RUNS: dict[tuple, Any] = {}
+
+
+def _range_run(key: tuple) -> Any:
+    """The range filter's result kept for ``key`` (a new spacing reuses it: only the fixes and the cascade filter
+    depend on the spacing), or None."""
+    return _RANGE_RUNS.get(key)
+
+
+def _keep_range_run(key: tuple, result: Any) -> None:
+    if len(_RANGE_RUNS) >= 16:
+        _RANGE_RUNS.pop(next(iter(_RANGE_RUNS)), None)
+    _RANGE_RUNS[key] = result
+
+
 def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float = 0.03, spacing: int = 100,
                  test: str = "paper", reacquire: bool = True, seed: int = 0) -> OutlierView:
     r"""Run paper E's OR-VMLBL-KF on one simulated dive with the chosen outliers.
@@ -191,11 +207,12 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     e, mask = model.sample_with_mask(truth_r, times, rng)
     ranges = np.asarray(dive.slant_ranges[0]) + e
     options = {"delta": d, "test": test, "reacquire": 20 if reacquire else None}
+    key = (a, pattern, seed, d, test, bool(reacquire))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IllConditionedWarning)
         out = or_vmlbl_kf(dive.dr_positions[0], ranges, ship_positions=dive.ship_positions[0], depth=dive.depth,
-                          spacing=s,
-                          range_options=options)
+                          spacing=s, range_options=options, range_result=_range_run(key))
+    _keep_range_run(key, out.ranges)
     plain = _standard_kf(a, pattern, seed, ranges)
     truth = np.asarray(dive.true_positions[0])[out.now]
     fix_err = np.linalg.norm(out.fixes - truth, axis=-1)
@@ -282,8 +299,11 @@ def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
     a["plain"].set_ydata(view.plain_error)
     a["robust"].set_ydata(view.robust_error)
     a["flagged"].set_data(t[view.flagged], view.range_error[view.flagged])
-    lim = _range_limit(view)
-    if ax_r.get_ylim() != (-lim, lim):
+    lim, shown = _range_limit(view), ax_r.get_ylim()[1]
+    # the limit shown is kept while the data and the legend fit in it and fill at least half of it (the axes, and
+    # the pixels kept of them, stay as they are); a new one gets room to grow by a few steps of the size slider
+    if not lim <= shown <= 2.0 * lim:
+        lim = 1.3 * lim if lim > shown else lim
         ax_r.set_ylim(-lim, lim)
     a["fixes"].set_data(view.fix_times, view.fix_error)
     a["track"].set_data(view.fix_times, view.track_error)
