@@ -73,6 +73,9 @@ class OutlierView:
         ``"flagged"`` (fraction of the outliers flagged), ``"good_flagged"`` (fraction of the good ranges flagged),
         ``"rms_fix"``, ``"rms_track"`` [m], ``"within_10_fix"``, ``"within_10_track"`` (fraction of fixes with an
         error under 10 % of the slant range).
+    filtered : bool
+        False in the widget's first picture of a new setting: the measured ranges and the outliers only, the
+        filters' arrays NaN (nothing flagged, no fixes) and the summary NaN, while the filters run.
 
     Examples
     --------
@@ -99,6 +102,7 @@ class OutlierView:
     fix_error: np.ndarray
     track_error: np.ndarray
     summary: dict[str, float]
+    filtered: bool = True
 
 
 @functools.lru_cache(maxsize=4)
@@ -122,6 +126,38 @@ def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) 
             _PLAIN.pop(next(iter(_PLAIN)))
         _PLAIN[key] = robust_range_kf(ranges, 1.0, test="none")
     return _PLAIN[key]
+
+
+def _measured(a: float, pattern: str, seed: int) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The dive, its epoch times, true slant ranges, the measured ranges with the outliers, and the outliers' mask
+    (checked arguments)."""
+    dive, state = _dive(seed)
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state                     # where the stream stood after the dive was drawn
+    times = np.asarray(dive.times)
+    truth_r = np.asarray(dive.true_slant_ranges[0])
+    if pattern == "paper":
+        model = Outliers((300.0,), 10, a) + Outliers((700.0,), 20, a, two_sided=True)
+    elif pattern == "isolated":
+        model = Outliers((), 1, a, two_sided=True, probability=0.02)
+    else:
+        model = Outliers((500.0,), 40, a)
+    e, mask = model.sample_with_mask(truth_r, times, rng)
+    return dive, times, truth_r, np.asarray(dive.slant_ranges[0]) + e, mask
+
+
+def _measured_view(amplitude: float, pattern: str, delta: float, spacing: int, test: str, reacquire: bool,
+                   seed: int = 0) -> OutlierView:
+    """The widget's first picture of a new setting (``OutlierView.filtered`` False): the measured ranges of
+    ``outlier_view`` with the same arguments, without running the filters."""
+    dive, times, truth_r, ranges, mask = _measured(float(amplitude), pattern, int(seed))
+    none = np.full(len(times), np.nan)
+    return OutlierView(amplitude=float(amplitude), pattern=pattern, delta=float(delta), spacing=int(spacing),
+                       test=test, reacquire=bool(reacquire), times=times, range_error=ranges - truth_r,
+                       plain_error=none, robust_error=none, outlier=mask, flagged=np.zeros(len(times), bool),
+                       fix_times=np.empty(0), fix_error=np.empty(0), track_error=np.empty(0),
+                       summary=dict.fromkeys(("flagged", "good_flagged", "rms_fix", "rms_track", "within_10_fix",
+                                              "within_10_track"), float("nan")), filtered=False)
 
 
 #: The range filter's results, by (amplitude, pattern, seed, range options): the last few.
@@ -193,19 +229,7 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     if not isinstance(reacquire, (bool, np.bool_)):
         raise TypeError(f"reacquire must be True or False; got {reacquire!r}")
     seed = as_int("seed", seed, minimum=0)
-    dive, state = _dive(seed)
-    rng = np.random.default_rng()
-    rng.bit_generator.state = state                     # where the stream stood after the dive was drawn
-    times = np.asarray(dive.times)
-    truth_r = np.asarray(dive.true_slant_ranges[0])
-    if pattern == "paper":
-        model = Outliers((300.0,), 10, a) + Outliers((700.0,), 20, a, two_sided=True)
-    elif pattern == "isolated":
-        model = Outliers((), 1, a, two_sided=True, probability=0.02)
-    else:
-        model = Outliers((500.0,), 40, a)
-    e, mask = model.sample_with_mask(truth_r, times, rng)
-    ranges = np.asarray(dive.slant_ranges[0]) + e
+    dive, times, truth_r, ranges, mask = _measured(a, pattern, seed)
     options = {"delta": d, "test": test, "reacquire": 20 if reacquire else None}
     key = (a, pattern, seed, d, test, bool(reacquire))
     with warnings.catch_warnings():
@@ -238,6 +262,8 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
 
 def _range_limit(view: OutlierView) -> float:
     """The range-error axis: symmetric, with a band above the largest outlier or filter error for the legend."""
+    if not view.filtered:                               # the filters' curves are still to come
+        return max(10.0, 1.6 * view.amplitude)
     reach = max(view.amplitude, float(np.nanmax(np.abs(view.plain_error))), float(np.nanmax(np.abs(view.robust_error))))
     return max(10.0, 1.6 * reach)
 
@@ -277,6 +303,11 @@ def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
 
 
 def _outlier_titles(view: OutlierView, ax_r: Any, ax_p: Any) -> list[Any]:
+    if not view.filtered:
+        ax_r.set_title(f"{view.pattern} outliers of {view.amplitude:g} m, δ = {view.delta:.3g}: the filters are "
+                       "running…", fontsize=8)
+        ax_p.set_title(f"epochs {view.spacing} s apart: fixes and cascade filter to come…", fontsize=8)
+        return [ax_r.title, ax_p.title]
     s = view.summary
     # δ rounded as its slider shows it (three significant digits)
     ax_r.set_title(f"{view.pattern} outliers of {view.amplitude:g} m, δ = {view.delta:.3g}: "
@@ -294,6 +325,17 @@ def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
     if a["test"] != view.test:
         return None
     ax_r, ax_p = fig.axes[:2]
+    if not view.filtered:           # the measured ranges only, over the kept axes (drawn at once) ...
+        a["measured"].set_ydata(view.range_error)
+        a["plain"].set_ydata(view.plain_error)
+        a["robust"].set_ydata(view.robust_error)
+        for name in ("flagged", "fixes", "track"):
+            a[name].set_data([], [])
+        lim = _range_limit(view)
+        if lim > ax_r.get_ylim()[1]:    # ... unless the new outliers outgrow them
+            ax_r.set_ylim(-1.3 * lim, 1.3 * lim)
+        return [a["measured"], a["plain"], a["robust"], a["flagged"], a["fixes"], a["track"],
+                *_outlier_titles(view, ax_r, ax_p)]
     t = view.times
     a["measured"].set_ydata(view.range_error)
     a["plain"].set_ydata(view.plain_error)
@@ -316,8 +358,10 @@ def outlier_widget() -> Any:
     """Outlier amplitude and pattern, the test and its δ, the epoch spacing and re-acquisition over the view.
 
     Each new setting runs paper E's whole method on the chapter's dive, as the chapter does (the range filter, the
-    fixes and the cascade filter over 1201 epochs, and the standard KF when the outliers change): about half a
-    second of computation; a setting shown before comes back at once.
+    fixes and the cascade filter over 1201 epochs, and the standard KF when the outliers change; a new spacing
+    reuses the range filter): a quarter to half a second of computation. In a live kernel the measured ranges of
+    the new setting are shown at once, titled "the filters are running…", and the filters' answer replaces them
+    when it is ready (``_panel.slider_panel``'s ``refine``); a setting shown before comes back at once.
 
     Examples
     --------
@@ -340,8 +384,19 @@ def outlier_widget() -> Any:
         "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
     }
     view = functools.lru_cache(maxsize=256)(outlier_view)
-    return slider_panel(sliders, lambda fig, **p: plot_outlier_view(view(**p), fig),
-                        lambda fig, **p: update_outlier_view(fig, view(**p)))
+    full: dict[tuple, OutlierView] = {}                 # the views computed, by setting (as view's cache)
+
+    def answer(coarse: bool, **p: Any) -> OutlierView:
+        key = tuple(p.values())
+        if key in full or not coarse:
+            return full.setdefault(key, view(**p))
+        return _measured_view(**p)          # the new ranges at once; the filters' answer follows
+
+    def refine(**p: Any) -> Callable[[], Any] | None:
+        return None if tuple(p.values()) in full else functools.partial(answer, False, **p)
+
+    return slider_panel(sliders, lambda fig, coarse, **p: plot_outlier_view(answer(coarse, **p), fig),
+                        lambda fig, coarse, **p: update_outlier_view(fig, answer(coarse, **p)), refine=refine)
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
