@@ -320,9 +320,10 @@ def _outlier_titles(view: OutlierView, ax_r: Any, ax_p: Any) -> list[Any]:
 
 def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
     """Put another ``OutlierView`` into a figure drawn by ``plot_outlier_view``; returns what changed (``None``, to
-    draw anew, when the test changes: its name is in the legend)."""
+    draw anew, when the test changes: its name is in the legend; a view of the measured ranges alone, whose
+    filter curves are hidden, leaves the legend to the full view that follows)."""
     a = kept(fig)
-    if a["test"] != view.test:
+    if a["test"] != view.test and view.filtered:
         return None
     ax_r, ax_p = fig.axes[:2]
     if not view.filtered:           # the measured ranges only, over the kept axes (drawn at once) ...
