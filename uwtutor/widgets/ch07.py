@@ -321,6 +321,11 @@ def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | N
 def bias_tracking_widget() -> Any:
     """Sliders for the bias drift rate, the initial error and the α threshold over paper A's IEKF (chapter 7).
 
+    Each new setting computes the chapter's 30 runs of 2000 ranges (both filters; an α move only the pre-positioned
+    one): about half a second. In a live kernel the first picture of a new setting shows the same runs over their
+    first 200 epochs (400 for an α move), titled "first ... s…", and the full answer replaces it when it is ready
+    (``_panel.slider_panel``'s ``refine``); a setting shown before comes back at once.
+
     Examples
     --------
     >>> # computes the chapter's 30 runs of 2000 ranges: about a second
