@@ -232,7 +232,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     True
     """
     gtsam = _import_gtsam()
-    from gtsam.symbol_shorthand import B, S, X  # type: ignore[import-not-found]
+    from gtsam.symbol_shorthand import B, S, X
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.start is None:
@@ -265,7 +265,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     steps_of: list[Any] = [None] * n           # what moves node i - 1 to node i (iSAM2's initial guesses)
     node_factors: list[list[Any]] = [[] for _ in range(n)]
     node_values = [gtsam.Values() for _ in range(n)]
-    walk_b, walk_s = _start_factors(gtsam, data, beacons, node_factors[0], node_values[0],
+    walk_b, walk_s = _start_factors(gtsam, data.start, data.start_cov, beacons, node_factors[0], node_values[0],
                                     (gyro_bias_prior, gyro_bias_walk) if with_bias else None,
                                     (scale_prior, scale_walk) if with_scale else None)
     sigma_d = a + c * np.abs(data.odometry[:, 0])
@@ -326,7 +326,7 @@ def _joined(gtsam: Any, node_factors: list[list[Any]], node_values: list[Any]) -
 def _import_gtsam() -> Any:
     """The gtsam module, or an error that says how to install it."""
     try:
-        import gtsam  # type: ignore[import-not-found]
+        import gtsam
     except ModuleNotFoundError:
         raise ModuleNotFoundError('gtsam_map needs GTSAM: pip install "uwtutor[data]" (or pip install '
                                   '"gtsam>=4.3,<4.4")') from None
@@ -355,8 +355,7 @@ def _solve_in_batch(gtsam: Any, graph: Any, values: Any, iterations: int) -> tup
 
 
 def _pose_epochs(z: np.ndarray, times: np.ndarray, interval: float) -> np.ndarray:
-    """The epochs that get a pose variable with a gyro bias: the first, the last, every one with a range, and
-    enough others that no two variables are more than ``interval`` seconds apart."""
+    """The epochs with a pose variable: the first, the last, every one with a range, and no gap over ``interval``."""
     K = len(times)
     keep = np.isfinite(z).any(axis=1)
     keep[[0, K - 1]] = True
@@ -369,9 +368,8 @@ def _pose_epochs(z: np.ndarray, times: np.ndarray, interval: float) -> np.ndarra
 
 
 def _insert_guess(gtsam: Any, values: Any, i: int, pose: np.ndarray, with_bias: bool, with_scale: bool) -> None:
-    """Node ``i``'s initial values: the guessed pose, a gyro bias of 0 and a range scale of 1 (where the graph has
-    them)."""
-    from gtsam.symbol_shorthand import B, S, X  # type: ignore[import-not-found]
+    """Node ``i``'s initial values: the guessed pose, gyro bias 0 and range scale 1 (where the graph has them)."""
+    from gtsam.symbol_shorthand import B, S, X
     values.insert(X(i), gtsam.Pose2(*map(float, pose)))
     if with_bias:
         values.insert(B(i), 0.0)
@@ -379,14 +377,14 @@ def _insert_guess(gtsam: Any, values: Any, i: int, pose: np.ndarray, with_bias: 
         values.insert(S(i), 1.0)
 
 
-def _start_factors(gtsam: Any, data: RangeDataset, beacons: np.ndarray, first: list[Any], values: Any,
-                   bias: tuple[Any, Any] | None, scale: tuple[Any, Any] | None) -> tuple[float, float]:
-    """Add the priors of the first node (start pose, gyro bias and range scale, each ``(prior, walk)`` or None for
-    a graph without it) and, without a scale, the beacons fixed where they are; return the checked walks (0 if
-    none)."""
-    from gtsam.symbol_shorthand import B, L, S, X  # type: ignore[import-not-found]
-    first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, data.start)),
-                                        gtsam.noiseModel.Gaussian.Covariance(np.asarray(data.start_cov, float))))
+def _start_factors(gtsam: Any, start: np.ndarray, start_cov: np.ndarray | None, beacons: np.ndarray, first: list[Any],
+                   values: Any, bias: tuple[Any, Any] | None, scale: tuple[Any, Any] | None) -> tuple[float, float]:
+    """Add the first node's priors (and the fixed beacons); return the checked bias and scale walks (0: no chain)."""
+    # bias and scale: (prior, walk) as given, or None for a graph without that chain; without a scale the beacons
+    # are variables fixed where they are (RangeFactor2D ranges to a variable)
+    from gtsam.symbol_shorthand import B, L, S, X
+    first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, start)),
+                                        gtsam.noiseModel.Gaussian.Covariance(np.asarray(start_cov, float))))
     walk_b = walk_s = 0.0
     if bias is not None:
         first.append(gtsam.PriorFactorDouble(B(0), 0.0, gtsam.noiseModel.Isotropic.Sigma(
@@ -406,10 +404,10 @@ def _start_factors(gtsam: Any, data: RangeDataset, beacons: np.ndarray, first: l
 
 def _odometry_factors(gtsam: Any, i: int, step: Any, span: float, sigmas: tuple[float, float, float],
                       walk_b: float, walk_s: float) -> list[Any]:
-    """The factors between node ``i - 1`` and node ``i``, ``span`` seconds apart: the odometry (a pre-integrated
-    ``_Segment`` with the gyro bias, else one step ``(d, turn)`` with its ``sigmas`` along, across and in heading)
-    and the random walks of the bias and the scale (a walk of 0: no such chain)."""
-    from gtsam.symbol_shorthand import B, S, X  # type: ignore[import-not-found]
+    """The factors from node ``i - 1`` to node ``i``: the odometry, then the bias and scale walks (0: no chain)."""
+    # step: a _Segment pre-integrated with the gyro bias, else one step (d, turn) with ``sigmas`` along, across
+    # and in heading; span: the seconds between the two nodes
+    from gtsam.symbol_shorthand import B, S, X
     factors: list[Any] = []
     if isinstance(step, _Segment):
         factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(step.covariance),
@@ -428,9 +426,8 @@ def _odometry_factors(gtsam: Any, i: int, step: Any, span: float, sigmas: tuple[
 
 def _range_factors(gtsam: Any, i: int, z: np.ndarray, beacons: np.ndarray, noise: Any, with_scale: bool
                    ) -> list[Any]:
-    """One factor per range of node ``i`` (``z`` one epoch's row, NaN where a beacon has none): the scaled range
-    (a ``CustomFactor``) with a scale, GTSAM's ``RangeFactor2D`` to the fixed beacon without."""
-    from gtsam.symbol_shorthand import L, S, X  # type: ignore[import-not-found]
+    """One factor per range in ``z`` (node ``i``'s row): the scaled range with a scale, ``RangeFactor2D`` without."""
+    from gtsam.symbol_shorthand import L, S, X
     if with_scale:
         return [gtsam.CustomFactor(noise, [X(i), S(i)], _scaled_range_error(beacons[j], float(z[j])))
                 for j in np.nonzero(np.isfinite(z))[0].tolist()]
@@ -440,7 +437,7 @@ def _range_factors(gtsam: Any, i: int, z: np.ndarray, beacons: np.ndarray, noise
 def _solve_incrementally(gtsam: Any, node_factors: list[list[Any]], node_values: list[Any], steps_of: list[Any],
                          with_bias: bool, with_scale: bool, iterations: int) -> Any:
     """iSAM2 fed node by node, each new node's guess from the estimate so far; its estimate after the last node."""
-    from gtsam.symbol_shorthand import B, S, X  # type: ignore[import-not-found]
+    from gtsam.symbol_shorthand import B, S, X
     isam_params = gtsam.ISAM2Params()
     isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
     isam = gtsam.ISAM2(isam_params)

@@ -1248,8 +1248,7 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
 
 @dataclass(frozen=True)
 class _CaseReport:
-    """What the messages of :func:`check_function` about one case name: the function, the case, its inputs, and
-    the details every failure of the case carries (``case``, ``label``, ``inputs``, ``expected``)."""
+    """What :func:`check_function`'s messages about one case name, and the details each failure of it carries."""
 
     fname: str
     where: str
@@ -1281,8 +1280,7 @@ def _positional_names(reference: Callable[..., Any]) -> list[str]:
 
 def _call_student(func: Callable[..., Any], args: tuple, kwargs: dict, report: _CaseReport,
                   time_limit_s: float) -> tuple[Any, Feedback | None]:
-    """The student's result on one case, or the Feedback that says why there is none (too slow, ``sys.exit()``,
-    not answered, an exception): ``(got, None)`` or ``(None, feedback)``."""
+    """The student's result on one case, ``(got, None)``, or ``(None, feedback)`` saying why there is none."""
     fname, where_case, shown_inputs, base_details = report.fname, report.where, report.inputs, report.details
     try:
         with time_limit(time_limit_s):

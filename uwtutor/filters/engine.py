@@ -62,7 +62,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import warnings
-from typing import Any
+from typing import Any, cast
 
 from numpy.typing import ArrayLike
 
@@ -225,8 +225,7 @@ def _refuse_lost_psd(P: np.ndarray, R: np.ndarray, k: int) -> None:
 
 def _innovation_covariance(P: np.ndarray, H: np.ndarray, R: np.ndarray
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """H and R runs-last, P H^T (n, m, M) and S = H P H^T + R (m, m, M) for P runs-last, H (M, m, n), R (m, m) or
-    (M, m, m)."""
+    """H and R runs-last, P H^T (n, m, M) and S = H P H^T + R (m, m, M), for P runs-last and H (M, m, n)."""
     Hc = _runs_last(H)                                           # (m, n, M)
     Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
     PHT = _mm_t(P, Hc)                                           # P H^T, (n, m, M)
@@ -521,7 +520,7 @@ class ExtendedKalmanFilter(Configurable):
         finite = self._check_used_values(present, z_pred, H, R, k)
         if finite:
             self._check_R(R)
-        has = present.any(axis=1)
+        has = cast(np.ndarray, present.any(axis=1))
         # A run with some components missing, or values that are not finite where nothing is measured: zero rows
         # of H and identity rows of R, so that the update is the one with the present components. (Runs with all or
         # none of their components take the plain path, as they always did: the gain of the latter is zeroed.)
@@ -532,7 +531,7 @@ class ExtendedKalmanFilter(Configurable):
         y = self.measurement.residual(z, z_pred)
         use, used = has, present                                     # per run (M,), per component (M, m)
         if self.gate is not None:
-            use, used = self._gate_verdict(GateContext(
+            use, used = self._gate_verdict(self.gate, GateContext(
                 k=k, z=z, z_pred=z_pred, y=np.where(present, y, np.nan), S=_runs_first(S), H=H, R=R, x_prior=x,
                 P_prior=_runs_first(P), present=present), has)
             narrowed = use & (used != present).any(axis=1)           # some of a run's components rejected
@@ -587,11 +586,10 @@ class ExtendedKalmanFilter(Configurable):
                     "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
         return present & defined
 
-    def _gate_verdict(self, ctx: GateContext, has: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _gate_verdict(self, gate: Gate, ctx: GateContext, has: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The gate's accept, checked: which runs (M,) and which components (M, m) the update uses."""
         M, m = self._M, self.m
-        verdict = as_bool_array(f"the gate {type(self.gate).__name__}.accept", self.gate.accept(ctx),
-                                ((M,), (M, m)))
+        verdict = as_bool_array(f"the gate {type(gate).__name__}.accept", gate.accept(ctx), ((M,), (M, m)))
         present = ctx.present_mask()
         if verdict.shape == (M,):
             return has & verdict, present
@@ -741,8 +739,7 @@ class ExtendedKalmanFilter(Configurable):
                                                    for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted"))
 
     def _z_steps(self, z: np.ndarray, K: int) -> np.ndarray | None:
-        """The measurements of the K steps as (K, M, m), each the array ``update(z[k])`` would see, or None where a
-        step's shape is not one ``update`` takes."""
+        """The K steps' measurements (K, M, m) as ``update(z[k])`` sees them; None for a shape it does not take."""
         batched, M, m = self._batched, self._M, self.m
         z_step = z.shape[1:] if not batched else (M,) + z.shape[2:]          # the shape update(z[k]) sees
         steps = np.moveaxis(z, 1, 0) if batched else z
@@ -753,8 +750,7 @@ class ExtendedKalmanFilter(Configurable):
         return None
 
     def _u_steps(self, u: np.ndarray, K: int) -> np.ndarray | None:
-        """The inputs of the K steps, step axis first (each the array ``predict(u[k])`` would see), or None where
-        they are not finite or a step's shape is not one ``predict`` takes."""
+        """The K steps' inputs, steps first, as ``predict(u[k])`` sees them; None if not finite or not its shape."""
         batched, M = self._batched, self._M
         u_shared = batched and u.ndim == 2
         u_axis = 0 if u_shared else (1 if batched else 0)
@@ -774,8 +770,7 @@ class ExtendedKalmanFilter(Configurable):
 
     def _as_result(self, times: np.ndarray, fields: dict[str, np.ndarray | None],
                    recorded: dict[str, np.ndarray]) -> FilterResult:
-        """The result of ``_run_steps`` from its step-first arrays (K, M, ...): runs first, or without the runs axis
-        for an unbatched filter."""
+        """The result from the step-first arrays (K, M, ...): runs first, or no runs axis for an unbatched filter."""
         batched = self._batched
         stacked: dict[str, Any] = {name: None if h is None else np.moveaxis(h, 0, 1) if batched else h[:, 0]
                                    for name, h in fields.items()}

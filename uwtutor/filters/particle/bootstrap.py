@@ -798,8 +798,7 @@ class BootstrapParticleFilter(Configurable):
 
     def _innovation_statistics(self, view: np.ndarray, z: np.ndarray, k: int, reuse: bool,
                                missing: np.ndarray | None) -> tuple[Any, np.ndarray]:
-        """Set ``y`` and ``S`` from the predicted particles ``view`` (M, N, n) (NaN where ``missing``); return their
-        predictions ``h(x)`` and the noise R."""
+        """Set ``y`` and ``S`` from the predicted particles (NaN where ``missing``); return their ``h(x)`` and R."""
         m = z.shape[1]
         hx = self.measurement.h(view, k)
         if hx is not view:
@@ -823,8 +822,7 @@ class BootstrapParticleFilter(Configurable):
 
     def _weighted_log_likelihood(self, view: np.ndarray, hx: Any, z: np.ndarray, R: np.ndarray,
                                  k: int) -> np.ndarray:
-        """The log of the new unnormalized weights (M, N): the log-likelihood plus the log of the weights before
-        (w_i <- w_i p(z | x_i), in log space)."""
+        """The logs (M, N) of the new weights before normalizing: w_i <- w_i p(z | x_i), in log space."""
         logw = self._log_weights(view, hx, z, R, k)
         if getattr(logw, "shape", None) != self._w.shape:
             raise ValueError(f"the measurement model's log_likelihood must return one value per particle and run, "
@@ -835,8 +833,7 @@ class BootstrapParticleFilter(Configurable):
         return logw
 
     def _reweighted(self, logw: np.ndarray, none: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """The normalized weights (M, N) from their logs, and each run's largest log (M, 1); runs in ``none``
-        (nothing measured) keep their weights. An error where a run has no particle with a likelihood."""
+        """The normalized weights (M, N) and each run's largest log (M, 1); the runs in ``none`` keep theirs."""
         M = logw.shape[0]
         if M == 1 and none is None:                       # one run: the same arithmetic on its row
             top1 = np.maximum.reduce(logw[0])
