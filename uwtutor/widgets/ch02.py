@@ -13,7 +13,7 @@ import numpy as np
 from .. import motion, observability
 from .._validate import as_scalar
 from ..plotting import mark_beacon, plot_track
-from ._panel import keep, kept, rescale, slider_panel
+from ._panel import keep, kept, rescale, slider_panel, snap_to_decades
 
 __all__ = [
     "TRACK_CHOICES",
@@ -213,10 +213,10 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ellipses = []
     for _k, pts in _ellipses(view):
         ellipses.append(ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
-                                    label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")[0])
+                                    label=None if drawn else _ellipse_label(view, True))[0])
         drawn = True
     if not drawn:
-        ax_map.plot([], [], color=colors[view.state], label=f"{view.state}: no finite bound")
+        ax_map.plot([], [], color=colors[view.state], label=_ellipse_label(view, False))
     # frame the tracks, not the ellipses (an early ellipse can be kilometres long)
     pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -266,6 +266,7 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_rmse.legend(loc="upper right", fontsize=6.5)
     ax_rmse.tick_params(labelsize=7)
     ax_rmse.minorticks_off()
+    snap_to_decades(ax_rmse)            # as the updates keep them (see ``rescale``)
     return keep(fig, tracks=tracks, ellipses=ellipses, state=view.state, misfit=misfit, noise=noise, ranks=ranks,
                 bounds=bounds)
 
@@ -284,18 +285,21 @@ def _ellipses(view: ObservabilityView) -> list[tuple[int, np.ndarray]]:
     return out
 
 
+def _ellipse_label(view: ObservabilityView, drawn: bool) -> str:
+    """The map legend's entry for the ellipses (``drawn``: some bound is finite)."""
+    return f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})" if drawn else f"{view.state}: no finite bound"
+
+
 def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | None:
-    """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed,
-    or ``None`` when it must be drawn anew (other unknowns, or another number of finite ellipses)."""
+    """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed.
+
+    Other unknowns, another track and another number of finite ellipses (none among them) are all put in place:
+    the ellipse lines are reused, added or removed and recoloured, and the map legend's last entry follows."""
     a = kept(fig)
     ellipses = _ellipses(view)
-    if not ellipses or not a["ellipses"]:              # the legend names "no finite bound": drawn anew
-        return None
     ax_map, ax_mis, ax_rank, ax_rmse = fig.axes[:4]
     a["tracks"][0].set_data(*view.positions.T)
     a["tracks"][1].set_data(*view.mirror_positions.T)
-    # other unknowns or another number of finite ellipses: the ellipse lines are reused, added or removed and
-    # coloured for the unknowns, the legend's entry follows (no new axes: the figure is not drawn anew)
     color = _STATE_COLORS[view.state]
     lines = a["ellipses"]
     while len(lines) > len(ellipses):
@@ -305,14 +309,11 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     for line, (_, pts) in zip(lines, ellipses):
         line.set_data(pts[:, 0], pts[:, 1])
         line.set_color(color)
+    # the map legend is redrawn at every update (so never kept in the background, where its old entry would show)
     map_legend = ax_map.get_legend()
-    changed_legend = []
-    if view.state != a["state"]:
-        a["state"] = view.state
-        handle = map_legend.legend_handles[-1]
-        handle.set_color(color)
-        map_legend.get_texts()[-1].set_text(f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")
-        changed_legend = [map_legend]
+    map_legend.legend_handles[-1].set_color(color)
+    map_legend.get_texts()[-1].set_text(_ellipse_label(view, bool(ellipses)))
+    a["state"] = view.state
     pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
@@ -336,8 +337,10 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
         line.set_data(t_min, np.where(np.isfinite(e), e, np.nan))
         finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
     ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
-    rescale(ax_rmse)
-    return [*a["tracks"], *a["ellipses"], *changed_legend, ax_map.title, a["misfit"], a["noise"], legend,
+    # whole decades, kept while at most three are spare: the early bound of one track can be 100 times another's,
+    # and most moves then keep the axes (and their pixels)
+    rescale(ax_rmse, decades=True, spare_decades=3.0)
+    return [*a["tracks"], *lines, map_legend, ax_map.title, a["misfit"], a["noise"], legend,
             ax_mis.title, *a["ranks"], *a["bounds"], ax_rmse.title]
 
 
