@@ -290,14 +290,35 @@ def _same_background(a: tuple | None, b: tuple, tolerance: float = 2e-3) -> bool
     return True
 
 
+def _axes_boxes(ax: Any, renderer: Any) -> list[Any]:
+    """The rectangles (display units, whole pixels with a pixel to spare) that cover what ``ax`` draws: its frame,
+    and each of its axis (ticks and labels), titles, legends and texts that reach outside the frame. Finer than
+    one bounding box (a legend below a map and the neighbour's tick labels beside it can share no pixel while their
+    common bounding box would)."""
+    from matplotlib.transforms import Bbox
+
+    frame = ax.get_window_extent(renderer)
+    found = [frame]
+    for artist in [ax.xaxis, ax.yaxis, *ax.get_default_bbox_extra_artists()]:
+        box = artist.get_tightbbox(renderer)
+        if box is None or not (box.width > 0 and box.height > 0) or not np.all(np.isfinite(box.extents)):
+            continue
+        if frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 and box.y1 <= frame.y1:
+            continue                                # inside the frame: covered by it
+        found.append(box)
+    return [Bbox([[np.floor(b.x0) - 1, np.floor(b.y0) - 1], [np.ceil(b.x1) + 1, np.ceil(b.y1) + 1]]) for b in found]
+
+
 class BlitRenderer:
     """PNGs of one figure whose ``dynamic`` artists change between pictures, drawn over a kept background.
 
     ``png(dynamic)`` marks the artists ``dynamic`` as animated (so a plain draw leaves them out), draws the rest of
     the figure only when the axes changed since the last picture (or on the first), and otherwise restores its
-    pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew),
-    and so does a ``dynamic`` that holds the figure itself (its artists changed in place all over: colours, tick
-    labels).
+    pixels; then it draws the dynamic artists over it. When only some axes changed, and the area each of them
+    covers (with its tick labels, title and legend, before and after) meets no other axes' area, only those axes
+    are drawn again and put into the kept pixels (``_redraw_axes``); otherwise the whole background is drawn.
+    ``png(None)`` draws everything (the figure was made anew), and so does a ``dynamic`` that holds the figure itself
+    (its artists changed in place all over: colours, tick labels).
 
     Examples
     --------
@@ -320,6 +341,7 @@ class BlitRenderer:
         self.signature: tuple | None = None
         self.dynamic: list[Any] = []
         self.left_out: list[Any] = []               # the dynamic artists the kept background was drawn without
+        self.regions: list[list[Any]] | None = None  # what each axes covers in the kept background
 
     def png(self, dynamic: Sequence[Any] | None) -> bytes:
         if not self._background(dynamic):          # drawn anew, or changed all over: a full draw
@@ -350,14 +372,69 @@ class BlitRenderer:
             artist.set_animated(True)
         signature = _axes_signature(self.fig)
         if self.background is None or not _same_background(self.signature, signature):
-            self.canvas.draw()                      # everything but the dynamic artists
-            self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
-            self.left_out = list(self.dynamic)
+            if not self._redraw_axes(signature):
+                self.canvas.draw()                  # everything but the dynamic artists
+                self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
+                self.left_out = list(self.dynamic)
+                renderer = self.canvas.get_renderer()
+                self.regions = [_axes_boxes(ax, renderer) for ax in self.fig.axes]
         else:
             self.canvas.restore_region(self.background)
             # an artist left out of the kept background but not changed this time is drawn all the same (else it
             # would vanish from the picture), unless it has been removed from the figure since
             self.dynamic += [a for a in self.left_out if a not in self.dynamic and a.figure is not None]
+        return True
+
+    def _redraw_axes(self, signature: tuple) -> bool:
+        """Draw again, into the kept background, only the axes whose limits changed (``signature``: the figure's
+        ``_axes_signature`` now); False, with the kept background left as it was, when the whole figure must be
+        drawn instead: no background yet, axes moved or rescaled, figure-level artists, or a changed axes' area
+        that meets another axes' area.
+
+        The changed axes are drawn (without their dynamic artists) on the bare figure, and the rectangles they
+        cover, before or after (``_axes_boxes``), are copied from that drawing over the kept pixels. Within those
+        rectangles nothing else is drawn, so the result is the picture a whole draw would give, at the cost of
+        those axes alone.
+        """
+        from matplotlib.transforms import Bbox
+
+        fig, old = self.fig, self.signature
+        if self.background is None or self.regions is None or old is None or len(old) != len(signature) \
+                or len(self.regions) != len(fig.axes):
+            return False
+        changed = [i for i, (a, b) in enumerate(zip(old, signature)) if not _same_background((a,), (b,))]
+        if not changed or len(changed) == len(signature) or any(old[i][:3] != signature[i][:3] for i in changed):
+            return False
+        if any(child is not fig.patch and child not in fig.axes for child in fig.get_children()):
+            return False
+        renderer = self.canvas.get_renderer()
+        renderer.clear()
+        fig.patch.draw(renderer)
+        axes = [fig.axes[i] for i in changed]
+        for ax in sorted(axes, key=lambda a: a.get_zorder()):
+            ax.draw(renderer)                       # its dynamic artists (animated) are left out, as in a full draw
+        regions = list(self.regions)
+        boxes = []
+        for i, ax in zip(changed, axes):
+            regions[i] = _axes_boxes(ax, renderer)
+            boxes += self.regions[i] + regions[i]   # before and after
+        within = fig.bbox
+        boxes = [b for b in (Bbox.intersection(b, within) for b in boxes) if b is not None and b.width > 0
+                 and b.height > 0]
+        others = [b for j in range(len(fig.axes)) if j not in changed for b in self.regions[j]]
+        for box in boxes:
+            for other in others:
+                meet = Bbox.intersection(box, other)
+                if meet is not None and meet.width > 0 and meet.height > 0:
+                    return False
+        parts = [self.canvas.copy_from_bbox(box) for box in boxes]
+        self.canvas.restore_region(self.background)
+        for part in parts:
+            self.canvas.restore_region(part)
+        self.background, self.signature, self.regions = self.canvas.copy_from_bbox(fig.bbox), signature, regions
+        # the kept pixels now leave out this picture's dynamic artists in the changed axes, and the earlier ones
+        # elsewhere
+        self.left_out = [a for a in self.left_out if getattr(a, "axes", None) not in axes] + list(self.dynamic)
         return True
 
 

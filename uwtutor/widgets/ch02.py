@@ -116,6 +116,38 @@ def _make_track(track: str, turn_angle_deg: float, times: np.ndarray) -> motion.
     raise ValueError(f"track must be one of {', '.join(repr(t) for t in TRACK_CHOICES)}; got {track!r}")
 
 
+def _track_and_mirror(track: str, turn_angle_deg: float, times: np.ndarray,
+                      beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The true track and its mirror (the same shape from the start reflected across the line through the beacon
+    along the initial heading), each shape (K, 2) [m]."""
+    tr = _make_track(track, turn_angle_deg, times)
+    p = np.array(tr.positions)
+    mirror_start = observability.mirror_point(p[0], beacon, tr.velocities[0])
+    return p, mirror_start + (p - p[0])
+
+
+@functools.lru_cache(maxsize=4)
+def _widget_frame(angles: tuple[float, ...]) -> tuple[float, float, float, float]:
+    """Map limits (x0, x1, y0, y1) [m] that hold every track of ``TRACK_CHOICES`` and its mirror at each turn angle
+    of ``angles``, framed as ``plot_observability_view`` frames one view: chosen once for the widget, so that a
+    move of the track or the turn angle keeps the map's axes (and the pixels drawn of them)."""
+    times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
+    beacon = np.zeros(2)
+    points = [beacon[None, :]]
+    for track in TRACK_CHOICES:
+        for angle in (angles if track == "straight + turn" else angles[:1]):
+            points += list(_track_and_mirror(track, angle, times, beacon))
+    return _frame(np.vstack(points))
+
+
+def _frame(pts: np.ndarray) -> tuple[float, float, float, float]:
+    """The square map limits (x0, x1, y0, y1) around the points ``pts``, shape (N, 2), with a fifth of their
+    extent to spare."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
+    return (float(center[0] - half), float(center[0] + half), float(center[1] - half), float(center[1] + half))
+
+
 def observability_view(track: str = "straight + turn", turn_angle_deg: float = 60.0, sigma: float = 5.0,
                        state: str = "position") -> ObservabilityView:
     """Compute everything the observability widget shows (see ``ObservabilityView``).
@@ -162,11 +194,8 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
     theta = as_scalar("turn_angle_deg", turn_angle_deg)
     s = as_scalar("sigma", sigma, domain="positive")
     times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
-    tr = _make_track(track, theta, times)
     beacon = np.zeros(2)
-    p = np.array(tr.positions)
-    mirror_start = observability.mirror_point(p[0], beacon, tr.velocities[0])
-    mirror = mirror_start + (p - p[0])
+    p, mirror = _track_and_mirror(track, theta, times, beacon)
     misfit = np.hypot(*(mirror - beacon).T) - np.hypot(*(p - beacon).T)
     ranks, n_states, rmse = {}, {}, {}
     crlb = np.empty((len(times), 2, 2))
@@ -184,9 +213,13 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
                              n_states=n_states, rmse=rmse, crlb=crlb)
 
 
-def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
+def plot_observability_view(view: ObservabilityView, fig: Any = None,
+                            frame: tuple[float, float, float, float] | None = None) -> Any:
     """Draw an ``ObservabilityView``: the track with its mirror and CRLB ellipses, the mirror's range misfit, the
     rank of the information over time and the RMSE bound of each choice of unknowns.
+
+    ``frame``, the map limits (x0, x1, y0, y1) [m], defaults to a square around this view's tracks; the widget
+    gives one that holds every track it offers (its updates then keep it).
 
     Examples
     --------
@@ -218,11 +251,9 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     if not drawn:
         ax_map.plot([], [], color=colors[view.state], label=_ellipse_label(view, False))
     # frame the tracks, not the ellipses (an early ellipse can be kilometres long)
-    pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
-    ax_map.set_xlim(center[0] - half, center[0] + half)
-    ax_map.set_ylim(center[1] - half, center[1] + half)
+    x0, x1, y0, y1 = frame or _frame(np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]]))
+    ax_map.set_xlim(x0, x1)
+    ax_map.set_ylim(y0, y1)
     ax_map.set_aspect("equal", adjustable="box")
     ax_map.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=7)
     ax_map.set_xlabel("x east [m]", fontsize=8)
@@ -268,7 +299,7 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_rmse.minorticks_off()
     snap_to_decades(ax_rmse)            # as the updates keep them (see ``rescale``)
     return keep(fig, tracks=tracks, ellipses=ellipses, state=view.state, misfit=misfit, noise=noise, ranks=ranks,
-                bounds=bounds)
+                bounds=bounds, frame=frame)
 
 
 #: The colour of each choice of unknowns (its ellipses, rank and bound).
@@ -318,7 +349,9 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
     (x0, x1), (y0, y1) = ax_map.get_xlim(), ax_map.get_ylim()
-    if not (x0 <= lo[0] and hi[0] <= x1 and y0 <= lo[1] and hi[1] <= y1 and 2 * half >= 0.6 * (x1 - x0)):
+    inside = x0 <= lo[0] and hi[0] <= x1 and y0 <= lo[1] and hi[1] <= y1
+    # the widget's frame holds every track it offers: kept; another frame is kept while the tracks fill enough of it
+    if not (inside and (a["frame"] is not None or 2 * half >= 0.6 * (x1 - x0))):
         half *= 1.15                    # the frame changes: with room for the next step of the same control
         ax_map.set_xlim(center[0] - half, center[0] + half)
         ax_map.set_ylim(center[1] - half, center[1] + half)
@@ -367,7 +400,9 @@ def observability_widget() -> Any:
                             style=style),
     }
     view = functools.lru_cache(maxsize=256)(observability_view)
-    return slider_panel(sliders, lambda fig, **p: plot_observability_view(view(**p), fig),
+    turn = sliders["turn_angle_deg"]
+    frame = _widget_frame(tuple(float(a) for a in range(turn.min, turn.max + 1, turn.step)))
+    return slider_panel(sliders, lambda fig, **p: plot_observability_view(view(**p), fig, frame),
                         lambda fig, **p: update_observability_view(fig, view(**p)))
 
 

@@ -261,16 +261,17 @@ def _fading_titles(view: FadingView, ax_err: Any, ax_lam: Any) -> list[Any]:
 
 def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (the
-    legends among them when the weakening factor is switched: the fading filter's name changes)."""
+    legends among them: the fading filter's name changes with the weakening factor)."""
     a = kept(fig)
     ax_map, ax_err, ax_lam = fig.axes[:3]
-    legends = []
+    # both legends are redrawn at every update, so never kept in the background (where the old name would show
+    # under the new one)
+    legends = [ax_map.get_legend(), ax_err.get_legend()]
     if a["weakening"] != view.weakening:            # the fading filter's name changes in both legends
         old, new = (_fading_name(w) for w in (a["weakening"], view.weakening))
-        for legend in (ax_map.get_legend(), ax_err.get_legend()):
+        for legend in legends:
             for text in legend.get_texts():
                 text.set_text(text.get_text().replace(old, new))
-            legends.append(legend)
         a["weakening"] = view.weakening
     ekf, ekf0, fading, fading0 = a["tracks"]
     ekf.set_data(*view.x_ekf[:, :2].T)
