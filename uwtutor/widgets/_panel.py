@@ -7,8 +7,10 @@ an ``update`` function, the artists of the figure already drawn take the new dat
 ``set_offsets``, ``set_text``): no axes, ticks or layout are made again. The picture is then drawn *by blitting*:
 the figure without the artists that change (axes, ticks, labels, grid: the "background") is drawn once and kept as
 pixels; each update restores those pixels and draws only the changed artists on them, unless the axes themselves
-changed (limits, scale, position), which draws the background again. The PNG goes to an ``ipywidgets.Image`` as bytes
-(one comm message, no base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
+changed (limits, scale, position), which draws the background again: of those axes alone when what they cover meets
+no other axes. ``rescale`` keeps limits while the data fits them (in whole decades on a log axis, if asked), so that
+most moves of a control keep the background. The PNG goes to an ``ipywidgets.Image`` as bytes (one comm message, no
+base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
 the chapter's plot function. ``make bench`` times every control of every widget in JupyterLab.
 """
 
