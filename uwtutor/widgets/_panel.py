@@ -72,7 +72,7 @@ def _encode_png(canvas: Any) -> bytes:
         b"\x89PNG\r\n\x1a\n",
         _png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)),
         _png_chunk(b"pHYs", struct.pack(">IIB", per_metre, per_metre, 1)),
-        _png_chunk(b"IDAT", zlib.compress(rows, 1)),
+        _png_chunk(b"IDAT", zlib.compress(memoryview(rows), 1)),
         _png_chunk(b"IEND", b""),
     ])
 
@@ -219,8 +219,8 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15, decade
             lo, hi = min(o0, o1), max(o0, o1)
             fits[i] = inside = lo <= min(n0, n1) and max(n0, n1) <= hi
             if decades and scale == "log":
-                snapped[i] = _decades(n0, n1)
-                spans[i] = (hi - lo) <= snapped[i][1] - snapped[i][0] + spare_decades + 1e-9
+                d0, d1 = snapped[i] = _decades(n0, n1)
+                spans[i] = (hi - lo) <= d1 - d0 + spare_decades + 1e-9
             else:
                 spans[i] = abs(n1 - n0) >= keep_within * (hi - lo)
             grow[i] = not inside
@@ -245,8 +245,9 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15, decade
         for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
             if (i == 0 and ax.get_autoscalex_on() is False) or (i == 1 and ax.get_autoscaley_on() is False):
                 continue
-            if snapped[i] is not None:                  # whole decades, grown or shrunk
-                limits = (10.0 ** snapped[i][0], 10.0 ** snapped[i][1])
+            whole = snapped[i]
+            if whole is not None:                       # whole decades, grown or shrunk
+                limits = (10.0 ** whole[0], 10.0 ** whole[1])
             elif not grow[i]:
                 continue
             elif scale == "log":
