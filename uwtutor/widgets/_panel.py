@@ -72,7 +72,7 @@ def _encode_png(canvas: Any) -> bytes:
         b"\x89PNG\r\n\x1a\n",
         _png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)),
         _png_chunk(b"pHYs", struct.pack(">IIB", per_metre, per_metre, 1)),
-        _png_chunk(b"IDAT", zlib.compress(memoryview(rows), 1)),
+        _png_chunk(b"IDAT", zlib.compress(rows.tobytes(), 1)),
         _png_chunk(b"IEND", b""),
     ])
 
