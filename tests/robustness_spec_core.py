@@ -387,6 +387,8 @@ EXEMPT_CORE: dict[str, str] = {
                                       "filters.gates: specified), called with their checked arrays",
     "uwtutor._linalg:psd_violations": "the filter engine's per-step check of its own covariances (runs-last arrays "
                                       "the engine builds), never called with user data",
+    "uwtutor._linalg:distances": "the unchecked kernel of the ranges the models' h, the scenarios and the datasets "
+                                 "compute, called with the positions they built or checked",
     "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
     "uwtutor.plotting:check_legends_on_display": "no arguments: wraps IPython's figure formatter, if there is one",
     "uwtutor.plotting:use_sharp_figures": "no arguments: sets IPython's figure format, if there is one",

@@ -229,3 +229,59 @@ def test_a_refinement_left_behind_is_not_shown(monkeypatch):
     assert wait_refined(panel, timeout=30.0)
     assert jobs == [-2.0]                         # the older setting's work skipped, not drawn over the newer
     assert bytes(image.value) == _full_png(-2.0)
+
+
+def _two_panels():
+    """A figure of two axes side by side, a line in each, and the reference picture maker: a whole background
+    drawn without the dynamic artists, then those drawn over it (what the renderer gave before any kept pixels)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.0, 2.0), dpi=60)
+    left, right = fig.subplots(1, 2, gridspec_kw={"wspace": 0.5})   # room between them for the tick labels
+    (a,) = left.plot([0, 1], [0, 1])
+    (b,) = right.plot([0, 1], [1, 0])
+    legend = right.legend(["b"], loc="lower left")
+    return fig, left, right, a, b, legend
+
+
+def _whole(fig, dynamic):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    for artist in dynamic:
+        artist.set_animated(True)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for artist in sorted(dynamic, key=lambda x: x.get_zorder()):
+        artist.draw(renderer)
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+def test_redrawing_only_the_changed_axes_gives_the_picture_of_a_whole_draw():
+    from uwtutor.widgets._panel import BlitRenderer
+
+    fig, left, right, a, b, _ = _two_panels()
+    renderer = BlitRenderer(fig)
+    renderer.png(None)
+    renderer.prime([a, b])
+    whole_draws = []
+    draw = renderer.canvas.draw
+    renderer.canvas.draw = lambda: whole_draws.append(1) or draw()
+    a.set_ydata([0, 50])                       # the left axes' limits change (new ticks); the right's do not
+    left.set_ylim(0, 50)
+    png = renderer.png([a, b])
+    assert not whole_draws                     # only the left axes was drawn again
+    assert np.array_equal(_pixels(png), _whole(fig, [a, b]))
+
+
+def test_an_artist_left_out_of_the_kept_background_is_still_drawn():
+    # the legend was dynamic when the background was kept; a later update that leaves it out must still show it
+    from uwtutor.widgets._panel import BlitRenderer
+
+    fig, left, right, a, b, legend = _two_panels()
+    renderer = BlitRenderer(fig)
+    renderer.png(None)
+    renderer.prime([a, b, legend])
+    b.set_ydata([0.5, 0.2])
+    png = renderer.png([a, b])
+    assert np.array_equal(_pixels(png), _whole(fig, [a, b, legend]))

@@ -65,3 +65,25 @@ def test_plot_and_panel():
     assert panel.children[2].children[0].value != before
     controls[0].value = "all"
     plt.close("all")
+
+
+def test_switching_the_scale_estimate_on_and_off_updates_in_place():
+    # the scale panel's band, estimate, note and legend follow the states without drawing the figure anew
+    fig = ch11.plot_real_data_view(ch11.real_data_view("5", None, "+ scale and gyro bias"))
+    axes = list(fig.axes)
+    for states in ("pose only", "+ scale", "+ gyro bias"):
+        view = ch11.real_data_view("5", None, states)
+        changed = ch11.update_real_data_view(fig, view)
+        assert changed is not None and fig not in changed and fig.axes == axes, states
+        fresh = ch11.plot_real_data_view(view)
+
+        def shown(f):
+            ax_s = f.axes[2]
+            texts = [t.get_text() for t in ax_s.texts if t.get_visible()]
+            legends = [[t.get_text() for t in lg.get_texts()] for lg in [ax_s.get_legend(), *ax_s.artists]
+                       if lg.get_visible()]
+            return texts, legends
+
+        assert shown(fig) == shown(fresh), states
+        plt.close(fresh)
+    plt.close(fig)

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive,
                          as_times, readonly)
 from ..motion import integrate_odometry
@@ -525,8 +526,7 @@ class RangeDataset:
         if self.truth is None:
             raise ValueError(f"true_ranges needs the truth, and {self.name!r} has none (truth=None)")
         b = self.beacon_positions(beacon_ids)
-        diff = self.truth[:, None, :2] - b[None, :, :]
-        return np.hypot(diff[..., 0], diff[..., 1])
+        return distances(self.truth[:, None, :2], b[None, :, :])
 
     # ------------------------------------------------------------------------------------------------------------
     # saving and showing
@@ -733,6 +733,6 @@ def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeData
     truth = RangeDataset(times=times, odometry=odometry, ranges=np.empty((0, 3)), beacons=beacons,
                          start=[0.0, 0.0, 0.0]).dead_reckoning()
     ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
-    r = float(s) * np.linalg.norm(truth[1:, :2] - [beacons[i] for i in ids], axis=1) + b
+    r = float(s) * distances(truth[1:, :2], np.array([beacons[i] for i in ids]), "norm") + b
     return RangeDataset(times=times, odometry=odometry, ranges=np.column_stack([np.arange(1.0, K), ids, r]),
                         beacons=beacons, truth=truth)

@@ -231,12 +231,8 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     >>> bool(np.abs(pose_only.poses[:, :2] - data.truth[:, :2]).max() < 0.05)
     True
     """
-    try:
-        import gtsam  # type: ignore[import-not-found]
-        from gtsam.symbol_shorthand import B, L, S, X  # type: ignore[import-not-found]
-    except ModuleNotFoundError:
-        raise ModuleNotFoundError('gtsam_map needs GTSAM: pip install "uwtutor[data]" (or pip install '
-                                  '"gtsam>=4.3,<4.4")') from None
+    gtsam = _import_gtsam()
+    from gtsam.symbol_shorthand import B, S, X
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.start is None:
@@ -251,13 +247,7 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     z = (data.ranges_on_epochs(ids, min_period=min_period, offset=offset, thinning=thinning)
          / _positive("range_scale", range_scale))
     beacons = data.beacon_positions(ids)
-    # bounded like the other standard deviations, so that the factors' information neither underflows nor overflows
-    a, c = (float(v) for v in as_nonnegative("distance_sigma", distance_sigma, shape=(2,)))
-    if max(a, c) > 1e6:
-        raise ValueError(f"distance_sigma must be at most 1e+06 (a standard deviation in m and m/m); got "
-                         f"({a:.3g}, {c:.3g}). Check its units")
-    if a <= 0.0:
-        raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
+    a, c = _distance_sigma(distance_sigma)
     across = _positive("across_sigma", across_sigma)
     q_heading = _positive("heading_noise", (1e-3 if model == "navigate" else HEADING_NOISE)
                           if heading_noise is None else heading_noise)
@@ -266,121 +256,41 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     K = data.n_epochs
     guess = data.dead_reckoning() if initial is None else as_finite("initial", initial, shape=(K, 3))
     dt = np.diff(data.times, prepend=data.times[0])
-
     # the pose variables: every epoch, except with a gyro bias, where the odometry between two variables is
     # pre-integrated (one factor per segment; _Segment) and the poses between are filled in after the solve
-    if with_bias:
-        interval = _positive("pose_interval", pose_interval)
-        keep = np.isfinite(z).any(axis=1)
-        keep[[0, K - 1]] = True
-        last = data.times[0]
-        for k in range(K):
-            if keep[k] or data.times[k] - last >= interval:
-                keep[k] = True
-                last = data.times[k]
-        kept = np.nonzero(keep)[0]
-    else:
-        kept = np.arange(K)
-    unit = gtsam.noiseModel.Isotropic.Sigma(1, sigma_r)
-    range_noise = (gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), unit)
-                   if robust == "huber" else unit)
+    kept = (_pose_epochs(z, data.times, _positive("pose_interval", pose_interval)) if with_bias
+            else np.arange(K))
+    range_noise = _range_noise(gtsam, sigma_r, robust)
     n = len(kept)
     steps_of: list[Any] = [None] * n           # what moves node i - 1 to node i (iSAM2's initial guesses)
     node_factors: list[list[Any]] = [[] for _ in range(n)]
     node_values = [gtsam.Values() for _ in range(n)]
-    first = node_factors[0]
-    first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, data.start)),
-                                        gtsam.noiseModel.Gaussian.Covariance(np.asarray(data.start_cov, float))))
-    if with_bias:
-        first.append(gtsam.PriorFactorDouble(B(0), 0.0, gtsam.noiseModel.Isotropic.Sigma(
-            1, _positive("gyro_bias_prior", gyro_bias_prior))))
-        walk_b = _positive("gyro_bias_walk", gyro_bias_walk)
-    if with_scale:
-        first.append(gtsam.PriorFactorDouble(S(0), 1.0, gtsam.noiseModel.Isotropic.Sigma(
-            1, _positive("scale_prior", scale_prior))))
-        walk_s = _positive("scale_walk", scale_walk)
-    if not with_scale:
-        for j, b in enumerate(beacons):
-            point = gtsam.Point2(float(b[0]), float(b[1]))
-            node_values[0].insert(L(j), point)
-            first.append(gtsam.NonlinearEqualityPoint2(L(j), point))
+    walk_b, walk_s = _start_factors(gtsam, data.start, data.start_cov, beacons, node_factors[0], node_values[0],
+                                    (gyro_bias_prior, gyro_bias_walk) if with_bias else None,
+                                    (scale_prior, scale_walk) if with_scale else None)
     sigma_d = a + c * np.abs(data.odometry[:, 0])
     sigma_theta = q_heading * np.sqrt(dt) + 1e-9
     for i, k in enumerate(kept.tolist()):
-        values, factors = node_values[i], node_factors[i]
-        values.insert(X(i), gtsam.Pose2(*map(float, guess[k])))
-        if with_bias:
-            values.insert(B(i), 0.0)
-        if with_scale:
-            values.insert(S(i), 1.0)
+        factors = node_factors[i]
+        _insert_guess(gtsam, node_values[i], i, guess[k], with_bias, with_scale)
         if i > 0:
             before = int(kept[i - 1])
-            span = float(data.times[k] - data.times[before])
+            steps = slice(before + 1, k + 1)
             if with_bias:
-                steps = slice(before + 1, k + 1)
-                segment = _Segment(data.odometry[steps], dt[steps], sigma_d[steps], sigma_theta[steps], across)
-                steps_of[i] = segment
-                factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(segment.covariance),
-                                                  [X(i - 1), X(i), B(i - 1)], segment.error))
-                factors.append(gtsam.BetweenFactorDouble(B(i - 1), B(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
-                    1, walk_b * np.sqrt(span) + 1e-12)))
+                steps_of[i] = _Segment(data.odometry[steps], dt[steps], sigma_d[steps], sigma_theta[steps], across)
             else:
-                d, turn = (float(v) for v in data.odometry[k])
-                steps_of[i] = (d, turn)
-                odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([sigma_d[k], across, sigma_theta[k]]))
-                factors.append(gtsam.BetweenFactorPose2(X(i - 1), X(i), gtsam.Pose2(d, 0.0, turn), odo_noise))
-            if with_scale:
-                factors.append(gtsam.BetweenFactorDouble(S(i - 1), S(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
-                    1, walk_s * np.sqrt(span) + 1e-12)))
-        for j in np.nonzero(np.isfinite(z[k]))[0].tolist():
-            if with_scale:
-                factors.append(gtsam.CustomFactor(range_noise, [X(i), S(i)],
-                                                  _scaled_range_error(beacons[j], float(z[k, j]))))
-            else:
-                factors.append(gtsam.RangeFactor2D(X(i), L(j), float(z[k, j]), range_noise))
+                steps_of[i] = tuple(float(v) for v in data.odometry[k])
+            factors.extend(_odometry_factors(gtsam, i, steps_of[i], float(data.times[k] - data.times[before]),
+                                             (float(sigma_d[k]), across, float(sigma_theta[k])), walk_b, walk_s))
+        factors.extend(_range_factors(gtsam, i, z[k], beacons, range_noise, with_scale))
 
-    graph = gtsam.NonlinearFactorGraph()
-    values = gtsam.Values()
-    for factors, vals in zip(node_factors, node_values):
-        for f in factors:
-            graph.add(f)
-        values.insert(vals)
+    graph, values = _joined(gtsam, node_factors, node_values)
     start = time.perf_counter()
     if solver == "lm":
-        params = gtsam.LevenbergMarquardtParams()
-        params.setMaxIterations(iterations)
-        optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
-        solution = optimizer.optimize()
-        n_iter = int(optimizer.iterations())
+        solution, n_iter = _solve_in_batch(gtsam, graph, values, iterations)
     else:
-        isam_params = gtsam.ISAM2Params()
-        isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
-        isam = gtsam.ISAM2(isam_params)
-        for i, (factors, vals) in enumerate(zip(node_factors, node_values)):
-            step = gtsam.NonlinearFactorGraph()
-            for f in factors:
-                step.add(f)
-            if i > 0:
-                # each new node starts where the current estimate and its odometry put it (the dead reckoning
-                # of the whole log can be far off by then, and iSAM2's Gauss-Newton steps are not damped)
-                vals = gtsam.Values()
-                before = isam.calculateEstimatePose2(X(i - 1))
-                bias_now = isam.calculateEstimateDouble(B(i - 1)) if with_bias else 0.0
-                if with_bias:
-                    seg = steps_of[i]
-                    dx, dy = seg.delta + seg.jac * bias_now
-                    c0, s0 = math.cos(before.theta()), math.sin(before.theta())
-                    vals.insert(X(i), gtsam.Pose2(before.x() + c0 * dx - s0 * dy, before.y() + s0 * dx + c0 * dy,
-                                                  before.theta() + seg.phi - seg.elapsed * bias_now))
-                    vals.insert(B(i), bias_now)
-                else:
-                    vals.insert(X(i), before.compose(gtsam.Pose2(steps_of[i][0], 0.0, steps_of[i][1])))
-                if with_scale:
-                    vals.insert(S(i), isam.calculateEstimateDouble(S(i - 1)))
-            isam.update(step, vals)
-        for _ in range(iterations if iterations < 10 else 10):   # let the last relinearizations settle
-            isam.update()
-        solution = isam.calculateEstimate()
+        solution = _solve_incrementally(gtsam, node_factors, node_values, steps_of, with_bias, with_scale,
+                                        iterations)
         n_iter = 0
     seconds = time.perf_counter() - start
     nodes = np.array([[p.x(), p.y(), p.theta()] for p in (solution.atPose2(X(i)) for i in range(n))])
@@ -393,6 +303,169 @@ def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
                          seconds=seconds, gyro_bias=bias[per_epoch] if with_bias else nan,
                          scale=np.array([solution.atDouble(S(i)) for i in range(n)])[per_epoch] if with_scale
                          else nan, model=model, solver=solver, n_poses=n)
+
+
+def _range_noise(gtsam: Any, sigma: float, robust: str | None) -> Any:
+    """The noise model of every range factor: sigma, behind a Huber kernel (k = 1.345) with ``robust="huber"``."""
+    unit = gtsam.noiseModel.Isotropic.Sigma(1, sigma)
+    return (gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), unit)
+            if robust == "huber" else unit)
+
+
+def _joined(gtsam: Any, node_factors: list[list[Any]], node_values: list[Any]) -> tuple[Any, Any]:
+    """The whole graph and its initial values, from those of every node in order."""
+    graph = gtsam.NonlinearFactorGraph()
+    values = gtsam.Values()
+    for factors, vals in zip(node_factors, node_values):
+        for f in factors:
+            graph.add(f)
+        values.insert(vals)
+    return graph, values
+
+
+def _import_gtsam() -> Any:
+    """The gtsam module, or an error that says how to install it."""
+    try:
+        import gtsam
+    except ModuleNotFoundError:
+        raise ModuleNotFoundError('gtsam_map needs GTSAM: pip install "uwtutor[data]" (or pip install '
+                                  '"gtsam>=4.3,<4.4")') from None
+    return gtsam
+
+
+def _distance_sigma(value: Any) -> tuple[float, float]:
+    """``distance_sigma`` checked: the odometry's (a, c) of a + c |d|, a > 0, both at most 1e6."""
+    # bounded like the other standard deviations, so that the factors' information neither underflows nor overflows
+    a, c = (float(v) for v in as_nonnegative("distance_sigma", value, shape=(2,)))
+    if max(a, c) > 1e6:
+        raise ValueError(f"distance_sigma must be at most 1e+06 (a standard deviation in m and m/m); got "
+                         f"({a:.3g}, {c:.3g}). Check its units")
+    if a <= 0.0:
+        raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
+    return a, c
+
+
+def _solve_in_batch(gtsam: Any, graph: Any, values: Any, iterations: int) -> tuple[Any, int]:
+    """Levenberg--Marquardt from ``values``: the solution and the iterations it took."""
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(iterations)
+    optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, params)
+    solution = optimizer.optimize()
+    return solution, int(optimizer.iterations())
+
+
+def _pose_epochs(z: np.ndarray, times: np.ndarray, interval: float) -> np.ndarray:
+    """The epochs with a pose variable: the first, the last, every one with a range, and no gap over ``interval``."""
+    K = len(times)
+    keep = np.isfinite(z).any(axis=1)
+    keep[[0, K - 1]] = True
+    last = times[0]
+    for k in range(K):
+        if keep[k] or times[k] - last >= interval:
+            keep[k] = True
+            last = times[k]
+    return np.nonzero(keep)[0]
+
+
+def _insert_guess(gtsam: Any, values: Any, i: int, pose: np.ndarray, with_bias: bool, with_scale: bool) -> None:
+    """Node ``i``'s initial values: the guessed pose, gyro bias 0 and range scale 1 (where the graph has them)."""
+    from gtsam.symbol_shorthand import B, S, X
+    values.insert(X(i), gtsam.Pose2(*map(float, pose)))
+    if with_bias:
+        values.insert(B(i), 0.0)
+    if with_scale:
+        values.insert(S(i), 1.0)
+
+
+def _start_factors(gtsam: Any, start: np.ndarray, start_cov: np.ndarray | None, beacons: np.ndarray, first: list[Any],
+                   values: Any, bias: tuple[Any, Any] | None, scale: tuple[Any, Any] | None) -> tuple[float, float]:
+    """Add the first node's priors (and the fixed beacons); return the checked bias and scale walks (0: no chain)."""
+    # bias and scale: (prior, walk) as given, or None for a graph without that chain; without a scale the beacons
+    # are variables fixed where they are (RangeFactor2D ranges to a variable)
+    from gtsam.symbol_shorthand import B, L, S, X
+    first.append(gtsam.PriorFactorPose2(X(0), gtsam.Pose2(*map(float, start)),
+                                        gtsam.noiseModel.Gaussian.Covariance(np.asarray(start_cov, float))))
+    walk_b = walk_s = 0.0
+    if bias is not None:
+        first.append(gtsam.PriorFactorDouble(B(0), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, _positive("gyro_bias_prior", bias[0]))))
+        walk_b = _positive("gyro_bias_walk", bias[1])
+    if scale is not None:
+        first.append(gtsam.PriorFactorDouble(S(0), 1.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, _positive("scale_prior", scale[0]))))
+        walk_s = _positive("scale_walk", scale[1])
+    else:
+        for j, b in enumerate(beacons):
+            point = gtsam.Point2(float(b[0]), float(b[1]))
+            values.insert(L(j), point)
+            first.append(gtsam.NonlinearEqualityPoint2(L(j), point))
+    return walk_b, walk_s
+
+
+def _odometry_factors(gtsam: Any, i: int, step: Any, span: float, sigmas: tuple[float, float, float],
+                      walk_b: float, walk_s: float) -> list[Any]:
+    """The factors from node ``i - 1`` to node ``i``: the odometry, then the bias and scale walks (0: no chain)."""
+    # step: a _Segment pre-integrated with the gyro bias, else one step (d, turn) with ``sigmas`` along, across
+    # and in heading; span: the seconds between the two nodes
+    from gtsam.symbol_shorthand import B, S, X
+    factors: list[Any] = []
+    if isinstance(step, _Segment):
+        factors.append(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Covariance(step.covariance),
+                                          [X(i - 1), X(i), B(i - 1)], step.error))
+        factors.append(gtsam.BetweenFactorDouble(B(i - 1), B(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, walk_b * np.sqrt(span) + 1e-12)))
+    else:
+        d, turn = step
+        odo_noise = gtsam.noiseModel.Diagonal.Sigmas(np.array(sigmas))
+        factors.append(gtsam.BetweenFactorPose2(X(i - 1), X(i), gtsam.Pose2(d, 0.0, turn), odo_noise))
+    if walk_s:
+        factors.append(gtsam.BetweenFactorDouble(S(i - 1), S(i), 0.0, gtsam.noiseModel.Isotropic.Sigma(
+            1, walk_s * np.sqrt(span) + 1e-12)))
+    return factors
+
+
+def _range_factors(gtsam: Any, i: int, z: np.ndarray, beacons: np.ndarray, noise: Any, with_scale: bool
+                   ) -> list[Any]:
+    """One factor per range in ``z`` (node ``i``'s row): the scaled range with a scale, ``RangeFactor2D`` without."""
+    from gtsam.symbol_shorthand import L, S, X
+    if with_scale:
+        return [gtsam.CustomFactor(noise, [X(i), S(i)], _scaled_range_error(beacons[j], float(z[j])))
+                for j in np.nonzero(np.isfinite(z))[0].tolist()]
+    return [gtsam.RangeFactor2D(X(i), L(j), float(z[j]), noise) for j in np.nonzero(np.isfinite(z))[0].tolist()]
+
+
+def _solve_incrementally(gtsam: Any, node_factors: list[list[Any]], node_values: list[Any], steps_of: list[Any],
+                         with_bias: bool, with_scale: bool, iterations: int) -> Any:
+    """iSAM2 fed node by node, each new node's guess from the estimate so far; its estimate after the last node."""
+    from gtsam.symbol_shorthand import B, S, X
+    isam_params = gtsam.ISAM2Params()
+    isam_params.relinearizeSkip = 1            # relinearize at every update, not every tenth
+    isam = gtsam.ISAM2(isam_params)
+    for i, (factors, vals) in enumerate(zip(node_factors, node_values)):
+        step = gtsam.NonlinearFactorGraph()
+        for f in factors:
+            step.add(f)
+        if i > 0:
+            # each new node starts where the current estimate and its odometry put it (the dead reckoning
+            # of the whole log can be far off by then, and iSAM2's Gauss-Newton steps are not damped)
+            vals = gtsam.Values()
+            before = isam.calculateEstimatePose2(X(i - 1))
+            bias_now = isam.calculateEstimateDouble(B(i - 1)) if with_bias else 0.0
+            if with_bias:
+                seg = steps_of[i]
+                dx, dy = seg.delta + seg.jac * bias_now
+                c0, s0 = math.cos(before.theta()), math.sin(before.theta())
+                vals.insert(X(i), gtsam.Pose2(before.x() + c0 * dx - s0 * dy, before.y() + s0 * dx + c0 * dy,
+                                              before.theta() + seg.phi - seg.elapsed * bias_now))
+                vals.insert(B(i), bias_now)
+            else:
+                vals.insert(X(i), before.compose(gtsam.Pose2(steps_of[i][0], 0.0, steps_of[i][1])))
+            if with_scale:
+                vals.insert(S(i), isam.calculateEstimateDouble(S(i - 1)))
+        isam.update(step, vals)
+    for _ in range(iterations if iterations < 10 else 10):   # let the last relinearizations settle
+        isam.update()
+    return isam.calculateEstimate()
 
 
 class _Segment:

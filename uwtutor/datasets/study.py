@@ -31,6 +31,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import as_choice, as_finite, as_scalar
 from ._core import RangeDataset
 
@@ -488,7 +489,7 @@ def fixes_within(run: Any, truth: Any, beacon: Any, fraction: float = 0.1) -> fl
     now = np.asarray(out.now)
     fix = np.asarray(out.track.x)[:, :2]
     true = np.asarray(truth, dtype=float)[now, :2]
-    dist = np.hypot(*(true - np.asarray(beacon, dtype=float)).T)
+    dist = distances(true, np.asarray(beacon, dtype=float))
     ok = np.isfinite(fix).all(axis=-1)
     return float(np.mean(np.hypot(*(fix[ok] - true[ok]).T) <= fraction * dist[ok]))
 

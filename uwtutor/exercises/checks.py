@@ -1205,19 +1205,10 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
     if not case_list:
         raise ValueError("check_function needs at least one test case")
     fname = name or getattr(func, "__name__", None) or "your function"
-    if _is_unanswered(func):
-        return Feedback(False, f"No answer yet: define the function `{fname}` (replace `None` with it).",
-                        hint="Write it in the answer cell above, run that cell, then this one.",
-                        details={"answered": False})
-    if not callable(func):
-        article = "an" if _type_name(func)[0].lower() in "aeiou" else "a"
-        return Feedback(False, f"`{fname}` is {article} {_type_name(func)}, not a function.",
-                        hint=f"Define it with `def {fname}(...):` and run that cell again.")
-    try:
-        param_names = [p.name for p in inspect.signature(reference).parameters.values()
-                       if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-    except (TypeError, ValueError):
-        param_names = []
+    refusal = _not_a_function(func, fname)
+    if refusal is not None:
+        return refusal
+    param_names = _positional_names(reference)
     n = len(case_list)
     for i, case in enumerate(case_list):
         label = f" ({case.label})" if case.label else ""
@@ -1227,41 +1218,11 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         where_case = f"case {i + 1} of {n}{label}"
         expected = reference(*copy.deepcopy(case.args), **copy.deepcopy(case.kwargs))
         args, kwargs = copy.deepcopy(case.args), copy.deepcopy(case.kwargs)
-        base_details = {"case": i, "label": case.label, "inputs": inputs, "expected": expected}
-        try:
-            with time_limit(time_limit_s):
-                got = func(*args, **kwargs)
-        except StudentTimeout:
-            return Feedback(False, f"{_NOT_YET}`{fname}` was still running after {time_limit_s:g} s on {where_case} "
-                                   "and was stopped.\nInputs: " + shown_inputs,
-                            hint="An endless loop? Check that every `while` loop changes what its condition tests, "
-                                 "and that a recursion reaches its base case.",
-                            details={**base_details, "timeout": time_limit_s})
-        except SystemExit as exc:
-            return Feedback(False, f"{_NOT_YET}`{fname}` called `sys.exit()` (or `exit()`/`quit()`) on {where_case}, "
-                                   f"which would stop the whole notebook (exit code {exc.code!r}).\nInputs: "
-                                   + shown_inputs,
-                            hint="Return a value instead of exiting; to signal a bad input, raise an exception "
-                                 "such as `ValueError`.",
-                            details={**base_details, "exception": exc})
-        except NotImplementedError:
-            return Feedback(False, f"No answer yet: `{fname}` still raises NotImplementedError.",
-                            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run "
-                                 "that cell, then this one.",
-                            details={**base_details, "answered": False})
-        except Exception as exc:  # the student's code failed: report it, never crash the checker
-            where = _where(exc)
-            message = (f"{_NOT_YET}`{fname}` raised {type(exc).__name__}: {exc} on {where_case}."
-                       f"\nInputs: {shown_inputs}")
-            if where:
-                message += f"\nWhere: {where}"
-                exc_hint = _exception_hint(exc)
-            elif isinstance(exc, TypeError) and "argument" in str(exc):  # raised by the call itself
-                exc_hint = f"`{fname}` must accept the arguments ({', '.join(inputs)}) in this order."
-            else:
-                exc_hint = _exception_hint(exc)
-            return Feedback(False, message, hint=exc_hint,
-                            details={**base_details, "exception": exc})
+        report = _CaseReport(fname, where_case, shown_inputs,
+                             {"case": i, "label": case.label, "inputs": inputs, "expected": expected})
+        got, failure = _call_student(func, args, kwargs, report, time_limit_s)
+        if failure is not None:
+            return failure
         try:
             with time_limit(time_limit_s):       # the returned object's own methods (__float__, __eq__...) run here
                 verdict = _judge(got, expected, compare, rtol, atol, case, names, args, kwargs, allow_mutation,
@@ -1272,40 +1233,130 @@ def check_function(func: Any, reference: Callable[..., Any], cases: Iterable[Any
         except Exception as exc:
             verdict = ("unreadable", f"`{fname}` returned {_a_type(got)} that could not be compared with the "
                        f"expected value ({type(exc).__name__}: {str(exc)[:80]})")
-        if isinstance(verdict, tuple) and verdict[0] == "unreadable":
-            return Feedback(False, f"{_NOT_YET}{where_case} fails: {verdict[1]}.\nInputs: {shown_inputs}"
-                                   + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else ""),
-                            hint="Return a number or a NumPy array of numbers, as the task asks.",
-                            details={**base_details, "got": got})
-        if isinstance(verdict, tuple) and verdict[0] == "mutated":
-            key = verdict[1]
-            return Feedback(False, f"{_NOT_YET}`{fname}` changed its input `{key}` in place on {where_case}.",
-                            hint="Work on a copy (for example `x = np.array(x, dtype=float)` makes one), so "
-                                 "that the caller's data stay untouched.",
-                            details={**base_details, "got": got})
-        if isinstance(verdict, tuple) and verdict[0] == "none":
-            return Feedback(False, f"{_NOT_YET}`{fname}` returned None on {where_case}.",
-                            hint="Did you forget the `return` statement at the end of the function?",
-                            details={**base_details, "got": got})
-        if not verdict:
-            core = verdict.message.removeprefix(_NOT_YET).removeprefix("No answer yet: ")
-            if core.startswith("Your answer is "):
-                core = f"`{fname}` returned " + core.removeprefix("Your answer is ")
-            message = (f"{_NOT_YET}{where_case} fails: {core}\nInputs: {shown_inputs}"
-                       + (f"\nExpected: {_fmt_value(expected)}" if reveal_expected else "")
-                       + f"\nGot: {_fmt_value(got)}")
+        if isinstance(verdict, tuple):
+            failure = _unjudged(verdict, got, report, reveal_expected)
+            if failure is not None:
+                return failure
+        elif not verdict:
             slip = _recognise_slip(got, case, mistakes, compare, rtol, atol, reveal_expected, time_limit_s)
-            if slip is not None and verdict.details.get("near_miss"):     # a known slip is no rounding
-                message = message.replace(core, f"`{fname}` returned {_fmt_value(got)}, which is not a rounding "
-                                                "of the expected result but a known slip (see the hint).")
-            best_hint = _best_hint(verdict, slip, case.hint, hint)
-            extra = {} if slip is None else {"slip": slip[0]}
-            return Feedback(False, message, hint=best_hint,
-                            details={**base_details, "got": got, "comparison": verdict, **extra})
+            return _wrong_value(verdict, got, slip, case.hint, hint, report, reveal_expected)
     message = f"Correct: `{fname}` passes all {n} test cases."
     if explanation:
         message += " " + explanation
     return Feedback(True, message)
+
+
+@dataclass(frozen=True)
+class _CaseReport:
+    """What :func:`check_function`'s messages about one case name, and the details each failure of it carries."""
+
+    fname: str
+    where: str
+    inputs: str
+    details: dict[str, Any]
+
+
+def _not_a_function(func: Any, fname: str) -> Feedback | None:
+    """The Feedback for an answer that is not a function yet (``None``, or not callable), else None."""
+    if _is_unanswered(func):
+        return Feedback(False, f"No answer yet: define the function `{fname}` (replace `None` with it).",
+                        hint="Write it in the answer cell above, run that cell, then this one.",
+                        details={"answered": False})
+    if not callable(func):
+        article = "an" if _type_name(func)[0].lower() in "aeiou" else "a"
+        return Feedback(False, f"`{fname}` is {article} {_type_name(func)}, not a function.",
+                        hint=f"Define it with `def {fname}(...):` and run that cell again.")
+    return None
+
+
+def _positional_names(reference: Callable[..., Any]) -> list[str]:
+    """The names of the reference's positional parameters (they label the inputs in the messages); [] if unknown."""
+    try:
+        return [p.name for p in inspect.signature(reference).parameters.values()
+                if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    except (TypeError, ValueError):
+        return []
+
+
+def _call_student(func: Callable[..., Any], args: tuple, kwargs: dict, report: _CaseReport,
+                  time_limit_s: float) -> tuple[Any, Feedback | None]:
+    """The student's result on one case, ``(got, None)``, or ``(None, feedback)`` saying why there is none."""
+    fname, where_case, shown_inputs, base_details = report.fname, report.where, report.inputs, report.details
+    try:
+        with time_limit(time_limit_s):
+            return func(*args, **kwargs), None
+    except StudentTimeout:
+        return None, Feedback(
+            False, f"{_NOT_YET}`{fname}` was still running after {time_limit_s:g} s on {where_case} and was "
+                   "stopped.\nInputs: " + shown_inputs,
+            hint="An endless loop? Check that every `while` loop changes what its condition tests, and that a "
+                 "recursion reaches its base case.",
+            details={**base_details, "timeout": time_limit_s})
+    except SystemExit as exc:
+        return None, Feedback(
+            False, f"{_NOT_YET}`{fname}` called `sys.exit()` (or `exit()`/`quit()`) on {where_case}, which would "
+                   f"stop the whole notebook (exit code {exc.code!r}).\nInputs: " + shown_inputs,
+            hint="Return a value instead of exiting; to signal a bad input, raise an exception such as "
+                 "`ValueError`.",
+            details={**base_details, "exception": exc})
+    except NotImplementedError:
+        return None, Feedback(
+            False, f"No answer yet: `{fname}` still raises NotImplementedError.",
+            hint="Replace the `raise NotImplementedError(...)` line in its body with your code, run that cell, "
+                 "then this one.",
+            details={**base_details, "answered": False})
+    except Exception as exc:  # the student's code failed: report it, never crash the checker
+        where = _where(exc)
+        message = (f"{_NOT_YET}`{fname}` raised {type(exc).__name__}: {exc} on {where_case}."
+                   f"\nInputs: {shown_inputs}")
+        if where:
+            message += f"\nWhere: {where}"
+            exc_hint = _exception_hint(exc)
+        elif isinstance(exc, TypeError) and "argument" in str(exc):  # raised by the call itself
+            exc_hint = f"`{fname}` must accept the arguments ({', '.join(base_details['inputs'])}) in this order."
+        else:
+            exc_hint = _exception_hint(exc)
+        return None, Feedback(False, message, hint=exc_hint, details={**base_details, "exception": exc})
+
+
+def _unjudged(verdict: tuple, got: Any, report: _CaseReport, reveal_expected: bool) -> Feedback | None:
+    """The Feedback for a result that could not be compared: unreadable, an input changed in place, or None."""
+    fname, where_case, base_details = report.fname, report.where, report.details
+    if verdict[0] == "unreadable":
+        return Feedback(False, f"{_NOT_YET}{where_case} fails: {verdict[1]}.\nInputs: {report.inputs}"
+                               + (f"\nExpected: {_fmt_value(base_details['expected'])}" if reveal_expected else ""),
+                        hint="Return a number or a NumPy array of numbers, as the task asks.",
+                        details={**base_details, "got": got})
+    if verdict[0] == "mutated":
+        key = verdict[1]
+        return Feedback(False, f"{_NOT_YET}`{fname}` changed its input `{key}` in place on {where_case}.",
+                        hint="Work on a copy (for example `x = np.array(x, dtype=float)` makes one), so "
+                             "that the caller's data stay untouched.",
+                        details={**base_details, "got": got})
+    if verdict[0] == "none":
+        return Feedback(False, f"{_NOT_YET}`{fname}` returned None on {where_case}.",
+                        hint="Did you forget the `return` statement at the end of the function?",
+                        details={**base_details, "got": got})
+    return None
+
+
+def _wrong_value(verdict: Feedback, got: Any, slip: tuple[int, str] | None, case_hint: str | None,
+                 general_hint: str | None, report: _CaseReport, reveal_expected: bool) -> Feedback:
+    """The Feedback for a wrong result: the comparison's diagnosis, the inputs, expected and got, the best hint."""
+    fname = report.fname
+    core = verdict.message.removeprefix(_NOT_YET).removeprefix("No answer yet: ")
+    if core.startswith("Your answer is "):
+        core = f"`{fname}` returned " + core.removeprefix("Your answer is ")
+    message = (f"{_NOT_YET}{report.where} fails: {core}\nInputs: {report.inputs}"
+               + (f"\nExpected: {_fmt_value(report.details['expected'])}" if reveal_expected else "")
+               + f"\nGot: {_fmt_value(got)}")
+    if slip is not None and verdict.details.get("near_miss"):     # a known slip is no rounding
+        message = message.replace(core, f"`{fname}` returned {_fmt_value(got)}, which is not a rounding "
+                                        "of the expected result but a known slip (see the hint).")
+    best_hint = _best_hint(verdict, slip, case_hint, general_hint)
+    extra = {} if slip is None else {"slip": slip[0]}
+    return Feedback(False, message, hint=best_hint,
+                    details={**report.details, "got": got, "comparison": verdict, **extra})
 
 
 # ---------------------------------------------------------------------------------------------------------------------

@@ -224,8 +224,8 @@ class FilterResult:
         Examples
         --------
         >>> import numpy as np
-        >>> res = FilterResult(np.arange(2.0), np.zeros((2, 1)), np.ones((2, 1, 1)), None, None,
-        ...                    np.zeros((2, 1)), np.ones((2, 1, 1)))
+        >>> x, P = np.zeros((2, 1)), np.ones((2, 1, 1))
+        >>> res = FilterResult(np.arange(2.0), x, P, None, None, x, P)
         >>> res.priors()
         Traceback (most recent call last):
         ...

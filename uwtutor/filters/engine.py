@@ -62,7 +62,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import warnings
-from typing import Any
+from typing import Any, cast
 
 from numpy.typing import ArrayLike
 
@@ -221,6 +221,34 @@ def _refuse_lost_psd(P: np.ndarray, R: np.ndarray, k: int) -> None:
             f"{np.diag(P[:, :, m])}, R diagonal {np.diag(R[:, :, min(m, R.shape[-1] - 1)])}): the ratio of the "
             "predicted variances to R exceeds what float64's 16 digits can carry. Start from a smaller P0 (an "
             "honest initial uncertainty) or use a larger R")
+
+
+def _innovation_covariance(P: np.ndarray, H: np.ndarray, R: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """H and R runs-last, P H^T (n, m, M) and S = H P H^T + R (m, m, M), for P runs-last and H (M, m, n)."""
+    Hc = _runs_last(H)                                           # (m, n, M)
+    Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
+    PHT = _mm_t(P, Hc)                                           # P H^T, (n, m, M)
+    S = _mm(Hc, PHT) + Rc                                        # H P H^T + R, (m, m, M)
+    return Hc, Rc, PHT, S
+
+
+def _joseph_update(x: np.ndarray, P: np.ndarray, PHT: np.ndarray, S: np.ndarray, Hc: np.ndarray, Rc: np.ndarray,
+                   use: np.ndarray, y_used: np.ndarray, eye: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The posterior x (M, n) and P (n, n, M) from the gain of the runs in ``use`` (the others keep the prior)."""
+    if S.shape[0] == 1:
+        gain = PHT / S[0, 0]                                     # K = P H^T / S, (n, 1, M)
+    else:                                                        # K = P H^T S^-1 (S symmetric)
+        gain = _runs_last(_transposed(np.linalg.solve(_runs_first(S), _runs_first(PHT).swapaxes(-1, -2))))
+    gain *= use                                                  # zero gain: the run keeps its prediction
+    x_post = x + np.einsum("ijm,mj->mi", gain, y_used)
+    A = eye[:, :, None] - _mm(gain, Hc)                          # I - K H, (n, n, M)
+    # Joseph form as written: A P A^T + K R K^T, a sum of two positive semi-definite terms
+    P_post = _mm_t(_mm(A, P), A)
+    P_post += _mm_t(_mm(gain, Rc), gain)
+    P_post += P_post.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
+    P_post *= 0.5
+    return x_post, P_post
 
 
 class ExtendedKalmanFilter(Configurable):
@@ -487,75 +515,32 @@ class ExtendedKalmanFilter(Configurable):
         k = max(self.k, 0)
         M, n, m = self._M, self.n, self.m
         x, P = self._x, self._P
-        z_pred, H, defined = self.measurement.linearize(x, k)
-        z_pred = _real("h", z_pred)
-        if z_pred.size != M * m:
-            raise ValueError(f"the measurement model's h must return shape ({M}, {m}); got {z_pred.shape}")
-        z_pred = z_pred.reshape(M, m)
-        H = _real("H", H)
-        if H.shape != (M, m, n):
-            raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
-        R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
-        present = np.isfinite(z)                                     # (M, m)
-        defined = _defined_mask(defined, M, m)
-        if not defined.all():
-            if (present & ~defined).any():
-                per_run = bool((defined == defined[:, :1]).all())
-                warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
-                     + ("the update is skipped for that step (predict only)" if per_run else
-                        "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
-            present = present & defined
+        z_pred, H, R, defined = self._linearized(x, k)
+        present = self._usable(np.isfinite(z), defined)              # (M, m)
         finite = self._check_used_values(present, z_pred, H, R, k)
         if finite:
             self._check_R(R)
-        has = present.any(axis=1)
+        has = cast(np.ndarray, present.any(axis=1))
         # A run with some components missing, or values that are not finite where nothing is measured: zero rows
         # of H and identity rows of R, so that the update is the one with the present components. (Runs with all or
         # none of their components take the plain path, as they always did: the gain of the latter is zeroed.)
         masked = not finite or bool((has & ~present.all(axis=1)).any())
         if masked:
             H, R = _masked(H, R, present)
-        Hc = _runs_last(H)                                           # (m, n, M)
-        Rc = R[:, :, None] if R.ndim == 2 else _runs_last(R)         # (m, m, 1) or (m, m, M)
-        PHT = _mm_t(P, Hc)                                           # P H^T, (n, m, M)
-        S = _mm(Hc, PHT) + Rc                                        # H P H^T + R, (m, m, M)
+        Hc, Rc, PHT, S = _innovation_covariance(P, H, R)
         y = self.measurement.residual(z, z_pred)
         use, used = has, present                                     # per run (M,), per component (M, m)
         if self.gate is not None:
-            y_gate = np.where(present, y, np.nan)
-            ctx = GateContext(k=k, z=z, z_pred=z_pred, y=y_gate, S=_runs_first(S), H=H, R=R, x_prior=x,
-                              P_prior=_runs_first(P), present=present)
-            verdict = as_bool_array(f"the gate {type(self.gate).__name__}.accept", self.gate.accept(ctx),
-                                    ((M,), (M, m)))
-            if verdict.shape == (M,):
-                use = has & verdict
-            elif verdict.shape == (M, m):
-                used = present & verdict
-                use = used.any(axis=1)
-                narrowed = use & (used != present).any(axis=1)       # some of a run's components rejected
-                if narrowed.any():                                   # mask those too, then recompute S
-                    H, R = _masked(H, np.broadcast_to(R, (M, m, m)), np.where(use[:, None], used, present))
-                    Hc, Rc = _runs_last(H), _runs_last(R)
-                    PHT = _mm_t(P, Hc)
-                    S = _mm(Hc, PHT) + Rc
-                    masked = True
-            else:
-                raise ValueError(f"the gate's accept must return a bool array of shape ({M},) or ({M}, {m}); got "
-                                 f"{verdict.shape}")
+            use, used = self._gate_verdict(self.gate, GateContext(
+                k=k, z=z, z_pred=z_pred, y=np.where(present, y, np.nan), S=_runs_first(S), H=H, R=R, x_prior=x,
+                P_prior=_runs_first(P), present=present), has)
+            narrowed = use & (used != present).any(axis=1)           # some of a run's components rejected
+            if narrowed.any():                                       # mask those too, then recompute S
+                H, R = _masked(H, np.broadcast_to(R, (M, m, m)), np.where(use[:, None], used, present))
+                Hc, Rc, PHT, S = _innovation_covariance(P, H, R)
+                masked = True
         used = used & use[:, None]
-        y_used = np.where(used, y, 0.0)
-        if m == 1:
-            gain = PHT / S[0, 0]                                     # K = P H^T / S, (n, 1, M)
-        else:                                                        # K = P H^T S^-1 (S symmetric)
-            gain = _runs_last(_transposed(np.linalg.solve(_runs_first(S), _runs_first(PHT).swapaxes(-1, -2))))
-        gain *= use                                                  # zero gain: the run keeps its prediction
-        x_post = x + np.einsum("ijm,mj->mi", gain, y_used)
-        A = self._eye[:, :, None] - _mm(gain, Hc)                    # I - K H, (n, n, M)
-        # Joseph form as written: A P A^T + K R K^T, a sum of two positive semi-definite terms
-        P_post = _mm_t(_mm(A, P), A)
-        P_post += _mm_t(_mm(gain, Rc), gain)
-        P_post += P_post.transpose(1, 0, 2)                          # symmetrize: (P + P^T) / 2
-        P_post *= 0.5
+        x_post, P_post = _joseph_update(x, P, PHT, S, Hc, Rc, use, np.where(used, y, 0.0), self._eye)
         if deferred:
             self._P_tested = P_post
         else:
@@ -574,6 +559,45 @@ class ExtendedKalmanFilter(Configurable):
             self._y = np.where(used, y, np.nan)
             self._S = np.where(used[:, :, None] & used[:, None, :], S, np.nan)
         self._accepted = use
+
+    def _linearized(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, Any]:
+        """The measurement model's prediction (M, m), Jacobian (M, m, n), noise and "defined" mask, shapes checked."""
+        M, n, m = self._M, self.n, self.m
+        z_pred, H, defined = self.measurement.linearize(x, k)
+        z_pred = _real("h", z_pred)
+        if z_pred.size != M * m:
+            raise ValueError(f"the measurement model's h must return shape ({M}, {m}); got {z_pred.shape}")
+        z_pred = z_pred.reshape(M, m)
+        H = _real("H", H)
+        if H.shape != (M, m, n):
+            raise ValueError(f"the measurement model's H must have shape ({M}, {m}, {n}); got {H.shape}")
+        R = _batched_matrix("R", self.measurement.R(x, k), M, (m, m))
+        return z_pred, H, R, defined
+
+    def _usable(self, present: np.ndarray, defined: Any) -> np.ndarray:
+        """The components (M, m) measured where the model is defined; a warning where a measured one is not."""
+        defined = _defined_mask(defined, self._M, self.m)
+        if defined.all():
+            return present
+        if (present & ~defined).any():
+            per_run = bool((defined == defined[:, :1]).all())
+            warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
+                 + ("the update is skipped for that step (predict only)" if per_run else
+                    "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
+        return present & defined
+
+    def _gate_verdict(self, gate: Gate, ctx: GateContext, has: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The gate's accept, checked: which runs (M,) and which components (M, m) the update uses."""
+        M, m = self._M, self.m
+        verdict = as_bool_array(f"the gate {type(gate).__name__}.accept", gate.accept(ctx), ((M,), (M, m)))
+        present = ctx.present_mask()
+        if verdict.shape == (M,):
+            return has & verdict, present
+        if verdict.shape == (M, m):
+            used = present & verdict
+            return used.any(axis=1), used
+        raise ValueError(f"the gate's accept must return a bool array of shape ({M},) or ({M}, {m}); got "
+                         f"{verdict.shape}")
 
     def _check_used_values(self, present: np.ndarray, z_pred: np.ndarray, H: np.ndarray, R: np.ndarray,
                            k: int) -> bool:
@@ -637,41 +661,21 @@ class ExtendedKalmanFilter(Configurable):
         recorded attributes alone. Without ``keep_priors`` the priors are summed step by step for the test
         instead of being recorded.
         """
-        cls = type(self)
-        if not (cls.predict is ExtendedKalmanFilter.predict and cls.update is ExtendedKalmanFilter.update
-                and cls._out is ExtendedKalmanFilter._out and _library(self.motion)
-                and _library(self.measurement) and (self.gate is None or _library(self.gate))):
-            return None
-        extra = tuple(name for name in self.extra_outputs if name != "accepted")
-        if extra != self._gate_outputs or any(getattr(cls, name) is not getattr(ExtendedKalmanFilter, name)
-                                              for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted")):
+        if not self._plain_steps():
             return None
         batched, M, m, n = self._batched, self._M, self.m, self.n
         step_axis = 1 if batched else 0
         if z.ndim <= step_axis or (batched and z.shape[0] != M) or z.shape[step_axis] < 1:
             return None
         K = z.shape[step_axis]
-        z_step = z.shape[1:] if not batched else (M,) + z.shape[2:]          # the shape update(z[k]) sees
-        steps = np.moveaxis(z, 1, 0) if batched else z
-        if int(np.prod(z_step)) == m and (len(z_step) <= 1 or not batched):
-            z_steps = np.broadcast_to(steps.reshape(K, 1, m), (K, M, m))
-        elif batched and z_step in ((M, m),) + (((M,),) if m == 1 else ()):
-            z_steps = steps.reshape(K, M, m)
-        else:
+        z_steps = self._z_steps(z, K)
+        if z_steps is None or np.isinf(z).any():
             return None
-        if np.isinf(z).any():
-            return None
-        u_shared = False
+        u_steps = None
         if u is not None:
-            u = as_float_array("u", u)
-            u_shared = batched and u.ndim == 2
-            u_axis = 0 if u_shared else step_axis
-            if u.ndim <= u_axis or u.shape[u_axis] != K or not np.isfinite(u).all():
+            u_steps = self._u_steps(as_float_array("u", u), K)
+            if u_steps is None:
                 return None
-            u_step = u.shape[1:] if u_shared or not batched else (u.shape[0],) + u.shape[2:]
-            if len(u_step) == 0 or len(u_step) > 2 or (len(u_step) == 2 and (not batched or u_step[0] != M)):
-                return None
-            u_steps = u if u_shared or not batched else np.moveaxis(u, 1, 0)
         try:
             times = _sequence_times(K, times)
         except (TypeError, ValueError):
@@ -687,13 +691,14 @@ class ExtendedKalmanFilter(Configurable):
         S = np.empty((K, M, m, m))
         accepted = np.empty((K, M), dtype=bool)
         tested = np.empty((n, n, K, M))                          # the posteriors before a gate, runs-last
+        extra = self._gate_outputs
         extras: dict[str, list] = {name: [] for name in extra}
         try:
             # the caller's warning filters stay: a warning they would show is recorded (and the steps are run
             # again by run_filter, which shows it), one they ignore is ignored, one they turn into an error raises
             with warnings.catch_warnings(record=True) as caught:
                 for k in range(K):
-                    self._predict(None if u is None else u_steps[k], deferred=True)
+                    self._predict(None if u_steps is None else u_steps[k], deferred=True)
                     if x_prior is not None and P_prior is not None:
                         x_prior[k] = self._x_prior
                         P_prior[k] = _runs_first(self._P_prior)
@@ -716,16 +721,61 @@ class ExtendedKalmanFilter(Configurable):
         except Exception:
             sound = False
         if not sound:
-            (self._x, self._P, self._x_prior, self._P_prior, self._y, self._S, self._accepted, self.k) = saved
-            if gate_state is not None:
-                self.gate.__dict__.clear()
-                self.gate.__dict__.update(gate_state)
+            self._restore(saved, gate_state)
             return None
         fields = dict(x=x, P=P, x_prior=x_prior, P_prior=P_prior, innovations=y, innovation_cov=S)
+        return self._as_result(times, fields, {"accepted": accepted, **{name: np.stack(v) for name, v in
+                                                                         extras.items()}})
+
+    def _plain_steps(self) -> bool:
+        """Whether ``_run_steps`` applies: the library's own models and gate, and this class's steps and attributes."""
+        cls = type(self)
+        if not (cls.predict is ExtendedKalmanFilter.predict and cls.update is ExtendedKalmanFilter.update
+                and cls._out is ExtendedKalmanFilter._out and _library(self.motion)
+                and _library(self.measurement) and (self.gate is None or _library(self.gate))):
+            return False
+        extra = tuple(name for name in self.extra_outputs if name != "accepted")
+        return extra == self._gate_outputs and all(getattr(cls, name) is getattr(ExtendedKalmanFilter, name)
+                                                   for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted"))
+
+    def _z_steps(self, z: np.ndarray, K: int) -> np.ndarray | None:
+        """The K steps' measurements (K, M, m) as ``update(z[k])`` sees them; None for a shape it does not take."""
+        batched, M, m = self._batched, self._M, self.m
+        z_step = z.shape[1:] if not batched else (M,) + z.shape[2:]          # the shape update(z[k]) sees
+        steps = np.moveaxis(z, 1, 0) if batched else z
+        if int(np.prod(z_step)) == m and (len(z_step) <= 1 or not batched):
+            return np.broadcast_to(steps.reshape(K, 1, m), (K, M, m))
+        if batched and z_step in ((M, m),) + (((M,),) if m == 1 else ()):
+            return steps.reshape(K, M, m)
+        return None
+
+    def _u_steps(self, u: np.ndarray, K: int) -> np.ndarray | None:
+        """The K steps' inputs, steps first, as ``predict(u[k])`` sees them; None if not finite or not its shape."""
+        batched, M = self._batched, self._M
+        u_shared = batched and u.ndim == 2
+        u_axis = 0 if u_shared else (1 if batched else 0)
+        if u.ndim <= u_axis or u.shape[u_axis] != K or not np.isfinite(u).all():
+            return None
+        u_step = u.shape[1:] if u_shared or not batched else (u.shape[0],) + u.shape[2:]
+        if len(u_step) == 0 or len(u_step) > 2 or (len(u_step) == 2 and (not batched or u_step[0] != M)):
+            return None
+        return u if u_shared or not batched else np.moveaxis(u, 1, 0)
+
+    def _restore(self, saved: tuple, gate_state: dict[str, Any] | None) -> None:
+        """Put the filter's state and its gate's back as ``_run_steps`` found them."""
+        (self._x, self._P, self._x_prior, self._P_prior, self._y, self._S, self._accepted, self.k) = saved
+        if gate_state is not None:
+            self.gate.__dict__.clear()
+            self.gate.__dict__.update(gate_state)
+
+    def _as_result(self, times: np.ndarray, fields: dict[str, np.ndarray | None],
+                   recorded: dict[str, np.ndarray]) -> FilterResult:
+        """The result from the step-first arrays (K, M, ...): runs first, or no runs axis for an unbatched filter."""
+        batched = self._batched
         stacked: dict[str, Any] = {name: None if h is None else np.moveaxis(h, 0, 1) if batched else h[:, 0]
-                   for name, h in fields.items()}
-        recorded = {"accepted": accepted if batched else accepted[:, 0],
-                    **{name: np.stack(v) for name, v in extras.items()}}
+                                   for name, h in fields.items()}
+        if not batched:
+            recorded = {**recorded, "accepted": recorded["accepted"][:, 0]}
         return self.result_type(times=times, **stacked,
                                 extras={name: np.moveaxis(h, 0, 1) if batched else h for name, h in recorded.items()})
 

@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._linalg import line_of_sight as _line_of_sight
+from .._linalg import distances
 from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
 from .base import MeasurementModel, MotionModel
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
@@ -795,8 +796,7 @@ class BlockRanges(BlockMeasurement):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        d = x[..., None, self.columns["position"]] - self.beacons
-        z = np.hypot(d[..., 0], d[..., 1])
+        z = distances(x[..., None, self.columns["position"]], self.beacons)
         if self._scale:
             z *= x[..., self.columns["scale"]]
         if self._bias_cols is not None:

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._linalg import line_of_sight as _line_of_sight
+from .._linalg import distances
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
 from .base import MeasurementModel
 
@@ -182,8 +183,7 @@ class RangeToBeacon(MeasurementModel):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        d = x[..., :2] - self._beacon_for(x, k)
-        z = np.hypot(d[..., 0], d[..., 1])[..., None]
+        z = distances(x[..., :2], self._beacon_for(x, k))[..., None]
         if self.bias_index is not None:
             z = z + x[..., self.bias_index:self.bias_index + 1]
         return z
@@ -525,8 +525,7 @@ class BeaconRanges(MeasurementModel):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        d = x[..., None, :2] - self.beacons                                   # (..., B, 2)
-        z = np.hypot(d[..., 0], d[..., 1])
+        z = distances(x[..., None, :2], self.beacons)                         # (..., B)
         if self.scale_index is not None:
             z *= x[..., self.scale_index, None]
         if self._bias_cols is not None:

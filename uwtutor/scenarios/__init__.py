@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_point, as_range_array,
                          as_rng, as_scalar, as_times, check_work, readonly)
 from ..motion import Track, circle_track, displacement_noise, s_turn_track, straight_track, turning_track
@@ -289,7 +290,7 @@ def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng:
     dr_rng, range_rng = rng.spawn(2)
     true_steps = np.diff(track.positions, axis=0, prepend=track.positions[:1])   # row 0: zeros
     dr = displacement_noise(true_steps, dr_rng, sigma, n_runs=m)
-    true_ranges = np.hypot(*(track.positions - beacon_xy).T)
+    true_ranges = distances(track.positions, beacon_xy)
     ranges, errors, mask = measure_ranges(true_ranges, times, error, range_rng, n_runs=m, return_errors=True)
     return Scenario(times=times,
                     true_positions=np.broadcast_to(track.positions, (m, k, 2)),

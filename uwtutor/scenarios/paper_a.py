@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
 from ..motion import Track, circle_track, turning_track
 from ..ranging import GaussianNoise, SlowBias, SoundSpeedMismatch, add_range_errors
@@ -601,7 +602,7 @@ def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
     geo_rng, err_rng = rng.spawn(2)
     rec_gnss = receiver + p.gnss_sigma * geo_rng.standard_normal((m, len(times), 2))
     snd_gnss = sender + p.gnss_sigma * geo_rng.standard_normal((m, len(times), 2))
-    true_r = np.hypot(*(receiver - sender).T)
+    true_r = distances(receiver, sender)
     bias = SlowBias(0.0, p.bias_sigma, p.bias_time_constant).sample(true_r, times, err_rng, n_runs=m)
     gi = np.clip(group - 1, 0, 3)
     noise = np.asarray(p.group_noise)[gi] * err_rng.standard_normal((m, len(times)))

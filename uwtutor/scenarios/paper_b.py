@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import (MAX_COORDINATE, as_finite, as_flag, as_instance, as_int, as_nonnegative, as_positive,
                          as_rng, as_scalar, check_work, readonly)
 from ..motion import Track, circle_track, dead_reckoning, straight_track, turning_track
@@ -408,7 +409,7 @@ def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
         else:
             times = t_send
             true_pos = ground.positions[send_idx]
-            true_r = np.linalg.norm(true_pos - leader_true, axis=-1)
+            true_r = distances(true_pos, leader_true, "norm")
             clock = np.zeros(len(times))
             dr_at = dr_grid[:, send_idx]
             at_send, leader_rx = true_pos, leader_true

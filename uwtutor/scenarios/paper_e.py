@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import as_finite, as_flag, as_in_range, as_int, as_point, as_scalar
 from ..errors import deprecated_aliases
 from ..ranging import add_range_errors
@@ -259,7 +260,10 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperEParameters | N
         sub_velocity=p.sub_velocity, noise_sigma=np.sqrt(p.range_noise_variance),
         outlier_amplitude=p.outlier_amplitude, outlier_onsets=p.outlier_onsets, outlier_counts=p.outlier_counts,
         outlier_two_sided=p.outlier_two_sided, dr_sigma=p.dr_sigma)
-    true_slant = np.hypot(np.asarray(sc.true_ranges), float(p.depth))
+    # the ship at the surface, the submersible `depth` below it: the slant range is their distance in 3-D
+    sub = np.concatenate([sc.true_positions, np.full(sc.true_positions.shape[:-1] + (1,), -float(p.depth))], axis=-1)
+    ship = np.concatenate([sc.beacon_positions, np.zeros(sc.beacon_positions.shape[:-1] + (1,))], axis=-1)
+    true_slant = distances(sub, ship)
     slant = add_range_errors(true_slant, sc.range_errors)
     for a in (true_slant, slant):
         a.setflags(write=False)

@@ -34,6 +34,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .._linalg import distances
 from .._validate import (as_choice, as_finite, as_in_range, as_instance, as_int, as_rng, as_scalar, as_seed,
                          check_work)
 from ..errors import deprecated_aliases
@@ -441,7 +442,7 @@ def _measure(name: str, rng: np.random.Generator, runs: SuiteRuns, error: Any, *
     if water_current is not None:          # the water carries the vehicle; its DR (through the water) does not know
         truth = truth + np.asarray(water_current, dtype=float) * (runs.times - runs.times[0])[:, None]
     u = np.broadcast_to(np.diff(runs.planned, axis=0), (n, K, 2))
-    true_ranges = np.linalg.norm(truth - runs.beacon, axis=-1)
+    true_ranges = distances(truth, runs.beacon, "norm")
     z = measure_ranges(true_ranges, runs.times, error, range_rng, n_runs=n)   # a negative sum: read as its size
     inputs = SuiteInputs(scenario=runs.name, condition=name, times=runs.times[1:], interval=float(p.interval),
                          x0=np.broadcast_to(runs.planned[0], (n, 2)), P0=p.P0, u=u, z=z[:, 1:], z0=z[:, 0],
@@ -608,7 +609,7 @@ def crlb_inputs(scenario: str, condition: str, params: SuiteParameters | None = 
     Q, P0 = p.Q, p.P0
     flags = dict(bias=False, current=False)
     if condition == "sound speed":
-        r = np.linalg.norm(pos - b, axis=-1)
+        r = distances(pos, b, "norm")
         sigma = np.sqrt(p.range_sigma**2 + (p.speed_factor_sigma * r) ** 2)
     elif condition == "bias":
         flags["bias"] = True

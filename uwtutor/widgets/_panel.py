@@ -7,8 +7,10 @@ an ``update`` function, the artists of the figure already drawn take the new dat
 ``set_offsets``, ``set_text``): no axes, ticks or layout are made again. The picture is then drawn *by blitting*:
 the figure without the artists that change (axes, ticks, labels, grid: the "background") is drawn once and kept as
 pixels; each update restores those pixels and draws only the changed artists on them, unless the axes themselves
-changed (limits, scale, position), which draws the background again. The PNG goes to an ``ipywidgets.Image`` as bytes
-(one comm message, no base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
+changed (limits, scale, position), which draws the background again: of those axes alone when what they cover meets
+no other axes. ``rescale`` keeps limits while the data fits them (in whole decades on a log axis, if asked), so that
+most moves of a control keep the background. The PNG goes to an ``ipywidgets.Image`` as bytes (one comm message, no
+base64), lightly compressed. Without ``update``, the figure is cleared and drawn again by
 the chapter's plot function. ``make bench`` times every control of every widget in JupyterLab.
 
 A widget whose full answer takes longer than a reader should wait (a long filter run) may give a *coarse* answer
@@ -23,10 +25,11 @@ pages) and with ``REFINE_IN_BACKGROUND = False`` the full answer is computed at 
 from __future__ import annotations
 
 import functools
-import io
+import struct
 import sys
 import threading
 import traceback
+import zlib
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Sequence
@@ -36,8 +39,8 @@ import numpy as np
 
 from ..plotting import LEGEND_WARNING, PIXEL_RATIO, legend_overlaps
 
-__all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale", "wait_refined",
-           "REFINE_IN_BACKGROUND"]
+__all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale", "snap_to_decades",
+           "wait_refined", "REFINE_IN_BACKGROUND"]
 
 #: Whether a panel with ``refine`` shows a coarse answer at once and computes the full one in a background thread:
 #: ``None`` (the default) does so only inside a live IPython kernel; ``False`` computes the full answer at once
@@ -51,17 +54,45 @@ def _agg_canvas(fig: Any) -> Any:
     return fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
 
 
-def _encode_png(canvas: Any) -> bytes:
-    """The pixels of ``canvas`` (an Agg canvas already drawn) as PNG bytes, compressed lightly (level 1: the bytes
-    go to a browser on the same machine or network, where encoding time matters more than size)."""
-    from PIL import Image
+def _png_chunk(kind: bytes, data: bytes) -> bytes:
+    """One PNG chunk: length, type, data, and the CRC-32 of type and data (PNG specification, section 5.3)."""
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
+
+def _encode_png(canvas: Any) -> bytes:
+    """The pixels of ``canvas`` (an Agg canvas already drawn) as PNG bytes (RGB, 8 bits), compressed lightly.
+
+    The rows go to zlib at level 1 unfiltered (filter type 0): the bytes go to a browser on the same machine or
+    network, where encoding time matters more than size, and a figure's flat background compresses well without
+    the per-row filter search of a general encoder (which took over half the time of an update's PNG). The
+    picture's resolution is written as ``savefig`` writes it (``pHYs``): what a reader of the picture sizes it by.
+
+    Examples
+    --------
+    >>> import io
+    >>> from PIL import Image
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(2.0, 1.0), dpi=50)
+    >>> _ = fig.subplots().plot([0, 1], [0, 1])
+    >>> canvas = _agg_canvas(fig)
+    >>> canvas.draw()
+    >>> image = Image.open(io.BytesIO(_encode_png(canvas)))
+    >>> image.size, image.mode, [round(d) for d in image.info["dpi"]]
+    ((100, 50), 'RGB', [50, 50])
+    """
     width, height = canvas.get_width_height(physical=True)
-    buffer = io.BytesIO()
-    dpi = canvas.figure.dpi  # in the PNG (pHYs), as savefig writes it: what a reader of the picture sizes it by
-    Image.frombuffer("RGBA", (width, height), canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB").save(
-        buffer, format="png", compress_level=1, dpi=(dpi, dpi))
-    return buffer.getvalue()
+    rgba = np.asarray(canvas.buffer_rgba())
+    rows = np.empty((height, 1 + 3 * width), dtype=np.uint8)
+    rows[:, 0] = 0                                      # each row's filter type: none
+    rows[:, 1:].reshape(height, width, 3)[...] = rgba[..., :3]
+    per_metre = int(canvas.figure.dpi / 0.0254 + 0.5)
+    return b"".join([
+        b"\x89PNG\r\n\x1a\n",
+        _png_chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)),
+        _png_chunk(b"pHYs", struct.pack(">IIB", per_metre, per_metre, 1)),
+        _png_chunk(b"IDAT", zlib.compress(rows.tobytes(), 1)),
+        _png_chunk(b"IEND", b""),
+    ])
 
 
 def figure_png(fig: Any) -> bytes:
@@ -112,12 +143,45 @@ def kept(fig: Any) -> dict[str, Any] | None:
     return getattr(fig, "_uwtutor_artists", None)
 
 
-def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> None:
+def _decades(lo: float, hi: float) -> tuple[float, float]:
+    """The whole decades (as powers of ten, in log10 units) that enclose ``lo`` to ``hi`` (log10 units)."""
+    return float(np.floor(min(lo, hi) + 1e-9)), float(np.ceil(max(lo, hi) - 1e-9))
+
+
+def snap_to_decades(*axes: Any, axis: str = "y") -> None:
+    """Widen the limits of each log ``axis`` ("x" or "y") of ``axes`` outwards to whole decades, as
+    ``rescale(..., decades=True)`` keeps them: a plot function calls it last so that the first updates of its
+    figure keep these limits (and the pixels of its background). Autoscaling stays as it was.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> ax = Figure().subplots()
+    >>> _ = ax.semilogy([0, 1], [2.0, 30.0])
+    >>> snap_to_decades(ax)
+    >>> [float(v) for v in ax.get_ylim()]
+    [1.0, 100.0]
+    """
+    for ax in axes:
+        get, set_ = (ax.get_xlim, ax.set_xlim) if axis == "x" else (ax.get_ylim, ax.set_ylim)
+        scale = ax.get_xscale() if axis == "x" else ax.get_yscale()
+        v0, v1 = get()
+        if scale != "log" or min(v0, v1) <= 0:
+            continue
+        d0, d1 = _decades(*np.log10([v0, v1]))
+        set_(10.0**d0, 10.0**d1, auto=None)
+
+
+def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15, decades: bool = False,
+            spare_decades: float = 1.0) -> None:
     """Fit each axes' limits to its data again after ``set_data``, as the first drawing did, but keep the limits it
     has while the data fits in them and spans at least ``keep_within`` of them on both axes (in log units on a log
-    axis): then the axes, and the pixels kept of them, stay as they are (see ``BlitRenderer``). When the limits do
-    change, an axis whose data outgrew them gets ``headroom`` (a fraction of the span) on each side, so that the
-    next step the same way usually fits.
+    axis; on either axis for an equal-aspect axes that fits its limits to the data, whose other axis is set by the
+    aspect): then the axes, and the pixels kept of them, stay as they are (see ``BlitRenderer``). When the limits
+    do change, an axis whose data outgrew them gets ``headroom`` (a fraction of the span) on each side, so that the
+    next step the same way usually fits. With ``decades``, a log axis instead takes whole decades around its data
+    and keeps them while the data fits and they are at most ``spare_decades`` more than the data needs: a curve
+    that moves within its decades (most moves of a slider) leaves the axes as they are.
 
     Examples
     --------
@@ -134,6 +198,20 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
     >>> rescale(ax)
     >>> [round(float(v), 2) for v in ax.get_xlim()]
     [-2.15, 12.15]
+    >>> # on a log axis in decades: kept while the data stays within them, then whole decades again
+    >>> ax.set_yscale("log")
+    >>> line.set_data([0, 8], [2.0, 30.0])
+    >>> rescale(ax, decades=True)
+    >>> [float(v) for v in ax.get_ylim()]
+    [1.0, 100.0]
+    >>> line.set_data([0, 8], [3.0, 60.0])
+    >>> rescale(ax, decades=True)
+    >>> [float(v) for v in ax.get_ylim()]
+    [1.0, 100.0]
+    >>> line.set_data([0, 8], [3.0, 600.0])
+    >>> rescale(ax, decades=True)
+    >>> [float(v) for v in ax.get_ylim()]
+    [1.0, 1000.0]
     """
     for ax in axes:
         # An equal-aspect axes that fits its limits to the data ("datalim") would re-centre kept limits on the
@@ -142,31 +220,40 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
                                                       and ax.get_adjustable() == "datalim"):
             ax._uwtutor_datalim = True
             ax.set_adjustable("datalim")
+        datalim = getattr(ax, "_uwtutor_datalim", False)
         old = (ax.get_xlim(), ax.get_ylim())
         ax.relim()
         ax.autoscale_view()
         new = (ax.get_xlim(), ax.get_ylim())
         scales = (ax.get_xscale(), ax.get_yscale())
-        keep, grow = True, [False, False]
+        fits, spans, grow = [True, True], [True, True], [False, False]
+        snapped: list[tuple[float, float] | None] = [None, None]
         for i, ((o0, o1), (n0, n1), scale) in enumerate(zip(old, new, scales)):
             if scale == "log":
                 if min(o0, o1, n0, n1) <= 0:
-                    keep = False
+                    fits[i] = False
                     continue
                 o0, o1, n0, n1 = np.log10([o0, o1, n0, n1])
             lo, hi = min(o0, o1), max(o0, o1)
-            inside = lo <= min(n0, n1) and max(n0, n1) <= hi
-            keep = keep and inside and abs(n1 - n0) >= keep_within * (hi - lo)
+            fits[i] = inside = lo <= min(n0, n1) and max(n0, n1) <= hi
+            if decades and scale == "log":
+                d0, d1 = snapped[i] = _decades(n0, n1)
+                spans[i] = (hi - lo) <= d1 - d0 + spare_decades + 1e-9
+            else:
+                spans[i] = abs(n1 - n0) >= keep_within * (hi - lo)
             grow[i] = not inside
+        # the data must fit on both axes; on an equal-aspect axes one axis spanned is enough (the aspect widens
+        # the other to match the box, so its data can span a small part of it however the limits are chosen)
+        keep = all(fits) and (any(spans) if datalim else all(spans))
         # auto=None: limits set here keep the axes' autoscaling as it was (set_xlim alone would turn it off, and the
         # next change of the data could not move them any more)
         if keep:
             ax.set_xlim(*old[0], auto=None)
             ax.set_ylim(*old[1], auto=None)
-            if getattr(ax, "_uwtutor_datalim", False):
+            if datalim:
                 ax.set_adjustable("box")
             continue
-        if getattr(ax, "_uwtutor_datalim", False) and scales == ("linear", "linear"):
+        if datalim and scales == ("linear", "linear"):
             ax.apply_aspect()                           # the frame a draw would give, then room on all sides
             (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
             ax.set_xlim(x0 - headroom * (x1 - x0), x1 + headroom * (x1 - x0), auto=None)
@@ -174,10 +261,14 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15) -> Non
             ax.set_adjustable("box")                    # the same ratio: the box stays where it is
             continue
         for i, ((n0, n1), scale) in enumerate(zip(new, scales)):
-            if not grow[i] or (i == 0 and ax.get_autoscalex_on() is False) or \
-                    (i == 1 and ax.get_autoscaley_on() is False):
+            if (i == 0 and ax.get_autoscalex_on() is False) or (i == 1 and ax.get_autoscaley_on() is False):
                 continue
-            if scale == "log":
+            whole = snapped[i]
+            if whole is not None:                       # whole decades, grown or shrunk
+                limits = (10.0 ** whole[0], 10.0 ** whole[1])
+            elif not grow[i]:
+                continue
+            elif scale == "log":
                 if min(n0, n1) <= 0:
                     continue
                 l0, l1 = np.log10([n0, n1])
@@ -220,14 +311,35 @@ def _same_background(a: tuple | None, b: tuple, tolerance: float = 2e-3) -> bool
     return True
 
 
+def _axes_boxes(ax: Any, renderer: Any) -> list[Any]:
+    """The rectangles (display units, whole pixels with a pixel to spare) that cover what ``ax`` draws: its frame,
+    and each of its axis (ticks and labels), titles, legends and texts that reach outside the frame. Finer than
+    one bounding box (a legend below a map and the neighbour's tick labels beside it can share no pixel while their
+    common bounding box would)."""
+    from matplotlib.transforms import Bbox
+
+    frame = ax.get_window_extent(renderer)
+    found = [frame]
+    for artist in [ax.xaxis, ax.yaxis, *ax.get_default_bbox_extra_artists()]:
+        box = artist.get_tightbbox(renderer)
+        if box is None or not (box.width > 0 and box.height > 0) or not np.all(np.isfinite(box.extents)):
+            continue
+        if frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 and box.y1 <= frame.y1:
+            continue                                # inside the frame: covered by it
+        found.append(box)
+    return [Bbox([[np.floor(b.x0) - 1, np.floor(b.y0) - 1], [np.ceil(b.x1) + 1, np.ceil(b.y1) + 1]]) for b in found]
+
+
 class BlitRenderer:
     """PNGs of one figure whose ``dynamic`` artists change between pictures, drawn over a kept background.
 
     ``png(dynamic)`` marks the artists ``dynamic`` as animated (so a plain draw leaves them out), draws the rest of
     the figure only when the axes changed since the last picture (or on the first), and otherwise restores its
-    pixels; then it draws the dynamic artists over it. ``png(None)`` draws everything (the figure was made anew),
-    and so does a ``dynamic`` that holds the figure itself (its artists changed in place all over: colours, tick
-    labels).
+    pixels; then it draws the dynamic artists over it. When only some axes changed, and the area each of them
+    covers (with its tick labels, title and legend, before and after) meets no other axes' area, only those axes
+    are drawn again and put into the kept pixels (``_redraw_axes``); otherwise the whole background is drawn.
+    ``png(None)`` draws everything (the figure was made anew), and so does a ``dynamic`` that holds the figure itself
+    (its artists changed in place all over: colours, tick labels).
 
     Examples
     --------
@@ -249,6 +361,8 @@ class BlitRenderer:
         self.background: Any = None
         self.signature: tuple | None = None
         self.dynamic: list[Any] = []
+        self.left_out: list[Any] = []               # the dynamic artists the kept background was drawn without
+        self.regions: list[list[Any]] | None = None  # what each axes covers in the kept background
 
     def png(self, dynamic: Sequence[Any] | None) -> bytes:
         if not self._background(dynamic):          # drawn anew, or changed all over: a full draw
@@ -272,17 +386,76 @@ class BlitRenderer:
         for artist in self.dynamic:                  # the last picture's dynamic artists: back to normal
             artist.set_animated(False)
         if dynamic is None or self.fig in dynamic:     # drawn anew, or changed all over: a full draw
-            self.background, self.signature, self.dynamic = None, None, []
+            self.background, self.signature, self.dynamic, self.left_out = None, None, [], []
             return False
         self.dynamic = [a for a in dynamic if a is not None]
         for artist in self.dynamic:
             artist.set_animated(True)
         signature = _axes_signature(self.fig)
         if self.background is None or not _same_background(self.signature, signature):
-            self.canvas.draw()                      # everything but the dynamic artists
-            self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
+            if not self._redraw_axes(signature):
+                self.canvas.draw()                  # everything but the dynamic artists
+                self.background, self.signature = self.canvas.copy_from_bbox(self.fig.bbox), signature
+                self.left_out = list(self.dynamic)
+                renderer = self.canvas.get_renderer()
+                self.regions = [_axes_boxes(ax, renderer) for ax in self.fig.axes]
         else:
             self.canvas.restore_region(self.background)
+            # an artist left out of the kept background but not changed this time is drawn all the same (else it
+            # would vanish from the picture), unless it has been removed from the figure since
+            self.dynamic += [a for a in self.left_out if a not in self.dynamic and a.figure is not None]
+        return True
+
+    def _redraw_axes(self, signature: tuple) -> bool:
+        """Draw again, into the kept background, only the axes whose limits changed (``signature``: the figure's
+        ``_axes_signature`` now); False, with the kept background left as it was, when the whole figure must be
+        drawn instead: no background yet, axes moved or rescaled, figure-level artists, or a changed axes' area
+        that meets another axes' area.
+
+        The changed axes are drawn (without their dynamic artists) on the bare figure, and the rectangles they
+        cover, before or after (``_axes_boxes``), are copied from that drawing over the kept pixels. Within those
+        rectangles nothing else is drawn, so the result is the picture a whole draw would give, at the cost of
+        those axes alone.
+        """
+        from matplotlib.transforms import Bbox
+
+        fig, old = self.fig, self.signature
+        if self.background is None or self.regions is None or old is None or len(old) != len(signature) \
+                or len(self.regions) != len(fig.axes):
+            return False
+        changed = [i for i, (a, b) in enumerate(zip(old, signature)) if not _same_background((a,), (b,))]
+        if not changed or len(changed) == len(signature) or any(old[i][:3] != signature[i][:3] for i in changed):
+            return False
+        if any(child is not fig.patch and child not in fig.axes for child in fig.get_children()):
+            return False
+        renderer = self.canvas.get_renderer()
+        renderer.clear()
+        fig.patch.draw(renderer)
+        axes = [fig.axes[i] for i in changed]
+        for ax in sorted(axes, key=lambda a: a.get_zorder()):
+            ax.draw(renderer)                       # its dynamic artists (animated) are left out, as in a full draw
+        regions = list(self.regions)
+        boxes = []
+        for i, ax in zip(changed, axes):
+            regions[i] = _axes_boxes(ax, renderer)
+            boxes += self.regions[i] + regions[i]   # before and after
+        within = fig.bbox
+        boxes = [b for b in (Bbox.intersection(b, within) for b in boxes) if b is not None and b.width > 0
+                 and b.height > 0]
+        others = [b for j in range(len(fig.axes)) if j not in changed for b in self.regions[j]]
+        for box in boxes:
+            for other in others:
+                meet = Bbox.intersection(box, other)
+                if meet is not None and meet.width > 0 and meet.height > 0:
+                    return False
+        parts = [self.canvas.copy_from_bbox(box) for box in boxes]
+        self.canvas.restore_region(self.background)
+        for part in parts:
+            self.canvas.restore_region(part)
+        self.background, self.signature, self.regions = self.canvas.copy_from_bbox(fig.bbox), signature, regions
+        # the kept pixels now leave out this picture's dynamic artists in the changed axes, and the earlier ones
+        # elsewhere
+        self.left_out = [a for a in self.left_out if getattr(a, "axes", None) not in axes] + list(self.dynamic)
         return True
 
 

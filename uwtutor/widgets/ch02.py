@@ -13,7 +13,7 @@ import numpy as np
 from .. import motion, observability
 from .._validate import as_scalar
 from ..plotting import mark_beacon, plot_track
-from ._panel import keep, kept, rescale, slider_panel
+from ._panel import keep, kept, rescale, slider_panel, snap_to_decades
 
 __all__ = [
     "TRACK_CHOICES",
@@ -116,6 +116,38 @@ def _make_track(track: str, turn_angle_deg: float, times: np.ndarray) -> motion.
     raise ValueError(f"track must be one of {', '.join(repr(t) for t in TRACK_CHOICES)}; got {track!r}")
 
 
+def _track_and_mirror(track: str, turn_angle_deg: float, times: np.ndarray,
+                      beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The true track and its mirror (the same shape from the start reflected across the line through the beacon
+    along the initial heading), each shape (K, 2) [m]."""
+    tr = _make_track(track, turn_angle_deg, times)
+    p = np.array(tr.positions)
+    mirror_start = observability.mirror_point(p[0], beacon, tr.velocities[0])
+    return p, mirror_start + (p - p[0])
+
+
+@functools.lru_cache(maxsize=4)
+def _widget_frame(angles: tuple[float, ...]) -> tuple[float, float, float, float]:
+    """Map limits (x0, x1, y0, y1) [m] that hold every track of ``TRACK_CHOICES`` and its mirror at each turn angle
+    of ``angles``, framed as ``plot_observability_view`` frames one view: chosen once for the widget, so that a
+    move of the track or the turn angle keeps the map's axes (and the pixels drawn of them)."""
+    times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
+    beacon = np.zeros(2)
+    points = [beacon[None, :]]
+    for track in TRACK_CHOICES:
+        for angle in (angles if track == "straight + turn" else angles[:1]):
+            points += list(_track_and_mirror(track, angle, times, beacon))
+    return _frame(np.vstack(points))
+
+
+def _frame(pts: np.ndarray) -> tuple[float, float, float, float]:
+    """The square map limits (x0, x1, y0, y1) around the points ``pts``, shape (N, 2), with a fifth of their
+    extent to spare."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
+    return (float(center[0] - half), float(center[0] + half), float(center[1] - half), float(center[1] + half))
+
+
 def observability_view(track: str = "straight + turn", turn_angle_deg: float = 60.0, sigma: float = 5.0,
                        state: str = "position") -> ObservabilityView:
     """Compute everything the observability widget shows (see ``ObservabilityView``).
@@ -162,11 +194,8 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
     theta = as_scalar("turn_angle_deg", turn_angle_deg)
     s = as_scalar("sigma", sigma, domain="positive")
     times = np.arange(0.0, 1200.0 + 1e-9, 10.0)
-    tr = _make_track(track, theta, times)
     beacon = np.zeros(2)
-    p = np.array(tr.positions)
-    mirror_start = observability.mirror_point(p[0], beacon, tr.velocities[0])
-    mirror = mirror_start + (p - p[0])
+    p, mirror = _track_and_mirror(track, theta, times, beacon)
     misfit = np.hypot(*(mirror - beacon).T) - np.hypot(*(p - beacon).T)
     ranks, n_states, rmse = {}, {}, {}
     crlb = np.empty((len(times), 2, 2))
@@ -184,9 +213,13 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
                              n_states=n_states, rmse=rmse, crlb=crlb)
 
 
-def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
+def plot_observability_view(view: ObservabilityView, fig: Any = None,
+                            frame: tuple[float, float, float, float] | None = None) -> Any:
     """Draw an ``ObservabilityView``: the track with its mirror and CRLB ellipses, the mirror's range misfit, the
     rank of the information over time and the RMSE bound of each choice of unknowns.
+
+    ``frame``, the map limits (x0, x1, y0, y1) [m], defaults to a square around this view's tracks; the widget
+    gives one that holds every track it offers (its updates then keep it).
 
     Examples
     --------
@@ -213,16 +246,14 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ellipses = []
     for _k, pts in _ellipses(view):
         ellipses.append(ax_map.plot(pts[:, 0], pts[:, 1], color=colors[view.state], lw=1.0,
-                                    label=None if drawn else f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")[0])
+                                    label=None if drawn else _ellipse_label(view, True))[0])
         drawn = True
     if not drawn:
-        ax_map.plot([], [], color=colors[view.state], label=f"{view.state}: no finite bound")
+        ax_map.plot([], [], color=colors[view.state], label=_ellipse_label(view, False))
     # frame the tracks, not the ellipses (an early ellipse can be kilometres long)
-    pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
-    ax_map.set_xlim(center[0] - half, center[0] + half)
-    ax_map.set_ylim(center[1] - half, center[1] + half)
+    x0, x1, y0, y1 = frame or _frame(np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]]))
+    ax_map.set_xlim(x0, x1)
+    ax_map.set_ylim(y0, y1)
     ax_map.set_aspect("equal", adjustable="box")
     ax_map.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=7)
     ax_map.set_xlabel("x east [m]", fontsize=8)
@@ -266,8 +297,9 @@ def plot_observability_view(view: ObservabilityView, fig: Any = None) -> Any:
     ax_rmse.legend(loc="upper right", fontsize=6.5)
     ax_rmse.tick_params(labelsize=7)
     ax_rmse.minorticks_off()
+    snap_to_decades(ax_rmse)            # as the updates keep them (see ``rescale``)
     return keep(fig, tracks=tracks, ellipses=ellipses, state=view.state, misfit=misfit, noise=noise, ranks=ranks,
-                bounds=bounds)
+                bounds=bounds, frame=frame)
 
 
 #: The colour of each choice of unknowns (its ellipses, rank and bound).
@@ -284,18 +316,21 @@ def _ellipses(view: ObservabilityView) -> list[tuple[int, np.ndarray]]:
     return out
 
 
+def _ellipse_label(view: ObservabilityView, drawn: bool) -> str:
+    """The map legend's entry for the ellipses (``drawn``: some bound is finite)."""
+    return f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})" if drawn else f"{view.state}: no finite bound"
+
+
 def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | None:
-    """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed,
-    or ``None`` when it must be drawn anew (other unknowns, or another number of finite ellipses)."""
+    """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed.
+
+    Other unknowns, another track and another number of finite ellipses (none among them) are all put in place:
+    the ellipse lines are reused, added or removed and recoloured, and the map legend's last entry follows."""
     a = kept(fig)
     ellipses = _ellipses(view)
-    if not ellipses or not a["ellipses"]:              # the legend names "no finite bound": drawn anew
-        return None
     ax_map, ax_mis, ax_rank, ax_rmse = fig.axes[:4]
     a["tracks"][0].set_data(*view.positions.T)
     a["tracks"][1].set_data(*view.mirror_positions.T)
-    # other unknowns or another number of finite ellipses: the ellipse lines are reused, added or removed and
-    # coloured for the unknowns, the legend's entry follows (no new axes: the figure is not drawn anew)
     color = _STATE_COLORS[view.state]
     lines = a["ellipses"]
     while len(lines) > len(ellipses):
@@ -305,19 +340,18 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     for line, (_, pts) in zip(lines, ellipses):
         line.set_data(pts[:, 0], pts[:, 1])
         line.set_color(color)
+    # the map legend is redrawn at every update (so never kept in the background, where its old entry would show)
     map_legend = ax_map.get_legend()
-    changed_legend = []
-    if view.state != a["state"]:
-        a["state"] = view.state
-        handle = map_legend.legend_handles[-1]
-        handle.set_color(color)
-        map_legend.get_texts()[-1].set_text(f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})")
-        changed_legend = [map_legend]
+    map_legend.legend_handles[-1].set_color(color)
+    map_legend.get_texts()[-1].set_text(_ellipse_label(view, bool(ellipses)))
+    a["state"] = view.state
     pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     center, half = (lo + hi) / 2, 0.6 * max(float(np.max(hi - lo)), 1.0)
     (x0, x1), (y0, y1) = ax_map.get_xlim(), ax_map.get_ylim()
-    if not (x0 <= lo[0] and hi[0] <= x1 and y0 <= lo[1] and hi[1] <= y1 and 2 * half >= 0.6 * (x1 - x0)):
+    inside = x0 <= lo[0] and hi[0] <= x1 and y0 <= lo[1] and hi[1] <= y1
+    # the widget's frame holds every track it offers: kept; another frame is kept while the tracks fill enough of it
+    if not (inside and (a["frame"] is not None or 2 * half >= 0.6 * (x1 - x0))):
         half *= 1.15                    # the frame changes: with room for the next step of the same control
         ax_map.set_xlim(center[0] - half, center[0] + half)
         ax_map.set_ylim(center[1] - half, center[1] + half)
@@ -336,8 +370,10 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
         line.set_data(t_min, np.where(np.isfinite(e), e, np.nan))
         finals.append("∞" if not np.isfinite(e[-1]) else f"{e[-1]:.1f}")
     ax_rmse.set_title("final RMSE bound [m]: " + " / ".join(finals), fontsize=8)
-    rescale(ax_rmse)
-    return [*a["tracks"], *a["ellipses"], *changed_legend, ax_map.title, a["misfit"], a["noise"], legend,
+    # whole decades, kept while at most three are spare: the early bound of one track can be 100 times another's,
+    # and most moves then keep the axes (and their pixels)
+    rescale(ax_rmse, decades=True, spare_decades=3.0)
+    return [*a["tracks"], *lines, map_legend, ax_map.title, a["misfit"], a["noise"], legend,
             ax_mis.title, *a["ranks"], *a["bounds"], ax_rmse.title]
 
 
@@ -364,7 +400,9 @@ def observability_widget() -> Any:
                             style=style),
     }
     view = functools.lru_cache(maxsize=256)(observability_view)
-    return slider_panel(sliders, lambda fig, **p: plot_observability_view(view(**p), fig),
+    turn = sliders["turn_angle_deg"]
+    frame = _widget_frame(tuple(float(a) for a in range(turn.min, turn.max + 1, turn.step)))
+    return slider_panel(sliders, lambda fig, **p: plot_observability_view(view(**p), fig, frame),
                         lambda fig, **p: update_observability_view(fig, view(**p)))
 
 

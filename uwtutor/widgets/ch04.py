@@ -14,7 +14,7 @@ from .._validate import as_int, as_scalar, as_seed, check_work
 from ..filters import range_only_ekf
 from ..montecarlo import run_monte_carlo
 from ..plotting import mark_beacon, plain_log_ticks
-from ._panel import keep, kept, rescale, slider_panel
+from ._panel import keep, kept, rescale, slider_panel, snap_to_decades
 
 __all__ = [
     "EKFView",
@@ -203,6 +203,7 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     keep(fig, runs=runs, rmse=rmse, nees=nees, inside=inside, bounds=(lo, hi))
     _ekf_texts(view, fig)
     fig.tight_layout()
+    snap_to_decades(ax_r, ax_n)         # as the updates keep them (see ``update_ekf_view``)
     return fig
 
 
@@ -225,7 +226,10 @@ def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
         line.set_data(*est.T)
     a["rmse"].set_data(view.times, view.rmse)
     a["nees"].set_data(view.times, view.mean_nees)
-    rescale(*fig.axes[:3])
+    rescale(fig.axes[0])
+    # the RMSE and NEES panels in whole decades, kept while at most one is spare: most moves of a slider keep
+    # the axes, and the pixels drawn of them
+    rescale(*fig.axes[1:3], decades=True)
     return [*a["runs"], a["rmse"], a["nees"], *_ekf_texts(view, fig)]
 
 

@@ -15,7 +15,7 @@ from .._validate import as_finite, as_int, check_work
 from ..filters.ekf import range_only_ekf
 from ..filters.fading import fading_ekf
 from ..plotting import mark_beacon, plot_track
-from ._panel import keep, kept, rescale, slider_panel
+from ._panel import keep, kept, rescale, slider_panel, snap_to_decades
 
 __all__ = [
     "PAPER_D",
@@ -106,6 +106,29 @@ class FadingView:
     steady_median: dict[str, float]
 
 
+@functools.lru_cache(maxsize=16)
+def _fading_start(d0: float, M: int, seed: int) -> tuple[Any, np.ndarray, np.ndarray]:
+    """What ``fading_view`` draws and runs before the fading filter, which depends on the initial error, the number
+    of runs and the seed only: paper D's scenario, the initial estimates (``initial_error`` metres from the truth in
+    a random direction per run) and the additive EKF's estimates, shape (M, K, 2).
+
+    Kept for the last few settings: a move of the sound-speed error, the forgetting factor or the weakening factor
+    then runs the fading filter alone. The arrays are made read-only, so that no caller can change a kept one.
+    """
+    rng = np.random.default_rng(seed)
+    sc = paper_d.make(rng, n_runs=M)
+    angle = rng.uniform(0.0, 2.0 * np.pi, M)
+    x0 = sc.true_positions[:, 0] + d0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    par = paper_d.PARAMETERS
+    ekf = range_only_ekf(x0, np.eye(2) * d0**2, sc.dr_displacements, sc.ranges, np.eye(2) * par.Q, par.R,
+                         times=sc.times)
+    x_ekf = np.array(ekf.x)
+    for array in (sc.true_positions, sc.dr_displacements, sc.ranges, sc.times, x0, x_ekf):
+        if isinstance(array, np.ndarray):
+            array.setflags(write=False)
+    return sc, x0, x_ekf
+
+
 def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = True, initial_error: float = 150.0,
                 n_runs: int = 100, seed: int = 0) -> FadingView:
     r"""Run the fading EKF and the additive EKF on ``n_runs`` draws of paper D's approach scenario.
@@ -157,11 +180,8 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     M = as_int("n_runs", n_runs, minimum=1)
     check_work("n_runs", 10 * M * _EPOCHS, "floats (n_runs x paper D's epochs x 10)")
     seed = as_int("seed", seed, minimum=0)
-    rng = np.random.default_rng(seed)
-    sc = paper_d.make(rng, n_runs=M)
-    angle = rng.uniform(0.0, 2.0 * np.pi, M)
+    sc, x0, x_ekf = _fading_start(d0, M, seed)
     truth = sc.true_positions
-    x0 = truth[:, 0] + d0 * np.column_stack([np.cos(angle), np.sin(angle)])
     P0 = np.eye(2) * d0**2
     par = paper_d.PARAMETERS
     Q = np.eye(2) * par.Q
@@ -169,9 +189,8 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     fad = fading_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, par.R, mu_gamma=1.0 + dc / c,
                      sigma_gamma=par.speed_sigma / c, rho=rho, beta="range" if weakening else 1.0,
                      times=sc.times)
-    ekf = range_only_ekf(x0, P0, sc.dr_displacements, sc.ranges, Q, par.R, times=sc.times)
     err_f = np.linalg.norm(fad.x - truth, axis=-1)
-    err_e = np.linalg.norm(ekf.x - truth, axis=-1)
+    err_e = np.linalg.norm(x_ekf - truth, axis=-1)
     late = sc.times >= STEADY_FROM
 
     def steady(err: np.ndarray) -> tuple[float, float]:
@@ -181,7 +200,7 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
     (rf, mf), (re, me) = steady(err_f), steady(err_e)
     return FadingView(assumed_dc=dc, rho=float(rho), weakening=bool(weakening), initial_error=d0, n_runs=M,
                       times=np.array(sc.times), truth=np.array(truth[0]), x_fading=np.array(fad.x[0]),
-                      x_ekf=np.array(ekf.x[0]), rmse_fading=np.sqrt(np.mean(err_f**2, axis=0)),
+                      x_ekf=np.array(x_ekf[0]), rmse_fading=np.sqrt(np.mean(err_f**2, axis=0)),
                       rmse_ekf=np.sqrt(np.mean(err_e**2, axis=0)), median_fading=np.median(err_f, axis=0),
                       median_ekf=np.median(err_e, axis=0), fading_factor=np.array(fad.fading_factor[0]),
                       weakening_factor=np.array(fad.weakening_factor[0]),
@@ -224,11 +243,12 @@ def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
     ax_err.set_ylabel("position error [m]")
     ax_err.legend(fontsize=7, ncol=2, loc="upper right")
     (factor,) = ax_lam.semilogy(t, view.fading_factor, ".", ms=3, color="C3")
-    ax_lam.set_ylim(0.8, None)
+    ax_lam.set_ylim(0.8, _factor_top(view.fading_factor))
     ax_lam.set_xlabel("time [s]")
     ax_lam.set_ylabel("fading factor λ (run 0)")
     _fading_titles(view, ax_err, ax_lam)
     fig.tight_layout()
+    snap_to_decades(ax_err)             # as the updates keep them (see ``update_fading_view``)
     return keep(fig, tracks=tracks, errors=errors, factor=factor, weakening=view.weakening)
 
 
@@ -241,16 +261,17 @@ def _fading_titles(view: FadingView, ax_err: Any, ax_lam: Any) -> list[Any]:
 
 def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (the
-    legends among them when the weakening factor is switched: the fading filter's name changes)."""
+    legends among them: the fading filter's name changes with the weakening factor)."""
     a = kept(fig)
     ax_map, ax_err, ax_lam = fig.axes[:3]
-    legends = []
+    # both legends are redrawn at every update, so never kept in the background (where the old name would show
+    # under the new one)
+    legends = [ax_map.get_legend(), ax_err.get_legend()]
     if a["weakening"] != view.weakening:            # the fading filter's name changes in both legends
         old, new = (_fading_name(w) for w in (a["weakening"], view.weakening))
-        for legend in (ax_map.get_legend(), ax_err.get_legend()):
+        for legend in legends:
             for text in legend.get_texts():
                 text.set_text(text.get_text().replace(old, new))
-            legends.append(legend)
         a["weakening"] = view.weakening
     ekf, ekf0, fading, fading0 = a["tracks"]
     ekf.set_data(*view.x_ekf[:, :2].T)
@@ -260,11 +281,25 @@ def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     for line, y in zip(a["errors"], (view.rmse_ekf, view.median_ekf, view.rmse_fading, view.median_fading)):
         line.set_ydata(y)
     a["factor"].set_ydata(view.fading_factor)
-    rescale(ax_map, ax_err)
-    ax_lam.relim()
-    ax_lam.autoscale_view()
-    ax_lam.set_ylim(0.8, None)
+    rescale(ax_map)
+    # the error and the fading factor in whole decades, kept while at most one is spare: most moves of a slider
+    # keep the axes, and the pixels drawn of them
+    rescale(ax_err, decades=True)
+    top, needed = ax_lam.get_ylim()[1], _factor_top(view.fading_factor)
+    if not (_factor_peak(view.fading_factor) <= top <= 10.0 * needed):
+        ax_lam.set_ylim(0.8, needed)
     return [*a["tracks"], *a["errors"], a["factor"], *legends, *_fading_titles(view, ax_err, ax_lam)]
+
+
+def _factor_peak(factor: np.ndarray) -> float:
+    """The largest fading factor with a 5 % margin above it (1 when there is none)."""
+    finite = factor[np.isfinite(factor)]
+    return 1.05 * float(finite.max()) if finite.size else 1.0
+
+
+def _factor_top(factor: np.ndarray) -> float:
+    """The top of the fading-factor panel: the decade above the largest factor (with its margin), at least 10."""
+    return max(10.0, 10.0 ** float(np.ceil(np.log10(_factor_peak(factor)))))
 
 
 def _fading_name(weakening: bool) -> str:

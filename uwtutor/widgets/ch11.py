@@ -180,21 +180,34 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     ax_e.set_ylabel("error [m]")
     ax_e.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
     ax_e.tick_params(labelbottom=False)
-    band = scale = None
-    if np.isfinite(view.scale).any():
-        band = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
-                                 color="C0", alpha=0.25, lw=0)
-        (scale,) = ax_s.plot(view.times, view.scale, color="C0", lw=1.0, label="estimate ± σ")
-    else:
-        ax_s.text(0.5, 0.5, "scale not estimated (taken as 1)", transform=ax_s.transAxes, ha="center",
-                  va="center", fontsize=8, color="0.4")
-    ax_s.axhline(view.measured_scale, color="k", ls="--", lw=1.0, label="measured on the truth")
+    # the band, the estimate, the note and both legends are made whatever the states, and shown or hidden: an
+    # update then switches the scale on or off in place (a scale of NaN, not estimated, draws nothing)
+    band = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
+                             color="C0", alpha=0.25, lw=0)
+    (scale,) = ax_s.plot(view.times, view.scale, color="C0", lw=1.0, label="estimate ± σ")
+    note = ax_s.text(0.5, 0.5, "scale not estimated (taken as 1)", transform=ax_s.transAxes, ha="center",
+                     va="center", fontsize=8, color="0.4")
+    measured = ax_s.axhline(view.measured_scale, color="k", ls="--", lw=1.0, label="measured on the truth")
     ax_s.set_ylim(0.95, 1.15)
     ax_s.set_xlabel("time since the start [s]")
     ax_s.set_ylabel("range scale s")
-    ax_s.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    style = dict(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    plain = ax_s.legend(handles=[measured], **style)
+    ax_s.add_artist(plain)              # kept when the next call makes the full legend the axes' own
+    full = ax_s.legend(handles=[scale, measured], **style)
+    legends = (full, plain)
+    _show_scale(np.isfinite(view.scale).any(), note, legends)
     _real_data_titles(view, ax_t, ax_e)
-    return keep(fig, track=track, marks=marks, error=error, error_rts=error_rts, band=band, scale=scale)
+    return keep(fig, track=track, marks=marks, error=error, error_rts=error_rts, band=band, scale=scale, note=note,
+                legends=legends)
+
+
+def _show_scale(estimated: bool, note: Any, legends: tuple[Any, Any]) -> list[Any]:
+    """Show the scale's legend entry, or the note that it is not estimated; returns the artists switched."""
+    note.set_visible(not estimated)
+    legends[0].set_visible(estimated)
+    legends[1].set_visible(not estimated)
+    return [note, *legends]
 
 
 def _real_data_titles(view: RealDataView, ax_t: Any, ax_e: Any) -> list[Any]:
@@ -207,10 +220,11 @@ def _real_data_titles(view: RealDataView, ax_t: Any, ax_e: Any) -> list[Any]:
 
 
 def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
-    """Put another ``RealDataView`` into a figure drawn by ``plot_real_data_view``; returns what changed (``None``,
-    to draw anew, when the scale starts or stops being estimated)."""
+    """Put another ``RealDataView`` into a figure drawn by ``plot_real_data_view``; returns what changed (the scale
+    panel's band, estimate, note and legends among them: the scale starts or stops being estimated in place).
+    ``None`` (draw anew) for a study with other beacons."""
     a = kept(fig)
-    if (a["scale"] is None) != (not np.isfinite(view.scale).any()) or set(a["marks"]) != set(view.all_beacons):
+    if set(a["marks"]) != set(view.all_beacons):
         return None
     ax_t, ax_e, ax_s = fig.axes[:3]
     a["track"].set_data(*view.estimate.T)
@@ -223,12 +237,11 @@ def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
     a["error"].set_data(view.times, np.maximum(view.error, 1e-3))
     a["error_rts"].set_data(view.times, np.maximum(view.error_rts, 1e-3))
     changed += [a["error"], a["error_rts"]]
-    if a["scale"] is not None:
-        a["band"].remove()
-        a["band"] = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
-                                      color="C0", alpha=0.25, lw=0)
-        a["scale"].set_data(view.times, view.scale)
-        changed += [a["band"], a["scale"]]
+    a["band"].remove()
+    a["band"] = ax_s.fill_between(view.times, view.scale - view.scale_sigma, view.scale + view.scale_sigma,
+                                  color="C0", alpha=0.25, lw=0)
+    a["scale"].set_data(view.times, view.scale)
+    changed += [a["band"], a["scale"], *_show_scale(np.isfinite(view.scale).any(), a["note"], a["legends"])]
     rescale(ax_t)
     return changed + _real_data_titles(view, ax_t, ax_e)
 

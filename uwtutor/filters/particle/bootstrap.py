@@ -777,59 +777,9 @@ class BootstrapParticleFilter(Configurable):
                 self._y = np.full((M, m), np.nan)
                 self._S = np.full((M, m, m), np.nan)
                 return
-
-        # innovation statistics from the predicted particles (h(x) = x: the moments are already known)
         view = self._rows_p.swapaxes(-1, -2)
-        hx = self.measurement.h(view, k)
-        if hx is not view:
-            hx = as_model_output(f"the measurement model {type(self.measurement).__name__}.h", hx)
-        if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
-            raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
-                             f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
-        hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
-        R = self._measurement_noise(view, k)
-        y = self.measurement.residual(z, hx_mean)
-        if R.ndim == 4:                                   # one R per particle: its weighted mean
-            S = hx_cov + np.einsum("mn,mnij->mij", self._w, R)
-        else:
-            S = hx_cov + R
-        if none is not None:
-            y[missing] = np.nan
-            S[missing[:, :, None] | missing[:, None, :]] = np.nan
-        self._y, self._S = y, S
-
-        # reweight in log space: w_i <- w_i p(z | x_i)
-        logw = self._log_weights(view, hx, z, R, k)
-        if getattr(logw, "shape", None) != self._w.shape:
-            raise ValueError(f"the measurement model's log_likelihood must return one value per particle and run, "
-                             f"shape {self._w.shape}; got {np.shape(logw)}")
-        if not _all(self._uniform):
-            with np.errstate(divide="ignore"):
-                logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
-        if M == 1 and none is None:                       # one run: the same arithmetic on its row
-            top1 = np.maximum.reduce(logw[0])
-            if not math.isfinite(top1):
-                raise self._lost(logw, "")
-            top = np.array([[top1]])
-            w = logw - top1                               # a new array: the model's output is left alone
-            np.exp(w, out=w)
-            w /= np.add.reduce(w[0])
-        else:
-            top = np.maximum.reduce(logw, axis=1, keepdims=True)
-            if none is None and _all(np.isfinite(top)):    # every run has a particle with a likelihood
-                lost = None
-            else:
-                lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
-            if lost is not None and _any(lost):
-                which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
-                raise self._lost(logw, which)
-            if none is not None:
-                top = np.where(none[:, None], 0.0, top)
-            w = logw - top                                # a new array: the model's output is left alone
-            np.exp(w, out=w)
-            w /= np.add.reduce(w, axis=1, keepdims=True)
-            if none is not None:                          # nothing measured: weights as they were
-                w[none] = self._w[none]
+        hx, R = self._innovation_statistics(view, z, k, reuse, missing)
+        w, top = self._reweighted(self._weighted_log_likelihood(view, hx, z, R, k), none)
         self._w = w
         self._uniform = np.zeros(M, dtype=bool) if none is None else self._uniform & none
         self._set_estimate()
@@ -837,17 +787,7 @@ class BootstrapParticleFilter(Configurable):
         if none is not None:
             ess[none] = self._ess[none]
         self._ess = ess
-        # a collapse onto one particle because the measurement is far from every particle (an SIS filter that never
-        # resamples also ends on one particle, but on one that explains the data: that is not warned about)
-        collapsed = ess < COLLAPSE_ESS if none is None else (ess < COLLAPSE_ESS) & ~none
-        if w.shape[1] > 1 and _any(collapsed) and self._gaussian and R.ndim < 4:
-            collapsed &= top[:, 0] < -0.5 * COLLAPSE_NIS        # the best particle's own -NIS/2 (no constant)
-        else:
-            collapsed[:] = False
-        if _any(collapsed):
-            run = int(np.flatnonzero(collapsed)[0])
-            warn(_COLLAPSE.format(k=k, which=f" (run {run})" if self._batched else "", ess=float(ess[run]),
-                                  N=w.shape[1]), ParticleCollapseWarning)
+        self._warn_of_collapse(ess, top, none, R, k)
         if self.ess_threshold >= 1.0:
             due = range(M) if none is None else np.flatnonzero(~none)
         else:
@@ -855,6 +795,86 @@ class BootstrapParticleFilter(Configurable):
             due = np.flatnonzero(low if none is None else low & ~none)
         if len(due):
             self._resample(due)
+
+    def _innovation_statistics(self, view: np.ndarray, z: np.ndarray, k: int, reuse: bool,
+                               missing: np.ndarray | None) -> tuple[Any, np.ndarray]:
+        """Set ``y`` and ``S`` from the predicted particles (NaN where ``missing``); return their ``h(x)`` and R."""
+        m = z.shape[1]
+        hx = self.measurement.h(view, k)
+        if hx is not view:
+            hx = as_model_output(f"the measurement model {type(self.measurement).__name__}.h", hx)
+        if hx is not view and getattr(hx, "shape", None) != view.shape[:-1] + (m,):
+            raise ValueError(f"the measurement model's h ({type(self.measurement).__name__}) must return shape "
+                             f"{view.shape[:-1] + (m,)} for particles {view.shape}; got {np.shape(hx)}")
+        # h(x) = x: the moments of the predicted particles are already known
+        hx_mean, hx_cov = (self._x, self._P) if (reuse and hx is view) else self._moments(_rows(hx))
+        R = self._measurement_noise(view, k)
+        y = self.measurement.residual(z, hx_mean)
+        if R.ndim == 4:                                   # one R per particle: its weighted mean
+            S = hx_cov + np.einsum("mn,mnij->mij", self._w, R)
+        else:
+            S = hx_cov + R
+        if not self._complete and missing is not None:
+            y[missing] = np.nan
+            S[missing[:, :, None] | missing[:, None, :]] = np.nan
+        self._y, self._S = y, S
+        return hx, R
+
+    def _weighted_log_likelihood(self, view: np.ndarray, hx: Any, z: np.ndarray, R: np.ndarray,
+                                 k: int) -> np.ndarray:
+        """The logs (M, N) of the new weights before normalizing: w_i <- w_i p(z | x_i), in log space."""
+        logw = self._log_weights(view, hx, z, R, k)
+        if getattr(logw, "shape", None) != self._w.shape:
+            raise ValueError(f"the measurement model's log_likelihood must return one value per particle and run, "
+                             f"shape {self._w.shape}; got {np.shape(logw)}")
+        if not _all(self._uniform):
+            with np.errstate(divide="ignore"):
+                logw = logw + np.where(self._uniform[:, None], 0.0, np.log(self._w))
+        return logw
+
+    def _reweighted(self, logw: np.ndarray, none: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The normalized weights (M, N) and each run's largest log (M, 1); the runs in ``none`` keep theirs."""
+        M = logw.shape[0]
+        if M == 1 and none is None:                       # one run: the same arithmetic on its row
+            top1 = np.maximum.reduce(logw[0])
+            if not math.isfinite(top1):
+                raise self._lost(logw, "")
+            w = logw - top1                               # a new array: the model's output is left alone
+            np.exp(w, out=w)
+            w /= np.add.reduce(w[0])
+            return w, np.array([[top1]])
+        top = np.maximum.reduce(logw, axis=1, keepdims=True)
+        if none is None and _all(np.isfinite(top)):        # every run has a particle with a likelihood
+            lost = None
+        else:
+            lost = ~np.isfinite(top[:, 0]) if none is None else ~np.isfinite(top[:, 0]) & ~none
+        if lost is not None and _any(lost):
+            which = f" (run {int(np.flatnonzero(lost)[0])})" if self._batched else ""
+            raise self._lost(logw, which)
+        if none is not None:
+            top = np.where(none[:, None], 0.0, top)
+        w = logw - top                                    # a new array: the model's output is left alone
+        np.exp(w, out=w)
+        w /= np.add.reduce(w, axis=1, keepdims=True)
+        if none is not None:                              # nothing measured: weights as they were
+            w[none] = self._w[none]
+        return w, top
+
+    def _warn_of_collapse(self, ess: np.ndarray, top: np.ndarray, none: np.ndarray | None, R: np.ndarray,
+                          k: int) -> None:
+        """Warn where the cloud collapsed onto one particle because the measurement is far from every particle."""
+        # (an SIS filter that never resamples also ends on one particle, but on one that explains the data: that is
+        # not warned about)
+        collapsed = ess < COLLAPSE_ESS if none is None else (ess < COLLAPSE_ESS) & ~none
+        N = self._w.shape[1]
+        if N > 1 and _any(collapsed) and self._gaussian and R.ndim < 4:
+            collapsed &= top[:, 0] < -0.5 * COLLAPSE_NIS        # the best particle's own -NIS/2 (no constant)
+        else:
+            collapsed[:] = False
+        if _any(collapsed):
+            run = int(np.flatnonzero(collapsed)[0])
+            warn(_COLLAPSE.format(k=k, which=f" (run {run})" if self._batched else "", ess=float(ess[run]), N=N),
+                 ParticleCollapseWarning)
 
     def _lost(self, logw: np.ndarray, which: str) -> Exception:
         """The error for an update where no particle has a likelihood: the model's fault when it made a NaN (an h
