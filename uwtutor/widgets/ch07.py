@@ -294,6 +294,8 @@ def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | N
     (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears; in a partial view, see
     ``BiasTrackingView.epochs_run``, a fix not reached yet is hidden instead)."""
     a = kept(fig)
+    if a is None:                   # not a figure of the plot function: drawn anew
+        return None
     k0 = int(view.start_epochs[0])
     if (a["fix"] is None) != (k0 >= len(view.times)) and view.epochs_run is None:
         return None

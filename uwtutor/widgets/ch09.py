@@ -323,6 +323,8 @@ def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
     draw anew, when the test changes: its name is in the legend; a view of the measured ranges alone, whose
     filter curves are hidden, leaves the legend to the full view that follows)."""
     a = kept(fig)
+    if a is None:                   # not a figure of the plot function: drawn anew
+        return None
     if a["test"] != view.test and view.filtered:
         return None
     ax_r, ax_p = fig.axes[:2]
