@@ -656,8 +656,10 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
                     return
                 if not anew:
                     _restore_axes(axes)                 # fitted from where the coarse picture started
-                png, _ = picture(current, coarse=False, anew=anew)
+                png, drawn_anew = picture(current, coarse=False, anew=anew)
                 keep_picture(key, png)
+                if drawn_anew and update is not None:   # the next update's background drawn now, in the worker
+                    renderer.prime(update(fig, **current, coarse=False))
         except Exception:                               # no caller to raise to: shown under the figure
             state["failed"] = True
             messages.clear_output(wait=True)
