@@ -266,8 +266,16 @@ def _plain_log_labels(axis: Any) -> None:
     wide enough to crowd the axis label)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
-    axis.set_major_formatter(FuncFormatter(lambda value, _pos: f"{value:g}"))
+    # ticks at 1, 2 and 5 in every decade (numticks: matplotlib's locator drops ticks with subs altogether when it
+    # would skip decades); over more than two decades only the powers of ten are labelled, so the labels do not crowd
+    axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0), numticks=30))
+
+    def label(value: float, _pos: Any) -> str:
+        low, high = sorted(axis.get_view_interval())
+        wide = low > 0 and np.log10(high / low) > 2.0
+        return "" if wide and not np.isclose(10.0 ** np.round(np.log10(value)), value) else f"{value:g}"
+
+    axis.set_major_formatter(FuncFormatter(label))
     axis.set_minor_formatter(NullFormatter())
     axis.set_tick_params(labelsize=8)
 
@@ -309,7 +317,8 @@ def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None
         margin = ax_err.margins()[0] * (t[-1] - t[0])       # as autoscaling placed them at the first drawing
         ax_err.set_xlim(t[0] - margin, t[-1] + margin)
     rescale(ax_map)
-    rescale(ax_err)
+    # kept while the median error fits (the widget gives the axis room for most settings), refitted when it does not
+    rescale(ax_err, keep_within=0.0)
     return [*a["tracks"], *a["bands"], *a["currents"], *a["truths"], a["median"],
             *_cooperative_titles(view, ax_map, ax_err)]
 
@@ -365,8 +374,7 @@ def _room_for_every_setting(fig: Any, max_current: float) -> None:
     """Give the widget's axes limits that most settings fit in, so that a move redraws no axes (their pixels are
     kept, see ``_panel.BlitRenderer``): the map holds, unseen, the tracks of every leader pattern with and without
     the strongest current (``update_cooperative_view`` keeps limits while the data fits them); the current axes the
-    ±1 m/s band of any current of the slider. (The median error keeps its fitted limits: fixed ones wide enough for
-    every setting would span too many decades for its tick labels.)"""
+    ±1 m/s band of any current of the slider; the median error 1 m to 5 km (the worst settings reach about 3 km)."""
     from matplotlib.lines import Line2D
 
     ax_map, ax_cur, ax_err = fig.axes[:3]
@@ -385,6 +393,7 @@ def _room_for_every_setting(fig: Any, max_current: float) -> None:
     ax_map.relim()
     ax_map.autoscale_view()
     ax_cur.set_ylim(-1.0, max_current / np.sqrt(2.0) + 1.0)
+    ax_err.set_ylim(1.0, 5000.0, auto=None)
 
 
 #: Monte Carlo runs per setting of the widget (the compute function's default, used by the chapter, is 100).
