@@ -295,6 +295,8 @@ def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list
 def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None:
     """Put another ``CooperativeView`` into a figure drawn by ``plot_cooperative_view``; returns what changed."""
     a = kept(fig)
+    if a is None:                                   # not a figure plot_cooperative_view drew: draw it anew
+        return None
     ax_map, ax_cur, ax_err = fig.axes[:3]
     for (line, dot), track in zip(zip(a["tracks"][::2], a["tracks"][1::2]),
                                   (view.leader, view.truth, view.estimate, view.dr)):
