@@ -107,3 +107,44 @@ def test_median_error_labels_stay_short():
         assert all(len(s) <= 4 and "$" not in s and float(s) / 10 ** np.floor(np.log10(float(s))) in (1, 2, 5)
                    for s in labels), (setting, labels)
     plt.close(fig)
+
+
+def test_the_early_view_is_the_full_view_on_its_steps():
+    # the widget's first answer for a new setting: the same runs, the filter over the first steps only
+    E = ch08.EARLY_STEPS
+    for setting in (dict(pattern="zigzag", current=0.7071, interval=8, packet_loss=0.2, tuning="paper B"),
+                    dict(pattern="parallel", current=1.0, interval=4, packet_loss=0.0, tuning="matched")):
+        early = ch08._early_view(**setting)
+        full = ch08.cooperative_view(n_runs=ch08.WIDGET_RUNS, **setting)
+        assert early.epochs_run == E and full.epochs_run is None
+        assert np.isnan(early.late_median_error) and np.isnan(early.lost_fraction) and not early.unobservable
+        for name in ("estimate", "current_estimate", "current_sigma", "median_error"):
+            np.testing.assert_array_equal(getattr(early, name)[:E], getattr(full, name)[:E])
+            assert np.isnan(getattr(early, name)[E:]).all()
+        for name in ("times", "truth", "leader", "dr"):
+            np.testing.assert_array_equal(getattr(early, name), getattr(full, name))
+    # a run no longer than the steps asked for (δt = 60 s: 41 steps) is run whole
+    assert ch08._view("zigzag", 0.7071, 60.0, 0.0, "matched", 5, 0, 41).epochs_run is None
+
+
+def test_the_panel_refined_in_the_background_ends_as_computed_at_once(monkeypatch):
+    import threading
+
+    from uwtutor.widgets import _panel
+
+    def moved(background):
+        monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
+        panel = ch08.cooperative_widget()
+        image = panel.children[2].children[0]
+        gate = threading.Event()
+        panel._uwtutor_refiner.submit(gate.wait)       # the worker held: the first picture is seen as it is
+        panel.children[1].children[1].value = "paper B"     # tuning
+        first = bytes(image.value)
+        gate.set()
+        assert _panel.wait_refined(panel, timeout=120.0)
+        return first, bytes(image.value)
+
+    coarse, refined = moved(True)
+    _, at_once = moved(False)
+    assert refined == at_once and coarse != at_once
+    plt.close("all")

@@ -325,7 +325,7 @@ def bias_tracking_widget() -> Any:
 
     Each new setting computes the chapter's 30 runs of 2000 ranges (both filters; an α move only the pre-positioned
     one): about half a second. In a live kernel the first picture of a new setting shows the same runs over their
-    first 200 epochs (400 for an α move), titled "first ... s…", and the full answer replaces it when it is ready
+    first 200 epochs (300 for an α move), titled "first ... s…", and the full answer replaces it when it is ready
     (``_panel.slider_panel``'s ``refine``); a setting shown before comes back at once.
 
     Examples
@@ -365,9 +365,10 @@ def bias_tracking_widget() -> Any:
 
 
 #: Epochs the widget's first answer for a new setting runs the filters over (of the chapter's 2000), while the full
-#: answer is computed in the background: about a tenth of its time; twice as many when only the pre-positioned IEKF
-#: runs (an α move: the IEKF from the start is at hand), which starts at about epoch 250.
-EARLY_EPOCHS = (200, 400)
+#: answer is computed in the background: about a tenth of its time; half as many again when only the pre-positioned
+#: IEKF runs (an α move: the IEKF from the start is at hand), which starts at about epoch 250 (so the first picture
+#: shows its start; more epochs would cost a first picture over the 120 ms target).
+EARLY_EPOCHS = (200, 300)
 
 
 def _early_view(drift_rate: float, initial_error: float, max_alpha: float) -> BiasTrackingView:

@@ -72,7 +72,12 @@ class CooperativeView:
     lost_fraction : float
         Fraction of runs with an error above ``LOST_ERROR`` after ``LOST_AFTER`` seconds.
     unobservable : bool
-        Whether the filter emitted an ``UnobservableWarning`` (the relative track is straight).
+        Whether the filter emitted an ``UnobservableWarning`` (the relative track is straight); always False in a
+        partial view (``epochs_run``), which cannot judge the whole track.
+    epochs_run : int or None, default None
+        ``None``: the filter ran over all K steps. Otherwise it ran over the first ``epochs_run`` steps only (the
+        widget's first answer for a new setting), which are those of the full run: the estimates and the median
+        error are NaN after them, and ``late_median_error`` and ``lost_fraction`` are NaN (the tracks are whole).
 
     Examples
     --------
@@ -99,6 +104,7 @@ class CooperativeView:
     late_median_error: float
     lost_fraction: float
     unobservable: bool
+    epochs_run: int | None = None
 
 
 @functools.lru_cache(maxsize=16)
@@ -163,26 +169,48 @@ def cooperative_view(pattern: str = "zigzag", current: float = 0.7071, interval:
         raise ValueError(f"packet_loss must lie between 0 and 0.9; got {loss:g}")
     M = as_int("n_runs", n_runs, minimum=1)
     seed = as_int("seed", seed, minimum=0)
+    return _view(pattern, speed, dt, loss, tuning, M, seed)
+
+
+def _view(pattern: str, speed: float, dt: float, loss: float, tuning: str, M: int, seed: int,
+          epochs: int | None = None) -> CooperativeView:
+    """``cooperative_view`` on checked arguments, with the filter run over its first ``epochs`` steps only
+    (``None``: all). An EKF's estimate at a step depends on the steps up to it only, so those steps are the full
+    run's."""
     U = (speed / np.sqrt(2.0), speed / np.sqrt(2.0))
     params = paper_b.PaperBParameters(leader_pattern=pattern, current=U, interval=dt, packet_loss=loss)
     sc = _scenario(params, M, seed)
     tune = paper_b.paper_tuning(params) if tuning == "paper B" else paper_b.matched_tuning(params)
+    t = sc.times[1:]
+    K = len(t)
+    if epochs is not None and epochs >= K:          # a long δt: the whole run is no longer than the first steps
+        epochs = None
+    n = K if epochs is None else epochs             # the filter steps run, over n + 1 ranging epochs
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnobservableWarning)
-        res = cooperative_ekf(params.x1, tune.P1, sc.dr_displacements, sc.leader_broadcast, sc.ranges, dt,
-                              tune.Q, tune.R, times=sc.times[1:])
-    unobservable = any(issubclass(w.category, UnobservableWarning) for w in caught)
-    err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:], axis=-1)
-    t = sc.times[1:]
-    late = t >= t[-1] - LATE_WINDOW
-    lost = np.max(err[:, t > LOST_AFTER], axis=1, initial=0.0) > LOST_ERROR
+        res = cooperative_ekf(params.x1, tune.P1, sc.dr_displacements[:, :n], sc.leader_broadcast[:, :n + 1],
+                              sc.ranges[:, :n + 1], dt, tune.Q, tune.R, times=t[:n])
+    # the warning judges the whole relative track: a partial run's first steps cannot tell (a zigzag's first leg is
+    # straight), so a partial view makes no claim
+    unobservable = epochs is None and any(issubclass(w.category, UnobservableWarning) for w in caught)
+    err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:n + 1], axis=-1)
+    estimate, current_estimate, current_sigma = (np.full((K, 2), np.nan) for _ in range(3))
+    median_error = np.full(K, np.nan)
+    estimate[:n] = res.x[0, :, :2]
+    current_estimate[:n] = res.x[0, :, 2:]
+    current_sigma[:n] = np.sqrt(np.diagonal(res.P[0], axis1=-2, axis2=-1)[:, 2:])
+    median_error[:n] = np.median(err, axis=0)
+    if epochs is None:
+        late = t >= t[-1] - LATE_WINDOW
+        lost = np.max(err[:, t > LOST_AFTER], axis=1, initial=0.0) > LOST_ERROR
+        late_median, lost_fraction = float(np.median(err[:, late])), float(np.mean(lost))
+    else:
+        late_median = lost_fraction = float("nan")
     return CooperativeView(pattern=pattern, tuning=tuning, current=U, interval=dt, packet_loss=loss, n_runs=M,
                            times=np.array(t), truth=np.array(sc.true_positions), leader=np.array(sc.leader_positions),
-                           dr=np.array(sc.dr_positions[0]), estimate=np.array(res.x[0, :, :2]),
-                           current_estimate=np.array(res.x[0, :, 2:]),
-                           current_sigma=np.sqrt(np.diagonal(res.P[0], axis1=-2, axis2=-1)[:, 2:]),
-                           median_error=np.median(err, axis=0), late_median_error=float(np.median(err[:, late])),
-                           lost_fraction=float(np.mean(lost)), unobservable=unobservable)
+                           dr=np.array(sc.dr_positions[0]), estimate=estimate, current_estimate=current_estimate,
+                           current_sigma=current_sigma, median_error=median_error, late_median_error=late_median,
+                           lost_fraction=lost_fraction, unobservable=unobservable, epochs_run=epochs)
 
 
 def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
@@ -225,6 +253,9 @@ def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
     ax_err.set_xlabel("time [s]")
     _cooperative_titles(view, ax_map, ax_err)
     fig.tight_layout()
+    # the time axis fixed where autoscaling put it: a partial view (``epochs_run``) must not shrink it to its data;
+    # update_cooperative_view moves it when the run's times no longer fit
+    ax_err.set_xlim(ax_err.get_xlim())
     return keep(fig, tracks=tracks, bands=bands, currents=currents, truths=truths, median=median)
 
 
@@ -235,8 +266,16 @@ def _plain_log_labels(axis: Any) -> None:
     wide enough to crowd the axis label)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-    axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
-    axis.set_major_formatter(FuncFormatter(lambda value, _pos: f"{value:g}"))
+    # ticks at 1, 2 and 5 in every decade (numticks: matplotlib's locator drops ticks with subs altogether when it
+    # would skip decades); over more than two decades only the powers of ten are labelled, so the labels do not crowd
+    axis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0), numticks=30))
+
+    def label(value: float, _pos: Any) -> str:
+        low, high = sorted(axis.get_view_interval())
+        wide = low > 0 and np.log10(high / low) > 2.0
+        return "" if wide and not np.isclose(10.0 ** np.round(np.log10(value)), value) else f"{value:g}"
+
+    axis.set_major_formatter(FuncFormatter(label))
     axis.set_minor_formatter(NullFormatter())
     axis.set_tick_params(labelsize=8)
 
@@ -244,14 +283,20 @@ def _plain_log_labels(axis: Any) -> None:
 def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list[Any]:
     warn = ", UNOBSERVABLE" if view.unobservable else ""
     ax_map.set_title(f"leader {view.pattern}, {view.tuning} tuning{warn}", fontsize=8)
-    ax_err.set_title(f"{view.n_runs} runs, {100 * view.lost_fraction:.0f} % lost; last {LATE_WINDOW:.0f} s: "
-                     f"{view.late_median_error:.1f} m", fontsize=7)
+    if view.epochs_run is None:
+        ax_err.set_title(f"{view.n_runs} runs, {100 * view.lost_fraction:.0f} % lost; last {LATE_WINDOW:.0f} s: "
+                         f"{view.late_median_error:.1f} m", fontsize=7)
+    else:                               # the widget's first answer: says how far the filter has run
+        ax_err.set_title(f"{view.n_runs} runs, first {view.times[view.epochs_run - 1]:.0f} s of "
+                         f"{view.times[-1]:.0f} s…", fontsize=7)
     return [ax_map.title, ax_err.title]
 
 
 def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None:
     """Put another ``CooperativeView`` into a figure drawn by ``plot_cooperative_view``; returns what changed."""
     a = kept(fig)
+    if a is None:                                   # not a figure plot_cooperative_view drew: draw it anew
+        return None
     ax_map, ax_cur, ax_err = fig.axes[:3]
     for (line, dot), track in zip(zip(a["tracks"][::2], a["tracks"][1::2]),
                                   (view.leader, view.truth, view.estimate, view.dr)):
@@ -269,7 +314,13 @@ def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None
     if not (now_low <= low and high <= now_high):       # kept while the band fits, with room when it moves
         ax_cur.set_ylim(low - 0.3, high + 0.3)
     a["median"].set_data(t, np.maximum(view.median_error, 1e-2))
-    rescale(ax_map, ax_err)
+    t_low, t_high = ax_err.get_xlim()
+    if not (t_low <= t[0] and t[-1] <= t_high and t[-1] - t[0] >= 0.5 * (t_high - t_low)):
+        margin = ax_err.margins()[0] * (t[-1] - t[0])       # as autoscaling placed them at the first drawing
+        ax_err.set_xlim(t[0] - margin, t[-1] + margin)
+    rescale(ax_map)
+    # kept while the median error fits (the widget gives the axis room for most settings), refitted when it does not
+    rescale(ax_err, keep_within=0.0)
     return [*a["tracks"], *a["bands"], *a["currents"], *a["truths"], a["median"],
             *_cooperative_titles(view, ax_map, ax_err)]
 
@@ -300,12 +351,64 @@ def cooperative_widget() -> Any:
     # 30 runs per setting rather than the chapter's 100 (the figure's title says how many): the median error and the
     # lost share keep their story and a move costs less than half the time
     view = functools.lru_cache(maxsize=256)(functools.partial(cooperative_view, n_runs=WIDGET_RUNS))
-    return slider_panel(sliders, lambda fig, **p: plot_cooperative_view(view(**p), fig),
-                        lambda fig, **p: update_cooperative_view(fig, view(**p)))
+    full: dict[tuple, CooperativeView] = {}            # the full answers computed, by setting (as view's cache)
+
+    def answer(coarse: bool, **p: Any) -> CooperativeView:
+        key = tuple(p.values())
+        if key in full or not coarse:
+            return full.setdefault(key, view(**p))
+        # the same runs over their first steps at once: the same numbers as the full answer there
+        return _early_view(**p)
+
+    def refine(**p: Any) -> Callable[[], Any] | None:
+        return None if tuple(p.values()) in full else functools.partial(answer, False, **p)
+
+    def draw(fig: Any, coarse: bool, **p: Any) -> Any:
+        fig = plot_cooperative_view(answer(coarse, **p), fig)
+        _room_for_every_setting(fig, sliders["current"].max)
+        return fig
+
+    return slider_panel(sliders, draw, lambda fig, coarse, **p: update_cooperative_view(fig, answer(coarse, **p)),
+                        refine=refine)
+
+
+def _room_for_every_setting(fig: Any, max_current: float) -> None:
+    """Give the widget's axes limits that most settings fit in, so that a move redraws no axes (their pixels are
+    kept, see ``_panel.BlitRenderer``): the map holds, unseen, the tracks of every leader pattern with and without
+    the strongest current (``update_cooperative_view`` keeps limits while the data fits them); the current axes the
+    ±1 m/s band of any current of the slider; the median error 1 m to 5 km (the worst settings reach about 3 km)."""
+    from matplotlib.lines import Line2D
+
+    ax_map, ax_cur, ax_err = fig.axes[:3]
+    corners = []
+    for pattern in paper_b.LEADER_PATTERNS:
+        for speed in (0.0, max_current):
+            U = (speed / np.sqrt(2.0), speed / np.sqrt(2.0))
+            sc = _scenario(paper_b.PaperBParameters(leader_pattern=pattern, current=U), 1, 0)
+            for track in (sc.true_positions, sc.leader_positions):
+                corners += [track.min(axis=0), track.max(axis=0)]
+    low, high = np.min(corners, axis=0), np.max(corners, axis=0)
+    # with a tenth of the span on each side for the estimates, which can stray outside the true tracks
+    box = np.array([low - 0.1 * (high - low), high + 0.1 * (high - low)])
+    # an invisible artist: it counts in the map's data limits at every refit but draws nothing
+    ax_map.add_line(Line2D(box[:, 0], box[:, 1], visible=False))
+    ax_map.relim()
+    ax_map.autoscale_view()
+    ax_cur.set_ylim(-1.0, max_current / np.sqrt(2.0) + 1.0)
+    ax_err.set_ylim(1.0, 5000.0, auto=None)
 
 
 #: Monte Carlo runs per setting of the widget (the compute function's default, used by the chapter, is 100).
 WIDGET_RUNS = 30
+#: Filter steps the widget's first answer for a new setting runs (of the 312 at δt = 8 s; fewer at a longer δt),
+#: while the full answer is computed in the background: about an eighth of its time.
+EARLY_STEPS = 40
+
+
+def _early_view(pattern: str, current: float, interval: float, packet_loss: float, tuning: str) -> CooperativeView:
+    """The widget's view over its first ``EARLY_STEPS`` filter steps (its coarse answer; arguments as checked by
+    ``cooperative_view``, which the full answer has run or will run on the same values)."""
+    return _view(pattern, float(current), float(interval), float(packet_loss), tuning, WIDGET_RUNS, 0, EARLY_STEPS)
 
 
 #: Zero-argument callables running each widget's computation at its defaults (wired into the registry).
