@@ -198,7 +198,7 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15, decade
     >>> rescale(ax)
     >>> [round(float(v), 2) for v in ax.get_xlim()]
     [-2.15, 12.15]
-    >>> # on a log axis in decades: kept while the data stays within them, then whole decades again
+    >>> # a log axis in decades: kept while the data fits, then whole decades again
     >>> ax.set_yscale("log")
     >>> line.set_data([0, 8], [2.0, 30.0])
     >>> rescale(ax, decades=True)
