@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import stats
 
 from ._validate import as_float_array, as_int, as_scalar
@@ -223,7 +224,7 @@ def _final_rmse_bounds(errors: np.ndarray, threshold: float, alpha: float
     return rmse, lower, upper, n_lost
 
 
-def _newcombe_paired(b: np.ndarray, c: np.ndarray, a: np.ndarray, d: np.ndarray, alpha: float
+def _newcombe_paired(b: ArrayLike, c: ArrayLike, a: ArrayLike, d: ArrayLike, alpha: float
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Newcombe's method 10 for :math:`p_1 - p_2` of paired proportions: ``a`` both, ``b`` only the first,
     ``c`` only the second, ``d`` neither."""

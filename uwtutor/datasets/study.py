@@ -27,13 +27,16 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 import numpy as np
 
 from .._linalg import distances
 from .._validate import as_choice, as_finite, as_scalar
 from ._core import RangeDataset
+
+if TYPE_CHECKING:
+    from ..filters.base import FilterResult
 
 __all__ = ["ACOUSTIC_PERIOD", "GRID_BEACONS", "GRID_PERIODS", "GRID_STATES", "STATE_FLAGS", "DECIMATION",
            "TABLE_METHODS", "ABLATION_METHODS", "ABLATION_VARIANTS", "SWEEP_HEADING_NOISE", "PF_SEED", "error_summary",
@@ -182,11 +185,22 @@ def measured_scale(data: RangeDataset, beacon_ids: Any = None) -> float:
 
 
 def _with_truth(data: Any, what: str) -> RangeDataset:
+    _truth_of(data, what)
+    return data
+
+
+def _truth_of(data: Any, what: str) -> np.ndarray:
+    """The log's true poses, or an error naming ``what`` needs them."""
     if not isinstance(data, RangeDataset):
         raise TypeError(f"data must be a uwtutor.datasets.RangeDataset; got {type(data).__name__}")
     if data.truth is None:
         raise ValueError(f"{what} needs the truth: data.truth is None")
-    return data
+    return data.truth
+
+
+def _filter_of(smoothed: FilterResult) -> FilterResult:
+    """The filter's own result that ``navigate(smooth=True)`` keeps beside the smoothed one."""
+    return cast("FilterResult", smoothed.extras["filtered"])
 
 
 def most_heard_beacon(data: RangeDataset) -> int:
@@ -259,9 +273,9 @@ def with_true_heading(data: RangeDataset) -> RangeDataset:
     >>> fixed.name
     'dataset, true heading'
     """
-    _with_truth(data, "with_true_heading")
+    truth = _truth_of(data, "with_true_heading")
     odometry = np.array(data.odometry)
-    odometry[1:, 1] = np.diff(np.unwrap(data.truth[:, 2]))
+    odometry[1:, 1] = np.diff(np.unwrap(truth[:, 2]))
     return replace(data, odometry=odometry, name=f"{data.name}, true heading",
                    notes=data.notes + ("heading changes from the truth",))
 
@@ -320,8 +334,8 @@ def navigation_run(data: RangeDataset, beacon: str = "all", period: float | None
     gyro, scale = STATE_FLAGS[states]
     smoothed = navigate(data, _beacon_ids(data, beacon), min_period=period, smooth=True, gyro_bias=gyro,
                         scale=scale)
-    filtered = smoothed.extras["filtered"]
-    truth = data.truth
+    filtered = _filter_of(smoothed)
+    truth = _truth_of(data, "the schedule run")
     out: dict[str, Any] = {}
     for name, res in (("filter", filtered), ("smoother", smoothed)):
         summary = error_summary(res.x, truth)
@@ -396,7 +410,8 @@ def navigation_grid(data: RangeDataset, progress: Callable[[str], None] | None =
                     arr = curves.setdefault(key, np.full(shape + np.shape(value), np.nan, dtype=np.float32))
                     arr[i, j, k] = value
     keep = slice(None, None, DECIMATION)
-    return {"measures": measures, "curves": curves, "times": data.times[keep], "truth": data.truth[keep],
+    truth = _truth_of(data, "navigation_grid")
+    return {"measures": measures, "curves": curves, "times": data.times[keep], "truth": truth[keep],
             "dead_reckoning": data.dead_reckoning()[keep], "beacons": dict(data.beacons)}
 
 
@@ -419,7 +434,7 @@ def _method_runs(data: RangeDataset, ids: list[int], period: float | None, scale
     # the table's "navigate" is the candidate with both states (gyro bias and scale), as committed
     runs["navigate, no gyro bias"] = navigate(data, ids, min_period=period, gyro_bias=False, scale=True).x
     smoothed = navigate(data, ids, min_period=period, smooth=True, gyro_bias=True, scale=True)
-    runs["navigate"] = smoothed.extras["filtered"].x
+    runs["navigate"] = _filter_of(smoothed).x
     runs["navigate, RTS"] = smoothed.x
     # the pose-only graph (model="pose"); "scale removed" divides the ranges by the scale measured against the truth
     runs["GTSAM, as logged"] = gtsam_map(data, ids, min_period=period, model="pose").poses
@@ -645,7 +660,8 @@ class RealDataStudy:
                "grid_measures": {k: np.asarray(v).round(6).tolist() for k, v in self.grid["measures"].items()},
                "beacons": {str(k): list(v) for k, v in self.grid["beacons"].items()}}
         (folder / STUDY_FILES["json"]).write_text(json.dumps(_rounded(doc), indent=1) + "\n", encoding="utf-8")
-        arrays = {f"curve_{k}": np.asarray(v, dtype=np.float32) for k, v in self.grid["curves"].items()}
+        arrays: dict[str, Any] = {f"curve_{k}": np.asarray(v, dtype=np.float32)
+                                  for k, v in self.grid["curves"].items()}
         arrays.update(times=self.grid["times"], truth=self.grid["truth"], dead_reckoning=self.grid["dead_reckoning"])
         np.savez_compressed(folder / STUDY_FILES["npz"], **arrays)
 

@@ -436,7 +436,7 @@ def check_straight_current_rank(answer: Any) -> Feedback:
     >>> check_straight_current_rank(np.linalg.matrix_rank(H)).correct
     True
     """
-    expected = observability.numerical_rank(straight_current_jacobian())
+    expected = int(observability.numerical_rank(straight_current_jacobian()))
     mistakes = {
         4.0: "Rank 4 would make the straight track observable. Check the Jacobian: the row of range k is "
              "[h_k, t_k h_k] with the unit vector h_k = p_k/‖p_k‖ at the true position p_k = p_0 + v t_k.",
@@ -488,6 +488,7 @@ def check_unobservable_direction(answer: Any) -> Feedback:
     v, refusal = parse_real_array(answer, "the direction")
     if refusal is not None:
         return refusal
+    assert v is not None                             # no refusal: parse_real_array returned the array
     if v.shape != (4,):
         return Feedback(False, f"Not yet: the direction must have shape (4,) (δx₀, δy₀, δU_x, δU_y); got shape "
                                f"{v.shape}.",
@@ -562,7 +563,7 @@ def check_turned_current_rank(answer: Any) -> Feedback:
                                            math.atan2(CURRENT_VELOCITY[1], CURRENT_VELOCITY[0]) + math.pi / 2],
                                  turn_times=[600.0])
     H = observability.track_jacobian(track.positions, (0.0, 0.0), times=times, unknown_current=True, reference=0)
-    expected = observability.numerical_rank(H)
+    expected = int(observability.numerical_rank(H))
     mistakes = {
         3.0: "Still 3: did the positions p_k follow the turn? After 600 s the vehicle heads north, so the lines of "
              "sight h_k and the times t_k no longer fit the straight-line pattern.",

@@ -83,19 +83,24 @@ def _pct(fraction: float) -> str:
 
 
 # -- exercise 10.1: the bound ------------------------------------------------------------------------------------------
+def _rmse_curve(covariance: np.ndarray) -> np.ndarray:
+    """The RMSE bound of a stack of covariances, as an array (``rmse_bound`` also takes a single one)."""
+    return np.asarray(rmse_bound(covariance))
+
+
 @lru_cache(maxsize=1)
 def _variants() -> tuple[tuple[str, float], ...]:
     inputs = suite.crlb_inputs(BOUND_SCENARIO, BOUND_CONDITION)
-    bound = rmse_bound(posterior_crlb(**inputs))
-    white = rmse_bound(posterior_crlb(**suite.crlb_inputs(BOUND_SCENARIO, "white")))
+    bound = _rmse_curve(posterior_crlb(**inputs))
+    white = _rmse_curve(posterior_crlb(**suite.crlb_inputs(BOUND_SCENARIO, "white")))
     runs = suite.SCENARIOS[BOUND_SCENARIO](np.random.default_rng(0), 1)
     planned, beacon = runs.planned[1:], runs.beacon[0, 1:]
     plan_args = dict(sigma=inputs["sigma"], Q=inputs["Q"], P0=inputs["P0"], times=inputs["times"])
-    on_plan = rmse_bound(posterior_crlb(planned, beacon, bias=True, **plan_args))
-    on_plan_no_bias = rmse_bound(posterior_crlb(planned, beacon, sigma=inputs["sigma"], Q=inputs["Q"][:2, :2],
+    on_plan = _rmse_curve(posterior_crlb(planned, beacon, bias=True, **plan_args))
+    on_plan_no_bias = _rmse_curve(posterior_crlb(planned, beacon, sigma=inputs["sigma"], Q=inputs["Q"][:2, :2],
                                                 P0=inputs["P0"][:2, :2]))
-    one_track = rmse_bound(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], bias=True, **plan_args))
-    per_run = rmse_bound(posterior_crlb(**dict(inputs, mean_over_runs=False)))
+    one_track = _rmse_curve(posterior_crlb(inputs["positions"][0], inputs["beacon"][0], bias=True, **plan_args))
+    per_run = _rmse_curve(posterior_crlb(**dict(inputs, mean_over_runs=False)))
     full = posterior_crlb(**dict(inputs, full=True))
     return (("final", float(bound[-1])), ("first", float(bound[0])), ("white", float(white[-1])),
             ("white_first", float(white[0])), ("planned", float(on_plan[-1])),

@@ -54,7 +54,7 @@ import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -110,7 +110,7 @@ def _fmt_value(value: Any) -> str:
         except (TypeError, ValueError):
             pass
     if isinstance(value, (float, np.floating)) and math.isfinite(value):
-        return _fmt(value)
+        return _fmt(float(value))
     short = reprlib.Repr()
     short.maxstring = 80
     short.maxother = 80
@@ -211,7 +211,7 @@ def _as_scalar(answer: Any, name: str, what: str) -> tuple[float | None, Feedbac
                                       hint="A square root of a negative number? Check the signs under the root.")
             return None, _complex_zero_imag(name)
         try:
-            return float(answer), None
+            return float(cast(numbers.Real, answer)), None    # complex numbers were answered above
         except OverflowError:
             return None, _too_large(answer, name)
         except Exception:
@@ -1000,7 +1000,8 @@ def _same(a: Any, b: Any) -> bool:
 
 def _default_compare(got: Any, expected: Any, rtol: float, atol: float, reveal: bool = True) -> Feedback:
     if isinstance(expected, (numbers.Real, np.number)) and not isinstance(expected, (bool, np.bool_)):
-        return check_number(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
+        return check_number(got, cast(float, expected), rtol=rtol, atol=atol, name="the result",
+                            reveal_expected=reveal)
     if isinstance(expected, (np.ndarray, list, tuple)):
         return check_array(got, expected, rtol=rtol, atol=atol, name="the result", reveal_expected=reveal)
     try:
@@ -1386,6 +1387,7 @@ def parse_real_array(answer: Any, name: str, shape: tuple[int, ...] | None = Non
         if shape is None:               # the template's shape (1,) means "any shape": do not show it
             fb = dataclasses.replace(fb, message=fb.message.replace("an array of shape (1,)", "an array of numbers"))
         return None, fb
+    assert arr is not None                          # no refusal: _as_array returned the array
     if shape is not None and arr.shape != tuple(shape):
         return None, _shape_feedback(arr, template, name)
     return arr, None

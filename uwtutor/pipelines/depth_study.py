@@ -189,7 +189,8 @@ def run_depth_study(profile: DepthProfile, measurements: ArrayLike, filters: Seq
     R = np.diag(PARAMETERS.sensor_std ** 2)
     M = Z.shape[0]
     motion, sensors = DepthSpeedPitch(T=T, process_std=q), DepthSensors(R)
-    gpf_kw = dict(grey_window=grey_window, noise_window=noise_window, grey_offset=[0.0, 0.0, PITCH_OFFSET])
+    gpf_kw: dict[str, Any] = dict(grey_window=grey_window, noise_window=noise_window,
+                                  grey_offset=[0.0, 0.0, PITCH_OFFSET])
     makers: dict[str, Callable[[np.ndarray, Sequence[np.random.Generator]], Any]] = {
         "PF": lambda z0, rngs: BootstrapParticleFilter.from_gaussian(motion, sensors, z0, R, N, rngs),
         "MMPF": lambda z0, rngs: MultipleModelParticleFilter.from_gaussian(

@@ -20,7 +20,7 @@ noise level changes, a convenience when comparing filters under different settin
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -214,9 +214,9 @@ class Scenario:
         if not -self.n_runs <= i < self.n_runs:
             raise IndexError(f"run index {i} out of range for a scenario of {self.n_runs} run(s)")
         i %= self.n_runs
+        mask = cast(np.ndarray, self.outlier_mask)  # never None after __post_init__ (all False when not given)
         return ScenarioRun(self.times, self.true_positions[i], self.dr_displacements[i], self.beacon_positions[i],
-                           self.true_ranges[i], self.ranges[i], self.range_errors[i], self.outlier_mask[i],
-                           self.description, i)
+                           self.true_ranges[i], self.ranges[i], self.range_errors[i], mask[i], self.description, i)
 
 
 def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng: np.random.Generator, *,
@@ -379,11 +379,11 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     g = as_scalar("gamma", gamma)
     if not -0.5 < g < 0.5:
         raise ValueError(f"gamma is a relative sound-speed error and must lie in (-0.5, 0.5); got {g:g}")
-    error = (GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
-             + SoundSpeedMismatch(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
-             + SlowBias(as_scalar("bias_mean", bias_mean), as_scalar("bias_sigma", bias_sigma, domain="nonnegative"),
-                        as_scalar("bias_time_constant", bias_time_constant, domain="positive")))
-    bias = error.parts[-1]
+    noise = GaussianNoise(as_scalar("noise_sigma", noise_sigma, domain="nonnegative"))
+    sound = SoundSpeedMismatch(true_speed=1500.0, assumed_speed=1500.0 * (1.0 + g), speed_sigma=0.0)
+    bias = SlowBias(as_scalar("bias_mean", bias_mean), as_scalar("bias_sigma", bias_sigma, domain="nonnegative"),
+                    as_scalar("bias_time_constant", bias_time_constant, domain="positive"))
+    error = noise + sound + bias
     description = (f"Paper A: circling a buoy, R = {float(radius):g} m at {float(speed):g} m/s, a range every "
                    f"{float(interval):g} s; range error N(0, {float(noise_sigma):.3g}^2) + {g:g} r + slow bias "
                    f"(mean {bias.mean:g} m, std {bias.sigma:g} m, tau {bias.time_constant:g} s)")
@@ -463,8 +463,9 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     path = turning_track(np.union1d(pings, [turn]), start, speed, psi, [turn])
     t_r, _ = reception_times(pings, (0.0, 0.0), path.position_at, true_speed)
     track = turning_track(t_r, path.position_at(t_r[0]), speed, psi, [turn])
-    error = SoundSpeedMismatch(true_speed, assumed_speed, speed_sigma) + GaussianNoise(noise_sigma)
-    sound, noise = error.parts
+    sound = SoundSpeedMismatch(true_speed, assumed_speed, speed_sigma)
+    noise = GaussianNoise(noise_sigma)
+    error = sound + noise
     description = (f"Paper D: approach with one turn at {turn:g} s, {float(speed):g} m/s, a ping every "
                    f"{float(ping_interval):g} s; sound speed N({sound.true_speed:g}, {sound.speed_sigma:g}^2) "
                    f"converted with {sound.assumed_speed:g} m/s, range noise std {noise.sigma:g} m, "

@@ -345,7 +345,7 @@ class CooperativeScenario:
 def _current_offset(t: np.ndarray, p: PaperBParameters) -> tuple[np.ndarray, np.ndarray]:
     """Displacement by the current since t = 0 and the current itself, at times t (shapes (..., 2))."""
     U1 = np.asarray(p.current, dtype=float)
-    if p.current_after is None:
+    if p.current_after is None or p.change_time is None:  # both or neither (PaperBParameters checks)
         return t[..., None] * U1, np.broadcast_to(U1, t.shape + (2,)).copy()
     U2 = np.asarray(p.current_after, dtype=float)
     tc = float(p.change_time)
@@ -378,7 +378,7 @@ def _interp_rows(t_grid: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.nd
 
 
 def _simulate(rng: np.random.Generator, n_runs: int, p: PaperBParameters,
-              followers: list[tuple[tuple[float, float], float]]) -> list[CooperativeScenario]:
+              followers: list[tuple[tuple[float, ...], float]]) -> list[CooperativeScenario]:
     rng_dr, rng_leader, rng_range, rng_loss = as_rng(rng).spawn(4)
     M = n_runs
     t1 = np.arange(0.0, p.duration + 1e-9, p.dr_step)
