@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import sys
 import warnings
+from types import FrameType
 from typing import Any, Callable
 
 __all__ = [
@@ -90,12 +91,19 @@ def warn(message: str, category: type[Warning] = UwtutorWarning) -> None:
     >>> caught[0].category.__name__
     'UwtutorWarning'
     """
-    frame = sys._getframe(1)
+    frame: FrameType | None = sys._getframe(1)
     level = 2                       # 1 would be this function, 2 its caller
     while frame is not None and frame.f_globals.get("__name__", "").startswith("uwtutor."):
         frame = frame.f_back
         level += 1
     warnings.warn(message, category, stacklevel=level)
+
+
+def _attribute_of(module: str, name: str) -> Callable[[], Any]:
+    """A function that reads ``module.name`` when called (the module may not be fully imported yet)."""
+    def value() -> Any:
+        return getattr(sys.modules[module], name)
+    return value
 
 
 def deprecated_aliases(module: str, aliases: dict[str, Any]) -> Callable[[str], Any]:
@@ -141,7 +149,7 @@ def deprecated_aliases(module: str, aliases: dict[str, Any]) -> Callable[[str], 
     table: dict[str, tuple[str, Callable[[], Any]]] = {}
     for old, new in aliases.items():
         if isinstance(new, str):
-            table[old] = (f"{module}.{new}", lambda new=new: getattr(sys.modules[module], new))
+            table[old] = (f"{module}.{new}", _attribute_of(module, new))
         elif isinstance(new, tuple) and len(new) == 2 and isinstance(new[0], str) and callable(new[1]):
             table[old] = new
         else:

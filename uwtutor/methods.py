@@ -663,7 +663,7 @@ def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[st
     from .observability import posterior_crlb, rmse_bound
     from .scenarios.suite import crlb_inputs
 
-    return {(s, c): rmse_bound(posterior_crlb(**crlb_inputs(s, c)))
+    return {(s, c): np.asarray(rmse_bound(posterior_crlb(**crlb_inputs(s, c))))
             for s in _names("scenarios", scenarios, SCENARIOS)
             for c in _names("conditions", conditions, CONDITIONS)}
 
@@ -750,8 +750,11 @@ def dataset_inputs(data: Any, beacon_id: int, schedules: Any = None, *, min_peri
     n = keep.shape[0]
     sigma_r = float(RANGE_SIGMA if range_sigma is None else as_positive("range_sigma", range_sigma))
     Q = displacement_covariance(data, DISTANCE_SIGMA if distance_sigma is None else distance_sigma).mean(axis=0)
-    P0 = np.asarray(data.start_cov[:2, :2], dtype=float)
-    x0 = np.broadcast_to(np.asarray(data.start[:2], dtype=float), (n, 2)).copy()
+    start, cov = data.start, data.start_cov
+    if start is None or cov is None:    # refused above; RangeDataset gives a start pose its covariance
+        raise ValueError("data has no start pose: build the RangeDataset with start= (or truth=)")
+    P0 = np.asarray(cov[:2, :2], dtype=float)
+    x0 = np.broadcast_to(np.asarray(start[:2], dtype=float), (n, 2)).copy()
     b = np.asarray(data.beacons[beacon_id], dtype=float)
     times = np.asarray(data.times, dtype=float)
     interval = float(np.median(np.diff(times))) if K > 1 else 1.0

@@ -6,7 +6,7 @@ Nothing here computes anything a chapter relies on: the numbers come from the li
 from __future__ import annotations
 
 from binascii import b2a_base64
-from typing import Any
+from typing import Any, cast
 
 import re
 
@@ -21,7 +21,7 @@ __all__ = ["BOOK_STYLE", "use_book_style", "mark_beacon", "plot_track", "plain_l
            "PALETTE_COLORS", "PALETTE_MAX_ERROR", "palette_png"]
 
 #: The matplotlib settings of every figure in the book, readable at the width of its column (PNG output).
-BOOK_STYLE = {
+BOOK_STYLE: dict[str, Any] = {
     "figure.figsize": (7.0, 3.6),
     "figure.dpi": 100,
     "savefig.dpi": 100,
@@ -76,7 +76,7 @@ def use_book_style() -> None:
     ...     plt.rcParams["figure.figsize"]
     [7.0, 3.6]
     """
-    plt.rcParams.update(BOOK_STYLE)
+    plt.rcParams.update(cast(Any, BOOK_STYLE))   # matplotlib's stubs type the keys as literals
     use_sharp_figures()
     check_legends_on_display()
 

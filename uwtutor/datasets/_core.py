@@ -731,7 +731,7 @@ def square_log(range_scale: float = 1.0, range_offset: float = 0.0) -> RangeData
     beacons = {3: (5.0, 12.0), 7: (-4.0, 3.0)}
     times = np.arange(K, dtype=float)
     truth = RangeDataset(times=times, odometry=odometry, ranges=np.empty((0, 3)), beacons=beacons,
-                         start=[0.0, 0.0, 0.0]).dead_reckoning()
+                         start=np.zeros(3)).dead_reckoning()
     ids = np.where(np.arange(1, K) % 2 == 0, 3, 7)
     r = float(s) * distances(truth[1:, :2], np.array([beacons[i] for i in ids]), "norm") + b
     return RangeDataset(times=times, odometry=odometry, ranges=np.column_stack([np.arange(1.0, K), ids, r]),

@@ -49,7 +49,7 @@ def _locate(number: int, folder: Any) -> Path:
         if candidate.is_file():
             return candidate
     try:                                   # another layout of the wheel: ask GTSAM itself
-        import gtsam  # type: ignore[import-not-found]
+        import gtsam
 
         return Path(gtsam.findExampleDataFile(filename))
     except Exception as exc:               # gtsam raises a bare RuntimeError when the file is missing

@@ -162,7 +162,10 @@ def displacement_covariance(data: RangeDataset, distance_sigma: Any = DISTANCE_S
 
 
 def _start(data: RangeDataset) -> tuple[np.ndarray, np.ndarray]:
-    return np.asarray(data.start[:2], dtype=float), np.asarray(data.start_cov[:2, :2], dtype=float)
+    start, cov = data.start, data.start_cov
+    if start is None or cov is None:    # RangeDataset gives a start pose its covariance
+        raise ValueError("data has no start pose: build the RangeDataset with start= (or truth=)")
+    return np.asarray(start[:2], dtype=float), np.asarray(cov[:2, :2], dtype=float)
 
 
 def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,

@@ -555,9 +555,11 @@ def ekf_run_reference(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: float, beacon
 
 def _run_cases() -> list[Case]:
     cases = []
-    for label, kw in (("the notebook's run", {}),
-                      ("a beacon away from the origin", {"seed": RUN_SEED + 1, "beacon": (150.0, -250.0)}),
-                      ("three epochs without a reply (NaN ranges)", {"seed": RUN_SEED + 2, "missing": (7, 8, 31)})):
+    variants: tuple[tuple[str, dict[str, Any]], ...] = (
+        ("the notebook's run", {}),
+        ("a beacon away from the origin", {"seed": RUN_SEED + 1, "beacon": (150.0, -250.0)}),
+        ("three epochs without a reply (NaN ranges)", {"seed": RUN_SEED + 2, "missing": (7, 8, 31)}))
+    for label, kw in variants:
         d = _run_data(**{"seed": RUN_SEED, **kw})
         cases.append(Case((d["x0"], d["P0"], d["u"], d["z"], d["Q"], d["R"], d["beacon"]), label=label))
     return cases

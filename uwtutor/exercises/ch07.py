@@ -246,6 +246,7 @@ def check_weak_direction(answer: Any) -> Feedback:
     v, refusal = parse_real_array(answer, "the direction")
     if refusal is not None:
         return refusal
+    assert v is not None                             # no refusal: parse_real_array returned the array
     v = v.ravel()
     if v.shape != (3,):
         return Feedback(False, f"Not yet: the direction has one component per state [x, y, bias]: 3 numbers; got "

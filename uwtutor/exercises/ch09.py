@@ -248,7 +248,7 @@ def check_good_rejected(answer: Any) -> Feedback:
     True
     """
     expected, all_rejected, default_rejected, default_outlier, first, last = _good_rejected_counts()
-    mistakes = {
+    mistakes: dict[float, str] = {
         all_rejected: "That counts every rejected range, the 30 outliers included; keep "
                       "only the epochs where outlier_mask is False.",
         default_rejected: "That is with the default re-acquisition after 20 "
@@ -367,7 +367,7 @@ def check_gate_by_hand(answer: Any) -> Feedback:
         "update_rejected": "A rejected range must not update the filter: keep the prediction (x, P) and go on to "
                            "the next range.",
     }
-    mistakes = {}
+    mistakes: dict[float, str] = {}
     for key, text in hints.items():
         if counts[key] != expected:
             mistakes.setdefault(float(counts[key]), text)

@@ -759,7 +759,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
     line   white    final RMSE   0.4 m
     line   bias 5 m final RMSE   6.6 m
     """
-    methods = _named_callables("methods", methods)
+    method_of = _named_callables("methods", methods)
     scenarios = _named_callables("scenarios", scenarios)
     conditions = _named_callables("conditions", conditions)
     n_runs = as_int("n_runs", n_runs, minimum=1)
@@ -767,7 +767,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
     seed = as_int("seed", seed, minimum=0)
     if timing_runs is not None:
         timing_runs = as_int("timing_runs", timing_runs, minimum=1)
-    _check_cell_options(methods, scenarios, conditions, only, bounds, divergence_threshold)
+    _check_cell_options(method_of, scenarios, conditions, only, bounds, divergence_threshold)
 
     from ..statistics import cell_statistics
 
@@ -782,7 +782,7 @@ def compare(methods: dict[str, Callable[[Any], FilterResult]], scenarios: dict[s
             thr = divergence_threshold if not isinstance(divergence_threshold, dict) else \
                 _lookup(divergence_threshold, s_name, c_name)
             thr = DEFAULT_DIVERGENCE_THRESHOLD if thr is None else float(as_positive("divergence_threshold", thr))
-            for m_name, method in methods.items():
+            for m_name, method in method_of.items():
                 if only is not None and m_name in only and s_name not in only[m_name]:
                     continue
                 study = run_study(draw, method, n_runs, seed=seed, chunk_size=chunk_size, executor=executor,

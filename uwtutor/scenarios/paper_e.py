@@ -23,7 +23,7 @@ Paper E: virtual moving long baseline positioning of the manned submersible *Jia
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -203,7 +203,7 @@ class Dive:
     @property
     def outlier_mask(self) -> np.ndarray:
         """True where a range carries an outlier, shape ``(M, K)``."""
-        return self.scenario.outlier_mask
+        return cast(np.ndarray, self.scenario.outlier_mask)  # never None in a Scenario (all False when not given)
 
     @property
     def n_runs(self) -> int:
