@@ -22,6 +22,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import UwtutorWarning, warn
 from ._validate import (as_finite, as_flag, as_in_range, as_nonnegative, as_positive, as_range_array,
@@ -50,7 +51,7 @@ def _scalar_or_array(arr: np.ndarray) -> float | np.ndarray:
     return float(arr) if arr.ndim == 0 else arr
 
 
-def sound_speed(temperature: Any, salinity: Any, depth: Any) -> float | np.ndarray:
+def sound_speed(temperature: ArrayLike, salinity: ArrayLike, depth: ArrayLike) -> float | np.ndarray:
     r"""Speed of sound in sea water by the nine-term equation of Mackenzie (1981).
 
     .. math::
@@ -121,7 +122,7 @@ def sound_speed(temperature: Any, salinity: Any, depth: Any) -> float | np.ndarr
     return _scalar_or_array(np.asarray(c, dtype=float))
 
 
-def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = False) -> float | np.ndarray:
+def range_from_travel_time(travel_time: ArrayLike, sound_speed: ArrayLike, two_way: bool = False) -> float | np.ndarray:
     r"""Convert an acoustic travel time into a range: :math:`r = c\,\tau` (one-way) or :math:`r = c\,\tau/2` (two-way).
 
     A two-way (round-trip, transponder) travel time covers the path twice, so the range is half of it.
@@ -159,7 +160,7 @@ def range_from_travel_time(travel_time: Any, sound_speed: Any, two_way: bool = F
     return _scalar_or_array(np.asarray(r, dtype=float))
 
 
-def travel_time_from_range(slant_range: Any, sound_speed: Any, two_way: bool = False) -> float | np.ndarray:
+def travel_time_from_range(slant_range: ArrayLike, sound_speed: ArrayLike, two_way: bool = False) -> float | np.ndarray:
     r"""Convert a range into an acoustic travel time: :math:`\tau = r/c` (one-way) or :math:`\tau = 2r/c` (two-way).
 
     Parameters
@@ -208,8 +209,8 @@ def _log_mean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a / ratio
 
 
-def effective_sound_speed(profile_depths: Any, profile_speeds: Any, source_depth: Any,
-                          receiver_depth: Any) -> float | np.ndarray:
+def effective_sound_speed(profile_depths: ArrayLike, profile_speeds: ArrayLike, source_depth: ArrayLike,
+                          receiver_depth: ArrayLike) -> float | np.ndarray:
     r"""Effective sound speed between two depths: the harmonic mean of the profile :math:`c(z)` over the path.
 
     A pulse travelling (nearly) vertically from depth :math:`z_1` to :math:`z_2` takes
@@ -291,7 +292,7 @@ def effective_sound_speed(profile_depths: Any, profile_speeds: Any, source_depth
     return _scalar_or_array(np.asarray(c_eff, dtype=float))
 
 
-def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) -> tuple[Any, Any]:
+def range_factor(assumed_speed: ArrayLike, true_speed: ArrayLike, speed_sigma: ArrayLike = 0.0) -> tuple[Any, Any]:
     r"""The multiplicative range factor of a sound-speed error, and its spread: the library's one formula.
 
     A travel time :math:`\tau = r / c` converted with the speed :math:`c_a` gives :math:`\gamma r` with
@@ -336,7 +337,8 @@ def range_factor(assumed_speed: Any, true_speed: Any, speed_sigma: Any = 0.0) ->
     return _scalar_or_array(np.asarray(mu, dtype=float)), _scalar_or_array(np.asarray(sigma, dtype=float))
 
 
-def sound_speed_error_range_bias(true_range: Any, assumed_speed: Any, true_speed: Any) -> float | np.ndarray:
+def sound_speed_error_range_bias(true_range: ArrayLike, assumed_speed: ArrayLike,
+                                 true_speed: ArrayLike) -> float | np.ndarray:
     r"""Range error made by converting a travel time with the wrong sound speed.
 
     The travel time is :math:`\tau = r/c_{true}`; converting it with :math:`c_{assumed}` gives

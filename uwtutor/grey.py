@@ -66,6 +66,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import as_finite, as_float_array, as_int, as_scalar, check_finite_result, check_work
 
@@ -260,7 +261,7 @@ class GM11:
         """Length of the fitted series."""
         return self.series.size
 
-    def time_response(self, k: Any) -> np.ndarray:
+    def time_response(self, k: ArrayLike) -> np.ndarray:
         r"""The accumulated-series model :math:`\hat x^{(1)}(k+1) = (x^{(0)}(1) - b/a) e^{-ak} + b/a`.
 
         Parameters
@@ -304,7 +305,7 @@ class GM11:
 
 # --- public functions ---------------------------------------------------------------------------------------------
 
-def level_ratio_test(series: Any) -> LevelRatioTest:
+def level_ratio_test(series: ArrayLike) -> LevelRatioTest:
     r"""The level-ratio test: is :math:`x^{(0)}(k-1)/x^{(0)}(k) \in (e^{-2/(n+1)}, e^{2/(n+1)})` for every ``k``?
 
     A series that fails is too steep or too irregular for GM(1,1); shifting it by a constant (which flattens the
@@ -335,7 +336,7 @@ def level_ratio_test(series: Any) -> LevelRatioTest:
                           passed=bool(np.all((ratios > lower) & (ratios < upper))))
 
 
-def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
+def fit_gm11(series: ArrayLike, *, background_weight: float = 0.5) -> GM11:
     r"""Fit GM(1,1) to a positive series by least squares (paper C, eqs. (7)-(12)).
 
     Parameters
@@ -399,7 +400,7 @@ def fit_gm11(series: Any, *, background_weight: float = 0.5) -> GM11:
                 posterior_variance_ratio=C, small_error_probability=P, level_ratio=level_ratio_test(x0))
 
 
-def gm11_coefficients(series: Any, *, background_weight: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+def gm11_coefficients(series: ArrayLike, *, background_weight: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """The GM(1,1) coefficients ``a`` and ``b`` of many series at once (the last axis is time).
 
     Parameters
@@ -431,7 +432,7 @@ def gm11_coefficients(series: Any, *, background_weight: float = 0.5) -> tuple[n
     return _fitted_coefficients(x0, alpha)
 
 
-def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5) -> np.ndarray:
+def gm11_forecast(series: ArrayLike, steps: int = 1, *, background_weight: float = 0.5) -> np.ndarray:
     r"""Fit GM(1,1) to each series along the last axis and forecast the next ``steps`` values.
 
     The vectorized form of ``fit_gm11(s).forecast(steps)`` for a stack of series: paper C's grey particle filter
@@ -478,7 +479,7 @@ def gm11_forecast(series: Any, steps: int = 1, *, background_weight: float = 0.5
     return check_finite_result(out, "series", "steps", what="the GM(1,1) forecast")
 
 
-def gm11_next(series: Any) -> np.ndarray:
+def gm11_next(series: ArrayLike) -> np.ndarray:
     r"""The one-step GM(1,1) forecast :math:`\hat x^{(0)}(n+1)` of each series along the last axis, lean.
 
     The same numbers as ``gm11_forecast(series, 1)[..., 0]`` (background weight 0.5), with one check only
@@ -523,7 +524,7 @@ def gm11_next(series: Any) -> np.ndarray:
     return out
 
 
-def rolling_gm11_forecast(series: Any, window: int, *, offset: float = 0.0,
+def rolling_gm11_forecast(series: ArrayLike, window: int, *, offset: float = 0.0,
                           background_weight: float = 0.5) -> np.ndarray:
     r"""One-step GM(1,1) forecasts along a series, each from the ``window`` values before it.
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import as_choice, as_flag, as_int, as_positive, as_rng
 from .errors import IllConditionedWarning
@@ -580,7 +581,8 @@ def claims() -> dict[str, list[str]]:
     return {m.name: [s for s in SCENARIOS if m.runs_on(s)] for m in _METHODS}
 
 
-def run(name: str, scenario: str, condition: str, rng: Any, n_runs: int = 1) -> tuple[FilterResult, np.ndarray]:
+def run(name: str, scenario: str, condition: str, rng: np.random.Generator,
+        n_runs: int = 1) -> tuple[FilterResult, np.ndarray]:
     """Draw ``n_runs`` runs of a scenario under a condition with ``rng`` and run the method ``name`` on them.
 
     Returns
@@ -672,7 +674,8 @@ def suite_bounds(scenarios: Any = None, conditions: Any = None) -> dict[tuple[st
 # real logs: the same methods, the same inputs
 # ---------------------------------------------------------------------------------------------------------------------
 def dataset_inputs(data: Any, beacon_id: int, schedules: Any = None, *, min_period: Any = None,
-                   range_sigma: Any = None, distance_sigma: Any = None, method_seed: int = 0) -> SuiteInputs:
+                   range_sigma: ArrayLike | None = None, distance_sigma: Any = None,
+                   method_seed: int = 0) -> SuiteInputs:
     r"""A recorded log as the :class:`~uwtutor.scenarios.suite.SuiteInputs` every registered method takes: one run per
     range schedule.
 

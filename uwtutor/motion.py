@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import (as_flag, as_finite, as_n_runs, as_point, as_rng, as_scalar,
                         as_times, check_same_length, check_work, readonly, with_runs)
@@ -128,7 +129,7 @@ class Track:
         """Speed over ground at each epoch [m/s]."""
         return np.hypot(self.velocities[:, 0], self.velocities[:, 1])
 
-    def position_at(self, t: Any) -> np.ndarray:
+    def position_at(self, t: ArrayLike) -> np.ndarray:
         """Position at arbitrary times by linear interpolation between the epochs.
 
         Before the first epoch and after the last one the position is extrapolated along the first or last
@@ -156,7 +157,8 @@ class Track:
         return np.where((t < times[0])[..., None], before, np.where((t > times[-1])[..., None], after, inside))
 
 
-def circle_track(times: Any, radius: Any, speed: Any, center: Any = (0.0, 0.0), start_angle: Any = 0.0,
+def circle_track(times: ArrayLike, radius: float, speed: float, center: ArrayLike = (0.0, 0.0),
+                 start_angle: float = 0.0,
                  clockwise: bool = False) -> Track:
     r"""Constant-speed circle, e.g. a platform circling a buoy (Liu et al., paper A).
 
@@ -210,7 +212,7 @@ def circle_track(times: Any, radius: Any, speed: Any, center: Any = (0.0, 0.0), 
     return Track(t, c + R * radial, sense * v * tangent)
 
 
-def straight_track(times: Any, start: Any, speed: Any, heading: Any) -> Track:
+def straight_track(times: ArrayLike, start: ArrayLike, speed: float, heading: float) -> Track:
     r"""Constant velocity: :math:`p(t) = p_0 + v\,(t - t_0)\,[\cos\psi, \sin\psi]`.
 
     Parameters
@@ -244,7 +246,8 @@ def straight_track(times: Any, start: Any, speed: Any, heading: Any) -> Track:
     return Track(t, p0 + v * (t - t[0])[:, None] * u, np.broadcast_to(v * u, (len(t), 2)))
 
 
-def turning_track(times: Any, start: Any, speed: Any, headings: Any, turn_times: Any) -> Track:
+def turning_track(times: ArrayLike, start: ArrayLike, speed: float, headings: ArrayLike,
+                  turn_times: ArrayLike) -> Track:
     r"""Straight legs at constant speed with instantaneous heading changes.
 
     The vehicle leaves ``start`` at ``times[0]`` with heading ``headings[0]``; at ``turn_times[i]`` it switches
@@ -307,7 +310,8 @@ def turning_track(times: Any, start: Any, speed: Any, headings: Any, turn_times:
     return Track(t, p0 + v * spent @ units, v * units[leg])
 
 
-def s_turn_track(times: Any, start: Any, speed: Any, heading: Any, turn_rate: Any, half_period: Any) -> Track:
+def s_turn_track(times: ArrayLike, start: ArrayLike, speed: float, heading: float, turn_rate: float,
+                 half_period: float) -> Track:
     r"""S-shaped (weaving) track: the heading swings at a constant rate, one way then the other.
 
     The vehicle starts with heading :math:`\psi_0` and turns at ``turn_rate`` :math:`\omega` for ``half_period``
@@ -362,7 +366,8 @@ def s_turn_track(times: Any, start: Any, speed: Any, heading: Any, turn_rate: An
     return Track(t, pos, v * _unit(seg_heading + seg_rate * into))
 
 
-def lawnmower_track(times: Any, start: Any, speed: Any, leg_length: Any, spacing: Any, heading: Any = 0.0) -> Track:
+def lawnmower_track(times: ArrayLike, start: ArrayLike, speed: float, leg_length: float, spacing: float,
+                    heading: float = 0.0) -> Track:
     r"""Survey ("lawnmower", boustrophedon) pattern at constant speed.
 
     From ``start`` the vehicle runs ``leg_length`` along ``heading``, moves ``spacing`` across (to its left
@@ -420,7 +425,7 @@ def lawnmower_track(times: Any, start: Any, speed: Any, leg_length: Any, spacing
     return Track(t, pos, vel)
 
 
-def with_current(track: Track, current: Any) -> Track:
+def with_current(track: Track, current: ArrayLike) -> Track:
     r"""The ground track of a vehicle that moves through the water as ``track`` while a constant current flows.
 
     .. math::
@@ -498,8 +503,9 @@ class DeadReckoningResult:
     positions: np.ndarray
 
 
-def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any = 0.0, heading_sigma: Any = 0.0,
-                   heading_bias: Any = 0.0, speed_scale: Any = 1.0, n_runs: Any = None) -> DeadReckoningResult:
+def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: float = 0.0, heading_sigma: float = 0.0,
+                   heading_bias: float = 0.0, speed_scale: float = 1.0,
+                   n_runs: int | None = None) -> DeadReckoningResult:
     r"""Dead-reckon a true track with speed-log and compass errors.
 
     For each step :math:`k` (from epoch :math:`k-1` to :math:`k`, duration :math:`\Delta t_k`) with true
@@ -587,7 +593,8 @@ def dead_reckoning(track: Track, rng: np.random.Generator, *, speed_sigma: Any =
     return DeadReckoningResult(track.times, disp, pos)
 
 
-def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any, n_runs: Any = None) -> np.ndarray:
+def displacement_noise(displacements: ArrayLike, rng: np.random.Generator, sigma: float,
+                       n_runs: int | None = None) -> np.ndarray:
     r"""Add white Gaussian noise to true displacements: :math:`\hat u_k = u_k + w_k`, :math:`w_k \sim N(0, \sigma^2 I)`.
 
     The simple DR error model of Zhu et al. (2019), paper D (variance :math:`\sigma^2` = 0.81 m² per axis per
@@ -637,7 +644,7 @@ def displacement_noise(displacements: Any, rng: np.random.Generator, sigma: Any,
     return out[0] if single else out
 
 
-def integrate_odometry(start: Any, odometry: Any) -> np.ndarray:
+def integrate_odometry(start: ArrayLike, odometry: ArrayLike) -> np.ndarray:
     r"""Integrate body-frame odometry into poses ``[x, y, heading]``: dead reckoning from logged odometry.
 
     Row :math:`k` of ``odometry`` is :math:`[d_k, \delta_k]`, the distance travelled and the heading change from

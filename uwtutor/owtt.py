@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import (as_finite, as_float_array, as_nonnegative, as_position_function, as_scalar,
                         as_times, check_finite_result, readonly)
@@ -62,7 +63,7 @@ def _scalar_or_array(arr: np.ndarray) -> float | np.ndarray:
     return float(arr) if arr.ndim == 0 else arr
 
 
-def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.ndarray:
+def clock_error(times: ArrayLike, offset: float = 0.0, drift: float = 0.0) -> float | np.ndarray:
     r"""Error of a receiver's clock against the leader's: :math:`\kappa(t) = \kappa_0 + \dot\kappa\,t`.
 
     Both clocks were synchronized (for example to GPS at the surface) at :math:`t = 0` with a residual offset
@@ -96,7 +97,8 @@ def clock_error(times: Any, offset: Any = 0.0, drift: Any = 0.0) -> float | np.n
     return _scalar_or_array(check_finite_result(error, "times", "offset", "drift", what="the clock error"))
 
 
-def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_speed: Any = 1500.0) -> float | np.ndarray:
+def clock_range_error(times: ArrayLike, offset: float = 0.0, drift: float = 0.0,
+                      sound_speed: float = 1500.0) -> float | np.ndarray:
     r"""The range error a clock error makes: :math:`e_k = c\,\kappa(t^\mathrm{r}_k)`.
 
     A receiver whose clock is ahead by :math:`\kappa` notes every arrival :math:`\kappa` late, so every travel
@@ -127,7 +129,7 @@ def clock_range_error(times: Any, offset: Any = 0.0, drift: Any = 0.0, sound_spe
     return _scalar_or_array(c * np.asarray(clock_error(times, offset, drift), dtype=float))
 
 
-def ambiguity_range(sound_speed: Any = 1500.0, period: Any = 1.0) -> float:
+def ambiguity_range(sound_speed: float = 1500.0, period: float = 1.0) -> float:
     r"""The range that one whole period of travel time spans, :math:`c\,T_\mathrm{s}` (1500 m for 1 s).
 
     A travel time known only modulo :math:`T_\mathrm{s}` gives a range modulo this value; a predicted range resolves
@@ -154,7 +156,7 @@ def ambiguity_range(sound_speed: Any = 1500.0, period: Any = 1.0) -> float:
     return as_scalar("sound_speed", sound_speed, domain="positive") * as_scalar("period", period, domain="positive")
 
 
-def wrap_travel_time(travel_times: Any, period: Any = 1.0) -> float | np.ndarray:
+def wrap_travel_time(travel_times: ArrayLike, period: float = 1.0) -> float | np.ndarray:
     r"""The travel time modulo the transmission period: what a receiver measures when it knows only that the message
     left "at the top of some second".
 
@@ -186,8 +188,8 @@ def wrap_travel_time(travel_times: Any, period: Any = 1.0) -> float | np.ndarray
     return _scalar_or_array(np.asarray(np.mod(tau, T), dtype=float))
 
 
-def resolve_travel_time(wrapped: Any, predicted_range: Any, sound_speed: Any = 1500.0,
-                        period: Any = 1.0) -> float | np.ndarray:
+def resolve_travel_time(wrapped: ArrayLike, predicted_range: ArrayLike, sound_speed: float = 1500.0,
+                        period: float = 1.0) -> float | np.ndarray:
     r"""Put the whole periods back into a wrapped travel time, using a predicted range.
 
     .. math::
@@ -314,9 +316,10 @@ class OWTTMeasurements:
             object.__setattr__(self, name, readonly(np.asarray(getattr(self, name), dtype=float)))
 
 
-def simulate_owtt(send_times: Any, leader_position_at: Any, follower_position_at: Any, *, sound_speed: Any = 1500.0,
-                  assumed_sound_speed: Any = None, clock_offset: Any = 0.0, clock_drift: Any = 0.0,
-                  period: Any = None) -> OWTTMeasurements:
+def simulate_owtt(send_times: ArrayLike, leader_position_at: Any, follower_position_at: Any, *,
+                  sound_speed: float = 1500.0,
+                  assumed_sound_speed: float | None = None, clock_offset: float = 0.0, clock_drift: float = 0.0,
+                  period: float | None = None) -> OWTTMeasurements:
     r"""Simulate OWTT ranging from a leader to a follower, with the follower's clock error and, optionally, travel
     times known only modulo a period.
 

@@ -12,6 +12,7 @@ import re
 
 import matplotlib.pyplot as plt
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import as_float_array, as_instance, as_point
 
@@ -185,7 +186,7 @@ def palette_png(png: bytes, colors: int = PALETTE_COLORS, max_error: int = PALET
     return buffer.getvalue() if buffer.tell() < len(png) else png
 
 
-def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> None:
+def mark_beacon(ax: Any, position: ArrayLike = (0.0, 0.0), label: str = "beacon") -> None:
     """Draw a beacon as a black triangle at ``position`` (x east, y north, metres).
 
     Examples
@@ -202,7 +203,7 @@ def mark_beacon(ax: Any, position: Any = (0.0, 0.0), label: str = "beacon") -> N
     ax.plot([x], [y], marker="^", color="black", markersize=9, linestyle="none", label=label)
 
 
-def plot_track(ax: Any, positions: Any, label: str | None = None, **style: Any) -> None:
+def plot_track(ax: Any, positions: ArrayLike, label: str | None = None, **style: Any) -> None:
     """Plot a 2-D track given as an array of shape (K, 2), with a dot at its start, on equal axes.
 
     Examples

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_n_runs, as_points,
                         as_position_function, as_positive, as_range_array, as_rng, as_scalar, as_times, check_work,
@@ -111,8 +112,8 @@ class RangeErrorModel:
         """
         return self.sample_with_mask(true_ranges, times, rng, n_runs)[0]
 
-    def sample_with_mask(self, true_ranges: Any, times: Any, rng: np.random.Generator,
-                         n_runs: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    def sample_with_mask(self, true_ranges: ArrayLike, times: ArrayLike, rng: np.random.Generator,
+                         n_runs: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Like ``sample``, and also return which epochs carry an outlier (same arguments).
 
         Returns
@@ -292,13 +293,13 @@ class SoundSpeedMismatch(RangeErrorModel):
         r""":math:`\gamma = c_a/c - 1`, the relative range error at the mean speed (-0.02 for paper D)."""
         return range_factor(self.assumed_speed, self.true_speed)[0] - 1.0
 
-    def mean_error(self, true_range: Any) -> float | np.ndarray:
+    def mean_error(self, true_range: ArrayLike) -> float | np.ndarray:
         r"""First-order mean error :math:`(c_a - c)/c \cdot r` [m] at true range(s) ``true_range``."""
         r = as_range_array("true_range", true_range)
         out = self.scale_error * r
         return float(out) if out.ndim == 0 else out
 
-    def error_std(self, true_range: Any) -> float | np.ndarray:
+    def error_std(self, true_range: ArrayLike) -> float | np.ndarray:
         r"""First-order standard deviation :math:`(c_a/c)(\sigma_c/c) \cdot r` [m] at true range(s) ``true_range``."""
         r = as_range_array("true_range", true_range)
         out = range_factor(self.assumed_speed, self.true_speed, self.speed_sigma)[1] * r
@@ -458,7 +459,7 @@ class Outliers(RangeErrorModel):
             mask = mask | (rng.random((m, k)) < self.probability)
         return np.array(mask)
 
-    def outlier_mask(self, times: Any, rng: np.random.Generator, n_runs: Any = None) -> np.ndarray:
+    def outlier_mask(self, times: ArrayLike, rng: np.random.Generator, n_runs: int | None = None) -> np.ndarray:
         """Epochs hit by an outlier, as ``sample_with_mask`` would draw them from ``rng`` in the same state.
 
         Parameters
@@ -487,8 +488,8 @@ class Outliers(RangeErrorModel):
         return np.where(mask, self.amplitude * sign, 0.0), mask
 
 
-def measure_ranges(true_ranges: Any, times: Any, error: RangeErrorModel | None, rng: np.random.Generator,
-                   n_runs: Any = None, *, return_errors: Any = False) -> Any:
+def measure_ranges(true_ranges: ArrayLike, times: ArrayLike, error: RangeErrorModel | None, rng: np.random.Generator,
+                   n_runs: int | None = None, *, return_errors: bool = False) -> Any:
     r"""Measured ranges: true ranges plus the errors drawn from ``error``, :math:`r_k = |r^\mathrm{true}_k + e_k|`.
 
     This is the library's one maker of measured ranges: every scenario draws its ranges here, or, when it draws
@@ -575,7 +576,7 @@ def _fold(total: np.ndarray) -> np.ndarray:
     return np.abs(total)
 
 
-def add_range_errors(true_ranges: Any, *errors: Any) -> np.ndarray:
+def add_range_errors(true_ranges: ArrayLike, *errors: Any) -> np.ndarray:
     r"""Measured ranges from true ranges and errors drawn elsewhere, with the policy of :func:`measure_ranges`.
 
     :math:`r_k = |(\ldots((r^\mathrm{true}_k + e^{(1)}_k) + e^{(2)}_k) \ldots)|`: the errors are added in the order
@@ -626,7 +627,7 @@ def add_range_errors(true_ranges: Any, *errors: Any) -> np.ndarray:
     return _fold(total)
 
 
-def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
+def horizontal_range(positions: ArrayLike, beacon: ArrayLike) -> float | np.ndarray:
     r"""Horizontal range :math:`\|p - b\|` between positions and a beacon.
 
     Parameters
@@ -659,7 +660,7 @@ def horizontal_range(positions: Any, beacon: Any) -> float | np.ndarray:
     return float(out) if out.ndim == 0 else out
 
 
-def slant_range(positions: Any, beacon: Any, depth_difference: Any) -> float | np.ndarray:
+def slant_range(positions: ArrayLike, beacon: ArrayLike, depth_difference: ArrayLike) -> float | np.ndarray:
     r"""Straight-line range with a depth difference :math:`\Delta z`: :math:`\sqrt{\|p - b\|^2 + \Delta z^2}`.
 
     Parameters
@@ -693,8 +694,8 @@ def slant_range(positions: Any, beacon: Any, depth_difference: Any) -> float | n
     return float(out) if out.ndim == 0 else out
 
 
-def reception_times(ping_times: Any, beacon_position_at: Any, vehicle_position_at: Any, sound_speed: Any,
-                    max_iter: Any = 50, tol: Any = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+def reception_times(ping_times: ArrayLike, beacon_position_at: Any, vehicle_position_at: Any, sound_speed: float,
+                    max_iter: int = 50, tol: ArrayLike = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     r"""When a moving vehicle hears each ping, and the true range the ping travelled.
 
     A ping leaves the beacon at :math:`t_p` and reaches the vehicle at :math:`t_r` such that

@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from numpy.typing import ArrayLike
+
 from ._validate import as_float_array
 
 __all__ = ["as_shown", "below_or_value"]
@@ -40,7 +42,7 @@ def _format(name: str, number: float, fmt: Any) -> str:
                          f"({exc})") from None
 
 
-def as_shown(value: Any, fmt: str) -> float:
+def as_shown(value: ArrayLike, fmt: str) -> float:
     """The number ``value`` rounded exactly as the format ``fmt`` shows it, as a float.
 
     Parameters
@@ -87,7 +89,7 @@ def as_shown(value: Any, fmt: str) -> float:
     return float(text)
 
 
-def below_or_value(value: Any, bound: float = 1e-9, fmt: str = ".3g") -> str:
+def below_or_value(value: ArrayLike, bound: float = 1e-9, fmt: str = ".3g") -> str:
     """Text for a quantity that may be zero up to round-off: ``"< bound"`` when it is, the value otherwise.
 
     A slope, a residual or a difference that vanishes in exact arithmetic comes out as round-off

@@ -56,6 +56,7 @@ import functools
 from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import as_float_array, as_rng
 
@@ -150,7 +151,7 @@ def _search(w: np.ndarray, points: np.ndarray) -> np.ndarray:
     return out
 
 
-def multinomial_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
+def multinomial_resample(weights: ArrayLike, rng: np.random.Generator) -> np.ndarray:
     r"""Multinomial resampling: ``N`` independent draws from the weights.
 
     Draws :math:`U_j \sim U[0, 1)`, ``j = 1..N``, and selects the particle whose cumulative-weight interval
@@ -253,7 +254,7 @@ def _residual_1d(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.concatenate([deterministic, _search(rest, rng.random(n_rest))])
 
 
-def residual_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
+def residual_resample(weights: ArrayLike, rng: np.random.Generator) -> np.ndarray:
     r"""Residual resampling: :math:`\lfloor N w_i \rfloor` deterministic copies, the remainder multinomial.
 
     Each particle is first copied :math:`\lfloor N w_i \rfloor` times; the remaining
@@ -289,7 +290,7 @@ def residual_resample(weights: Any, rng: np.random.Generator) -> np.ndarray:
     return np.stack([_residual_1d(row, rng) for row in w])
 
 
-def effective_sample_size(weights: Any) -> float | np.ndarray:
+def effective_sample_size(weights: ArrayLike) -> float | np.ndarray:
     r"""Effective sample size :math:`N_\mathrm{eff} = 1 / \sum_i w_i^2` of normalized weights.
 
     ``N`` for equal weights, 1 when a single particle holds all the weight (Arulampalam et al. 2002, eq. (51)).

@@ -285,7 +285,7 @@ def wilson_interval(k: int, n: int, confidence: float = 0.95) -> Interval:
     return Interval(k / n, float(lo), float(hi), "Wilson")
 
 
-def lost_fraction_interval(errors: Any, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
+def lost_fraction_interval(errors: ArrayLike, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
     """The fraction of runs lost (final error above ``threshold``, or NaN), with Wilson's interval.
 
     Examples
@@ -301,7 +301,7 @@ def lost_fraction_interval(errors: Any, threshold: float = LOST_THRESHOLD, confi
     return wilson_interval(int(np.sum(~(e <= thr))), e.size, confidence)
 
 
-def median_interval(values: Any, confidence: float = 0.95) -> Interval:
+def median_interval(values: ArrayLike, confidence: float = 0.95) -> Interval:
     r"""The median of a sample with its distribution-free interval :math:`[x_{(l)}, x_{(n-l+1)}]`.
 
     :math:`l` is the largest rank with :math:`P(\mathrm{Bin}(n, \tfrac12) < l) \le \alpha/2`: the interval holds
@@ -328,7 +328,7 @@ def median_interval(values: Any, confidence: float = 0.95) -> Interval:
     return Interval(float(med), float(lo), float(hi), "order statistics")
 
 
-def converged_rmse_interval(errors: Any, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
+def converged_rmse_interval(errors: ArrayLike, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
     r"""The RMSE of the runs within ``threshold`` (the converged runs), with a normal interval on their mean square.
 
     The squared errors of the converged runs are bounded by :math:`T^2`, so their mean is normal to a good
@@ -352,7 +352,7 @@ def converged_rmse_interval(errors: Any, threshold: float = LOST_THRESHOLD, conf
     return Interval(float(est), float(lo), float(hi), "normal")
 
 
-def final_rmse_interval(errors: Any, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
+def final_rmse_interval(errors: ArrayLike, threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> Interval:
     r"""The final RMSE over all the runs, with an interval that survives a few lost runs -- or the reason it is not
     estimable.
 
@@ -390,7 +390,7 @@ def final_rmse_interval(errors: Any, threshold: float = LOST_THRESHOLD, confiden
     return Interval(float(rmse), float(lo), float(hi), method)
 
 
-def median_nees_interval(nees: Any, dof: int = 2, confidence: float = 0.95) -> tuple[Interval, float]:
+def median_nees_interval(nees: ArrayLike, dof: int = 2, confidence: float = 0.95) -> tuple[Interval, float]:
     r"""The median of the final NEES over the runs, with its order-statistic interval, and its reference: the median
     of :math:`\chi^2_d`, ``scipy.stats.chi2.median(dof)`` (1.39 for ``dof = 2``, :math:`2\ln 2`).
 
@@ -485,7 +485,7 @@ class CellStatistics:
         return out
 
 
-def cell_statistics(final_errors: Any, final_nees: Any = None, *, dof: int = 2,
+def cell_statistics(final_errors: ArrayLike, final_nees: ArrayLike | None = None, *, dof: int = 2,
                     threshold: float = LOST_THRESHOLD, confidence: float = 0.95) -> CellStatistics:
     """Every number of a cell with its interval, from the runs' final errors (and final NEES).
 
@@ -589,7 +589,7 @@ class PairedComparison:
         return "tie"
 
 
-def paired_comparison(errors_a: Any, errors_b: Any, *, names: tuple[str, str] = ("a", "b"),
+def paired_comparison(errors_a: ArrayLike, errors_b: ArrayLike, *, names: tuple[str, str] = ("a", "b"),
                       threshold: float = LOST_THRESHOLD, confidence: float = 0.95, seed: int = 0,
                       n_bootstrap: int = N_BOOTSTRAP) -> PairedComparison:
     r"""Compare two methods on the same runs: ``errors_a[j]`` and ``errors_b[j]`` are their final errors on run ``j``.

@@ -45,6 +45,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validate import as_finite, as_float_array, as_index, as_int, check_work
 
@@ -128,7 +129,7 @@ def _valid_details(x: np.ndarray, w: pywt.Wavelet) -> np.ndarray:
     return windows @ g[::-1]
 
 
-def mad_sigma(coefficients: Any, axis: int = -1) -> float | np.ndarray:
+def mad_sigma(coefficients: ArrayLike, axis: int = -1) -> float | np.ndarray:
     r"""The MAD estimate :math:`\hat\sigma = \operatorname{median}_i |d_i| / 0.6745` of detail coefficients.
 
     The one place of the library where the median absolute detail coefficient becomes a noise level (paper C
@@ -207,7 +208,7 @@ def detail_matrix(n_samples: int, wavelet: Any = "db6") -> np.ndarray:
     return _valid_details(np.eye(n), w)[:, w.dec_len % 2::2]
 
 
-def detail_coefficients(signal: Any, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
+def detail_coefficients(signal: ArrayLike, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
     r"""The finest-scale detail coefficients of a signal (one level of the discrete wavelet transform).
 
     Parameters
@@ -251,7 +252,7 @@ def detail_coefficients(signal: Any, wavelet: Any = "db6", mode: str = "valid") 
     return _valid_details(x, w)[..., start::2]
 
 
-def noise_sigma(signal: Any, wavelet: Any = "db6", mode: str = "valid") -> float | np.ndarray:
+def noise_sigma(signal: ArrayLike, wavelet: Any = "db6", mode: str = "valid") -> float | np.ndarray:
     r"""MAD estimate of the standard deviation of white noise on a locally smooth signal.
 
     .. math::
@@ -291,7 +292,7 @@ def noise_sigma(signal: Any, wavelet: Any = "db6", mode: str = "valid") -> float
     return mad_sigma(detail_coefficients(signal, wavelet, mode))
 
 
-def sliding_noise_sigma(signal: Any, window: int = 50, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
+def sliding_noise_sigma(signal: ArrayLike, window: int = 50, wavelet: Any = "db6", mode: str = "valid") -> np.ndarray:
     r"""The MAD noise estimate of :func:`noise_sigma` in a window that slides along the signal (paper C, 2.3).
 
     ``out[..., k]`` is ``noise_sigma(signal[..., k - window + 1 : k + 1])``: the window *ends* at sample ``k``, so

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive,
@@ -377,7 +378,7 @@ class RangeDataset:
                 last = t
         return np.asarray(keep, dtype=int)
 
-    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: Any = None, offset: Any = 0.0,
+    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: ArrayLike | None = None, offset: ArrayLike = 0.0,
                          thinning: str = "per beacon") -> np.ndarray:
         r"""The range log placed on the odometry epochs: one column per beacon, NaN where a beacon was not heard.
 

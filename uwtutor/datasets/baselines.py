@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_int, as_nonnegative, as_scalar
 from ._core import RangeDataset
@@ -136,7 +137,7 @@ def world_displacements(data: RangeDataset) -> np.ndarray:
     return np.diff(dr[:, :2], axis=0, prepend=dr[:1, :2])
 
 
-def displacement_covariance(data: RangeDataset, distance_sigma: Any = DISTANCE_SIGMA) -> np.ndarray:
+def displacement_covariance(data: RangeDataset, distance_sigma: ArrayLike = DISTANCE_SIGMA) -> np.ndarray:
     r"""The per-step covariance :math:`\sigma_k^2\mathbf I` of :math:`\mathbf u_k`, :math:`\sigma_k = a + c\,d_k`,
     shape ``(K, 2, 2)`` [m²].
 
@@ -169,7 +170,7 @@ def _start(data: RangeDataset) -> tuple[np.ndarray, np.ndarray]:
 
 
 def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
-                 range_sigma: float = RANGE_SIGMA, distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
+                 range_sigma: float = RANGE_SIGMA, distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 4's range-only EKF on a log: state :math:`[x, y]`, dead-reckoned displacements, ranges as logged.
 
     One beacon runs :func:`uwtutor.filters.ekf.range_only_ekf` itself; several run the generic engine on
@@ -223,7 +224,7 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
 
 
 def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
-              range_sigma: float = RANGE_SIGMA, distance_sigma: Any = DISTANCE_SIGMA,
+              range_sigma: float = RANGE_SIGMA, distance_sigma: ArrayLike = DISTANCE_SIGMA,
               bias_sigma: float = 5.0) -> BaselineRun:
     r"""Chapter 7's IEKF (paper A) on a log: :math:`[x, y, \upsilon]`, a slowly varying range bias in the state.
 
@@ -287,7 +288,7 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
 
 def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float = 1.0,
                   sigma_gamma: float = 5.0 / 1500.0, min_period: Any = None, range_sigma: float = RANGE_SIGMA,
-                  distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
+                  distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 5's ISFEKF (paper D) on a log: multiplicative range noise of mean :math:`\mu_\gamma`, fading memory.
 
     :func:`uwtutor.filters.fading.fading_ekf` with paper D's weakening factor and forgetting factor
@@ -407,7 +408,7 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
 
 def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.random.Generator,
                     n_particles: int = 500, min_period: Any = None, range_sigma: float = RANGE_SIGMA,
-                    distance_sigma: Any = DISTANCE_SIGMA) -> BaselineRun:
+                    distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 6's bootstrap particle filter on chapter 4's model: :math:`[x, y]` relative to the one beacon.
 
     :class:`~uwtutor.filters.particle.bootstrap.BootstrapParticleFilter` on the EKF's model pair,

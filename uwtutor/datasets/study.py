@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import as_choice, as_finite, as_scalar
@@ -75,7 +76,7 @@ STUDY_FILES = {"json": "real_data.json", "npz": "real_data_curves.npz"}
 
 
 # -- measures ----------------------------------------------------------------------------------------------------------
-def error_summary(positions: Any, truth: Any, within: float = 2.0) -> dict[str, float]:
+def error_summary(positions: ArrayLike, truth: ArrayLike, within: float = 2.0) -> dict[str, float]:
     r"""RMSE, median and final horizontal error and the fraction of epochs within ``within`` metres.
 
     Parameters
@@ -115,7 +116,7 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
     return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def nees(x: Any, P: Any, truth: Any, components: str = "pose") -> np.ndarray:
+def nees(x: ArrayLike, P: ArrayLike, truth: ArrayLike, components: str = "pose") -> np.ndarray:
     r"""The NEES of a single run against a true log, per epoch, with the heading error wrapped to
     :math:`[-\pi, \pi)`.
 
@@ -468,7 +469,7 @@ def method_table(data: RangeDataset, progress: Callable[[str], None] | None = No
                 if method in runs:
                     rows.append({"set": data.name, "method": method, "beacons": beacons,
                                  "beacon_ids": [int(i) for i in ids], "rate": rate,
-                                 **error_summary(runs[method], data.truth)})
+                                 **error_summary(runs[method], _truth_of(data, "method_table"))})
     return rows
 
 
@@ -561,7 +562,7 @@ def ablation_table(data: RangeDataset, progress: Callable[[str], None] | None = 
             else:
                 positions = _ablation_run(log, method, ids, scale)
             rows.append({"set": data.name, "method": method, "variant": variant, "beacon_ids": ids,
-                         **error_summary(positions, data.truth), **extra})
+                         **error_summary(positions, _truth_of(data, "ablation_table")), **extra})
     return rows
 
 
@@ -594,13 +595,14 @@ def gtsam_sweep(data: RangeDataset, progress: Callable[[str], None] | None = Non
                 sol = gtsam_map(data, ids, heading_noise=q, range_scale=scale if removed else 1.0, model="pose")
                 rows.append({"set": data.name, "beacon": beacon, "scale_removed": removed, "heading_noise": q,
                              "initial": "dead reckoning", "iterations": sol.iterations,
-                             **error_summary(sol.poses, data.truth)})
+                             **error_summary(sol.poses, _truth_of(data, "gtsam_sweep"))})
     ids = [most_heard_beacon(data)]
     for removed in (False, True):
         sol = gtsam_map(data, ids, initial=data.truth, range_scale=scale if removed else 1.0, model="pose")
         rows.append({"set": data.name, "beacon": str(ids[0]), "scale_removed": removed,
                      "heading_noise": HEADING_NOISE,
-                     "initial": "truth", "iterations": sol.iterations, **error_summary(sol.poses, data.truth)})
+                     "initial": "truth", "iterations": sol.iterations,
+                     **error_summary(sol.poses, _truth_of(data, "gtsam_sweep"))})
     return rows
 
 

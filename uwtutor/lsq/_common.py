@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_finite, as_positive, as_scalar
 from ..errors import IllConditionedWarning, warn
@@ -15,7 +15,7 @@ from .._linalg import line_of_sight as _line_of_sight
 SINGULAR_RTOL = 1e-7
 
 
-def as_design(A: Any) -> np.ndarray:
+def as_design(A: ArrayLike) -> np.ndarray:
     A = as_finite("A", A, max_abs=MAX_COORDINATE)
     if A.ndim < 2:
         raise ValueError(f"A must be a design matrix of shape (N, p) or a stack (..., N, p); got shape {A.shape}")
@@ -52,7 +52,7 @@ def unit_los(positions: np.ndarray, beacons: np.ndarray, name: str) -> tuple[np.
     return los, rho
 
 
-def as_thresholds(max_condition: Any, max_noise_gain: Any) -> tuple[float, float]:
+def as_thresholds(max_condition: float, max_noise_gain: float) -> tuple[float, float]:
     mc = as_scalar("max_condition", max_condition, domain="positive")
     mg = as_scalar("max_noise_gain", max_noise_gain, domain="positive")
     if mc < 1.0:
@@ -96,7 +96,7 @@ def batched_lstsq(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return beta, alpha, cond, inv_normal
 
 
-def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.ndarray]:
+def as_ranges_and_beacons(ranges: ArrayLike, beacons: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     r = as_finite("ranges", ranges, ndim=(1, 2), max_abs=MAX_COORDINATE)
     if np.any(r < 0):
         raise ValueError(f"ranges must be >= 0; got {r[r < 0].flat[0]:g}")
@@ -111,7 +111,7 @@ def as_ranges_and_beacons(ranges: Any, beacons: Any) -> tuple[np.ndarray, np.nda
     return r, b
 
 
-def sigma_and_cov(sigma: Any, residuals: np.ndarray, n_unknowns: int,
+def sigma_and_cov(sigma: ArrayLike, residuals: np.ndarray, n_unknowns: int,
                    inv_normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = residuals.shape[-1]
     if sigma is None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_flag, as_finite
 from ._common import SINGULAR_RTOL, alpha_from_singular_values, as_design, scalar_or_array, unit_los
@@ -83,7 +84,8 @@ def condition_number(A: Any) -> float | np.ndarray:
     return scalar_or_array(cond)
 
 
-def precision_factor_history(positions: Any, beacon: Any = (0.0, 0.0), unknown_bias: bool = True) -> np.ndarray:
+def precision_factor_history(positions: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
+                             unknown_bias: bool = True) -> np.ndarray:
     r"""The precision factor after each epoch along a track: :math:`\alpha_k` from the rows of epochs 1..k.
 
     With the rows :math:`a_i = [h_i, 1]` (unit line of sight from the beacon, and the bias column when

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_finite, as_float_array, as_int, as_scalar, common_runs
 
@@ -230,9 +231,10 @@ def _default_grids(c: float) -> tuple[np.ndarray, np.ndarray]:
 MAX_GRID_WORK = 2e10
 
 
-def grid_prelocation(travel_times: Any = None, dr_displacements: Any = None, bearing_grid: Any = None,
-                     speed_error_grid: Any = None, *, ranges: Any = None, assumed_speed: float = 1470.0,
-                     beacon: Any = (0.0, 0.0)) -> Prelocation:
+def grid_prelocation(travel_times: ArrayLike | None = None, dr_displacements: ArrayLike | None = None,
+                     bearing_grid: Any = None,
+                     speed_error_grid: Any = None, *, ranges: ArrayLike | None = None, assumed_speed: float = 1470.0,
+                     beacon: ArrayLike = (0.0, 0.0)) -> Prelocation:
     r"""Paper D's grid-search pre-location, recomputed at every epoch, for one run or a batch of runs.
 
     At each epoch :math:`k` the estimate is the grid cell that minimizes the cost of ``prelocation_cost`` over
@@ -378,7 +380,8 @@ class PrelocationAcceptance:
     heading_change: np.ndarray
 
 
-def prelocation_acceptance(starts: Any, dr_displacements: Any, *, min_heading_change: float = np.deg2rad(10.0),
+def prelocation_acceptance(starts: ArrayLike, dr_displacements: ArrayLike, *,
+                           min_heading_change: float = np.deg2rad(10.0),
                            n_consecutive: int = 10, max_shift: float = 50.0,
                            heading_window: int = 5) -> PrelocationAcceptance:
     r"""Paper D's two conditions for ending the pre-location and starting the filter.

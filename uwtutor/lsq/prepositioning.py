@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import line_of_sight as _line_of_sight
 from .._validate import MAX_COORDINATE, as_flag, as_finite, as_int, as_scalar, common_runs
@@ -88,7 +89,7 @@ class LSQFix:
         return np.asarray(self.alpha < as_scalar("max_alpha", max_alpha, domain="positive"))
 
 
-def linearized_lsq(ranges: Any, beacons: Any, provisional: Any, *, unknown_bias: bool = True, iterations: int = 1,
+def linearized_lsq(ranges: Any, beacons: Any, provisional: ArrayLike, *, unknown_bias: bool = True, iterations: int = 1,
                    sigma: Any = None, max_condition: float = 1e3, max_noise_gain: float = 100.0) -> LSQFix:
     r"""Range least squares linearized about a provisional position (paper A's pre-positioning step).
 
@@ -211,7 +212,7 @@ def _track_beacons(dr_positions: np.ndarray, beacon: np.ndarray) -> np.ndarray:
     return beacon - (dr_positions - dr_positions[..., -1:, :])
 
 
-def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any = (0.0, 0.0), *,
+def prepositioning(ranges: Any, dr_positions: ArrayLike, provisional: ArrayLike, beacon: ArrayLike = (0.0, 0.0), *,
                    unknown_bias: bool = True, iterations: int = 1, sigma: Any = None, max_condition: float = 1e3,
                    max_noise_gain: float = 100.0) -> LSQFix:
     r"""Paper A's pre-positioning: a least-squares fix of the *current* position from a whole DR track of ranges.
@@ -292,7 +293,7 @@ def prepositioning(ranges: Any, dr_positions: Any, provisional: Any, beacon: Any
     return fix
 
 
-def nonlinear_lsq(ranges: Any, beacons: Any, initial: Any, *, unknown_bias: bool = False, sigma: Any = None,
+def nonlinear_lsq(ranges: Any, beacons: Any, initial: ArrayLike, *, unknown_bias: bool = False, sigma: Any = None,
                   max_condition: float = 1e3, max_noise_gain: float = 100.0) -> LSQFix:
     r"""Nonlinear range least squares with ``scipy.optimize.least_squares``: the reference of the linearized forms.
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_finite, common_runs
 from ._common import as_thresholds, batched_lstsq, warn_conditioning
@@ -81,8 +82,9 @@ def check_slant_ranges(name: str, ranges: np.ndarray, vertical: Any) -> None:
                          "the units of the ranges and the depth")
 
 
-def virtual_beacon_lsq(ranges: Any, beacon_positions: Any, dr_positions: Any, *, depth: Any = 0.0,
-                       beacon_depths: Any = 0.0, max_condition: float = 1e3,
+def virtual_beacon_lsq(ranges: ArrayLike, beacon_positions: ArrayLike, dr_positions: ArrayLike, *,
+                       depth: ArrayLike = 0.0,
+                       beacon_depths: ArrayLike = 0.0, max_condition: float = 1e3,
                        max_noise_gain: float = 100.0) -> VirtualBeaconFix:
     r"""Paper E's virtual moving long baseline: a closed-form fix from N ranges to a moving beacon.
 

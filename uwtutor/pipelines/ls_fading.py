@@ -106,8 +106,8 @@ class LSFadingResult(FilterResult):
 
 
 def ls_fading_ekf(P0: ArrayLike, dr_displacements: ArrayLike, ranges: ArrayLike, Q: ArrayLike, R: Any, *,
-                  mu_gamma: Any = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
-                  fading: bool = True, assumed_speed: Any = 1470.0, beacon: ArrayLike = (0.0, 0.0),
+                  mu_gamma: ArrayLike = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
+                  fading: bool = True, assumed_speed: float = 1470.0, beacon: ArrayLike = (0.0, 0.0),
                   times: ArrayLike | None = None, n_consecutive: int = 10, max_shift: Any = 50.0,
                   min_heading_change: Any = np.deg2rad(10.0), prelocation: Any = None,
                   acceptance: Any = None) -> LSFadingResult:

@@ -46,7 +46,7 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
 
 
 def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, dr_displacements: ArrayLike,
-                           ranges: ArrayLike, Q: ArrayLike, R: Any, *, max_alpha: Any = 2.0,
+                           ranges: ArrayLike, Q: ArrayLike, R: Any, *, max_alpha: ArrayLike = 2.0,
                            beacon: ArrayLike = (0.0, 0.0), iterations: int = 3,
                            times: ArrayLike | None = None) -> FilterResult:
     r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`

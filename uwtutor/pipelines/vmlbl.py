@@ -28,7 +28,7 @@ class NoUsableFixError(ValueError):
     are collinear or too close together."""
 
 
-def epoch_windows(n_steps: Any, spacing: Any, n_epochs: Any = 4) -> tuple[np.ndarray, np.ndarray]:
+def epoch_windows(n_steps: int, spacing: int, n_epochs: int = 4) -> tuple[np.ndarray, np.ndarray]:
     r"""The epochs of a sliding virtual-beacon fix: ``now`` and, for each, ``now - (n-1)s, ..., now - s, now``.
 
     Parameters
@@ -137,8 +137,8 @@ class VMLBLResult:
         return self.track.x[..., :2]
 
 
-def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: Any, dt: Any = 1.0,
-                times: ArrayLike | None = None, spacing: Any = 100, n_epochs: Any = 4, preprocess: bool = True,
+def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: float, dt: Any = 1.0,
+                times: ArrayLike | None = None, spacing: int = 100, n_epochs: int = 4, preprocess: bool = True,
                 range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
                 fix_options: dict[str, Any] | None = None, smooth: bool = False,
                 range_result: FilterResult | None = None) -> VMLBLResult:
@@ -388,9 +388,10 @@ class ErrorBudget:
     spacing: int
 
 
-def vmlbl_error_budget(rng: np.random.Generator, ship_positions: ArrayLike, true_positions: ArrayLike, *, depth: Any,
-                       spacing: Any = 100, levels: ArrayLike = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
-                       n_runs: Any = 50_000, n_epochs: Any = 4) -> ErrorBudget:
+def vmlbl_error_budget(rng: np.random.Generator, ship_positions: ArrayLike, true_positions: ArrayLike, *,
+                       depth: ArrayLike,
+                       spacing: int = 100, levels: ArrayLike = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0),
+                       n_runs: int = 50_000, n_epochs: int = 4) -> ErrorBudget:
     r"""Paper E's error budget (Fig. 6): the virtual-beacon fix's error against each error source alone.
 
     Each Monte Carlo run picks an epoch of the track at random (uniformly among those with ``n_epochs`` epochs

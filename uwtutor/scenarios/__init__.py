@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import (MAX_COORDINATE, as_finite, as_flag, as_float_array, as_int, as_point, as_range_array,
@@ -219,8 +220,8 @@ class Scenario:
                            self.true_ranges[i], self.ranges[i], self.range_errors[i], mask[i], self.description, i)
 
 
-def make_scenario(track: Track, beacon: Any, error: RangeErrorModel | None, rng: np.random.Generator, *,
-                  n_runs: Any = 1, dr_sigma: Any = 0.0, description: str = "") -> Scenario:
+def make_scenario(track: Track, beacon: ArrayLike | Track, error: RangeErrorModel | None, rng: np.random.Generator, *,
+                  n_runs: int = 1, dr_sigma: float = 0.0, description: str = "") -> Scenario:
     r"""Simulate ``n_runs`` runs of a vehicle on ``track`` ranging to ``beacon``.
 
     Every run shares the true track; each run draws its own DR noise and range errors:
@@ -317,10 +318,10 @@ def _epochs(duration: float, interval: float, interval_name: str = "interval") -
     return interval * np.arange(n)
 
 
-def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any = 1500.0, speed: Any = 2.0,
-                      interval: Any = 5.0, duration: Any = 10000.0, center: Any = (0.0, 0.0),
-                      noise_sigma: Any = np.sqrt(5.0), gamma: Any = 0.005, bias_mean: Any = 5.0,
-                      bias_sigma: Any = 3.0, bias_time_constant: Any = 600.0, dr_sigma: Any = 0.5) -> Scenario:
+def circling_scenario(rng: np.random.Generator, n_runs: int = 1, *, radius: Any = 1500.0, speed: float = 2.0,
+                      interval: float = 5.0, duration: float = 10000.0, center: Any = (0.0, 0.0),
+                      noise_sigma: float = np.sqrt(5.0), gamma: float = 0.005, bias_mean: float = 5.0,
+                      bias_sigma: float = 3.0, bias_time_constant: float = 600.0, dr_sigma: float = 0.5) -> Scenario:
     r"""Paper A (Liu et al.): a platform circling a buoy, range error = white + :math:`\gamma r_k` + slow bias.
 
     The platform circles the beacon (at the origin) counter-clockwise, starting due south of ``center``; the
@@ -390,11 +391,11 @@ def circling_scenario(rng: np.random.Generator, n_runs: Any = 1, *, radius: Any 
     return make_scenario(track, (0.0, 0.0), error, rng, n_runs=n_runs, dr_sigma=dr_sigma, description=description)
 
 
-def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, start: Any = (-3000.0, -1500.0),
-                                speed: Any = 2.0, headings: Any = (np.deg2rad(15.0), np.deg2rad(60.0)),
-                                turn_time: Any = 700.0, ping_interval: Any = 10.0, duration: Any = 1500.0,
-                                true_speed: Any = 1500.0, assumed_speed: Any = 1470.0, speed_sigma: Any = 1.0,
-                                noise_sigma: Any = 0.7, dr_sigma: Any = 0.9) -> Scenario:
+def approach_with_turn_scenario(rng: np.random.Generator, n_runs: int = 1, *, start: ArrayLike = (-3000.0, -1500.0),
+                                speed: float = 2.0, headings: ArrayLike = (np.deg2rad(15.0), np.deg2rad(60.0)),
+                                turn_time: float = 700.0, ping_interval: float = 10.0, duration: float = 1500.0,
+                                true_speed: float = 1500.0, assumed_speed: Any = 1470.0, speed_sigma: Any = 1.0,
+                                noise_sigma: float = 0.7, dr_sigma: float = 0.9) -> Scenario:
     r"""Paper D (Zhu et al. 2019): an approach to a beacon with one heading change, under multiplicative noise.
 
     The beacon at the origin pings every ``ping_interval`` seconds from :math:`t = 0`; the vehicle, leaving
@@ -473,14 +474,14 @@ def approach_with_turn_scenario(rng: np.random.Generator, n_runs: Any = 1, *, st
     return make_scenario(track, (0.0, 0.0), error, rng, n_runs=n_runs, dr_sigma=dr_sigma, description=description)
 
 
-def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: Any = 1, *, duration: Any = 1200.0,
-                                  interval: Any = 1.0, ship_start: Any = (0.0, 0.0),
-                                  ship_velocity: Any = (2.0, 2.0), turn_rate: Any = -np.deg2rad(0.3),
-                                  half_period: Any = 600.0, sub_start: Any = (-1000.0, -1000.0),
-                                  sub_velocity: Any = (1.0, 1.0), noise_sigma: Any = np.sqrt(2.0),
-                                  outlier_amplitude: Any = 80.0, outlier_onsets: Any = (300.0, 700.0),
+def ship_and_submersible_scenario(rng: np.random.Generator, n_runs: int = 1, *, duration: float = 1200.0,
+                                  interval: float = 1.0, ship_start: ArrayLike = (0.0, 0.0),
+                                  ship_velocity: ArrayLike = (2.0, 2.0), turn_rate: Any = -np.deg2rad(0.3),
+                                  half_period: Any = 600.0, sub_start: ArrayLike = (-1000.0, -1000.0),
+                                  sub_velocity: ArrayLike = (1.0, 1.0), noise_sigma: float = np.sqrt(2.0),
+                                  outlier_amplitude: float = 80.0, outlier_onsets: ArrayLike = (300.0, 700.0),
                                   outlier_counts: Any = (10, 20), outlier_two_sided: Any = (False, True),
-                                  dr_sigma: Any = 0.1) -> Scenario:
+                                  dr_sigma: float = 0.1) -> Scenario:
     r"""Paper E: a submersible ranging to its S-turning mother ship, with patches of outliers.
 
     The ship (the moving beacon) starts with the velocity ``ship_velocity`` (2 m/s north and east) and weaves:

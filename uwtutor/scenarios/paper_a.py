@@ -39,6 +39,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import as_finite, as_int, as_positive, as_rng, as_scalar, as_times, check_work
@@ -50,8 +51,8 @@ __all__ = ["PaperAParameters", "PARAMETERS", "make", "make_with_truth", "random_
            "LakeTrialParameters", "LakeTrial", "make_lake_trial"]
 
 
-def random_turn_track(rng: np.random.Generator, times: Any, radius: Any = 1500.0, speed: Any = 2.0,
-                      leg_time: Any = 150.0, start_angle: Any = -np.pi / 2) -> Track:
+def random_turn_track(rng: np.random.Generator, times: ArrayLike, radius: float = 1500.0, speed: float = 2.0,
+                      leg_time: float = 150.0, start_angle: float = -np.pi / 2) -> Track:
     r"""Straight legs round a buoy at the origin, turning towards it by a random angle every ``leg_time`` seconds.
 
     Each leg starts at the tangent heading (counter-clockwise round the buoy) turned inwards by
@@ -232,7 +233,7 @@ def _as_params(params: Any) -> PaperAParameters:
     return p
 
 
-def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
+def make_with_truth(rng: np.random.Generator, n_runs: int = 1,
                     params: PaperAParameters | None = None) -> tuple[Scenario, np.ndarray]:
     r"""Paper A's simulation and its true slowly varying bias,
     :math:`\upsilon_k = (\mu_\gamma - 1) r_k + \tilde\upsilon_k + \mu_\upsilon`.
@@ -293,7 +294,7 @@ def make_with_truth(rng: np.random.Generator, n_runs: Any = 1,
     return scenario, bias
 
 
-def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | None = None) -> Scenario:
+def make(rng: np.random.Generator, n_runs: int = 1, params: PaperAParameters | None = None) -> Scenario:
     r"""Paper A's simulation: ``n_runs`` runs on one track, each with its own DR noise and range errors.
 
     The track is :func:`random_turn_track` (or, with ``params.track="circle"``, the circle of
@@ -334,8 +335,8 @@ def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperAParameters | N
     return make_with_truth(rng, n_runs, params)[0]
 
 
-def variance_split(bias_share: Any, total_sigma: Any = 20.0, params: PaperAParameters | None = None,
-                   mean_range: Any = None) -> PaperAParameters:
+def variance_split(bias_share: float, total_sigma: float = 20.0, params: PaperAParameters | None = None,
+                   mean_range: float | None = None) -> PaperAParameters:
     r"""Paper A's Fig. 6 set-up: a fixed total variance shared between :math:`(\gamma_k - 1) r_k` and
     :math:`\tilde\upsilon_k`.
 
@@ -465,7 +466,7 @@ class LakeTrialParameters:
             _per_group(name, as_finite(name, getattr(self, name), ndim=1))
         _per_group("group_noise", as_positive("group_noise", self.group_noise, ndim=1))
 
-    def make(self, rng: np.random.Generator, n_runs: Any = 1) -> LakeTrial:
+    def make(self, rng: np.random.Generator, n_runs: int = 1) -> LakeTrial:
         """Simulate ``n_runs`` runs (see :func:`make_lake_trial`)."""
         return make_lake_trial(rng, n_runs, self)
 
@@ -540,7 +541,7 @@ class LakeTrial:
         return self.receiver - self.sender, self.receiver_displacements - self.sender_displacements
 
 
-def make_lake_trial(rng: np.random.Generator, n_runs: Any = 1,
+def make_lake_trial(rng: np.random.Generator, n_runs: int = 1,
                     params: LakeTrialParameters | None = None) -> LakeTrial:
     r"""Simulate paper A's lake trial (structure only; see :class:`LakeTrialParameters`).
 

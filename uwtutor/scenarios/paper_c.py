@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import as_finite, as_instance, as_int, as_nonnegative, as_positive, as_rng, as_scalar, check_work
 from ..errors import deprecated_aliases, warn
@@ -212,7 +213,7 @@ class DepthProfile:
 def maneuvering_depth_profile(duration: float = 60.0, T: float = 0.05, dive_pitch_deg: float = 20.0,
                               climb_pitch_deg: float = -25.0, noise_factors: Sequence[float] = (1.0, 3.0, 1.0, 0.5),
                               noise_change_times: Sequence[float] = (18.0, 30.0, 42.0),
-                              sensor_std: Any = None) -> DepthProfile:
+                              sensor_std: ArrayLike | None = None) -> DepthProfile:
     """A dive, a level leg and a climb, with sensor noise that changes over time (the book's stand-in for paper C's
     lake trial).
 

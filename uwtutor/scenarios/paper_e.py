@@ -211,7 +211,7 @@ class Dive:
         return self.scenario.n_runs
 
 
-def make(rng: np.random.Generator, n_runs: Any = 1, params: PaperEParameters | None = None, **changes: Any) -> Dive:
+def make(rng: np.random.Generator, n_runs: int = 1, params: PaperEParameters | None = None, **changes: Any) -> Dive:
     r"""Draw ``n_runs`` dives of paper E's simulation.
 
     The horizontal geometry, the DR noise and the range errors (white noise of variance 2 m² plus the outlier
