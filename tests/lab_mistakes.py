@@ -64,7 +64,7 @@ TYPICAL_MISTAKES = {
         ("B_answer", '"multiplicative EKF": final_rmse(fading_ekf(*inputs, mu_gamma=mu_gamma, sigma_gamma=sigma_gamma, '
                      'fading=False)),',
          '"multiplicative EKF": final_rmse(fading_ekf(*inputs, mu_gamma=mu_gamma, sigma_gamma=sigma_gamma)),'),
-        8.0, {"B_tests"}, "a \"multiplicative EKF\" has `fading=False`"),
+        11.0, {"B2_tests"}, "a \"multiplicative EKF\" has `fading=False`"),
     "log_of_sum": (
         "depth_pf_vs_ekf",
         ("B_answer",

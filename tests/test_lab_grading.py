@@ -108,7 +108,7 @@ def test_a_missing_name_says_which_cells_to_run():
 
 
 def test_an_answer_of_the_wrong_kind_is_feedback_not_a_crash():
-    fb = check_part("fading_sound_speed", "B", _with("fading_sound_speed", rmse=42.0))
+    fb = check_part("fading_sound_speed", "B1", _with("fading_sound_speed", rmse=42.0))
     assert not fb and "stopped on your answers" in fb.message
 
 
@@ -169,10 +169,11 @@ def test_fading_sound_speed_mistakes():
     rmse = dict(ns["rmse"])
     rmse["multiplicative EKF"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=ns["mu_gamma"],
                                                               sigma_gamma=ns["sigma_gamma"], fading=True))
-    _fails_with(lab, "B", "`fading=False`", rmse=rmse)
+    _fails_with(lab, "B2", "`fading=False`", rmse=rmse)
+    assert check_part(lab, "B1", _with(lab, rmse=rmse)), "a slip in one entry must cost that entry only"
     rmse = dict(ns["rmse"])
     rmse["multiplicative EKF, mu=1"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=1.0, fading=False))
-    _fails_with(lab, "B", "Pass `sigma_gamma` too", rmse=rmse)
+    _fails_with(lab, "B3", "Pass `sigma_gamma` too", rmse=rmse)
     measured, true = sc.ranges[:, :60], sc.true_ranges[:, :60]
     _fails_with(lab, "D1", "regresses the true ranges on the measured ones",
                 mu_hat=float(np.sum(measured * true) / np.sum(measured**2)))
@@ -183,7 +184,8 @@ def test_fading_sound_speed_mistakes():
     own = dict(ns["rmse"])
     own["multiplicative EKF"] = ns["final_rmse"](fading_ekf(*inputs, mu_gamma=ns["c_e"] / ns["c_nav"],
                                                              sigma_gamma=ns["sigma_gamma"], fading=False))
-    assert check_part(lab, "B", _with(lab, rmse=own, mu_gamma=ns["c_e"] / ns["c_nav"]))
+    assert all(check_part(lab, part, _with(lab, rmse=own, mu_gamma=ns["c_e"] / ns["c_nav"]))
+               for part in ("B1", "B2", "B3", "B4"))
 
 
 def test_depth_pf_vs_ekf_mistakes():

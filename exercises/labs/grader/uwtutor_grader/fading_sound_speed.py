@@ -2,8 +2,8 @@
 
 Parts B-D build on part A's ``mu_gamma`` and ``sigma_gamma``, and part D's filter on its ``mu_hat``: they are checked
 with the student's own values (when they are numbers), so that a slip is counted once, in its own check. Part A is
-graded in two checks (A1: ``mu_gamma``, 1 point; A2: ``sigma_gamma``, 1 point) and part D in two (D1: ``mu_hat``, 2
-points; D2: the calibrated filter, 1 point).
+graded in two checks (A1: ``mu_gamma``, 1 point; A2: ``sigma_gamma``, 1 point), part B in four (B1-B4: one filter
+each, 1 point) and part D in two (D1: ``mu_hat``, 2 points; D2: the calibrated filter, 1 point).
 
 Recognised mistakes (the instructor notes list them): ``c_e / c`` for μγ (upside down); ``fading=True`` for a
 "multiplicative EKF" entry; the calibration regressing the true ranges on the measured ones, using one run only, or
@@ -70,31 +70,60 @@ def part_a2(ns: Answers) -> Iterator[Feedback]:
                        hint="To first order σγ = (c/c_e)(σ_c/c_e).", reveal_expected=False)
 
 
-def part_b(ns: Answers) -> Iterator[Feedback]:
-    mu, sg = _student_moments(ns)
-    rmse = ns["rmse"]
-    expected = {
+#: Part B's four entries, one check (one point) each: the filter and its arguments, given part A's moments.
+B_ENTRIES = {
+    "B1": "EKF",
+    "B2": "multiplicative EKF",
+    "B3": "multiplicative EKF, mu=1",
+    "B4": "ISFEKF, mu=1",
+}
+
+
+def _b_filter(name: str, mu: float, sg: float) -> tuple[str, dict[str, object]]:
+    """The kind of filter and the arguments part B's entry ``name`` asks for."""
+    return {
         "EKF": ("ekf", {}),
         "multiplicative EKF": ("fading", {"mu_gamma": mu, "sigma_gamma": sg, "fading": False}),
         "multiplicative EKF, mu=1": ("fading", {"mu_gamma": 1.0, "sigma_gamma": sg, "fading": False}),
         "ISFEKF, mu=1": ("fading", {"mu_gamma": 1.0, "sigma_gamma": sg}),
-    }
-    for name, (kind, kwargs) in expected.items():
-        if name not in rmse:
-            yield fail(f"rmse has no entry {name!r}.")
-        value = _run(ns, kind, **kwargs)
-        off = _off(rmse[name], value)
-        mistakes = {}
-        if off and kwargs.get("fading") is False:
-            mistakes[_run(ns, kind, **{**kwargs, "fading": True})] = (
-                "That is the filter with fading: a \"multiplicative EKF\" has `fading=False`.")
-        if off and kwargs.get("sigma_gamma"):
-            mistakes[_run(ns, kind, **{k: v for k, v in kwargs.items() if k != "sigma_gamma"})] = (
-                "Pass `sigma_gamma` too: without it the filter has no multiplicative variance.")
-        yield check_number(rmse[name], value, rtol=1e-3, name=f"rmse[{name!r}]", units="m", common_mistakes=mistakes,
-                           hint="Check the filter's arguments against the task: mu_gamma, sigma_gamma (yours, of part "
-                                "A) and fading.",
-                           reveal_expected=False)
+    }[name]
+
+
+def _part_b_entry(ns: Answers, name: str) -> Iterator[Feedback]:
+    rmse = ns["rmse"]
+    if name not in rmse:
+        yield fail(f"rmse has no entry {name!r}.")
+    mu, sg = _student_moments(ns)
+    kind, kwargs = _b_filter(name, mu, sg)
+    value = _run(ns, kind, **kwargs)
+    off = _off(rmse[name], value)
+    mistakes = {}
+    if off and kwargs.get("fading") is False:
+        mistakes[_run(ns, kind, **{**kwargs, "fading": True})] = (
+            "That is the filter with fading: a \"multiplicative EKF\" has `fading=False`.")
+    if off and kwargs.get("sigma_gamma"):
+        mistakes[_run(ns, kind, **{k: v for k, v in kwargs.items() if k != "sigma_gamma"})] = (
+            "Pass `sigma_gamma` too: without it the filter has no multiplicative variance.")
+    yield check_number(rmse[name], value, rtol=1e-3, name=f"rmse[{name!r}]", units="m", common_mistakes=mistakes,
+                       hint="Check the filter's arguments against the task: mu_gamma, sigma_gamma (yours, of part "
+                            "A) and fading.",
+                       reveal_expected=False)
+
+
+def part_b1(ns: Answers) -> Iterator[Feedback]:
+    return _part_b_entry(ns, B_ENTRIES["B1"])
+
+
+def part_b2(ns: Answers) -> Iterator[Feedback]:
+    return _part_b_entry(ns, B_ENTRIES["B2"])
+
+
+def part_b3(ns: Answers) -> Iterator[Feedback]:
+    return _part_b_entry(ns, B_ENTRIES["B3"])
+
+
+def part_b4(ns: Answers) -> Iterator[Feedback]:
+    return _part_b_entry(ns, B_ENTRIES["B4"])
 
 
 def part_c(ns: Answers) -> Iterator[Feedback]:
@@ -140,4 +169,5 @@ def part_d2(ns: Answers) -> Iterator[Feedback]:
                        reveal_expected=False)
 
 
-PARTS = {"A1": part_a1, "A2": part_a2, "B": part_b, "C": part_c, "D1": part_d1, "D2": part_d2}
+PARTS = {"A1": part_a1, "A2": part_a2, "B1": part_b1, "B2": part_b2, "B3": part_b3, "B4": part_b4, "C": part_c,
+         "D1": part_d1, "D2": part_d2}
