@@ -392,9 +392,9 @@ class NavigationModels:
 
 def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
                       thinning: str = "per beacon", gyro_bias: bool = True,
-                      scale: bool = True, range_sigma: Any = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
-                      heading_noise: Any = 1e-3, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
-                      scale_prior: Any = 0.1, scale_walk: Any = 1e-5) -> NavigationModels:
+                      scale: bool = True, range_sigma: float = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
+                      heading_noise: float = 1e-3, gyro_bias_prior: float = 0.01, gyro_bias_walk: float = 1e-4,
+                      scale_prior: float = 0.1, scale_walk: float = 1e-5) -> NavigationModels:
     r"""The motion/measurement model pair of :func:`navigate` for a log, and what a filter runs it on.
 
     The same models, noise and start as :func:`navigate` (its parameters, with the same meaning and defaults),

@@ -252,7 +252,7 @@ class BiasEKF(ExtendedKalmanFilter):
         """Beacon position, as given (read-only; assign a new one to change it)."""
         return readonly(np.array(self._config["beacon"], dtype=float))
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Correct the estimate with the measured range ``z`` (>= 0; NaN: no reply, predict only)."""
         super().update(as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE))
 

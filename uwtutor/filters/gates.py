@@ -220,7 +220,7 @@ class ChiSquareGate(Gate):
     array([ True, False])
     """
 
-    def __init__(self, probability: Any = 0.99, *, per_component: bool = False) -> None:
+    def __init__(self, probability: float = 0.99, *, per_component: bool = False) -> None:
         p = as_scalar("probability", probability)
         if not 0.0 < p < 1.0:
             raise ValueError(f"probability must lie strictly between 0 and 1, e.g. 0.99; got {p}")
@@ -352,8 +352,8 @@ class ReacquiringGate(Gate):
 
     extra_outputs = ("rejected", "inflated", "forced")
 
-    def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: Any = 10.0,
-                 states: Any = None, force: bool = True, max_variance: Any = 1e10) -> None:
+    def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: ArrayLike = 10.0,
+                 states: Any = None, force: bool = True, max_variance: ArrayLike = 1e10) -> None:
         if test is None:
             test = ChiSquareGate(0.99)
         if not isinstance(test, Gate):
@@ -476,7 +476,7 @@ class SecondMomentGate(Gate):
     array([ True, False])
     """
 
-    def __init__(self, delta: Any = 0.03) -> None:
+    def __init__(self, delta: float = 0.03) -> None:
         d = as_scalar("delta", delta)
         if not 0.0 < d < 1.0:
             raise ValueError(f"delta must lie strictly between 0 and 1 (paper E uses 0.03); got {d:g}")

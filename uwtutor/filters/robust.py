@@ -97,7 +97,7 @@ def _initial_state(z: np.ndarray, var: np.ndarray, rate_sigma: float) -> tuple[n
 def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: Any = "paper", delta: Any = 0.03,
                     probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = None,
                     times: ArrayLike | None = None, x0: ArrayLike | None = None, P0: ArrayLike | None = None,
-                    initial_rate_sigma: Any = 5.0) -> FilterResult:
+                    initial_rate_sigma: float = 5.0) -> FilterResult:
     r"""A constant-velocity Kalman filter on a sequence of ``d``-vectors, with an outlier test (paper E).
 
     The state is :math:`[p, v]` (``models.robust.ConstantVelocity`` with acceleration variance ``q``), the
@@ -212,7 +212,7 @@ def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: 
     return FilterResult(times=res.times, extras=extras, **fields)
 
 
-def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: Any = 2.0, delta: Any = 0.03,
+def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: ArrayLike = 2.0, delta: Any = 0.03,
                     test: Any = "paper", times: ArrayLike | None = None, probability: Any = 0.99,
                     on_outlier: str = "predict", reacquire: int | None = 20) -> FilterResult:
     r"""Paper E's range preprocessing: a Kalman filter on the range sequence that rejects outliers (sec. 1.1).

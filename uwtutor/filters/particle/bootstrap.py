@@ -477,7 +477,7 @@ class BootstrapParticleFilter(Configurable):
     @classmethod
     def from_gaussian(cls, motion: Any, measurement: Any = None, x0: ArrayLike | None = None,
                       P0: ArrayLike | None = None,
-                      n_particles: Any = None, rng: Any = None, *, n_runs: int | None = None,
+                      n_particles: int | None = None, rng: Any = None, *, n_runs: int | None = None,
                       **kwargs: Any) -> "BootstrapParticleFilter":
         """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
 
