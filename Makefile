@@ -110,7 +110,8 @@ study-real: setup
 
 # Chapter 11's schedule study (navigate, its candidates, the RTS smoother and the same-model GTSAM graph over every
 # offset of the 10 s thinning; then 5 s and 30 s without the graph; about an hour of CPU): every run appended to studies/plaza_navigation_runs.jsonl as it is done
-# (a run written twice counts once), then the chapter's uwtutor/data/real_data_schedules.csv; commit both.
+# (a run written twice counts once), then the chapter's uwtutor/data/real_data_schedules.csv; then navigate's
+# lost-track warning on the same schedules (uwtutor/data/lost_track_guard.csv, about 10 minutes); commit them.
 study-schedules: setup
 	$(PY) studies/plaza_navigation.py --runs studies/plaza_navigation_runs.jsonl
 	$(PY) studies/plaza_navigation.py --period 5 --no-full-rate --no-gtsam --runs studies/plaza_navigation_runs.jsonl
@@ -118,6 +119,8 @@ study-schedules: setup
 		--runs studies/plaza_navigation_runs.jsonl
 	$(PY) studies/plaza_navigation.py --summarize studies/plaza_navigation_runs.jsonl --complete-offsets \
 		--csv uwtutor/data/real_data_schedules.csv --overwrite > studies/plaza_navigation_table.txt
+	$(PY) studies/lost_track_guard.py --csv uwtutor/data/lost_track_guard.csv --overwrite \
+		> studies/lost_track_guard_table.txt
 
 # Re-execute every book notebook in place (after changing a chapter or the library); commit the result.
 # The kernels run as the CPU of tools/cpu_variants.py's MAKE, so that `make test` checks them as another.

@@ -154,6 +154,29 @@ def test_plaza2_one_beacon_beats_odometry_alone_and_four_beacons_reach_decimetre
     assert abs(four.x[-1, 4] - 1.07) < 0.005
 
 
+def test_a_filter_that_lost_the_track_between_sparse_ranges_says_so(plaza2):
+    # one range every 30 s from beacon 5, the schedule starting 12 s in: the gate rejects most ranging epochs and
+    # the estimate ends worse than the odometry alone (studies/plaza_navigation.py's 30 s schedules)
+    with pytest.warns(UserWarning, match="lost the track") as caught:
+        lost = navigate(plaza2, [5], min_period=30.0, offset=12.0)
+    assert _rmse(lost.x[:, :2], plaza2.truth) > _rmse(plaza2.dead_reckoning()[:, :2], plaza2.truth)
+    message = next(str(w.message) for w in caught if "lost the track" in str(w.message))
+    assert "dead_reckoning()" in message and " of " in message
+    # one range every 10 s from the same beacon: the filter keeps the track and says nothing of it
+    import warnings
+
+    with warnings.catch_warnings(record=True) as quiet:
+        warnings.simplefilter("always")
+        kept = navigate(plaza2, [5], min_period=10.0)
+    assert not [w for w in quiet if "lost the track" in str(w.message)]
+    assert _rmse(kept.x[:, :2], plaza2.truth) < 5.0
+    # without the gate there is nothing to count
+    with warnings.catch_warnings(record=True) as ungated:
+        warnings.simplefilter("always")
+        navigate(plaza2, [5], min_period=30.0, offset=12.0, gate=False)
+    assert not [w for w in ungated if "lost the track" in str(w.message)]
+
+
 # -- the states chosen from the log ------------------------------------------------------------------------------------
 def test_the_default_chooses_the_candidate_the_ranges_make_most_likely():
     data = simulated_log(seed=5, K=1201)
