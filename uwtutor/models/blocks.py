@@ -108,6 +108,15 @@ def _durations(times: Any, dt: Any) -> tuple[np.ndarray | None, int | None]:
     return np.concatenate([[0.0], steps]), len(t)
 
 
+def _displacement(u: Any) -> np.ndarray:
+    """A step's DR displacement ``u`` (last axis [dx, dy]), checked: a (.., 1) one would broadcast onto both axes."""
+    u = np.asarray(u, dtype=float)
+    if u.shape[-1:] != (2,):
+        raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got shape "
+                         f"{u.shape}")
+    return u
+
+
 def _name(value: Any, what: str = "name") -> str:
     if not isinstance(value, str) or not value.isidentifier():
         raise ValueError(f"{what} must be a slot name (a Python identifier such as 'clock'); got {value!r}")
@@ -147,6 +156,10 @@ class StateBlock:
     noise_size: int = 0
     #: Whether the block needs real step lengths, as a rate in its state does; BlockMotion then needs times or dt
     needs_time: bool = False
+    #: Whether f is linear, F x (+ the displacement u when ``moved_by_input``), with F and Q that depend on the
+    #: step length alone: BlockMotion then assembles F and Q once when every step has the same length
+    linear: bool = False
+    moved_by_input: bool = False
 
     @property
     def size(self) -> int:
@@ -217,6 +230,8 @@ class RandomWalk(StateBlock):
     >>> motion.f(np.array([[1.02]]), None, 0), motion.Q(np.array([[1.02]]), None, 0)
     (array([[1.02]]), array([[4.e-06]]))
     """
+
+    linear = True
 
     def __init__(self, name: str, walk: ArrayLike = 0.0, *, size: int = 1) -> None:
         self.name = _name(name)
@@ -289,6 +304,7 @@ class OffsetAndRate(StateBlock):
 
     noise_size = 2
     needs_time = True
+    linear = True
 
     def __init__(self, name: str, rate_walk: ArrayLike, *, offset_walk: ArrayLike = 0.0) -> None:
         self.name = _name(name)
@@ -336,6 +352,7 @@ class Position(StateBlock):
 
     noise_size = 2
     components = ("x", "y")
+    linear = moved_by_input = True
 
     def __init__(self, Q: ArrayLike, *, current: str | None = None, name: str = "position") -> None:
         self.name = _name(name)
@@ -350,11 +367,7 @@ class Position(StateBlock):
                   dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
         f = np.array(own, dtype=float)
         if u is not None:
-            u = np.asarray(u, dtype=float)
-            if u.shape[-1:] != (2,):
-                raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got "
-                                 f"shape {u.shape}")
-            f = f + u
+            f = f + _displacement(u)
         F_reads = {}
         if self.reads:
             f = f + dt * reads[self.reads[0]]
@@ -592,6 +605,14 @@ class BlockMotion(MotionModel):
         # one angle (a heading) indexed by its int: a view, not a copy
         self._angles: Any = angles[0] if len(angles) == 1 else np.array(angles, int) if angles else None
         self._noise = np.cumsum([0] + [block.noise_size for block in self.blocks])
+        # Linear blocks over steps of one length (a position, random walks, offsets and rates): F and Q are
+        # constants, assembled once, and f is the one product F x plus the displacement
+        self._constant: tuple[np.ndarray, np.ndarray] | None = None
+        if all(block.linear for block in self.blocks) and (self._dt is None or self._dt.ndim == 0):
+            _, F, Q = self._assemble(np.zeros((1, self.n)), None, 0)
+            self._constant = (F, Q)
+        self._moved = [slice(int(own[0]), int(own[0]) + 2) for block, own in zip(self.blocks, self._own)
+                       if block.moved_by_input]
 
     def slot(self, name: str) -> np.ndarray:
         """The indices of a slot: a block's name or the name of one of its parts.
@@ -626,6 +647,18 @@ class BlockMotion(MotionModel):
         return {slot: x[..., self._slots[slot]] for slot in block.reads}
 
     def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self._constant is None:
+            return self._assemble(x, u, k)
+        F, Q = self._constant
+        f = np.asarray(x, dtype=float) @ F.T
+        if u is not None and self._moved:
+            u = _displacement(u)
+            for moved in self._moved:
+                f[..., moved] += u
+        return f, F, Q
+
+    def _assemble(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """f, F and Q block by block."""
         x = np.asarray(x, dtype=float)
         dt = self.dt(k)
         f = np.empty_like(x)
