@@ -816,12 +816,15 @@ class BlockMeasurement(MeasurementModel):
         self.n = state.n
         self.columns: dict[str, np.ndarray] = {}
         for name in self.reads:
-            target = renames.get(name, name)
-            if target not in state.slots:
-                raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
-                                 f"(its slots are {list(state.slots)}); add the block, or map the name with "
-                                 f"slots={{{name!r}: ...}}")
-            self.columns[name] = state.slot(target)
+            self._find(state, name, renames.get(name, name))
+
+    def _find(self, state: Any, name: str, target: str) -> None:
+        """Put the indices of the state's slot ``target`` in ``columns[name]``, or say which slots there are."""
+        if target not in state.slots:
+            raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
+                             f"(its slots are {list(state.slots)}); add the block, or map the name with "
+                             f"slots={{{name!r}: ...}}")
+        self.columns[name] = state.slot(target)
 
     def read(self, x: np.ndarray, name: str) -> np.ndarray:
         """The components of slot ``name`` of the states ``x`` ``(..., n)``: ``(..., size of the slot)``."""
