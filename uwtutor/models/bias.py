@@ -40,12 +40,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_covariance, as_nonnegative, as_positive
 from .base import MotionModel
-from .blocks import BlockMotion, OffsetAndRate, Position
+from .blocks import _MAX_STD, BlockMotion, OffsetAndRate, Position
 
 __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise"]
-
-#: Largest standard deviation accepted [m]: its square stays within the covariances' bound (1e150).
-_MAX_STD = 1e75
 
 
 def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> NDArray[np.float64]:

@@ -201,6 +201,10 @@ class StateBlock:
         L = psd_sqrt(np.asarray(Q, dtype=float))
         return f + np.einsum("...ij,...j->...i", L, eps)
 
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps each of the block's per-step arguments covers, by argument name (none by default)."""
+        return {}
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}: {', '.join(self.components)})"
 
@@ -500,13 +504,10 @@ class OdometryPose(StateBlock):
         bias = reads[self.reads[0]][..., 0] if self.reads else None
         return self._moved(own, *self._step(own, bias, self._noisy(u, k, eps), dt))
 
-    @property
-    def n_steps(self) -> int | None:
-        """Number of steps the per-step noise covers (None for one value for every step)."""
-        sizes = {len(a) for a in (self.sigma_distance, self.sigma_heading) if a.ndim == 1}
-        if len(sizes) > 1:
-            raise ValueError(f"sigma_distance and sigma_heading give different numbers of steps: {sorted(sizes)}")
-        return next(iter(sizes), None)
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps each per-step noise covers, by argument name (none when both are one number)."""
+        return {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
+                                             ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
 
 
 def _at(a: np.ndarray, k: int) -> float:
@@ -600,7 +601,14 @@ class BlockMotion(MotionModel):
         if self._dt is None and untimed:
             raise ValueError(f"the blocks {untimed} hold a rate: give times (the epoch times, s) or dt (the step "
                              "lengths, s)")
-        self.n_steps = steps
+        sizes = {name: count for block in self.blocks for name, count in block.step_counts().items()}
+        if steps is not None:
+            sizes["times" if times is not None else "dt"] = steps
+        if len(set(sizes.values())) > 1:
+            described = ", ".join(f"{name} has {count}" for name, count in sizes.items())
+            raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
+        self.n_steps: int | None = next(iter(sizes.values()), None)
+        self._per_step = ", ".join(sizes)
         angles = [int(own[i]) for block, own in zip(self.blocks, self._own) for i in block.angles]
         # one angle (a heading) indexed by its int: a view, not a copy
         self._angles: Any = angles[0] if len(angles) == 1 else np.array(angles, int) if angles else None
@@ -633,15 +641,17 @@ class BlockMotion(MotionModel):
         """Every slot name of the state."""
         return tuple(self._slots)
 
+    def _checked_step(self, k: int) -> int:
+        if self.n_steps is not None and not 0 <= k < self.n_steps:
+            raise IndexError(f"step {k} is beyond the {self.n_steps} steps this model's per-step arguments cover "
+                             f"({self._per_step})")
+        return k
+
     def dt(self, k: int) -> float:
-        """The length of step ``k`` [s] (1 when the motion has no times)."""
+        """The length :math:`\\Delta t_k` of step ``k`` [s] (1 when the motion has no times)."""
         if self._dt is None:
             return 1.0
-        if self._dt.ndim == 0:
-            return float(self._dt)
-        if not 0 <= k < len(self._dt):
-            raise IndexError(f"step {k} is beyond the {len(self._dt)} steps of times/dt")
-        return float(self._dt[k])
+        return float(self._dt if self._dt.ndim == 0 else self._dt[self._checked_step(k)])
 
     def _reads(self, block: StateBlock, x: np.ndarray) -> dict[str, np.ndarray]:
         return {slot: x[..., self._slots[slot]] for slot in block.reads}

@@ -419,14 +419,6 @@ class OdometryMotion(BlockMotion):
         self._set_walks(variances)
         self._eye = np.eye(self.n)
         self._bias = self.layout.gyro_bias
-        sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
-                                              ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
-        if steps_from_times is not None:
-            sizes["times" if times is not None else "dt"] = steps_from_times
-        if len(set(sizes.values())) > 1:
-            described = ", ".join(f"{name} has {k}" for name, k in sizes.items())
-            raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
-        self.n_steps = next(iter(sizes.values()), None)
 
     def _set_walks(self, walk: np.ndarray) -> None:
         """Keep the walks' variances per second, ``(n,)`` shared by every run or ``(M, n)`` one row per run."""
@@ -454,21 +446,9 @@ class OdometryMotion(BlockMotion):
         return out
 
     # -- the fused path: the pose block's arithmetic on the whole state, the walks on the diagonal --
-    def _step(self, k: int) -> int:
-        if self.n_steps is not None and not 0 <= k < self.n_steps:
-            raise IndexError(f"step {k} is beyond the {self.n_steps} steps this model's per-step arrays cover "
-                             "(sigma_distance, sigma_heading, times or dt)")
-        return k
-
-    def dt(self, k: int) -> float:
-        """The length :math:`\\Delta t_k` of step ``k`` [s] (1 when the model has no times)."""
-        if self._dt is None:
-            return 1.0
-        return float(self._dt if self._dt.ndim == 0 else self._dt[self._step(k)])
-
     def _parts(self, x: np.ndarray, u: Any, k: int) -> tuple[Any, Any, np.ndarray, np.ndarray, float]:
         """Distance d_k, turn delta_k, cos and sin of the move heading alpha_k, and dt of step k."""
-        dt = self.dt(self._step(k))
+        dt = self.dt(self._checked_step(k))
         bias = x[..., self._bias] if self._bias is not None else None
         return self.pose._step(x, bias, u, dt) + (dt,)
 
@@ -525,7 +505,7 @@ class OdometryMotion(BlockMotion):
         >>> round(float(new[0, :, 0].std()), 2), bool(np.all(new[..., 3] == 1.07))
         (0.1, True)
         """
-        k = self._step(k)
+        k = self._checked_step(k)
         walking = self._walking
         eps = standard_normal_per_run(per_run_generators(rng, x.shape[0], spawn=False),
                                       x.shape[1:-1] + (2 + walking.size,))

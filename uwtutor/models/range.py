@@ -557,10 +557,6 @@ class BeaconRanges(BlockRanges):
     array([0.642, 0.856, 0.   , 5.   ])
     """
 
-    nonnegative = True          # measured ranges: the engine refuses a negative one
-
-    covariances_checked = True      # R is a schedule checked when the model is made
-
     def __init__(self, beacons: Any, R: ArrayLike, *, layout: Any = None, n: int | None = None,
                  scale_index: int | None = None, bias_index: Any = None) -> None:
         B = len(_beacon_table(beacons)[1])
