@@ -238,3 +238,23 @@ def test_beacon_ranges_are_block_ranges_reading_the_layout_bit_for_bit():
             for a, b in zip(ranges.linearize(x[k:k + 1], k), by_name.linearize(x[k:k + 1], k)):
                 np.testing.assert_array_equal(a, b)
             np.testing.assert_array_equal(ranges.h(x[k:k + 1], k), by_name.h(x[k:k + 1], k))
+
+
+def test_the_bias_rate_model_and_the_owtt_ranges_are_block_models():
+    from uwtutor.models.base import MotionModel
+
+    Q = bias_rate_process_noise(0.5, 0.3, rate_sigma=0.01, dt=5.0)
+    Q[0, 2] = Q[2, 0] = 0.01                                # a noise that correlates the blocks stays whole
+    model = BiasRateDeadReckoning(Q, dt=5.0)
+    blocks = BlockMotion(Position(Q[:2, :2]), OffsetAndRate("bias", rate_walk=0.0), dt=5.0)
+    assert isinstance(model, BlockMotion) and model.names == blocks.names == ("x", "y", "bias_offset", "bias_rate")
+    np.testing.assert_array_equal(model.slot("bias"), [2, 3])
+    x = _states([50.0, -20.0, 5.0, 0.1], [20.0, 20.0, 2.0, 0.05])
+    u = np.array([1.0, 2.0])
+    for got, want in zip(model.linearize(x, u, 2)[:2], blocks.linearize(x, u, 2)[:2]):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(model.Q(x, u, 2), Q)
+    assert type(model).difference is MotionModel.difference       # no angle: a particle filter's plain mean
+    state = BlockMotion(Position(np.eye(2)), OffsetAndRate("clock", 1e-8), dt=1.0)
+    owtt = OneWayTravelTimeRanges([(0.0, 0.0), (40.0, 0.0)], 0.25, state, sound_speed=1480.0)
+    assert isinstance(owtt, BlockRanges) and owtt.reads == ("position", "clock")

@@ -571,7 +571,7 @@ class BeaconRanges(BlockRanges):
             n = 2 if n is None else n
             bias = () if bias_index is None else tuple(np.atleast_1d(np.asarray(bias_index)).tolist())
         n = as_int("n", n, minimum=2)
-        taken = {}
+        taken: dict[int, str] = {}
         for name, i in [("scale_index", scale_index)] + [(f"bias_index[{j}]", i) for j, i in enumerate(bias)]:
             if i is None:
                 continue
