@@ -693,10 +693,10 @@ class BlockMotion(MotionModel):
         return self.linearize(x, u, k)[0]
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self.linearize(x, u, k)[1]
+        return self._constant[0] if self._constant is not None else self._assemble(x, u, k)[1]
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self.linearize(x, u, k)[2]
+        return self._constant[1] if self._constant is not None else self._assemble(x, u, k)[2]
 
     def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
         r"""Draw the next states block by block: each block takes its ``noise_size`` standard normal draws, in the
