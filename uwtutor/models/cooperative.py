@@ -207,17 +207,13 @@ class CooperativeMotion(BlockMotion):
         self.Q6 = as_covariance("Q", Q, 6, allow_singular=True)
         self.noise_map = process_noise_map(interval)
         noise = self.noise_map @ self.Q6 @ self.noise_map.T
-        super().__init__(Position(_symmetric(noise[:2, :2]), current="current"), Current(), dt=interval)
+        super().__init__(Position(noise[:2, :2], current="current"), Current(), dt=interval)
         assert self._constant is not None               # linear blocks, one step length: F is a constant
         self._constant = (self._constant[0], noise)     # the noise given whole: it correlates the two blocks
 
     def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
         """:math:`f + L\\varepsilon` with the whole :math:`G Q G^\\mathsf{T}` (it correlates the blocks)."""
         return MotionModel.sample(self, x, u, k, rng)
-
-
-def _symmetric(a: np.ndarray) -> np.ndarray:
-    return (a + a.T) / 2
 
 
 class SquaredRangePair(MeasurementModel):
