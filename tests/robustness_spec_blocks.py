@@ -82,11 +82,11 @@ SPECS_BLOCKS: dict[str, Spec] = {
         call=lambda **kw: _motion_use(_blocks().BlockMotion(
             _blocks().OdometryPose(0.02, 1e-3), _blocks().OffsetAndRate("clock", 1e-8), **kw),
             x=[1.0, 2.0, 0.3, 1e-3, 2e-5], u=np.array([[1.0, 0.1]]))),
-    "uwtutor.models.blocks:BlockRanges": Spec(
+    "uwtutor.models.range:BlockRanges": Spec(
         lambda: dict(beacons=_BEACONS, R=0.36, state=_state(), scale="scale", bias=None, position="position"),
         kinds=dict(beacons=Real((None, 2)), R=Real((), "pos", vector_ok=True), state=Instance(),
                    scale=_SlotName(optional=True), bias=_SlotName(optional=True), position=_SlotName()),
-        call=lambda **kw: _meas_use(_blocks().BlockRanges(**kw), x=_X)),
+        call=lambda **kw: _meas_use(__import__("uwtutor.models.range", fromlist=["x"]).BlockRanges(**kw), x=_X)),
     "uwtutor.models.clock:OneWayTravelTimeRanges": Spec(
         lambda: dict(beacons=_BEACONS, R=0.36, state=_state(), sound_speed=1500.0, slots=None, scale="scale"),
         kinds=dict(beacons=Real((None, 2)), R=Real((), "pos", vector_ok=True), state=Instance(),

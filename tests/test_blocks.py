@@ -3,6 +3,8 @@ generic engine unchanged."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -166,3 +168,93 @@ def test_a_block_state_runs_in_the_particle_filter_unchanged():
     result = pf.run(z, odometry)
     assert abs(result.x[-1, 3] - 1.03) < 0.01
     assert np.linalg.norm(result.x[-1, :2] - track[-1]) < 1.0
+
+
+# -- the library's odometry models are built from these blocks: the fused path is the block-by-block path --
+
+@functools.lru_cache(maxsize=1)
+def _odometry_runs():
+    """The odometry model pair on the real logs and on the square log (navigate's states, plain, with range
+    biases); each with the EKF's estimates to linearize at."""
+    return list(_odometry_variants())
+
+
+def _odometry_variants():
+    from uwtutor.datasets import navigation_models, square_log
+
+    logs = [square_log(1.05, 0.3)]
+    try:
+        pytest.importorskip("gtsam")
+        from uwtutor.datasets import plaza
+
+        logs += [plaza(1), plaza(2)]
+    except pytest.skip.Exception:
+        pass
+    for data in logs:
+        nav = navigation_models(data)
+        for gyro_bias, scale, range_bias in [(True, True, False), (False, False, True), (True, True, nav.z.shape[1])]:
+            motion = OdometryMotion(nav.motion.sigma_distance, nav.motion.sigma_heading, gyro_bias=gyro_bias,
+                                    scale=scale, range_bias=range_bias, times=nav.times, order=nav.motion.order,
+                                    gyro_bias_walk=1e-4 if gyro_bias else 0.0, scale_walk=1e-5 if scale else 0.0,
+                                    range_bias_walk=1e-3 if range_bias else 0.0)
+            extra = {name: pair for name, pair, on in [("gyro_bias", (0.0, 0.01), gyro_bias),
+                                                       ("scale", (1.0, 0.1), scale),
+                                                       ("range_bias", (0.0, 1.0), range_bias)] if on}
+            x0, P0 = motion.layout.initial_state(data.start, data.start_cov, **extra)
+            ranges = BeaconRanges(nav.measurement.beacons, R=0.36, layout=motion.layout)
+            x = extended_kalman_filter(motion, ranges, x0, P0, nav.u, nav.z, times=nav.times).x
+            yield motion, ranges, nav, x
+
+
+def test_odometry_motion_is_a_block_motion_and_its_fused_path_is_the_blocks_bit_for_bit():
+    runs = 0
+    for motion, _, nav, x in _odometry_runs():
+        assert isinstance(motion, BlockMotion) and isinstance(motion.blocks[0], OdometryPose)
+        assert all(isinstance(b, RandomWalk) for b in motion.blocks[1:])
+        assert motion.names == motion.layout.names
+        for slot in motion.layout.slots:
+            np.testing.assert_array_equal(motion.slot(slot), motion.layout.slot(slot))
+        general = BlockMotion(*motion.blocks, times=nav.times)          # the same blocks, assembled block by block
+        for k in range(1, len(x), 1 if len(x) < 100 else 11):          # every step of the square, a sample of the logs'
+            for fused, blockwise in zip(motion.linearize(x[k - 1:k], nav.u[k], k),
+                                        general.linearize(x[k - 1:k], nav.u[k], k)):
+                np.testing.assert_array_equal(fused, blockwise)
+        particles = np.tile(x[len(x) // 2], (2, 50, 1))
+        k = len(x) // 2 + 1
+        draws = [model.sample(particles, nav.u[k], k, [np.random.default_rng(i) for i in (1, 2)])
+                 for model in (motion, general)]
+        np.testing.assert_array_equal(*draws)
+        runs += 1
+    assert runs >= 3
+
+
+def test_beacon_ranges_are_block_ranges_reading_the_layout_bit_for_bit():
+    for motion, ranges, _, x in _odometry_runs():
+        assert isinstance(ranges, BlockRanges)
+        scale, bias = ("scale" if motion.layout.scale is not None else None,
+                       "range_bias" if motion.layout.range_bias else None)
+        by_name = BlockRanges(ranges.beacons, 0.36, motion, scale=scale, bias=bias)
+        for k in range(0, len(x), 7):
+            for a, b in zip(ranges.linearize(x[k:k + 1], k), by_name.linearize(x[k:k + 1], k)):
+                np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(ranges.h(x[k:k + 1], k), by_name.h(x[k:k + 1], k))
+
+
+def test_the_bias_rate_model_and_the_owtt_ranges_are_block_models():
+    from uwtutor.models.base import MotionModel
+
+    Q = bias_rate_process_noise(0.5, 0.3, rate_sigma=0.01, dt=5.0)
+    Q[0, 2] = Q[2, 0] = 0.01                                # a noise that correlates the blocks stays whole
+    model = BiasRateDeadReckoning(Q, dt=5.0)
+    blocks = BlockMotion(Position(Q[:2, :2]), OffsetAndRate("bias", rate_walk=0.0), dt=5.0)
+    assert isinstance(model, BlockMotion) and model.names == blocks.names == ("x", "y", "bias_offset", "bias_rate")
+    np.testing.assert_array_equal(model.slot("bias"), [2, 3])
+    x = _states([50.0, -20.0, 5.0, 0.1], [20.0, 20.0, 2.0, 0.05])
+    u = np.array([1.0, 2.0])
+    for got, want in zip(model.linearize(x, u, 2)[:2], blocks.linearize(x, u, 2)[:2]):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(model.Q(x, u, 2), Q)
+    assert type(model).difference is MotionModel.difference       # no angle: a particle filter's plain mean
+    state = BlockMotion(Position(np.eye(2)), OffsetAndRate("clock", 1e-8), dt=1.0)
+    owtt = OneWayTravelTimeRanges([(0.0, 0.0), (40.0, 0.0)], 0.25, state, sound_speed=1480.0)
+    assert isinstance(owtt, BlockRanges) and owtt.reads == ("position", "clock")

@@ -7,7 +7,7 @@ every filter, the smoother and the posterior Cramér-Rao bound; a new method is 
 """
 
 from .base import MeasurementModel, ModelPair, MotionModel
-from .blocks import (BlockMeasurement, BlockMotion, BlockRanges, Current, OdometryPose, OffsetAndRate, Position,
+from .blocks import (BlockMeasurement, BlockMotion, Current, OdometryPose, OffsetAndRate, Position,
                      RandomWalk, StateBlock)
 from .bias import BiasRateDeadReckoning, bias_rate_process_noise, paper_a_process_noise
 from .clock import OneWayTravelTimeRanges
@@ -16,7 +16,7 @@ from .dead_reckoning import DeadReckoning
 from .depth import DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel, PitchManeuver, PitchManeuverModel
 from .linear import DirectMeasurement, LinearMeasurement, LinearMotion
 from .odometry import OdometryMotion, StateLayout, wrap_angle
-from .range import BeaconRanges, MultiplicativeRange, NoiseSchedule, RangeToBeacon, line_of_sight
+from .range import BeaconRanges, BlockRanges, MultiplicativeRange, NoiseSchedule, RangeToBeacon, line_of_sight
 from .robust import ConstantVelocity, PositionMeasurement
 
 __all__ = [

@@ -40,11 +40,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_covariance, as_nonnegative, as_positive
 from .base import MotionModel
+from .blocks import _MAX_STD, BlockMotion, OffsetAndRate, Position
 
 __all__ = ["BiasRateDeadReckoning", "paper_a_process_noise", "bias_rate_process_noise"]
-
-#: Largest standard deviation accepted [m]: its square stays within the covariances' bound (1e150).
-_MAX_STD = 1e75
 
 
 def paper_a_process_noise(sigma_x: Any, sigma_y: Any = None, sigma_bias: Any = None) -> NDArray[np.float64]:
@@ -126,7 +124,7 @@ def bias_rate_process_noise(sigma_x: Any, sigma_y: Any = None, *, rate_sigma: An
     return Q
 
 
-class BiasRateDeadReckoning(MotionModel):
+class BiasRateDeadReckoning(BlockMotion):
     r"""DR position and a bias that drifts at an estimated rate: state :math:`[x, y, \upsilon, \dot\upsilon]`.
 
     .. math::
@@ -139,6 +137,11 @@ class BiasRateDeadReckoning(MotionModel):
     Not in paper A: the book's extension for a bias that changes faster than paper A's random walk allows
     (a sound-speed profile warming through the day, a range that opens steadily under a :math:`\gamma r_k` error).
     Use with ``RangeToBeacon(beacon, n=4, bias_index=2)`` and :func:`bias_rate_process_noise`.
+
+    It is the :class:`~uwtutor.models.blocks.BlockMotion` of a :class:`~uwtutor.models.blocks.Position` and an
+    :class:`~uwtutor.models.blocks.OffsetAndRate` named ``bias`` (slots ``position``, ``bias``, ``bias_offset``,
+    ``bias_rate``), with its process noise given whole: ``Q`` may correlate the position and the bias, so it
+    replaces the blocks' own noises, and ``sample`` draws :math:`f + L\varepsilon`, :math:`L L^\mathsf{T} = Q`.
 
     Parameters
     ----------
@@ -159,28 +162,23 @@ class BiasRateDeadReckoning(MotionModel):
     ... )
     >>> motion.f(np.array([[0.0, 0.0, 5.0, 0.1]]), np.array([[1.0, 2.0]]), 0)
     array([[1. , 2. , 5.5, 0.1]])
+    >>> motion.slot("bias_rate")
+    array([3])
     """
 
-    n = 4
+    # no angle in the state: the plain differences and mean (a particle filter's estimate is then the plain mean)
+    difference = MotionModel.difference
+    normalize = MotionModel.normalize
 
     def __init__(self, Q: ArrayLike, dt: Any) -> None:
-        self._Q = as_covariance("Q", Q, 4, allow_singular=True)
-        if self._Q.shape != (4, 4):
-            raise ValueError(f"Q must be one 4x4 matrix (the same at every epoch); got shape {self._Q.shape}")
-        self.dt = float(as_positive("dt", dt, ndim=0))
-        self._F = np.eye(4)
-        self._F[2, 3] = self.dt
+        Q = as_covariance("Q", Q, 4, allow_singular=True)
+        if Q.shape != (4, 4):
+            raise ValueError(f"Q must be one 4x4 matrix (the same at every epoch); got shape {Q.shape}")
+        dt = float(as_positive("dt", dt, ndim=0))
+        super().__init__(Position(Q[:2, :2]), OffsetAndRate("bias", rate_walk=0.0), dt=dt)
+        assert self._constant is not None               # linear blocks, one step length: F is a constant
+        self._constant = (self._constant[0], Q)         # the noise given whole
 
-    def f(self, x: np.ndarray, u: np.ndarray | None, k: int) -> np.ndarray:
-        x = np.asarray(x, dtype=float)
-        out = x @ self._F.T
-        if u is not None:
-            out[..., :2] += u
-        return out
-
-    def F(self, x: np.ndarray, u: np.ndarray | None, k: int) -> np.ndarray:
-        return self._F
-
-    def Q(self, x: np.ndarray, u: np.ndarray | None, k: int) -> np.ndarray:
-        return self._Q
-
+    def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
+        """:math:`f + L\\varepsilon` with the whole ``Q`` (it may correlate the blocks)."""
+        return MotionModel.sample(self, x, u, k, rng)

@@ -45,21 +45,76 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._linalg import line_of_sight as _line_of_sight
-from .._linalg import distances
 from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
 from .base import MeasurementModel, MotionModel
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
-from .odometry import ORDERS, _durations, _odometry_input, _per_step, _wrap
-from .range import NoiseSchedule, _beacon_table
 
 __all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "OffsetAndRate", "BlockMotion",
-           "BlockMeasurement", "BlockRanges"]
+           "BlockMeasurement"]
 
 #: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
 _MAX_STD = 1e75
 #: Longest step accepted [s]: a rate's noise q dt^3 / 3 stays finite.
 _MAX_STEP = 1e50
+
+
+#: The orders of operations :class:`OdometryPose` (and :class:`~uwtutor.models.odometry.OdometryMotion`) knows,
+#: with the fraction :math:`c` of the step's turn taken before the move.
+ORDERS = {"turn-first": 1.0, "move-first": 0.0, "midpoint": 0.5}
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap_angle` without its checks: the models' per-step kernel (their states are float arrays)."""
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _odometry_input(u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The distance and heading change of one step's odometry ``u`` (last axis [distance, heading change]), checked
+    (shared by :class:`OdometryMotion` and the odometry pose block of :mod:`uwtutor.models.blocks`)."""
+    if u is None:
+        raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
+                         "Pass the odometry as the filter's u")
+    u = np.asarray(u, dtype=float)
+    if u.shape[-1:] != (2,):
+        raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
+                         f"2); got shape {u.shape}")
+    return u[..., 0], u[..., 1]
+
+
+def _per_step(name: str, value: Any) -> np.ndarray:
+    """A number or one value per step (K,), >= 0."""
+    arr = as_nonnegative(name, value, ndim=(0, 1), max_abs=_MAX_STD)
+    if arr.ndim == 1 and arr.size == 0:
+        raise ValueError(f"{name} is empty: give a number or one value per step")
+    return arr
+
+
+def _durations(times: Any, dt: Any) -> tuple[np.ndarray | None, int | None]:
+    """Step lengths Delta t_k (K,) or a scalar array, and the number of steps they fix (None if any)."""
+    if times is not None and dt is not None:
+        raise ValueError("give times or dt, not both")
+    if dt is not None:
+        d = as_nonnegative("dt", dt, ndim=(0, 1))
+        return d, (len(d) if d.ndim == 1 else None)
+    if times is None:
+        return None, None
+    t = as_finite("times", times, ndim=1, nonempty=True)
+    steps = np.diff(t)
+    if np.any(steps < 0):
+        k = int(np.flatnonzero(steps < 0)[0]) + 1
+        raise ValueError(f"times must not decrease; times[{k}] = {t[k]:g} comes before times[{k - 1}] = {t[k - 1]:g}")
+    # x0 is the state at times[0], so the first step lasts 0 s (a dataset's start pose, its odometry row 0 the
+    # motion up to times[0]); give dt instead to let the first step last longer.
+    return np.concatenate([[0.0], steps]), len(t)
+
+
+def _displacement(u: Any) -> np.ndarray:
+    """A step's DR displacement ``u`` (last axis [dx, dy]), checked: a (.., 1) one would broadcast onto both axes."""
+    u = np.asarray(u, dtype=float)
+    if u.shape[-1:] != (2,):
+        raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got shape "
+                         f"{u.shape}")
+    return u
 
 
 def _name(value: Any, what: str = "name") -> str:
@@ -101,6 +156,10 @@ class StateBlock:
     noise_size: int = 0
     #: Whether the block needs real step lengths, as a rate in its state does; BlockMotion then needs times or dt
     needs_time: bool = False
+    #: Whether f is linear, F x (+ the displacement u when ``moved_by_input``), with F and Q that depend on the
+    #: step length alone: BlockMotion then assembles F and Q once when every step has the same length
+    linear: bool = False
+    moved_by_input: bool = False
 
     @property
     def size(self) -> int:
@@ -142,6 +201,10 @@ class StateBlock:
         L = psd_sqrt(np.asarray(Q, dtype=float))
         return f + np.einsum("...ij,...j->...i", L, eps)
 
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps each of the block's per-step arguments covers, by argument name (none by default)."""
+        return {}
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}: {', '.join(self.components)})"
 
@@ -172,12 +235,14 @@ class RandomWalk(StateBlock):
     (array([[1.02]]), array([[4.e-06]]))
     """
 
+    linear = True
+
     def __init__(self, name: str, walk: ArrayLike = 0.0, *, size: int = 1) -> None:
         self.name = _name(name)
         size = as_int("size", size, minimum=1)
         self.components = (self.name,) if size == 1 else tuple(f"{self.name}_{j}" for j in range(size))
         self.q = float(as_nonnegative("walk", walk, ndim=0, max_abs=_MAX_STD)) ** 2
-        self.noise_size = size
+        self.noise_size = size if self.q > 0 else 0      # a constant draws nothing
         self._eye = np.eye(size)
 
     def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
@@ -186,7 +251,9 @@ class RandomWalk(StateBlock):
 
     def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
                eps: np.ndarray) -> np.ndarray:
-        return own + eps * np.sqrt(self.q * dt)
+        if not self.noise_size:
+            return np.array(own, dtype=float)
+        return own + eps * (np.sqrt(self.q) * np.sqrt(dt))
 
 
 class Current(RandomWalk):
@@ -241,6 +308,7 @@ class OffsetAndRate(StateBlock):
 
     noise_size = 2
     needs_time = True
+    linear = True
 
     def __init__(self, name: str, rate_walk: ArrayLike, *, offset_walk: ArrayLike = 0.0) -> None:
         self.name = _name(name)
@@ -288,6 +356,7 @@ class Position(StateBlock):
 
     noise_size = 2
     components = ("x", "y")
+    linear = moved_by_input = True
 
     def __init__(self, Q: ArrayLike, *, current: str | None = None, name: str = "position") -> None:
         self.name = _name(name)
@@ -302,11 +371,7 @@ class Position(StateBlock):
                   dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
         f = np.array(own, dtype=float)
         if u is not None:
-            u = np.asarray(u, dtype=float)
-            if u.shape[-1:] != (2,):
-                raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got "
-                                 f"shape {u.shape}")
-            f = f + u
+            f = f + _displacement(u)
         F_reads = {}
         if self.reads:
             f = f + dt * reads[self.reads[0]]
@@ -364,61 +429,85 @@ class OdometryPose(StateBlock):
         self.sigma_heading = _per_step("sigma_heading", sigma_heading)
         self.reads = () if gyro_bias is None else (_name(gyro_bias, "gyro_bias"),)
         self.needs_time = gyro_bias is not None
-        self._eye = np.eye(3)
 
-    def _parts(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, dt: float) -> tuple[Any, ...]:
+    # The arithmetic of the pose, written once. ``x`` is any state whose first three components are this pose
+    # (the block's own components, or a whole state that starts with the pose, as OdometryMotion's does): the
+    # fused path of OdometryMotion and the block-by-block path of BlockMotion call the same lines.
+    def _step(self, x: np.ndarray, bias: Any, u: Any, dt: float) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+        """Distance d_k, turn delta_k, and cos, sin of the move heading alpha_k (``bias`` the gyro bias or None)."""
         d, turn = _odometry_input(u)
-        if self.reads:
-            turn = turn - reads[self.reads[0]][..., 0] * dt
-        alpha = own[..., 2] + self._c * turn if self._c else own[..., 2]
+        if bias is not None:
+            turn = turn - bias * dt
+        alpha = x[..., 2] + self._c * turn if self._c else x[..., 2]
         return d, turn, np.cos(alpha), np.sin(alpha)
 
-    def _kinematics(self, own: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
-        f = np.array(own, dtype=float)
+    @staticmethod
+    def _moved(x: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        """``x`` with the pose moved by the step (the other components copied)."""
+        f = np.array(x, dtype=float)
         f[..., 0] += d * ca
         f[..., 1] += d * sa
-        f[..., 2] = _wrap(own[..., 2] + turn)
+        f[..., 2] = _wrap(x[..., 2] + turn)
         return f
 
-    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
-                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
-        d, turn, ca, sa = self._parts(own, reads, u, dt)
+    def _jacobian(self, x: np.ndarray, eye: np.ndarray, bias: int | None, d: Any, ca: np.ndarray, sa: np.ndarray,
+                  dt: float) -> np.ndarray:
+        """:math:`F` ``(..., n, n)``, ``n = len(eye)``: the identity plus the pose's rows (``bias`` the column of
+        the gyro bias, or None)."""
+        F = np.repeat(eye[None], x.shape[0], axis=0) if x.ndim == 2 else np.tile(eye, x.shape[:-1] + (1, 1))
         ds, dc = d * sa, d * ca
-        F = np.repeat(self._eye[None], own.shape[0], axis=0) if own.ndim == 2 else np.tile(self._eye,
-                                                                                          own.shape[:-1] + (1, 1))
         F[..., 0, 2] = -ds
         F[..., 1, 2] = dc
-        F_reads = {}
-        if self.reads:
-            Fb = np.zeros(own.shape[:-1] + (3, 1))
-            Fb[..., 0, 0] = self._c * dt * ds
-            Fb[..., 1, 0] = -self._c * dt * dc
-            Fb[..., 2, 0] = -dt
-            F_reads[self.reads[0]] = Fb
-        G = np.zeros(own.shape[:-1] + (3, 2))
+        if bias is not None:
+            F[..., 0, bias] = self._c * dt * ds
+            F[..., 1, bias] = -self._c * dt * dc
+            F[..., 2, bias] = -dt
+        return F
+
+    def _input_jacobian(self, x: np.ndarray, n: int, d: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
+        r""":math:`G = \partial f / \partial u` ``(..., n, 2)`` (zero below the pose)."""
+        G = np.zeros(x.shape[:-1] + (n, 2))
         G[..., 0, 0], G[..., 1, 0] = ca, sa
         G[..., 0, 1], G[..., 1, 1] = -self._c * d * sa, self._c * d * ca
         G[..., 2, 1] = 1.0
+        return G
+
+    def _noise(self, G: np.ndarray, k: int) -> np.ndarray:
+        r""":math:`G \Sigma_u G^\mathsf{T}`, the odometry noise of step ``k`` through ``G``."""
         var = np.array([_at(self.sigma_distance, k) ** 2, _at(self.sigma_heading, k) ** 2])
-        Q = (G * var) @ np.swapaxes(G, -1, -2)
-        return self._kinematics(own, d, turn, ca, sa), F, F_reads, Q
+        return (G * var) @ np.swapaxes(G, -1, -2)
+
+    def _noisy(self, u: Any, k: int, eps: np.ndarray) -> np.ndarray:
+        """Each particle's own noisy reading of the odometry: ``u`` plus the noise of step ``k`` times ``eps``."""
+        d, dth = _odometry_input(u)
+        noisy = np.empty(eps.shape[:-1] + (2,))
+        np.multiply(eps[..., 0], _at(self.sigma_distance, k), out=noisy[..., 0])
+        np.multiply(eps[..., 1], _at(self.sigma_heading, k), out=noisy[..., 1])
+        noisy[..., 0] += d                             # (p,) shared, or (M, 1, p) per run: broadcast
+        noisy[..., 1] += dth
+        return noisy
+
+    def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
+                  dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+        bias = reads[self.reads[0]] if self.reads else None
+        x = own if bias is None else np.concatenate([own, bias], axis=-1)      # [x, y, theta (, b_g)]
+        d, turn, ca, sa = self._step(x, None if bias is None else bias[..., 0], u, dt)
+        F = self._jacobian(x, np.eye(x.shape[-1]), None if bias is None else 3, d, ca, sa, dt)
+        F_reads = {} if bias is None else {self.reads[0]: F[..., :3, 3:]}
+        Q = self._noise(self._input_jacobian(x, 3, d, ca, sa), k)
+        return self._moved(own, d, turn, ca, sa), F[..., :3, :3], F_reads, Q
 
     def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
                eps: np.ndarray) -> np.ndarray:
         """Each particle moves by its own noisy reading of the odometry through the exact kinematics (the
         sample odometry motion model, Thrun et al. 2005, sec. 5.4)."""
-        u = np.asarray(u, dtype=float) if u is not None else u
-        noisy = None if u is None else np.stack([u[..., 0] + eps[..., 0] * _at(self.sigma_distance, k),
-                                                 u[..., 1] + eps[..., 1] * _at(self.sigma_heading, k)], axis=-1)
-        return self._kinematics(own, *self._parts(own, reads, noisy, dt)[:4])
+        bias = reads[self.reads[0]][..., 0] if self.reads else None
+        return self._moved(own, *self._step(own, bias, self._noisy(u, k, eps), dt))
 
-    @property
-    def n_steps(self) -> int | None:
-        """Number of steps the per-step noise covers (None for one value for every step)."""
-        sizes = {len(a) for a in (self.sigma_distance, self.sigma_heading) if a.ndim == 1}
-        if len(sizes) > 1:
-            raise ValueError(f"sigma_distance and sigma_heading give different numbers of steps: {sorted(sizes)}")
-        return next(iter(sizes), None)
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps each per-step noise covers, by argument name (none when both are one number)."""
+        return {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
+                                             ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
 
 
 def _at(a: np.ndarray, k: int) -> float:
@@ -512,9 +601,26 @@ class BlockMotion(MotionModel):
         if self._dt is None and untimed:
             raise ValueError(f"the blocks {untimed} hold a rate: give times (the epoch times, s) or dt (the step "
                              "lengths, s)")
-        self.n_steps = steps
-        self._angles = np.array([own[i] for block, own in zip(self.blocks, self._own) for i in block.angles], int)
+        sizes = {name: count for block in self.blocks for name, count in block.step_counts().items()}
+        if steps is not None:
+            sizes["times" if times is not None else "dt"] = steps
+        if len(set(sizes.values())) > 1:
+            described = ", ".join(f"{name} has {count}" for name, count in sizes.items())
+            raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
+        self.n_steps: int | None = next(iter(sizes.values()), None)
+        self._per_step = ", ".join(sizes)
+        angles = [int(own[i]) for block, own in zip(self.blocks, self._own) for i in block.angles]
+        # one angle (a heading) indexed by its int: a view, not a copy
+        self._angles: Any = angles[0] if len(angles) == 1 else np.array(angles, int) if angles else None
         self._noise = np.cumsum([0] + [block.noise_size for block in self.blocks])
+        # Linear blocks over steps of one length (a position, random walks, offsets and rates): F and Q are
+        # constants, assembled once, and f is the one product F x plus the displacement
+        self._constant: tuple[np.ndarray, np.ndarray] | None = None
+        if all(block.linear for block in self.blocks) and (self._dt is None or self._dt.ndim == 0):
+            _, F, Q = self._assemble(np.zeros((1, self.n)), None, 0)
+            self._constant = (F, Q)
+        self._moved = [slice(int(own[0]), int(own[0]) + 2) for block, own in zip(self.blocks, self._own)
+                       if block.moved_by_input]
 
     def slot(self, name: str) -> np.ndarray:
         """The indices of a slot: a block's name or the name of one of its parts.
@@ -535,20 +641,34 @@ class BlockMotion(MotionModel):
         """Every slot name of the state."""
         return tuple(self._slots)
 
+    def _checked_step(self, k: int) -> int:
+        if self.n_steps is not None and not 0 <= k < self.n_steps:
+            raise IndexError(f"step {k} is beyond the {self.n_steps} steps this model's per-step arguments cover "
+                             f"({self._per_step})")
+        return k
+
     def dt(self, k: int) -> float:
-        """The length of step ``k`` [s] (1 when the motion has no times)."""
+        """The length :math:`\\Delta t_k` of step ``k`` [s] (1 when the motion has no times)."""
         if self._dt is None:
             return 1.0
-        if self._dt.ndim == 0:
-            return float(self._dt)
-        if not 0 <= k < len(self._dt):
-            raise IndexError(f"step {k} is beyond the {len(self._dt)} steps of times/dt")
-        return float(self._dt[k])
+        return float(self._dt if self._dt.ndim == 0 else self._dt[self._checked_step(k)])
 
     def _reads(self, block: StateBlock, x: np.ndarray) -> dict[str, np.ndarray]:
         return {slot: x[..., self._slots[slot]] for slot in block.reads}
 
     def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self._constant is None:
+            return self._assemble(x, u, k)
+        F, Q = self._constant
+        f = np.asarray(x, dtype=float) @ F.T
+        if u is not None and self._moved:
+            u = _displacement(u)
+            for moved in self._moved:
+                f[..., moved] += u
+        return f, F, Q
+
+    def _assemble(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """f, F and Q block by block."""
         x = np.asarray(x, dtype=float)
         dt = self.dt(k)
         f = np.empty_like(x)
@@ -573,10 +693,10 @@ class BlockMotion(MotionModel):
         return self.linearize(x, u, k)[0]
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self.linearize(x, u, k)[1]
+        return self._constant[0] if self._constant is not None else self._assemble(x, u, k)[1]
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self.linearize(x, u, k)[2]
+        return self._constant[1] if self._constant is not None else self._assemble(x, u, k)[2]
 
     def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
         r"""Draw the next states block by block: each block takes its ``noise_size`` standard normal draws, in the
@@ -593,13 +713,13 @@ class BlockMotion(MotionModel):
 
     def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-        if self._angles.size:
+        if self._angles is not None:
             d[..., self._angles] = _wrap(d[..., self._angles])
         return d
 
     def normalize(self, x: np.ndarray) -> np.ndarray:
         out = np.array(x, dtype=float)
-        if self._angles.size:
+        if self._angles is not None:
             out[..., self._angles] = _wrap(out[..., self._angles])
         return out
 
@@ -665,8 +785,9 @@ class BlockMeasurement(MeasurementModel):
 
     Parameters
     ----------
-    state : BlockMotion
-        The motion model whose state the measurement reads (its :meth:`BlockMotion.slot` resolves the names).
+    state : BlockMotion or StateLayout
+        The motion model whose state the measurement reads (its :meth:`BlockMotion.slot` resolves the names), or
+        a :class:`~uwtutor.models.odometry.StateLayout` (the slots of a state given by its indices).
     slots : dict of str to str, optional
         Renames: the model's name -> the state's slot name.
 
@@ -693,8 +814,10 @@ class BlockMeasurement(MeasurementModel):
 
     reads: tuple[str, ...] = ()
 
-    def __init__(self, state: BlockMotion, *, slots: dict[str, str] | None = None) -> None:
-        as_instance("state", state, BlockMotion, "the BlockMotion whose slots this model reads")
+    def __init__(self, state: Any, *, slots: dict[str, str] | None = None) -> None:
+        if not isinstance(state, BlockMotion) and not all(hasattr(state, a) for a in ("n", "slots", "slot")):
+            raise TypeError(f"state must be the BlockMotion whose slots this model reads (or a StateLayout); got "
+                            f"{type(state).__name__}")
         renames = dict(slots or {})
         unknown = set(renames) - set(self.reads)
         if unknown:
@@ -703,12 +826,15 @@ class BlockMeasurement(MeasurementModel):
         self.n = state.n
         self.columns: dict[str, np.ndarray] = {}
         for name in self.reads:
-            target = renames.get(name, name)
-            if target not in state.slots:
-                raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
-                                 f"(its slots are {list(state.slots)}); add the block, or map the name with "
-                                 f"slots={{{name!r}: ...}}")
-            self.columns[name] = state.slot(target)
+            self._find(state, name, renames.get(name, name))
+
+    def _find(self, state: Any, name: str, target: str) -> None:
+        """Put the indices of the state's slot ``target`` in ``columns[name]``, or say which slots there are."""
+        if target not in state.slots:
+            raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
+                             f"(its slots are {list(state.slots)}); add the block, or map the name with "
+                             f"slots={{{name!r}: ...}}")
+        self.columns[name] = state.slot(target)
 
     def read(self, x: np.ndarray, name: str) -> np.ndarray:
         """The components of slot ``name`` of the states ``x`` ``(..., n)``: ``(..., size of the slot)``."""
@@ -716,92 +842,3 @@ class BlockMeasurement(MeasurementModel):
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return self.linearize(x, k)[1]
-
-
-class BlockRanges(BlockMeasurement):
-    r"""Ranges to beacons at known positions, read from the ``position`` slot, with an optional range scale and
-    range bias read from theirs: :math:`z_{k,j} = s\,\lVert p_k - b_j \rVert + \upsilon_j + v_{k,j}`.
-
-    :class:`~uwtutor.models.range.BeaconRanges` on a block state (the same ``h``, ``H`` and ``R``): the slots are
-    found by name, not given as indices.
-
-    Parameters
-    ----------
-    beacons : array_like, shape (B, 2), or dict of id to (x, y)
-        The beacons, one measurement component each.
-    R : float or array_like
-        The range noise: a variance, ``(B, B)``, or one per step (as ``BeaconRanges``).
-    state : BlockMotion
-    scale : str, optional
-        The slot of a range scale (e.g. ``"scale"``).
-    bias : str, optional
-        The slot of the range bias: one component shared by every beacon, or one per beacon.
-    position : str, default "position"
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from uwtutor.models import BlockMotion, BlockRanges, OdometryPose, RandomWalk
-    >>> motion = BlockMotion(OdometryPose(0.1, 0.01), RandomWalk("scale"))
-    >>> ranges = BlockRanges([[0.0, 0.0], [10.0, 0.0]], 0.01, motion, scale="scale")
-    >>> ranges.h(np.array([[3.0, 4.0, 0.0, 1.1]]), 0)
-    array([[5.5       , 8.86848352]])
-    """
-
-    covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
-    nonnegative = True
-
-    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, scale: str | None = None,
-                 bias: str | None = None, position: str = "position") -> None:
-        self.ids, self.beacons = _beacon_table(beacons)
-        self.m = len(self.beacons)
-        self._scale, self._bias = scale is not None, bias is not None
-        self.reads = ("position",) + (("scale",) if self._scale else ()) + (("bias",) if self._bias else ())
-        renames = {"position": _name(position, "position")}
-        renames.update({"scale": _name(scale, "scale")} if self._scale else {})
-        renames.update({"bias": _name(bias, "bias")} if self._bias else {})
-        super().__init__(state, slots=renames)
-        if self.columns["position"].size != 2:
-            raise ValueError(f"the position slot {position!r} must have 2 components (x, y); it has "
-                             f"{self.columns['position'].size}")
-        if self._scale and self.columns["scale"].size != 1:
-            raise ValueError(f"the scale slot {scale!r} must have 1 component; it has {self.columns['scale'].size}")
-        if self._bias and self.columns["bias"].size not in (1, self.m):
-            raise ValueError(f"the bias slot {bias!r} must have 1 component (shared) or {self.m} (one per beacon); "
-                             f"it has {self.columns['bias'].size}")
-        self._bias_cols = (np.resize(self.columns["bias"], self.m) if self._bias else None)
-        self._noise = NoiseSchedule("R", R, self.m)
-
-    @property
-    def n_steps(self) -> int | None:
-        """Number of steps a per-step ``R`` covers (None when it is one for every step)."""
-        return self._noise.n_steps
-
-    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask ``(M, B)`` False on a beacon."""
-        pos = self.columns["position"]
-        r, los, defined = _line_of_sight(x[..., None, pos], self.beacons)
-        H = np.zeros(r.shape + (self.n,))
-        if self._scale:
-            s = x[..., self.columns["scale"]]
-            z = s * r
-            H[..., pos] = s[..., None] * los
-            H[..., self.columns["scale"][0]] = r
-        else:
-            z = r
-            H[..., pos] = los
-        if self._bias_cols is not None:
-            z = z + x[..., self._bias_cols]
-            H[..., np.arange(self.m), self._bias_cols] = 1.0
-        return z, H, defined
-
-    def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        z = distances(x[..., None, self.columns["position"]], self.beacons)
-        if self._scale:
-            z *= x[..., self.columns["scale"]]
-        if self._bias_cols is not None:
-            z += x[..., self._bias_cols]
-        return z
-
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._noise.at(k)

@@ -30,16 +30,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._linalg import line_of_sight as _line_of_sight
 from .._validate import as_positive
-from .blocks import BlockMeasurement, BlockMotion
-from .range import NoiseSchedule, _beacon_table
+from .blocks import BlockMotion
+from .range import BlockRanges
 
 __all__ = ["OneWayTravelTimeRanges"]
 
 
-class OneWayTravelTimeRanges(BlockMeasurement):
+class OneWayTravelTimeRanges(BlockRanges):
     r"""Ranges from one-way travel times timed by a drifting clock: :math:`z_j = \lVert p - b_j\rVert + c\,\delta`.
+
+    The ranges of :class:`~uwtutor.models.range.BlockRanges` (position, and scale when given) plus the clock's term
+    :math:`c\,\delta`, read from the ``clock`` slot.
 
     Parameters
     ----------
@@ -77,44 +79,26 @@ class OneWayTravelTimeRanges(BlockMeasurement):
     array([[53.]])
     """
 
-    reads: tuple[str, ...] = ("position", "clock")
-    covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
-    nonnegative = True
-
     def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, sound_speed: Any = 1500.0,
                  slots: dict[str, str] | None = None, scale: str | None = None) -> None:
-        self.reads = ("position", "clock") + (() if scale is None else ("scale",))
-        super().__init__(state, slots=dict(slots or {}, **({} if scale is None else {"scale": scale})))
-        self._scale = None if scale is None else self.columns["scale"][0]
-        self.ids, self.beacons = _beacon_table(beacons)
-        self.m = len(self.beacons)
+        renames = dict(slots or {})
+        unknown = set(renames) - {"position", "clock"}
+        if unknown:
+            raise ValueError(f"slots renames {sorted(unknown)}, which this model does not read; it reads "
+                             f"['position', 'clock'] (and the scale given by scale=)")
+        super().__init__(beacons, R, state, scale=scale, position=renames.get("position", "position"))
+        self.reads = self.reads + ("clock",)
+        self._find(state, "clock", renames.get("clock", "clock"))
+        self._offset = int(self.columns["clock"][0])
         self.sound_speed = float(as_positive("sound_speed", sound_speed, ndim=0))
-        self._noise = NoiseSchedule("R", R, self.m)
-        self._offset = self.columns["clock"][0]
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask
         ``(M, B)``, False on a beacon."""
-        p = self.read(x, "position")[..., None, :]
-        r, los, defined = _line_of_sight(p, self.beacons)
-        c, offset = self.sound_speed, x[..., self._offset, None]
-        H = np.zeros(r.shape + (self.n,))
-        H[..., self._offset] = c
-        if self._scale is None:
-            H[..., self.columns["position"]] = los
-        else:
-            s = x[..., self._scale, None]
-            H[..., self.columns["position"]] = s[..., None] * los
-            H[..., self._scale] = r
-            r = s * r
-        return r + c * offset, H, defined
+        z, H, defined = super().linearize(x, k)      # the ranges: s ||p - b||, its H
+        c = self.sound_speed
+        H[..., self._offset] = c                     # d z / d delta
+        return z + c * x[..., self._offset, None], H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        d = self.read(x, "position")[..., None, :] - self.beacons
-        r = np.hypot(d[..., 0], d[..., 1])
-        if self._scale is not None:
-            r = r * x[..., self._scale, None]
-        return r + self.sound_speed * x[..., self._offset, None]
-
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._noise.at(k)
+        return super().h(x, k) + self.sound_speed * x[..., self._offset, None]

@@ -66,6 +66,7 @@ from numpy.typing import ArrayLike, NDArray
 from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_flag, as_positive, as_scalar,
                          check_same_shape, common_runs)
 from .base import MeasurementModel, MotionModel
+from .blocks import BlockMotion, Current, Position
 from .range import RangeToBeacon
 
 __all__ = ["CooperativeMotion", "SquaredRangePair", "leader_range", "process_noise_map", "measurement_noise_map"]
@@ -162,7 +163,7 @@ def _per_step(name: str, value: Any, n_epochs_extra: int) -> np.ndarray:
     return arr
 
 
-class CooperativeMotion(MotionModel):
+class CooperativeMotion(BlockMotion):
     r"""Dead reckoning with an unknown constant current, paper B's eqs. (2), (9) and (10).
 
     .. math::
@@ -171,6 +172,10 @@ class CooperativeMotion(MotionModel):
         \end{bmatrix}, \qquad
         \mathbf{F} = \begin{bmatrix} \mathbf{I} & \delta t\,\mathbf{I} \\ \mathbf{0} & \mathbf{I} \end{bmatrix},
         \qquad \text{process noise } \mathbf{G}\mathbf{Q}\mathbf{G}^\mathsf{T}.
+
+    The :class:`~uwtutor.models.blocks.BlockMotion` of a :class:`~uwtutor.models.blocks.Position` carried by a
+    :class:`~uwtutor.models.blocks.Current` (slots ``position``, ``current``), with the process noise given whole
+    (:math:`\mathbf{G}` correlates the position and the current).
 
     Parameters
     ----------
@@ -192,28 +197,23 @@ class CooperativeMotion(MotionModel):
     104.16
     """
 
-    n = 4
+    # no angle in the state: the plain differences and mean (a particle filter's estimate is then the plain mean)
+    difference = MotionModel.difference
+    normalize = MotionModel.normalize
+    covariances_checked = False     # G Q G^T is checked by the engine, as before the blocks
 
     def __init__(self, dt: Any, Q: ArrayLike) -> None:
-        self.dt = _interval(dt)
+        interval = _interval(dt)
         self.Q6 = as_covariance("Q", Q, 6, allow_singular=True)
-        self.noise_map = process_noise_map(self.dt)
-        self._Q = self.noise_map @ self.Q6 @ self.noise_map.T
-        self._F = np.eye(4)
-        self._F[0, 2] = self._F[1, 3] = self.dt
+        self.noise_map = process_noise_map(interval)
+        noise = self.noise_map @ self.Q6 @ self.noise_map.T
+        super().__init__(Position(noise[:2, :2], current="current"), Current(), dt=interval)
+        assert self._constant is not None               # linear blocks, one step length: F is a constant
+        self._constant = (self._constant[0], noise)     # the noise given whole: it correlates the two blocks
 
-    def f(self, x: np.ndarray, u: np.ndarray | None, k: int) -> np.ndarray:
-        out = np.array(x, dtype=float, copy=True)
-        out[..., :2] += self.dt * x[..., 2:]
-        if u is not None:
-            out[..., :2] += u
-        return out
-
-    def F(self, x: np.ndarray, u: np.ndarray | None, k: int) -> np.ndarray:
-        return self._F
-
-    def Q(self, x: np.ndarray | None, u: np.ndarray | None, k: int) -> np.ndarray:
-        return self._Q
+    def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
+        """:math:`f + L\\varepsilon` with the whole :math:`G Q G^\\mathsf{T}` (it correlates the blocks)."""
+        return MotionModel.sample(self, x, u, k, rng)
 
 
 class SquaredRangePair(MeasurementModel):

@@ -13,8 +13,9 @@ optionally with a **gyro bias** :math:`b_g` [rad/s], a **range scale** :math:`s`
 clock that runs fast: every range is :math:`s` times the true distance) and one or several **range biases**
 :math:`\upsilon` [m]. The motion keeps :math:`s` and :math:`\upsilon` constant (up to their random walks): they
 are there so that one motion model serves the augmented filters, and the measurement model
-(:class:`~uwtutor.models.range.BeaconRanges`) reads them. Which index holds what is a :class:`StateLayout`,
-shared by both models.
+(:class:`~uwtutor.models.range.BeaconRanges`) reads them. The model is built from the state blocks of
+:mod:`uwtutor.models.blocks` (a pose and random walks), each reachable by its slot name; a :class:`StateLayout`
+gives the same slots as indices, for a measurement model made without the motion model.
 
 .. rubric:: The motion
 
@@ -97,15 +98,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_choice, as_covariance, as_finite, as_flag, as_int, as_nonnegative
-from .base import MotionModel
+from .blocks import (_MAX_STD, ORDERS, BlockMotion, OdometryPose, RandomWalk, StateBlock, _durations, _wrap)
 from .noise import per_run_generators, standard_normal_per_run
 
 __all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
-
-#: The orders of operations :class:`OdometryMotion` knows, with the fraction :math:`c` of the step's turn taken
-#: before the move.
-ORDERS = {"turn-first": 1.0, "move-first": 0.0, "midpoint": 0.5}
-
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     r"""Angles wrapped to :math:`[-\pi, \pi)` [rad].
@@ -120,11 +116,6 @@ def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     return _wrap(as_finite("angle", angle, nonempty=True))
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """:func:`wrap_angle` without its checks: the models' per-step kernel (their states are float arrays)."""
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
 def _index(name: str, value: Any, n: int, taken: dict[int, str]) -> int:
     i = as_int(name, value, minimum=2)
     if i >= n:
@@ -133,19 +124,6 @@ def _index(name: str, value: Any, n: int, taken: dict[int, str]) -> int:
         raise ValueError(f"{name} = {i} is already the index of {taken[i]}: give each state its own index")
     taken[i] = name
     return i
-
-
-def _odometry_input(u: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The distance and heading change of one step's odometry ``u`` (last axis [distance, heading change]), checked
-    (shared by :class:`OdometryMotion` and the odometry pose block of :mod:`uwtutor.models.blocks`)."""
-    if u is None:
-        raise ValueError("u must be the odometry of the step, [distance, heading change] (m, rad); got None. "
-                         "Pass the odometry as the filter's u")
-    u = np.asarray(u, dtype=float)
-    if u.shape[-1:] != (2,):
-        raise ValueError(f"u must be the odometry [distance, heading change] of the step (last axis of length "
-                         f"2); got shape {u.shape}")
-    return u[..., 0], u[..., 1]
 
 
 @dataclass(frozen=True)
@@ -240,6 +218,29 @@ class StateLayout:
             names[i] = "range_bias" if len(self.range_bias) == 1 else f"range_bias_{j}"
         return tuple(names)
 
+    @property
+    def slots(self) -> tuple[str, ...]:
+        """The slot names of the state (as :attr:`~uwtutor.models.blocks.BlockMotion.slots`): ``position``, and
+        ``heading``, ``gyro_bias``, ``scale``, ``range_bias`` when the layout has them."""
+        return ("position",) + tuple(name for name in ("heading", "gyro_bias", "scale")
+                                     if getattr(self, name) is not None) + (("range_bias",) if self.range_bias else ())
+
+    def slot(self, name: str) -> np.ndarray:
+        """The indices of a slot, so that a measurement model reads a layout as it reads a
+        :class:`~uwtutor.models.blocks.BlockMotion` (:class:`~uwtutor.models.blocks.BlockMeasurement`).
+
+        Examples
+        --------
+        >>> from uwtutor.models import StateLayout
+        >>> StateLayout.odometry(scale=True, range_bias=2).slot("range_bias")
+        array([4, 5])
+        """
+        if name not in self.slots:
+            raise KeyError(f"no slot {name!r} in this layout; its slots are {list(self.slots)}")
+        if name == "position":
+            return np.array([0, 1])
+        return np.array(self.range_bias if name == "range_bias" else [getattr(self, name)])
+
     def initial_state(self, start: Any, start_cov: Any, **extra: Any) -> tuple[np.ndarray, np.ndarray]:
         r"""The initial state and covariance: a start pose and its covariance, augmented with the extra states.
 
@@ -302,43 +303,19 @@ class StateLayout:
         return x0, P0
 
 
-#: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
-_MAX_STD = 1e75
-
-
-def _per_step(name: str, value: Any) -> np.ndarray:
-    """A number or one value per step (K,), >= 0."""
-    arr = as_nonnegative(name, value, ndim=(0, 1), max_abs=_MAX_STD)
-    if arr.ndim == 1 and arr.size == 0:
-        raise ValueError(f"{name} is empty: give a number or one value per step")
-    return arr
-
-
-def _durations(times: Any, dt: Any) -> tuple[np.ndarray | None, int | None]:
-    """Step lengths Delta t_k (K,) or a scalar array, and the number of steps they fix (None if any)."""
-    if times is not None and dt is not None:
-        raise ValueError("give times or dt, not both")
-    if dt is not None:
-        d = as_nonnegative("dt", dt, ndim=(0, 1))
-        return d, (len(d) if d.ndim == 1 else None)
-    if times is None:
-        return None, None
-    t = as_finite("times", times, ndim=1, nonempty=True)
-    steps = np.diff(t)
-    if np.any(steps < 0):
-        k = int(np.flatnonzero(steps < 0)[0]) + 1
-        raise ValueError(f"times must not decrease; times[{k}] = {t[k]:g} comes before times[{k - 1}] = {t[k - 1]:g}")
-    # x0 is the state at times[0], so the first step lasts 0 s (a dataset's start pose, its odometry row 0 the
-    # motion up to times[0]); give dt instead to let the first step last longer.
-    return np.concatenate([[0.0], steps]), len(t)
-
-
-class OdometryMotion(MotionModel):
+class OdometryMotion(BlockMotion):
     r"""A pose moved by body-frame odometry ``u = [distance, heading change]``, with optional bias states.
 
     Equations in the module docstring: heading and position moved in the order ``order``, the gyro bias
     :math:`b_g` (a rate, rad/s) taken off the heading change, scale and range biases kept constant; the noise is
     the odometry noise through :math:`G = \partial f / \partial u` plus random walks.
+
+    It is a :class:`~uwtutor.models.blocks.BlockMotion` of named blocks: an
+    :class:`~uwtutor.models.blocks.OdometryPose` (``pose``, with the slots ``position`` and ``heading``) and one
+    :class:`~uwtutor.models.blocks.RandomWalk` for each of ``gyro_bias``, ``scale`` and ``range_bias`` it has, so
+    ``motion.slot("scale")`` finds a state by name. Its ``f``, ``F``, ``Q`` and ``sample`` run the pose block's
+    arithmetic on the whole state at once (one call instead of one per block: the hot path of
+    :func:`~uwtutor.datasets.navigate`), which gives the same bits as the block-by-block assembly.
 
     Parameters
     ----------
@@ -378,6 +355,10 @@ class OdometryMotion(MotionModel):
         Size of the state.
     n_steps : int or None
         Number of steps the per-step arrays cover (None when every parameter is one number).
+    pose : OdometryPose
+        The pose block (its noise ``sigma_distance``, ``sigma_heading`` and ``order`` are the model's).
+    blocks : tuple of StateBlock
+        The pose and the random walks, in the order of the state.
 
     Examples
     --------
@@ -398,51 +379,46 @@ class OdometryMotion(MotionModel):
     With a gyro bias of 0.01 rad/s over 2 s steps, a measured heading change of 0.02 rad is no turn at all:
 
     >>> biased = OdometryMotion(0.1, 0.01, gyro_bias=True, dt=2.0)
-    >>> biased.layout.names
-    ('x', 'y', 'heading', 'gyro_bias')
+    >>> biased.layout.names, biased.slot("gyro_bias")
+    (('x', 'y', 'heading', 'gyro_bias'), array([3]))
     >>> biased.f(np.array([[0.0, 0.0, 0.0, 0.01]]), np.array([5.0, 0.02]), 0)
     array([[5.  , 0.  , 0.  , 0.01]])
     """
-
-    covariances_checked = True      # Q = G diag(sigma^2) G^T of the variances checked when the model is made
 
     def __init__(self, sigma_distance: ArrayLike, sigma_heading: ArrayLike, *, gyro_bias: bool = False,
                  scale: bool = False, range_bias: Any = False, times: ArrayLike | None = None,
                  dt: ArrayLike | None = None, order: str = "turn-first", gyro_bias_walk: Any = 0.0,
                  scale_walk: Any = 0.0, range_bias_walk: Any = 0.0) -> None:
-        self.order = as_choice("order", order, ORDERS)
-        self._c = ORDERS[order]
+        as_choice("order", order, ORDERS)
         self.layout = StateLayout.odometry(gyro_bias=gyro_bias, scale=scale, range_bias=range_bias)
-        self.n = self.layout.n
-        self.sigma_distance = _per_step("sigma_distance", sigma_distance)
-        self.sigma_heading = _per_step("sigma_heading", sigma_heading)
-        self._dt, steps_from_times = _durations(times, dt)
-        if self.layout.gyro_bias is not None and self._dt is None:
+        pose = OdometryPose(sigma_distance, sigma_heading, order=order,
+                            gyro_bias="gyro_bias" if self.layout.gyro_bias is not None else None)
+        durations, steps_from_times = _durations(times, dt)
+        if self.layout.gyro_bias is not None and durations is None:
             raise ValueError("a gyro bias is a rate (rad/s): give times (the epoch times, s) or dt (the step "
                              "lengths, s) so that the model knows how long each step lasts")
-        walks = {"gyro_bias_walk": (gyro_bias_walk, self.layout.gyro_bias is not None),
-                 "scale_walk": (scale_walk, self.layout.scale is not None),
-                 "range_bias_walk": (range_bias_walk, bool(self.layout.range_bias))}
-        self._walk = np.zeros(self.n)               # q per second (or per step), on the diagonal
-        for name, (value, present) in walks.items():
-            q = float(as_nonnegative(name, value, ndim=0, max_abs=_MAX_STD)) ** 2
-            if q > 0 and not present:
-                raise ValueError(f"{name} was given but the state has no {name[:-5]} (set {name[:-5]}=True)")
-            idx = {"gyro_bias_walk": (self.layout.gyro_bias,), "scale_walk": (self.layout.scale,),
-                   "range_bias_walk": self.layout.range_bias}[name]
-            for i in idx:
-                if i is not None:
-                    self._walk[i] = q
-        self._set_walks(self._walk)
+        walks = {"gyro_bias": (gyro_bias_walk, self.layout.gyro_bias is not None, 1),
+                 "scale": (scale_walk, self.layout.scale is not None, 1),
+                 "range_bias": (range_bias_walk, bool(self.layout.range_bias), len(self.layout.range_bias))}
+        blocks: list[StateBlock] = [pose]
+        for name, (value, present, size) in walks.items():
+            walk = RandomWalk(name, as_nonnegative(f"{name}_walk", value, ndim=0, max_abs=_MAX_STD),
+                              size=max(size, 1))
+            if walk.q > 0 and not present:
+                raise ValueError(f"{name}_walk was given but the state has no {name} (set {name}=True)")
+            if present:
+                blocks.append(walk)
+        super().__init__(*blocks, times=times, dt=dt)
+        self.pose = pose
+        self.order, self._c = pose.order, pose._c
+        self.sigma_distance, self.sigma_heading = pose.sigma_distance, pose.sigma_heading
+        variances = np.zeros(self.n)                        # q per second (or per step), on the diagonal
+        for block, own in zip(self.blocks, self._own):
+            if isinstance(block, RandomWalk):
+                variances[own] = block.q
+        self._set_walks(variances)
         self._eye = np.eye(self.n)
-        sizes = {name: len(a) for name, a in (("sigma_distance", self.sigma_distance),
-                                              ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
-        if steps_from_times is not None:
-            sizes["times" if times is not None else "dt"] = steps_from_times
-        if len(set(sizes.values())) > 1:
-            described = ", ".join(f"{name} has {k}" for name, k in sizes.items())
-            raise ValueError(f"the per-step arguments disagree on the number of steps K: {described}")
-        self.n_steps = next(iter(sizes.values()), None)
+        self._bias = self.layout.gyro_bias
 
     def _set_walks(self, walk: np.ndarray) -> None:
         """Keep the walks' variances per second, ``(n,)`` shared by every run or ``(M, n)`` one row per run."""
@@ -469,86 +445,40 @@ class OdometryMotion(MotionModel):
         out._set_walks(walks**2)
         return out
 
-    # -- per-step parameters --
-    def _step(self, k: int) -> int:
-        if self.n_steps is not None and not 0 <= k < self.n_steps:
-            raise IndexError(f"step {k} is beyond the {self.n_steps} steps this model's per-step arrays cover "
-                             "(sigma_distance, sigma_heading, times or dt)")
-        return k
-
-    def dt(self, k: int) -> float:
-        """The length :math:`\\Delta t_k` of step ``k`` [s] (1 when the model has no times)."""
-        if self._dt is None:
-            return 1.0
-        return float(self._dt if self._dt.ndim == 0 else self._dt[self._step(k)])
-
-    @staticmethod
-    def _value(a: np.ndarray, k: int) -> float:
-        return float(a if a.ndim == 0 else a[k])
-
-    def _input(self, u: Any) -> tuple[np.ndarray, np.ndarray]:
-        return _odometry_input(u)
-
+    # -- the fused path: the pose block's arithmetic on the whole state, the walks on the diagonal --
     def _parts(self, x: np.ndarray, u: Any, k: int) -> tuple[Any, Any, np.ndarray, np.ndarray, float]:
         """Distance d_k, turn delta_k, cos and sin of the move heading alpha_k, and dt of step k."""
-        d, dth = self._input(u)
-        dt = self.dt(self._step(k))
-        h, b = self.layout.heading, self.layout.gyro_bias
-        turn = dth - x[..., b] * dt if b is not None else dth
-        alpha = x[..., h] + self._c * turn if self._c else x[..., h]
-        return d, turn, np.cos(alpha), np.sin(alpha), dt
-
-    def _f(self, x: np.ndarray, d: Any, turn: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
-        h = self.layout.heading
-        out = np.array(x, dtype=float)
-        out[..., 0] += d * ca
-        out[..., 1] += d * sa
-        out[..., h] = _wrap(x[..., h] + turn)
-        return out
-
-    def _F(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray, dt: float) -> np.ndarray:
-        h, b = self.layout.heading, self.layout.gyro_bias
-        F = np.repeat(self._eye[None], x.shape[0], axis=0) if x.ndim == 2 else self._eye.copy()
-        ds, dc = d * sa, d * ca
-        F[..., 0, h] = -ds
-        F[..., 1, h] = dc
-        if b is not None:
-            F[..., 0, b] = self._c * dt * ds
-            F[..., 1, b] = -self._c * dt * dc
-            F[..., h, b] = -dt
-        return F
-
-    def _G(self, x: np.ndarray, d: Any, ca: np.ndarray, sa: np.ndarray) -> np.ndarray:
-        G = np.zeros(x.shape[:-1] + (self.n, 2))
-        G[..., 0, 0], G[..., 1, 0] = ca, sa
-        G[..., 0, 1], G[..., 1, 1] = -self._c * d * sa, self._c * d * ca
-        G[..., self.layout.heading, 1] = 1.0
-        return G
+        dt = self.dt(self._checked_step(k))
+        bias = x[..., self._bias] if self._bias is not None else None
+        return self.pose._step(x, bias, u, dt) + (dt,)
 
     def _Q(self, G: np.ndarray, k: int, dt: float) -> np.ndarray:
-        var = np.array([self._value(self.sigma_distance, k) ** 2, self._value(self.sigma_heading, k) ** 2])
-        Q = (G * var) @ np.swapaxes(G, -1, -2)                   # G Sigma_u G^T
+        Q = self.pose._noise(G, k)                               # G Sigma_u G^T
         if self._has_walk:
             Q += self._walk_diag * dt
         return Q
 
-    # -- the model --
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         d, turn, ca, sa, _ = self._parts(x, u, k)
-        return self._f(x, d, turn, ca, sa)
+        return self.pose._moved(x, d, turn, ca, sa)
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         d, _, ca, sa, dt = self._parts(x, u, k)
-        return self._F(x, d, ca, sa, dt)
+        return self.pose._jacobian(x, self._eye, self._bias, d, ca, sa, dt)
 
     def G(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         r"""The Jacobian :math:`G = \partial f / \partial u` with respect to the odometry, ``(M, n, 2)``."""
         d, _, ca, sa, _ = self._parts(x, u, k)
-        return self._G(x, d, ca, sa)
+        return self.pose._input_jacobian(x, self.n, d, ca, sa)
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         d, _, ca, sa, dt = self._parts(x, u, k)
-        return self._Q(self._G(x, d, ca, sa), k, dt)
+        return self._Q(self.pose._input_jacobian(x, self.n, d, ca, sa), k, dt)
+
+    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d, turn, ca, sa, dt = self._parts(x, u, k)
+        return (self.pose._moved(x, d, turn, ca, sa), self.pose._jacobian(x, self._eye, self._bias, d, ca, sa, dt),
+                self._Q(self.pose._input_jacobian(x, self.n, d, ca, sa), k, dt))
 
     def sample(self, x: np.ndarray, u: Any, k: int, rng: Any) -> np.ndarray:
         r"""Draw the next poses of particles ``x`` ``(M, N, n)`` with the noise in the odometry itself.
@@ -559,7 +489,8 @@ class OdometryMotion(MotionModel):
         bias, scale and range-bias states take their random walks, :math:`\sqrt{q\,\Delta t_k}\,\varepsilon`.
         The :math:`Q_k = G_k \Sigma_u G_k^\mathsf{T} + \dots` of the Kalman filters is the linearization of this
         draw; a state without a walk does not move (its :math:`Q` is singular). Run ``m`` draws
-        :math:`\varepsilon`, ``(N, 2 + w)`` (w the states with a walk), from ``rng[m]``.
+        :math:`\varepsilon`, ``(N, 2 + w)`` (w the states with a walk), from ``rng[m]``: the draws of
+        :meth:`BlockMotion.sample <uwtutor.models.blocks.BlockMotion.sample>` on the same blocks.
 
         Examples
         --------
@@ -574,38 +505,15 @@ class OdometryMotion(MotionModel):
         >>> round(float(new[0, :, 0].std()), 2), bool(np.all(new[..., 3] == 1.07))
         (0.1, True)
         """
-        d, dth = self._input(u)
-        k = self._step(k)
+        k = self._checked_step(k)
         walking = self._walking
         eps = standard_normal_per_run(per_run_generators(rng, x.shape[0], spawn=False),
                                       x.shape[1:-1] + (2 + walking.size,))
-        noisy = np.empty(eps.shape[:-1] + (2,))
-        np.multiply(eps[..., 0], self._value(self.sigma_distance, k), out=noisy[..., 0])
-        np.multiply(eps[..., 1], self._value(self.sigma_heading, k), out=noisy[..., 1])
-        noisy[..., 0] += d                             # (p,) shared, or (M, 1, p) per run: broadcast
-        noisy[..., 1] += dth
-        out = self.f(x, noisy, k)
+        out = self.f(x, self.pose._noisy(u, k, eps), k)
         if walking.size:
             std = self._walk_std if self._walk_std.ndim == 1 else self._walk_std[:, None, :]
             out[..., walking] += eps[..., 2:] * (std * np.sqrt(self.dt(k)))
         return out
-
-    def difference(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        r"""``a - b`` with the heading difference wrapped to :math:`[-\pi, \pi)`."""
-        d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-        d[..., self.layout.heading] = _wrap(d[..., self.layout.heading])
-        return d
-
-    def normalize(self, x: np.ndarray) -> np.ndarray:
-        r"""The state with its heading wrapped to :math:`[-\pi, \pi)`."""
-        out = np.array(x, dtype=float)
-        out[..., self.layout.heading] = _wrap(out[..., self.layout.heading])
-        return out
-
-    def linearize(self, x: np.ndarray, u: Any, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        d, turn, ca, sa, dt = self._parts(x, u, k)
-        return (self._f(x, d, turn, ca, sa), self._F(x, d, ca, sa, dt),
-                self._Q(self._G(x, d, ca, sa), k, dt))
 
     def integrate(self, x0: Any, u: Any) -> np.ndarray:
         r"""Dead reckoning: the states :math:`x_1, \dots, x_K` that the odometry alone gives from ``x0`` (no noise).

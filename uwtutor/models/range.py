@@ -34,8 +34,10 @@ from .._linalg import line_of_sight as _line_of_sight
 from .._linalg import distances
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
 from .base import MeasurementModel
+from .blocks import BlockMeasurement, BlockMotion, _name
+from .odometry import StateLayout
 
-__all__ = ["RangeToBeacon", "MultiplicativeRange", "BeaconRanges", "NoiseSchedule", "line_of_sight"]
+__all__ = ["RangeToBeacon", "MultiplicativeRange", "BeaconRanges", "BlockRanges", "NoiseSchedule", "line_of_sight"]
 
 
 def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -387,7 +389,101 @@ def _beacon_table(beacons: Any) -> tuple[tuple[Any, ...], np.ndarray]:
     return ids, pos
 
 
-class BeaconRanges(MeasurementModel):
+class BlockRanges(BlockMeasurement):
+    r"""Ranges to beacons at known positions, read from the ``position`` slot, with an optional range scale and
+    range bias read from theirs: :math:`z_{k,j} = s\,\lVert p_k - b_j \rVert + \upsilon_j + v_{k,j}`.
+
+    :class:`~uwtutor.models.range.BeaconRanges` on a block state (the same ``h``, ``H`` and ``R``): the slots are
+    found by name, not given as indices.
+
+    Parameters
+    ----------
+    beacons : array_like, shape (B, 2), or dict of id to (x, y)
+        The beacons, one measurement component each.
+    R : float or array_like
+        The range noise: a variance, ``(B, B)``, or one per step (as ``BeaconRanges``).
+    state : BlockMotion
+    scale : str, optional
+        The slot of a range scale (e.g. ``"scale"``).
+    bias : str, optional
+        The slot of the range bias: one component shared by every beacon, or one per beacon.
+    position : str, default "position"
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.models import BlockMotion, BlockRanges, OdometryPose, RandomWalk
+    >>> motion = BlockMotion(OdometryPose(0.1, 0.01), RandomWalk("scale"))
+    >>> ranges = BlockRanges([[0.0, 0.0], [10.0, 0.0]], 0.01, motion, scale="scale")
+    >>> ranges.h(np.array([[3.0, 4.0, 0.0, 1.1]]), 0)
+    array([[5.5       , 8.86848352]])
+    """
+
+    covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
+    nonnegative = True
+
+    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, scale: str | None = None,
+                 bias: str | None = None, position: str = "position") -> None:
+        self.beacon_ids, self.beacons = _beacon_table(beacons)
+        self.m = len(self.beacons)
+        self._scale, self._bias = scale is not None, bias is not None
+        self.reads = ("position",) + (("scale",) if self._scale else ()) + (("bias",) if self._bias else ())
+        renames = {"position": _name(position, "position")}
+        renames.update({"scale": _name(scale, "scale")} if self._scale else {})
+        renames.update({"bias": _name(bias, "bias")} if self._bias else {})
+        super().__init__(state, slots=renames)
+        if self.columns["position"].size != 2:
+            raise ValueError(f"the position slot {position!r} must have 2 components (x, y); it has "
+                             f"{self.columns['position'].size}")
+        if self._scale and self.columns["scale"].size != 1:
+            raise ValueError(f"the scale slot {scale!r} must have 1 component; it has {self.columns['scale'].size}")
+        if self._bias and self.columns["bias"].size not in (1, self.m):
+            raise ValueError(f"the bias slot {bias!r} must have 1 component (shared) or {self.m} (one per beacon); "
+                             f"it has {self.columns['bias'].size}")
+        self._bias_cols = (np.resize(self.columns["bias"], self.m) if self._bias else None)
+        self._noise = NoiseSchedule("R", R, self.m)
+        pos = self.columns["position"]
+        # the position read through a slice when its two columns are adjacent (a view, not a copy), the scale
+        # through its one column
+        self._pos: Any = slice(int(pos[0]), int(pos[0]) + 2) if pos[1] == pos[0] + 1 else pos
+        self._scale_col = int(self.columns["scale"][0]) if self._scale else None
+
+    @property
+    def n_steps(self) -> int | None:
+        """Number of steps a per-step ``R`` covers (None when it is one for every step)."""
+        return self._noise.n_steps
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)`` and a mask ``(M, B)``, False where the position is
+        exactly on a beacon (that component's Jacobian is undefined)."""
+        r, los, defined = _line_of_sight(x[..., None, self._pos], self.beacons)  # (M, B), (M, B, 2), (M, B)
+        H = np.zeros(r.shape + (self.n,))
+        if self._scale_col is None:
+            z = r
+            H[..., self._pos] = los
+        else:
+            s = x[..., self._scale_col, None]
+            z = s * r
+            H[..., self._pos] = s[..., None] * los
+            H[..., self._scale_col] = r
+        if self._bias_cols is not None:
+            z = z + x[..., self._bias_cols]
+            H[..., np.arange(self.m), self._bias_cols] = 1.0
+        return z, H, defined
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        z = distances(x[..., None, self._pos], self.beacons)                   # (..., B)
+        if self._scale_col is not None:
+            z *= x[..., self._scale_col, None]
+        if self._bias_cols is not None:
+            z += x[..., self._bias_cols]
+        return z
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._noise.at(k)
+
+
+class BeaconRanges(BlockRanges):
     r"""Ranges to one beacon or several at once, with an optional range scale and range bias(es) in the state.
 
     For beacons :math:`b_1, \dots, b_B` at known, fixed positions the measurement of step :math:`k` is the vector
@@ -461,18 +557,10 @@ class BeaconRanges(MeasurementModel):
     array([0.642, 0.856, 0.   , 5.   ])
     """
 
-    nonnegative = True          # measured ranges: the engine refuses a negative one
-
-    covariances_checked = True      # R is a schedule checked when the model is made
-
     def __init__(self, beacons: Any, R: ArrayLike, *, layout: Any = None, n: int | None = None,
                  scale_index: int | None = None, bias_index: Any = None) -> None:
-        self.beacon_ids, self.beacons = _beacon_table(beacons)
-        B = len(self.beacons)
-        self.m = B
+        B = len(_beacon_table(beacons)[1])
         if layout is not None:
-            from .odometry import StateLayout
-
             if not isinstance(layout, StateLayout):
                 raise TypeError(f"layout must be a uwtutor.models.StateLayout (e.g. motion.layout); got "
                                 f"{type(layout).__name__}")
@@ -482,58 +570,22 @@ class BeaconRanges(MeasurementModel):
         else:
             n = 2 if n is None else n
             bias = () if bias_index is None else tuple(np.atleast_1d(np.asarray(bias_index)).tolist())
-        self.n = as_int("n", n, minimum=2)
-        taken = {}
+        n = as_int("n", n, minimum=2)
+        taken: dict[int, str] = {}
         for name, i in [("scale_index", scale_index)] + [(f"bias_index[{j}]", i) for j, i in enumerate(bias)]:
             if i is None:
                 continue
             i = as_int(name, i, minimum=2)
-            if i >= self.n or i in taken:
-                raise ValueError(f"{name} must be a free index of the state (2..{self.n - 1}, 0 and 1 being the "
+            if i >= n or i in taken:
+                raise ValueError(f"{name} must be a free index of the state (2..{n - 1}, 0 and 1 being the "
                                  f"position); got {i}" + (f", already {taken[i]}" if i in taken else ""))
             taken[i] = name
-        self.scale_index = None if scale_index is None else int(scale_index)
         if len(bias) not in (0, 1, B):
             raise ValueError(f"the range biases must be one shared by every beacon or one per beacon ({B}); got "
                              f"{len(bias)} bias states")
+        self.scale_index = None if scale_index is None else int(scale_index)
         self.bias_index = tuple(int(i) for i in bias)
-        self._bias_cols = (np.array(self.bias_index * B if len(self.bias_index) == 1 else self.bias_index)
-                           if self.bias_index else None)
-        self._noise = NoiseSchedule("R", R, B)
-
-    @property
-    def n_steps(self) -> int | None:
-        """Number of steps a per-step ``R`` covers (None when it is one for every step)."""
-        return self._noise.n_steps
-
-    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)`` and a mask ``(M, B)``, False where the position is
-        exactly on a beacon (that component's Jacobian is undefined)."""
-        r, los, defined = _line_of_sight(x[..., None, :2], self.beacons)       # (M, B), (M, B, 2), (M, B)
-        H = np.zeros(r.shape + (self.n,))
-        if self.scale_index is None:
-            z = r
-            H[..., :2] = los
-        else:
-            s = x[..., self.scale_index, None]
-            z = s * r
-            H[..., :2] = s[..., None] * los
-            H[..., self.scale_index] = r
-        if self._bias_cols is not None:
-            z = z + x[..., self._bias_cols]
-            H[..., np.arange(self.m), self._bias_cols] = 1.0
-        return z, H, defined
-
-    def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        z = distances(x[..., None, :2], self.beacons)                         # (..., B)
-        if self.scale_index is not None:
-            z *= x[..., self.scale_index, None]
-        if self._bias_cols is not None:
-            z += x[..., self._bias_cols]
-        return z
-
-    def H(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self.linearize(x, k)[1]
-
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
-        return self._noise.at(k)
+        if layout is None:
+            layout = StateLayout(n=n, scale=self.scale_index, range_bias=self.bias_index)
+        super().__init__(beacons, R, layout, scale=None if self.scale_index is None else "scale",
+                         bias="range_bias" if self.bias_index else None)
