@@ -82,12 +82,10 @@ class StaggeredRun:
         to and including it, and in the runs that were not filtered."""
         M, K = self.start.shape[0], self.n_epochs
         values = np.asarray(values)
-        epochs = np.arange(K)[None, :]
-        j = np.clip(epochs - self.start[self.runs][:, None] - 1, 0, values.shape[1] - 1)
         out = np.array(np.broadcast_to(before, (M, K) + values.shape[2:]), dtype=np.result_type(values, before))
-        taken = values[np.arange(self.runs.size)[:, None], j]
-        after = self.after_start[self.runs].reshape((self.runs.size, K) + (1,) * (values.ndim - 2))
-        out[self.runs] = np.where(after, taken, out[self.runs])
+        starts = self.start[self.runs]
+        i, k = np.nonzero(np.arange(K)[None, :] > starts[:, None])    # (filtered run, epoch) after each start
+        out[self.runs[i], k] = values[i, k - starts[i] - 1]             # epoch k is filter step k - start - 1
         return out
 
 
