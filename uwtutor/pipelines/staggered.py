@@ -167,12 +167,12 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
     M, K = u.shape[:2]
     if z.shape[:2] != (M, K):
         raise ValueError(f"z must have the runs and epochs of u, ({M}, {K}, ...); got shape {z.shape}")
-    start = np.asarray(start)
-    if start.shape != (M,) or start.dtype.kind not in "iu":
-        raise ValueError(f"start must hold one integer epoch per run, shape ({M},); got {start!r}")
-    if (start < 0).any():
+    given = np.asarray(start)
+    if given.shape != (M,) or given.dtype.kind not in "iu":
+        raise ValueError(f"start must hold one integer epoch per run, shape ({M},); got {given!r}")
+    if (given < 0).any():
         raise ValueError("start must be >= 0 (an epoch index)")
-    start = np.minimum(start, K).astype(int)
+    first = np.minimum(given, K).astype(int)
     x_start = as_float_array("x_start", x_start, ndim=2)
     if x_start.shape[0] != M:
         raise ValueError(f"x_start must have one row per run ({M}); got shape {x_start.shape}")
@@ -196,8 +196,8 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
         raise ValueError("no run has a finite x_start: there is nothing to filter (a run that never started "
                          "should be left out, or given its last fix)")
     rows = runs[:, None]
-    steps = max(1, K - 1 - int(start[runs].min())) if as_flag("trim_padding", trim_padding) else K
-    idx = start[rows] + 1 + np.arange(steps)[None, :]
+    steps = max(1, K - 1 - int(first[runs].min())) if as_flag("trim_padding", trim_padding) else K
+    idx = first[rows] + 1 + np.arange(steps)[None, :]
     inside = idx < K
     idx_c = np.minimum(idx, K - 1)
     pad = (slice(None), slice(None)) + (None,) * (z.ndim - 2)
@@ -206,4 +206,4 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
     P0 = P_start if P_start.ndim == 2 else P_start[runs]
     extra = {name: np.asarray(value)[runs] for name, value in (per_run or {}).items()}
     result = filter_fn(x_start[runs], P0, u_shift, z_shift, **kwargs, **extra)
-    return StaggeredRun(start=start, runs=runs, filter_result=result, n_epochs=K)
+    return StaggeredRun(start=first, runs=runs, filter_result=result, n_epochs=K)
