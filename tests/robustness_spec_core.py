@@ -389,6 +389,9 @@ EXEMPT_CORE: dict[str, str] = {
                                       "the engine builds), never called with user data",
     "uwtutor._linalg:distances": "the unchecked kernel of the ranges the models' h, the scenarios and the datasets "
                                  "compute, called with the positions they built or checked",
+    "uwtutor._cancel:checkpoint": "no arguments: the filter loops' test for a cancellation asked in this thread",
+    "uwtutor._cancel:cancel_when": "takes one callable, refused with a TypeError naming it otherwise "
+                                   "(tests/test_cancel.py); its one caller is the widget panel's refinement thread",
     "uwtutor.plotting:use_book_style": "no arguments: applies the book's matplotlib rcParams",
     "uwtutor.plotting:check_legends_on_display": "no arguments: wraps IPython's figure formatter, if there is one",
     "uwtutor.plotting:use_sharp_figures": "no arguments: sets IPython's figure format, if there is one",

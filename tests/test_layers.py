@@ -22,7 +22,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "uwtutor"
 
 #: The layers, left to right: a module may import its own layer and the layers to its left.
 LAYERS: list[tuple[str, frozenset[str]]] = [
-    ("foundation", frozenset({"_validate", "_linalg", "errors", "reporting"})),
+    ("foundation", frozenset({"_validate", "_linalg", "_cancel", "errors", "reporting"})),
     ("physics and simulation", frozenset({"acoustics", "motion", "ranging", "owtt", "scenarios", "grey", "wavelet",
                                           "resampling"})),
     ("models", frozenset({"models"})),

@@ -46,3 +46,22 @@ def test_bad_input_is_named():
         filter_from_start_epochs(range_only_ekf, [0, 1, 2, 3], truth[:4], np.eye(2), u, z[:, :5], **kw)
     with pytest.raises(ValueError, match="no run has a finite x_start"):
         filter_from_start_epochs(range_only_ekf, [0, 1, 2, 3], np.full((4, 2), np.nan), np.eye(2), u, z, **kw)
+
+
+def test_without_the_padding_every_epoch_is_the_same_bit_for_bit():
+    truth, u, z = _inputs()
+    kw = dict(Q=np.eye(2) * 0.1, R=1.0)
+    for start in (np.array([12, 7, 29, 30]), np.array([30, 30, 30, 30]), np.array([0, 3, 3, 9])):
+        x_start = truth[np.minimum(start, 29)] + 5.0
+        padded = filter_from_start_epochs(range_only_ekf, start, x_start, np.eye(2) * 25.0, u, z, **kw)
+        trimmed = filter_from_start_epochs(range_only_ekf, start, x_start, np.eye(2) * 25.0, u, z, **kw,
+                                           trim_padding=True)
+        steps = max(1, 30 - 1 - start.min())
+        assert trimmed.filter_result.x.shape == (4, steps, 2) and padded.filter_result.x.shape == (4, 30, 2)
+        assert trimmed.n_epochs == padded.n_epochs == 30
+        for name in ("x", "P", "innovations"):
+            a = padded.at_epochs(getattr(padded.filter_result, name), np.nan)
+            b = trimmed.at_epochs(getattr(trimmed.filter_result, name), np.nan)
+            assert a.tobytes() == b.tobytes(), (start, name)
+    with pytest.raises(TypeError, match="trim_padding"):
+        filter_from_start_epochs(range_only_ekf, start, x_start, np.eye(2), u, z, **kw, trim_padding="yes")

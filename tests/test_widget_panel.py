@@ -132,9 +132,9 @@ def test_rescale_keeps_autoscaling_on_after_keeping_limits():
     assert ax.get_ylim()[1] >= 100.0
 
 
-def _refined_panel(monkeypatch, background):
-    """A panel over y = a x whose full answer is computed by ``refine`` (counted) and whose coarse answer is a
-    flat line; background refinement as asked."""
+def _refined_panel(monkeypatch, background, work=lambda a: None):
+    """A panel over y = a x whose full answer is computed by ``refine`` (counted, after ``work(a)``) and whose
+    coarse answer is a flat line; background refinement as asked."""
     from uwtutor.widgets import _panel
 
     monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
@@ -161,7 +161,7 @@ def _refined_panel(monkeypatch, background):
     def refine(a):
         if a in full:
             return None
-        return lambda: (jobs.append(a), full.setdefault(a, float(a)))
+        return lambda: (work(a), jobs.append(a), full.setdefault(a, float(a)))
 
     full[1.0] = 1.0
     return sliders, slider_panel(sliders, draw, update, refine=refine), jobs
@@ -229,6 +229,36 @@ def test_a_refinement_left_behind_is_not_shown(monkeypatch):
     assert wait_refined(panel, timeout=30.0)
     assert jobs == [-2.0]                         # the older setting's work skipped, not drawn over the newer
     assert bytes(image.value) == _full_png(-2.0)
+
+
+def test_a_refinement_still_computing_when_the_setting_is_left_stops(monkeypatch):
+    import threading
+
+    from uwtutor._cancel import checkpoint
+
+    started, stopped = threading.Event(), []
+
+    def work(a):                                  # the answer for 2.0 is long: a filter's loop, a checkpoint a step
+        if a != 2.0:
+            return
+        started.set()
+        try:
+            for _ in range(30_000):               # about 30 s unless stopped: the test fails, it does not hang
+                checkpoint()
+                threading.Event().wait(0.001)
+        except BaseException:
+            stopped.append(a)
+            raise
+
+    sliders, panel, jobs = _refined_panel(monkeypatch, True, work)
+    image = panel.children[2].children[0]
+    sliders["a"].value = 2.0
+    assert started.wait(30.0)                     # the worker computes the long answer ...
+    sliders["a"].value = -2.0                     # ... and the reader moves on: it is no longer wanted
+    assert wait_refined(panel, timeout=10.0)      # it stopped at its next checkpoint, and -2.0 was refined
+    assert stopped == [2.0] and jobs == [-2.0]
+    assert bytes(image.value) == _full_png(-2.0)
+    assert not panel.children[2].children[1].outputs   # a cancellation is not an error shown under the figure
 
 
 def _two_panels():

@@ -173,3 +173,32 @@ def test_run_depth_study_batches_the_runs_like_single_runs():
                                                np.random.default_rng(3 + m),
                                                grey_offset=[0.0, 0.0, paper_c.PITCH_OFFSET]).run(sc.measurements[m])
         np.testing.assert_allclose(study.estimates["GPF"][m], one.x, rtol=1e-9, atol=1e-12)
+
+
+def test_a_new_noise_change_runs_on_from_the_kept_state_bit_for_bit(monkeypatch):
+    # the readings before the change are the same for every change: the widget keeps both filters' state there and
+    # runs them over the readings after it only; the views must be those of one run over the whole dive
+    from uwtutor.filters import GreyParticleFilter, extended_kalman_filter
+    from uwtutor.models.depth import DepthSensors, DepthSpeedPitch
+    from uwtutor.scenarios.paper_c import PARAMETERS, PITCH_OFFSET
+
+    monkeypatch.setattr(ch06, "_BEFORE_CHANGE", {})
+    ch06._dive_and_ekf.cache_clear()
+    first = ch06.gpf_view(n_particles=120, noise_change=2.0)        # runs whole, keeps the state at the change
+    assert {key[0] for key in ch06._BEFORE_CHANGE} == {"EKF", "GPF"}
+    for factor in (0.5, 4.75):                                      # run on from the state kept
+        view = ch06.gpf_view(n_particles=120, noise_change=factor)
+        profile, z, _ = ch06._dive_and_ekf(factor, 1)
+        np.testing.assert_array_equal(z[:ch06._split(profile)], first.measurements[:ch06._split(profile)])
+        assert not np.array_equal(z, first.measurements)
+        R = np.diag(PARAMETERS.sensor_std ** 2)
+        motion, sensors = DepthSpeedPitch(T=profile.T, process_std=PARAMETERS.process_std), DepthSensors(R)
+        ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
+        gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, 120, np.random.default_rng(1001),
+                                               grey_fraction=0.1, noise_window=50,
+                                               grey_offset=[0.0, 0.0, PITCH_OFFSET]).run(z)
+        assert view.estimates["EKF"].tobytes() == ekf.x.tobytes()
+        assert view.estimates["GPF"].tobytes() == gpf.x.tobytes()
+        assert view.ess.tobytes() == gpf.extras["ess"].tobytes()
+        assert view.noise_std.tobytes() == gpf.extras["noise_std"].tobytes()
+    ch06._dive_and_ekf.cache_clear()

@@ -150,3 +150,25 @@ def test_the_panel_refined_in_the_background_ends_as_computed_at_once(monkeypatc
     _, at_once = moved(False)
     assert refined == at_once and coarse != at_once
     plt.close("all")
+
+
+def test_a_full_answer_cancelled_mid_way_keeps_nothing_half_done(monkeypatch):
+    # the widget's refinement for a setting the reader has left stops at a filter loop's checkpoint: nothing of it
+    # may stay in the caches, and the setting computed later is the one computed in one go
+    from uwtutor._cancel import Cancelled, cancel_when
+
+    small = dict(drift_rate=0.02, initial_error=120.0, n_runs=4, n_obs=800)
+    monkeypatch.setattr(ch07, "_CURVES", {})
+    calls = []
+    with cancel_when(lambda: calls.append(1) and False):
+        whole = ch07.bias_tracking_view(**small)
+    ch07._CURVES.clear()
+    # stopped in the pre-positioned IEKF (it runs first), then in the IEKF from the start (it runs last)
+    for stop_at in (10, len(calls) - 10):
+        asked = []
+        with pytest.raises(Cancelled), cancel_when(lambda: asked.append(1) or len(asked) >= stop_at):
+            ch07.bias_tracking_view(**small)
+        assert ch07._CURVES == {}
+    again = ch07.bias_tracking_view(**small)
+    for name in ("estimate", "bias_sigma", "rmse", "rmse_unstarted", "start_epochs"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(whole, name))

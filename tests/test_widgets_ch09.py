@@ -109,3 +109,33 @@ def test_the_first_picture_shows_the_new_ranges_and_the_refined_one_is_as_comput
     _, at_once = moved(False)
     assert refined == at_once and coarse != at_once
     plt.close("all")
+
+
+def test_a_full_answer_cancelled_mid_way_keeps_nothing_half_done(monkeypatch):
+    # the widget's refinement for a setting the reader has left stops at a filter loop's checkpoint: nothing of it
+    # may stay in the caches, and the setting computed later is the one computed in one go
+    from uwtutor._cancel import Cancelled, cancel_when
+
+    monkeypatch.setattr(ch09, "_RANGE_RUNS", {})
+    monkeypatch.setattr(ch09, "_PLAIN", {})
+    calls = []
+    with cancel_when(lambda: calls.append(1) and False):
+        whole = ch09.outlier_view(amplitude=120.0, pattern="isolated")
+    (range_run,) = ch09._RANGE_RUNS.values()
+    ch09._RANGE_RUNS.clear()
+    ch09._PLAIN.clear()
+    # stopped in the range filter (it runs first), then in the standard KF (it runs last)
+    for stop_at in (10, len(calls) - 10):
+        asked = []
+        with pytest.raises(Cancelled), cancel_when(lambda: asked.append(1) or len(asked) >= stop_at):
+            ch09.outlier_view(amplitude=120.0, pattern="isolated")
+        assert ch09._PLAIN == {}
+        kept = list(ch09._RANGE_RUNS.values())          # the range filter's run: kept only once complete
+        if stop_at == 10:
+            assert kept == []
+        else:
+            np.testing.assert_array_equal(kept[0].x, range_run.x)
+    again = ch09.outlier_view(amplitude=120.0, pattern="isolated")
+    for name in ("robust_error", "plain_error", "fix_error", "track_error", "flagged"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(whole, name))
+    assert again.summary == whole.summary

@@ -46,6 +46,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .._cancel import checkpoint
 from .._linalg import quadratic_form
 from .._validate import as_float_array, as_int
 
@@ -354,6 +355,7 @@ def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: Ar
     names = ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names
     history: dict[str, np.ndarray] = {}          # step-major buffers (K, ...), allocated at the first step
     for k in range(n_steps):
+        checkpoint()                                # a widget's refinement no longer wanted stops here
         filt.predict(None if u is None else (u[:, k] if batched and not u_shared else u[k]))
         filt.update(z[:, k] if batched else z[k])
         values = {name: getattr(filt, name) for name in names}

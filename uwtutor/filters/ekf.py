@@ -68,6 +68,7 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
+from .._cancel import checkpoint
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_range_array, common_runs, readonly
 from ..errors import BeaconSingularityWarning
 from .base import Configurable, FilterResult
@@ -133,6 +134,7 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
     # steps before it are the same arithmetic with tests that pass. A prediction on the beacon makes a NaN (0/0,
     # not reported in the block: the step done again warns) and so fails the test.
     for start in range(0, K, _BLOCK_STEPS):
+        checkpoint()                                # a widget's refinement no longer wanted stops here
         end = min(start + _BLOCK_STEPS, K)
         with np.errstate(invalid="ignore", divide="ignore"):
             steps(start, end, guard=False)

@@ -70,6 +70,7 @@ import numpy as np
 
 from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag, as_float_array,
                          as_model_output, check_model_covariance, common_runs, readonly)
+from .._cancel import checkpoint
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -698,6 +699,7 @@ class ExtendedKalmanFilter(Configurable):
             # again by run_filter, which shows it), one they ignore is ignored, one they turn into an error raises
             with warnings.catch_warnings(record=True) as caught:
                 for k in range(K):
+                    checkpoint()                                 # a widget's refinement no longer wanted stops here
                     self._predict(None if u_steps is None else u_steps[k], deferred=True)
                     if x_prior is not None and P_prior is not None:
                         x_prior[k] = self._x_prior

@@ -249,6 +249,7 @@ class SquaredRangePair(MeasurementModel):
 
     m = 2
     n = 4
+    covariances_checked = True      # R = L R_10 L^T of an R_10 checked (positive semi-definite) when the model is made
 
     def __init__(self, leader: ArrayLike, displacements: ArrayLike, dt: Any, R: ArrayLike,
                  literal: bool = False) -> None:

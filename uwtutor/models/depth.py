@@ -237,6 +237,7 @@ class DepthSpeedPitch(MotionModel):
     """
 
     n = 3
+    covariances_checked = True      # Q = G Q_u G^T of a Q_u checked (positive semi-definite) when the model is made
 
     def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, *,
                  process_cov: ArrayLike | None = None) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import lsq
+from .._cancel import checkpoint
 from .._validate import as_covariance, as_finite, as_float_array, as_int, as_positive
 from ..filters.base import FilterResult
 from ..filters.bias import bias_ekf, bias_model_pair
@@ -26,11 +27,21 @@ from .staggered import filter_from_start_epochs
 __all__ = ["prepositioned_bias_ekf"]
 
 
+def _row_patterns(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(mask, axis=0, return_inverse=True)`` of a boolean (runs, epochs) mask with at least one epoch:
+    the distinct rows (in the same order) and the index of each run's row among them. Each row is compared as one
+    string of bytes: ``unique`` with ``axis=0`` makes a structured type of one field per epoch, which costs
+    milliseconds for a few hundred epochs, and this is called once per start epoch."""
+    rows = np.ascontiguousarray(mask, dtype=bool)
+    distinct, which = np.unique(rows.view(np.dtype((np.void, rows.shape[1]))).ravel(), return_inverse=True)
+    return distinct.view(bool).reshape(-1, rows.shape[1]), which.ravel()
+
+
 def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.ndarray) -> np.ndarray:
     """Precision factor after each epoch (M, K), counting only the epochs with a range (held between them)."""
     M, K = finite.shape
     alpha = np.full((M, K), np.inf)
-    patterns, which = np.unique(finite, axis=0, return_inverse=True)
+    patterns, which = _row_patterns(finite)
     for p, pattern in enumerate(patterns):
         runs = np.flatnonzero(which.ravel() == p)
         cols = np.flatnonzero(pattern)
@@ -160,8 +171,9 @@ def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, d
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", lsq.IllConditionedWarning)   # judged by alpha, as paper A does
         for k0 in np.unique(start[has_start]):
+            checkpoint()                                # a widget's refinement no longer wanted stops here
             group = np.flatnonzero(start == k0)
-            patterns, which = np.unique(finite[group, :k0 + 1], axis=0, return_inverse=True)
+            patterns, which = _row_patterns(finite[group, :k0 + 1])
             for p, pattern in enumerate(patterns):
                 runs = group[which.ravel() == p]
                 cols = np.flatnonzero(pattern)
@@ -183,7 +195,8 @@ def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, d
     accepted = np.zeros((M, K), dtype=bool)
     if has_start.any():
         # every started run's filter begins after its own start epoch, all in one call
-        staggered = filter_from_start_epochs(bias_ekf, start, fix_state, P_start, u, z, Q=Q, R=R, beacon=b)
+        staggered = filter_from_start_epochs(bias_ekf, start, fix_state, P_start, u, z, Q=Q, R=R, beacon=b,
+                                             trim_padding=True)
         filt = staggered.filter_result
         for name in out:
             out[name] = staggered.at_epochs(getattr(filt, name), np.nan)

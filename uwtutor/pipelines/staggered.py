@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_float_array
+from .._validate import MAX_COORDINATE, as_callable, as_covariance, as_finite, as_flag, as_float_array
 from ..filters.base import FilterResult
 
 __all__ = ["StaggeredRun", "filter_from_start_epochs"]
@@ -38,6 +38,9 @@ class StaggeredRun:
     filter_result : FilterResult
         The filter's own run over ``runs``, in *filter time*: step ``j`` of the ``i``-th filtered run is epoch
         ``start[runs[i]] + 1 + j`` (steps past the last epoch are padding without measurements).
+    n_epochs : int
+        Number of epochs ``K`` (the filter's steps, unless ``filter_from_start_epochs`` was asked to
+        ``trim_padding``).
 
     Examples
     --------
@@ -66,11 +69,7 @@ class StaggeredRun:
     start: np.ndarray
     runs: np.ndarray
     filter_result: FilterResult
-
-    @property
-    def n_epochs(self) -> int:
-        """Number of epochs ``K``."""
-        return self.filter_result.x.shape[1]
+    n_epochs: int
 
     @property
     def after_start(self) -> np.ndarray:
@@ -83,17 +82,16 @@ class StaggeredRun:
         to and including it, and in the runs that were not filtered."""
         M, K = self.start.shape[0], self.n_epochs
         values = np.asarray(values)
-        epochs = np.arange(K)[None, :]
-        j = np.clip(epochs - self.start[self.runs][:, None] - 1, 0, K - 1)
         out = np.array(np.broadcast_to(before, (M, K) + values.shape[2:]), dtype=np.result_type(values, before))
-        taken = values[np.arange(self.runs.size)[:, None], j]
-        after = self.after_start[self.runs].reshape((self.runs.size, K) + (1,) * (values.ndim - 2))
-        out[self.runs] = np.where(after, taken, out[self.runs])
+        starts = self.start[self.runs]
+        i, k = np.nonzero(np.arange(K)[None, :] > starts[:, None])    # (filtered run, epoch) after each start
+        out[self.runs[i], k] = values[i, k - starts[i] - 1]             # epoch k is filter step k - start - 1
         return out
 
 
 def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLike, P_start: ArrayLike, u: ArrayLike,
-                             z: ArrayLike, *, per_run: dict[str, Any] | None = None, **kwargs: Any) -> StaggeredRun:
+                             z: ArrayLike, *, per_run: dict[str, Any] | None = None, trim_padding: bool = False,
+                             **kwargs: Any) -> StaggeredRun:
     r"""Run a batched filter in every run from its own start epoch, all runs in one call.
 
     Papers A and D start their filters only when a least-squares fix can be trusted (paper A: the precision
@@ -121,6 +119,11 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
     per_run : dict, optional
         Further filter arguments with a runs axis first (e.g. paper D's ``mu_gamma`` of each run): they are
         passed for the filtered runs only.
+    trim_padding : bool, default False
+        True: the filter runs only the :math:`K - 1 - \min_i s_i` steps the earliest-starting filtered run needs
+        (at least one), not ``K``: the padding no epoch reads is left out (the values at the epochs are the same,
+        bit for bit: a filter step depends on the steps before it only). ``filter_result`` is then that much
+        shorter, and no further argument may have a steps axis (it would no longer match ``u`` and ``z``).
     **kwargs
         Further filter arguments shared by every run.
 
@@ -164,12 +167,12 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
     M, K = u.shape[:2]
     if z.shape[:2] != (M, K):
         raise ValueError(f"z must have the runs and epochs of u, ({M}, {K}, ...); got shape {z.shape}")
-    start_epochs = np.asarray(start)
-    if start_epochs.shape != (M,) or start_epochs.dtype.kind not in "iu":
-        raise ValueError(f"start must hold one integer epoch per run, shape ({M},); got {start!r}")
-    if (start_epochs < 0).any():
+    given = np.asarray(start)
+    if given.shape != (M,) or given.dtype.kind not in "iu":
+        raise ValueError(f"start must hold one integer epoch per run, shape ({M},); got {given!r}")
+    if (given < 0).any():
         raise ValueError("start must be >= 0 (an epoch index)")
-    start_epochs = np.minimum(start_epochs, K).astype(int)
+    first = np.minimum(given, K).astype(int)
     x_start = as_float_array("x_start", x_start, ndim=2)
     if x_start.shape[0] != M:
         raise ValueError(f"x_start must have one row per run ({M}); got shape {x_start.shape}")
@@ -193,7 +196,8 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
         raise ValueError("no run has a finite x_start: there is nothing to filter (a run that never started "
                          "should be left out, or given its last fix)")
     rows = runs[:, None]
-    idx = start_epochs[rows] + 1 + np.arange(K)[None, :]
+    steps = max(1, K - 1 - int(first[runs].min())) if as_flag("trim_padding", trim_padding) else K
+    idx = first[rows] + 1 + np.arange(steps)[None, :]
     inside = idx < K
     idx_c = np.minimum(idx, K - 1)
     pad = (slice(None), slice(None)) + (None,) * (z.ndim - 2)
@@ -202,4 +206,4 @@ def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLik
     P0 = P_start if P_start.ndim == 2 else P_start[runs]
     extra = {name: np.asarray(value)[runs] for name, value in (per_run or {}).items()}
     result = filter_fn(x_start[runs], P0, u_shift, z_shift, **kwargs, **extra)
-    return StaggeredRun(start=start_epochs, runs=runs, filter_result=result)
+    return StaggeredRun(start=first, runs=runs, filter_result=result, n_epochs=K)

@@ -16,10 +16,12 @@ the chapter's plot function. ``make bench`` times every control of every widget 
 A widget whose full answer takes longer than a reader should wait (a long filter run) may give a *coarse* answer
 first (``slider_panel``'s ``refine``): in a live kernel the panel shows the coarse picture at once, labelled as such by
 the widget, and computes the full answer in one background thread; when it is done, and if the controls still hold
-that setting, the full picture replaces the coarse one (a refinement for a setting left meanwhile is dropped: its
-result stays in the widget's cache). The full picture is drawn from the axes as they were before the coarse one,
-so it is the picture the panel draws without refinement. Outside a kernel (tests, scripts, the book's static
-pages) and with ``REFINE_IN_BACKGROUND = False`` the full answer is computed at once, as without ``refine``.
+that setting, the full picture replaces the coarse one. A refinement for a setting left meanwhile is dropped: if it
+is still computing, the library's filter loops stop it at their next step (``uwtutor._cancel``), so that the next
+setting's coarse picture does not share the interpreter with it; a result it completed stays in the widget's cache.
+The full picture is drawn from the axes as they were before the coarse one, so it is the picture the panel draws
+without refinement. Outside a kernel (tests, scripts, the book's static pages) and with
+``REFINE_IN_BACKGROUND = False`` the full answer is computed at once, as without ``refine``.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from typing import Any, Callable, Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .._cancel import Cancelled, cancel_when
 from ..plotting import LEGEND_WARNING, PIXEL_RATIO, legend_overlaps
 
 __all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescale", "snap_to_decades",
@@ -577,11 +580,12 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
     refine : callable, optional
         ``refine(**values)`` returns ``None`` when the full answer for these values is at hand (cached), or else a
         zero-argument callable that computes it into the widget's cache (it must be safe to run in another thread
-        while the controls move). With ``refine``, ``draw`` and ``update`` take a keyword ``coarse``: ``True`` asks
-        for the widget's coarse answer, labelled as such in the figure. When refining in the background (see
-        ``REFINE_IN_BACKGROUND``) a new setting is drawn coarse at once and the full picture follows; otherwise the
-        callable is run at once and the full picture drawn, as without ``refine``. ``wait_refined(panel)`` waits
-        for the full picture.
+        while the controls move, and keep a result only once it is complete: when the controls leave the setting
+        it is stopped at the next ``uwtutor._cancel.checkpoint`` of the library's loops). With ``refine``, ``draw``
+        and ``update`` take a keyword ``coarse``: ``True`` asks for the widget's coarse answer, labelled as such in
+        the figure. When refining in the background (see ``REFINE_IN_BACKGROUND``) a new setting is drawn coarse at
+        once and the full picture follows; otherwise the callable is run at once and the full picture drawn, as
+        without ``refine``. ``wait_refined(panel)`` waits for the full picture.
 
     Returns
     -------
@@ -650,7 +654,10 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
         if refiner.generation != generation:            # left before its turn came: computed if visited again
             return
         try:
-            job()
+            # left while computing: the library's loops stop at their next checkpoint, so that the next setting's
+            # coarse picture does not share the interpreter with a full answer no longer wanted
+            with cancel_when(lambda: refiner.generation != generation):
+                job()
             with refiner.lock:
                 if refiner.generation != generation:    # left while computing: the result waits in the cache
                     return
@@ -660,6 +667,8 @@ def slider_panel(sliders: dict[str, Any], draw: Callable[..., Any],
                 keep_picture(key, png)
                 if drawn_anew and update is not None:   # the next update's background drawn now, in the worker
                     renderer.prime(update(fig, **current, coarse=False))
+        except Cancelled:                               # nothing kept: computed again if visited again
+            return
         except Exception:                               # no caller to raise to: shown under the figure
             state["failed"] = True
             messages.clear_output(wait=True)

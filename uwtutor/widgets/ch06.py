@@ -8,6 +8,7 @@ version behind the chapter's widget (a shorter profile, fewer particles).
 
 from __future__ import annotations
 
+import copy
 import functools
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -15,9 +16,9 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .._validate import as_int, as_scalar, check_work
+from .._validate import as_int, as_scalar, check_work, readonly
 from ..errors import deprecated_aliases
-from ..filters import GreyParticleFilter, extended_kalman_filter
+from ..filters import ExtendedKalmanFilter, GreyParticleFilter
 from ..models.depth import DepthSensors, DepthSpeedPitch
 from ..pipelines.depth_study import DepthStudy, run_depth_study  # noqa: F401 (chapter 6 calls ch06.run_depth_study)
 from ..scenarios.paper_c import (FILTER_NAMES, PARAMETERS, DepthProfile, maneuvering_depth_profile,  # noqa: F401
@@ -86,18 +87,51 @@ class GPFView:
     n_grey: int
 
 
+#: When the widget's dive changes its sensor noise [s]: the readings before it are the same whatever the change
+#: (the same draws at the nominal level), and so are both filters' steps over them.
+_NOISE_CHANGE_AT = 13.0
+
+#: The filters' state at the noise change and their results before it, with the readings they ran over, by
+#: filter and settings (the last few): a new change runs them over the readings after it only.
+_BEFORE_CHANGE: dict[tuple, tuple[np.ndarray, Any, Any]] = {}
+
+
+def _over_the_change(key: tuple, make: Callable[[], Any], z: np.ndarray, split: int) -> tuple[Any, Any]:
+    """The run of the filter ``make()`` over the readings ``z``, in two parts: its results over the first ``split``
+    readings and over the rest. The first part is taken from ``_BEFORE_CHANGE[key]`` when it ran over these same
+    readings (a copy of the filter as it stood then runs the rest): a step depends on the steps before it only, so
+    the parts are, bit for bit, those of one run over all of ``z``."""
+    kept = _BEFORE_CHANGE.get(key)
+    if kept is not None and np.array_equal(kept[0], z[:split]):
+        filt = copy.deepcopy(kept[1])
+        return kept[2], filt.run(z[split:])
+    filt = make()
+    head = filt.run(z[:split])
+    if len(_BEFORE_CHANGE) >= 16:
+        _BEFORE_CHANGE.pop(next(iter(_BEFORE_CHANGE)))
+    _BEFORE_CHANGE[key] = (z[:split].copy(), copy.deepcopy(filt), head)
+    return head, filt.run(z[split:])
+
+
 @functools.lru_cache(maxsize=32)
-def _dive_and_ekf(factor: float, seed: int) -> tuple[DepthProfile, np.ndarray, Any]:
-    """The dive, its sensor readings and the EKF's run on them: what ``gpf_view`` computes that does not depend on
+def _dive_and_ekf(factor: float, seed: int) -> tuple[DepthProfile, np.ndarray, np.ndarray]:
+    """The dive, its sensor readings and the EKF's estimates: what ``gpf_view`` computes that does not depend on
     the GPF's settings (kept for the widget's next setting; never modified)."""
-    profile = maneuvering_depth_profile(noise_factors=(1.0, factor), noise_change_times=(13.0,)).between(6.0, 18.0)
+    profile = maneuvering_depth_profile(noise_factors=(1.0, factor),
+                                        noise_change_times=(_NOISE_CHANGE_AT,)).between(6.0, 18.0)
     rng = np.random.default_rng(seed)
     z = simulate_depth_sensors(profile, 1, rng)[0]
     R = np.diag(PARAMETERS.sensor_std ** 2)
     q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
-    ekf = extended_kalman_filter(motion, sensors, z[0], R, None, z)
-    return profile, z, ekf
+    head, tail = _over_the_change(("EKF", seed), lambda: ExtendedKalmanFilter(motion, sensors, z[0], R), z,
+                                  _split(profile))
+    return profile, z, readonly(np.concatenate([head.x, tail.x]))
+
+
+def _split(profile: DepthProfile) -> int:
+    """The number of samples before the noise change (at least one, and one short of all)."""
+    return int(np.clip(np.searchsorted(profile.times, _NOISE_CHANGE_AT), 1, len(profile.times) - 1))
 
 
 def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: int = 50, noise_change: float = 3.0,
@@ -118,7 +152,7 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     noise_window : int, optional
         Wavelet window length (>= 12, at most the dive's 240 samples).
     noise_change : float, optional
-        Factor applied to the sensor noise from 8 s on (1e-3 to 1e3).
+        Factor applied to the sensor noise from 13 s on (1e-3 to 1e3).
     seed : int, optional
         Seed of the sensor noise and of the GPF.
 
@@ -145,21 +179,25 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
     # a factor beyond a thousand either way is not a change of sensor noise (its variances under- or overflow)
     factor = as_scalar("noise_change", noise_change, low=1e-3, high=1e3)
     seed = as_int("seed", seed, minimum=0)
-    profile, z, ekf = _dive_and_ekf(factor, seed)
+    profile, z, ekf_x = _dive_and_ekf(factor, seed)
     if window > len(profile.times):
         raise ValueError(f"noise_window must be at most the dive's {len(profile.times)} samples; got {window}")
     R = np.diag(PARAMETERS.sensor_std ** 2)
     q = PARAMETERS.process_std
     motion, sensors = DepthSpeedPitch(T=profile.T, process_std=q), DepthSensors(R)
-    gpf = GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
-                                           grey_fraction=grey_fraction, noise_window=noise_window,
-                                           grey_offset=[0.0, 0.0, _PITCH_OFFSET]).run(z)
+    head, tail = _over_the_change(
+        ("GPF", N, grey_fraction, window, seed),
+        lambda: GreyParticleFilter.from_gaussian(motion, sensors, z[0], R, N, np.random.default_rng(seed + 1000),
+                                                 grey_fraction=grey_fraction, noise_window=noise_window,
+                                                 grey_offset=[0.0, 0.0, _PITCH_OFFSET]),
+        z, _split(profile))
     after = profile.times >= profile.times[0] + 1.0
-    estimates = {"EKF": ekf.x, "GPF": gpf.x}
+    estimates = {"EKF": ekf_x, "GPF": np.concatenate([head.x, tail.x])}
     rmse = {k: np.sqrt(np.mean((v[after] - profile.truth[after]) ** 2, axis=0)) for k, v in estimates.items()}
     return GPFView(times=profile.times, truth=profile.truth, measurements=z, estimates=estimates, rmse=rmse,
-                   ess=gpf.extras["ess"], noise_std=gpf.extras["noise_std"], true_noise_std=profile.sensor_std,
-                   n_particles=N, n_grey=int(round(grey_fraction * N)))
+                   ess=np.concatenate([head.extras["ess"], tail.extras["ess"]]),
+                   noise_std=np.concatenate([head.extras["noise_std"], tail.extras["noise_std"]]),
+                   true_noise_std=profile.sensor_std, n_particles=N, n_grey=int(round(grey_fraction * N)))
 
 
 def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
