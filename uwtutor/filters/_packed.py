@@ -35,6 +35,20 @@ def pack(x: np.ndarray, P: np.ndarray) -> np.ndarray:
     return s
 
 
+def pack_runs_last(x: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """:func:`pack` for covariances held runs-last, ``P`` (2, 2, M), as the generic engine holds them."""
+    s = np.empty((N_ROWS, x.shape[0]))
+    s[ROW_X:ROW_Y + 1] = x.T
+    s[ROW_PXX:] = P.reshape(4, -1)
+    s[ROW_PYX] = s[ROW_PXY] = 0.5 * (s[ROW_PXY] + s[ROW_PYX])   # exact symmetry, as pack makes it
+    return s
+
+
+def unpack_runs_last(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The estimates (M, 2) and runs-last covariances (2, 2, M) of packed states ``s`` (6, M), as new arrays."""
+    return s[ROW_X:ROW_Y + 1].T.copy(), s[ROW_PXX:].reshape(2, 2, -1).copy()
+
+
 def x_view(s: np.ndarray) -> np.ndarray:
     """Estimates ``(..., M, 2)`` as a view of packed states ``(..., 6, M)``."""
     return np.moveaxis(s[..., ROW_X:ROW_Y + 1, :], -1, -2)

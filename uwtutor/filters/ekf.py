@@ -268,12 +268,17 @@ def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: 
     # loop is given them with the packed Q, R and beacon
     filt = ExtendedKalmanFilter(DeadReckoning(Q_arr), RangeToBeacon(beacon, R_val),
                                 x0 if M is None else np.broadcast_to(x0, (M, 2)), P0)
-    return _updated(filt._packed_steps(u, z, times, keep_priors, noise=(q4, R_val, b)))
+    return _checked(filt._packed_steps(u, z, times, keep_priors, noise=(q4, R_val, b), key="updated"))
 
 
-def _updated(result: FilterResult | None) -> FilterResult:
+def _checked(result: FilterResult | None) -> FilterResult:
+    """The packed loop's result (it always runs when given its parameters)."""
+    assert result is not None
+    return result
+
+
+def _updated(result: FilterResult) -> FilterResult:
     """The engine's result with its ``accepted`` named ``updated``, as the range-only EKF has always called it."""
-    assert result is not None                       # the packed loop always runs with its parameters given
     extras = dict(result.extras)
     return dataclasses.replace(result, extras={"updated": extras.pop("accepted"), **extras})
 
@@ -422,4 +427,5 @@ class RangeOnlyEKF(ExtendedKalmanFilter):
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             self._bad_shape("u", u.shape, f"({K}, 2), one input per step of z")
         times = steps_and_times(K, times)
-        return _updated(self._packed_steps(u, z, times, as_flag("keep_priors", keep_priors), noise=self._noise))
+        return _checked(self._packed_steps(u, z, times, as_flag("keep_priors", keep_priors), noise=self._noise,
+                                           key="updated"))

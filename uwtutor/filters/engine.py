@@ -87,7 +87,7 @@ from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
 from ..models.dead_reckoning import DeadReckoning
 from ..models.range import RangeToBeacon
-from ._packed import P_view, pack, predict_step, update_step, x_view
+from ._packed import pack_runs_last, predict_step, unpack_runs_last, update_step
 from .base import Configurable, FilterResult, _sequence_times, run_filter
 from .gates import Gate, GateContext
 
@@ -367,7 +367,7 @@ class ExtendedKalmanFilter(Configurable):
         self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q", motion, "Q")
         self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
         gate_outputs = tuple(getattr(gate, "extra_outputs", ())) if gate is not None else ()
-        clash = set(gate_outputs) & set(dir(type(self)))
+        clash = set(gate_outputs) & set(dir(type(self))) if gate_outputs else set()
         if clash:
             raise ValueError(f"the gate's extra_outputs {sorted(clash)} clash with the filter's own attributes: "
                              "rename them")
@@ -868,12 +868,12 @@ class ExtendedKalmanFilter(Configurable):
 
     def _packed_state(self) -> np.ndarray:
         """The filter's state as the packed back-end holds it: one (6, M) array."""
-        return pack(self._x, _runs_first(self._P))
+        return pack_runs_last(self._x, self._P)
 
     def _set_packed_state(self, post: np.ndarray, prior: np.ndarray) -> None:
         """The filter's state (and its prediction) from the packed posterior and prior (6, M)."""
-        self._x, self._P = np.ascontiguousarray(x_view(post)), _runs_last(P_view(post))
-        self._x_prior, self._P_prior = np.ascontiguousarray(x_view(prior)), _runs_last(P_view(prior))
+        self._x, self._P = unpack_runs_last(post)
+        self._x_prior, self._P_prior = unpack_runs_last(prior)
 
     def _packed_predict(self, u: np.ndarray | None) -> bool:
         """``predict`` on the packed back-end; False (nothing done) where it does not apply to ``u`` or the step."""
@@ -915,7 +915,7 @@ class ExtendedKalmanFilter(Configurable):
         unused = used == 0.0
         y[unused] = np.nan
         S[unused] = np.nan
-        self._x, self._P = np.ascontiguousarray(x_view(out)), _runs_last(P_view(out))
+        self._x, self._P = unpack_runs_last(out)
         self._y, self._S, self._accepted = y[:, None], S[:, None, None], ~unused
         return True
 
@@ -947,10 +947,11 @@ class ExtendedKalmanFilter(Configurable):
         return self._packed_steps(u_in, z_runs.T if batched else z_runs[:, 0], times, keep_priors)
 
     def _packed_steps(self, u: np.ndarray, z: np.ndarray, times: np.ndarray, keep_priors: bool,
-                      noise: tuple[np.ndarray, Any, Any] | None = None) -> FilterResult | None:
+                      noise: tuple[np.ndarray, Any, Any] | None = None, key: str = "accepted") -> FilterResult | None:
         """The packed loop over checked inputs: ``u`` (K, 2) or (M, K, 2), ``z`` (K,) or (M, K) (finite or NaN);
-        ``noise``: the packed ``Q``, ``R`` and beacon when the caller has them already (``range_only_ekf``).
-        Leaves the filter at the last step; None where the models have no parameters for these steps."""
+        ``noise``: the packed ``Q``, ``R`` and beacon when the caller has them already (``range_only_ekf``); ``key``:
+        the name of the result's extra that says which steps used a range. Leaves the filter at the last step; None
+        where the models have no parameters for these steps."""
         from .ekf import _run                   # deferred: filters.ekf builds RangeOnlyEKF on this module
 
         K, first = len(times), self.k + 1
@@ -969,7 +970,7 @@ class ExtendedKalmanFilter(Configurable):
         self._y = np.array(y[..., -1, :], ndmin=2)
         self._S = np.array(S[..., -1, :, :], ndmin=3)
         self._accepted = np.array(updated[..., -1], ndmin=1)
-        return dataclasses.replace(result, extras={"accepted": updated})
+        return result if key == "updated" else dataclasses.replace(result, extras={key: updated})
 
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
