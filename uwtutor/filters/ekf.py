@@ -357,16 +357,16 @@ class RangeOnlyEKF(ExtendedKalmanFilter):
     extra_outputs = ("updated",)
     result_type = FilterResult
     _parameters = ("Q", "R", "beacon")
-    _diagnostics = ("y", "S", "accepted", "updated")
+    _diagnostics: tuple[str, ...] = ("y", "S", "accepted", "updated")
     _engine_steps = True                # its steps are the engine's (on the packed back-end), after its own checks
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike,
                  beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
-        Q, R, q4 = noise_parameters(Q, R)
+        Q_checked, R_checked, q4 = noise_parameters(Q, R)
         b = fixed_beacon(beacon)
-        super().__init__(DeadReckoning(Q), RangeToBeacon(b, R), x0, P0)
-        self._set_parameters(Q, R, q4, b)
+        super().__init__(DeadReckoning(Q_checked), RangeToBeacon(b, R_checked), x0, P0)
+        self._set_parameters(Q_checked, R_checked, q4, b)
 
     # -- configuration: assigned parameters take effect (base.Configurable) --
     def _set_parameters(self, Q: np.ndarray, R: float, q4: np.ndarray, beacon: tuple[float, float]) -> None:

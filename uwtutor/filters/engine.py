@@ -331,7 +331,7 @@ class ExtendedKalmanFilter(Configurable):
     result_type = FilterResult
     # the configuration rule (base.Configurable): the models and the gate are fixed once the filter is built
     _fixed = ("motion", "measurement", "gate", "n", "m")
-    _diagnostics = ("y", "S", "accepted")
+    _diagnostics: tuple[str, ...] = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                  gate: Gate | None = None, *, known_states: ArrayLike | None = None) -> None:
@@ -822,7 +822,7 @@ class ExtendedKalmanFilter(Configurable):
     def _packed_process_noise(self, first: int, K: int) -> np.ndarray | None:
         """``Q`` of steps ``first..first+K-1`` packed as ``[Qxx, Qxy, Qxy, Qyy]``: a (4, 1) column, or (K, 4, 1) for a
         per-step ``Q``; None where the model has no ``Q`` for one of them (the generic step then says so)."""
-        motion = self.motion
+        motion = cast(DeadReckoning, self.motion)                  # _packed_kernel has checked the type
         steps = motion.n_steps
         if steps is None:
             Q = motion.Q(self._x, None, first)
@@ -838,7 +838,7 @@ class ExtendedKalmanFilter(Configurable):
         ``(bx, by)``, or a step-major path (K, 2, M) or (K, 2, 1)), as the packed back-end takes them; None where the
         model has none for a step, an ``R`` per run, or a NaN ``R`` where a range is present (``present`` (K, M)):
         the generic steps then raise what they raise there."""
-        measurement, M = self.measurement, self._M
+        measurement, M = cast(RangeToBeacon, self.measurement), self._M     # checked by _packed_kernel
         b = measurement.beacon
         beacon: tuple[float, float] | np.ndarray
         if b.ndim == 1:
