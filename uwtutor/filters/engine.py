@@ -80,8 +80,8 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag, as_float_array,
-                         as_model_output, check_model_covariance, common_runs, readonly)
+from .._validate import (MAX_COORDINATE, CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag,
+                         as_float_array, as_model_output, check_model_covariance, common_runs, readonly)
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
@@ -819,6 +819,12 @@ class ExtendedKalmanFilter(Configurable):
             return False
         return type(self)._engine_steps or self._plain_steps()
 
+    def _packed_bounded(self, *arrays: np.ndarray) -> bool:
+        """Whether the state and ``arrays`` (NaN allowed) lie within the coordinate bound that the packed arithmetic
+        squares without overflow (``_validate.MAX_COORDINATE``, which ``range_only_ekf`` asks of its inputs); beyond
+        it the generic arithmetic, whose ranges are computed without overflow, runs the step."""
+        return all(not (np.abs(a) > MAX_COORDINATE).any() for a in (self._x,) + arrays)
+
     def _packed_process_noise(self, first: int, K: int) -> np.ndarray | None:
         """``Q`` of steps ``first..first+K-1`` packed as ``[Qxx, Qxy, Qxy, Qyy]``: a (4, 1) column, or (K, 4, 1) for a
         per-step ``Q``; None where the model has no ``Q`` for one of them (the generic step then says so)."""
@@ -841,6 +847,8 @@ class ExtendedKalmanFilter(Configurable):
         measurement, M = cast(RangeToBeacon, self.measurement), self._M     # checked by _packed_kernel
         b = measurement.beacon
         beacon: tuple[float, float] | np.ndarray
+        if not self._packed_bounded(b):
+            return None
         if b.ndim == 1:
             beacon = (float(b[0]), float(b[1]))
         elif first < 0 or first + K > b.shape[-2] or (b.ndim == 3 and b.shape[0] != M):
@@ -886,7 +894,7 @@ class ExtendedKalmanFilter(Configurable):
             u_col = u.T
         else:
             return False
-        q4 = self._packed_process_noise(self.k + 1, 1)
+        q4 = self._packed_process_noise(self.k + 1, 1) if self._packed_bounded(u_col) else None
         if q4 is None:
             return False
         self.k += 1
@@ -899,7 +907,7 @@ class ExtendedKalmanFilter(Configurable):
         """``update`` with ``z`` (M, 1) on the packed back-end; False (nothing done) where it does not apply."""
         M = self._M
         has = np.isfinite(z[:, 0])
-        found = self._packed_measurement(max(self.k, 0), 1, has[None, :])
+        found = self._packed_measurement(max(self.k, 0), 1, has[None, :]) if self._packed_bounded(z) else None
         if found is None:
             return False
         R, beacon = found
@@ -942,6 +950,8 @@ class ExtendedKalmanFilter(Configurable):
         try:
             times = _sequence_times(K, times)
         except (TypeError, ValueError):
+            return None
+        if not self._packed_bounded(z, u_in):
             return None
         z_runs = z_steps[:, :, 0]                                                   # (K, M)
         return self._packed_steps(u_in, z_runs.T if batched else z_runs[:, 0], times, keep_priors)
