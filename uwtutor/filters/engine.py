@@ -327,10 +327,10 @@ class ExtendedKalmanFilter(Configurable):
     True
     """
 
-    extra_outputs = ("accepted",)
+    extra_outputs: tuple[str, ...] = ("accepted",)
     result_type = FilterResult
     # the configuration rule (base.Configurable): the models and the gate are fixed once the filter is built
-    _fixed = ("motion", "measurement", "gate", "n", "m")
+    _fixed: tuple[str, ...] = ("motion", "measurement", "gate", "n", "m")
     _diagnostics: tuple[str, ...] = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
