@@ -686,14 +686,11 @@ class ExtendedKalmanFilter(Configurable):
         """
         if not self._plain_steps():
             return None
-        batched, M, m, n = self._batched, self._M, self.m, self.n
-        step_axis = 1 if batched else 0
-        if z.ndim <= step_axis or (batched and z.shape[0] != M) or z.shape[step_axis] < 1:
+        M, m, n = self._M, self.m, self.n
+        z_steps = self._run_measurements(z)
+        if z_steps is None:
             return None
-        K = z.shape[step_axis]
-        z_steps = self._z_steps(z, K)
-        if z_steps is None or np.isinf(z).any():
-            return None
+        K = len(z_steps)
         u_steps = None
         if u is not None:
             u_steps = self._u_steps(as_float_array("u", u), K)
@@ -760,6 +757,18 @@ class ExtendedKalmanFilter(Configurable):
         extra = tuple(name for name in self.extra_outputs if name != "accepted")
         return extra == self._gate_outputs and all(getattr(cls, name) is getattr(ExtendedKalmanFilter, name)
                                                    for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted"))
+
+    def _run_measurements(self, z: np.ndarray) -> np.ndarray | None:
+        """The measurements of a run's steps (K, M, m) as ``update(z[k])`` sees them; None where ``z`` has no step
+        axis of its own, another number of runs, a shape ``update`` does not take, or an infinite value."""
+        batched = self._batched
+        step_axis = 1 if batched else 0
+        if z.ndim <= step_axis or (batched and z.shape[0] != self._M) or z.shape[step_axis] < 1:
+            return None
+        z_steps = self._z_steps(z, z.shape[step_axis])
+        if z_steps is None or np.isinf(z).any():
+            return None
+        return z_steps
 
     def _z_steps(self, z: np.ndarray, K: int) -> np.ndarray | None:
         """The K steps' measurements (K, M, m) as ``update(z[k])`` sees them; None for a shape it does not take."""
@@ -932,14 +941,11 @@ class ExtendedKalmanFilter(Configurable):
         where it does not apply (another model pair, a gate; inputs that ``run_filter`` must judge step by step)."""
         if not self._packed_kernel():
             return None
-        batched, M = self._batched, self._M
-        step_axis = 1 if batched else 0
-        if z.ndim <= step_axis or (batched and z.shape[0] != M) or z.shape[step_axis] < 1:
+        batched = self._batched
+        z_steps = self._run_measurements(z)
+        if z_steps is None:
             return None
-        K = z.shape[step_axis]
-        z_steps = self._z_steps(z, K)
-        if z_steps is None or np.isinf(z).any():
-            return None
+        K = len(z_steps)
         if u is None:
             u_in = np.zeros((K, 2))
         else:
