@@ -2,8 +2,9 @@
 
 The state is a horizontal position and the measurement a scalar range, so every product is written out as 2x2
 algebra on arrays of length ``M`` (one entry per Monte Carlo run). The filter state of all runs lives in one
-``(6, M)`` array (rows ``x, y, Pxx, Pxy, Pyx, Pyy``). This module is private to :mod:`uwtutor.filters`: the two
-range filters are its only users, and ``tests/test_filter_contract.py`` holds both to the generic engine.
+``(6, M)`` array (rows ``x, y, Pxx, Pxy, Pyx, Pyy``). This module is private to :mod:`uwtutor.filters`: the engine's
+packed and fading back-ends (:mod:`.engine`, :mod:`.ekf`, :mod:`.fading`) are its only users, and
+``tests/test_filter_contract.py`` holds both to the generic arithmetic.
 """
 
 from __future__ import annotations

@@ -23,11 +23,15 @@ the covariance update in Joseph form. This is the plain EKF that papers A and D 
 positioning algorithm for underwater acoustic beacon"; Zhu et al. 2019) improve on, and the filter that filterpy's
 ``ExtendedKalmanFilter`` runs with :math:`F = I`.
 
-Two forms share one implementation of the arithmetic (the private step functions of this module):
+This module is the *packed back-end* of the library's one extended Kalman filter: the engine
+(:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) runs its loop and its steps whenever it is given this
+model pair, ``DeadReckoning(Q)`` + ``RangeToBeacon(beacon, R)``, without a gate. Two forms name it:
 
-* :func:`range_only_ekf` -- the functional form: a whole study of ``M`` runs of ``K`` steps in one call;
-* :class:`RangeOnlyEKF` -- the object form that follows the filter protocol of :mod:`uwtutor.filters.base`
-  (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``), for teaching one step at a time.
+* :func:`range_only_ekf` -- the functional form: a whole study of ``M`` runs of ``K`` steps in one call, a thin
+  function over the engine;
+* :class:`RangeOnlyEKF` -- the engine built from that pair, following the filter protocol of
+  :mod:`uwtutor.filters.base` (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``), for teaching one step
+  at a time.
 
 .. rubric:: How it is made fast
 
