@@ -286,8 +286,9 @@ def test_batched_run_m_equals_single_run_m(case):
     for m in (0, M - 1):
         zs, us = _inputs(case, False, m)
         single = case.make(False)
-        # start it from run m's initial state (the fading filter's moments start from x0: build it for run m)
-        if isinstance(single, ExtendedKalmanFilter) and not isinstance(single, FadingEKF):
+        # start it from run m's initial state; build it for run m where that is not all a run has of its own (the
+        # fading filter's moments start from x0, the cooperative filter holds run m's leader track)
+        if isinstance(single, ExtendedKalmanFilter) and not isinstance(single, (FadingEKF, CooperativeEKF)):
             single.x = np.array(case.make(True).x[m])
         else:                                             # build it for run m
             single = _single_from_batched(case, m)

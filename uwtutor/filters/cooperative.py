@@ -49,6 +49,7 @@ does so in ``run``, which has them.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -60,7 +61,7 @@ from ..models.base import MeasurementModel
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
 from ..models.range import RangeToBeacon
 from ..errors import UnobservableWarning, warn
-from .base import Configurable, FilterResult, run_filter
+from .base import FilterResult, run_filter
 from .engine import ExtendedKalmanFilter
 
 __all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "leader_observations", "relative_track_deviation",
@@ -274,7 +275,7 @@ def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
     return x, P, d, b
 
 
-class CooperativeEKF(Configurable):
+class CooperativeEKF(ExtendedKalmanFilter):
     r"""Paper B's cooperative EKF, one step at a time (the protocol's ``predict`` / ``update``).
 
     Built without sequences, ``CooperativeEKF(x0, P0, dt=..., Q=..., R=...)``, it takes each step's inputs when the
@@ -405,68 +406,15 @@ class CooperativeEKF(Configurable):
                 measurement = SquaredRangePair(b, d, dt, R10, literal=formulation == "literal")
             self.relative_track_deviation = relative_track_deviation(d, b)
             _warn_straight(self.relative_track_deviation, self.range_noise)
-        self.motion, self.measurement = motion, measurement
-        self._engine = ExtendedKalmanFilter(motion, measurement, x, P)
+        super().__init__(motion, measurement, x, P)
 
-    # -- the protocol's state, read from the engine ---------------------------------------------------------------
-    @property
-    def x(self) -> np.ndarray:
-        """Current estimate, shape (4,) or (M, 4) (read-only; assign a new one to set it)."""
-        return self._engine.x
-
-    @x.setter
-    def x(self, value: Any) -> None:
-        self._engine.x = value
-
-    @property
-    def P(self) -> np.ndarray:
-        """Its covariance, shape (4, 4) or (M, 4, 4) (read-only; assign a new one to set it)."""
-        return self._engine.P
-
-    @P.setter
-    def P(self, value: Any) -> None:
-        self._engine.P = value
-
-    @property
-    def x_prior(self) -> np.ndarray:
-        """The last prediction."""
-        return self._engine.x_prior
-
-    @property
-    def P_prior(self) -> np.ndarray:
-        """Its covariance."""
-        return self._engine.P_prior
-
-    @property
-    def y(self) -> np.ndarray:
-        """The last innovation (m² for the pair, m for the single range), NaN where no update was made."""
-        return self._engine.y
-
-    @property
-    def S(self) -> np.ndarray:
-        """Its covariance."""
-        return self._engine.S
-
-    @property
-    def accepted(self) -> np.ndarray:
-        """Whether the last update used a measurement, ``()`` or ``(M,)``."""
-        return self._engine.accepted
-
-    @property
-    def k(self) -> int:
-        """Index of the current step (-1 before the first ``predict``)."""
-        return self._engine.k
-
-    #: Per-step attributes recorded in a result's ``extras`` (the protocol's ``extra_outputs``).
-    extra_outputs = ("accepted",)
     result_type = FilterResult
     # the configuration rule (base.Configurable): the models are built from these at construction (the leader's
     # track and the DR displacements are in them), so none can change afterwards; y, S, accepted are read-only
-    _fixed = ("Q", "R", "dt", "leader", "u", "P0", "formulation", "lost", "range_variance", "range_noise",
-              "relative_track_deviation", "motion", "measurement")
-    _diagnostics = ("y", "S", "accepted")
+    _fixed = ExtendedKalmanFilter._fixed + ("Q", "R", "dt", "leader", "u", "P0", "formulation", "lost",
+                                            "range_variance", "range_noise", "relative_track_deviation")
 
-    def _measurement(self, z: Any) -> np.ndarray:
+    def _squared(self, z: Any) -> np.ndarray:
         z = as_range_array("z", z, allow_nan=True)
         if self.formulation == "single_range":
             return z
@@ -508,11 +456,11 @@ class CooperativeEKF(Configurable):
             if whole is None:
                 raise TypeError("u (the step's DR displacement [dx, dy], shape (2,) or (M, 2)) is required: this "
                                 "filter was built without the whole run")
-            k = self._engine.k + 1
+            k = self.k + 1
             if k >= whole.shape[-2]:
                 raise IndexError(f"no DR displacement for step {k}: u holds {whole.shape[-2]} intervals")
             u = whole[..., k, :]
-        self._engine.predict(u)
+        super().predict(u)
         if not self._sequences:
             self._u_step = as_finite("u", u)
 
@@ -522,14 +470,14 @@ class CooperativeEKF(Configurable):
         built without the whole run, by the leader's positions (:func:`leader_observations`)."""
         if self._step_model is not None:
             z, self._step_model.model = self._step_inputs(z)
-        self._engine.update(self._measurement(z))
+        super().update(self._squared(z))
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    def run(self, z: Any, u: Any = None, times: Any = None, *, keep_priors: bool = True) -> FilterResult:
         """Run every step (``run_filter``): ``z`` the measurements of the steps, ``(K, 2)``/``(M, K, 2)`` range pairs
         (``range_pairs(ranges)``) or, for ``"single_range"``, ``(K,)``/``(M, K)`` ranges, followed by the leader's
         positions for a filter built without the whole run (``leader_observations(ranges, leader)``, which also
         gives this filter the track whose straightness it tests); ``u`` the displacements (default: those given at
-        construction)."""
+        construction). ``keep_priors=False``: the result's priors are None."""
         if not self._sequences:
             if u is None:
                 raise TypeError("u (the DR displacements of the steps) is required: this filter was built without "
@@ -539,7 +487,9 @@ class CooperativeEKF(Configurable):
                 # the leader's track at epochs 0..K, from the observations: the straightness test of the constructor
                 leader = np.concatenate([obs[..., :1, 2:4], obs[..., 4:6]], axis=-2)
                 _warn_straight(relative_track_deviation(u, leader), self.range_noise)
-        return run_filter(self, z, self.u if u is None else u, times)
+        keep_priors = as_flag("keep_priors", keep_priors)
+        result = run_filter(self, z, self.u if u is None else u, times)
+        return result if keep_priors else dataclasses.replace(result, x_prior=None, P_prior=None)
 
 
 def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, ranges: ArrayLike, dt: Any,
