@@ -544,12 +544,8 @@ def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: Arra
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading, n_steps=len(times))
     p = replace(p, R=check_variances_where_measured(p.R, z))
     M = common_runs({**run_sizes, "mu_gamma_or_sigma_gamma": m_par})
-    batched = M is not None
-    M = M or 1
-    s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
-    mem0 = _memory(x0, _second_moment(x0, P0, second_moment0, M))
-    result, _, _, _ = _run(s0, mem0, u, z, p, times, batched)
-    return result
+    # the engine with the fading back-end (FadingEKF), given the checked parameters (Q and R may be per step here)
+    return FadingEKF._on_checked(x0, P0, p, second_moment0, M)._fading_steps(u, z, times)
 
 
 class FadingEKF(ExtendedKalmanFilter):
@@ -660,9 +656,22 @@ class FadingEKF(ExtendedKalmanFilter):
         p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
                              mu_gamma_or_sigma_gamma=m_par))
-        # the engine on the model pair of the fading filter's deterministic parts (its runs axis from any input)
-        super().__init__(DeadReckoning(p.Q), RangeToBeacon(p.beacon, p.R),
-                         x0 if M is None else np.broadcast_to(x0, (M, 2)), P0)
+        self._start_fading(x0, P0, p, second_moment0, M)
+
+    @classmethod
+    def _on_checked(cls, x0: np.ndarray, P0: np.ndarray, p: _Params, second_moment0: Any,
+                    M: int | None) -> "FadingEKF":
+        """The filter from parameters ``fading_ekf`` has checked (with ``Q`` and ``R`` possibly per step)."""
+        filt = cls.__new__(cls)
+        filt._start_fading(x0, P0, p, second_moment0, M)
+        object.__setattr__(filt, "_configured", True)           # the configuration rule holds (base.Configurable)
+        return filt
+
+    def _start_fading(self, x0: np.ndarray, P0: np.ndarray, p: _Params, second_moment0: Any, M: int | None) -> None:
+        """The engine on the model pair of the fading filter's deterministic parts (its runs axis from any input),
+        and the fading back-end's own state."""
+        ExtendedKalmanFilter.__init__(self, DeadReckoning(p.Q), RangeToBeacon(p.beacon, p.R),
+                                      x0 if M is None else np.broadcast_to(x0, (M, 2)), P0)
         self._p = p
         self._mem = _memory(x0, _second_moment(x0, P0, second_moment0, self._M))
         self._started = np.zeros(self._M, dtype=bool)
@@ -820,6 +829,12 @@ class FadingEKF(ExtendedKalmanFilter):
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2), one input per step of z; got {u.shape}")
         times = steps_and_times(K, times)
+        result = self._fading_steps(u, z, times)
+        return result if keep_priors else replace(result, x_prior=None, P_prior=None)
+
+    def _fading_steps(self, u: np.ndarray, z: np.ndarray, times: np.ndarray) -> FadingResult:
+        """The fading loop (``_run``) over checked inputs from the filter's state; the filter is left at the last
+        step."""
         result, last, mem, started = _run(self._start, self._mem, u, z, self._p, times, self._batched)
         x_prior, P_prior = result.priors()
         self._start = last
@@ -827,12 +842,12 @@ class FadingEKF(ExtendedKalmanFilter):
                                           np.array(P_prior[..., -1, :, :], ndmin=3)))
         self._mem = mem
         self._started = started
-        self.k += K
+        self.k += len(times)
         self._y = np.array(result.innovations[..., -1, :], ndmin=2)
         self._S = np.array(result.innovation_cov[..., -1, :, :], ndmin=3)
         self._accepted = np.array(result.extras["updated"][..., -1], ndmin=1)
         self._set_diagnostics(np.array([np.array(result.extras[name][..., -1], ndmin=1) for name in _EXTRAS]))
-        return result if keep_priors else replace(result, x_prior=None, P_prior=None)
+        return result
 
 
 # --- LS-EKF and LS-ISFEKF --------------------------------------------------------------------------------------------
