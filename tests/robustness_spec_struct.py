@@ -378,6 +378,10 @@ SPECS_STRUCT: dict[str, Spec] = {
     "uwtutor.filters.cooperative:range_pairs": Spec(
         lambda: dict(ranges=np.array([100.0, 110.0, np.nan, 120.0])),
         kinds=dict(ranges=Real((None,), "nonneg", nan_ok=True))),
+    "uwtutor.filters.cooperative:leader_observations": Spec(
+        lambda: dict(ranges=np.where(np.arange(5) == 2, np.nan, _coop_ranges()), leader=_coop()["leader"],
+                     single_range=False),
+        kinds=dict(ranges=Real((5,), "nonneg", nan_ok=True), leader=Real((5, 2)), single_range=Flag())),
     "uwtutor.filters.cooperative:relative_track_deviation": Spec(
         lambda: dict(u=np.tile([2.0, 0.5], (4, 1)), leader=_coop()["leader"], times=np.arange(5.0) * 8.0),
         kinds=dict(u=Real((4, 2)), leader=Real((5, 2)), times=Real((5,), optional=True))),

@@ -9,7 +9,8 @@ import pytest
 
 from uwtutor.errors import UnobservableWarning
 from uwtutor.filters import cooperative_ekf, extended_kalman_filter
-from uwtutor.filters.cooperative import FORMULATIONS, CooperativeEKF, range_pairs, relative_track_deviation
+from uwtutor.filters.cooperative import (FORMULATIONS, CooperativeEKF, leader_observations, range_pairs,
+                                        relative_track_deviation)
 from uwtutor.models.cooperative import (CooperativeMotion, SquaredRangePair, leader_range, measurement_noise_map,
                                         process_noise_map)
 from uwtutor.observability import observability_rank
@@ -370,3 +371,74 @@ def test_followers_start_with_the_same_initial_error():
     np.testing.assert_allclose(b.initial_estimate()[:2] - b.true_positions[0], P.x1[:2])
     with pytest.raises(ValueError, match="followers"):
         paper_b.make_followers(np.random.default_rng(1), 2, [])
+
+
+# -- the leader as a step's input (no sequences in the constructor) ----------------------------------------------------
+def _same(a, b):
+    for field in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        assert np.array_equal(getattr(a, field), getattr(b, field), equal_nan=True), field
+    assert a.extras.keys() == b.extras.keys()
+    for name in a.extras:
+        assert np.array_equal(a.extras[name], b.extras[name]), name
+
+
+@pytest.mark.parametrize("lost", ["step", "range"])
+@pytest.mark.parametrize("formulation", FORMULATIONS)
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+def test_without_sequences_the_filter_gives_the_same_numbers(formulation, lost, batched):
+    """The filter built without sequences, given each step's displacement and leader positions, is the filter built
+    over the whole run, bit for bit: by run and by hand, one run or a batch (a batch with one leader track per run)."""
+    sc = paper_b.make(np.random.default_rng(21), 3, packet_loss=0.2, duration=8.0 * 40)
+    pick = (lambda a: a) if batched else (lambda a: a[1])
+    u, b, r = pick(sc.dr_displacements), pick(sc.leader_broadcast), pick(sc.ranges)
+    single = formulation == "single_range"
+    kw = dict(formulation=formulation, lost=lost, range_variance=9.0 if single else None)
+    whole = _quiet(CooperativeEKF, P.x1, P0, u, b, P.interval, P.Q, P.R, **kw)
+    pairs = range_pairs(r)
+    by_whole = whole.run(pairs[..., 1] if single else pairs)
+    x0 = np.tile(P.x1, (3, 1)) if batched else P.x1       # without sequences, the runs axis comes from x0 or P0
+    stepwise = CooperativeEKF(x0, P0, dt=P.interval, Q=P.Q, R=P.R, **kw)
+    assert stepwise.u is None and stepwise.relative_track_deviation is None
+    obs = leader_observations(r, b, single_range=single)
+    _same(_quiet(stepwise.run, obs, u), by_whole)
+    # one step at a time, the observation of the step carrying the leader's positions
+    by_hand = CooperativeEKF(x0, P0, dt=P.interval, Q=P.Q, R=P.R, **kw)
+    again = _quiet(CooperativeEKF, P.x1, P0, u, b, P.interval, P.Q, P.R, **kw)
+    for k in range(u.shape[-2]):
+        by_hand.predict(u[..., k, :])
+        by_hand.update(obs[..., k, :])
+        again.predict()
+        again.update(pairs[..., k, 1] if single else pairs[..., k, :])
+        for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted"):
+            assert np.array_equal(getattr(by_hand, name), getattr(again, name), equal_nan=True), (k, name)
+
+
+def test_without_sequences_inputs_are_checked_and_the_straight_track_warns_in_run():
+    filt = CooperativeEKF(P.x1, P0, dt=P.interval, Q=P.Q, R=P.R)
+    with pytest.raises(TypeError, match="u .* is required"):
+        filt.predict()
+    with pytest.raises(RuntimeError, match="predict"):
+        filt.update([100.0, 110.0, 0.0, 0.0, 8.0, 0.0])
+    filt.predict([1.0, 0.0])
+    with pytest.raises(ValueError, match="z must be the step's observation"):
+        filt.update([100.0, 110.0])
+    with pytest.raises(ValueError, match="leader positions"):
+        filt.update([100.0, 110.0, np.nan, 0.0, 8.0, 0.0])
+    with pytest.raises(TypeError, match="u and leader together"):
+        CooperativeEKF(P.x1, P0, np.ones((3, 2)), dt=P.interval, Q=P.Q, R=P.R)
+    with pytest.raises(TypeError, match="dt is required"):
+        CooperativeEKF(P.x1, P0, Q=P.Q, R=P.R)
+    # a leader on a parallel course: the filter built step by step warns when run over the track
+    sc = paper_b.make(np.random.default_rng(3), 1, **EXACT, leader_pattern="parallel")
+    obs = leader_observations(sc.ranges[0], sc.leader_broadcast[0])
+    with pytest.warns(UnobservableWarning):
+        CooperativeEKF(P.x1, P0, dt=P.interval, Q=P.Q, R=P.R).run(obs, sc.dr_displacements[0])
+
+
+def test_leader_observations():
+    obs = leader_observations([[1.0, 2.0, np.nan]], [[0.0, 0.0], [1.0, 0.0], [2.0, 1.0]])
+    np.testing.assert_array_equal(obs, [[[1.0, 2.0, 0.0, 0.0, 1.0, 0.0], [2.0, np.nan, 1.0, 0.0, 2.0, 1.0]]])
+    single = leader_observations([1.0, 2.0, 3.0], [[0.0, 0.0], [1.0, 0.0], [2.0, 1.0]], single_range=True)
+    np.testing.assert_array_equal(single, [[2.0, 1.0, 0.0], [3.0, 2.0, 1.0]])
+    with pytest.raises(ValueError, match="leader must have shape"):
+        leader_observations([1.0, 2.0, 3.0], [[0.0, 0.0], [1.0, 0.0]])

@@ -401,3 +401,30 @@ def test_object_form_misuse():
         f.predict([1.0, 2.0, 3.0])
     with pytest.raises(ValueError, match="z must"):
         f.update([1000.0, 1000.0])
+
+
+def test_fading_ekf_is_the_engine_with_the_fading_back_end():
+    """FadingEKF is an ExtendedKalmanFilter on the pair DeadReckoning + RangeToBeacon whose steps are the fading
+    loop's: stepped by hand, run, and fading_ekf give the same numbers, bit for bit."""
+    from uwtutor.filters import ExtendedKalmanFilter
+    from uwtutor.models import DeadReckoning, RangeToBeacon
+
+    sc, x0, P0 = approach(M=3, seed=4)
+    u, z = sc.dr_displacements, np.array(sc.ranges)
+    z[:, 5] = np.nan
+    kw = dict(mu_gamma=MU_D, sigma_gamma=SIGMA_D, beacon=(20.0, -10.0))
+    ref = fading_ekf(x0, P0, u, z, Q_D, R_D, **kw)
+    f = FadingEKF(x0, P0, Q_D, R_D, **kw)
+    assert isinstance(f, ExtendedKalmanFilter)
+    assert type(f.motion) is DeadReckoning and type(f.measurement) is RangeToBeacon
+    for k in range(20):
+        f.predict(u[:, k])
+        f.update(z[:, k])
+        assert np.array_equal(f.x, ref.x[:, k]) and np.array_equal(f.P, ref.P[:, k]), k
+        assert np.array_equal(f.fading_factor, ref.fading_factor[:, k])
+        np.testing.assert_array_equal(f.updated, f.accepted)
+    assert f.k == 19
+    rest = f.run(z[:, 20:], u[:, 20:])
+    assert np.array_equal(rest.x, ref.x[:, 20:]) and np.array_equal(rest.P_prior, ref.P_prior[:, 20:])
+    assert f.k == z.shape[1] - 1
+    assert f.run(z[:, :3], u[:, :3], keep_priors=False).x_prior is None

@@ -17,7 +17,7 @@ from uwtutor.filters import (BiasEKF, ExtendedKalmanFilter, FadingEKF, Filter, F
 from uwtutor.filters import CooperativeEKF, cooperative_ekf
 from uwtutor.filters.cooperative import range_pairs
 from uwtutor.filters.fading import FadingResult
-from uwtutor.filters import DepthEKF, ReacquiringGate
+from uwtutor.filters import DepthEKF, Gate, ReacquiringGate
 from uwtutor.models import (BeaconRanges, DeadReckoning, DepthSensors, DepthSpeedPitch, DepthSpeedPitchModel,
                             OdometryMotion, PitchManeuver, RangeToBeacon)
 from uwtutor.scenarios import paper_b
@@ -286,9 +286,11 @@ def test_batched_run_m_equals_single_run_m(case):
     for m in (0, M - 1):
         zs, us = _inputs(case, False, m)
         single = case.make(False)
-        if isinstance(single, ExtendedKalmanFilter):      # start it from run m's initial state
+        # start it from run m's initial state; build it for run m where that is not all a run has of its own (the
+        # fading filter's moments start from x0, the cooperative filter holds run m's leader track)
+        if isinstance(single, ExtendedKalmanFilter) and not isinstance(single, (FadingEKF, CooperativeEKF)):
             single.x = np.array(case.make(True).x[m])
-        else:                                             # packed fast paths: build it for run m
+        else:                                             # build it for run m
             single = _single_from_batched(case, m)
         res = single.run(zs, us)
         for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
@@ -339,13 +341,74 @@ def test_bad_input_names_the_argument(case):
 
 # --- fast paths equal the generic engine ---------------------------------------------------------------------
 
+class _AcceptAll(Gate):
+    """A gate that accepts every range: it puts the plain range pair on the engine's generic arithmetic."""
+
+    def accept(self, ctx):
+        return np.ones(ctx.y.shape[0], dtype=bool)
+
+
 def test_packed_range_ekf_equals_the_generic_engine():
     fast = range_only_ekf(X0, np.eye(2) * 400.0, U, Z, Q2, 4.0, beacon=(10.0, -5.0))
     generic = extended_kalman_filter(DeadReckoning(Q2), RangeToBeacon((10.0, -5.0), R=4.0), X0, np.eye(2) * 400.0,
-                                     U, Z)
+                                     U, Z, gate=_AcceptAll())
     for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
         np.testing.assert_allclose(getattr(fast, field), getattr(generic, field), rtol=1e-10, atol=1e-9)
     np.testing.assert_array_equal(fast.extras["updated"], generic.extras["accepted"])
+
+
+_SHIP = np.column_stack([np.linspace(0.0, 200.0, K), np.linspace(-50.0, 50.0, K)])
+_PER_STEP_Q = np.stack([Q2 * (1.0 + 0.01 * k) for k in range(K)])
+_PER_STEP_R = np.where(np.isnan(Z).all(axis=0), np.nan, 4.0 + 0.05 * np.arange(K))
+
+
+@pytest.mark.parametrize("beacon, Q, R", [
+    ((10.0, -5.0), Q2, 4.0),
+    ((0.0, 0.0), Q2, 4.0),
+    (_SHIP, Q2, 4.0),                                                       # a moving beacon, shared by the runs
+    (_SHIP[None] + np.arange(M)[:, None, None], Q2, 4.0),                   # one path per run
+    ((10.0, -5.0), _PER_STEP_Q, _PER_STEP_R),                               # Q and R per step (NaN R: no range)
+], ids=["fixed", "origin", "moving", "moving-per-run", "per-step-noise"])
+@pytest.mark.parametrize("batched", [False, True], ids=["single", "batched"])
+def test_the_engine_runs_the_plain_range_pair_on_the_packed_back_end(beacon, Q, R, batched):
+    """extended_kalman_filter on DeadReckoning + RangeToBeacon (no bias, no gate) is range_only_ekf, bit for bit;
+    so is the engine stepped by hand, and RangeOnlyEKF is that engine."""
+    if not batched and np.ndim(beacon) == 3:
+        beacon = beacon[0]
+    x0, u, z = _pick(X0, batched), _pick(U, batched), _pick(Z, batched)
+    fast = range_only_ekf(x0, np.eye(2) * 400.0, u, z, Q, R, beacon=beacon)
+    pair = (DeadReckoning(Q), RangeToBeacon(beacon, R=R))
+    engine = extended_kalman_filter(*pair, x0, np.eye(2) * 400.0, u, z)
+    for field in ("times", "x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        assert np.array_equal(getattr(fast, field), getattr(engine, field), equal_nan=True), field
+    assert list(fast.extras) == ["updated"] and list(engine.extras) == ["accepted"]
+    np.testing.assert_array_equal(fast.extras["updated"], engine.extras["accepted"])
+    filt = ExtendedKalmanFilter(*pair, x0, np.eye(2) * 400.0)
+    for k in range(K):
+        filt.predict(u[..., k, :])
+        filt.update(z[..., k])
+        assert np.array_equal(filt.x, engine.x[..., k, :]) and np.array_equal(filt.P, engine.P[..., k, :, :])
+    assert filt.k == K - 1
+    assert issubclass(RangeOnlyEKF, ExtendedKalmanFilter)
+    with pytest.raises(ValueError, match="R returned a non-finite value at step 1"):   # NaN R, a range present
+        extended_kalman_filter(DeadReckoning(Q2), RangeToBeacon((0.0, 0.0), R=np.where(np.arange(K) == 1, np.nan,
+                                                                                          4.0)),
+                               X0, np.eye(2) * 400.0, U, np.where(np.isnan(Z), 100.0, Z))
+
+
+def test_the_packed_back_end_continues_from_where_the_filter_stands():
+    """run after some steps: the moving beacon and the per-step Q are read from the filter's step on."""
+    pair = (DeadReckoning(_PER_STEP_Q), RangeToBeacon(_SHIP, R=4.0))
+    whole = ExtendedKalmanFilter(*pair, X0, np.eye(2) * 400.0).run(Z, U)
+    filt = ExtendedKalmanFilter(*pair, X0, np.eye(2) * 400.0)
+    first = filt.run(Z[:, :20], U[:, :20])
+    rest = filt.run(Z[:, 20:], U[:, 20:])
+    for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+        joined = np.concatenate([getattr(first, field), getattr(rest, field)], axis=1)
+        assert np.array_equal(joined, getattr(whole, field), equal_nan=True), field
+    assert filt.k == K - 1
+    with pytest.raises(IndexError, match="step 60 is beyond"):          # beyond the schedule: the generic step's error
+        filt.run(Z[:, :3], U[:, :3])
 
 
 def test_fading_ekf_without_fading_or_multiplicative_noise_equals_the_generic_engine():

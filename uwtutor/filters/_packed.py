@@ -2,8 +2,9 @@
 
 The state is a horizontal position and the measurement a scalar range, so every product is written out as 2x2
 algebra on arrays of length ``M`` (one entry per Monte Carlo run). The filter state of all runs lives in one
-``(6, M)`` array (rows ``x, y, Pxx, Pxy, Pyx, Pyy``). This module is private to :mod:`uwtutor.filters`: the two
-range filters are its only users, and ``tests/test_filter_contract.py`` holds both to the generic engine.
+``(6, M)`` array (rows ``x, y, Pxx, Pxy, Pyx, Pyy``). This module is private to :mod:`uwtutor.filters`: the engine's
+packed and fading back-ends (:mod:`.engine`, :mod:`.ekf`, :mod:`.fading`) are its only users, and
+``tests/test_filter_contract.py`` holds both to the generic arithmetic.
 """
 
 from __future__ import annotations
@@ -33,6 +34,20 @@ def pack(x: np.ndarray, P: np.ndarray) -> np.ndarray:
     s[ROW_PXX:] = P.reshape(-1, 4).T
     s[ROW_PYX] = s[ROW_PXY] = 0.5 * (s[ROW_PXY] + s[ROW_PYX])   # exact symmetry from the start
     return s
+
+
+def pack_runs_last(x: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """:func:`pack` for covariances held runs-last, ``P`` (2, 2, M), as the generic engine holds them."""
+    s = np.empty((N_ROWS, x.shape[0]))
+    s[ROW_X:ROW_Y + 1] = x.T
+    s[ROW_PXX:] = P.reshape(4, -1)
+    s[ROW_PYX] = s[ROW_PXY] = 0.5 * (s[ROW_PXY] + s[ROW_PYX])   # exact symmetry, as pack makes it
+    return s
+
+
+def unpack_runs_last(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The estimates (M, 2) and runs-last covariances (2, 2, M) of packed states ``s`` (6, M), as new arrays."""
+    return s[ROW_X:ROW_Y + 1].T.copy(), s[ROW_PXX:].reshape(2, 2, -1).copy()
 
 
 def x_view(s: np.ndarray) -> np.ndarray:

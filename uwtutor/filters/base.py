@@ -351,7 +351,7 @@ def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: Ar
 
     m = _measurement_size(z, batched)
     extra_names = tuple(getattr(filt, "extra_outputs", ()))
-    y_shape = (np.shape(filt.x)[0], m) if batched else (m,)
+    runs = np.shape(filt.x)[0] if batched else 1
     names = ("x", "P", "x_prior", "P_prior", "y", "S") + extra_names
     history: dict[str, np.ndarray] = {}          # step-major buffers (K, ...), allocated at the first step
     for k in range(n_steps):
@@ -359,6 +359,9 @@ def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: Ar
         filt.predict(None if u is None else (u[:, k] if batched and not u_shared else u[k]))
         filt.update(z[:, k] if batched else z[k])
         values = {name: getattr(filt, name) for name in names}
+        if k == 0 and np.size(values["y"]) != runs * m and np.size(values["y"]) % runs == 0:
+            m = np.size(values["y"]) // runs      # a step's observation that carries more than it measures (inputs)
+        y_shape = (runs, m) if batched else (m,)
         values["y"] = np.reshape(values["y"], y_shape)
         values["S"] = np.reshape(values["S"], y_shape + (m,))
         if k == 0:

@@ -28,27 +28,44 @@ interval (``lost="step"``: paper B's measurement is the pair, and this is what c
 that did arrive (the squared range at the other end, with its block of
 :math:`\mathbf{L}\mathbf{R}\mathbf{L}^\mathsf{T}`).
 
+**The leader as a step's input.** The leader's position at each epoch is not a sequence fixed when the filter is
+built: like a variable of a factor graph (GTSAM's range factor takes the keys it joins), it is an input of each
+step's measurement. ``CooperativeEKF(x0, P0, dt=..., Q=..., R=...)`` holds no sequence: ``predict(u)`` takes the
+step's DR displacement and ``update(z)`` the step's observation, the ranges *and* the leader's broadcast positions,
+``[r_k, r_{k+1}, x^M_k, y^M_k, x^M_{k+1}, y^M_{k+1}]`` for the pair formulations or ``[r_{k+1}, x^M_{k+1},
+y^M_{k+1}]`` for ``"single_range"`` (:func:`leader_observations` builds them from whole sequences); the measurement
+model of the step is built from them. Given the whole run instead (``CooperativeEKF(x0, P0, u, leader, dt, Q, R)``,
+the form ``cooperative_ekf`` uses), the filter builds the models over the whole run as before, and ``predict()`` and
+``update(z)`` with the two ranges read the step's displacement and leader positions from them; both forms give the
+same numbers, bit for bit (``tests/test_cooperative.py``).
+
 When the follower's motion relative to the leader is a straight line (a leader that keeps a parallel course), the
 ranges cannot tell the truth from a rotation of the follower about the leader together with its relative velocity,
 and so the current (chapter 2): the covariance does not shrink along that direction. ``CooperativeEKF`` (and so
 ``cooperative_ekf``) emits an ``UnobservableWarning`` when the relative track the filter is given departs from a
-straight line by less than the range noise (``relative_track_deviation``).
+straight line by less than the range noise (``relative_track_deviation``); built without the sequences, it
+does so in ``run``, which has them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_positive, as_range_array, as_scalar, common_runs
+from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_flag, as_float_array, as_positive,
+                        as_range_array, as_scalar, common_runs)
+from ..models.base import MeasurementModel
 from ..models.cooperative import CooperativeMotion, SquaredRangePair, leader_range
+from ..models.range import RangeToBeacon
 from ..errors import UnobservableWarning, warn
-from .base import Configurable, FilterResult, run_filter
+from .base import FilterResult, run_filter
 from .engine import ExtendedKalmanFilter
 
-__all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "relative_track_deviation", "FORMULATIONS"]
+__all__ = ["cooperative_ekf", "CooperativeEKF", "range_pairs", "leader_observations", "relative_track_deviation",
+           "FORMULATIONS"]
 
 #: The formulations of paper B's filter that ``CooperativeEKF`` runs.
 FORMULATIONS = ("consistent", "literal", "single_range")
@@ -80,6 +97,82 @@ def range_pairs(ranges: ArrayLike) -> NDArray[np.float64]:
     if r.shape[-1] < 2:
         raise ValueError(f"ranges must hold at least two epochs (one interval); got shape {r.shape}")
     return np.stack([r[..., :-1], r[..., 1:]], axis=-1)
+
+
+def leader_observations(ranges: ArrayLike, leader: ArrayLike, *, single_range: bool = False) -> NDArray[np.float64]:
+    r"""The observations of paper B's steps with the leader's positions in them: what ``update(z)`` of a
+    :class:`CooperativeEKF` built without sequences takes, step by step.
+
+    Step :math:`k` (from epoch :math:`k` to :math:`k + 1`) observes :math:`[r_k, r_{k+1}, x^M_k, y^M_k, x^M_{k+1},
+    y^M_{k+1}]`: the two ranges and the leader's broadcast positions at both ends; for ``"single_range"``,
+    :math:`[r_{k+1}, x^M_{k+1}, y^M_{k+1}]`.
+
+    Parameters
+    ----------
+    ranges : array_like, shape (K + 1,) or (M, K + 1)
+        Ranges at the epochs [m], NaN for a lost message.
+    leader : array_like, shape (K + 1, 2) or (M, K + 1, 2)
+        The leader's broadcast positions at the epochs [m].
+    single_range : bool, default False
+        The observations of the ``"single_range"`` formulation.
+
+    Returns
+    -------
+    ndarray, shape (K, 6) or (M, K, 6); (K, 3) or (M, K, 3) with ``single_range``
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from uwtutor.filters.cooperative import leader_observations
+    >>> leader_observations([100.0, 110.0], [[0.0, 0.0], [8.0, 0.0]])
+    array([[100., 110.,   0.,   0.,   8.,   0.]])
+    >>> leader_observations([100.0, 110.0], [[0.0, 0.0], [8.0, 0.0]], single_range=True)
+    array([[110.,   8.,   0.]])
+    """
+    pairs = range_pairs(ranges)
+    single_range = as_flag("single_range", single_range)
+    b = as_finite("leader", leader, ndim=(2, 3), max_abs=MAX_COORDINATE)
+    if b.shape[-1] != 2 or b.shape[-2] != pairs.shape[-2] + 1:
+        raise ValueError(f"leader must have shape (..., K + 1, 2) with K + 1 = {pairs.shape[-2] + 1} epochs, one "
+                         f"position per range; got {b.shape}")
+    M = common_runs(dict(ranges=len(pairs) if pairs.ndim == 3 else None, leader=len(b) if b.ndim == 3 else None))
+    shape = pairs.shape[:-1] if M is None else (M,) + pairs.shape[-2:-1]
+    pairs = np.broadcast_to(pairs, shape + (2,))
+    b = np.broadcast_to(b, shape[:-1] + b.shape[-2:])
+    if single_range:
+        return np.concatenate([pairs[..., 1:], b[..., 1:, :]], axis=-1)
+    return np.concatenate([pairs, b[..., :-1, :], b[..., 1:, :]], axis=-1)
+
+
+class _StepMeasurement(MeasurementModel):
+    """The measurement model of the current step, built from that step's inputs (the leader's positions, the
+    displacement): what a :class:`CooperativeEKF` without sequences hands to the engine. It answers for whatever
+    step the engine is at with the one interval it holds."""
+
+    def __init__(self, m: int) -> None:
+        self.n, self.m = 4, m
+        self.model: MeasurementModel | None = None
+
+    def _step(self) -> MeasurementModel:
+        if self.model is None:
+            raise RuntimeError("update(z) of a CooperativeEKF built without sequences needs the step's observation "
+                               "with the leader's positions (leader_observations), after predict(u)")
+        return self.model
+
+    def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self._step().linearize(x, 0)
+
+    def h(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._step().h(x, 0)
+
+    def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._step().H(x, 0)
+
+    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+        return self._step().R(x, 0)
+
+    def residual(self, z: np.ndarray, z_pred: np.ndarray) -> np.ndarray:
+        return self._step().residual(z, z_pred)
 
 
 def relative_track_deviation(u: ArrayLike, leader: ArrayLike, times: ArrayLike | None = None) -> float | np.ndarray:
@@ -149,6 +242,18 @@ def _warn_straight(deviation: Any, noise: float) -> None:
              UnobservableWarning)
 
 
+def _check_start(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The initial state and its covariance, checked (a filter built without the whole run)."""
+    x = as_finite("x0", x0, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if x.shape[-1] != 4:
+        raise ValueError(f"x0 must be [x, y, Ux, Uy] (last axis of length 4); got shape {x.shape}")
+    P = as_covariance("P0", P0, 4)
+    M = common_runs(dict(x0=len(x) if x.ndim == 2 else None, P0=len(P) if P.ndim == 3 else None))
+    if M is not None and x.ndim == 1:
+        x = np.broadcast_to(x, (M, 4)).copy()
+    return x, P
+
+
 def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
                   n_runs: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate the inputs; a single x0 is repeated over the runs of any batched input."""
@@ -170,8 +275,14 @@ def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
     return x, P, d, b
 
 
-class CooperativeEKF(Configurable):
+class CooperativeEKF(ExtendedKalmanFilter):
     r"""Paper B's cooperative EKF, one step at a time (the protocol's ``predict`` / ``update``).
+
+    Built without sequences, ``CooperativeEKF(x0, P0, dt=..., Q=..., R=...)``, it takes each step's inputs when the
+    step comes: ``predict(u)`` the DR displacement, ``update(z)`` the ranges and the leader's positions (the
+    module docstring, :func:`leader_observations`). Built with the whole run, ``CooperativeEKF(x0, P0, u, leader,
+    dt, Q, R)`` (the form of :func:`cooperative_ekf` and of the earlier versions), it builds the models over the
+    whole run and reads each step's displacement and leader positions from them. Both give the same numbers.
 
     Parameters
     ----------
@@ -179,10 +290,12 @@ class CooperativeEKF(Configurable):
         Initial :math:`[x, y, U_x, U_y]` at epoch 0 [m, m/s].
     P0 : array_like, shape (4, 4) or (M, 4, 4)
         Its covariance.
-    u : array_like, shape (K, 2) or (M, K, 2)
-        DR displacements through the water over each interval [m].
-    leader : array_like, shape (K + 1, 2) or (M, K + 1, 2)
-        The leader's broadcast positions at the ranging epochs [m].
+    u : array_like, shape (K, 2) or (M, K, 2), optional
+        The whole run's DR displacements through the water over each interval [m] (with ``leader``); None: given
+        step by step to ``predict``.
+    leader : array_like, shape (K + 1, 2) or (M, K + 1, 2), optional
+        The whole run's leader broadcast positions at the ranging epochs [m] (with ``u``); None: given step by step
+        in the observations of ``update``.
     dt : float
         :math:`\delta t` [s].
     Q : array_like, shape (6, 6)
@@ -200,8 +313,9 @@ class CooperativeEKF(Configurable):
 
     Attributes
     ----------
-    relative_track_deviation : float or ndarray
-        ``relative_track_deviation(u, leader)`` [m]; below ``range_noise`` the constructor warns.
+    relative_track_deviation : float or ndarray or None
+        ``relative_track_deviation(u, leader)`` [m]; below ``range_noise`` the constructor warns (None for a filter
+        built without the whole run: its ``run`` tests the track it is given).
     range_noise : float
         The standard deviation of a range that the filter assumes [m].
 
@@ -215,7 +329,7 @@ class CooperativeEKF(Configurable):
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.filters.cooperative import CooperativeEKF
+    >>> from uwtutor.filters.cooperative import CooperativeEKF, leader_observations
     >>> from uwtutor.scenarios import paper_b
     >>> sc = paper_b.make(np.random.default_rng(0), n_runs=1)
     >>> p = paper_b.PARAMETERS
@@ -231,96 +345,76 @@ class CooperativeEKF(Configurable):
     >>> f.predict(); f.update(sc.ranges[0, :2])
     >>> f.x.shape, f.y.shape
     ((4,), (2,))
+
+    The same step with the leader's positions as the step's input, the filter holding no sequence:
+
+    >>> g = CooperativeEKF(
+    ...     p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), dt=p.interval, Q=p.Q, R=p.R
+    ... )
+    >>> obs = leader_observations(sc.ranges[0], sc.leader_broadcast[0])
+    >>> g.predict(sc.dr_displacements[0, 0]); g.update(obs[0])
+    >>> bool(np.array_equal(g.x, f.x)), obs.shape
+    (True, (312, 6))
     """
 
-    def __init__(self, x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, dt: Any, Q: ArrayLike,
-                 R: ArrayLike, *, formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, u: ArrayLike | None = None, leader: ArrayLike | None = None,
+                 dt: Any = None, Q: ArrayLike | None = None, R: ArrayLike | None = None, *,
+                 formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
                  _n_runs: int | None = None) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
         if lost not in LOST_POLICIES:
             raise ValueError(f"lost must be one of {LOST_POLICIES} (a pair with one range lost: predict only, or "
                              f"update with the other range); got {lost!r}")
+        if dt is None or Q is None or R is None:
+            name = "dt" if dt is None else "Q" if Q is None else "R"
+            raise TypeError(f"{name} is required: CooperativeEKF(x0, P0, dt=..., Q=..., R=...) (or, with the whole "
+                            "run, CooperativeEKF(x0, P0, u, leader, dt, Q, R))")
+        if (u is None) != (leader is None):
+            raise TypeError("give u and leader together (the whole run: the models are built over it), or neither "
+                            "(then predict(u) and update(z) take each step's displacement and leader positions)")
         self.lost = lost
         if range_variance is not None:      # checked whatever the formulation (only "single_range" uses it)
             range_variance = as_scalar("range_variance", range_variance, domain="positive")
-        x, P, d, b = _check_inputs(x0, P0, u, leader, _n_runs)
         self.formulation = formulation
-        self.u = d
+        self._sequences = u is not None
+        self.u: np.ndarray | None = None
+        if u is not None:
+            x, P, d, b = _check_inputs(x0, P0, u, leader, _n_runs)
+            self.u = d
+        else:
+            x, P = _check_start(x0, P0)
         self.P0 = P
         motion = CooperativeMotion(dt, Q)
         R10 = as_covariance("R", R, 10, allow_singular=True)
+        self._dt, self._R10 = dt, R10
+        self._u_step: np.ndarray | None = None          # the displacement of the step's prediction (no sequences)
         if formulation == "single_range":
-            var = R10[0, 0] + R10[2, 2] if range_variance is None else range_variance
-            measurement = leader_range(b, var)
-            self.range_noise = float(np.sqrt(measurement.R(None, 0)[0, 0]))
+            self._variance = R10[0, 0] + R10[2, 2] if range_variance is None else range_variance
+            self.range_noise = float(np.sqrt(as_scalar("variance", self._variance, domain="positive")))
         else:
-            measurement = SquaredRangePair(b, d, dt, R10, literal=formulation == "literal")
             self.range_noise = float(np.sqrt(R10[0, 0] + R10[2, 2]))
-        self.relative_track_deviation = relative_track_deviation(d, b)
-        _warn_straight(self.relative_track_deviation, self.range_noise)
-        self.motion, self.measurement = motion, measurement
-        self._engine = ExtendedKalmanFilter(motion, measurement, x, P)
+        measurement: MeasurementModel
+        self._step_model: _StepMeasurement | None = None
+        self.relative_track_deviation: float | np.ndarray | None = None
+        if u is None:
+            measurement = self._step_model = _StepMeasurement(1 if formulation == "single_range" else 2)
+        else:
+            if formulation == "single_range":
+                measurement = leader_range(b, self._variance)
+            else:
+                measurement = SquaredRangePair(b, d, dt, R10, literal=formulation == "literal")
+            self.relative_track_deviation = relative_track_deviation(d, b)
+            _warn_straight(self.relative_track_deviation, self.range_noise)
+        super().__init__(motion, measurement, x, P)
 
-    # -- the protocol's state, read from the engine ---------------------------------------------------------------
-    @property
-    def x(self) -> np.ndarray:
-        """Current estimate, shape (4,) or (M, 4) (read-only; assign a new one to set it)."""
-        return self._engine.x
-
-    @x.setter
-    def x(self, value: Any) -> None:
-        self._engine.x = value
-
-    @property
-    def P(self) -> np.ndarray:
-        """Its covariance, shape (4, 4) or (M, 4, 4) (read-only; assign a new one to set it)."""
-        return self._engine.P
-
-    @P.setter
-    def P(self, value: Any) -> None:
-        self._engine.P = value
-
-    @property
-    def x_prior(self) -> np.ndarray:
-        """The last prediction."""
-        return self._engine.x_prior
-
-    @property
-    def P_prior(self) -> np.ndarray:
-        """Its covariance."""
-        return self._engine.P_prior
-
-    @property
-    def y(self) -> np.ndarray:
-        """The last innovation (m² for the pair, m for the single range), NaN where no update was made."""
-        return self._engine.y
-
-    @property
-    def S(self) -> np.ndarray:
-        """Its covariance."""
-        return self._engine.S
-
-    @property
-    def accepted(self) -> np.ndarray:
-        """Whether the last update used a measurement, ``()`` or ``(M,)``."""
-        return self._engine.accepted
-
-    @property
-    def k(self) -> int:
-        """Index of the current step (-1 before the first ``predict``)."""
-        return self._engine.k
-
-    #: Per-step attributes recorded in a result's ``extras`` (the protocol's ``extra_outputs``).
-    extra_outputs = ("accepted",)
     result_type = FilterResult
     # the configuration rule (base.Configurable): the models are built from these at construction (the leader's
     # track and the DR displacements are in them), so none can change afterwards; y, S, accepted are read-only
-    _fixed = ("Q", "R", "dt", "leader", "u", "P0", "formulation", "lost", "range_variance", "range_noise",
-              "relative_track_deviation", "motion", "measurement")
-    _diagnostics = ("y", "S", "accepted")
+    _fixed = ExtendedKalmanFilter._fixed + ("Q", "R", "dt", "leader", "u", "P0", "formulation", "lost",
+                                            "range_variance", "range_noise", "relative_track_deviation")
 
-    def _measurement(self, z: Any) -> np.ndarray:
+    def _squared(self, z: Any) -> np.ndarray:
         z = as_range_array("z", z, allow_nan=True)
         if self.formulation == "single_range":
             return z
@@ -331,25 +425,71 @@ class CooperativeEKF(Configurable):
             z = np.where(np.isnan(z).any(axis=-1, keepdims=True), np.nan, z)
         return np.square(z)
 
+    def _step_inputs(self, z: Any) -> tuple[np.ndarray, MeasurementModel]:
+        """The ranges of a step's observation ``z`` (see :func:`leader_observations`), the step's measurement model
+        built from its leader positions and the displacement of the step's prediction."""
+        pair = self.formulation != "single_range"
+        width = 6 if pair else 3
+        obs = as_float_array("z", z)
+        if obs.shape[-1:] != (width,) or obs.ndim > 2:
+            what = "[r_k, r_(k+1), xL_k, yL_k, xL_(k+1), yL_(k+1)]" if pair else "[r_(k+1), xL_(k+1), yL_(k+1)]"
+            raise ValueError(f"z must be the step's observation {what}, shape ({width},) or (M, {width}) (see "
+                             f"leader_observations: this filter was built without the leader's track); got shape "
+                             f"{obs.shape}")
+        leader = as_finite("z (its leader positions)", obs[..., 2 if pair else 1:], max_abs=MAX_COORDINATE)
+        if pair:
+            if self._u_step is None:
+                raise RuntimeError("call predict(u) before update(z): the pair's measurement model needs the step's "
+                                   "displacement")
+            model: MeasurementModel = SquaredRangePair(leader.reshape(leader.shape[:-1] + (2, 2)),
+                                                       self._u_step[..., None, :], self._dt, self._R10,
+                                                       literal=self.formulation == "literal")
+            return obs[..., :2], model
+        b = leader if leader.ndim == 1 else leader[:, None, :]
+        return obs[..., 0], RangeToBeacon(b, R=self._variance, n=4)
+
     def predict(self, u: Any = None) -> None:
-        """Predict over the next interval with ``u`` (default: the displacement of this step from ``u``)."""
+        """Predict over the next interval with the DR displacement ``u`` (built with the whole run: by default the
+        displacement of this step from it)."""
         if u is None:
-            k = self._engine.k + 1
-            if k >= self.u.shape[-2]:
-                raise IndexError(f"no DR displacement for step {k}: u holds {self.u.shape[-2]} intervals")
-            u = self.u[..., k, :]
-        self._engine.predict(u)
+            whole = self.u
+            if whole is None:
+                raise TypeError("u (the step's DR displacement [dx, dy], shape (2,) or (M, 2)) is required: this "
+                                "filter was built without the whole run")
+            k = self.k + 1
+            if k >= whole.shape[-2]:
+                raise IndexError(f"no DR displacement for step {k}: u holds {whole.shape[-2]} intervals")
+            u = whole[..., k, :]
+        super().predict(u)
+        if not self._sequences:
+            self._u_step = as_finite("u", u)
 
     def update(self, z: Any) -> None:
         """Update with this step's measurement (NaN = predict only): the ranges ``[r_k, r_(k+1)]`` at both ends of
-        the interval for the pair formulations, the range ``r_(k+1)`` for ``"single_range"``."""
-        self._engine.update(self._measurement(z))
+        the interval for the pair formulations, the range ``r_(k+1)`` for ``"single_range"``, followed, for a filter
+        built without the whole run, by the leader's positions (:func:`leader_observations`)."""
+        if self._step_model is not None:
+            z, self._step_model.model = self._step_inputs(z)
+        super().update(self._squared(z))
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FilterResult:
+    def run(self, z: Any, u: Any = None, times: Any = None, *, keep_priors: bool = True) -> FilterResult:
         """Run every step (``run_filter``): ``z`` the measurements of the steps, ``(K, 2)``/``(M, K, 2)`` range pairs
-        (``range_pairs(ranges)``) or, for ``"single_range"``, ``(K,)``/``(M, K)`` ranges; ``u`` the displacements
-        (default: those given at construction)."""
-        return run_filter(self, z, self.u if u is None else u, times)
+        (``range_pairs(ranges)``) or, for ``"single_range"``, ``(K,)``/``(M, K)`` ranges, followed by the leader's
+        positions for a filter built without the whole run (``leader_observations(ranges, leader)``, which also
+        gives this filter the track whose straightness it tests); ``u`` the displacements (default: those given at
+        construction). ``keep_priors=False``: the result's priors are None."""
+        if not self._sequences:
+            if u is None:
+                raise TypeError("u (the DR displacements of the steps) is required: this filter was built without "
+                                "the whole run")
+            obs = as_float_array("z", z)
+            if obs.ndim >= 2 and obs.shape[-1] == 6 and self.formulation != "single_range":
+                # the leader's track at epochs 0..K, from the observations: the straightness test of the constructor
+                leader = np.concatenate([obs[..., :1, 2:4], obs[..., 4:6]], axis=-2)
+                _warn_straight(relative_track_deviation(u, leader), self.range_noise)
+        keep_priors = as_flag("keep_priors", keep_priors)
+        result = run_filter(self, z, self.u if u is None else u, times)
+        return result if keep_priors else dataclasses.replace(result, x_prior=None, P_prior=None)
 
 
 def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, ranges: ArrayLike, dt: Any,
@@ -416,10 +556,14 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLik
     (4, 312, 4)
     """
     pairs = range_pairs(ranges)
+    if u is None or leader is None:
+        raise TypeError(f"{'u' if u is None else 'leader'} is required: cooperative_ekf runs the whole run (for one "
+                        "step at a time, CooperativeEKF takes each step's displacement and leader positions)")
     filt = CooperativeEKF(x0, P0, u, leader, dt, Q, R, formulation=formulation, range_variance=range_variance,
                           lost=lost, _n_runs=len(pairs) if pairs.ndim == 3 else None)
-    if pairs.shape[-2] != filt.u.shape[-2]:
-        raise ValueError(f"ranges must hold K + 1 = {filt.u.shape[-2] + 1} epochs (one more than u's intervals); "
+    intervals = np.shape(u)[-2]
+    if pairs.shape[-2] != intervals:
+        raise ValueError(f"ranges must hold K + 1 = {intervals + 1} epochs (one more than u's intervals); "
                          f"got {pairs.shape[-2] + 1}")
     if times is None:
         times = float(as_positive("dt", dt, ndim=0)) * np.arange(1, pairs.shape[-2] + 1)

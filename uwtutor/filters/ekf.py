@@ -23,11 +23,15 @@ the covariance update in Joseph form. This is the plain EKF that papers A and D 
 positioning algorithm for underwater acoustic beacon"; Zhu et al. 2019) improve on, and the filter that filterpy's
 ``ExtendedKalmanFilter`` runs with :math:`F = I`.
 
-Two forms share one implementation of the arithmetic (the private step functions of this module):
+This module is the *packed back-end* of the library's one extended Kalman filter: the engine
+(:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) runs its loop and its steps whenever it is given this
+model pair, ``DeadReckoning(Q)`` + ``RangeToBeacon(beacon, R)``, without a gate. Two forms name it:
 
-* :func:`range_only_ekf` -- the functional form: a whole study of ``M`` runs of ``K`` steps in one call;
-* :class:`RangeOnlyEKF` -- the object form that follows the filter protocol of :mod:`uwtutor.filters.base`
-  (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``), for teaching one step at a time.
+* :func:`range_only_ekf` -- the functional form: a whole study of ``M`` runs of ``K`` steps in one call, a thin
+  function over the engine;
+* :class:`RangeOnlyEKF` -- the engine built from that pair, following the filter protocol of
+  :mod:`uwtutor.filters.base` (``predict``, ``update``, ``x``, ``P``, ``y``, ``S``, ``run``), for teaching one step
+  at a time.
 
 .. rubric:: How it is made fast
 
@@ -69,13 +73,16 @@ from numpy.typing import ArrayLike
 import numpy as np
 
 from .._cancel import checkpoint
-from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_flag, as_range_array, common_runs, readonly
+from .._validate import MAX_COORDINATE, as_finite, as_flag, as_range_array, common_runs, readonly
 from ..errors import BeaconSingularityWarning
-from .base import Configurable, FilterResult
+from ..models.dead_reckoning import DeadReckoning
+from ..models.range import RangeToBeacon
+from .base import FilterResult
+from .engine import ExtendedKalmanFilter, extended_kalman_filter
 from .gates import Gate
-from ._packed import (N_ROWS, P_view, beacon_path, check_variances_where_measured, first_unsound,
-                      fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields, runs_first,
-                      sequence_inputs, steps_and_times, update_step, x_view)
+from ._packed import (N_ROWS, beacon_path, check_variances_where_measured, first_unsound, fixed_beacon,
+                      initial_state, noise_parameters, predict_step, result_fields, runs_first, sequence_inputs,
+                      steps_and_times, update_step)
 
 __all__ = ["range_only_ekf", "RangeOnlyEKF", "BeaconSingularityWarning"]
 
@@ -88,12 +95,14 @@ _BLOCK_STEPS = 32
 
 def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
          beacon: tuple[float, float] | np.ndarray, times: np.ndarray,
-         batched: bool, keep_priors: bool = True) -> tuple[FilterResult, np.ndarray]:
+         batched: bool, keep_priors: bool = True) -> tuple[FilterResult, np.ndarray, np.ndarray]:
     """Run K steps from the packed states ``s0`` (6, M). ``u`` is (M, K, 2) or (K, 2); ``z`` (M, K) or (K,);
     ``q4`` (4, 1), or (K, 4, 1) one per step; ``R`` a float, or (K,) one per step (finite);
     ``beacon`` a fixed ``(bx, by)`` or a path of shape (K, 2, M) or (K, 2, 1), one position per step.
 
-    Returns the result (shapes with or without the runs axis, as ``batched`` says) and the last packed state.
+    Returns the result (shapes with or without the runs axis, as ``batched`` says), the last packed state and the
+    last packed prediction. The engine (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) runs this loop for the
+    plain range-only pair.
     """
     M = s0.shape[1]
     K = len(times)
@@ -147,7 +156,7 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
 
     fields = result_fields(times, post, prior, innov, innov_var, batched, keep_priors)
     result = FilterResult(**fields, extras={"updated": runs_first(~unused.T, batched)})
-    return result, post[-1].copy()
+    return result, post[-1].copy(), prior[-1].copy()
 
 
 
@@ -260,36 +269,47 @@ def range_only_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: 
         return _gated(x0, P0, u, z, Q_arr, R_val, beacon, times, gate, keep_priors)
     b, run_sizes["beacon"] = beacon_path(beacon, len(times))
     M = common_runs(run_sizes)
-    batched = M is not None
-    M = M or 1
-    s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
-    result, _ = _run(s0, u, z, q4, R_val, b, times, batched, keep_priors=as_flag("keep_priors", keep_priors))
+    keep_priors = as_flag("keep_priors", keep_priors)
+    # the engine on the plain range pair, which runs this module's loop (_run): the inputs are checked already, so the
+    # loop is given them with the packed Q, R and beacon
+    filt = ExtendedKalmanFilter(DeadReckoning(Q_arr), RangeToBeacon(beacon, R_val),
+                                x0 if M is None else np.broadcast_to(x0, (M, 2)), P0)
+    return _checked(filt._packed_steps(u, z, times, keep_priors, noise=(q4, R_val, b), key="updated"))
+
+
+def _checked(result: FilterResult | None) -> FilterResult:
+    """The packed loop's result (it always runs when given its parameters)."""
+    assert result is not None
     return result
+
+
+def _updated(result: FilterResult) -> FilterResult:
+    """The engine's result with its ``accepted`` named ``updated``, as the range-only EKF has always called it."""
+    extras = dict(result.extras)
+    return dataclasses.replace(result, extras={"updated": extras.pop("accepted"), **extras})
 
 
 def _gated(x0: np.ndarray, P0: np.ndarray, u: np.ndarray, z: np.ndarray, Q: np.ndarray, R: Any, beacon: Any,
            times: np.ndarray, gate: Any, keep_priors: bool) -> FilterResult:
     """The range-only EKF with a gate: the generic engine on DeadReckoning(Q) + RangeToBeacon(beacon, R), its
     ``accepted`` reported as ``updated`` (the key of the fast path)."""
-    from ..models import DeadReckoning, RangeToBeacon
-    from .engine import extended_kalman_filter
-
     if not isinstance(gate, Gate):
         raise TypeError(f"gate must be a uwtutor.filters.Gate (e.g. ChiSquareGate(0.99)) or None; got "
                         f"{type(gate).__name__}")
-    res = extended_kalman_filter(DeadReckoning(Q), RangeToBeacon(beacon, R), x0, P0, u, z, times=times, gate=gate,
-                                 keep_priors=keep_priors)
-    extras = dict(res.extras)
-    extras = {"updated": extras.pop("accepted"), **extras}
-    return dataclasses.replace(res, extras=extras)
+    return _updated(extended_kalman_filter(DeadReckoning(Q), RangeToBeacon(beacon, R), x0, P0, u, z, times=times,
+                                           gate=gate, keep_priors=keep_priors))
 
 
-class RangeOnlyEKF(Configurable):
+class RangeOnlyEKF(ExtendedKalmanFilter):
     r"""The range-only EKF as an object: ``predict(u)``, ``update(z)``, one step at a time.
 
-    Same model and same arithmetic as :func:`range_only_ekf` (both call this module's step functions):
-    predict :math:`\hat x^- = \hat x + u`, :math:`P^- = P + Q`; update with the range
+    The engine (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) built from the model pair
+    ``DeadReckoning(Q)`` + ``RangeToBeacon(beacon, R)``, which it runs on its packed 2x2 back-end (this module's step
+    functions): predict :math:`\hat x^- = \hat x + u`, :math:`P^- = P + Q`; update with the range
     :math:`r = \lVert x - b \rVert + v`, :math:`H = (\hat x^- - b)^T / \lVert \hat x^- - b \rVert`, Joseph form.
+    Same model and same arithmetic as :func:`range_only_ekf`; what it adds to the engine is the range filter's
+    argument checks, its parameters ``Q``, ``R`` and ``beacon`` (assignable) and the name ``updated`` (the engine's
+    ``accepted``).
 
     Parameters
     ----------
@@ -343,128 +363,64 @@ class RangeOnlyEKF(Configurable):
     extra_outputs = ("updated",)
     result_type = FilterResult
     _parameters = ("Q", "R", "beacon")
-    _diagnostics = ("y", "S", "updated")
+    _diagnostics: tuple[str, ...] = ("y", "S", "accepted", "updated")
+    _engine_steps = True                # its steps are the engine's (on the packed back-end), after its own checks
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike,
                  beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
-        self._set_noise(Q, R)
-        self._apply("beacon", beacon)
-        M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None))
-        self._batched = M is not None
-        self._M = M or 1
-        self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
-        self._prior = self._s
-        self._set_innovation(np.full(self._M, np.nan), np.full(self._M, np.nan))
-        self._set_updated(np.zeros(self._M, dtype=bool))
+        Q_checked, R_checked, q4 = noise_parameters(Q, R)
+        b = fixed_beacon(beacon)
+        super().__init__(DeadReckoning(Q_checked), RangeToBeacon(b, R_checked), x0, P0)
+        self._set_parameters(Q_checked, R_checked, q4, b)
 
     # -- configuration: assigned parameters take effect (base.Configurable) --
-    def _set_noise(self, Q: Any, R: Any) -> None:
-        Q, R, q4 = noise_parameters(Q, R)
+    def _set_parameters(self, Q: np.ndarray, R: float, q4: np.ndarray, beacon: tuple[float, float]) -> None:
         object.__setattr__(self, "Q", readonly(Q))
         object.__setattr__(self, "R", R)
-        self._q4 = q4                                   # what the prediction adds: computed again with Q
+        object.__setattr__(self, "beacon", readonly(np.array(beacon)))
+        self._noise = (q4, R, beacon)                   # what the packed loop takes: computed again with Q, R, beacon
 
     def _apply(self, name: str, value: Any) -> None:
+        """A new ``Q``, ``R`` or ``beacon``, checked as in the constructor: the model pair is built again with it and
+        used from the next step on."""
+        Q, R, beacon = self.Q, self.R, self._noise[2]
         if name == "beacon":
-            object.__setattr__(self, "beacon", readonly(np.array(fixed_beacon(value))))
-        elif name == "Q":
-            self._set_noise(value, self.R)
-        else:
-            self._set_noise(self.Q, value)
-
-    def _set_updated(self, used: np.ndarray) -> None:
-        self._set_diagnostic("updated", used.copy() if self._batched else np.array(used[0]))
-
-    # -- state access --
-    def _out(self, a: np.ndarray) -> np.ndarray:
-        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
-        shown = a if self._batched else a[0]
-        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
+            beacon = fixed_beacon(value)
+        Q, R, q4 = noise_parameters(value if name == "Q" else Q, value if name == "R" else R)
+        self._use_models(DeadReckoning(Q), RangeToBeacon(beacon, R), name)
+        self._set_parameters(Q, R, q4, beacon)
 
     @property
-    def x(self) -> np.ndarray:
-        """Current position estimate, shape (2,) or (M, 2) (read-only; assign a new one to set it)."""
-        return self._out(x_view(self._s))
-
-    @x.setter
-    def x(self, value: Any) -> None:
-        x = as_finite("x", value, max_abs=MAX_COORDINATE)
-        if x.shape not in ((2,), (self._M, 2)):
-            self._bad_shape("x", x.shape, "(2,)")
-        self._s = pack(np.broadcast_to(x, (self._M, 2)), P_view(self._s))
-
-    @property
-    def P(self) -> np.ndarray:
-        """Current covariance, shape (2, 2) or (M, 2, 2) (read-only; assign a new one to set it)."""
-        return self._out(P_view(self._s))
-
-    @P.setter
-    def P(self, value: Any) -> None:
-        P = as_covariance("P", value, 2)
-        if P.shape not in ((2, 2), (self._M, 2, 2)):
-            self._bad_shape("P", P.shape, "(2, 2)")
-        self._s = pack(x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)))
-
-    @property
-    def x_prior(self) -> np.ndarray:
-        """The prediction of the current step, shape (2,) or (M, 2) (read-only)."""
-        return self._out(x_view(self._prior))
-
-    @property
-    def P_prior(self) -> np.ndarray:
-        """Its covariance ``P + Q``, shape (2, 2) or (M, 2, 2) (read-only)."""
-        return self._out(P_view(self._prior))
+    def updated(self) -> np.ndarray:
+        """Whether the last update used a range, shape () or (M,) (the engine's ``accepted``)."""
+        return self._out(self._accepted)
 
     def _bad_shape(self, name: str, shape: tuple[int, ...], single: str) -> np.ndarray:
         raise ValueError(f"{name} must have shape {single} or (M, ...) with M = {self._M}; got {shape}")
 
-    def _set_innovation(self, y: np.ndarray, S: np.ndarray) -> None:
-        self._set_diagnostic("y", y[:, None] if self._batched else y[:1].copy())
-        self._set_diagnostic("S", S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy())
-
-    # -- the protocol --
+    # -- the protocol: the range filter's checks, then the engine's step --
     def predict(self, u: ArrayLike | None = None) -> None:
         """Move the estimate by the DR displacement ``u`` (shape (2,) or (M, 2); ``None``: no move), ``P += Q``."""
-        if u is None:
-            u_col = np.zeros((2, 1))
-        else:
-            u_arr = as_finite("u", u, max_abs=MAX_COORDINATE)
-            if u_arr.shape == (2,):
-                u_col = u_arr[:, None]
-            elif self._batched and u_arr.shape == (self._M, 2):
-                u_col = u_arr.T
-            else:
-                self._bad_shape("u", u_arr.shape, "(2,)")
-        out = np.empty_like(self._s)
-        predict_step(self._s, u_col, self._q4, out)
-        self._s = self._prior = out
+        if u is not None:
+            u = as_finite("u", u, max_abs=MAX_COORDINATE)
+            if u.shape != (2,) and not (self._batched and u.shape == (self._M, 2)):
+                self._bad_shape("u", u.shape, "(2,)")
+        super().predict(u)
 
     def update(self, z: ArrayLike) -> None:
         """Correct the estimate with the range ``z`` (scalar, or shape (M,) when batched; NaN: no update)."""
         z = as_range_array("z", z, allow_nan=True, max_abs=MAX_COORDINATE)
-        if z.size == 1 and z.ndim <= 1:
-            z = np.broadcast_to(z.reshape(()), (self._M,))
-        elif z.shape != (self._M,) or not self._batched:
+        if not (z.size == 1 and z.ndim <= 1) and (z.shape != (self._M,) or not self._batched):
             self._bad_shape("z", z.shape, "() (a scalar)")
-        has = np.isfinite(z)
-        out = np.empty_like(self._s)
-        y = np.empty(self._M)
-        S = np.empty(self._M)
-        used = update_step(self._s, np.where(has, z, 0.0), has.astype(float), self.R,
-                            (float(self.beacon[0]), float(self.beacon[1])), out, y, S)
-        self._s = out
-        unused = used == 0.0
-        y[unused] = np.nan
-        S[unused] = np.nan
-        self._set_innovation(y, S)
-        self._set_updated(~unused)
+        super().update(z)
 
-    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None, *,
+            keep_priors: bool = True) -> FilterResult:
         """Predict with ``u[..., k, :]`` then update with ``z[..., k]`` for every step; return the history.
 
         ``z`` has shape (K,) or, for a batched filter, (M, K) (NaN: predict only); ``u`` has shape (K, 2)
-        or (M, K, 2) (``None``: no displacement). The filter is left at the last step. Uses the same engine
+        or (M, K, 2) (``None``: no displacement). The filter is left at the last step. Uses the same loop
         as :func:`range_only_ekf`, so the result is identical to calling it with this filter's state.
         """
         z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
@@ -477,12 +433,5 @@ class RangeOnlyEKF(Configurable):
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             self._bad_shape("u", u.shape, f"({K}, 2), one input per step of z")
         times = steps_and_times(K, times)
-        result, self._s = _run(self._s, u, z, self._q4, self.R, (float(self.beacon[0]), float(self.beacon[1])),
-                               times, self._batched)
-        x_prior, P_prior = result.priors()
-        self._prior = pack(np.array(x_prior[..., -1, :], ndmin=2), np.array(P_prior[..., -1, :, :], ndmin=3))
-        self._set_updated(np.array(result.extras["updated"][..., -1], ndmin=1))
-        last_y = result.innovations[..., -1, 0] if self._batched else result.innovations[-1:, 0]
-        last_S = result.innovation_cov[..., -1, 0, 0] if self._batched else result.innovation_cov[-1:, 0, 0]
-        self._set_innovation(np.array(last_y, ndmin=1), np.array(last_S, ndmin=1))
-        return result
+        return _checked(self._packed_steps(u, z, times, as_flag("keep_priors", keep_priors), noise=self._noise,
+                                           key="updated"))

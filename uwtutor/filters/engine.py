@@ -49,6 +49,18 @@ The specialised filters of the library (the range-only EKF, paper A's bias EKF, 
 robust range filter of paper E) are model pairs on this engine, or fast paths that must equal it
 (``tests/test_filter_contract.py``).
 
+.. rubric:: Back-ends
+
+The engine picks its arithmetic by model type. The plain range-only pair -- ``DeadReckoning`` with a 2x2 ``Q`` (one,
+or one per step) and ``RangeToBeacon`` on a 2-state without a bias, to a fixed or moving beacon -- without a gate
+and without ``known_states`` runs on the *packed* back-end of :mod:`uwtutor.filters.ekf`: the same equations written
+out as 2x2 algebra on arrays of length ``M``, the states of all runs packed in one ``(6, M)`` array, about five times
+faster than the ``einsum`` products below. ``run`` runs it over whole sequences, ``predict`` and ``update`` one step
+at a time (the same numbers, bit for bit); its covariance update is the Joseph form factored as
+:math:`B - d K^\mathsf T` (with a line-of-sight fallback where float64 cannot carry the update), so its last bits
+may differ from the generic form's. Every other pair, and that pair with a gate, runs the generic arithmetic.
+:class:`~uwtutor.filters.ekf.RangeOnlyEKF` is this engine built from that pair.
+
 References
 ----------
 Bar-Shalom, Y., Li, X. R. and Kirubarajan, T. (2001). *Estimation with Applications to Tracking and Navigation*.
@@ -68,12 +80,15 @@ from numpy.typing import ArrayLike
 
 import numpy as np
 
-from .._validate import (CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag, as_float_array,
-                         as_model_output, check_model_covariance, common_runs, readonly)
+from .._validate import (MAX_COORDINATE, CovarianceCheck, as_bool_array, as_covariance, as_finite, as_flag,
+                         as_float_array, as_model_output, check_model_covariance, common_runs, readonly)
 from .._cancel import checkpoint
 from .._linalg import psd_violations
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
 from ..models.base import MeasurementModel, MotionModel
+from ..models.dead_reckoning import DeadReckoning
+from ..models.range import RangeToBeacon
+from ._packed import pack_runs_last, predict_step, unpack_runs_last, update_step
 from .base import Configurable, FilterResult, _sequence_times, run_filter
 from .gates import Gate, GateContext
 
@@ -313,11 +328,11 @@ class ExtendedKalmanFilter(Configurable):
     True
     """
 
-    extra_outputs = ("accepted",)
+    extra_outputs: tuple[str, ...] = ("accepted",)
     result_type = FilterResult
     # the configuration rule (base.Configurable): the models and the gate are fixed once the filter is built
-    _fixed = ("motion", "measurement", "gate", "n", "m")
-    _diagnostics = ("y", "S", "accepted")
+    _fixed: tuple[str, ...] = ("motion", "measurement", "gate", "n", "m")
+    _diagnostics: tuple[str, ...] = ("y", "S", "accepted")
 
     def __init__(self, motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                  gate: Gate | None = None, *, known_states: ArrayLike | None = None) -> None:
@@ -348,11 +363,12 @@ class ExtendedKalmanFilter(Configurable):
         self._S = np.full((self._M, self.m, self.m), np.nan)
         self._accepted = np.zeros(self._M, dtype=bool)
         self._eye = np.eye(n)
+        self._known_states = known_states is not None     # a start with exact states: the generic back-end
         self.k = -1
         self._check_Q = _CovarianceCheck(f"the motion model {type(motion).__name__}.Q", motion, "Q")
         self._check_R = _CovarianceCheck(f"the measurement model {type(measurement).__name__}.R", measurement, "R")
         gate_outputs = tuple(getattr(gate, "extra_outputs", ())) if gate is not None else ()
-        clash = set(gate_outputs) & set(dir(type(self)))
+        clash = set(gate_outputs) & set(dir(type(self))) if gate_outputs else set()
         if clash:
             raise ValueError(f"the gate's extra_outputs {sorted(clash)} clash with the filter's own attributes: "
                              "rename them")
@@ -455,7 +471,9 @@ class ExtendedKalmanFilter(Configurable):
 
     def predict(self, u: ArrayLike | None = None) -> None:
         """Predict one step: ``x- = f(x, u)``, ``P- = F P F^T + Q`` (``u`` of shape (p,) or (M, p), or None)."""
-        self._predict(self._step_input(u))
+        u = self._step_input(u)
+        if not (self._packed_kernel() and self._packed_predict(u)):
+            self._predict(u)
 
     def _predict(self, u: np.ndarray | None, deferred: bool = False) -> None:
         """The prediction; ``deferred``: leave out the test that f, F and Q are finite (``_run_steps`` tests the
@@ -507,7 +525,9 @@ class ExtendedKalmanFilter(Configurable):
     def update(self, z: ArrayLike) -> None:
         """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update
         (a NaN component: the update uses the components that are present)."""
-        self._update(self._measurement(z))
+        z = self._measurement(z)
+        if not (self._packed_kernel() and self._packed_update(z)):
+            self._update(z)
 
     def _update(self, z: np.ndarray, deferred: bool = False) -> None:
         """The update with ``z`` (M, m) as ``_measurement`` returns it; ``deferred``: leave out the test that the
@@ -639,6 +659,9 @@ class ExtendedKalmanFilter(Configurable):
         z = as_float_array("z", z)
         _check_nonnegative(self.measurement, z)
         keep_priors = as_flag("keep_priors", keep_priors)
+        packed = self._packed_run(z, u, times, keep_priors)           # the plain range pair: the packed back-end
+        if packed is not None:
+            return packed
         fast = self._run_steps(z, u, times, keep_priors)
         if fast is not None:
             return fast
@@ -664,14 +687,11 @@ class ExtendedKalmanFilter(Configurable):
         """
         if not self._plain_steps():
             return None
-        batched, M, m, n = self._batched, self._M, self.m, self.n
-        step_axis = 1 if batched else 0
-        if z.ndim <= step_axis or (batched and z.shape[0] != M) or z.shape[step_axis] < 1:
+        M, m, n = self._M, self.m, self.n
+        z_steps = self._run_measurements(z)
+        if z_steps is None:
             return None
-        K = z.shape[step_axis]
-        z_steps = self._z_steps(z, K)
-        if z_steps is None or np.isinf(z).any():
-            return None
+        K = len(z_steps)
         u_steps = None
         if u is not None:
             u_steps = self._u_steps(as_float_array("u", u), K)
@@ -740,6 +760,18 @@ class ExtendedKalmanFilter(Configurable):
         return extra == self._gate_outputs and all(getattr(cls, name) is getattr(ExtendedKalmanFilter, name)
                                                    for name in ("x", "P", "x_prior", "P_prior", "y", "S", "accepted"))
 
+    def _run_measurements(self, z: np.ndarray) -> np.ndarray | None:
+        """The measurements of a run's steps (K, M, m) as ``update(z[k])`` sees them; None where ``z`` has no step
+        axis of its own, another number of runs, a shape ``update`` does not take, or an infinite value."""
+        batched = self._batched
+        step_axis = 1 if batched else 0
+        if z.ndim <= step_axis or (batched and z.shape[0] != self._M) or z.shape[step_axis] < 1:
+            return None
+        z_steps = self._z_steps(z, z.shape[step_axis])
+        if z_steps is None or np.isinf(z).any():
+            return None
+        return z_steps
+
     def _z_steps(self, z: np.ndarray, K: int) -> np.ndarray | None:
         """The K steps' measurements (K, M, m) as ``update(z[k])`` sees them; None for a shape it does not take."""
         batched, M, m = self._batched, self._M, self.m
@@ -780,6 +812,183 @@ class ExtendedKalmanFilter(Configurable):
             recorded = {**recorded, "accepted": recorded["accepted"][:, 0]}
         return self.result_type(times=times, **stacked,
                                 extras={name: np.moveaxis(h, 0, 1) if batched else h for name, h in recorded.items()})
+
+    # -- the packed back-end (filters.ekf) of the plain range-only pair --
+    #: True in a subclass whose predict, update and run check their arguments by their own rules and then run this
+    #: class's steps (``RangeOnlyEKF``): the packed back-end applies to it as to this class
+    _engine_steps = False
+
+    def _packed_kernel(self) -> bool:
+        """Whether this filter runs on the packed 2x2 back-end (module docstring, "Back-ends"): the library's
+        ``DeadReckoning`` on a 2-state and ``RangeToBeacon`` without a bias, no gate, no known states, and this
+        class's steps (or those of a subclass that declares ``_engine_steps``)."""
+        if self.gate is not None or self._known_states or self.n != 2:
+            return False
+        motion, measurement = self.motion, self.measurement
+        if type(motion) is not DeadReckoning or type(measurement) is not RangeToBeacon \
+                or measurement.bias_index is not None:
+            return False
+        return type(self)._engine_steps or self._plain_steps()
+
+    def _packed_bounded(self, *arrays: np.ndarray) -> bool:
+        """Whether the state and ``arrays`` (NaN allowed) lie within the coordinate bound that the packed arithmetic
+        squares without overflow (``_validate.MAX_COORDINATE``, which ``range_only_ekf`` asks of its inputs); beyond
+        it the generic arithmetic, whose ranges are computed without overflow, runs the step."""
+        return all(not (np.abs(a) > MAX_COORDINATE).any() for a in (self._x,) + arrays)
+
+    def _packed_process_noise(self, first: int, K: int) -> np.ndarray | None:
+        """``Q`` of steps ``first..first+K-1`` packed as ``[Qxx, Qxy, Qxy, Qyy]``: a (4, 1) column, or (K, 4, 1) for a
+        per-step ``Q``; None where the model has no ``Q`` for one of them (the generic step then says so)."""
+        motion = cast(DeadReckoning, self.motion)                  # _packed_kernel has checked the type
+        steps = motion.n_steps
+        if steps is None:
+            Q = motion.Q(self._x, None, first)
+            return np.array([Q[0, 0], Q[0, 1], Q[0, 1], Q[1, 1]]).reshape(4, 1)
+        if first < 0 or first + K > steps:
+            return None
+        Q = np.stack([motion.Q(self._x, None, k) for k in range(first, first + K)])
+        return np.stack([Q[:, 0, 0], Q[:, 0, 1], Q[:, 0, 1], Q[:, 1, 1]], axis=1)[:, :, None]
+
+    def _packed_measurement(self, first: int, K: int, present: np.ndarray
+                            ) -> tuple[Any, tuple[float, float] | np.ndarray] | None:
+        """The range variance of steps ``first..first+K-1`` (a float, or (K,) one per step) and the beacon (a fixed
+        ``(bx, by)``, or a step-major path (K, 2, M) or (K, 2, 1)), as the packed back-end takes them; None where the
+        model has none for a step, an ``R`` per run, or a NaN ``R`` where a range is present (``present`` (K, M)):
+        the generic steps then raise what they raise there."""
+        measurement, M = cast(RangeToBeacon, self.measurement), self._M     # checked by _packed_kernel
+        b = measurement.beacon
+        beacon: tuple[float, float] | np.ndarray
+        if not self._packed_bounded(b):
+            return None
+        if b.ndim == 1:
+            beacon = (float(b[0]), float(b[1]))
+        elif first < 0 or first + K > b.shape[-2] or (b.ndim == 3 and b.shape[0] != M):
+            return None
+        elif b.ndim == 2:
+            beacon = np.ascontiguousarray(b[first:first + K, :, None])
+        else:
+            beacon = np.ascontiguousarray(np.moveaxis(b[:, first:first + K], 0, -1))
+        try:
+            R_steps = [measurement.R(self._x, k) for k in range(first, first + K)]
+        except IndexError:
+            return None
+        if any(np.shape(R) != (1, 1) for R in R_steps):
+            return None
+        if all(R is R_steps[0] for R in R_steps):           # one variance for every step
+            R = float(R_steps[0][0, 0])
+            return (R, beacon) if np.isfinite(R) else None
+        R_var = np.array([R[0, 0] for R in R_steps])
+        missing = np.isnan(R_var)
+        if missing.any():
+            if (missing[:, None] & present).any():
+                return None
+            R_var[missing] = 1.0                            # any finite value: no range is used at those steps
+        return R_var, beacon
+
+    def _packed_state(self) -> np.ndarray:
+        """The filter's state as the packed back-end holds it: one (6, M) array."""
+        return pack_runs_last(self._x, self._P)
+
+    def _set_packed_state(self, post: np.ndarray, prior: np.ndarray) -> None:
+        """The filter's state (and its prediction) from the packed posterior and prior (6, M)."""
+        self._x, self._P = unpack_runs_last(post)
+        self._x_prior, self._P_prior = unpack_runs_last(prior)
+
+    def _packed_predict(self, u: np.ndarray | None) -> bool:
+        """``predict`` on the packed back-end; False (nothing done) where it does not apply to ``u`` or the step."""
+        M = self._M
+        if u is None:
+            u_col = np.zeros((2, 1))
+        elif u.shape == (2,):
+            u_col = u[:, None]
+        elif u.shape == (M, 2) and self._batched:
+            u_col = u.T
+        else:
+            return False
+        q4 = self._packed_process_noise(self.k + 1, 1) if self._packed_bounded(u_col) else None
+        if q4 is None:
+            return False
+        self.k += 1
+        out = np.empty((6, M))
+        predict_step(self._packed_state(), u_col, q4[0] if q4.ndim == 3 else q4, out)
+        self._set_packed_state(out, out)
+        return True
+
+    def _packed_update(self, z: np.ndarray) -> bool:
+        """``update`` with ``z`` (M, 1) on the packed back-end; False (nothing done) where it does not apply."""
+        M = self._M
+        has = np.isfinite(z[:, 0])
+        found = self._packed_measurement(max(self.k, 0), 1, has[None, :]) if self._packed_bounded(z) else None
+        if found is None:
+            return False
+        R, beacon = found
+        if isinstance(R, np.ndarray):
+            R = float(R[0])
+        if not isinstance(beacon, tuple):
+            beacon = (beacon[0, 0], beacon[0, 1])
+        out = np.empty((6, M))
+        y = np.empty(M)
+        S = np.empty(M)
+        prior = self._packed_state()
+        used = update_step(prior, np.where(has, z[:, 0], 0.0), has.astype(float), R, beacon, out, y, S)
+        unused = used == 0.0
+        y[unused] = np.nan
+        S[unused] = np.nan
+        self._x, self._P = unpack_runs_last(out)
+        self._y, self._S, self._accepted = y[:, None], S[:, None, None], ~unused
+        return True
+
+    def _packed_run(self, z: np.ndarray, u: Any, times: Any, keep_priors: bool) -> FilterResult | None:
+        """``run`` on the packed back-end (:func:`uwtutor.filters.ekf._run`, the loop of ``range_only_ekf``), or None
+        where it does not apply (another model pair, a gate; inputs that ``run_filter`` must judge step by step)."""
+        if not self._packed_kernel():
+            return None
+        batched = self._batched
+        z_steps = self._run_measurements(z)
+        if z_steps is None:
+            return None
+        K = len(z_steps)
+        if u is None:
+            u_in = np.zeros((K, 2))
+        else:
+            u_steps = self._u_steps(as_float_array("u", u), K)
+            if u_steps is None or u_steps.shape[-1] != 2:
+                return None
+            u_in = u_steps if u_steps.ndim == 2 else np.moveaxis(u_steps, 0, 1)     # (K, 2) or (M, K, 2)
+        try:
+            times = _sequence_times(K, times)
+        except (TypeError, ValueError):
+            return None
+        if not self._packed_bounded(z, u_in):
+            return None
+        z_runs = z_steps[:, :, 0]                                                   # (K, M)
+        return self._packed_steps(u_in, z_runs.T if batched else z_runs[:, 0], times, keep_priors)
+
+    def _packed_steps(self, u: np.ndarray, z: np.ndarray, times: np.ndarray, keep_priors: bool,
+                      noise: tuple[np.ndarray, Any, Any] | None = None, key: str = "accepted") -> FilterResult | None:
+        """The packed loop over checked inputs: ``u`` (K, 2) or (M, K, 2), ``z`` (K,) or (M, K) (finite or NaN);
+        ``noise``: the packed ``Q``, ``R`` and beacon when the caller has them already (``range_only_ekf``); ``key``:
+        the name of the result's extra that says which steps used a range. Leaves the filter at the last step; None
+        where the models have no parameters for these steps."""
+        from .ekf import _run                   # deferred: filters.ekf builds RangeOnlyEKF on this module
+
+        K, first = len(times), self.k + 1
+        if noise is None:
+            q4 = self._packed_process_noise(first, K)
+            present = np.isfinite(np.broadcast_to(z, (self._M, K))).T
+            found = self._packed_measurement(first, K, present)
+            if q4 is None or found is None:
+                return None
+            noise = (q4, *found)
+        q4, R, beacon = noise
+        result, post, prior = _run(self._packed_state(), u, z, q4, R, beacon, times, self._batched, keep_priors)
+        self._set_packed_state(post, prior)
+        self.k += K
+        y, S, updated = result.innovations, result.innovation_cov, result.extras["updated"]
+        self._y = np.array(y[..., -1, :], ndmin=2)
+        self._S = np.array(S[..., -1, :, :], ndmin=3)
+        self._accepted = np.array(updated[..., -1], ndmin=1)
+        return result if key == "updated" else dataclasses.replace(result, extras={key: updated})
 
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,

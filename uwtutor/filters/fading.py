@@ -122,11 +122,13 @@ from numpy.typing import ArrayLike
 from ..acoustics import range_factor
 from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
                         common_runs, readonly)
-from .base import Configurable, FilterResult
-from ._packed import (N_ROWS, P_view, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y,
-                      check_variances_where_measured, fixed_beacon, initial_state, noise_parameters, pack,
-                      predict_step, result_fields,
-                      runs_first, sequence_inputs, steps_and_times, update_step, x_view)
+from ..models.dead_reckoning import DeadReckoning
+from ..models.range import RangeToBeacon
+from .base import FilterResult
+from .engine import ExtendedKalmanFilter, _runs_first
+from ._packed import (N_ROWS, ROW_PXX, ROW_PXY, ROW_PYX, ROW_PYY, ROW_X, ROW_Y, check_variances_where_measured,
+                      fixed_beacon, initial_state, noise_parameters, pack, predict_step, result_fields, runs_first,
+                      sequence_inputs, steps_and_times, unpack_runs_last, update_step)
 
 __all__ = [
     "range_factor_moments",
@@ -542,18 +544,18 @@ def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: Arra
     p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading, n_steps=len(times))
     p = replace(p, R=check_variances_where_measured(p.R, z))
     M = common_runs({**run_sizes, "mu_gamma_or_sigma_gamma": m_par})
-    batched = M is not None
-    M = M or 1
-    s0 = pack(np.broadcast_to(x0, (M, 2)), np.broadcast_to(P0, (M, 2, 2)))
-    mem0 = _memory(x0, _second_moment(x0, P0, second_moment0, M))
-    result, _, _, _ = _run(s0, mem0, u, z, p, times, batched)
-    return result
+    # the engine with the fading back-end (FadingEKF), given the checked parameters (Q and R may be per step here)
+    return FadingEKF._on_checked(x0, P0, p, second_moment0, M)._fading_steps(u, z, times)
 
 
-class FadingEKF(Configurable):
+class FadingEKF(ExtendedKalmanFilter):
     r"""Paper D's fading EKF for multiplicative range noise as an object: ``predict(u)``, ``update(z)``.
 
-    Same model and arithmetic as :func:`fading_ekf` (both call this module's step function). The fading factor
+    The engine (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`) built from the model pair of the fading
+    filter's deterministic parts, ``DeadReckoning(Q)`` + ``RangeToBeacon(beacon, R)``, with the fading back-end: its
+    steps are this module's (the moments, the innovation power and the fading factor it carries besides the
+    estimate). Same model and arithmetic as :func:`fading_ekf` (both call this module's step function). The fading
+    factor
     needs the range, so ``predict(u)`` moves the estimate (``x`` becomes :math:`\hat{\mathbf x}^-_k`, ``P``
     becomes :math:`\mathbf P_{k-1} + \mathbf Q`, i.e. :math:`\lambda_k = 1` provisionally) and ``update(z)``
     computes :math:`\lambda_k`, applies :math:`\mathbf P^-_k = \lambda_k\mathbf P_{k-1} + \mathbf Q` and then
@@ -644,28 +646,40 @@ class FadingEKF(Configurable):
     extra_outputs = _EXTRAS + ("updated",)
     result_type = FadingResult
     _parameters = ("Q", "R", "beacon")
-    _fixed = ("mu_gamma", "sigma_gamma", "rho", "beta", "fading", "second_moment0")
-    _diagnostics = ("y", "S") + extra_outputs
+    _fixed = ExtendedKalmanFilter._fixed + ("mu_gamma", "sigma_gamma", "rho", "beta", "fading", "second_moment0")
+    _diagnostics: tuple[str, ...] = ("y", "S", "accepted") + extra_outputs
 
     def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
                  sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
                  second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
-        self._p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
+        p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
                              mu_gamma_or_sigma_gamma=m_par))
-        self._batched = M is not None
-        self._M = M or 1
-        self._s = pack(np.broadcast_to(x0, (self._M, 2)), np.broadcast_to(P0, (self._M, 2, 2)))
+        self._start_fading(x0, P0, p, second_moment0, M)
+
+    @classmethod
+    def _on_checked(cls, x0: np.ndarray, P0: np.ndarray, p: _Params, second_moment0: Any,
+                    M: int | None) -> "FadingEKF":
+        """The filter from parameters ``fading_ekf`` has checked (with ``Q`` and ``R`` possibly per step)."""
+        filt = cls.__new__(cls)
+        filt._start_fading(x0, P0, p, second_moment0, M)
+        object.__setattr__(filt, "_configured", True)           # the configuration rule holds (base.Configurable)
+        return filt
+
+    def _start_fading(self, x0: np.ndarray, P0: np.ndarray, p: _Params, second_moment0: Any, M: int | None) -> None:
+        """The engine on the model pair of the fading filter's deterministic parts (its runs axis from any input),
+        and the fading back-end's own state."""
+        ExtendedKalmanFilter.__init__(self, DeadReckoning(p.Q), RangeToBeacon(p.beacon, p.R),
+                                      x0 if M is None else np.broadcast_to(x0, (M, 2)), P0)
+        self._p = p
         self._mem = _memory(x0, _second_moment(x0, P0, second_moment0, self._M))
         self._started = np.zeros(self._M, dtype=bool)
         self._pending: np.ndarray | None = None        # the DR displacement of a prediction awaiting its range
-        self._shown = self._s                           # what x and P show (the prediction after predict)
-        self._prior = self._s                           # the prediction as the last update used it
-        nan = np.full(self._M, np.nan)
+        self._start = self._packed_state()              # the estimate the pending step started from
         diag = np.full((len(_EXTRAS), self._M), np.nan)
         diag[0] = 1.0
-        self._set_outputs(nan, nan, diag, np.zeros(self._M, dtype=bool))
+        self._set_diagnostics(diag)
 
     # -- parameters --
     @property
@@ -683,70 +697,64 @@ class FadingEKF(Configurable):
         """Beacon position (2,) (read-only; assign a new one to change it)."""
         return readonly(np.array(self._p.beacon))
 
+    @property
+    def updated(self) -> np.ndarray:
+        """Whether the last update used a range, shape () or (M,) (the engine's ``accepted``)."""
+        return self._out(self._accepted)
+
     def _apply(self, name: str, value: Any) -> None:
         """A new ``Q``, ``R`` or ``beacon`` (base.Configurable), checked as in the constructor, used from the next
-        step on (with everything computed from it: the packed ``Q`` the prediction adds)."""
+        step on (with everything computed from it: the packed ``Q`` the prediction adds, the model pair)."""
         if name == "beacon":
             self._p = replace(self._p, beacon=fixed_beacon(value))
-            return
-        Q, R, q4 = noise_parameters(value if name == "Q" else self._p.Q, value if name == "R" else self._p.R)
-        self._p = replace(self._p, Q=Q, R=R, q4=q4)
+        else:
+            Q, R, q4 = noise_parameters(value if name == "Q" else self._p.Q, value if name == "R" else self._p.R)
+            self._p = replace(self._p, Q=Q, R=R, q4=q4)
+        self._use_models(DeadReckoning(self._p.Q), RangeToBeacon(self._p.beacon, self._p.R), name)
 
-    # -- state access --
-    def _out(self, a: np.ndarray) -> np.ndarray:
-        """What the protocol's attributes show: a read-only view (write a new ``x`` or ``P`` by assignment)."""
-        shown = a if self._batched else a[0]
-        return readonly(shown) if isinstance(shown, np.ndarray) else shown       # a scalar is immutable
-
+    # -- state: the engine's, with the estimate the pending step started from --
     @property
     def x(self) -> np.ndarray:
         """Current estimate (the prediction between ``predict`` and ``update``), shape (2,) or (M, 2) (read-only;
         assign a new one between steps to set it)."""
-        return self._out(x_view(self._shown))
+        return self._out(self._x)
 
     @x.setter
     def x(self, value: Any) -> None:
         x = as_finite("x", value, max_abs=MAX_COORDINATE)
         if x.shape not in ((2,), (self._M, 2)):
             raise ValueError(f"x must have shape (2,) or (M, 2) with M = {self._M}; got {x.shape}")
-        self._set_state(np.broadcast_to(x, (self._M, 2)), P_view(self._s), "x")
+        self._set_state(np.broadcast_to(x, (self._M, 2)), _runs_first(self._P), "x")
 
     @property
     def P(self) -> np.ndarray:
         """Current covariance (``P + Q`` between ``predict`` and ``update``), shape (2, 2) or (M, 2, 2) (read-only;
         assign a new one between steps to set it)."""
-        return self._out(P_view(self._shown))
+        return self._out(_runs_first(self._P))
 
     @P.setter
     def P(self, value: Any) -> None:
         P = as_covariance("P", value, 2)
         if P.shape not in ((2, 2), (self._M, 2, 2)):
             raise ValueError(f"P must have shape (2, 2) or (M, 2, 2) with M = {self._M}; got {P.shape}")
-        self._set_state(x_view(self._s), np.broadcast_to(P, (self._M, 2, 2)), "P")
+        self._set_state(self._x, np.broadcast_to(P, (self._M, 2, 2)), "P")
 
     def _set_state(self, x: np.ndarray, P: np.ndarray, name: str) -> None:
         if self._pending is not None:
             raise RuntimeError(f"{name} can be set before predict or after update, not between them: the fading "
                                "factor is computed at the update from the estimate the step started with")
-        self._s = self._shown = pack(x, P)
-
-    @property
-    def x_prior(self) -> np.ndarray:
-        """The prediction of the current step, shape (2,) or (M, 2) (read-only)."""
-        return self._out(x_view(self._prior))
+        self._start = pack(x, P)
+        self._x, self._P = unpack_runs_last(self._start)
 
     @property
     def P_prior(self) -> np.ndarray:
-        r"""Its covariance as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until the update has
-        computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2) (read-only)."""
-        return self._out(P_view(self._prior))
+        r"""The covariance of the prediction as the update used it, :math:`\lambda_k P_{k-1} + Q` (``P + Q`` until
+        the update has computed :math:`\lambda_k`), shape (2, 2) or (M, 2, 2) (read-only)."""
+        return self._out(_runs_first(self._P_prior))
 
-    def _set_outputs(self, y: np.ndarray, S: np.ndarray, diag: np.ndarray, updated: np.ndarray) -> None:
-        self._set_diagnostic("y", y[:, None] if self._batched else y[:1].copy())
-        self._set_diagnostic("S", S[:, None, None] if self._batched else S[:1].reshape(1, 1).copy())
+    def _set_diagnostics(self, diag: np.ndarray) -> None:
         for name, values in zip(_EXTRAS, diag):
             self._set_diagnostic(name, values.copy() if self._batched else np.array(values[0]))
-        self._set_diagnostic("updated", updated.copy() if self._batched else np.array(updated[0]))
 
     def _u_column(self, u: Any) -> np.ndarray:
         if u is None:
@@ -759,32 +767,35 @@ class FadingEKF(Configurable):
         raise ValueError(f"u must have shape (2,) or (M, 2) with M = {self._M}; got {arr.shape}")
 
     def _step(self, u_col: np.ndarray, z: np.ndarray, use: np.ndarray) -> None:
-        prior = np.empty_like(self._s)
-        post = np.empty_like(self._s)
+        """The fading back-end's step (``_fading_step``) from the estimate the step started with."""
+        prior = np.empty_like(self._start)
+        post = np.empty_like(self._start)
         y = np.empty(self._M)
         S = np.empty(self._M)
         diag = np.empty((len(_EXTRAS), self._M))
-        applied = _fading_step(self._s, self._mem, self._started, np.broadcast_to(u_col, (2, self._M)), z, use,
+        applied = _fading_step(self._start, self._mem, self._started, np.broadcast_to(u_col, (2, self._M)), z, use,
                                self._p, prior, post, y, S, diag)
         unused = applied == 0.0
         y[unused] = np.nan
         S[unused] = np.nan
         for name in ("fading_numerator", "fading_denominator"):     # undefined without a range
             diag[_EXTRAS.index(name)][unused] = np.nan
-        self._s = self._shown = post
-        self._prior = prior
-        self._set_outputs(y, S, diag, ~unused)
+        self._start = post
+        self._set_packed_state(post, prior)
+        self._y, self._S, self._accepted = y[:, None], S[:, None, None], ~unused
+        self._set_diagnostics(diag)
 
-    # -- the protocol --
+    # -- the protocol: the fading back-end's steps on the engine's state --
     def predict(self, u: Any = None) -> None:
         """Move the estimate by the DR displacement ``u`` (shape (2,) or (M, 2); ``None``: no move)."""
         u_col = self._u_column(u)
         if self._pending is not None:               # the previous prediction got no range: predict-only step
             self._step(self._pending, np.zeros(self._M), np.zeros(self._M))
         self._pending = u_col
-        shown = np.empty_like(self._s)
-        predict_step(self._s, u_col, self._p.q4, shown)
-        self._shown = self._prior = shown
+        shown = np.empty_like(self._start)
+        predict_step(self._start, u_col, self._p.q4, shown)
+        self._set_packed_state(shown, shown)
+        self.k += 1
 
     def update(self, z: Any) -> None:
         """Fading factor, then correction with the range ``z`` (scalar, or (M,) when batched; NaN: no range)."""
@@ -800,15 +811,16 @@ class FadingEKF(Configurable):
         u_col, self._pending = self._pending, None
         self._step(u_col, np.where(has, z, 0.0), has.astype(float))
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> FadingResult:
+    def run(self, z: Any, u: Any = None, times: Any = None, *, keep_priors: bool = True) -> FadingResult:
         """Predict with ``u[..., k, :]`` and update with ``z[..., k]`` for every step; return the history.
 
         ``z`` has shape (K,) or, batched, (M, K) (NaN: predict only); ``u`` (K, 2) or (M, K, 2) (``None``: no
-        displacement). Uses the engine of :func:`fading_ekf`, so the result is identical to calling it with this
-        filter's state; the filter is left at the last step.
+        displacement). Uses the loop of :func:`fading_ekf`, so the result is identical to calling it with this
+        filter's state; the filter is left at the last step. ``keep_priors=False``: the result's priors are None.
         """
         if self._pending is not None:
             raise RuntimeError("run() starts from an updated state: call update(z) for the pending prediction first")
+        keep_priors = as_flag("keep_priors", keep_priors)
         z = as_range_array("z", z, allow_nan=True, ndim=(2 if self._batched else 1, 1), max_abs=MAX_COORDINATE)
         if z.ndim == 2 and z.shape[0] != self._M:
             raise ValueError(f"z must have shape (K,) or (M, K) with M = {self._M}; got {z.shape}")
@@ -817,16 +829,24 @@ class FadingEKF(Configurable):
         if u.shape[-2:] != (K, 2) or (u.ndim == 3 and u.shape[0] != self._M):
             raise ValueError(f"u must have shape ({K}, 2) or (M, {K}, 2), one input per step of z; got {u.shape}")
         times = steps_and_times(K, times)
-        result, last, mem, started = _run(self._s, self._mem, u, z, self._p, times, self._batched)
-        self._s = self._shown = last
+        result = self._fading_steps(u, z, times)
+        return result if keep_priors else replace(result, x_prior=None, P_prior=None)
+
+    def _fading_steps(self, u: np.ndarray, z: np.ndarray, times: np.ndarray) -> FadingResult:
+        """The fading loop (``_run``) over checked inputs from the filter's state; the filter is left at the last
+        step."""
+        result, last, mem, started = _run(self._start, self._mem, u, z, self._p, times, self._batched)
         x_prior, P_prior = result.priors()
-        self._prior = pack(np.array(x_prior[..., -1, :], ndmin=2), np.array(P_prior[..., -1, :, :], ndmin=3))
+        self._start = last
+        self._set_packed_state(last, pack(np.array(x_prior[..., -1, :], ndmin=2),
+                                          np.array(P_prior[..., -1, :, :], ndmin=3)))
         self._mem = mem
         self._started = started
-        ys = np.array(result.innovations[..., -1, 0], ndmin=1)
-        Ss = np.array(result.innovation_cov[..., -1, 0, 0], ndmin=1)
-        diag = np.array([np.array(result.extras[name][..., -1], ndmin=1) for name in _EXTRAS])
-        self._set_outputs(ys, Ss, diag, np.array(result.extras["updated"][..., -1], ndmin=1))
+        self.k += len(times)
+        self._y = np.array(result.innovations[..., -1, :], ndmin=2)
+        self._S = np.array(result.innovation_cov[..., -1, :, :], ndmin=3)
+        self._accepted = np.array(result.extras["updated"][..., -1], ndmin=1)
+        self._set_diagnostics(np.array([np.array(result.extras[name][..., -1], ndmin=1) for name in _EXTRAS]))
         return result
 
 
