@@ -120,6 +120,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..acoustics import range_factor
+from .._cancel import checkpoint
 from .._validate import (MAX_COORDINATE, as_covariance, as_flag, as_finite, as_per_run_scalar, as_range_array,
                         common_runs, readonly)
 from ..models.dead_reckoning import DeadReckoning
@@ -409,6 +410,7 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
     q_steps = p.q4.ndim == 3                       # one Q per step, (K, 2, 2)
     r_steps = isinstance(p.R, np.ndarray)          # one R per step, (K,)
     for k in range(K):
+        checkpoint()                                # a widget's refinement no longer wanted stops here
         p_k = p
         if q_steps or r_steps:
             p_k = replace(p, Q=p.Q[k] if q_steps else p.Q, q4=p.q4[k] if q_steps else p.q4,
