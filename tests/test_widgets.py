@@ -71,3 +71,26 @@ def test_range_error_view_refuses_an_unseeded_run():
 
     with pytest.raises(TypeError, match="seed must be an integer"):
         widgets.range_error_view(seed=None)
+
+
+@pytest.mark.parametrize("chapter, compute, update", [
+    ("ch01", "sound_speed_view", "update_sound_speed_view"),
+    ("ch01", "range_error_view", "update_range_error_view"),
+    ("ch03", "precision_view", "update_precision_view"),
+    ("ch04", "ekf_view", "update_ekf_view"),
+    ("ch11", "real_data_view", "update_real_data_view"),
+])
+def test_an_update_on_a_figure_its_plot_did_not_draw_asks_for_a_new_drawing(chapter, compute, update):
+    # an update puts a new view into the artists its plot function kept; on any other figure it returns None,
+    # which makes the panel draw the figure anew (it used to fail on the missing artists)
+    from importlib import import_module
+
+    from matplotlib.figure import Figure
+
+    module = import_module(f"uwtutor.widgets.{chapter}")
+    view = getattr(module, compute)()
+    fig = Figure()
+    fig.subplots(1, 2)
+    assert getattr(module, update)(fig, view) is None
+    drawn = getattr(module, f"plot_{compute}")(view)
+    assert getattr(module, update)(drawn, view)          # on its own figure: the artists that changed

@@ -138,29 +138,31 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     ax_d.set_title(" ", fontsize=9)
     title = fig.suptitle(" ", fontsize=10)
     keep(fig, curve_t=curve_t, point_t=point_t, curve_d=curve_d, point_d=point_d, title=title)
-    _sound_speed_texts(view, fig)
+    _sound_speed_texts(view, fig, title)
     fig.tight_layout()
     return fig
 
 
-def _sound_speed_texts(view: SoundSpeedView, fig: Any) -> list[Any]:
+def _sound_speed_texts(view: SoundSpeedView, fig: Any, title: Any) -> list[Any]:
     ax_t, ax_d = fig.axes[:2]
     ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
     ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
-    title = kept(fig)["title"]
     title.set_text(f"c = {view.speed:.2f} m/s;  assuming 1500 m/s costs {view.range_error_per_km:+.1f} m per km")
     return [ax_t.title, ax_d.title, title]
 
 
-def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any]:
-    """Put another :class:`SoundSpeedView` into a figure drawn by ``plot_sound_speed_view``; returns what changed."""
+def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any] | None:
+    """Put another :class:`SoundSpeedView` into a figure drawn by ``plot_sound_speed_view``; returns what changed
+    (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     a["curve_t"].set_data(view.temperatures, view.speed_vs_temperature)
     a["point_t"].set_data([view.temperature], [view.speed])
     a["curve_d"].set_data(view.speed_vs_depth, view.depths)
     a["point_d"].set_data([view.speed], [view.depth])
     rescale(*fig.axes[:2])
-    return [a["curve_t"], a["point_t"], a["curve_d"], a["point_d"], *_sound_speed_texts(view, fig)]
+    return [a["curve_t"], a["point_t"], a["curve_d"], a["point_d"], *_sound_speed_texts(view, fig, a["title"])]
 
 
 def sound_speed_widget() -> Any:
@@ -295,9 +297,12 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
     return keep(fig, lines=lines, total=total)
 
 
-def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any]:
-    """Put another :class:`RangeErrorView` into a figure drawn by ``plot_range_error_view``; returns what changed."""
+def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any] | None:
+    """Put another :class:`RangeErrorView` into a figure drawn by ``plot_range_error_view``; returns what changed
+    (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     for name, line in a["lines"].items():
         line.set_data(view.times, view.errors[name])
     a["total"].set_data(view.true_ranges, view.errors["total"])

@@ -327,6 +327,8 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     Other unknowns, another track and another number of finite ellipses (none among them) are all put in place:
     the ellipse lines are reused, added or removed and recoloured, and the map legend's last entry follows."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     ellipses = _ellipses(view)
     ax_map, ax_mis, ax_rank, ax_rmse = fig.axes[:4]
     a["tracks"][0].set_data(*view.positions.T)

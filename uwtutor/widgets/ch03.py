@@ -241,6 +241,8 @@ def update_precision_view(fig: Any, view: PrecisionView) -> list[Any] | None:
     """Put another ``PrecisionView`` into a figure drawn by ``plot_precision_view``; returns what changed, or
     ``None`` when the figure must be drawn anew (a fix or its ellipse appears or disappears)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     has_fixes = bool(np.all(np.isfinite(view.errors)))
     has_ellipse = has_fixes and bool(np.all(np.isfinite(view.position_covariance)))
     if (a["fixes"] is not None) != has_fixes or (a["ellipse"] is not None) != has_ellipse:
@@ -493,6 +495,8 @@ def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None
     """Put another ``PrelocationView`` into a figure drawn by ``plot_prelocation_view``; returns what changed, or
     ``None`` when it must be drawn anew (a runner-up appearing or disappearing)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     db, dc = view.bearing_step_deg, view.speed_step
     if (a["runner"] is None) != (view.runner_up is None) or \
             (a["runner_track"] is None) != (view.runner_up_track is None):

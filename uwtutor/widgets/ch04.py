@@ -201,18 +201,17 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     ax_n.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=7, handlelength=1.2)
     inside = ax_n.text(0.01, 0.04, " ", transform=ax_n.transAxes, fontsize=8)
     keep(fig, runs=runs, rmse=rmse, nees=nees, inside=inside, bounds=(lo, hi))
-    _ekf_texts(view, fig)
+    _ekf_texts(view, fig, inside)
     fig.tight_layout()
     snap_to_decades(ax_r, ax_n)         # as the updates keep them (see ``update_ekf_view``)
     return fig
 
 
-def _ekf_texts(view: EKFView, fig: Any) -> list[Any]:
+def _ekf_texts(view: EKFView, fig: Any, inside: Any) -> list[Any]:
     ax_r = fig.axes[1]
     # rounded as the sliders show them (three significant digits on the log sliders)
     ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:.3g}, R×{view.r_scale:.3g}, "
                    f"bias {view.bias:g} m; {view.n_runs} runs", fontsize=9)
-    inside = kept(fig)["inside"]
     inside.set_text(f"{100 * view.nees_fraction_within:.0f} % of epochs inside")
     return [ax_r.title, inside]
 
@@ -220,6 +219,8 @@ def _ekf_texts(view: EKFView, fig: Any) -> list[Any]:
 def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
     """Put another ``EKFView`` into a figure drawn by ``plot_ekf_view``; returns what changed (``None``: draw anew)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     if len(a["runs"]) != len(view.estimates) or a["bounds"] != tuple(view.nees_bounds):
         return None
     for line, est in zip(a["runs"], view.estimates):
@@ -230,7 +231,7 @@ def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
     # the RMSE and NEES panels in whole decades, kept while at most one is spare: most moves of a slider keep
     # the axes, and the pixels drawn of them
     rescale(*fig.axes[1:3], decades=True)
-    return [*a["runs"], a["rmse"], a["nees"], *_ekf_texts(view, fig)]
+    return [*a["runs"], a["rmse"], a["nees"], *_ekf_texts(view, fig, a["inside"])]
 
 
 def ekf_widget() -> Any:

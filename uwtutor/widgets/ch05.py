@@ -263,6 +263,8 @@ def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (the
     legends among them: the fading filter's name changes with the weakening factor)."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     ax_map, ax_err, ax_lam = fig.axes[:3]
     # both legends are redrawn at every update, so never kept in the background (where the old name would show
     # under the new one)

@@ -253,6 +253,8 @@ _RMSE_SCALE = np.array([100.0, 100.0, 10 * 180 / np.pi])
 def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
     """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     ax = fig.axes
     a["readings"].set_ydata(np.degrees(view.measurements[:, 2]))
     a["true_noise"].set_ydata(view.true_noise_std[:, 0])

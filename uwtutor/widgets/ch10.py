@@ -200,6 +200,8 @@ def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") 
     returns the artists that changed (the method names on the right panel's y axis among them), or ``None`` when
     the scenario has other methods."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     if a["methods"] != tuple(view.methods):
         return None
     ax_t, ax_f = fig.axes[:2]

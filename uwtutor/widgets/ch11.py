@@ -224,6 +224,8 @@ def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
     panel's band, estimate, note and legends among them: the scale starts or stops being estimated in place).
     ``None`` (draw anew) for a study with other beacons."""
     a = kept(fig)
+    if a is None:                   # not a figure the plot function drew: draw it anew
+        return None
     if set(a["marks"]) != set(view.all_beacons):
         return None
     ax_t, ax_e, ax_s = fig.axes[:3]
