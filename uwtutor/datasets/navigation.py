@@ -205,15 +205,15 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
     nav, result, (_, per_range) = runs[chosen]
     _check_plausible(data, nav, result, per_range)
     extras = dict(result.extras, ranges=nav.z)
-    fields = dict(state_names=nav.motion.layout.names, chosen=chosen, evidence=evidence, models=nav,
-                  candidates={name: run[1] for name, run in runs.items()})
-    if not smooth:
-        return NavigationResult(result.times, result.x, result.P, result.x_prior, result.P_prior,
-                                result.innovations, result.innovation_cov, extras, **fields)
-    smoothed = rts_smoother(result, nav.motion, nav.u)
-    extras["filtered"] = result
-    return NavigationResult(result.times, smoothed.x, smoothed.P, result.x_prior, result.P_prior,
-                            result.innovations, result.innovation_cov, extras, **fields)
+    candidate_runs = {name: run[1] for name, run in runs.items()}
+    x, P = result.x, result.P
+    if smooth:
+        smoothed = rts_smoother(result, nav.motion, nav.u)
+        x, P = smoothed.x, smoothed.P
+        extras["filtered"] = result
+    return NavigationResult(result.times, x, P, result.x_prior, result.P_prior, result.innovations,
+                            result.innovation_cov, extras, state_names=nav.motion.layout.names, chosen=chosen,
+                            evidence=evidence, models=nav, candidates=candidate_runs)
 
 
 #: navigate's candidate models: name -> ``(gyro_bias, scale)``.

@@ -181,7 +181,9 @@ class FilterResult:
     innovation_cov : ndarray, shape (K, m, m) or (M, K, m, m)
         Covariance ``S`` of each innovation; NaN where no measurement was used.
     extras : dict of ndarray
-        Per-step outputs particular to a filter (e.g. ``"fading_factor"``), each with the time axis first.
+        Per-step outputs particular to a filter (e.g. ``"fading_factor"``), each with the time axis first. A
+        result built on another may keep it here too (``navigate(smooth=True)`` keeps the filter's own result
+        under ``"filtered"``).
 
     Examples
     --------
@@ -212,7 +214,7 @@ class FilterResult:
     P_prior: np.ndarray | None
     innovations: np.ndarray
     innovation_cov: np.ndarray
-    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    extras: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_steps(self) -> int:
