@@ -124,7 +124,7 @@ def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = No
         (median normalized innovation more than 20 times its chi-square median) or the range scale comes out
         more than 30 % from 1 -- most often a heading in degrees or measured clockwise from north, beacons in
         another frame, or ranges in other units. Also when the gate rejected more than a fifth of the ranging
-        epochs (:data:`LOST_TRACK_REJECTED`): a log with that many outliers, or, more often, a filter that has lost
+        epochs (``LOST_TRACK_REJECTED``): a log with that many outliers, or, more often, a filter that has lost
         the track between ranges too sparse for its model -- its estimate may then be worse than the odometry
         alone. On the Plaza logs (``studies/plaza_navigation.py``'s schedules) the chosen filter never rejected
         more than a tenth of its epochs at the logged rate or at one range every 10 s; at one every 30 s it rejected
