@@ -13,6 +13,7 @@ from uwtutor.pipelines import prepositioned_bias_ekf  # noqa: E402
 from uwtutor.models import paper_a_process_noise  # noqa: E402
 from uwtutor.scenarios import paper_a  # noqa: E402
 from uwtutor.widgets import ch07  # noqa: E402
+from widget_refinement import moved_pictures  # noqa: E402
 
 
 def test_registered_compute_function_runs_at_its_defaults():
@@ -130,24 +131,8 @@ def test_the_early_view_is_the_full_view_on_its_epochs(monkeypatch):
 
 
 def test_the_panel_refined_in_the_background_ends_as_computed_at_once(monkeypatch):
-    import threading
-
-    from uwtutor.widgets import _panel
-
-    def moved(background):
-        monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
-        panel = ch07.bias_tracking_widget()
-        image = panel.children[2].children[0]
-        gate = threading.Event()
-        panel._uwtutor_refiner.submit(gate.wait)       # the worker held: the first picture is seen as it is
-        panel.children[0].children[1].value = 160.0     # initial error
-        first = bytes(image.value)
-        gate.set()
-        assert _panel.wait_refined(panel, timeout=120.0)
-        return first, bytes(image.value)
-
-    coarse, refined = moved(True)
-    _, at_once = moved(False)
+    coarse, refined, at_once = moved_pictures(monkeypatch, ch07.bias_tracking_widget,
+                                              lambda panel: panel.children[0].children[1], 160.0)   # initial error
     assert refined == at_once and coarse != at_once
     plt.close("all")
 

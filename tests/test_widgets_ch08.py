@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from uwtutor.filters import cooperative_ekf  # noqa: E402
 from uwtutor.scenarios import paper_b  # noqa: E402
 from uwtutor.widgets import ch08  # noqa: E402
+from widget_refinement import moved_pictures  # noqa: E402
 
 
 def test_registered_compute_function_runs_at_its_defaults():
@@ -128,23 +129,7 @@ def test_the_early_view_is_the_full_view_on_its_steps():
 
 
 def test_the_panel_refined_in_the_background_ends_as_computed_at_once(monkeypatch):
-    import threading
-
-    from uwtutor.widgets import _panel
-
-    def moved(background):
-        monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
-        panel = ch08.cooperative_widget()
-        image = panel.children[2].children[0]
-        gate = threading.Event()
-        panel._uwtutor_refiner.submit(gate.wait)       # the worker held: the first picture is seen as it is
-        panel.children[1].children[1].value = "paper B"     # tuning
-        first = bytes(image.value)
-        gate.set()
-        assert _panel.wait_refined(panel, timeout=120.0)
-        return first, bytes(image.value)
-
-    coarse, refined = moved(True)
-    _, at_once = moved(False)
+    coarse, refined, at_once = moved_pictures(monkeypatch, ch08.cooperative_widget,
+                                              lambda panel: panel.children[1].children[1], "paper B")   # tuning
     assert refined == at_once and coarse != at_once
     plt.close("all")

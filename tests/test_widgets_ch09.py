@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from uwtutor.filters import robust_range_kf  # noqa: E402
 from uwtutor.scenarios import paper_e  # noqa: E402
 from uwtutor.widgets import ch09  # noqa: E402
+from widget_refinement import moved_pictures  # noqa: E402
 
 
 def test_registered_compute_function_runs_at_its_defaults():
@@ -81,10 +82,6 @@ def test_a_new_spacing_reuses_the_range_filter_and_gives_the_same_view(monkeypat
 
 
 def test_the_first_picture_shows_the_new_ranges_and_the_refined_one_is_as_computed_at_once(monkeypatch):
-    import threading
-
-    from uwtutor.widgets import _panel
-
     early = ch09._measured_view(150.0, "paper", 0.03, 100, "paper", True)
     full = ch09.outlier_view(amplitude=150.0)
     assert not early.filtered and full.filtered
@@ -92,21 +89,8 @@ def test_the_first_picture_shows_the_new_ranges_and_the_refined_one_is_as_comput
     np.testing.assert_array_equal(early.outlier, full.outlier)
     assert np.isnan(early.robust_error).all() and not early.flagged.any() and np.isnan(early.summary["rms_fix"])
 
-    def moved(background):
-        monkeypatch.setattr(_panel, "REFINE_IN_BACKGROUND", background)
-        panel = ch09.outlier_widget()
-        image = panel.children[2].children[0]
-        gate = threading.Event()
-        panel._uwtutor_refiner.submit(gate.wait)       # the worker held: the first picture is seen as it is
-        panel.children[0].children[0].value = 150.0     # outlier size
-        first = bytes(image.value)
-        gate.set()
-        assert _panel.wait_refined(panel, timeout=120.0)
-        assert not panel.children[2].children[1].outputs    # no error under the figure
-        return first, bytes(image.value)
-
-    coarse, refined = moved(True)
-    _, at_once = moved(False)
+    coarse, refined, at_once = moved_pictures(monkeypatch, ch09.outlier_widget,
+                                              lambda panel: panel.children[0].children[0], 150.0)   # outlier size
     assert refined == at_once and coarse != at_once
     plt.close("all")
 
