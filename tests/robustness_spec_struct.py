@@ -362,8 +362,8 @@ SPECS_STRUCT: dict[str, Spec] = {
         kinds=dict(x0=Real((3,)), u=Real((5, 2), optional=True),
                    z=Real((5,), "nonneg", nan_ok=True, extra_axis_ok=True), times=Real((5,), optional=True))),
     "uwtutor.filters.cooperative:cooperative_ekf": Spec(
-        lambda: dict(_coop(), ranges=_coop_ranges(), formulation="consistent", lost="step"),
-        kinds=dict(x0=Real((4,)), u=Real((4, 2)), leader=Real((5, 2)), ranges=Real((5,), "nonneg", nan_ok=True),
+        lambda: dict(_coop(), z=_coop_ranges(), formulation="consistent", lost="step"),
+        kinds=dict(x0=Real((4,)), u=Real((4, 2)), leader=Real((5, 2)), z=Real((5,), "nonneg", nan_ok=True),
                    dt=_POS, Q=Covariance(), R=Covariance(),
                    formulation=Choice(("consistent", "literal", "single_range")), lost=Choice(("step", "range"))),
         per_argument=4),

@@ -49,8 +49,8 @@ def _robust():
 def _cooperative():
     sc = paper_b.make(np.random.default_rng(0), n_runs=3)
     p = paper_b.PARAMETERS
-    return lambda: cooperative_ekf(p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.leader_broadcast,
-                                   sc.ranges, p.interval, p.Q, p.R)
+    return lambda: cooperative_ekf(p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.ranges, p.Q, p.R,
+                                   leader=sc.leader_broadcast, dt=p.interval)
 
 
 #: Each filter path a widget's refinement runs, with the least number of checkpoints a run of it passes.

@@ -31,11 +31,12 @@ def _quiet(func, *args, **kw):
 
 
 def _run(sc, i=None, **kw):
-    args = (sc.dr_displacements, sc.leader_broadcast, sc.ranges)
+    u, leader, z = sc.dr_displacements, sc.leader_broadcast, sc.ranges
     if i is not None:
-        args = tuple(a[i] for a in args)
+        u, leader, z = u[i], leader[i], z[i]
     x0 = kw.pop("x0", P.x1)
-    return cooperative_ekf(x0, kw.pop("P0", P0), *args, P.interval, kw.pop("Q", P.Q), kw.pop("R", P.R), **kw)
+    return cooperative_ekf(x0, kw.pop("P0", P0), u, z, kw.pop("Q", P.Q), kw.pop("R", P.R), leader=leader,
+                           dt=P.interval, **kw)
 
 
 # -- the models --------------------------------------------------------------------------------------------------------
@@ -186,7 +187,8 @@ def test_nan_range_is_predict_only(formulation):
     r = np.array(sc.ranges[0])
     r[40] = np.nan
     kw = dict(formulation=formulation)
-    res = cooperative_ekf(P.x1, P0, sc.dr_displacements[0], sc.leader_broadcast[0], r, P.interval, P.Q, P.R, **kw)
+    res = cooperative_ekf(P.x1, P0, sc.dr_displacements[0], r, P.Q, P.R, leader=sc.leader_broadcast[0], dt=P.interval,
+                          **kw)
     # step k uses ranges k and k + 1: the pair loses steps 39 and 40, the single range only step 39
     lost = [39, 40] if formulation != "single_range" else [39]
     for k in range(36, 44):
@@ -245,7 +247,7 @@ def test_paper_b_pair_uses_each_range_twice():
 ])
 def test_bad_input_names_the_argument(kw, err, match):
     sc = paper_b.make(np.random.default_rng(9), 1)
-    args = dict(x0=P.x1, P0=P0, u=sc.dr_displacements[0], leader=sc.leader_broadcast[0], ranges=sc.ranges[0],
+    args = dict(x0=P.x1, P0=P0, u=sc.dr_displacements[0], leader=sc.leader_broadcast[0], z=sc.ranges[0],
                 dt=P.interval, Q=P.Q, R=P.R)
     args.update(kw)
     with pytest.raises(err, match=match):
@@ -255,15 +257,18 @@ def test_bad_input_names_the_argument(kw, err, match):
 def test_bad_sequences_name_the_argument():
     sc = paper_b.make(np.random.default_rng(9), 2)
     u, b, r = sc.dr_displacements, sc.leader_broadcast, sc.ranges
-    with pytest.raises(ValueError, match="ranges"):
-        cooperative_ekf(P.x1, P0, u[0], b[0], -r[0], P.interval, P.Q, P.R)
+    with pytest.raises(ValueError, match=r"\bz\b"):
+        cooperative_ekf(P.x1, P0, u[0], -r[0], P.Q, P.R, leader=b[0], dt=P.interval)
     with pytest.raises(ValueError, match="leader"):
-        cooperative_ekf(P.x1, P0, u[0], b[0, :-1], r[0], P.interval, P.Q, P.R)
-    with pytest.raises(ValueError, match="ranges must hold"):
-        cooperative_ekf(P.x1, P0, u[0], b[0], r[0, :-1], P.interval, P.Q, P.R)
+        cooperative_ekf(P.x1, P0, u[0], r[0], P.Q, P.R, leader=b[0, :-1], dt=P.interval)
+    with pytest.raises(ValueError, match="z must hold"):
+        cooperative_ekf(P.x1, P0, u[0], r[0, :-1], P.Q, P.R, leader=b[0], dt=P.interval)
     with pytest.raises(ValueError, match="number of runs"):
-        cooperative_ekf(P.x1, P0, u, b[:1], r, P.interval, P.Q, P.R)
-    filt = CooperativeEKF(P.x1, P0, u[0], b[0], P.interval, P.Q, P.R)
+        cooperative_ekf(P.x1, P0, u, r, P.Q, P.R, leader=b[:1], dt=P.interval)
+    # the order of the earlier versions (leader and dt by position) fails loudly, never silently
+    with pytest.raises(TypeError):
+        cooperative_ekf(P.x1, P0, u[0], b[0], r[0], P.interval, P.Q, P.R)
+    filt = CooperativeEKF(P.x1, P0, P.Q, P.R, dt=P.interval, u=u[0], leader=b[0])
     with pytest.raises(ValueError, match="z must be the two ranges"):
         filt.update(100.0)
 
@@ -333,7 +338,7 @@ def test_bad_steps_name_the_argument(formulation):
     z = pairs[..., 1] if formulation == "single_range" else pairs
 
     def make():
-        return CooperativeEKF(P.x1, P0, sc.dr_displacements, sc.leader_broadcast, P.interval, P.Q, P.R,
+        return CooperativeEKF(P.x1, P0, P.Q, P.R, dt=P.interval, u=sc.dr_displacements, leader=sc.leader_broadcast,
                               formulation=formulation)
 
     assert set(make().extra_outputs) == {"accepted"}
@@ -393,17 +398,17 @@ def test_without_sequences_the_filter_gives_the_same_numbers(formulation, lost, 
     u, b, r = pick(sc.dr_displacements), pick(sc.leader_broadcast), pick(sc.ranges)
     single = formulation == "single_range"
     kw = dict(formulation=formulation, lost=lost, range_variance=9.0 if single else None)
-    whole = _quiet(CooperativeEKF, P.x1, P0, u, b, P.interval, P.Q, P.R, **kw)
+    whole = _quiet(CooperativeEKF, P.x1, P0, P.Q, P.R, dt=P.interval, u=u, leader=b, **kw)
     pairs = range_pairs(r)
     by_whole = whole.run(pairs[..., 1] if single else pairs)
     x0 = np.tile(P.x1, (3, 1)) if batched else P.x1       # without sequences, the runs axis comes from x0 or P0
-    stepwise = CooperativeEKF(x0, P0, dt=P.interval, Q=P.Q, R=P.R, **kw)
+    stepwise = CooperativeEKF(x0, P0, P.Q, P.R, dt=P.interval, **kw)
     assert stepwise.u is None and stepwise.relative_track_deviation is None
     obs = leader_observations(r, b, single_range=single)
     _same(_quiet(stepwise.run, obs, u), by_whole)
     # one step at a time, the observation of the step carrying the leader's positions
-    by_hand = CooperativeEKF(x0, P0, dt=P.interval, Q=P.Q, R=P.R, **kw)
-    again = _quiet(CooperativeEKF, P.x1, P0, u, b, P.interval, P.Q, P.R, **kw)
+    by_hand = CooperativeEKF(x0, P0, P.Q, P.R, dt=P.interval, **kw)
+    again = _quiet(CooperativeEKF, P.x1, P0, P.Q, P.R, dt=P.interval, u=u, leader=b, **kw)
     for k in range(u.shape[-2]):
         by_hand.predict(u[..., k, :])
         by_hand.update(obs[..., k, :])
@@ -414,7 +419,7 @@ def test_without_sequences_the_filter_gives_the_same_numbers(formulation, lost, 
 
 
 def test_without_sequences_inputs_are_checked_and_the_straight_track_warns_in_run():
-    filt = CooperativeEKF(P.x1, P0, dt=P.interval, Q=P.Q, R=P.R)
+    filt = CooperativeEKF(P.x1, P0, P.Q, P.R, dt=P.interval)
     with pytest.raises(TypeError, match="u .* is required"):
         filt.predict()
     with pytest.raises(RuntimeError, match="predict"):
@@ -425,14 +430,16 @@ def test_without_sequences_inputs_are_checked_and_the_straight_track_warns_in_ru
     with pytest.raises(ValueError, match="leader positions"):
         filt.update([100.0, 110.0, np.nan, 0.0, 8.0, 0.0])
     with pytest.raises(TypeError, match="u and leader together"):
-        CooperativeEKF(P.x1, P0, np.ones((3, 2)), dt=P.interval, Q=P.Q, R=P.R)
-    with pytest.raises(TypeError, match="dt is required"):
-        CooperativeEKF(P.x1, P0, Q=P.Q, R=P.R)
+        CooperativeEKF(P.x1, P0, P.Q, P.R, dt=P.interval, u=np.ones((3, 2)))
+    with pytest.raises(TypeError, match="dt"):
+        CooperativeEKF(P.x1, P0, P.Q, P.R)
+    with pytest.raises(TypeError, match="dt .* is required"):
+        CooperativeEKF(P.x1, P0, P.Q, P.R, dt=None)
     # a leader on a parallel course: the filter built step by step warns when run over the track
     sc = paper_b.make(np.random.default_rng(3), 1, **EXACT, leader_pattern="parallel")
     obs = leader_observations(sc.ranges[0], sc.leader_broadcast[0])
     with pytest.warns(UnobservableWarning):
-        CooperativeEKF(P.x1, P0, dt=P.interval, Q=P.Q, R=P.R).run(obs, sc.dr_displacements[0])
+        CooperativeEKF(P.x1, P0, P.Q, P.R, dt=P.interval).run(obs, sc.dr_displacements[0])
 
 
 def test_leader_observations():

@@ -102,13 +102,13 @@ _COOP_P0 = np.diag([1e4, 1e4, 1.0, 1.0])
 def _coop(formulation):
     """Paper B's cooperative EKF in one of its three formulations (the leader moves; 20 % of packets lost)."""
     def make(b):
-        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
-                              _pick(_COOP.leader_broadcast, b), 8.0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R,
+        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R, dt=8.0,
+                              u=_pick(_COOP.dr_displacements, b), leader=_pick(_COOP.leader_broadcast, b),
                               formulation=formulation)
     def functional(b):
         return cooperative_ekf(paper_b.PARAMETERS.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
-                               _pick(_COOP.leader_broadcast, b), _pick(_COOP.ranges, b), 8.0, paper_b.PARAMETERS.Q,
-                               paper_b.PARAMETERS.R, formulation=formulation)
+                               _pick(_COOP.ranges, b), paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R,
+                               leader=_pick(_COOP.leader_broadcast, b), dt=8.0, formulation=formulation)
     pairs = range_pairs(_COOP.ranges)
     return Case(f"CooperativeEKF-{formulation}", make, pairs[..., 1] if formulation == "single_range" else pairs,
                 _COOP.dr_displacements, functional=functional)
@@ -134,8 +134,8 @@ def _robust_case():
 def _coop_lost_range():
     """Paper B's filter with lost="range": a pair with one range lost updates with the other (the engine's rule)."""
     def make(b):
-        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, _pick(_COOP.dr_displacements, b),
-                              _pick(_COOP.leader_broadcast, b), 8.0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R,
+        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R, dt=8.0,
+                              u=_pick(_COOP.dr_displacements, b), leader=_pick(_COOP.leader_broadcast, b),
                               lost="range")
     return Case("CooperativeEKF-consistent-lost-range", make, range_pairs(_COOP.ranges), _COOP.dr_displacements)
 
@@ -308,8 +308,8 @@ def _single_from_batched(case, m):
         return FadingEKF(X0[m], np.eye(2) * 400.0, Q2, 4.0, mu_gamma=0.98, sigma_gamma=1 / 1500)
     if case.name.startswith("CooperativeEKF"):
         formulation, _, lost = case.name.split("-", 1)[1].partition("-lost-")
-        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, _COOP.dr_displacements[m], _COOP.leader_broadcast[m],
-                              8.0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R, formulation=formulation,
+        return CooperativeEKF(paper_b.PARAMETERS.x1, _COOP_P0, paper_b.PARAMETERS.Q, paper_b.PARAMETERS.R, dt=8.0,
+                              u=_COOP.dr_displacements[m], leader=_COOP.leader_broadcast[m], formulation=formulation,
                               lost=lost or "step")
     raise AssertionError(case.name)
 

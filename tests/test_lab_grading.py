@@ -266,8 +266,8 @@ def test_cooperative_current_mistakes():
     from uwtutor.filters import cooperative_ekf
 
     tuning, params = ns["tuning"], ns["params"]
-    truth_fed = cooperative_ekf(sc.initial_estimate(), tuning.P1, sc.dr_displacements, sc.leader_positions, sc.ranges,
-                                params.interval, tuning.Q, tuning.R)
+    truth_fed = cooperative_ekf(sc.initial_estimate(), tuning.P1, sc.dr_displacements, sc.ranges, tuning.Q, tuning.R,
+                                leader=sc.leader_positions, dt=params.interval)
     _fails_with(lab, "C", "true positions", cur_err={**ns["cur_err"], "zigzag": ns["current_rmse"](truth_fed, sc)})
     res = ns["results"]["zigzag"]
     position_block = float(np.sqrt(np.mean(np.trace(res.P[:, -1, :2, :2], axis1=-2, axis2=-1))))

@@ -363,10 +363,10 @@ def test_particle_filter_likelihood_marginalises_missing_components():
 def test_cooperative_pairs_follow_the_chosen_rule():
     sc = paper_b.make(np.random.default_rng(3), 2, packet_loss=0.3)
     p = paper_b.PARAMETERS
-    args = (p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.leader_broadcast, sc.ranges, p.interval,
-            p.Q, p.R)
-    step = cooperative_ekf(*args)
-    ranged = cooperative_ekf(*args, lost="range")
+    args = (p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), sc.dr_displacements, sc.ranges, p.Q, p.R)
+    kw = dict(leader=sc.leader_broadcast, dt=p.interval)
+    step = cooperative_ekf(*args, **kw)
+    ranged = cooperative_ekf(*args, **kw, lost="range")
     lost = np.isnan(sc.ranges)
     partial = lost[:, :-1] ^ lost[:, 1:]                                    # one end of the pair lost
     assert partial.any()
@@ -374,7 +374,7 @@ def test_cooperative_pairs_follow_the_chosen_rule():
     np.testing.assert_array_equal(np.isnan(ranged.innovations[partial]), np.stack([lost[:, :-1], lost[:, 1:]],
                                                                                    -1)[partial])
     with pytest.raises(ValueError, match="lost must be one of"):
-        cooperative_ekf(*args, lost="drop")
+        cooperative_ekf(*args, **kw, lost="drop")
 
 
 def test_odometry_filter_warns_nothing_on_clean_data():

@@ -418,7 +418,7 @@ def _small_log():
      lambda: __import__("uwtutor.filters", fromlist=["x"]).DepthEKF([10.0, 1.5, 0.1], np.eye(3), -np.eye(3))),
     ("CooperativeEKF range_variance", TypeError, "range_variance must be numeric",
      lambda: __import__("uwtutor.filters.cooperative", fromlist=["x"]).CooperativeEKF(
-         np.zeros(4), np.eye(4), np.ones((2, 2)), np.ones((3, 2)) * 100.0, 8.0, np.eye(6), np.eye(10),
+         np.zeros(4), np.eye(4), np.eye(6), np.eye(10), dt=8.0, u=np.ones((2, 2)), leader=np.ones((3, 2)) * 100.0,
          range_variance="4")),
     ("wrap_angle None", TypeError, "angle contains None",
      lambda: __import__("uwtutor.models", fromlist=["x"]).wrap_angle([0.5, None])),

@@ -36,7 +36,8 @@ def test_view_comes_from_the_library():
     view = ch08.cooperative_view(n_runs=5, seed=2, tuning="paper B")
     sc = paper_b.make(np.random.default_rng(2), 5, paper_b.PaperBParameters(current=view.current))
     tu = paper_b.paper_tuning()
-    res = cooperative_ekf(sc.params.x1, tu.P1, sc.dr_displacements, sc.leader_broadcast, sc.ranges, 8.0, tu.Q, tu.R)
+    res = cooperative_ekf(sc.params.x1, tu.P1, sc.dr_displacements, sc.ranges, tu.Q, tu.R, leader=sc.leader_broadcast,
+                          dt=8.0)
     np.testing.assert_allclose(view.estimate, res.x[0, :, :2])
     np.testing.assert_allclose(view.current_sigma, np.sqrt(np.diagonal(res.P[0], axis1=-2, axis2=-1)[:, 2:]))
     err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:], axis=-1)

@@ -391,7 +391,7 @@ def cooperative(inputs: SuiteInputs) -> FilterResult:
     P0 = np.diag([p.start_sigma**2] * 2 + [p.current_sigma**2] * 2)
     leader = np.concatenate([s.beacon0[:, None], s.beacon], axis=1)
     ranges = np.concatenate([s.z0[:, None], s.z], axis=1)
-    return cooperative_ekf(x0, P0, s.u, leader, ranges, s.interval, Q, R, times=s.times)
+    return cooperative_ekf(x0, P0, s.u, ranges, Q, R, s.times, leader=leader, dt=s.interval)
 
 
 #: Acceleration variance of the cascade filter on the fixes [(m/s)²/s³]: the suite's vehicles turn sharply between

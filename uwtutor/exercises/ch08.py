@@ -330,8 +330,8 @@ def _study() -> dict[str, tuple[float, bool]]:
         sc = paper_b.make(np.random.default_rng(STUDY_SEED), STUDY_RUNS, leader_pattern=pattern)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UnobservableWarning)
-            res = cooperative_ekf(sc.initial_estimate(), u=sc.dr_displacements, leader=sc.leader_broadcast,
-                                  ranges=sc.ranges, dt=sc.params.interval, **tune.as_kwargs())
+            res = cooperative_ekf(sc.initial_estimate(), u=sc.dr_displacements, z=sc.ranges,
+                                  leader=sc.leader_broadcast, dt=sc.params.interval, **tune.as_kwargs())
         err = np.linalg.norm(res.x[..., :2] - sc.true_positions[1:], axis=-1)
         late = sc.times[1:] >= sc.times[-1] - LATE_WINDOW
         out[pattern] = (float(np.median(err[:, late])), any(issubclass(w.category, UnobservableWarning)

@@ -30,14 +30,14 @@ that did arrive (the squared range at the other end, with its block of
 
 **The leader as a step's input.** The leader's position at each epoch is not a sequence fixed when the filter is
 built: like a variable of a factor graph (GTSAM's range factor takes the keys it joins), it is an input of each
-step's measurement. ``CooperativeEKF(x0, P0, dt=..., Q=..., R=...)`` holds no sequence: ``predict(u)`` takes the
+step's measurement. ``CooperativeEKF(x0, P0, Q, R, dt=...)`` holds no sequence: ``predict(u)`` takes the
 step's DR displacement and ``update(z)`` the step's observation, the ranges *and* the leader's broadcast positions,
 ``[r_k, r_{k+1}, x^M_k, y^M_k, x^M_{k+1}, y^M_{k+1}]`` for the pair formulations or ``[r_{k+1}, x^M_{k+1},
 y^M_{k+1}]`` for ``"single_range"`` (:func:`leader_observations` builds them from whole sequences); the measurement
-model of the step is built from them. Given the whole run instead (``CooperativeEKF(x0, P0, u, leader, dt, Q, R)``,
-the form ``cooperative_ekf`` uses), the filter builds the models over the whole run as before, and ``predict()`` and
-``update(z)`` with the two ranges read the step's displacement and leader positions from them; both forms give the
-same numbers, bit for bit (``tests/test_cooperative.py``).
+model of the step is built from them. Given the whole run instead (``CooperativeEKF(x0, P0, Q, R, dt=..., u=...,
+leader=...)``, the form ``cooperative_ekf`` uses), the filter builds the models over the whole run, and
+``predict()`` and ``update(z)`` with the two ranges read the step's displacement and leader positions from them;
+both forms give the same numbers, bit for bit (``tests/test_cooperative.py``).
 
 When the follower's motion relative to the leader is a straight line (a leader that keeps a parallel course), the
 ranges cannot tell the truth from a rotation of the follower about the leader together with its relative velocity,
@@ -278,11 +278,11 @@ def _check_inputs(x0: Any, P0: Any, u: Any, leader: Any,
 class CooperativeEKF(ExtendedKalmanFilter):
     r"""Paper B's cooperative EKF, one step at a time (the protocol's ``predict`` / ``update``).
 
-    Built without sequences, ``CooperativeEKF(x0, P0, dt=..., Q=..., R=...)``, it takes each step's inputs when the
-    step comes: ``predict(u)`` the DR displacement, ``update(z)`` the ranges and the leader's positions (the
-    module docstring, :func:`leader_observations`). Built with the whole run, ``CooperativeEKF(x0, P0, u, leader,
-    dt, Q, R)`` (the form of :func:`cooperative_ekf` and of the earlier versions), it builds the models over the
-    whole run and reads each step's displacement and leader positions from them. Both give the same numbers.
+    Built as the other EKFs are, ``CooperativeEKF(x0, P0, Q, R, dt=...)``, it holds no sequence and takes each
+    step's inputs when the step comes: ``predict(u)`` the DR displacement, ``update(z)`` the ranges and the leader's
+    positions (the module docstring, :func:`leader_observations`). Given the whole run as well (``u=`` and
+    ``leader=``, the form :func:`cooperative_ekf` uses), it builds the models over the whole run and reads each
+    step's displacement and leader positions from them. Both give the same numbers.
 
     Parameters
     ----------
@@ -290,18 +290,18 @@ class CooperativeEKF(ExtendedKalmanFilter):
         Initial :math:`[x, y, U_x, U_y]` at epoch 0 [m, m/s].
     P0 : array_like, shape (4, 4) or (M, 4, 4)
         Its covariance.
+    Q : array_like, shape (6, 6)
+        Paper B's :math:`\mathbf{Q}` over :math:`[x, y, \Delta x, \Delta y, U_x, U_y]`.
+    R : array_like, shape (10, 10)
+        Paper B's :math:`\mathbf{R}` (unused by ``"single_range"``).
+    dt : float
+        :math:`\delta t` [s].
     u : array_like, shape (K, 2) or (M, K, 2), optional
         The whole run's DR displacements through the water over each interval [m] (with ``leader``); None: given
         step by step to ``predict``.
     leader : array_like, shape (K + 1, 2) or (M, K + 1, 2), optional
         The whole run's leader broadcast positions at the ranging epochs [m] (with ``u``); None: given step by step
         in the observations of ``update``.
-    dt : float
-        :math:`\delta t` [s].
-    Q : array_like, shape (6, 6)
-        Paper B's :math:`\mathbf{Q}` over :math:`[x, y, \Delta x, \Delta y, U_x, U_y]`.
-    R : array_like, shape (10, 10)
-        Paper B's :math:`\mathbf{R}` (unused by ``"single_range"``).
     formulation : {"consistent", "literal", "single_range"}, default "consistent"
         See the module docstring.
     range_variance : float, optional
@@ -336,11 +336,11 @@ class CooperativeEKF(ExtendedKalmanFilter):
     >>> f = CooperativeEKF(
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),
-    ...     sc.dr_displacements[0],
-    ...     sc.leader_broadcast[0],
-    ...     p.interval,
     ...     p.Q,
     ...     p.R,
+    ...     dt=p.interval,
+    ...     u=sc.dr_displacements[0],
+    ...     leader=sc.leader_broadcast[0],
     ... )
     >>> f.predict(); f.update(sc.ranges[0, :2])
     >>> f.x.shape, f.y.shape
@@ -348,28 +348,24 @@ class CooperativeEKF(ExtendedKalmanFilter):
 
     The same step with the leader's positions as the step's input, the filter holding no sequence:
 
-    >>> g = CooperativeEKF(
-    ...     p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), dt=p.interval, Q=p.Q, R=p.R
-    ... )
+    >>> g = CooperativeEKF(p.x1, np.diag([1e4, 1e4, 1.0, 1.0]), p.Q, p.R, dt=p.interval)
     >>> obs = leader_observations(sc.ranges[0], sc.leader_broadcast[0])
     >>> g.predict(sc.dr_displacements[0, 0]); g.update(obs[0])
     >>> bool(np.array_equal(g.x, f.x)), obs.shape
     (True, (312, 6))
     """
 
-    def __init__(self, x0: ArrayLike, P0: ArrayLike, u: ArrayLike | None = None, leader: ArrayLike | None = None,
-                 dt: Any = None, Q: ArrayLike | None = None, R: ArrayLike | None = None, *,
-                 formulation: str = "consistent", range_variance: Any = None, lost: str = "step",
-                 _n_runs: int | None = None) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike, *, dt: float,
+                 u: ArrayLike | None = None, leader: ArrayLike | None = None, formulation: str = "consistent",
+                 range_variance: float | None = None, lost: str = "step", _n_runs: int | None = None) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
         if lost not in LOST_POLICIES:
             raise ValueError(f"lost must be one of {LOST_POLICIES} (a pair with one range lost: predict only, or "
                              f"update with the other range); got {lost!r}")
-        if dt is None or Q is None or R is None:
-            name = "dt" if dt is None else "Q" if Q is None else "R"
-            raise TypeError(f"{name} is required: CooperativeEKF(x0, P0, dt=..., Q=..., R=...) (or, with the whole "
-                            "run, CooperativeEKF(x0, P0, u, leader, dt, Q, R))")
+        if dt is None:
+            raise TypeError("dt (the interval between ranging epochs, s) is required: CooperativeEKF(x0, P0, Q, R, "
+                            "dt=...)")
         if (u is None) != (leader is None):
             raise TypeError("give u and leader together (the whole run: the models are built over it), or neither "
                             "(then predict(u) and update(z) take each step's displacement and leader positions)")
@@ -492,31 +488,34 @@ class CooperativeEKF(ExtendedKalmanFilter):
         return result if keep_priors else dataclasses.replace(result, x_prior=None, P_prior=None)
 
 
-def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLike, ranges: ArrayLike, dt: Any,
-                    Q: ArrayLike, R: ArrayLike, times: ArrayLike | None = None, *, formulation: str = "consistent",
-                    range_variance: Any = None, lost: str = "step") -> FilterResult:
+def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
+                    times: ArrayLike | None = None, *, leader: ArrayLike, dt: float, formulation: str = "consistent",
+                    range_variance: float | None = None, lost: str = "step") -> FilterResult:
     r"""Run paper B's cooperative EKF over a whole run (or ``M`` runs at once).
+
+    The argument order is the other EKFs' (``range_only_ekf(x0, P0, u, z, Q, R, ...)``): the leader's track is
+    an input of the measurement model, given by name with the interval ``dt``.
 
     Parameters
     ----------
     x0 : array_like, shape (4,) or (M, 4)
-        Initial :math:`[x, y, U_x, U_y]` at the epoch of ``ranges[..., 0]``.
+        Initial :math:`[x, y, U_x, U_y]` at the epoch of ``z[..., 0]``.
     P0 : array_like, shape (4, 4) or (M, 4, 4)
         Its covariance.
     u : array_like, shape (K, 2) or (M, K, 2)
         The follower's DR displacement through the water over each interval (paper B's motion radius vector) [m].
-    leader : array_like, shape (K + 1, 2) or (M, K + 1, 2)
-        The leader's broadcast positions at the ranging epochs [m].
-    ranges : array_like, shape (K + 1,) or (M, K + 1)
-        Ranges at the epochs [m]; NaN = lost message.
-    dt : float
-        :math:`\delta t` [s].
+    z : array_like, shape (K + 1,) or (M, K + 1)
+        The ranges to the leader at the epochs [m]; NaN = lost message.
     Q : array_like, shape (6, 6)
         Paper B's :math:`\mathbf{Q}`.
     R : array_like, shape (10, 10)
         Paper B's :math:`\mathbf{R}`.
     times : array_like, shape (K,), optional
         Times of epochs 1..K (default :math:`k\,\delta t`).
+    leader : array_like, shape (K + 1, 2) or (M, K + 1, 2)
+        The leader's broadcast positions at the ranging epochs [m].
+    dt : float
+        :math:`\delta t` [s].
     formulation : {"consistent", "literal", "single_range"}, default "consistent"
         See ``CooperativeEKF``.
     range_variance : float, optional
@@ -527,7 +526,7 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLik
     Returns
     -------
     FilterResult
-        ``x[..., k, :]`` is the state at the epoch of ``ranges[..., k + 1]``; ``extras["accepted"]`` marks the steps
+        ``x[..., k, :]`` is the state at the epoch of ``z[..., k + 1]``; ``extras["accepted"]`` marks the steps
         with an update.
 
     Warns
@@ -546,24 +545,27 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, leader: ArrayLik
     ...     p.x1,
     ...     np.diag([1e4, 1e4, 1.0, 1.0]),
     ...     sc.dr_displacements,
-    ...     sc.leader_broadcast,
     ...     sc.ranges,
-    ...     p.interval,
     ...     p.Q,
     ...     p.R,
+    ...     leader=sc.leader_broadcast,
+    ...     dt=p.interval,
     ... )
     >>> res.x.shape
     (4, 312, 4)
     """
+    ranges = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if ranges.shape[-1] < 2:
+        raise ValueError(f"z must hold the ranges of at least two epochs (one interval); got shape {ranges.shape}")
     pairs = range_pairs(ranges)
     if u is None or leader is None:
         raise TypeError(f"{'u' if u is None else 'leader'} is required: cooperative_ekf runs the whole run (for one "
                         "step at a time, CooperativeEKF takes each step's displacement and leader positions)")
-    filt = CooperativeEKF(x0, P0, u, leader, dt, Q, R, formulation=formulation, range_variance=range_variance,
-                          lost=lost, _n_runs=len(pairs) if pairs.ndim == 3 else None)
+    filt = CooperativeEKF(x0, P0, Q, R, dt=dt, u=u, leader=leader, formulation=formulation,
+                          range_variance=range_variance, lost=lost, _n_runs=len(pairs) if pairs.ndim == 3 else None)
     intervals = np.shape(u)[-2]
     if pairs.shape[-2] != intervals:
-        raise ValueError(f"ranges must hold K + 1 = {intervals + 1} epochs (one more than u's intervals); "
+        raise ValueError(f"z must hold K + 1 = {intervals + 1} ranges (one more than u's intervals); "
                          f"got {pairs.shape[-2] + 1}")
     if times is None:
         times = float(as_positive("dt", dt, ndim=0)) * np.arange(1, pairs.shape[-2] + 1)

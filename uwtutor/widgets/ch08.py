@@ -188,8 +188,8 @@ def _view(pattern: str, speed: float, dt: float, loss: float, tuning: str, M: in
     n = K if epochs is None else epochs             # the filter steps run, over n + 1 ranging epochs
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnobservableWarning)
-        res = cooperative_ekf(params.x1, tune.P1, sc.dr_displacements[:, :n], sc.leader_broadcast[:, :n + 1],
-                              sc.ranges[:, :n + 1], dt, tune.Q, tune.R, times=t[:n])
+        res = cooperative_ekf(params.x1, tune.P1, sc.dr_displacements[:, :n], sc.ranges[:, :n + 1], tune.Q, tune.R,
+                              t[:n], leader=sc.leader_broadcast[:, :n + 1], dt=dt)
     # the warning judges the whole relative track: a partial run's first steps cannot tell (a zigzag's first leg is
     # straight), so a partial view makes no claim
     unobservable = epochs is None and any(issubclass(w.category, UnobservableWarning) for w in caught)

@@ -67,8 +67,8 @@ def _result(ns: Answers, p: str, leader: str = "leader_broadcast") -> object:
     key = (sc.dr_displacements, getattr(sc, leader), sc.ranges, tuning.P1, tuning.Q, tuning.R, params.interval,
            sc.initial_estimate())
     return cached("cooperative_current.ekf", key, lambda: cooperative_ekf(
-        sc.initial_estimate(), tuning.P1, sc.dr_displacements, getattr(sc, leader), sc.ranges, params.interval,
-        tuning.Q, tuning.R))
+        sc.initial_estimate(), tuning.P1, sc.dr_displacements, sc.ranges, tuning.Q, tuning.R,
+        leader=getattr(sc, leader), dt=params.interval))
 
 
 def part_c(ns: Answers) -> Iterator[Feedback]:
