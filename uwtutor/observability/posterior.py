@@ -17,10 +17,14 @@ from .._validate import (
 )
 from ..errors import IllConditionedError
 from ..models.base import MeasurementModel, MotionModel
+from ..models.blocks import _MAX_STEP, BlockMotion, Current, Position, RandomWalk
 from ..models.range import RangeToBeacon
 from ._common import _state_labels, _warn
 
 __all__ = ["posterior_crlb", "model_posterior_crlb"]
+
+#: Largest finite range noise accepted [m]: its square, the variance the range model holds, stays within 1e150.
+_MAX_SIGMA = 1e75
 
 
 def _pcrb_state_size(bias: bool, current: bool) -> int:
@@ -57,6 +61,9 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
     if np.any(dt <= 0):
         raise ValueError(f"times must increase strictly; step {int(np.flatnonzero(dt <= 0)[0])} has length "
                          f"{dt[dt <= 0][0]}")
+    if np.any(dt > _MAX_STEP):
+        raise ValueError(f"times must be in seconds: step {int(np.flatnonzero(dt > _MAX_STEP)[0])} lasts "
+                         f"{dt.max():.3g} s, beyond the motion models' bound of {_MAX_STEP:g} s")
     return dt
 
 
@@ -73,8 +80,9 @@ def _pcrb_process_noise(Q: Any, n: int, k: int) -> np.ndarray:
     return out
 
 
-def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
-    """1/sigma^2 broadcast to ``shape`` (runs, epochs); sigma = inf means no range at that epoch."""
+def _pcrb_sigma(sigma: Any, shape: tuple[int, int]) -> tuple[Any, np.ndarray]:
+    r"""The range variance :math:`R_k = \sigma_k^2` as :class:`~uwtutor.models.RangeToBeacon` takes it, and where a
+    range is present ``(M, K)`` (``sigma = inf``: no range at that epoch)."""
     s = as_float_array("sigma", sigma)
     bad = np.isnan(s) | (s <= 0)
     if bad.any():
@@ -83,12 +91,58 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
     if small.any():
         raise ValueError(f"sigma must be at least 1e-150 (1 / sigma^2 overflows float64 below it); got "
                          f"{s[small].flat[0]:.3g}. Change its units")
+    large = np.isfinite(s) & (s > _MAX_SIGMA)
+    if large.any():
+        raise ValueError(f"sigma must be at most {_MAX_SIGMA:g} (its square, the range variance, is bounded by "
+                         f"{_MAX_SIGMA**2:g}), or np.inf for an epoch without a range; got {s[large].flat[0]:.3g}. "
+                         "Change its units")
     try:
-        s = np.broadcast_to(s, shape)
+        measured = np.broadcast_to(np.isfinite(s), shape)
     except ValueError:
         raise ValueError(f"sigma must be a number, one value per epoch (K,) = ({shape[-1]},), or one per run and "
                          f"epoch {shape}; got shape {s.shape}") from None
-    return 1.0 / s**2
+    if s.ndim == 2 and s.shape[0] == 1:                    # one row for every run: per epoch
+        s = s[0]
+    if s.ndim == 1:                                        # (K,): NaN where no range, as the model takes it
+        return np.where(np.isfinite(s), s**2, np.nan), measured
+    # a number, or (M, K, 1, 1) per run and epoch: 1 stands in where there is no range (the mask skips it)
+    R = np.where(np.isfinite(s), s, 1.0) ** 2
+    return (R[..., None, None] if s.ndim == 2 else R), measured
+
+
+class _GivenProcessNoise(MotionModel):
+    r"""A motion model's :math:`f` and :math:`F` with the process noise :math:`Q_k` given step by step.
+
+    :func:`posterior_crlb` takes the noise of each step as its caller gives it: one matrix for every step or one
+    per step, and a whole-state one may couple the position with the bias and the current. The blocks' own noise
+    cannot say that (it is block diagonal, and a random walk's grows with the step's length in seconds), so the
+    blocks give the state and its transition, and ``Q`` is the caller's, ``(K, n, n)``.
+    """
+
+    covariances_checked = True          # checked (symmetric PSD) by posterior_crlb
+
+    def __init__(self, motion: MotionModel, Q: np.ndarray) -> None:
+        self.motion, self.n, self._Q = motion, motion.n, Q
+
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.motion.f(x, u, k)
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.motion.F(x, u, k)
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self._Q[k]
+
+
+def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> MotionModel:
+    """The state ``[x, y, (bias), (Ux, Uy)]`` from the blocks: a position moved by the DR displacement (and carried
+    by the current over ``dt``), a range bias and a current, constant but for the per-step noise ``Q``."""
+    blocks = [Position(np.zeros((2, 2)), current="current" if current else None)]
+    if bias:
+        blocks.append(RandomWalk("range_bias"))
+    if current:
+        blocks.append(Current())
+    return _GivenProcessNoise(BlockMotion(*blocks, dt=dt), Q)
 
 
 def _sym(a: np.ndarray) -> np.ndarray:
@@ -100,22 +154,6 @@ def _spd_inverse(J: np.ndarray) -> np.ndarray:
     L = np.linalg.cholesky(J)
     L_inv = np.linalg.solve(L, np.broadcast_to(np.eye(J.shape[-1]), J.shape))
     return np.swapaxes(L_inv, -1, -2) @ L_inv
-
-
-def _range_rows(positions: np.ndarray, beacon: np.ndarray, n: int, bias: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The rows :math:`H_k` of the range measurement model (``RangeToBeacon``, the filters' own) at the true
-    positions ``(M, K, 2)``, state ``[x, y, (bias), (Ux, Uy)]``, zero where the line of sight is undefined; and
-    where it is defined ``(M, K)``."""
-    M, K, _ = positions.shape
-    ranges = RangeToBeacon(beacon, R=1.0, n=n, bias_index=2 if bias else None)
-    state = np.zeros((M, n))
-    h = np.empty((M, K, n))
-    defined = np.empty((M, K), dtype=bool)
-    for k in range(K):
-        state[:, :2] = positions[:, k]
-        _, H, defined[:, k] = ranges.linearize(state, k)
-        h[:, k] = H[:, 0]
-    return np.where(defined[..., None], h, 0.0), defined
 
 
 def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q: ArrayLike, P0: ArrayLike,
@@ -294,46 +332,35 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
                                             ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))},
                        broadcast_one=True)
     M = 1 if runs is None else runs
-    batched = runs is not None
     if np.ndim(s_in) > 2:
         raise ValueError(f"sigma must be a number, shape ({K},) or (M, {K}); got shape {np.shape(s_in)}")
-    info_scale = _pcrb_sigma(s_in, (M, K))                                   # 1 / sigma^2, (M, K)
+    R, measured = _pcrb_sigma(s_in, (M, K))
     dt = _pcrb_steps(times, K, current)
     Qk = _pcrb_process_noise(Q, n, K)
 
-    h, defined = _range_rows(np.broadcast_to(p, (M, K, 2)), np.broadcast_to(b, (M, K, 2)), n, bias)
-    if not defined.all():
-        j, k = (int(i) for i in np.argwhere(~defined)[0])
-        _warn(f"positions coincide with the beacon at {np.count_nonzero(~defined)} epoch(s) (the first: run {j}, "
+    # the models: the state from the blocks, the filters' range model; the bound is the general recursion's
+    motion = _dead_reckoning_state(bias, current, dt, Qk)
+    ranges = RangeToBeacon(b, R, n=n, bias_index=2 if bias else None)
+    truth = np.zeros((M, K, n))                # the range's H reads the position only (the bias adds a 1)
+    truth[..., :2] = p
+    bounds, undefined = _posterior_bounds(motion, ranges, truth[:, 0], P0_arr, truth, None, measured[..., None],
+                                          bool(mean_over_runs))
+    if undefined.any():
+        j, k = (int(i) for i in np.argwhere(undefined[..., 0])[0])
+        _warn(f"positions coincide with the beacon at {np.count_nonzero(undefined)} epoch(s) (the first: run {j}, "
               f"epoch {k}): the line of sight is undefined there, so those ranges add no information")
-    info = np.einsum("mki,mkj->mkij", h, h) * info_scale[..., None, None]   # H^T R^-1 H, (M, K, n, n)
-
-    if mean_over_runs:
-        if P0_arr.ndim == 3 and M > 1:
-            raise ValueError("mean_over_runs=True averages the range information over the runs: give one P0 of "
-                             f"shape ({n}, {n}) for all of them")
-        info = info.mean(axis=0, keepdims=True)
-        M, batched = 1, False
-
-    F = np.broadcast_to(np.eye(n), (K, n, n)).copy()                        # x_k = F_k x_{k-1} + ...
-    if current:
-        c = 3 if bias else 2
-        F[:, 0, c] = F[:, 1, c + 1] = dt
-    bounds = _information_recursion(P0_arr, M, K, lambda k: (F[k], Qk[k]), lambda k, J: J + info[:, k])
     out = bounds if full else bounds[..., :2, :2]
-    return out if batched else out[0]
+    return out if runs is not None and not mean_over_runs else out[0]
 
 
 def _runs_axis(name: str, a: np.ndarray, single_ndim: int) -> int | None:
     return a.shape[0] if a.ndim == single_ndim + 1 else None
 
 
-def _as_batch(value: Any, M: int, shape: tuple[int, ...], what: str) -> np.ndarray:
-    """A model's matrix (shape) or (M,) + shape as (M,) + shape."""
+def _model_matrix(value: Any, M: int, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """A model's matrix: ``shape`` (shared by every run, kept so: one product, not M) or ``(M,) + shape``."""
     arr = np.asarray(value, dtype=float)
-    if arr.shape == shape:
-        return np.broadcast_to(arr, (M,) + shape)
-    if arr.shape == (M,) + shape:
+    if arr.shape == shape or arr.shape == (M,) + shape:
         return arr
     raise ValueError(f"{what} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
 
@@ -381,42 +408,22 @@ def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) 
                                   "F with a singular Q): the bound is infinite along some direction") from None
 
 
-def _information_recursion(P0: np.ndarray, M: int, K: int,
-                           transition: Callable[[int], tuple[np.ndarray, np.ndarray]],
-                           update: Callable[[int, np.ndarray], np.ndarray]) -> np.ndarray:
-    r"""The posterior information recursion (Tichavský et al. 1998, additive Gaussian noise), the one both bounds run.
-
-    :math:`J_0 = P_0^{-1}`; step :math:`k` predicts, :math:`J \leftarrow (Q_k + F_k J^{-1} F_k^\mathsf{T})^{-1}`
-    with ``transition(k) = (F_k, Q_k)``, then adds its measurements' information, ``J <- update(k, J)``
-    (:math:`J + \operatorname{E}[H_k^\mathsf{T} R_k^{-1} H_k]`), symmetrized. Returns the bounds
-    :math:`J_k^{-1}`, shape ``(M, K, n, n)``.
-    """
-    n = P0.shape[-1]
-    J = np.array(np.broadcast_to(_spd_inverse(P0), (M, n, n)))
-    bounds = np.empty((M, K, n, n))
-    for k in range(K):
-        F, Q = transition(k)
-        J = _sym(_predicted_information(J, F, Q, k))
-        J = _sym(update(k, J))
-        bounds[:, k] = _sym(_spd_inverse(J))
-    return bounds
-
-
 def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: int, present: np.ndarray, M: int,
-                             m: int, n: int) -> tuple[np.ndarray | None, int]:
-    r""":math:`H_k^\mathsf{T} R_k^{-1} H_k` of the components ``present`` (M, m) at the true ``x_k`` (None: none),
-    and how many present components had an undefined Jacobian (they add nothing)."""
+                             m: int, n: int) -> tuple[np.ndarray | None, np.ndarray]:
+    r""":math:`H_k^\mathsf{T} R_k^{-1} H_k` ``(M, n, n)`` of the components ``present`` (M, m) at the true ``x_k``
+    (None: none), and which present components had an undefined Jacobian ``(M, m)`` (they add nothing)."""
     if not present.any():
-        return None, 0
+        return None, np.zeros_like(present)
     _, H, defined = measurement.linearize(x_k, k)
     H = np.asarray(H, dtype=float)
     if H.shape != (M, m, n):
         raise ValueError(f"{type(measurement).__name__}'s H must have shape ({M}, {m}, {n}); got {H.shape}")
     d = np.asarray(defined, dtype=bool)
     d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
-    undefined = int((present & ~d).sum())
+    undefined = present & ~d
     present = present & d
-    R = _as_batch(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
+    R = np.broadcast_to(_model_matrix(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R"),
+                        (M, m, m))
     bad = present & ~np.isfinite(H).all(axis=-1)
     if bad.any():
         raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
@@ -426,13 +433,68 @@ def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: 
         raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
                          "measurement is present")
     Hm = np.where(present[:, :, None], H, 0.0)
+    if m == 1:                          # one component (a range): H^T H / R, without a solve per run
+        var = R[:, 0, 0]
+        if (present[:, 0] & (var <= 0)).any():
+            raise ValueError(f"{type(measurement).__name__}.R returned a variance <= 0 at step {k} where a "
+                             "measurement is present")
+        weight = np.where(present[:, 0], 1.0 / np.where(present[:, 0], var, 1.0), 0.0)
+        h = Hm[:, 0]
+        return (h[:, :, None] * h[:, None, :]) * weight[:, None, None], undefined
     Rm = np.where(both, R, np.eye(m))
     return np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm), undefined           # H^T R^-1 H
 
 
+def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np.ndarray, P0: np.ndarray,
+                      truth: np.ndarray, u: np.ndarray | None, present: np.ndarray,
+                      mean_over_runs: bool) -> tuple[np.ndarray, np.ndarray]:
+    r"""The posterior information recursion (Tichavský et al. 1998, additive Gaussian noise), the one both bounds run.
+
+    :math:`J_0 = P_0^{-1}`; step :math:`k` predicts, :math:`J \leftarrow (Q_k + F_k J^{-1} F_k^\mathsf{T})^{-1}`,
+    with :math:`F_k` and :math:`Q_k` of ``motion`` at the true ``x_{k-1}`` (``x0`` ``(M, n)``, then ``truth``
+    ``(M, K, n)``) and the input ``u`` ``(M, K, p)``; then adds the information of the components ``present``
+    ``(M, K, m)``, :math:`H_k^\mathsf{T} R_k^{-1} H_k` at the true :math:`x_k` -- with ``mean_over_runs``, its mean
+    over the runs (the expectation over the true states, evaluated on the M sampled tracks; :math:`F_k` and
+    :math:`Q_k` must then be the same in every run). Returns the bounds :math:`J_k^{-1}` ``(M, K, n, n)`` (``(1, K,
+    n, n)`` with ``mean_over_runs``) and where a present component's Jacobian was undefined ``(M, K, m)``.
+    """
+    M, K, n = truth.shape
+    m = present.shape[-1]
+    name = type(motion).__name__
+    if mean_over_runs and P0.ndim == 3 and P0.shape[0] > 1:
+        raise ValueError("mean_over_runs=True averages the measurement information over the runs: give one P0 of "
+                         f"shape ({n}, {n}) for all of them")
+    J = np.array(np.broadcast_to(_spd_inverse(P0), (1 if mean_over_runs else M, n, n)))
+    information = np.empty((J.shape[0], K, n, n))
+    undefined = np.zeros((M, K, m), dtype=bool)
+    for k in range(K):
+        u_k = None if u is None else u[:, k]
+        x_prev = x0 if k == 0 else np.ascontiguousarray(truth[:, k - 1])
+        F = _model_matrix(motion.F(x_prev, u_k, k), M, (n, n), f"{name}.F")
+        Q = _model_matrix(motion.Q(x_prev, u_k, k), M, (n, n), f"{name}.Q")
+        for method, value in (("F", F), ("Q", Q)):
+            if not np.isfinite(value).all():
+                raise ValueError(f"{name}.{method} returned a non-finite value at step {k}")
+            if mean_over_runs and value.ndim == 3 and not (value == value[:1]).all():
+                raise ValueError(f"mean_over_runs=True averages the measurement information over the runs, which "
+                                 f"needs one prediction for all of them; but {name}.{method} differs between the "
+                                 f"runs' true states at step {k} (a nonlinear motion): leave mean_over_runs False "
+                                 "for one bound per run")
+        if mean_over_runs:
+            F, Q = F.reshape(-1, n, n)[0], Q.reshape(-1, n, n)[0]
+        J = _sym(_predicted_information(J, F, Q, k))
+        increment, undefined[:, k] = _measurement_information(measurement, np.ascontiguousarray(truth[:, k]), k,
+                                                              present[:, k], M, m, n)
+        if increment is not None:
+            J = _sym(J + (increment.mean(axis=0, keepdims=True) if mean_over_runs else increment))
+        information[:, k] = J
+    return _sym(_spd_inverse(information)), undefined
+
+
 def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: ArrayLike, truth: ArrayLike,
                          u: ArrayLike | None = None, *,
-                         measured: ArrayLike | None = None, full: bool = False) -> NDArray[np.float64]:
+                         measured: ArrayLike | None = None, full: bool = False,
+                         mean_over_runs: bool = False) -> NDArray[np.float64]:
     r"""The posterior Cramér–Rao bound of any motion/measurement model pair, along a given true track.
 
     For :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`, and :math:`z_k = h_k(x_k) + v_k`,
@@ -534,6 +596,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     if not isinstance(measurement, MeasurementModel):
         raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
     full = as_flag("full", full)
+    mean_over_runs = as_flag("mean_over_runs", mean_over_runs)
     n, m = motion.n, measurement.m
     if measurement.n != n:
         raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's state "
@@ -556,33 +619,12 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
                         "measured": np.shape(measured)[0] if measured is not None and np.ndim(measured) == 3
                         else None})
     M = 1 if runs is None else runs
-    batched = runs is not None
-    xs = np.broadcast_to(truth, (M, K, n))
-    x0_batch = np.array(np.broadcast_to(x0, (M, n)))
-    uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))
-    present_all = _measured_mask(measured, M, K, m)
-
-    def transition(k: int) -> tuple[np.ndarray, np.ndarray]:
-        u_k = None if uu is None else uu[:, k]
-        x_prev = x0_batch if k == 0 else np.ascontiguousarray(xs[:, k - 1])
-        F = _as_batch(motion.F(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.F")
-        Q = _as_batch(motion.Q(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.Q")
-        for method, value in (("F", F), ("Q", Q)):
-            if not np.isfinite(value).all():
-                raise ValueError(f"{type(motion).__name__}.{method} returned a non-finite value at step {k}")
-        return F, Q
-
-    singular = [0]
-
-    def update(k: int, J: np.ndarray) -> np.ndarray:
-        increment, undefined = _measurement_information(measurement, np.ascontiguousarray(xs[:, k]), k,
-                                                        present_all[:, k], M, m, n)
-        singular[0] += undefined
-        return J if increment is None else J + increment
-
-    bounds = _information_recursion(P0, M, K, transition, update)
-    if singular[0]:
-        _warn(f"the Jacobian is undefined for {singular[0]} measured component(s) (a position on a beacon): those "
-              "measurements add no information")
+    bounds, undefined = _posterior_bounds(motion, measurement, np.array(np.broadcast_to(x0, (M, n))), P0,
+                                          np.broadcast_to(truth, (M, K, n)),
+                                          None if u is None else np.broadcast_to(u, (M,) + u.shape[-2:]),
+                                          _measured_mask(measured, M, K, m), mean_over_runs)
+    if undefined.any():
+        _warn(f"the Jacobian is undefined for {np.count_nonzero(undefined)} measured component(s) (a position on a "
+              "beacon): those measurements add no information")
     out = bounds if full else bounds[..., :2, :2]
-    return out if batched else out[0]
+    return out if runs is not None and not mean_over_runs else out[0]
