@@ -68,15 +68,16 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
 
 
 def _pcrb_process_noise(Q: Any, n: int, k: int) -> np.ndarray:
-    """Q as (k, n, n): a position-only (2, 2) Q is embedded with zeros (a constant bias and current)."""
+    """Q as (n, n), or (k, n, n) one per step: a position-only Q is embedded with zeros (a constant bias and
+    current)."""
     q = as_covariance("Q", Q, allow_singular=True)
     if q.ndim not in (2, 3) or (q.ndim == 3 and q.shape[0] != k) or q.shape[-1] not in (2, n):
         raise ValueError(f"Q must be the process noise covariance of one step, shape (2, 2) (position only) or "
                          f"({n}, {n}) (the whole state), or one per step, shape ({k}, 2, 2) or ({k}, {n}, {n}); "
                          f"got {q.shape}")
-    out = np.zeros((k, n, n))
+    out = np.zeros(q.shape[:-2] + (n, n))
     m = q.shape[-1]
-    out[:, :m, :m] = q
+    out[..., :m, :m] = q
     return out
 
 
@@ -111,27 +112,33 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, int]) -> tuple[Any, np.ndarray]:
 
 
 class _GivenProcessNoise(MotionModel):
-    r"""A motion model's :math:`f` and :math:`F` with the process noise :math:`Q_k` given step by step.
+    r"""Linear blocks' :math:`f` and :math:`F` with the process noise :math:`Q_k` given step by step.
 
     :func:`posterior_crlb` takes the noise of each step as its caller gives it: one matrix for every step or one
     per step, and a whole-state one may couple the position with the bias and the current. The blocks' own noise
     cannot say that (it is block diagonal, and a random walk's grows with the step's length in seconds), so the
-    blocks give the state and its transition, and ``Q`` is the caller's, ``(K, n, n)``.
+    blocks give the state and its transition, and ``Q`` is the caller's, ``(n, n)`` or ``(K, n, n)``. The blocks
+    are linear, so :math:`F_k` depends on the step's length alone: it is assembled once per length.
     """
 
     covariances_checked = True          # checked (symmetric PSD) by posterior_crlb
 
-    def __init__(self, motion: MotionModel, Q: np.ndarray) -> None:
+    def __init__(self, motion: BlockMotion, Q: np.ndarray) -> None:
         self.motion, self.n, self._Q = motion, motion.n, Q
+        self._origin = np.zeros((1, motion.n))
+        self._F: dict[float, np.ndarray] = {}
 
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         return self.motion.f(x, u, k)
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self.motion.F(x, u, k)
+        dt = self.motion.dt(k)
+        if dt not in self._F:
+            self._F[dt] = self.motion.F(self._origin, None, k)
+        return self._F[dt]
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
-        return self._Q[k]
+        return self._Q if self._Q.ndim == 2 else self._Q[k]
 
 
 def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> MotionModel:
@@ -388,17 +395,21 @@ def _measured_mask(measured: Any, M: int, K: int, m: int) -> np.ndarray:
     return np.broadcast_to(out, (M, K, m))
 
 
-def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) -> np.ndarray:
-    r""":math:`(Q + F J^{-1} F^T)^{-1}` for stacks (M, n, n), without inverting J when F is invertible."""
-    eye = np.eye(J.shape[-1])
+def _inverse_or_none(F: np.ndarray) -> np.ndarray | None:
+    """:math:`F^{-1}` (a stack of them), or None where ``F`` is singular."""
     try:
         F_inv = np.linalg.inv(F)
-        ok = bool(np.isfinite(F_inv).all())
     except np.linalg.LinAlgError:
-        ok = False
-    if ok:
+        return None
+    return F_inv if np.isfinite(F_inv).all() else None
+
+
+def _predicted_information(J: np.ndarray, F: np.ndarray, F_inv: np.ndarray | None, Q: np.ndarray,
+                           k: int) -> np.ndarray:
+    r""":math:`(Q + F J^{-1} F^T)^{-1}` for stacks (M, n, n), without inverting J when F is invertible (``F_inv``)."""
+    if F_inv is not None:
         Jt = np.swapaxes(F_inv, -1, -2) @ J @ F_inv                              # F^-T J F^-1
-        A = eye + Q @ Jt                                                         # eigenvalues >= 1
+        A = np.eye(J.shape[-1]) + Q @ Jt                                         # eigenvalues >= 1
         return np.swapaxes(np.linalg.solve(np.swapaxes(A, -1, -2), Jt), -1, -2)  # Jt (I + Q Jt)^-1
     P_pred = _sym(F @ _spd_inverse(J) @ np.swapaxes(F, -1, -2) + Q)               # a singular F: covariance form
     try:
@@ -422,25 +433,28 @@ def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: 
     d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
     undefined = present & ~d
     present = present & d
-    R = np.broadcast_to(_model_matrix(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R"),
-                        (M, m, m))
-    bad = present & ~np.isfinite(H).all(axis=-1)
-    if bad.any():
-        raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
-                         f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+    everywhere = bool(present.all())
+    if not np.isfinite(H).all():
+        bad = present & ~np.isfinite(H).all(axis=-1)
+        if bad.any():
+            raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
+                             f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+    Hm = H if everywhere else np.where(present[:, :, None], H, 0.0)
+    R = _model_matrix(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
+    if m == 1:                          # one component (a range): H^T H / R, without a solve per run
+        var = R[..., 0, 0]
+        usable = np.isfinite(var) & (var > 0)
+        if not (usable if var.ndim == 0 else usable | ~present[:, 0]).all():
+            raise ValueError(f"{type(measurement).__name__}.R returned a variance that is not finite and > 0 at "
+                             f"step {k} where a measurement is present")
+        weight = 1.0 / var if var.ndim == 0 else np.divide(1.0, var, out=np.zeros(M), where=usable)[:, None, None]
+        h = Hm[:, 0]
+        return (h[:, :, None] * h[:, None, :]) * weight, undefined
+    R = np.broadcast_to(R, (M, m, m))
     both = present[:, :, None] & present[:, None, :]
     if (both & ~np.isfinite(R)).any():
         raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
                          "measurement is present")
-    Hm = np.where(present[:, :, None], H, 0.0)
-    if m == 1:                          # one component (a range): H^T H / R, without a solve per run
-        var = R[:, 0, 0]
-        if (present[:, 0] & (var <= 0)).any():
-            raise ValueError(f"{type(measurement).__name__}.R returned a variance <= 0 at step {k} where a "
-                             "measurement is present")
-        weight = np.where(present[:, 0], 1.0 / np.where(present[:, 0], var, 1.0), 0.0)
-        h = Hm[:, 0]
-        return (h[:, :, None] * h[:, None, :]) * weight[:, None, None], undefined
     Rm = np.where(both, R, np.eye(m))
     return np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm), undefined           # H^T R^-1 H
 
@@ -467,12 +481,17 @@ def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np
     J = np.array(np.broadcast_to(_spd_inverse(P0), (1 if mean_over_runs else M, n, n)))
     information = np.empty((J.shape[0], K, n, n))
     undefined = np.zeros((M, K, m), dtype=bool)
+    checked: dict[str, np.ndarray] = {}                # the last F and Q checked (a model may return the same one)
+    F_inv = None
+    states = np.ascontiguousarray(np.swapaxes(truth, 0, 1))      # (K, M, n): each step's states contiguous
     for k in range(K):
         u_k = None if u is None else u[:, k]
-        x_prev = x0 if k == 0 else np.ascontiguousarray(truth[:, k - 1])
+        x_prev = x0 if k == 0 else states[k - 1]
         F = _model_matrix(motion.F(x_prev, u_k, k), M, (n, n), f"{name}.F")
         Q = _model_matrix(motion.Q(x_prev, u_k, k), M, (n, n), f"{name}.Q")
         for method, value in (("F", F), ("Q", Q)):
+            if checked.get(method) is value:
+                continue
             if not np.isfinite(value).all():
                 raise ValueError(f"{name}.{method} returned a non-finite value at step {k}")
             if mean_over_runs and value.ndim == 3 and not (value == value[:1]).all():
@@ -480,11 +499,13 @@ def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np
                                  f"needs one prediction for all of them; but {name}.{method} differs between the "
                                  f"runs' true states at step {k} (a nonlinear motion): leave mean_over_runs False "
                                  "for one bound per run")
-        if mean_over_runs:
-            F, Q = F.reshape(-1, n, n)[0], Q.reshape(-1, n, n)[0]
-        J = _sym(_predicted_information(J, F, Q, k))
-        increment, undefined[:, k] = _measurement_information(measurement, np.ascontiguousarray(truth[:, k]), k,
-                                                              present[:, k], M, m, n)
+            if method == "F":
+                F_inv = _inverse_or_none(value[:1] if mean_over_runs and value.ndim == 3 else value)
+            checked[method] = value
+        if mean_over_runs:                                  # the same in every run (checked): one prediction
+            F, Q = (a[:1] if a.ndim == 3 else a for a in (F, Q))
+        J = _sym(_predicted_information(J, F, F_inv, Q, k))
+        increment, undefined[:, k] = _measurement_information(measurement, states[k], k, present[:, k], M, m, n)
         if increment is not None:
             J = _sym(J + (increment.mean(axis=0, keepdims=True) if mean_over_runs else increment))
         information[:, k] = J
