@@ -86,6 +86,12 @@ def cases() -> dict[str, dict]:
         "mean over runs, bias and current": dict(positions=tracks, beacon=[0.0, 0.0], sigma=gaps,
                                                  Q=np.diag([0.25, 0.25, 1e-4, 1e-6, 1e-6]), P0=P0[5], times=times,
                                                  bias=True, current=True, mean_over_runs=True),
+        "sigma as one-element arrays": dict(positions=tracks, beacon=[0.0, 0.0], sigma=[[2.0]], Q=Q2, P0=P0[2]),
+        "sigma one per run (M, 1)": dict(positions=tracks, beacon=[0.0, 0.0], sigma=sigma_runs[:, :1], Q=Q2,
+                                         P0=P0[3], bias=True),
+        "sigma one row (1, K), beacon (1, K, 2)": dict(positions=tracks, beacon=ship[None], sigma=gaps[None], Q=Q2,
+                                                       P0=P0[2], mean_over_runs=True),
+        "no range at all": dict(positions=p, beacon=[0.0, 0.0], sigma=np.inf, Q=Q2, P0=P0[3], bias=True),
         "nearly uninformative prior, Q = 0": dict(positions=p, beacon=[0.0, 0.0], sigma=2.0, Q=np.zeros((2, 2)),
                                                   P0=1e12 * np.eye(3), bias=True),
     }

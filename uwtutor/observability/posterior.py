@@ -102,13 +102,14 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, int]) -> tuple[Any, np.ndarray]:
     except ValueError:
         raise ValueError(f"sigma must be a number, one value per epoch (K,) = ({shape[-1]},), or one per run and "
                          f"epoch {shape}; got shape {s.shape}") from None
-    if s.ndim == 2 and s.shape[0] == 1:                    # one row for every run: per epoch
-        s = s[0]
-    if s.ndim == 1:                                        # (K,): NaN where no range, as the model takes it
-        return np.where(np.isfinite(s), s**2, np.nan), measured
-    # a number, or (M, K, 1, 1) per run and epoch: 1 stands in where there is no range (the mask skips it)
-    R = np.where(np.isfinite(s), s, 1.0) ** 2
-    return (R[..., None, None] if s.ndim == 2 else R), measured
+    if s.size == 1:                                        # one for every run and epoch
+        return (float(s.flat[0]) if np.isfinite(s.flat[0]) else 1.0) ** 2, measured
+    if s.ndim == 1 or s.shape[0] == 1:                     # one per epoch: (K,), NaN where no range
+        row = np.broadcast_to(s, shape)[0]
+        return np.where(np.isfinite(row), row**2, np.nan), measured
+    # one per run and epoch, (M, K, 1, 1); 1 stands in where there is no range (the mask skips it)
+    per_run = np.broadcast_to(s, shape)
+    return (np.where(np.isfinite(per_run), per_run, 1.0) ** 2)[..., None, None], measured
 
 
 class _GivenProcessNoise(MotionModel):
@@ -224,9 +225,16 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     matrix whose eigenvalues are all :math:`\ge 1`. This holds for a singular :math:`Q_k` (a constant bias or
     current; :math:`Q = 0`) and a nearly uninformative :math:`P_0`, and :math:`J` is symmetrized at every step.
     The bound itself is :math:`J_k^{-1}` through a Cholesky factor.
-    The recursion is :func:`model_posterior_crlb`'s own (one implementation), run with this linear motion and the
-    rows :math:`H_k` of the filters' range model (:class:`~uwtutor.models.range.RangeToBeacon`) at the true positions;
-    what this function adds is the closed-form state, the per-epoch :math:`\sigma_k` and ``mean_over_runs``.
+
+    .. rubric:: The models
+
+    This function is a front end: it builds the models and runs :func:`model_posterior_crlb`'s recursion. The
+    state is assembled from the library's blocks (:mod:`uwtutor.models.blocks`): a
+    :class:`~uwtutor.models.blocks.Position` carried by a :class:`~uwtutor.models.blocks.Current` over
+    :math:`\Delta t_k`, and a :class:`~uwtutor.models.blocks.RandomWalk` named ``range_bias``; the ranges are the
+    filters' own model, :class:`~uwtutor.models.range.RangeToBeacon` with :math:`R_k = \sigma_k^2`, evaluated at
+    the true positions. The process noise is ``Q`` as given, step by step: it may couple the position with the bias
+    and the current, which the blocks' own (block-diagonal) noise cannot express.
 
     Parameters
     ----------
@@ -236,7 +244,7 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     beacon : array_like, shape (2,), (K, 2) or (M, K, 2)
         Beacon position: fixed, one per epoch (a moving beacon: a ship, a leader), or one per run and epoch [m].
     sigma : float or array_like, shape (K,) or (M, K)
-        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0; ``np.inf`` at an epoch without a range
+        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0 (at most 1e75); ``np.inf`` at an epoch without a range
         (predict only).
     Q : array_like, shape (2, 2), (n, n), (K, 2, 2) or (K, n, n)
         Process noise covariance of one step (positive semi-definite), or one per step. A (2, 2) ``Q`` is the
@@ -535,7 +543,15 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     :func:`posterior_crlb` (its special case for dead reckoning with a range bias and a current), the expectation
     over the true states is evaluated on the one track given: a first-order approximation, good while the true
     track is known to a small fraction of the ranges; pass the sampled tracks of a Monte Carlo study (a runs
-    axis) for one bound per track.
+    axis) for one bound per track, or with ``mean_over_runs`` for the Monte Carlo evaluation of the expectation:
+
+    .. math::
+
+        \operatorname{E}\!\left[H_k^\mathsf{T} R_k^{-1} H_k\right] \approx
+        \frac{1}{M} \sum_{j=1}^{M} H_k^\mathsf{T} R_k^{-1} H_k \Big|_{x_k = x_k^{(j)}},
+
+    one bound from the M tracks (exact as M grows, for a motion whose :math:`F_k` and :math:`Q_k` do not depend
+    on the state: a linear one).
 
     The recursion never inverts :math:`J`: with :math:`\tilde J = F_k^{-\mathsf{T}} J_{k-1} F_k^{-1}`,
     :math:`(Q_k + \tilde J^{-1})^{-1} = \tilde J (I + Q_k \tilde J)^{-1}`, which holds for a singular
@@ -561,10 +577,14 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
         ``(M, K)``, ``(M, K, m)``; e.g. ``np.isfinite(z)``. Default: every component at every step.
     full : bool, default False
         Return the bound of the whole state, not only of the position ``x[..., :2]``.
+    mean_over_runs : bool, default False
+        With a runs axis (the sampled true tracks), average the measurement information over the runs and return
+        one bound. ``P0`` must then be shared, and the motion's :math:`F_k` and :math:`Q_k` the same in every run.
 
     Returns
     -------
-    ndarray, shape (K, 2, 2), or (K, n, n) with ``full``; a leading runs axis when an input had one
+    ndarray, shape (K, 2, 2), or (K, n, n) with ``full``; a leading runs axis when an input had one (and
+    ``mean_over_runs`` is False)
         The bound :math:`J_k^{-1}` after step :math:`k`'s measurement.
 
     Warns
@@ -575,7 +595,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
 
     See Also
     --------
-    posterior_crlb : the bound of dead reckoning with one range (and a bias, a current), in closed form.
+    posterior_crlb : the bound of dead reckoning with one range (and a bias, a current): a front end of this one.
 
     References
     ----------
@@ -611,6 +631,25 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     ...     f"scale {np.sqrt(bound[-1, 3, 3]):.1e}"
     ... )
     position 0.07 m, scale 2.7e-04
+
+    The expectation over the true tracks, evaluated on 50 sampled ones (dead reckoning is linear, so its
+    prediction is the same for all of them): one bound.
+
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> rng = np.random.default_rng(0)
+    >>> theta = np.linspace(0.0, np.pi, 60)
+    >>> arc = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> tracks = arc + np.cumsum(rng.normal(0.0, 0.5, (50, 60, 2)), axis=1)
+    >>> mean = model_posterior_crlb(
+    ...     DeadReckoning(0.25 * np.eye(2)),
+    ...     RangeToBeacon((0.0, 0.0), R=4.0),
+    ...     tracks[:, 0],
+    ...     25.0 * np.eye(2),
+    ...     tracks,
+    ...     mean_over_runs=True,
+    ... )
+    >>> mean.shape, f"{rmse_bound(mean[-1]):.1f} m"
+    ((60, 2, 2), '2.5 m')
     """
     if not isinstance(motion, MotionModel):
         raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
