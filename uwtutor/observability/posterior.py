@@ -2,7 +2,7 @@ r"""The posterior (Bayesian) Cramér–Rao bound of a filter with process noise 
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,7 +17,7 @@ from .._validate import (
 )
 from ..errors import IllConditionedError
 from ..models.base import MeasurementModel, MotionModel
-from ..models.blocks import _MAX_STEP, BlockMotion, Current, Position, RandomWalk
+from ..models.blocks import BlockMotion, Current, Position, RandomWalk, StateBlock
 from ..models.range import RangeToBeacon
 from ._common import _state_labels, _warn
 
@@ -25,6 +25,8 @@ __all__ = ["posterior_crlb", "model_posterior_crlb"]
 
 #: Largest finite range noise accepted [m]: its square, the variance the range model holds, stays within 1e150.
 _MAX_SIGMA = 1e75
+#: Longest step accepted [s]: BlockMotion's own bound, checked here to name ``times`` (the blocks see a dt).
+_MAX_STEP = 1e50
 
 
 def _pcrb_state_size(bias: bool, current: bool) -> int:
@@ -145,7 +147,7 @@ class _GivenProcessNoise(MotionModel):
 def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> MotionModel:
     """The state ``[x, y, (bias), (Ux, Uy)]`` from the blocks: a position moved by the DR displacement (and carried
     by the current over ``dt``), a range bias and a current, constant but for the per-step noise ``Q``."""
-    blocks = [Position(np.zeros((2, 2)), current="current" if current else None)]
+    blocks: list[StateBlock] = [Position(np.zeros((2, 2)), current="current" if current else None)]
     if bias:
         blocks.append(RandomWalk("range_bias"))
     if current:
@@ -244,8 +246,8 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     beacon : array_like, shape (2,), (K, 2) or (M, K, 2)
         Beacon position: fixed, one per epoch (a moving beacon: a ship, a leader), or one per run and epoch [m].
     sigma : float or array_like, shape (K,) or (M, K)
-        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0 (at most 1e75); ``np.inf`` at an epoch without a range
-        (predict only).
+        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0 (at most 1e75); ``np.inf`` at an epoch
+        without a range (predict only).
     Q : array_like, shape (2, 2), (n, n), (K, 2, 2) or (K, n, n)
         Process noise covariance of one step (positive semi-definite), or one per step. A (2, 2) ``Q`` is the
         dead-reckoning noise of the position; the bias and the current are then constant. A full (n, n) ``Q``
