@@ -104,9 +104,7 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, int]) -> tuple[Any, np.ndarray]:
     except ValueError:
         raise ValueError(f"sigma must be a number, one value per epoch (K,) = ({shape[-1]},), or one per run and "
                          f"epoch {shape}; got shape {s.shape}") from None
-    if s.size == 1:                                        # one for every run and epoch
-        return (float(s.flat[0]) if np.isfinite(s.flat[0]) else 1.0) ** 2, measured
-    if s.ndim == 1 or s.shape[0] == 1:                     # one per epoch: (K,), NaN where no range
+    if s.ndim < 2 or s.shape[0] == 1:                      # the same in every run: (K,), NaN where no range
         row = np.broadcast_to(s, shape)[0]
         return np.where(np.isfinite(row), row**2, np.nan), measured
     # one per run and epoch, (M, K, 1, 1); 1 stands in where there is no range (the mask skips it)
