@@ -540,7 +540,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     :math:`Q_k` and :math:`R_k` the models' noise there, and :math:`H_k = \partial h_k / \partial x` at the true
     :math:`x_k`. Components of :math:`z_k` that are not measured are skipped (:math:`H_k` and :math:`R_k`
     restricted to those measured, as the filters update); a step without any measurement only predicts. As in
-    :func:`posterior_crlb` (its special case for dead reckoning with a range bias and a current), the expectation
+    :func:`posterior_crlb` (its front end for dead reckoning with a range bias and a current), the expectation
     over the true states is evaluated on the one track given: a first-order approximation, good while the true
     track is known to a small fraction of the ranges; pass the sampled tracks of a Monte Carlo study (a runs
     axis) for one bound per track, or with ``mean_over_runs`` for the Monte Carlo evaluation of the expectation:
