@@ -227,3 +227,28 @@ def test_a_variance_that_is_not_positive_is_named():
     measured = np.arange(10) != 3
     model_posterior_crlb(DeadReckoning(np.eye(2)), _OneRange((0.0, 0.0), R=4.0), p[0], np.eye(2), p,
                          measured=measured)
+
+
+class _ReusedBuffer(DeadReckoning):
+    """A motion model that writes each step's F into the same array (a legitimate way to save allocations)."""
+
+    def __init__(self, Q):
+        super().__init__(Q)
+        self._buffer = np.eye(2)
+
+    def F(self, x, u, k):
+        self._buffer[:] = [[1.0, 0.1 * k], [0.0, 1.0]]
+        return self._buffer
+
+
+def test_a_model_that_reuses_its_array_gets_each_step_s_own_F():
+    p = _track(10)
+    Q, P0 = 0.25 * np.eye(2), 100.0 * np.eye(2)
+    got = model_posterior_crlb(_ReusedBuffer(Q), RangeToBeacon((0.0, 0.0), R=4.0), p[0], P0, p)
+    J = np.linalg.inv(P0)
+    for k in range(10):
+        F = np.array([[1.0, 0.1 * k], [0.0, 1.0]])
+        J = np.linalg.inv(Q + F @ np.linalg.inv(J) @ F.T)
+        d = p[k] / np.linalg.norm(p[k])
+        J = J + np.outer(d, d) / 4.0
+        np.testing.assert_allclose(got[k], np.linalg.inv(J), rtol=1e-9)

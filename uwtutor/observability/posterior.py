@@ -489,7 +489,7 @@ def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np
     J = np.array(np.broadcast_to(_spd_inverse(P0), (1 if mean_over_runs else M, n, n)))
     information = np.empty((J.shape[0], K, n, n))
     undefined = np.zeros((M, K, m), dtype=bool)
-    checked: dict[str, np.ndarray] = {}                # the last F and Q checked (a model may return the same one)
+    checked: dict[str, np.ndarray] = {}     # copies of the last F and Q checked: most models repeat them
     F_inv = None
     states = np.ascontiguousarray(np.swapaxes(truth, 0, 1))      # (K, M, n): each step's states contiguous
     for k in range(K):
@@ -498,7 +498,8 @@ def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np
         F = _model_matrix(motion.F(x_prev, u_k, k), M, (n, n), f"{name}.F")
         Q = _model_matrix(motion.Q(x_prev, u_k, k), M, (n, n), f"{name}.Q")
         for method, value in (("F", F), ("Q", Q)):
-            if checked.get(method) is value:
+            last = checked.get(method)
+            if last is not None and last.shape == value.shape and np.array_equal(last, value):
                 continue
             if not np.isfinite(value).all():
                 raise ValueError(f"{name}.{method} returned a non-finite value at step {k}")
@@ -509,7 +510,7 @@ def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np
                                  "for one bound per run")
             if method == "F":
                 F_inv = _inverse_or_none(value[:1] if mean_over_runs and value.ndim == 3 else value)
-            checked[method] = value
+            checked[method] = value.copy()          # a copy: a model may reuse its array for the next step
         if mean_over_runs:                                  # the same in every run (checked): one prediction
             F, Q = (a[:1] if a.ndim == 3 else a for a in (F, Q))
         J = _sym(_predicted_information(J, F, F_inv, Q, k))
