@@ -302,7 +302,7 @@ SPECS_CORE: dict[str, Spec] = {
                      truth=_TRACK[1:], u=np.diff(_TRACK, axis=0), measured=np.ones(5, dtype=bool), full=True),
         kinds=dict(motion=Instance(), measurement=Instance(), x0=Real((2,)), truth=Real((5, 2)),
                    u=Real((5, 2), optional=True),
-                   measured=Kind(), full=Flag())),
+                   measured=Kind(), full=Flag(), mean_over_runs=Flag())),
     # least squares
     "uwtutor.lsq:precision_factor": Spec(lambda: dict(A=_DESIGN), kinds=dict(A=Real((None, 3), extra_axis_ok=True))),
     "uwtutor.lsq:condition_number": Spec(lambda: dict(A=_DESIGN), kinds=dict(A=Real((None, 3), extra_axis_ok=True))),

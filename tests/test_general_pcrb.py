@@ -162,3 +162,93 @@ def test_bad_input_named():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model_posterior_crlb(motion, ranges, truth[0], np.eye(3), truth, u)
+
+
+def test_mean_over_runs_averages_the_measurement_information():
+    """One bound from M sampled tracks: the information of each step averaged over them, by an explicit recursion;
+    several components per step (four beacons, some missing) as well as one."""
+    rng = np.random.default_rng(5)
+    M = 4
+    tracks = _track() + np.cumsum(rng.normal(0.0, 1.0, (M, K, 2)), axis=1)
+    Q, P0 = np.diag([0.25, 0.16]), np.diag([400.0, 100.0])
+    R = np.diag([1.0, 2.0, 3.0, 4.0])
+    ranges = BeaconRanges(BEACONS * 5.0, R=R)
+    measured = rng.random((M, K, 4)) > 0.3
+    got = model_posterior_crlb(DeadReckoning(Q), ranges, tracks[:, 0], P0, tracks, measured=measured,
+                               mean_over_runs=True)
+    assert got.shape == (K, 2, 2)
+    J = np.linalg.inv(P0)
+    for k in range(K):
+        J = np.linalg.inv(Q + np.linalg.inv(J))
+        info = np.zeros((2, 2))
+        for j in range(M):
+            d = tracks[j, k] - BEACONS * 5.0
+            H = (d / np.linalg.norm(d, axis=1, keepdims=True))[measured[j, k]]
+            info += H.T @ np.linalg.inv(R[np.ix_(measured[j, k], measured[j, k])]) @ H
+        J = J + info / M
+        np.testing.assert_allclose(got[k], np.linalg.inv(J), rtol=1e-9)
+    # posterior_crlb's mean_over_runs is this one, on its models
+    one = RangeToBeacon((0.0, 0.0), R=4.0)
+    np.testing.assert_allclose(model_posterior_crlb(DeadReckoning(Q), one, tracks[:, 0], P0, tracks,
+                                                    mean_over_runs=True),
+                               posterior_crlb(tracks, (0.0, 0.0), 2.0, Q, P0, mean_over_runs=True), rtol=1e-12)
+    # one run: the mean is that run's bound
+    np.testing.assert_array_equal(model_posterior_crlb(DeadReckoning(Q), one, tracks[0, 0], P0, tracks[0],
+                                                       mean_over_runs=True),
+                                  model_posterior_crlb(DeadReckoning(Q), one, tracks[0, 0], P0, tracks[0]))
+
+
+def test_mean_over_runs_refuses_what_it_cannot_average():
+    motion = OdometryMotion(0.05, 0.01)
+    ranges = BeaconRanges(BEACONS, R=0.01, layout=motion.layout)
+    u = np.column_stack([np.full(K, 0.5), np.full(K, 0.05)])
+    x0 = np.array([[20.0, 5.0, 0.3], [10.0, 15.0, -1.0]])
+    truth = motion.integrate(x0, u)
+    with pytest.raises(ValueError, match="OdometryMotion.F differs between the runs' true states at step 0"):
+        model_posterior_crlb(motion, ranges, x0, np.eye(3), truth, u, mean_over_runs=True)
+    with pytest.raises(ValueError, match=r"give one P0 of shape \(3, 3\)"):
+        model_posterior_crlb(motion, ranges, x0, np.stack([np.eye(3)] * 2), truth, u, mean_over_runs=True)
+    with pytest.raises(TypeError, match="mean_over_runs must be"):
+        model_posterior_crlb(motion, ranges, x0, np.eye(3), truth, u, mean_over_runs="yes")
+
+
+class _OneRange(RangeToBeacon):
+    """A range model whose variance a user got wrong at one step."""
+
+    def R(self, x, k):
+        return np.array([[0.0 if k == 3 else 4.0]])
+
+
+def test_a_variance_that_is_not_positive_is_named():
+    p = _track(10)
+    with pytest.raises(ValueError, match="_OneRange.R returned a variance that is not finite and > 0 at step 3"):
+        model_posterior_crlb(DeadReckoning(np.eye(2)), _OneRange((0.0, 0.0), R=4.0), p[0], np.eye(2), p)
+    # where the step has no measurement it does not matter
+    measured = np.arange(10) != 3
+    model_posterior_crlb(DeadReckoning(np.eye(2)), _OneRange((0.0, 0.0), R=4.0), p[0], np.eye(2), p,
+                         measured=measured)
+
+
+class _ReusedBuffer(DeadReckoning):
+    """A motion model that writes each step's F into the same array (a legitimate way to save allocations)."""
+
+    def __init__(self, Q):
+        super().__init__(Q)
+        self._buffer = np.eye(2)
+
+    def F(self, x, u, k):
+        self._buffer[:] = [[1.0, 0.1 * k], [0.0, 1.0]]
+        return self._buffer
+
+
+def test_a_model_that_reuses_its_array_gets_each_step_s_own_F():
+    p = _track(10)
+    Q, P0 = 0.25 * np.eye(2), 100.0 * np.eye(2)
+    got = model_posterior_crlb(_ReusedBuffer(Q), RangeToBeacon((0.0, 0.0), R=4.0), p[0], P0, p)
+    J = np.linalg.inv(P0)
+    for k in range(10):
+        F = np.array([[1.0, 0.1 * k], [0.0, 1.0]])
+        J = np.linalg.inv(Q + F @ np.linalg.inv(J) @ F.T)
+        d = p[k] / np.linalg.norm(p[k])
+        J = J + np.outer(d, d) / 4.0
+        np.testing.assert_allclose(got[k], np.linalg.inv(J), rtol=1e-9)

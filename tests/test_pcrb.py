@@ -251,6 +251,10 @@ def test_on_the_beacon_the_range_adds_nothing():
     (dict(current=True, P0=np.eye(4), times=np.arange(7.0)), "times must have one entry per epoch"),
     (dict(current=True, P0=np.eye(4), times=-np.arange(10.0)), "times must increase strictly"),
     (dict(positions=np.ones((3, 10, 2)), P0=np.broadcast_to(np.eye(2), (4, 2, 2))), "disagree on the number of runs"),
+    (dict(sigma=1e80), "sigma must be at most 1e\\+75"),
+    (dict(current=True, P0=np.eye(4), times=np.arange(10.0) * 1e60), "times must be in seconds"),
+    (dict(positions=np.ones((3, 10, 2)), P0=np.stack([np.eye(2)] * 3), mean_over_runs=True),
+     r"give one P0 of shape \(2, 2\)"),
 ])
 def test_bad_input_is_named(kwargs, match):
     args = dict(positions=_track(10) , beacon=[0.0, 0.0], sigma=2.0, Q=0.25 * np.eye(2), P0=100.0 * np.eye(2))

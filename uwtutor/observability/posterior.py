@@ -2,7 +2,7 @@ r"""The posterior (Bayesian) Cramér–Rao bound of a filter with process noise 
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,10 +17,16 @@ from .._validate import (
 )
 from ..errors import IllConditionedError
 from ..models.base import MeasurementModel, MotionModel
+from ..models.blocks import BlockMotion, Current, Position, RandomWalk, StateBlock
 from ..models.range import RangeToBeacon
 from ._common import _state_labels, _warn
 
 __all__ = ["posterior_crlb", "model_posterior_crlb"]
+
+#: Largest finite range noise accepted [m]: its square, the variance the range model holds, stays within 1e150.
+_MAX_SIGMA = 1e75
+#: Longest step accepted [s]: BlockMotion's own bound, checked here to name ``times`` (the blocks see a dt).
+_MAX_STEP = 1e50
 
 
 def _pcrb_state_size(bias: bool, current: bool) -> int:
@@ -57,24 +63,29 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
     if np.any(dt <= 0):
         raise ValueError(f"times must increase strictly; step {int(np.flatnonzero(dt <= 0)[0])} has length "
                          f"{dt[dt <= 0][0]}")
+    if np.any(dt > _MAX_STEP):
+        raise ValueError(f"times must be in seconds: step {int(np.flatnonzero(dt > _MAX_STEP)[0])} lasts "
+                         f"{dt.max():.3g} s, beyond the motion models' bound of {_MAX_STEP:g} s")
     return dt
 
 
 def _pcrb_process_noise(Q: Any, n: int, k: int) -> np.ndarray:
-    """Q as (k, n, n): a position-only (2, 2) Q is embedded with zeros (a constant bias and current)."""
+    """Q as (n, n), or (k, n, n) one per step: a position-only Q is embedded with zeros (a constant bias and
+    current)."""
     q = as_covariance("Q", Q, allow_singular=True)
     if q.ndim not in (2, 3) or (q.ndim == 3 and q.shape[0] != k) or q.shape[-1] not in (2, n):
         raise ValueError(f"Q must be the process noise covariance of one step, shape (2, 2) (position only) or "
                          f"({n}, {n}) (the whole state), or one per step, shape ({k}, 2, 2) or ({k}, {n}, {n}); "
                          f"got {q.shape}")
-    out = np.zeros((k, n, n))
+    out = np.zeros(q.shape[:-2] + (n, n))
     m = q.shape[-1]
-    out[:, :m, :m] = q
+    out[..., :m, :m] = q
     return out
 
 
-def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
-    """1/sigma^2 broadcast to ``shape`` (runs, epochs); sigma = inf means no range at that epoch."""
+def _pcrb_sigma(sigma: Any, shape: tuple[int, int]) -> tuple[Any, np.ndarray]:
+    r"""The range variance :math:`R_k = \sigma_k^2` as :class:`~uwtutor.models.RangeToBeacon` takes it, and where a
+    range is present ``(M, K)`` (``sigma = inf``: no range at that epoch)."""
     s = as_float_array("sigma", sigma)
     bad = np.isnan(s) | (s <= 0)
     if bad.any():
@@ -83,12 +94,63 @@ def _pcrb_sigma(sigma: Any, shape: tuple[int, ...]) -> np.ndarray:
     if small.any():
         raise ValueError(f"sigma must be at least 1e-150 (1 / sigma^2 overflows float64 below it); got "
                          f"{s[small].flat[0]:.3g}. Change its units")
+    large = np.isfinite(s) & (s > _MAX_SIGMA)
+    if large.any():
+        raise ValueError(f"sigma must be at most {_MAX_SIGMA:g} (its square, the range variance, is bounded by "
+                         f"{_MAX_SIGMA**2:g}), or np.inf for an epoch without a range; got {s[large].flat[0]:.3g}. "
+                         "Change its units")
     try:
-        s = np.broadcast_to(s, shape)
+        measured = np.broadcast_to(np.isfinite(s), shape)
     except ValueError:
         raise ValueError(f"sigma must be a number, one value per epoch (K,) = ({shape[-1]},), or one per run and "
                          f"epoch {shape}; got shape {s.shape}") from None
-    return 1.0 / s**2
+    if s.ndim < 2 or s.shape[0] == 1:                      # the same in every run: (K,), NaN where no range
+        row = np.broadcast_to(s, shape)[0]
+        return np.where(np.isfinite(row), row**2, np.nan), measured
+    # one per run and epoch, (M, K, 1, 1); 1 stands in where there is no range (the mask skips it)
+    per_run = np.broadcast_to(s, shape)
+    return (np.where(np.isfinite(per_run), per_run, 1.0) ** 2)[..., None, None], measured
+
+
+class _GivenProcessNoise(MotionModel):
+    r"""Linear blocks' :math:`f` and :math:`F` with the process noise :math:`Q_k` given step by step.
+
+    :func:`posterior_crlb` takes the noise of each step as its caller gives it: one matrix for every step or one
+    per step, and a whole-state one may couple the position with the bias and the current. The blocks' own noise
+    cannot say that (it is block diagonal, and a random walk's grows with the step's length in seconds), so the
+    blocks give the state and its transition, and ``Q`` is the caller's, ``(n, n)`` or ``(K, n, n)``. The blocks
+    are linear, so :math:`F_k` depends on the step's length alone: it is assembled once per length.
+    """
+
+    covariances_checked = True          # checked (symmetric PSD) by posterior_crlb
+
+    def __init__(self, motion: BlockMotion, Q: np.ndarray) -> None:
+        self.motion, self.n, self._Q = motion, motion.n, Q
+        self._origin = np.zeros((1, motion.n))
+        self._F: dict[float, np.ndarray] = {}
+
+    def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self.motion.f(x, u, k)
+
+    def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        dt = self.motion.dt(k)
+        if dt not in self._F:
+            self._F[dt] = self.motion.F(self._origin, None, k)
+        return self._F[dt]
+
+    def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
+        return self._Q if self._Q.ndim == 2 else self._Q[k]
+
+
+def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> MotionModel:
+    """The state ``[x, y, (bias), (Ux, Uy)]`` from the blocks: a position moved by the DR displacement (and carried
+    by the current over ``dt``), a range bias and a current, constant but for the per-step noise ``Q``."""
+    blocks: list[StateBlock] = [Position(np.zeros((2, 2)), current="current" if current else None)]
+    if bias:
+        blocks.append(RandomWalk("range_bias"))
+    if current:
+        blocks.append(Current())
+    return _GivenProcessNoise(BlockMotion(*blocks, dt=dt), Q)
 
 
 def _sym(a: np.ndarray) -> np.ndarray:
@@ -100,22 +162,6 @@ def _spd_inverse(J: np.ndarray) -> np.ndarray:
     L = np.linalg.cholesky(J)
     L_inv = np.linalg.solve(L, np.broadcast_to(np.eye(J.shape[-1]), J.shape))
     return np.swapaxes(L_inv, -1, -2) @ L_inv
-
-
-def _range_rows(positions: np.ndarray, beacon: np.ndarray, n: int, bias: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The rows :math:`H_k` of the range measurement model (``RangeToBeacon``, the filters' own) at the true
-    positions ``(M, K, 2)``, state ``[x, y, (bias), (Ux, Uy)]``, zero where the line of sight is undefined; and
-    where it is defined ``(M, K)``."""
-    M, K, _ = positions.shape
-    ranges = RangeToBeacon(beacon, R=1.0, n=n, bias_index=2 if bias else None)
-    state = np.zeros((M, n))
-    h = np.empty((M, K, n))
-    defined = np.empty((M, K), dtype=bool)
-    for k in range(K):
-        state[:, :2] = positions[:, k]
-        _, H, defined[:, k] = ranges.linearize(state, k)
-        h[:, k] = H[:, 0]
-    return np.where(defined[..., None], h, 0.0), defined
 
 
 def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q: ArrayLike, P0: ArrayLike,
@@ -179,9 +225,16 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     matrix whose eigenvalues are all :math:`\ge 1`. This holds for a singular :math:`Q_k` (a constant bias or
     current; :math:`Q = 0`) and a nearly uninformative :math:`P_0`, and :math:`J` is symmetrized at every step.
     The bound itself is :math:`J_k^{-1}` through a Cholesky factor.
-    The recursion is :func:`model_posterior_crlb`'s own (one implementation), run with this linear motion and the
-    rows :math:`H_k` of the filters' range model (:class:`~uwtutor.models.range.RangeToBeacon`) at the true positions;
-    what this function adds is the closed-form state, the per-epoch :math:`\sigma_k` and ``mean_over_runs``.
+
+    .. rubric:: The models
+
+    This function is a front end: it builds the models and runs :func:`model_posterior_crlb`'s recursion. The
+    state is assembled from the library's blocks (:mod:`uwtutor.models.blocks`): a
+    :class:`~uwtutor.models.blocks.Position` carried by a :class:`~uwtutor.models.blocks.Current` over
+    :math:`\Delta t_k`, and a :class:`~uwtutor.models.blocks.RandomWalk` named ``range_bias``; the ranges are the
+    filters' own model, :class:`~uwtutor.models.range.RangeToBeacon` with :math:`R_k = \sigma_k^2`, evaluated at
+    the true positions. The process noise is ``Q`` as given, step by step: it may couple the position with the bias
+    and the current, which the blocks' own (block-diagonal) noise cannot express.
 
     Parameters
     ----------
@@ -191,8 +244,8 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
     beacon : array_like, shape (2,), (K, 2) or (M, K, 2)
         Beacon position: fixed, one per epoch (a moving beacon: a ship, a leader), or one per run and epoch [m].
     sigma : float or array_like, shape (K,) or (M, K)
-        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0; ``np.inf`` at an epoch without a range
-        (predict only).
+        Range noise standard deviation(s) :math:`\sigma_k` [m], > 0 (at most 1e75); ``np.inf`` at an epoch
+        without a range (predict only).
     Q : array_like, shape (2, 2), (n, n), (K, 2, 2) or (K, n, n)
         Process noise covariance of one step (positive semi-definite), or one per step. A (2, 2) ``Q`` is the
         dead-reckoning noise of the position; the bias and the current are then constant. A full (n, n) ``Q``
@@ -294,46 +347,35 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
                                             ("sigma", np.shape(s_in)[:-1]), ("P0", P0_arr.shape[:-2]))},
                        broadcast_one=True)
     M = 1 if runs is None else runs
-    batched = runs is not None
     if np.ndim(s_in) > 2:
         raise ValueError(f"sigma must be a number, shape ({K},) or (M, {K}); got shape {np.shape(s_in)}")
-    info_scale = _pcrb_sigma(s_in, (M, K))                                   # 1 / sigma^2, (M, K)
+    R, measured = _pcrb_sigma(s_in, (M, K))
     dt = _pcrb_steps(times, K, current)
     Qk = _pcrb_process_noise(Q, n, K)
 
-    h, defined = _range_rows(np.broadcast_to(p, (M, K, 2)), np.broadcast_to(b, (M, K, 2)), n, bias)
-    if not defined.all():
-        j, k = (int(i) for i in np.argwhere(~defined)[0])
-        _warn(f"positions coincide with the beacon at {np.count_nonzero(~defined)} epoch(s) (the first: run {j}, "
+    # the models: the state from the blocks, the filters' range model; the bound is the general recursion's
+    motion = _dead_reckoning_state(bias, current, dt, Qk)
+    ranges = RangeToBeacon(b, R, n=n, bias_index=2 if bias else None)
+    truth = np.zeros((M, K, n))                # the range's H reads the position only (the bias adds a 1)
+    truth[..., :2] = p
+    bounds, undefined = _posterior_bounds(motion, ranges, truth[:, 0], P0_arr, truth, None, measured[..., None],
+                                          bool(mean_over_runs))
+    if undefined.any():
+        j, k = (int(i) for i in np.argwhere(undefined[..., 0])[0])
+        _warn(f"positions coincide with the beacon at {np.count_nonzero(undefined)} epoch(s) (the first: run {j}, "
               f"epoch {k}): the line of sight is undefined there, so those ranges add no information")
-    info = np.einsum("mki,mkj->mkij", h, h) * info_scale[..., None, None]   # H^T R^-1 H, (M, K, n, n)
-
-    if mean_over_runs:
-        if P0_arr.ndim == 3 and M > 1:
-            raise ValueError("mean_over_runs=True averages the range information over the runs: give one P0 of "
-                             f"shape ({n}, {n}) for all of them")
-        info = info.mean(axis=0, keepdims=True)
-        M, batched = 1, False
-
-    F = np.broadcast_to(np.eye(n), (K, n, n)).copy()                        # x_k = F_k x_{k-1} + ...
-    if current:
-        c = 3 if bias else 2
-        F[:, 0, c] = F[:, 1, c + 1] = dt
-    bounds = _information_recursion(P0_arr, M, K, lambda k: (F[k], Qk[k]), lambda k, J: J + info[:, k])
     out = bounds if full else bounds[..., :2, :2]
-    return out if batched else out[0]
+    return out if runs is not None and not mean_over_runs else out[0]
 
 
 def _runs_axis(name: str, a: np.ndarray, single_ndim: int) -> int | None:
     return a.shape[0] if a.ndim == single_ndim + 1 else None
 
 
-def _as_batch(value: Any, M: int, shape: tuple[int, ...], what: str) -> np.ndarray:
-    """A model's matrix (shape) or (M,) + shape as (M,) + shape."""
+def _model_matrix(value: Any, M: int, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """A model's matrix: ``shape`` (shared by every run, kept so: one product, not M) or ``(M,) + shape``."""
     arr = np.asarray(value, dtype=float)
-    if arr.shape == shape:
-        return np.broadcast_to(arr, (M,) + shape)
-    if arr.shape == (M,) + shape:
+    if arr.shape == shape or arr.shape == (M,) + shape:
         return arr
     raise ValueError(f"{what} must have shape {shape} or {(M,) + shape}; got {arr.shape}")
 
@@ -361,17 +403,21 @@ def _measured_mask(measured: Any, M: int, K: int, m: int) -> np.ndarray:
     return np.broadcast_to(out, (M, K, m))
 
 
-def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) -> np.ndarray:
-    r""":math:`(Q + F J^{-1} F^T)^{-1}` for stacks (M, n, n), without inverting J when F is invertible."""
-    eye = np.eye(J.shape[-1])
+def _inverse_or_none(F: np.ndarray) -> np.ndarray | None:
+    """:math:`F^{-1}` (a stack of them), or None where ``F`` is singular."""
     try:
         F_inv = np.linalg.inv(F)
-        ok = bool(np.isfinite(F_inv).all())
     except np.linalg.LinAlgError:
-        ok = False
-    if ok:
+        return None
+    return F_inv if np.isfinite(F_inv).all() else None
+
+
+def _predicted_information(J: np.ndarray, F: np.ndarray, F_inv: np.ndarray | None, Q: np.ndarray,
+                           k: int) -> np.ndarray:
+    r""":math:`(Q + F J^{-1} F^T)^{-1}` for stacks (M, n, n), without inverting J when F is invertible (``F_inv``)."""
+    if F_inv is not None:
         Jt = np.swapaxes(F_inv, -1, -2) @ J @ F_inv                              # F^-T J F^-1
-        A = eye + Q @ Jt                                                         # eigenvalues >= 1
+        A = np.eye(J.shape[-1]) + Q @ Jt                                         # eigenvalues >= 1
         return np.swapaxes(np.linalg.solve(np.swapaxes(A, -1, -2), Jt), -1, -2)  # Jt (I + Q Jt)^-1
     P_pred = _sym(F @ _spd_inverse(J) @ np.swapaxes(F, -1, -2) + Q)               # a singular F: covariance form
     try:
@@ -381,58 +427,104 @@ def _predicted_information(J: np.ndarray, F: np.ndarray, Q: np.ndarray, k: int) 
                                   "F with a singular Q): the bound is infinite along some direction") from None
 
 
-def _information_recursion(P0: np.ndarray, M: int, K: int,
-                           transition: Callable[[int], tuple[np.ndarray, np.ndarray]],
-                           update: Callable[[int, np.ndarray], np.ndarray]) -> np.ndarray:
-    r"""The posterior information recursion (Tichavský et al. 1998, additive Gaussian noise), the one both bounds run.
-
-    :math:`J_0 = P_0^{-1}`; step :math:`k` predicts, :math:`J \leftarrow (Q_k + F_k J^{-1} F_k^\mathsf{T})^{-1}`
-    with ``transition(k) = (F_k, Q_k)``, then adds its measurements' information, ``J <- update(k, J)``
-    (:math:`J + \operatorname{E}[H_k^\mathsf{T} R_k^{-1} H_k]`), symmetrized. Returns the bounds
-    :math:`J_k^{-1}`, shape ``(M, K, n, n)``.
-    """
-    n = P0.shape[-1]
-    J = np.array(np.broadcast_to(_spd_inverse(P0), (M, n, n)))
-    bounds = np.empty((M, K, n, n))
-    for k in range(K):
-        F, Q = transition(k)
-        J = _sym(_predicted_information(J, F, Q, k))
-        J = _sym(update(k, J))
-        bounds[:, k] = _sym(_spd_inverse(J))
-    return bounds
-
-
 def _measurement_information(measurement: MeasurementModel, x_k: np.ndarray, k: int, present: np.ndarray, M: int,
-                             m: int, n: int) -> tuple[np.ndarray | None, int]:
-    r""":math:`H_k^\mathsf{T} R_k^{-1} H_k` of the components ``present`` (M, m) at the true ``x_k`` (None: none),
-    and how many present components had an undefined Jacobian (they add nothing)."""
+                             m: int, n: int) -> tuple[np.ndarray | None, np.ndarray]:
+    r""":math:`H_k^\mathsf{T} R_k^{-1} H_k` ``(M, n, n)`` of the components ``present`` (M, m) at the true ``x_k``
+    (None: none), and which present components had an undefined Jacobian ``(M, m)`` (they add nothing)."""
     if not present.any():
-        return None, 0
+        return None, np.zeros_like(present)
     _, H, defined = measurement.linearize(x_k, k)
     H = np.asarray(H, dtype=float)
     if H.shape != (M, m, n):
         raise ValueError(f"{type(measurement).__name__}'s H must have shape ({M}, {m}, {n}); got {H.shape}")
     d = np.asarray(defined, dtype=bool)
     d = np.broadcast_to(d[:, None], (M, m)) if d.shape == (M,) else d
-    undefined = int((present & ~d).sum())
+    undefined = present & ~d
     present = present & d
-    R = _as_batch(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
-    bad = present & ~np.isfinite(H).all(axis=-1)
-    if bad.any():
-        raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
-                         f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+    everywhere = bool(present.all())
+    if not np.isfinite(H).all():
+        bad = present & ~np.isfinite(H).all(axis=-1)
+        if bad.any():
+            raise ValueError(f"{type(measurement).__name__}.linearize returned a non-finite Jacobian at step {k} "
+                             f"(run {int(np.argwhere(bad)[0][0])}) where a measurement is present")
+    Hm = H if everywhere else np.where(present[:, :, None], H, 0.0)
+    R = _model_matrix(measurement.R(x_k, k), M, (m, m), f"{type(measurement).__name__}.R")
+    if m == 1:                          # one component (a range): H^T H / R, without a solve per run
+        var = R[..., 0, 0]
+        usable = np.isfinite(var) & (var > 0)
+        if not (usable if var.ndim == 0 else usable | ~present[:, 0]).all():
+            raise ValueError(f"{type(measurement).__name__}.R returned a variance that is not finite and > 0 at "
+                             f"step {k} where a measurement is present")
+        weight = 1.0 / var if var.ndim == 0 else np.divide(1.0, var, out=np.zeros(M), where=usable)[:, None, None]
+        h = Hm[:, 0]
+        return (h[:, :, None] * h[:, None, :]) * weight, undefined
+    R = np.broadcast_to(R, (M, m, m))
     both = present[:, :, None] & present[:, None, :]
     if (both & ~np.isfinite(R)).any():
         raise ValueError(f"{type(measurement).__name__}.R returned a non-finite value at step {k} where a "
                          "measurement is present")
-    Hm = np.where(present[:, :, None], H, 0.0)
     Rm = np.where(both, R, np.eye(m))
     return np.swapaxes(Hm, -1, -2) @ np.linalg.solve(Rm, Hm), undefined           # H^T R^-1 H
 
 
+def _posterior_bounds(motion: MotionModel, measurement: MeasurementModel, x0: np.ndarray, P0: np.ndarray,
+                      truth: np.ndarray, u: np.ndarray | None, present: np.ndarray,
+                      mean_over_runs: bool) -> tuple[np.ndarray, np.ndarray]:
+    r"""The posterior information recursion (Tichavský et al. 1998, additive Gaussian noise), the one both bounds run.
+
+    :math:`J_0 = P_0^{-1}`; step :math:`k` predicts, :math:`J \leftarrow (Q_k + F_k J^{-1} F_k^\mathsf{T})^{-1}`,
+    with :math:`F_k` and :math:`Q_k` of ``motion`` at the true ``x_{k-1}`` (``x0`` ``(M, n)``, then ``truth``
+    ``(M, K, n)``) and the input ``u`` ``(M, K, p)``; then adds the information of the components ``present``
+    ``(M, K, m)``, :math:`H_k^\mathsf{T} R_k^{-1} H_k` at the true :math:`x_k` -- with ``mean_over_runs``, its mean
+    over the runs (the expectation over the true states, evaluated on the M sampled tracks; :math:`F_k` and
+    :math:`Q_k` must then be the same in every run). Returns the bounds :math:`J_k^{-1}` ``(M, K, n, n)`` (``(1, K,
+    n, n)`` with ``mean_over_runs``) and where a present component's Jacobian was undefined ``(M, K, m)``.
+    """
+    M, K, n = truth.shape
+    m = present.shape[-1]
+    name = type(motion).__name__
+    if mean_over_runs and P0.ndim == 3 and P0.shape[0] > 1:
+        raise ValueError("mean_over_runs=True averages the measurement information over the runs: give one P0 of "
+                         f"shape ({n}, {n}) for all of them")
+    J = np.array(np.broadcast_to(_spd_inverse(P0), (1 if mean_over_runs else M, n, n)))
+    information = np.empty((J.shape[0], K, n, n))
+    undefined = np.zeros((M, K, m), dtype=bool)
+    checked: dict[str, np.ndarray] = {}     # copies of the last F and Q checked: most models repeat them
+    F_inv = None
+    states = np.ascontiguousarray(np.swapaxes(truth, 0, 1))      # (K, M, n): each step's states contiguous
+    for k in range(K):
+        u_k = None if u is None else u[:, k]
+        x_prev = x0 if k == 0 else states[k - 1]
+        F = _model_matrix(motion.F(x_prev, u_k, k), M, (n, n), f"{name}.F")
+        Q = _model_matrix(motion.Q(x_prev, u_k, k), M, (n, n), f"{name}.Q")
+        for method, value in (("F", F), ("Q", Q)):
+            last = checked.get(method)
+            if last is not None and last.shape == value.shape and np.array_equal(last, value):
+                continue
+            if not np.isfinite(value).all():
+                raise ValueError(f"{name}.{method} returned a non-finite value at step {k}")
+            if mean_over_runs and value.ndim == 3 and not (value == value[:1]).all():
+                raise ValueError(f"mean_over_runs=True averages the measurement information over the runs, which "
+                                 f"needs one prediction for all of them; but {name}.{method} differs between the "
+                                 f"runs' true states at step {k} (a nonlinear motion): leave mean_over_runs False "
+                                 "for one bound per run")
+            if method == "F":
+                F_inv = _inverse_or_none(value[:1] if mean_over_runs and value.ndim == 3 else value)
+            checked[method] = value.copy()          # a copy: a model may reuse its array for the next step
+        if mean_over_runs:                                  # the same in every run (checked): one prediction
+            F, Q = (a[:1] if a.ndim == 3 else a for a in (F, Q))
+        J = _sym(_predicted_information(J, F, F_inv, Q, k))
+        increment, undefined[:, k] = _measurement_information(measurement, states[k], k, present[:, k], M, m, n)
+        if increment is not None:
+            J = _sym(J + (increment.mean(axis=0, keepdims=True) if mean_over_runs else increment))
+        information[:, k] = J
+    return _sym(_spd_inverse(information)), undefined
+
+
 def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: ArrayLike, truth: ArrayLike,
                          u: ArrayLike | None = None, *,
-                         measured: ArrayLike | None = None, full: bool = False) -> NDArray[np.float64]:
+                         measured: ArrayLike | None = None, full: bool = False,
+                         mean_over_runs: bool = False) -> NDArray[np.float64]:
     r"""The posterior Cramér–Rao bound of any motion/measurement model pair, along a given true track.
 
     For :math:`x_k = f(x_{k-1}, u_k) + w_k`, :math:`w_k \sim N(0, Q_k)`, and :math:`z_k = h_k(x_k) + v_k`,
@@ -449,10 +541,18 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     :math:`Q_k` and :math:`R_k` the models' noise there, and :math:`H_k = \partial h_k / \partial x` at the true
     :math:`x_k`. Components of :math:`z_k` that are not measured are skipped (:math:`H_k` and :math:`R_k`
     restricted to those measured, as the filters update); a step without any measurement only predicts. As in
-    :func:`posterior_crlb` (its special case for dead reckoning with a range bias and a current), the expectation
+    :func:`posterior_crlb` (its front end for dead reckoning with a range bias and a current), the expectation
     over the true states is evaluated on the one track given: a first-order approximation, good while the true
     track is known to a small fraction of the ranges; pass the sampled tracks of a Monte Carlo study (a runs
-    axis) for one bound per track.
+    axis) for one bound per track, or with ``mean_over_runs`` for the Monte Carlo evaluation of the expectation:
+
+    .. math::
+
+        \operatorname{E}\!\left[H_k^\mathsf{T} R_k^{-1} H_k\right] \approx
+        \frac{1}{M} \sum_{j=1}^{M} H_k^\mathsf{T} R_k^{-1} H_k \Big|_{x_k = x_k^{(j)}},
+
+    one bound from the M tracks (exact as M grows, for a motion whose :math:`F_k` and :math:`Q_k` do not depend
+    on the state: a linear one).
 
     The recursion never inverts :math:`J`: with :math:`\tilde J = F_k^{-\mathsf{T}} J_{k-1} F_k^{-1}`,
     :math:`(Q_k + \tilde J^{-1})^{-1} = \tilde J (I + Q_k \tilde J)^{-1}`, which holds for a singular
@@ -478,10 +578,14 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
         ``(M, K)``, ``(M, K, m)``; e.g. ``np.isfinite(z)``. Default: every component at every step.
     full : bool, default False
         Return the bound of the whole state, not only of the position ``x[..., :2]``.
+    mean_over_runs : bool, default False
+        With a runs axis (the sampled true tracks), average the measurement information over the runs and return
+        one bound. ``P0`` must then be shared, and the motion's :math:`F_k` and :math:`Q_k` the same in every run.
 
     Returns
     -------
-    ndarray, shape (K, 2, 2), or (K, n, n) with ``full``; a leading runs axis when an input had one
+    ndarray, shape (K, 2, 2), or (K, n, n) with ``full``; a leading runs axis when an input had one (and
+    ``mean_over_runs`` is False)
         The bound :math:`J_k^{-1}` after step :math:`k`'s measurement.
 
     Warns
@@ -492,7 +596,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
 
     See Also
     --------
-    posterior_crlb : the bound of dead reckoning with one range (and a bias, a current), in closed form.
+    posterior_crlb : the bound of dead reckoning with one range (and a bias, a current): a front end of this one.
 
     References
     ----------
@@ -528,12 +632,32 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     ...     f"scale {np.sqrt(bound[-1, 3, 3]):.1e}"
     ... )
     position 0.07 m, scale 2.7e-04
+
+    The expectation over the true tracks, evaluated on 50 sampled ones (dead reckoning is linear, so its
+    prediction is the same for all of them): one bound.
+
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
+    >>> rng = np.random.default_rng(0)
+    >>> theta = np.linspace(0.0, np.pi, 60)
+    >>> arc = 200.0 * np.column_stack([np.cos(theta), np.sin(theta)])
+    >>> tracks = arc + np.cumsum(rng.normal(0.0, 0.5, (50, 60, 2)), axis=1)
+    >>> mean = model_posterior_crlb(
+    ...     DeadReckoning(0.25 * np.eye(2)),
+    ...     RangeToBeacon((0.0, 0.0), R=4.0),
+    ...     tracks[:, 0],
+    ...     25.0 * np.eye(2),
+    ...     tracks,
+    ...     mean_over_runs=True,
+    ... )
+    >>> mean.shape, f"{rmse_bound(mean[-1]):.1f} m"
+    ((60, 2, 2), '2.5 m')
     """
     if not isinstance(motion, MotionModel):
         raise TypeError(f"motion must be a uwtutor.models.MotionModel; got {type(motion).__name__}")
     if not isinstance(measurement, MeasurementModel):
         raise TypeError(f"measurement must be a uwtutor.models.MeasurementModel; got {type(measurement).__name__}")
     full = as_flag("full", full)
+    mean_over_runs = as_flag("mean_over_runs", mean_over_runs)
     n, m = motion.n, measurement.m
     if measurement.n != n:
         raise ValueError(f"the measurement model reads a state of size {measurement.n} but the motion model's state "
@@ -556,33 +680,12 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
                         "measured": np.shape(measured)[0] if measured is not None and np.ndim(measured) == 3
                         else None})
     M = 1 if runs is None else runs
-    batched = runs is not None
-    xs = np.broadcast_to(truth, (M, K, n))
-    x0_batch = np.array(np.broadcast_to(x0, (M, n)))
-    uu = None if u is None else (u if u.ndim == 3 else np.broadcast_to(u, (M,) + u.shape))
-    present_all = _measured_mask(measured, M, K, m)
-
-    def transition(k: int) -> tuple[np.ndarray, np.ndarray]:
-        u_k = None if uu is None else uu[:, k]
-        x_prev = x0_batch if k == 0 else np.ascontiguousarray(xs[:, k - 1])
-        F = _as_batch(motion.F(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.F")
-        Q = _as_batch(motion.Q(x_prev, u_k, k), M, (n, n), f"{type(motion).__name__}.Q")
-        for method, value in (("F", F), ("Q", Q)):
-            if not np.isfinite(value).all():
-                raise ValueError(f"{type(motion).__name__}.{method} returned a non-finite value at step {k}")
-        return F, Q
-
-    singular = [0]
-
-    def update(k: int, J: np.ndarray) -> np.ndarray:
-        increment, undefined = _measurement_information(measurement, np.ascontiguousarray(xs[:, k]), k,
-                                                        present_all[:, k], M, m, n)
-        singular[0] += undefined
-        return J if increment is None else J + increment
-
-    bounds = _information_recursion(P0, M, K, transition, update)
-    if singular[0]:
-        _warn(f"the Jacobian is undefined for {singular[0]} measured component(s) (a position on a beacon): those "
-              "measurements add no information")
+    bounds, undefined = _posterior_bounds(motion, measurement, np.array(np.broadcast_to(x0, (M, n))), P0,
+                                          np.broadcast_to(truth, (M, K, n)),
+                                          None if u is None else np.broadcast_to(u, (M,) + u.shape[-2:]),
+                                          _measured_mask(measured, M, K, m), mean_over_runs)
+    if undefined.any():
+        _warn(f"the Jacobian is undefined for {np.count_nonzero(undefined)} measured component(s) (a position on a "
+              "beacon): those measurements add no information")
     out = bounds if full else bounds[..., :2, :2]
-    return out if batched else out[0]
+    return out if runs is not None and not mean_over_runs else out[0]
