@@ -456,7 +456,7 @@ def test_dead_reckoning_and_range_names_get_clear_errors():
         DeadReckoning(Q3, names=("range bias",))
     with pytest.raises(TypeError, match="sequence of slot names"):
         DeadReckoning(Q3, names="range_bias")
-    with pytest.raises(ValueError, match="both called 'position'"):
+    with pytest.raises(ValueError, match="'position' is the slot of x and y"):
         DeadReckoning(Q3, names=("position",))
     motion = DeadReckoning(Q3, names=("range_bias",))
     with pytest.raises(ValueError, match="not both"):

@@ -53,6 +53,8 @@ def _further_slots(names: Any, count: int) -> dict[str, int]:
             if _name(name, "names") in sizes:
                 raise ValueError(f"names gives {name!r} twice: give each further component its own name")
             sizes[name] = 1
+    if "position" in sizes:
+        raise ValueError("names must name the components after the position; 'position' is the slot of x and y")
     if sum(sizes.values()) != count:
         raise ValueError(f"names must name the {count} components of the state after the position (Q is "
                          f"{count + 2}x{count + 2}); they name {sum(sizes.values())}: {list(sizes)}")

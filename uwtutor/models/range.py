@@ -33,7 +33,6 @@ from numpy.typing import ArrayLike
 from .._linalg import line_of_sight as _line_of_sight
 from .._linalg import distances
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
-from .base import MeasurementModel
 from .blocks import BlockMeasurement, BlockMotion, _name
 from .odometry import StateLayout
 
@@ -293,7 +292,7 @@ class MultiplicativeRange(RangeToBeacon):
     """
 
     def __init__(self, beacon: ArrayLike, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
-        super().__init__(beacon, R, n=n)
+        super().__init__(beacon, R, n=as_int("n", n, minimum=2))
         # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
         mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
         sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0, max_abs=1e3))
@@ -403,7 +402,7 @@ class NoiseSchedule:
 
     def select_runs(self, runs: Any) -> "NoiseSchedule":
         """The schedule of the runs ``runs`` (a slice or indices) of a per-run schedule (itself otherwise)."""
-        if self.n_runs is None:
+        if self.n_runs is None or self._matrices is None:
             return self
         out = copy.copy(self)
         out._matrices = np.ascontiguousarray(self._matrices[:, runs])
@@ -414,11 +413,13 @@ class NoiseSchedule:
         if self.constant is not None:
             return self.constant
         K = self.n_steps
+        assert K is not None                # not a constant: per-step variances or matrices
         if not 0 <= k < K:
             raise IndexError(f"{self.name} has {K} per-step values; step {k} is beyond them. Give one per step of "
                              "the run")
         if self._matrices is not None:
             return self._matrices[k]
+        assert self._variances is not None
         out = np.zeros((self.m, self.m))
         np.fill_diagonal(out, self._variances[k])
         return out
