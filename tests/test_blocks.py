@@ -484,3 +484,20 @@ def test_per_step_blocks_say_how_many_steps_they_cover():
         BlockMotion(Position(Qs), RandomWalk("bias", Q=np.full((4, 1, 1), 0.5)))
     with pytest.raises(ValueError, match="not both"):
         RandomWalk("bias", walk=0.1, Q=[[0.5]])
+
+
+def test_a_layout_and_a_dead_reckoning_named_alike_have_the_same_slots():
+    """StateLayout is the index form of the state a motion model names: the same slots at the same indices."""
+    for layout, names in [(StateLayout.position(range_bias=True), ("range_bias",)),
+                          (StateLayout.position(scale=True, range_bias=2), {"scale": 1, "range_bias": 2})]:
+        motion = DeadReckoning(np.eye(layout.n), names=names)
+        assert motion.slots == layout.slots and motion.names == layout.names
+        for slot in layout.slots:
+            np.testing.assert_array_equal(motion.slot(slot), layout.slot(slot))
+        x = np.random.default_rng(0).normal(size=(3, layout.n)) * 40.0
+        by_layout = RangeToBeacon((5.0, 1.0), 4.0, state=layout, bias="range_bias" if len(layout.range_bias) == 1
+                                  else None)
+        by_motion = RangeToBeacon((5.0, 1.0), 4.0, state=motion, bias="range_bias" if len(layout.range_bias) == 1
+                                  else None)
+        for a, b in zip(by_layout.linearize(x, 0), by_motion.linearize(x, 0)):
+            np.testing.assert_array_equal(a, b)
