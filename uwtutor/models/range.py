@@ -562,7 +562,8 @@ class BeaconRanges(BlockRanges):
     A beacon that did not answer at an epoch is a NaN component of :math:`z_k`: the filters update with the
     components that are present (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`). The state layout -- which index
     is the scale, which the bias -- comes from a :class:`~uwtutor.models.odometry.StateLayout` (``layout=``, e.g. the
-    motion model's ``motion.layout``) or from the indices.
+    motion model's ``motion.layout``) or from the indices; with the motion model at hand, :class:`BlockRanges`
+    (``BlockRanges(beacons, R, state=motion, scale="scale", bias="range_bias")``) reads the same slots by name.
 
     Parameters
     ----------
