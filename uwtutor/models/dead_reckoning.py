@@ -107,6 +107,14 @@ class DeadReckoning(BlockMotion):
     >>> ranges = RangeToBeacon((0.0, 0.0), R=4.0, state=dr, bias="range_bias")
     >>> ranges.h(np.array([[30.0, 40.0, 3.0]]), 0)
     array([[53.]])
+
+    The start of a filter, slot by slot (mean, standard deviation):
+
+    >>> x0, P0 = dr.initial_state(
+    ...     position=([30.0, 40.0], [10.0, 10.0]), range_bias=(0.0, 5.0)
+    ... )
+    >>> x0, np.diag(P0)
+    (array([30., 40.,  0.]), array([100., 100.,  25.]))
     """
 
     covariances_checked = True      # Q is checked when the model is made (one, or one per step)
