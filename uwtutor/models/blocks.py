@@ -28,7 +28,9 @@ The whole thing is a motion model and a measurement model like every other of th
 :func:`uwtutor.filters.engine.extended_kalman_filter`, the smoother and the particle filters unchanged. The blocks
 reproduce the library's hand-assembled models to the last bit where they describe the same state
 (``tests/test_blocks.py``): :class:`~uwtutor.models.odometry.OdometryMotion` with a gyro bias and a range scale,
-:class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`.
+:class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`,
+:class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.RangeToBeacon` (paper A's
+pair, its slots named or given by index).
 
 References
 ----------
