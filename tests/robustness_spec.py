@@ -197,8 +197,7 @@ SPECS: dict[str, Spec] = {
                    u=Real((2, 10, 2)), z=Real((2, 10), nan_ok=True),
                    per_run=Mapping({"mu_gamma": [1.0, 1.0, 1.0]}))),
     # models
-    "uwtutor.models.dead_reckoning:DeadReckoning": Spec(lambda: dict(Q=np.eye(2))),
-    "uwtutor.models.range:RangeToBeacon": Spec(lambda: dict(beacon=(0.0, 0.0), R=1.0)),
+    # DeadReckoning and RangeToBeacon (block models: their slot names) are in robustness_spec_blocks
     "uwtutor.filters.bias:bias_model_pair": Spec(
         lambda: dict(Q=np.diag([0.25, 0.25, 0.01]), R=4.0, beacon=(10.0, 0.0))),
     "uwtutor.models.depth:PitchManeuver": Spec(

@@ -29,6 +29,20 @@ class _SlotName(Kind):
         return out
 
 
+@dataclass(frozen=True)
+class _SlotNames(Kind):
+    """The names of the further slots of a state: a sequence of identifiers (or a dict of name -> size) that
+    names every further component once; None is the documented default (names by index)."""
+
+    def hostile(self, valid: Any) -> list[Hostile]:
+        return [Hostile("a string", "range_bias", True), Hostile("not an identifier", ("range bias",), True),
+                Hostile("empty name", ("",), True), Hostile("int", (1,), True), Hostile("too many", ("a", "b"), True),
+                Hostile("too few", (), True), Hostile("size 0", {"range_bias": 0}, True),
+                Hostile("size not an int", {"range_bias": 1.5}, True), Hostile("the position's name", ("position",),
+                                                                                True),
+                Hostile("not a sequence", 3, True)]
+
+
 def _blocks():
     import uwtutor.models.blocks as b
     return b
@@ -49,6 +63,11 @@ def _state():
                          b.OffsetAndRate("clock", rate_walk=1e-8), dt=1.0)
 
 
+def _dead_reckoning():
+    return __import__("uwtutor.models", fromlist=["x"]).DeadReckoning(np.diag([0.25, 0.25, 0.01]),
+                                                                      names=("range_bias",))
+
+
 _BEACONS = np.array([[5.0, 12.0], [-4.0, 3.0]])
 _X = [1.0, 2.0, 0.3, 1.05, 1e-3, 2e-5]
 
@@ -66,7 +85,7 @@ SPECS_BLOCKS: dict[str, Spec] = {
         call=_in_motion(lambda b, kw: (b.Position(**kw), b.Current(1e-3)), x=[1.0, 2.0, 0.1, 0.0],
                         u=np.array([[1.0, 0.5]]), dt=2.0)),
     "uwtutor.models.blocks:RandomWalk": Spec(
-        lambda: dict(name="scale", walk=1e-3, size=2),
+        lambda: dict(name="scale", walk=0.0, size=2, Q=np.eye(2) * 1e-4),
         kinds=dict(name=_SlotName(), walk=_NONNEG, size=Kind()),
         call=_in_motion(lambda b, kw: (b.RandomWalk(**kw),), x=[1.0, 1.0], dt=1.0)),
     "uwtutor.models.blocks:Current": Spec(
@@ -82,6 +101,15 @@ SPECS_BLOCKS: dict[str, Spec] = {
         call=lambda **kw: _motion_use(_blocks().BlockMotion(
             _blocks().OdometryPose(0.02, 1e-3), _blocks().OffsetAndRate("clock", 1e-8), **kw),
             x=[1.0, 2.0, 0.3, 1e-3, 2e-5], u=np.array([[1.0, 0.1]]))),
+    "uwtutor.models.dead_reckoning:DeadReckoning": Spec(
+        lambda: dict(Q=np.diag([0.25, 0.25, 0.01]), names=("range_bias",)), kinds=dict(names=_SlotNames()),
+        call=lambda **kw: _motion_use(__import__("uwtutor.models.dead_reckoning", fromlist=["x"]).DeadReckoning(**kw),
+                                      x=[1.0, 2.0, 0.5], u=np.array([[1.0, 0.5]]))),
+    "uwtutor.models.range:RangeToBeacon": Spec(
+        lambda: dict(beacon=(0.0, 0.0), R=1.0, state=_dead_reckoning(), bias="range_bias", position="position"),
+        kinds=dict(state=Instance(optional=True), bias=_SlotName(optional=True), position=_SlotName()),
+        call=lambda **kw: _meas_use(__import__("uwtutor.models.range", fromlist=["x"]).RangeToBeacon(**kw),
+                                    x=[3.0, 4.0, 0.5])),
     "uwtutor.models.range:BlockRanges": Spec(
         lambda: dict(beacons=_BEACONS, R=0.36, state=_state(), scale="scale", bias=None, position="position"),
         kinds=dict(beacons=Real((None, 2)), R=Real((), "pos", vector_ok=True), state=Instance(),

@@ -258,3 +258,246 @@ def test_the_bias_rate_model_and_the_owtt_ranges_are_block_models():
     state = BlockMotion(Position(np.eye(2)), OffsetAndRate("clock", 1e-8), dt=1.0)
     owtt = OneWayTravelTimeRanges([(0.0, 0.0), (40.0, 0.0)], 0.25, state, sound_speed=1480.0)
     assert isinstance(owtt, BlockRanges) and owtt.reads == ("position", "clock")
+
+
+# -- paper A's pair in the block vocabulary: DeadReckoning is a BlockMotion, RangeToBeacon a BlockMeasurement --
+
+def _psd(rng, n, K=None):
+    """A random PSD matrix (n, n), or one per step (K, n, n): correlated everywhere, position and further alike."""
+    A = rng.normal(size=(() if K is None else (K,)) + (n, n))
+    return A @ np.swapaxes(A, -1, -2)
+
+
+def _dead_reckoning_reference(Q):
+    """DeadReckoning's arithmetic before it was built from blocks: f moves x[..., :2], F = I, Q given whole."""
+    def f(x, u, k):
+        out = x.copy()
+        if u is not None:
+            out[..., :2] += np.asarray(u, dtype=float)
+        return out
+
+    def Qk(k):
+        return Q if Q.ndim == 2 else Q[k]
+    return f, Qk
+
+
+@pytest.mark.parametrize("n", [2, 3, 5])
+@pytest.mark.parametrize("per_step", [False, True], ids=["one-Q", "per-step-Q"])
+def test_dead_reckoning_is_a_block_motion_with_its_arithmetic_bit_for_bit(n, per_step):
+    from uwtutor.models.noise import gaussian_noise, psd_sqrt
+
+    rng = np.random.default_rng(n + 10 * per_step)
+    K = 5
+    Q = _psd(rng, n, K if per_step else None)
+    motion = DeadReckoning(Q)
+    assert isinstance(motion, BlockMotion) and motion.n == n and motion.n_steps == (K if per_step else None)
+    np.testing.assert_array_equal(motion.slot("position"), [0, 1])
+    assert motion.names == ("x", "y") + tuple(f"state_{i}" for i in range(2, n))
+    f_ref, Q_ref = _dead_reckoning_reference(Q)
+    for shape in ((4, n), (3, 6, n)):                           # runs (M, n) and particles (M, N, n)
+        x = rng.normal(size=shape) * 50.0
+        per_run = rng.normal(size=(shape[0], 2) if len(shape) == 2 else (shape[0], 1, 2))
+        for u in (None, rng.normal(size=2), per_run):
+            for k in (0, K - 1):
+                f, F, Qk = motion.linearize(x, u, k)
+                assert np.array_equal(f, f_ref(x, u, k)) and np.array_equal(motion.f(x, u, k), f)
+                assert np.array_equal(F, np.eye(n)) and np.array_equal(motion.F(x, u, k), F)
+                assert np.array_equal(Qk, Q_ref(k)) and np.array_equal(motion.Q(x, u, k), Qk)
+                if len(shape) == 3:
+                    draw = motion.sample(x, u, k, [np.random.default_rng(i) for i in range(shape[0])])
+                    want = f_ref(x, u, k) + gaussian_noise(psd_sqrt(Q_ref(k)), [np.random.default_rng(i)
+                                                                                 for i in range(shape[0])], x.shape)
+                    assert np.array_equal(draw, want)
+    if per_step:
+        with pytest.raises(IndexError, match="beyond"):
+            motion.Q(None, None, K)
+
+
+@pytest.mark.parametrize("per_step", [False, True], ids=["one-Q", "per-step-Q"])
+def test_dead_reckoning_blocks_assembled_one_by_one_are_the_model_when_q_has_no_cross_terms(per_step):
+    """The blocks say what the model does: a Position with Q's top-left block and a RandomWalk per named slot with
+    its own diagonal block. Without cross terms in Q, the block-by-block assembly is the model, bit for bit."""
+    rng = np.random.default_rng(4)
+    K = 4
+    Q = np.zeros((K, 5, 5)) if per_step else np.zeros((5, 5))
+    Q[..., :2, :2] = _psd(rng, 2, K if per_step else None)
+    Q[..., 2:4, 2:4] = _psd(rng, 2, K if per_step else None)
+    Q[..., 4, 4] = 0.01
+    motion = DeadReckoning(Q, names={"current": 2, "range_bias": 1})
+    assert [type(b) for b in motion.blocks] == [Position, RandomWalk, RandomWalk]
+    assert motion.names == ("x", "y", "current_0", "current_1", "range_bias")
+    np.testing.assert_array_equal(motion.slot("current"), [2, 3])
+    np.testing.assert_array_equal(motion.slot("range_bias"), [4])
+    blockwise = BlockMotion(*motion.blocks)
+    x = rng.normal(size=(3, 5))
+    u = rng.normal(size=2)
+    for k in range(K):
+        for got, want in zip(motion.linearize(x, u, k), blockwise.linearize(x, u, k)):
+            np.testing.assert_array_equal(got, want)
+
+
+def _range_reference(beacon, n, bias_index):
+    """RangeToBeacon's arithmetic before it read slots: the position x[..., :2], the bias x[..., bias_index]."""
+    from uwtutor._linalg import distances, line_of_sight
+
+    def at(x, k):
+        b = beacon if beacon.ndim == 1 else beacon[k] if beacon.ndim == 2 else beacon[:, k]
+        return b[:, None, :] if b.ndim == 2 and x.ndim == 3 else b
+
+    def linearize(x, k):
+        r, los, defined = line_of_sight(x[..., :2], at(x, k))
+        H = np.zeros(x.shape[:-1] + (1, n))
+        H[..., 0, :2] = los
+        z = r[..., None]
+        if bias_index is not None:
+            H[..., 0, bias_index] = 1.0
+            z = z + x[..., bias_index:bias_index + 1]
+        return z, H, defined
+
+    def h(x, k):
+        z = distances(x[..., :2], at(x, k))[..., None]
+        return z if bias_index is None else z + x[..., bias_index:bias_index + 1]
+    return h, linearize
+
+
+@pytest.mark.parametrize("beacon_kind", ["fixed", "path", "per-run"])
+@pytest.mark.parametrize("n, bias_index", [(2, None), (3, 2), (5, 3)])
+def test_range_to_beacon_reads_slots_with_its_arithmetic_bit_for_bit(beacon_kind, n, bias_index):
+    rng = np.random.default_rng(n)
+    K, M = 6, 4
+    beacon = {"fixed": rng.normal(size=2), "path": rng.normal(size=(K, 2)),
+              "per-run": rng.normal(size=(M, K, 2))}[beacon_kind] * 30.0
+    R = np.abs(rng.normal(size=K)) + 0.1
+    by_index = RangeToBeacon(beacon, R, n=n, bias_index=bias_index)
+    names = tuple(f"state_{i}" for i in range(2, n))
+    state = DeadReckoning(np.eye(n), names=tuple("range_bias" if i == bias_index else name
+                                                  for i, name in enumerate(names, start=2)))
+    by_name = RangeToBeacon(beacon, R, state=state, bias=None if bias_index is None else "range_bias")
+    h_ref, linearize_ref = _range_reference(beacon, n, bias_index)
+    for model in (by_index, by_name):
+        assert model.n == n and model.bias_index == bias_index
+        np.testing.assert_array_equal(model.columns["position"], [0, 1])
+        for shape in ((M, n), (M, 7, n)):
+            x = rng.normal(size=shape) * 50.0
+            for k in (0, K - 1):
+                assert np.array_equal(model.h(x, k), h_ref(x, k))
+                for got, want in zip(model.linearize(x, k), linearize_ref(x, k)):
+                    assert np.array_equal(got, want)
+                assert np.array_equal(model.H(x, k), linearize_ref(x, k)[1])
+                assert np.array_equal(model.R(x, k), [[R[k]]])
+        if beacon_kind == "per-run":
+            np.testing.assert_array_equal(model.select_runs([1, 3]).beacon, beacon[[1, 3]])
+            np.testing.assert_array_equal(model.beacon_at(2), beacon[:, 2])
+
+
+def test_multiplicative_range_keeps_its_arithmetic_on_the_position_slot():
+    from uwtutor._linalg import line_of_sight
+    from uwtutor.models import MultiplicativeRange
+
+    rng = np.random.default_rng(1)
+    ship = rng.normal(size=(5, 2)) * 30.0
+    model = MultiplicativeRange(ship, 0.49, mu_gamma=0.98, sigma_gamma=0.01, n=3)
+    x = rng.normal(size=(4, 3)) * 50.0
+    r, los, _ = line_of_sight(x[..., :2], ship[2])
+    assert np.array_equal(model.h(x, 2), 0.98 * r[:, None])
+    assert np.array_equal(model.H(x, 2)[:, 0, :2], 0.98 * los)
+    assert np.array_equal(model.R(x, 2), (0.01**2 * r**2 + 0.49)[:, None, None])
+
+
+def test_the_plain_range_pair_by_name_still_runs_on_the_packed_back_end():
+    """The engine's fast path dispatches on the model types: the pair read by name is the same pair, so it runs
+    the packed 2x2 kernel and gives range_only_ekf's bits; a bias sends it to the generic engine."""
+    from uwtutor.filters import ExtendedKalmanFilter, range_only_ekf
+
+    rng = np.random.default_rng(2)
+    K = 30
+    track = np.column_stack([np.linspace(0.0, 300.0, K), np.full(K, 80.0)])
+    u = np.diff(track, axis=0, prepend=track[:1]) + rng.normal(0.0, 0.5, (K, 2))
+    z = np.linalg.norm(track - [10.0, -5.0], axis=1) + rng.normal(0.0, 2.0, K)
+    Q = np.eye(2) * 0.25
+    motion = DeadReckoning(Q)
+    for measurement in (RangeToBeacon((10.0, -5.0), 4.0), RangeToBeacon((10.0, -5.0), 4.0, state=motion)):
+        filt = ExtendedKalmanFilter(motion, measurement, track[0], np.eye(2) * 100.0)
+        assert filt._packed_kernel()
+        engine = extended_kalman_filter(motion, measurement, track[0], np.eye(2) * 100.0, u, z)
+        fast = range_only_ekf(track[0], np.eye(2) * 100.0, u, z, Q, 4.0, beacon=(10.0, -5.0))
+        for field in ("x", "P", "x_prior", "P_prior", "innovations", "innovation_cov"):
+            assert np.array_equal(getattr(engine, field), getattr(fast, field), equal_nan=True), field
+    biased = DeadReckoning(np.diag([0.25, 0.25, 0.01]), names=("range_bias",))
+    filt = ExtendedKalmanFilter(biased, RangeToBeacon((10.0, -5.0), 4.0, state=biased, bias="range_bias"),
+                                np.r_[track[0], 0.0], np.eye(3) * 100.0)
+    assert not filt._packed_kernel()
+
+
+def test_paper_a_pair_by_name_is_the_pair_by_index_in_the_filter():
+    rng = np.random.default_rng(5)
+    K = 40
+    track = np.column_stack([np.linspace(0.0, 400.0, K), np.full(K, 60.0)])
+    u = np.diff(track, axis=0, prepend=track[:1]) + rng.normal(0.0, 0.5, (K, 2))
+    z = np.linalg.norm(track, axis=1) + 3.0 + rng.normal(0.0, 2.0, K)
+    Q = np.diag([0.25, 0.25, 0.01])
+    x0, P0 = np.r_[track[0], 0.0], np.diag([100.0, 100.0, 25.0])
+    by_index = extended_kalman_filter(DeadReckoning(Q), RangeToBeacon((0.0, 0.0), 4.0, n=3, bias_index=2),
+                                      x0, P0, u, z)
+    motion = DeadReckoning(Q, names=("range_bias",))
+    by_name = extended_kalman_filter(motion, RangeToBeacon((0.0, 0.0), 4.0, state=motion, bias="range_bias"),
+                                     x0, P0, u, z)
+    for field in ("x", "P", "innovations", "innovation_cov"):
+        assert np.array_equal(getattr(by_index, field), getattr(by_name, field)), field
+
+
+def test_dead_reckoning_and_range_names_get_clear_errors():
+    Q3 = np.diag([0.25, 0.25, 0.01])
+    with pytest.raises(ValueError, match="names must name the 1 components"):
+        DeadReckoning(Q3, names=("range_bias", "clock"))
+    with pytest.raises(ValueError, match="twice"):
+        DeadReckoning(np.eye(4), names=("bias", "bias"))
+    with pytest.raises(ValueError, match="slot name"):
+        DeadReckoning(Q3, names=("range bias",))
+    with pytest.raises(TypeError, match="sequence of slot names"):
+        DeadReckoning(Q3, names="range_bias")
+    with pytest.raises(ValueError, match="'position' is the slot of x and y"):
+        DeadReckoning(Q3, names=("position",))
+    motion = DeadReckoning(Q3, names=("range_bias",))
+    with pytest.raises(ValueError, match="not both"):
+        RangeToBeacon((0.0, 0.0), 4.0, state=motion, n=3)
+    with pytest.raises(ValueError, match="state="):
+        RangeToBeacon((0.0, 0.0), 4.0, bias="range_bias")
+    with pytest.raises(ValueError, match="'clock'"):
+        RangeToBeacon((0.0, 0.0), 4.0, state=motion, bias="clock")
+    with pytest.raises(ValueError, match="1 component"):
+        RangeToBeacon((0.0, 0.0), 4.0, state=DeadReckoning(np.eye(4), names={"bias": 2}), bias="bias")
+    with pytest.raises(ValueError, match="x before y"):
+        RangeToBeacon((0.0, 0.0), 4.0, state=motion, position="range_bias")
+    with pytest.raises(ValueError, match="bias_index must index the state"):
+        RangeToBeacon((0.0, 0.0), 4.0, n=3, bias_index=3)
+
+
+def test_per_step_blocks_say_how_many_steps_they_cover():
+    Qs = np.tile(np.eye(2), (3, 1, 1))
+    motion = BlockMotion(Position(Qs), RandomWalk("bias", Q=np.full((3, 1, 1), 0.5)))
+    assert motion.n_steps == 3
+    np.testing.assert_array_equal(motion.Q(np.zeros((1, 3)), None, 2), np.diag([1.0, 1.0, 0.5]))
+    with pytest.raises(IndexError, match="beyond"):
+        motion.Q(np.zeros((1, 3)), None, 3)
+    with pytest.raises(ValueError, match="disagree"):
+        BlockMotion(Position(Qs), RandomWalk("bias", Q=np.full((4, 1, 1), 0.5)))
+    with pytest.raises(ValueError, match="not both"):
+        RandomWalk("bias", walk=0.1, Q=[[0.5]])
+
+
+def test_a_layout_and_a_dead_reckoning_named_alike_have_the_same_slots():
+    """StateLayout is the index form of the state a motion model names: the same slots at the same indices."""
+    for layout, names in [(StateLayout.position(range_bias=True), ("range_bias",)),
+                          (StateLayout.position(scale=True, range_bias=2), {"scale": 1, "range_bias": 2})]:
+        motion = DeadReckoning(np.eye(layout.n), names=names)
+        assert motion.slots == layout.slots and motion.names == layout.names
+        for slot in layout.slots:
+            np.testing.assert_array_equal(motion.slot(slot), layout.slot(slot))
+        x = np.random.default_rng(0).normal(size=(3, layout.n)) * 40.0
+        by_layout = RangeToBeacon((5.0, 1.0), 4.0, state=layout, bias="range_bias" if len(layout.range_bias) == 1
+                                  else None)
+        by_motion = RangeToBeacon((5.0, 1.0), 4.0, state=motion, bias="range_bias" if len(layout.range_bias) == 1
+                                  else None)
+        for a, b in zip(by_layout.linearize(x, 0), by_motion.linearize(x, 0)):
+            np.testing.assert_array_equal(a, b)

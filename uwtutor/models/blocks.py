@@ -28,7 +28,9 @@ The whole thing is a motion model and a measurement model like every other of th
 :func:`uwtutor.filters.engine.extended_kalman_filter`, the smoother and the particle filters unchanged. The blocks
 reproduce the library's hand-assembled models to the last bit where they describe the same state
 (``tests/test_blocks.py``): :class:`~uwtutor.models.odometry.OdometryMotion` with a gyro bias and a range scale,
-:class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`.
+:class:`~uwtutor.models.bias.BiasRateDeadReckoning`, :class:`~uwtutor.models.range.BeaconRanges`,
+:class:`~uwtutor.models.dead_reckoning.DeadReckoning` and :class:`~uwtutor.models.range.RangeToBeacon` (paper A's
+pair, its slots named or given by index).
 
 References
 ----------
@@ -214,7 +216,11 @@ class RandomWalk(StateBlock):
 
     .. math::
 
-        x_k = x_{k-1} + w_k, \qquad w_k \sim N(0,\; q\,\Delta t_k\,I), \qquad q = \texttt{walk}^2.
+        x_k = x_{k-1} + w_k, \qquad w_k \sim N(0,\; q\,\Delta t_k\,I), \qquad q = \texttt{walk}^2,
+
+    or :math:`w_k \sim N(0, Q_k)` with the covariance of each step given directly (``Q``: components whose walks
+    are correlated, or change from step to step, as the further components of
+    :class:`~uwtutor.models.dead_reckoning.DeadReckoning`).
 
     Parameters
     ----------
@@ -225,6 +231,9 @@ class RandomWalk(StateBlock):
         has no times); 0 for a constant.
     size : int, default 1
         Number of components (e.g. one range bias per beacon).
+    Q : array_like, shape (size, size) or (K, size, size), optional
+        The covariance of one step's walk [unit²], positive semi-definite, instead of ``walk``: one for every step,
+        or one per step (step ``k`` uses ``Q[k]``).
 
     Examples
     --------
@@ -233,27 +242,50 @@ class RandomWalk(StateBlock):
     >>> motion = BlockMotion(RandomWalk("scale", walk=1e-3), dt=4.0)
     >>> motion.f(np.array([[1.02]]), None, 0), motion.Q(np.array([[1.02]]), None, 0)
     (array([[1.02]]), array([[4.e-06]]))
+    >>> # two range biases whose walks are correlated, the covariance of a step given whole
+    >>> biases = BlockMotion(RandomWalk("range_bias", size=2, Q=[[0.02, 0.01], [0.01, 0.02]]))
+    >>> biases.Q(np.zeros((1, 2)), None, 0)
+    array([[0.02, 0.01],
+           [0.01, 0.02]])
     """
 
     linear = True
 
-    def __init__(self, name: str, walk: ArrayLike = 0.0, *, size: int = 1) -> None:
+    def __init__(self, name: str, walk: ArrayLike = 0.0, *, size: int = 1, Q: ArrayLike | None = None) -> None:
         self.name = _name(name)
         size = as_int("size", size, minimum=1)
         self.components = (self.name,) if size == 1 else tuple(f"{self.name}_{j}" for j in range(size))
         self.q = float(as_nonnegative("walk", walk, ndim=0, max_abs=_MAX_STD)) ** 2
-        self.noise_size = size if self.q > 0 else 0      # a constant draws nothing
         self._eye = np.eye(size)
+        self.cov: np.ndarray | None = None
+        if Q is not None:
+            if self.q > 0:
+                raise ValueError("give walk (a density per second) or Q (the covariance of each step), not both")
+            cov = as_covariance("Q", Q, size, allow_singular=True)
+            if cov.ndim not in (2, 3):
+                raise ValueError(f"Q must be one ({size}, {size}) covariance or one per step ({size} components); "
+                                 f"got shape {cov.shape}")
+            self.cov = cov
+            self.linear = cov.ndim == 2              # a per-step Q is not a constant of the step length
+        given = self.cov is not None and bool(np.any(self.cov))
+        self.noise_size = size if self.q > 0 or given else 0      # a constant draws nothing
 
     def linearize(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int,
                   dt: float) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
-        return np.array(own, dtype=float), self._eye, {}, self._eye * (self.q * dt)
+        noise = self._eye * (self.q * dt) if self.cov is None else _step_of("Q", self.cov, k)
+        return np.array(own, dtype=float), self._eye, {}, noise
 
     def sample(self, own: np.ndarray, reads: dict[str, np.ndarray], u: Any, k: int, dt: float,
                eps: np.ndarray) -> np.ndarray:
         if not self.noise_size:
             return np.array(own, dtype=float)
+        if self.cov is not None:
+            return super().sample(own, reads, u, k, dt, eps)
         return own + eps * (np.sqrt(self.q) * np.sqrt(dt))
+
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps a per-step ``Q`` covers (none for one ``Q`` or a ``walk``)."""
+        return {"Q": len(self.cov)} if self.cov is not None and self.cov.ndim == 3 else {}
 
 
 class Current(RandomWalk):
@@ -335,8 +367,9 @@ class Position(StateBlock):
 
     Parameters
     ----------
-    Q : array_like, shape (2, 2)
-        The DR noise of one step [m²] (as :class:`~uwtutor.models.dead_reckoning.DeadReckoning`'s).
+    Q : array_like, shape (2, 2) or (K, 2, 2)
+        The DR noise of one step [m²] (as :class:`~uwtutor.models.dead_reckoning.DeadReckoning`'s): one for every
+        step, or one per step (step ``k`` uses ``Q[k]``).
     current : str, optional
         The slot of a :class:`Current` the position drifts with.
     name : str, default "position"
@@ -361,8 +394,10 @@ class Position(StateBlock):
     def __init__(self, Q: ArrayLike, *, current: str | None = None, name: str = "position") -> None:
         self.name = _name(name)
         self.Q = as_covariance("Q", Q, 2, allow_singular=True)
-        if self.Q.ndim != 2:
-            raise ValueError(f"Q must be one 2x2 matrix (the DR noise of every step); got shape {self.Q.shape}")
+        if self.Q.ndim not in (2, 3):
+            raise ValueError(f"Q must be one 2x2 matrix (the DR noise of every step) or one per step (K, 2, 2); got "
+                             f"shape {self.Q.shape}")
+        self.linear = self.Q.ndim == 2               # a per-step Q is not a constant of the step length
         self.reads = () if current is None else (_name(current, "current"),)
         self.needs_time = current is not None
         self._eye = np.eye(2)
@@ -376,7 +411,11 @@ class Position(StateBlock):
         if self.reads:
             f = f + dt * reads[self.reads[0]]
             F_reads[self.reads[0]] = self._eye * dt
-        return f, self._eye, F_reads, self.Q
+        return f, self._eye, F_reads, _step_of("Q", self.Q, k)
+
+    def step_counts(self) -> dict[str, int]:
+        """The number of steps a per-step ``Q`` covers (none for one ``Q``)."""
+        return {"Q": len(self.Q)} if self.Q.ndim == 3 else {}
 
 
 class OdometryPose(StateBlock):
@@ -510,6 +549,16 @@ class OdometryPose(StateBlock):
                                              ("sigma_heading", self.sigma_heading)) if a.ndim == 1}
 
 
+def _step_of(name: str, a: np.ndarray, k: int) -> np.ndarray:
+    """Step ``k``'s matrix of ``a``: one ``(s, s)`` for every step, or ``(K, s, s)`` one per step."""
+    if a.ndim == 2:
+        return a
+    if not 0 <= k < len(a):
+        raise IndexError(f"{name} has {len(a)} per-step matrices; step {k} is beyond them. Give one per step of the "
+                         "run")
+    return a[k]
+
+
 def _at(a: np.ndarray, k: int) -> float:
     if a.ndim == 0:
         return float(a)
@@ -601,7 +650,10 @@ class BlockMotion(MotionModel):
         if self._dt is None and untimed:
             raise ValueError(f"the blocks {untimed} hold a rate: give times (the epoch times, s) or dt (the step "
                              "lengths, s)")
-        sizes = {name: count for block in self.blocks for name, count in block.step_counts().items()}
+        counted = [(name, block.name, count) for block in self.blocks for name, count in block.step_counts().items()]
+        # an argument name that two blocks take (each Position or RandomWalk its Q) is told by its block
+        shared = {name for name, _, _ in counted if sum(other == name for other, _, _ in counted) > 1}
+        sizes = {(f"{owner}'s {name}" if name in shared else name): count for name, owner, count in counted}
         if steps is not None:
             sizes["times" if times is not None else "dt"] = steps
         if len(set(sizes.values())) > 1:
@@ -831,9 +883,10 @@ class BlockMeasurement(MeasurementModel):
     def _find(self, state: Any, name: str, target: str) -> None:
         """Put the indices of the state's slot ``target`` in ``columns[name]``, or say which slots there are."""
         if target not in state.slots:
-            raise ValueError(f"{type(self).__name__} reads the slot {name!r}, which the state does not have "
-                             f"(its slots are {list(state.slots)}); add the block, or map the name with "
-                             f"slots={{{name!r}: ...}}")
+            what = f"the slot {name!r}" if target == name else f"its {name} from the slot {target!r}"
+            fix = f"map the name with slots={{{name!r}: ...}}" if target == name else "name a slot the state has"
+            raise ValueError(f"{type(self).__name__} reads {what}, which the state does not have (its slots are "
+                             f"{list(state.slots)}); add the block, or {fix}")
         self.columns[name] = state.slot(target)
 
     def read(self, x: np.ndarray, name: str) -> np.ndarray:

@@ -134,6 +134,12 @@ class StateLayout:
     has one index. Build one with :meth:`odometry` (the state of :class:`OdometryMotion`) or :meth:`position`
     (the dead-reckoning state of :class:`~uwtutor.models.dead_reckoning.DeadReckoning`), or give the indices yourself.
 
+    A layout names its slots as a motion model built from blocks does (:attr:`slots`, :meth:`slot`, the
+    ``position`` and each further state by its field's name), so a measurement model reads either one
+    (:class:`~uwtutor.models.blocks.BlockMeasurement`): the layout is the same state given by its indices, for a
+    measurement model made apart from its motion model. ``StateLayout.position(range_bias=True)`` has the slots of
+    ``DeadReckoning(Q, names=("range_bias",))``; with the motion model at hand, pass it (``state=motion``).
+
     Parameters
     ----------
     n : int

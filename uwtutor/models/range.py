@@ -33,7 +33,6 @@ from numpy.typing import ArrayLike
 from .._linalg import line_of_sight as _line_of_sight
 from .._linalg import distances
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int
-from .base import MeasurementModel
 from .blocks import BlockMeasurement, BlockMotion, _name
 from .odometry import StateLayout
 
@@ -81,8 +80,13 @@ def line_of_sight(positions: np.ndarray, beacon: np.ndarray) -> tuple[np.ndarray
     return _line_of_sight(positions, beacon)
 
 
-class RangeToBeacon(MeasurementModel):
+class RangeToBeacon(BlockMeasurement):
     r"""Horizontal range to a fixed or moving beacon, optionally plus a bias state (equations in the module).
+
+    The range reads the state's ``position`` slot and, when it has one, a bias slot: found by name in the motion
+    model (``state=motion``, as every :class:`~uwtutor.models.blocks.BlockMeasurement`), or given by indices
+    (``n``, ``bias_index``: the position ``x[..., :2]`` and the bias ``x[..., bias_index]``, the
+    :class:`~uwtutor.models.odometry.StateLayout` of the state).
 
     Parameters
     ----------
@@ -91,9 +95,26 @@ class RangeToBeacon(MeasurementModel):
     R : float or array_like, shape (1, 1) or (K,)
         Range noise variance (> 0) [m^2]; or one per step, ``(K,)`` (NaN allowed at steps without a range).
     n : int, optional
-        Size of the state (default 2); the position is ``x[..., :2]``.
+        Size of the state (default 2), without ``state``; the position is ``x[..., :2]``.
     bias_index : int, optional
-        Index of a state component added to the range (a range bias, paper A); ``None`` for none.
+        Index of a state component added to the range (a range bias, paper A), without ``state``; ``None`` for
+        none.
+    state : BlockMotion, optional
+        The motion model whose state the range reads (e.g. ``DeadReckoning(Q, names=("range_bias",))``), instead
+        of ``n`` and ``bias_index``: the slots are found by name.
+    bias : str, optional
+        With ``state``: the slot of the range bias (one component) added to the range.
+    position : str, default "position"
+        With ``state``: the slot of the horizontal position (two components, x before y).
+
+    Attributes
+    ----------
+    n : int
+        Size of the state.
+    bias_index : int or None
+        The index of the bias in the state (None without one), however it was given.
+    columns : dict of str to ndarray
+        The indices of the slots read: ``position`` and, with a bias, ``bias``.
 
     See Also
     --------
@@ -102,7 +123,7 @@ class RangeToBeacon(MeasurementModel):
     Examples
     --------
     >>> import numpy as np
-    >>> from uwtutor.models import RangeToBeacon
+    >>> from uwtutor.models import DeadReckoning, RangeToBeacon
     >>> # the beacon moves 10 m east between two steps
     >>> ship = np.array([[0.0, 0.0], [10.0, 0.0]])
     >>> model = RangeToBeacon(ship, R=4.0)
@@ -110,6 +131,14 @@ class RangeToBeacon(MeasurementModel):
     >>> model.h(x, 0), model.h(x, 1)
     (array([[50.]]), array([[44.72135955]]))
     >>> RangeToBeacon((0.0, 0.0), R=4.0, n=3, bias_index=2).H(
+    ...     np.array([[3.0, 4.0, 1.5]]), 0
+    ... )
+    array([[[0.6, 0.8, 1. ]]])
+
+    The same pair with the bias found by name in the motion model:
+
+    >>> motion = DeadReckoning(np.diag([0.25, 0.25, 0.01]), names=("range_bias",))
+    >>> RangeToBeacon((0.0, 0.0), R=4.0, state=motion, bias="range_bias").H(
     ...     np.array([[3.0, 4.0, 1.5]]), 0
     ... )
     array([[[0.6, 0.8, 1. ]]])
@@ -121,7 +150,8 @@ class RangeToBeacon(MeasurementModel):
 
     m = 1
 
-    def __init__(self, beacon: ArrayLike, R: ArrayLike, *, n: int = 2, bias_index: int | None = None) -> None:
+    def __init__(self, beacon: ArrayLike, R: ArrayLike, *, n: int | None = None, bias_index: int | None = None,
+                 state: Any = None, bias: str | None = None, position: str = "position") -> None:
         if isinstance(beacon, dict):
             raise TypeError("beacon must be one beacon's position [x, y] (or its path); got a dict of beacons. For "
                             "ranges to several beacons at once use uwtutor.models.BeaconRanges(beacons, R)")
@@ -130,14 +160,39 @@ class RangeToBeacon(MeasurementModel):
             raise ValueError(f"beacon must hold horizontal positions [x, y]: shape (2,), (K, 2) or (M, K, 2); "
                              f"got {b.shape}")
         self.beacon = b
-        self.n = as_int("n", n, minimum=2)
+        if state is None:
+            if bias is not None:
+                raise ValueError(f"bias={bias!r} names a slot of a state: give the motion model as state=... (or the "
+                                 "bias by its index, bias_index=...)")
+            size = as_int("n", 2 if n is None else n, minimum=2)
+        elif n is not None or bias_index is not None:
+            raise ValueError("give state (the motion model whose slots the range reads) or the indices n and "
+                             "bias_index, not both")
         self._noise = NoiseSchedule("R", R, 1)
         self._R = self._noise.constant
-        if bias_index is not None:
-            bias_index = as_int("bias_index", bias_index, minimum=2)
-            if bias_index >= self.n:
-                raise ValueError(f"bias_index must index the state (0..{self.n - 1}); got {bias_index}")
-        self.bias_index = bias_index
+        if state is None:
+            if bias_index is not None:
+                bias_index = as_int("bias_index", bias_index, minimum=2)
+                if bias_index >= size:
+                    raise ValueError(f"bias_index must index the state (0..{size - 1}); got {bias_index}")
+                bias = "range_bias"
+            state = StateLayout(n=size, range_bias=() if bias_index is None else (bias_index,))
+        self.reads = ("position",) + (("bias",) if bias is not None else ())
+        renames = {"position": _name(position, "position")}
+        if bias is not None:
+            renames["bias"] = _name(bias, "bias")
+        super().__init__(state, slots=renames)
+        pos = self.columns["position"]
+        if pos.size != 2 or pos[1] <= pos[0]:
+            raise ValueError(f"the position slot {position!r} must have 2 components, x before y; it has the "
+                             f"indices {pos.tolist()}")
+        if bias is not None and self.columns["bias"].size != 1:
+            raise ValueError(f"the bias slot {bias!r} must have 1 component (the range bias); it has "
+                             f"{self.columns['bias'].size}")
+        self.bias_index = int(self.columns["bias"][0]) if bias is not None else None
+        # the position read through a slice when its columns are adjacent (a view, not a copy: x[..., :2] for the
+        # library's states)
+        self._pos: Any = slice(int(pos[0]), int(pos[0]) + 2) if pos[1] == pos[0] + 1 else pos
 
     @property
     def n_steps(self) -> int | None:
@@ -175,9 +230,9 @@ class RangeToBeacon(MeasurementModel):
         return b
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        r, los, defined = _line_of_sight(x[..., :2], self._beacon_for(x, k))
+        r, los, defined = _line_of_sight(x[..., self._pos], self._beacon_for(x, k))
         H = np.zeros(x.shape[:-1] + (1, self.n))
-        H[..., 0, :2] = los
+        H[..., 0, self._pos] = los
         z = r[..., None]
         if self.bias_index is not None:
             H[..., 0, self.bias_index] = 1.0
@@ -185,7 +240,7 @@ class RangeToBeacon(MeasurementModel):
         return z, H, defined
 
     def h(self, x: np.ndarray, k: int) -> np.ndarray:
-        z = distances(x[..., :2], self._beacon_for(x, k))[..., None]
+        z = distances(x[..., self._pos], self._beacon_for(x, k))[..., None]
         if self.bias_index is not None:
             z = z + x[..., self.bias_index:self.bias_index + 1]
         return z
@@ -237,7 +292,7 @@ class MultiplicativeRange(RangeToBeacon):
     """
 
     def __init__(self, beacon: ArrayLike, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
-        super().__init__(beacon, R, n=n)
+        super().__init__(beacon, R, n=as_int("n", n, minimum=2))
         # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
         mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
         sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0, max_abs=1e3))
@@ -256,7 +311,7 @@ class MultiplicativeRange(RangeToBeacon):
 
     def R(self, x: np.ndarray, k: int) -> np.ndarray:
         r""":math:`\sigma_\gamma^2 r^2 + R` at each state: ``(M, 1, 1)``, or ``(M, N, 1, 1)`` for particles."""
-        r, _, _ = _line_of_sight(x[..., :2], self._beacon_for(x, k))
+        r, _, _ = _line_of_sight(x[..., self._pos], self._beacon_for(x, k))
         return (self.sigma_gamma**2 * r**2 + self._noise.at(k)[0, 0])[..., None, None]
 
 
@@ -347,7 +402,7 @@ class NoiseSchedule:
 
     def select_runs(self, runs: Any) -> "NoiseSchedule":
         """The schedule of the runs ``runs`` (a slice or indices) of a per-run schedule (itself otherwise)."""
-        if self.n_runs is None:
+        if self.n_runs is None or self._matrices is None:
             return self
         out = copy.copy(self)
         out._matrices = np.ascontiguousarray(self._matrices[:, runs])
@@ -358,11 +413,13 @@ class NoiseSchedule:
         if self.constant is not None:
             return self.constant
         K = self.n_steps
+        assert K is not None                # not a constant: per-step variances or matrices
         if not 0 <= k < K:
             raise IndexError(f"{self.name} has {K} per-step values; step {k} is beyond them. Give one per step of "
                              "the run")
         if self._matrices is not None:
             return self._matrices[k]
+        assert self._variances is not None
         out = np.zeros((self.m, self.m))
         np.fill_diagonal(out, self._variances[k])
         return out
@@ -505,7 +562,8 @@ class BeaconRanges(BlockRanges):
     A beacon that did not answer at an epoch is a NaN component of :math:`z_k`: the filters update with the
     components that are present (:class:`~uwtutor.filters.engine.ExtendedKalmanFilter`). The state layout -- which index
     is the scale, which the bias -- comes from a :class:`~uwtutor.models.odometry.StateLayout` (``layout=``, e.g. the
-    motion model's ``motion.layout``) or from the indices.
+    motion model's ``motion.layout``) or from the indices; with the motion model at hand, :class:`BlockRanges`
+    (``BlockRanges(beacons, R, state=motion, scale="scale", bias="range_bias")``) reads the same slots by name.
 
     Parameters
     ----------
