@@ -328,12 +328,17 @@ def as_covariance(name: str, value: Any, n: int | None = None, *, allow_singular
                          "such variances overflow float64. An unknown start needs no more than a variance a few "
                          "orders of magnitude above the area's size squared (e.g. 1e8 m^2)")
     scale = max(1.0, peak)
-    Pt = np.swapaxes(P, -1, -2)
-    # np.allclose's test written out (P is finite here): the same verdict without its NaN and infinity handling,
-    # which is most of the cost of checking a small matrix
-    if not (np.abs(P - Pt) <= 1e-12 * scale + SYMMETRY_RTOL * np.abs(Pt)).all():
-        raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
-    eig_min = np.linalg.eigvalsh(P).min()
+    if P.shape[-1] == 1:
+        # 1x1 matrices (a stack of variances, e.g. one range's noise per run and step): symmetric, and the entry is
+        # the eigenvalue -- the same verdict as below without an eigen-decomposition per matrix
+        eig_min = float(P.min())
+    else:
+        Pt = np.swapaxes(P, -1, -2)
+        # np.allclose's test written out (P is finite here): the same verdict without its NaN and infinity
+        # handling, which is most of the cost of checking a small matrix
+        if not (np.abs(P - Pt) <= 1e-12 * scale + SYMMETRY_RTOL * np.abs(Pt)).all():
+            raise ValueError(f"{name} must be symmetric; use (P + P.T) / 2 if it is only off by rounding")
+        eig_min = np.linalg.eigvalsh(P).min()
     tol = -PSD_RTOL * scale if allow_singular else 0.0
     if (eig_min < tol) if allow_singular else (eig_min <= tol):
         kind = "positive semi-definite" if allow_singular else "positive definite"

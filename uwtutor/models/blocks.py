@@ -56,8 +56,8 @@ __all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "O
 
 #: Largest standard deviation accepted: its square (a variance) stays within the covariances' bound, 1e150.
 _MAX_STD = 1e75
-#: Longest step accepted [s]: a rate's noise q dt^3 / 3 stays finite.
-_MAX_STEP = 1e50
+#: Longest step accepted [s]: a rate's noise q dt^3 / 3 stays finite (the posterior bound checks its times by it too).
+MAX_STEP = 1e50
 
 
 #: The orders of operations :class:`OdometryPose` (and :class:`~uwtutor.models.odometry.OdometryMotion`) knows,
@@ -643,8 +643,8 @@ class BlockMotion(MotionModel):
                                      f"slots are {sorted(self._slots)}")
         self.names = tuple(c for block in self.blocks for c in block.components)
         self._dt, steps = _durations(times, dt)
-        if self._dt is not None and np.any(self._dt > _MAX_STEP):
-            raise ValueError(f"{'dt' if dt is not None else 'times'} gives a step longer than {_MAX_STEP:g} s (a "
+        if self._dt is not None and np.any(self._dt > MAX_STEP):
+            raise ValueError(f"{'dt' if dt is not None else 'times'} gives a step longer than {MAX_STEP:g} s (a "
                              f"rate's noise grows as dt^3): give the step lengths in seconds")
         untimed = [b.name for b in self.blocks if b.needs_time]
         if self._dt is None and untimed:

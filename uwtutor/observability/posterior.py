@@ -17,7 +17,7 @@ from .._validate import (
 )
 from ..errors import IllConditionedError
 from ..models.base import MeasurementModel, MotionModel
-from ..models.blocks import BlockMotion, Current, Position, RandomWalk, StateBlock
+from ..models.blocks import MAX_STEP, BlockMotion, Current, Position, RandomWalk, StateBlock
 from ..models.range import RangeToBeacon
 from ._common import _state_labels, _warn
 
@@ -25,8 +25,6 @@ __all__ = ["posterior_crlb", "model_posterior_crlb"]
 
 #: Largest finite range noise accepted [m]: its square, the variance the range model holds, stays within 1e150.
 _MAX_SIGMA = 1e75
-#: Longest step accepted [s]: BlockMotion's own bound, checked here to name ``times`` (the blocks see a dt).
-_MAX_STEP = 1e50
 
 
 def _pcrb_state_size(bias: bool, current: bool) -> int:
@@ -63,9 +61,9 @@ def _pcrb_steps(times: Any, k: int, current: bool) -> np.ndarray | None:
     if np.any(dt <= 0):
         raise ValueError(f"times must increase strictly; step {int(np.flatnonzero(dt <= 0)[0])} has length "
                          f"{dt[dt <= 0][0]}")
-    if np.any(dt > _MAX_STEP):
-        raise ValueError(f"times must be in seconds: step {int(np.flatnonzero(dt > _MAX_STEP)[0])} lasts "
-                         f"{dt.max():.3g} s, beyond the motion models' bound of {_MAX_STEP:g} s")
+    if np.any(dt > MAX_STEP):
+        raise ValueError(f"times must be in seconds: step {int(np.flatnonzero(dt > MAX_STEP)[0])} lasts "
+                         f"{dt.max():.3g} s, beyond the motion models' bound of {MAX_STEP:g} s")
     return dt
 
 
