@@ -288,7 +288,7 @@ def _log_predictive(nav: "NavigationModels", result: FilterResult) -> tuple[floa
         return 0.0, np.empty(0)
     x_prior, P_prior = result.priors()
     predicted, H, _ = nav.measurement.linearize(x_prior[epochs], 0)
-    S = H @ P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(None, 0) * np.eye(z.shape[1])
+    S = H @ P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(x_prior[epochs], 0) * np.eye(z.shape[1])
     mask = heard[epochs]
     y = np.where(mask, z[epochs] - predicted, 0.0)
     # the missing components decoupled (unit variance, zero innovation): their terms are then 0 and dropped

@@ -141,12 +141,25 @@ class Filter(Protocol):
     (3, 2)
     """
 
-    x: np.ndarray
-    P: np.ndarray
-    x_prior: np.ndarray
-    P_prior: np.ndarray
-    y: np.ndarray
-    S: np.ndarray
+    # read-only in the protocol (a filter shows them read-only; a Kalman-family filter may also accept ``f.x = ...``)
+    @property
+    def x(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def P(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def x_prior(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def P_prior(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def y(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def S(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
     extra_outputs: tuple[str, ...]
 
     def predict(self, u: Any = None) -> None:  # pragma: no cover - protocol

@@ -190,7 +190,7 @@ def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarr
     m = present.shape[1]
     H = np.where(present[:, :, None], H, 0.0)
     both = present[:, :, None] & present[:, None, :]
-    R = np.where(both, R, _EYES.get(m) if m in _EYES else _EYES.setdefault(m, np.eye(m)))
+    R = np.where(both, R, _EYES[m] if m in _EYES else _EYES.setdefault(m, np.eye(m)))
     return H, R
 
 
