@@ -393,6 +393,12 @@ class BootstrapParticleFilter(Configurable):
     _fixed: tuple[str, ...] = ("motion", "measurement", "rng", "rngs", "n", "m")
     _diagnostics: tuple[str, ...] = ("y", "S")
     result_type = FilterResult
+    resampler: Resampler                            # the parameters, set by _apply
+    ess_threshold: float
+    roughening: float
+    _rows_p: np.ndarray                             # the particles, component-major (M, n, N): set by particles
+    _x: np.ndarray                                  # their weighted moments (M, n), (M, n, n): set by _set_estimate
+    _P: np.ndarray
 
     def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
                  weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
@@ -769,9 +775,8 @@ class BootstrapParticleFilter(Configurable):
         else:
             missing = np.isnan(z)
             self._complete = not _any(missing)            # for the likelihood: no component missing
-        if self._complete:
-            none = None
-        else:
+        none: np.ndarray | None = None
+        if missing is not None and not self._complete:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
             if none.all():
                 self._y = np.full((M, m), np.nan)

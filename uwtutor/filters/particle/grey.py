@@ -166,7 +166,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         probe = (np.arange(1.0, (n or 0) + 1.0) * 0.37)[None, None, :]
         direct = (isinstance(n, int) and getattr(measurement, "m", None) == n
                   and np.array_equal(np.asarray(measurement.h(probe, 0), dtype=float), probe))
-        if not direct:
+        if not direct or not isinstance(n, int):          # (direct holds only for an int n)
             raise ValueError("GreyParticleFilter needs a measurement model that measures the state directly (h(x) = "
                              f"x, e.g. uwtutor.models.DepthSensors); got {type(measurement).__name__} with "
                              f"{getattr(measurement, 'm', '?')} measurements of {n} states")
@@ -259,7 +259,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
             else:
                 self._rows_p[plain] = self._sample_runs(self._rows_p[plain], u, plain)
         if every or _any(grey):
-            runs = range(M) if every else np.flatnonzero(grey)
+            runs: range | np.ndarray = range(M) if every else np.flatnonzero(grey)
             unequal = [r for r in runs if not self._uniform[r]]
             if unequal:                       # the subset below must come from equally weighted particles
                 self._resample(unequal)
