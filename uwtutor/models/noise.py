@@ -236,8 +236,9 @@ def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray, residu
     present = ~np.isnan(z)
     per_state = R.ndim == 4
     out = np.zeros((M, N))
+    groups: Sequence[tuple[np.ndarray | None, np.ndarray]]     # (runs, components present); None: every run
     if present.all():
-        groups = [(None, None)]
+        groups = [(None, np.ones(m, dtype=bool))]
     else:
         groups = _present_patterns(present)
     for runs, pattern in groups:
