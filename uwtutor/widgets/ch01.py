@@ -92,22 +92,22 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
     T = as_scalar("temperature", temperature)
     S = as_scalar("salinity", salinity)
     D = as_scalar("depth", depth, domain="nonnegative")
-    c = acoustics.sound_speed(T, S, D)
+    c = float(acoustics.sound_speed(T, S, D))            # scalar arguments: a float already
     steps = {"temperature": 0.01, "salinity": 0.01, "depth": 1.0}
     args = {"temperature": T, "salinity": S, "depth": D}
-    sens = {}
+    sens: dict[str, float] = {}
     for name, h in steps.items():
         lo, hi = dict(args), dict(args)
         lo[name] = max(args[name] - h, 0.0) if name == "depth" else args[name] - h  # no negative depth
         hi[name] = args[name] + h
-        sens[name] = (acoustics.sound_speed(**hi) - acoustics.sound_speed(**lo)) / (hi[name] - lo[name])
+        sens[name] = (float(acoustics.sound_speed(**hi)) - float(acoustics.sound_speed(**lo))) / (hi[name] - lo[name])
     temperatures = np.linspace(2.0, 30.0, 57)
     depths = np.linspace(0.0, 6000.0, 61)
     return SoundSpeedView(
         temperature=T, salinity=S, depth=D, speed=c, sensitivity=sens,
         range_error_per_km=1000.0 * (1500.0 / c - 1.0),
-        temperatures=temperatures, speed_vs_temperature=acoustics.sound_speed(temperatures, S, D),
-        depths=depths, speed_vs_depth=acoustics.sound_speed(T, S, depths),
+        temperatures=temperatures, speed_vs_temperature=np.asarray(acoustics.sound_speed(temperatures, S, D)),
+        depths=depths, speed_vs_depth=np.asarray(acoustics.sound_speed(T, S, depths)),
     )
 
 
@@ -255,17 +255,17 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     rng = np.random.default_rng(as_seed("seed", seed))    # never OS entropy: the figure is reproducible
     times = np.arange(0.0, 1500.0 + 1e-9, 10.0)
     track = motion.straight_track(times, start=(-3000.0, 400.0), speed=2.0, heading=0.0)
-    true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))
+    true_ranges = np.asarray(ranging.horizontal_range(track.positions, (0.0, 0.0)))     # (K,): an array already
     models = {
         "additive": ranging.GaussianNoise(noise_sigma),
         "multiplicative": ranging.SoundSpeedMismatch(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
         "slow bias": ranging.SlowBias(mean=bias_mean, sigma=bias_sigma, time_constant=bias_time_constant),
-        "outliers": (ranging.Outliers(onset_times=[400.0], count=5, amplitude=outlier_amplitude)
-                     + ranging.Outliers(onset_times=[1000.0], count=8, amplitude=outlier_amplitude,
+        "outliers": (ranging.Outliers(onset_times=(400.0,), count=5, amplitude=outlier_amplitude)
+                     + ranging.Outliers(onset_times=(1000.0,), count=8, amplitude=outlier_amplitude,
                                         two_sided=True)),
     }
     errors = {name: model.sample(true_ranges, times, rng) for name, model in models.items()}
-    errors["total"] = sum(errors.values())
+    errors["total"] = sum(errors.values(), np.zeros(len(times)))
     return RangeErrorView(times=times, true_ranges=true_ranges, errors=errors)
 
 

@@ -197,15 +197,17 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
     beacon = np.zeros(2)
     p, mirror = _track_and_mirror(track, theta, times, beacon)
     misfit = np.hypot(*(mirror - beacon).T) - np.hypot(*(p - beacon).T)
-    ranks, n_states, rmse = {}, {}, {}
+    ranks: dict[str, np.ndarray] = {}            # per epoch (a track of K positions gives arrays)
+    rmse: dict[str, np.ndarray] = {}
+    n_states: dict[str, int] = {}
     crlb = np.empty((len(times), 2, 2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", observability.UnobservableWarning)
         for name, flags in _STATE_FLAGS.items():
             bound = observability.track_crlb(p, beacon, s, times=times, **flags)
-            ranks[name] = observability.observability_rank(p, beacon, times=times, **flags)
+            ranks[name] = np.asarray(observability.observability_rank(p, beacon, times=times, **flags))
             n_states[name] = bound.shape[-1]
-            rmse[name] = observability.rmse_bound(bound)
+            rmse[name] = np.asarray(observability.rmse_bound(bound))
             if name == state:
                 crlb = bound[:, :2, :2].copy()
     return ObservabilityView(track=track, turn_angle_deg=theta, sigma=s, state=state, times=times, positions=p,

@@ -517,10 +517,12 @@ def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None
     a["track"].set_data(*view.estimated_track.T)
     a["now"].set_data([view.true_track[view.epoch][0]], [view.true_track[view.epoch][1]])
     changed = [a["image"], a["best"], a["track"], a["now"]]
-    if view.runner_up is not None:
+    if view.runner_up is not None:                  # (the two are None together: drawn as the figure draws them)
         a["runner"].set_data([view.runner_up[0]], [view.runner_up[1]])
+        changed.append(a["runner"])
+    if view.runner_up_track is not None:
         a["runner_track"].set_data(*view.runner_up_track.T)
-        changed += [a["runner"], a["runner_track"]]
+        changed.append(a["runner_track"])
     ax_c.set_title(f"cost after {view.epoch + 1} epochs (t = {view.time:.0f} s)", fontsize=9)
     ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
     rescale(ax_t)

@@ -155,9 +155,12 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
                             Q=np.eye(2) * qs * DR_VARIANCE, R=rs * RANGE_VARIANCE)
     if study.mean_nis is None or study.nis_bounds is None:      # pragma: no cover - the EKF reports innovations
         raise RuntimeError("the EKF reported no innovations")
+    nees_lo, nees_hi = study.nees_bounds            # floats (one count of runs at every step)
+    nis_lo, nis_hi = study.nis_bounds               # arrays (K,): the count of ranges per step
     return EKFView(initial_error=p0, q_scale=qs, r_scale=rs, bias=b, times=np.array(sc.times), truth=truth,
                    estimates=np.array(study.x[:min(shown, M)]), rmse=study.rmse, mean_nees=study.mean_nees,
-                   nees_bounds=study.nees_bounds, mean_nis=study.mean_nis, nis_bounds=study.nis_bounds,
+                   nees_bounds=(float(nees_lo), float(nees_hi)), mean_nis=study.mean_nis,
+                   nis_bounds=(np.asarray(nis_lo), np.asarray(nis_hi)),
                    nees_fraction_within=study.nees_fraction_within(),
                    nis_fraction_within=study.nis_fraction_within(), n_runs=M)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Literal
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -272,8 +272,8 @@ def real_data_widget(study: RealDataStudy | None = None) -> Any:
     }
 
     @functools.lru_cache(maxsize=128)
-    def view(beacon: str, period: float | str, states: str) -> RealDataView:
-        return real_data_view(beacon, None if period == "every" else period, states, study=s)
+    def view(beacon: str, period: float | Literal["every"], states: str) -> RealDataView:
+        return real_data_view(beacon, None if isinstance(period, str) else period, states, study=s)
 
     return slider_panel(controls, lambda fig, **p: plot_real_data_view(view(**p), fig),
                         lambda fig, **p: update_real_data_view(fig, view(**p)))
