@@ -221,7 +221,8 @@ def check_mean_range_error(answer: Any) -> Feedback:
 
 
 # -- exercise 5.2: the fading factor -----------------------------------------------------------------------------------
-def fading_factors_reference(innovations: Any, predicted: Any, subtracted: Any, rho: float) -> np.ndarray:
+def fading_factors_reference(innovations: ArrayLike, predicted: ArrayLike, subtracted: ArrayLike,
+                             rho: float) -> np.ndarray:
     r"""The fading factors of a sequence of scalar innovations (paper D, eqs. 17-20; Zhou and Xi 1990).
 
     .. math::
@@ -511,7 +512,7 @@ def study() -> dict[str, Any]:
             "Q": np.eye(2) * 0.81, "R": 0.49, "truth": np.array(sc.true_positions), "times": np.array(sc.times)}
 
 
-def final_rmse(estimates: Any, truth: Any) -> float:
+def final_rmse(estimates: ArrayLike, truth: ArrayLike) -> float:
     r"""RMS over the runs of the position error at the last epoch [m].
 
     Parameters

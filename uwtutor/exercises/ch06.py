@@ -31,6 +31,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..grey import fit_gm11
 from ..wavelet import MAD_TO_SIGMA, detail_coefficients, noise_sigma
@@ -483,7 +484,8 @@ PF_STEP_PARTICLES, PF_STEP_SEED = 200, 606
 PF_STEP_FAR_OFFSET = 10.0
 
 
-def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R: Any) -> tuple[Any, Any, Any]:
+def pf_step_reference(particles: ArrayLike, z: ArrayLike, noise: ArrayLike, u: float, T: float,
+                      R: ArrayLike) -> tuple[Any, Any, Any]:
     r"""One bootstrap step on paper C's model, built from ``uwtutor``'s pieces, with the randomness given.
 
     Predict :math:`x^{(i)}_k = g(x^{(i)}_{k-1} + w^{(i)}_k)` (``uwtutor.models.depth.DepthSpeedPitch.f``), weight by

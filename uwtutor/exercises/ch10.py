@@ -33,6 +33,7 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import methods
 from ..observability import posterior_crlb, rmse_bound
@@ -477,7 +478,7 @@ def check_method_choice(answer: Any) -> Feedback:
 
 
 # -- exercise 10.4: the recursion by hand ------------------------------------------------------------------------------
-def pcrb_reference(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any) -> np.ndarray:
+def pcrb_reference(positions: ArrayLike, beacon: ArrayLike, sigma: float, Q: ArrayLike, P0: ArrayLike) -> np.ndarray:
     r"""The reference for exercise 10.4: :math:`\mathbf J_k^{-1}` after each epoch of one track (``F = I``), from
     :func:`uwtutor.observability.posterior_crlb`.
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .. import acoustics, motion, ranging
@@ -111,7 +112,7 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
     )
 
 
-def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
+def plot_sound_speed_view(view: SoundSpeedView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked.
 
     Examples
@@ -143,7 +144,7 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     return fig
 
 
-def _sound_speed_texts(view: SoundSpeedView, fig: Any, title: Any) -> list[Any]:
+def _sound_speed_texts(view: SoundSpeedView, fig: Figure, title: Any) -> list[Any]:
     ax_t, ax_d = fig.axes[:2]
     ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
     ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
@@ -151,7 +152,7 @@ def _sound_speed_texts(view: SoundSpeedView, fig: Any, title: Any) -> list[Any]:
     return [ax_t.title, ax_d.title, title]
 
 
-def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any] | None:
+def update_sound_speed_view(fig: Figure, view: SoundSpeedView) -> list[Any] | None:
     """Put another :class:`SoundSpeedView` into a figure drawn by ``plot_sound_speed_view``; returns what changed
     (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)
@@ -269,7 +270,7 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     return RangeErrorView(times=times, true_ranges=true_ranges, errors=errors)
 
 
-def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
+def plot_range_error_view(view: RangeErrorView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range.
 
     Examples
@@ -297,7 +298,7 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
     return keep(fig, lines=lines, total=total)
 
 
-def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any] | None:
+def update_range_error_view(fig: Figure, view: RangeErrorView) -> list[Any] | None:
     """Put another :class:`RangeErrorView` into a figure drawn by ``plot_range_error_view``; returns what changed
     (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)

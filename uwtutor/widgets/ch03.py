@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .. import lsq, observability, scenarios
@@ -187,7 +188,7 @@ def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray
     return observability.error_ellipse(cov, scale=scale, n_points=n)
 
 
-def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
+def plot_precision_view(view: PrecisionView, fig: Figure | None = None) -> Figure:
     """Draw a ``PrecisionView``: alpha against the number of ranges, and the scatter of the fixes' errors.
 
     Examples
@@ -237,7 +238,7 @@ def _precision_titles(view: PrecisionView, ax_a: Any, ax_e: Any) -> list[Any]:
     return [ax_a.title, ax_e.title]
 
 
-def update_precision_view(fig: Any, view: PrecisionView) -> list[Any] | None:
+def update_precision_view(fig: Figure, view: PrecisionView) -> list[Any] | None:
     """Put another ``PrecisionView`` into a figure drawn by ``plot_precision_view``; returns what changed, or
     ``None`` when the figure must be drawn anew (a fix or its ellipse appears or disappears)."""
     a = kept(fig)
@@ -444,7 +445,7 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
         runner_up_track=runner_track, error=float(np.linalg.norm(pre.position[-1] - run.true_positions[k])))
 
 
-def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
+def plot_prelocation_view(view: PrelocationView, fig: Figure | None = None) -> Figure:
     """Draw a ``PrelocationView``: the cost map with its minima, and the pre-located track against the truth.
 
     Examples
@@ -491,7 +492,7 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
     return keep(fig, image=im, best=best, runner=runner, track=track, runner_track=runner_track, now=now)
 
 
-def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None:
+def update_prelocation_view(fig: Figure, view: PrelocationView) -> list[Any] | None:
     """Put another ``PrelocationView`` into a figure drawn by ``plot_prelocation_view``; returns what changed, or
     ``None`` when it must be drawn anew (a runner-up appearing or disappearing)."""
     a = kept(fig)

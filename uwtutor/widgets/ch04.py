@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .. import scenarios
@@ -165,7 +166,7 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
                    nis_fraction_within=study.nis_fraction_within(), n_runs=M)
 
 
-def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
+def plot_ekf_view(view: EKFView, fig: Figure | None = None) -> Figure:
     """Draw an ``EKFView``: a few estimated tracks, the RMSE over time, and the mean NEES against its bounds.
 
     Examples
@@ -210,7 +211,7 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     return fig
 
 
-def _ekf_texts(view: EKFView, fig: Any, inside: Any) -> list[Any]:
+def _ekf_texts(view: EKFView, fig: Figure, inside: Any) -> list[Any]:
     ax_r = fig.axes[1]
     # rounded as the sliders show them (three significant digits on the log sliders)
     ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:.3g}, R×{view.r_scale:.3g}, "
@@ -219,7 +220,7 @@ def _ekf_texts(view: EKFView, fig: Any, inside: Any) -> list[Any]:
     return [ax_r.title, inside]
 
 
-def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
+def update_ekf_view(fig: Figure, view: EKFView) -> list[Any] | None:
     """Put another ``EKFView`` into a figure drawn by ``plot_ekf_view``; returns what changed (``None``: draw anew)."""
     a = kept(fig)
     if a is None:                   # not a figure the plot function drew: draw it anew

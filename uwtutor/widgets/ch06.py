@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_int, as_scalar, check_work, readonly
@@ -200,7 +201,7 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
                    true_noise_std=profile.sensor_std, n_particles=N, n_grey=int(round(grey_fraction * N)))
 
 
-def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
+def plot_gpf_view(view: GPFView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars.
 
     Examples
@@ -250,7 +251,7 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
 _RMSE_SCALE = np.array([100.0, 100.0, 10 * 180 / np.pi])
 
 
-def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
+def update_gpf_view(fig: Figure, view: GPFView) -> list[Any] | None:
     """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed."""
     a = kept(fig)
     if a is None:                   # not a figure the plot function drew: draw it anew

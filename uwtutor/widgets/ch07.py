@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_int, as_scalar, as_seed, check_work
@@ -233,7 +234,7 @@ def _view(rate: float, d0: float, a_max: float, M: int, K: int, seed: int,
                             epochs_run=epochs)
 
 
-def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
+def plot_bias_tracking_view(view: BiasTrackingView, fig: Figure | None = None) -> Figure:
     """Draw a ``BiasTrackingView``: the track of run 0, its bias estimate with ±2σ, and the RMSE of both starts.
 
     Examples
@@ -289,7 +290,7 @@ def _bias_tracking_title(view: BiasTrackingView, ax_b: Any) -> Any:
     return ax_b.title
 
 
-def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | None:
+def update_bias_tracking_view(fig: Figure, view: BiasTrackingView) -> list[Any] | None:
     """Put another ``BiasTrackingView`` into a figure drawn by ``plot_bias_tracking_view``; returns what changed
     (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears; in a partial view, see
     ``BiasTrackingView.epochs_run``, a fix not reached yet is hidden instead)."""

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_finite, as_int
@@ -273,7 +274,7 @@ def _range_limit(view: OutlierView) -> float:
     return max(10.0, 1.6 * reach)
 
 
-def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
+def plot_outlier_view(view: OutlierView, fig: Figure | None = None) -> Figure:
     """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom).
 
     Examples
@@ -323,7 +324,7 @@ def _outlier_titles(view: OutlierView, ax_r: Any, ax_p: Any) -> list[Any]:
     return [ax_r.title, ax_p.title]
 
 
-def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
+def update_outlier_view(fig: Figure, view: OutlierView) -> list[Any] | None:
     """Put another ``OutlierView`` into a figure drawn by ``plot_outlier_view``; returns what changed (``None``, to
     draw anew, when the test changes: its name is in the legend; a view of the measured ranges alone, whose
     filter curves are hidden, leaves the legend to the full view that follows)."""
