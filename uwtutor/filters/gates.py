@@ -26,7 +26,7 @@ for any state; paper E's line-fit re-acquisition (``uwtutor.filters.RobustGate``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -496,7 +496,7 @@ class SecondMomentGate(Gate):
 
 
 def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
-                         delta: Any = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                         delta: float = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""The innovations :math:`y = z - \hat z` that paper E's test accepts for a scalar measurement :math:`z > 0`.
 
     .. math::
@@ -534,7 +534,11 @@ def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
     return np.sqrt((1.0 - d) * D) - zp, np.sqrt((1.0 + d) * D) - zp
 
 
-def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate | None:
+#: What :func:`make_test` takes: a test by its name, or a :class:`Gate` itself.
+TestChoice: TypeAlias = 'Literal["paper", "chi2", "none"] | Gate'
+
+
+def make_test(test: TestChoice, *, delta: float = 0.03, probability: float = 0.99) -> Gate | None:
     """The gate named by ``test``: ``"paper"`` (``SecondMomentGate(delta)``), ``"chi2"``
     (``ChiSquareGate(probability)``), ``"none"`` (None: every measurement used), or a ``Gate`` itself.
 
