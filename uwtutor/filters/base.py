@@ -162,13 +162,14 @@ class Filter(Protocol):
 
     extra_outputs: tuple[str, ...]
 
-    def predict(self, u: Any = None) -> None:  # pragma: no cover - protocol
+    def predict(self, u: ArrayLike | None = None) -> None:  # pragma: no cover - protocol
         ...
 
-    def update(self, z: Any) -> None:  # pragma: no cover - protocol
+    def update(self, z: ArrayLike) -> None:  # pragma: no cover - protocol
         ...
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> "FilterResult":  # pragma: no cover - protocol
+    def run(self, z: ArrayLike, u: ArrayLike | None = None,
+            times: ArrayLike | None = None) -> "FilterResult":  # pragma: no cover - protocol
         ...
 
 
@@ -261,7 +262,7 @@ class FilterResult:
         out[~np.isfinite(self.innovations).all(axis=-1)] = np.nan
         return out
 
-    def nees(self, truth: Any) -> np.ndarray:
+    def nees(self, truth: ArrayLike) -> np.ndarray:
         """Normalized estimation error squared ``e^T P^-1 e`` per step, with ``e = truth - x``.
 
         ``truth`` must broadcast against ``x``; under a consistent filter NEES follows a chi-square
