@@ -17,7 +17,7 @@ The two Gaussian computations every model shares by default (:mod:`uwtutor.model
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Sequence, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,7 +27,11 @@ from .._validate import as_flag, as_int, check_work
 __all__ = ["per_run_generators", "standard_normal_per_run", "psd_sqrt", "gaussian_noise", "gaussian_log_likelihood"]
 
 
-def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np.random.Generator, ...]:
+#: One Generator, or one per run: what the particle filters and :func:`per_run_generators` take as ``rng``.
+RunGenerators: TypeAlias = "np.random.Generator | Sequence[np.random.Generator]"
+
+
+def per_run_generators(rng: RunGenerators, n_runs: int, *, spawn: bool = True) -> tuple[np.random.Generator, ...]:
     """One Generator per run from ``rng``: a Generator or a sequence of ``n_runs`` Generators.
 
     Parameters

@@ -91,7 +91,7 @@ from ..._validate import (MAX_COORDINATE, CovarianceCheck, as_covariance, as_fin
                           as_model_output, as_nonnegative, as_rng, as_scalar, readonly)
 from ...errors import UwtutorWarning, warn
 from ...models.base import MeasurementModel, ModelPair, MotionModel
-from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
+from ...models.noise import RunGenerators, gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
 from ..base import Configurable, FilterResult
 
@@ -400,7 +400,9 @@ class BootstrapParticleFilter(Configurable):
     _x: np.ndarray                                  # their weighted moments (M, n), (M, n, n): set by _set_estimate
     _P: np.ndarray
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+    # measurement: the particles when motion is a ModelPair (the positional arguments after a pair shift one name)
+    def __init__(self, motion: MotionModel | ModelPair, measurement: Any = None, particles: ArrayLike | None = None,
+                 rng: RunGenerators | None = None, *,
                  weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
                  ess_threshold: float = 1.0, roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
@@ -481,9 +483,9 @@ class BootstrapParticleFilter(Configurable):
                                  f"the particles are of {M} run(s): give one set of particles per run")
 
     @classmethod
-    def from_gaussian(cls, motion: Any, measurement: Any = None, x0: ArrayLike | None = None,
-                      P0: ArrayLike | None = None,
-                      n_particles: int | None = None, rng: Any = None, *, n_runs: int | None = None,
+    def from_gaussian(cls, motion: Any, measurement: Any = None,       # as cls takes them (a sequence for the MMPF)
+                      x0: ArrayLike | None = None, P0: ArrayLike | None = None,
+                      n_particles: int | None = None, rng: RunGenerators | None = None, *, n_runs: int | None = None,
                       **kwargs: Any) -> "BootstrapParticleFilter":
         """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
 
