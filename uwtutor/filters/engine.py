@@ -993,7 +993,7 @@ class ExtendedKalmanFilter(Configurable):
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                            u: ArrayLike | None, z: ArrayLike, *,
-        times: Any = None, gate: Gate | None = None, known_states: ArrayLike | None = None,
+        times: ArrayLike | None = None, gate: Gate | None = None, known_states: ArrayLike | None = None,
         keep_priors: bool = True) -> FilterResult:
     r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
 

@@ -26,7 +26,7 @@ for any state; paper E's line-fit re-acquisition (``uwtutor.filters.RobustGate``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal, TypeAlias
+from typing import Literal, Sequence, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -353,7 +353,7 @@ class ReacquiringGate(Gate):
     extra_outputs = ("rejected", "inflated", "forced")
 
     def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: ArrayLike = 10.0,
-                 states: Any = None, force: bool = True, max_variance: ArrayLike = 1e10) -> None:
+                 states: Sequence[int] | None = None, force: bool = True, max_variance: ArrayLike = 1e10) -> None:
         if test is None:
             test = ChiSquareGate(0.99)
         if not isinstance(test, Gate):
@@ -365,12 +365,12 @@ class ReacquiringGate(Gate):
         if not lam > 1.0:
             raise ValueError(f"factor must be > 1 (the covariance is multiplied by it); got {lam:g}")
         self.factor = lam
+        self.states: np.ndarray | None = None          # the indices (k,), or None for all
         if states is not None:
             idx = [as_int("states", i, minimum=0) for i in np.atleast_1d(np.asarray(states)).tolist()]
             if not idx or len(set(idx)) != len(idx):
                 raise ValueError(f"states must be distinct state indices; got {idx}")
-            states = np.array(idx)
-        self.states = states
+            self.states = np.array(idx)
         self.force = as_flag("force", force)
         cap = float(as_finite("max_variance", max_variance, ndim=0))
         if not cap > 0:

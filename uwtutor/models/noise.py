@@ -17,7 +17,7 @@ The two Gaussian computations every model shares by default (:mod:`uwtutor.model
 
 from __future__ import annotations
 
-from typing import Any, Sequence, TypeAlias
+from typing import Callable, Sequence, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -192,7 +192,8 @@ def _present_patterns(present: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]
     return [(np.flatnonzero(inverse == i), p) for i, p in enumerate(patterns) if p.any()]
 
 
-def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray, residual: Any = None) -> np.ndarray:
+def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray,
+                            residual: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     r"""The log-likelihood of ``z`` under :math:`N(h(x), R)` for many states, missing components marginalised out.
 
     .. math::

@@ -64,7 +64,7 @@ class DepthStudy:
         err = self.estimates[name] - self.profile.truth
         return np.sqrt(np.mean(err**2, axis=0))
 
-    def rmse_over(self, name: str, mask: Any = None) -> np.ndarray:
+    def rmse_over(self, name: str, mask: ArrayLike | None = None) -> np.ndarray:
         """RMSE over the runs and the steps selected by ``mask`` (all by default), per component, shape (3,)."""
         err = self.estimates[name] - self.profile.truth
         if mask is not None:

@@ -10,6 +10,7 @@ from typing import Any, Callable
 import matplotlib.pyplot as plt
 from matplotlib.figure import Figure
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq, observability, scenarios
 from .._validate import as_int, as_positive, as_scalar, as_seed, check_work
@@ -172,7 +173,7 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
                          errors=errors, rmse=rmse, well_conditioned=bool(np.all(fix.well_conditioned)))
 
 
-def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray:
+def covariance_ellipse(cov: ArrayLike, scale: float = 1.0, n: int = 100) -> np.ndarray:
     """Points ``(n, 2)`` of the ellipse of a 2x2 covariance, ``scale`` standard deviations from its centre (0, 0)
     (:func:`uwtutor.observability.error_ellipse`, under the name the chapter uses).
 

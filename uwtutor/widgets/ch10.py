@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import matplotlib.pyplot as plt
 from matplotlib.figure import Figure
@@ -19,6 +19,9 @@ import numpy as np
 
 from .._validate import as_instance
 from ._panel import keep, kept, slider_panel
+
+if TYPE_CHECKING:
+    from ..montecarlo import ComparisonTable
 
 __all__ = ["ComparisonView", "comparison_view", "plot_comparison_view", "comparison_widget", "COMPUTE_FUNCTIONS"]
 
@@ -92,7 +95,8 @@ class ComparisonView:
     n_runs: int
 
 
-def comparison_view(scenario: str = "circle", condition: str = "white", table: Any = None) -> ComparisonView:
+def comparison_view(scenario: str = "circle", condition: str = "white",
+                    table: ComparisonTable | None = None) -> ComparisonView:
     """The rows of ``table`` (the committed comparison by default) for one scenario and condition.
 
     Examples
@@ -233,7 +237,7 @@ def update_comparison_view(fig: Figure, view: ComparisonView, method: str = "all
             ax_f.yaxis]
 
 
-def comparison_widget(table: Any = None) -> Any:
+def comparison_widget(table: ComparisonTable | None = None) -> Any:
     """Scenario, error condition and a method to highlight over the view (the committed table, or ``table``); a
     method that does not run on the chosen scenario highlights nothing.
 
