@@ -159,7 +159,8 @@ def displacement_covariance(data: RangeDataset, distance_sigma: ArrayLike = DIST
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     sigma = a + c * np.abs(data.odometry[:, 0])
-    return sigma[:, None, None] ** 2 * np.eye(2)
+    covariances: np.ndarray = sigma[:, None, None] ** 2 * np.eye(2)
+    return covariances
 
 
 def _start(data: RangeDataset) -> tuple[np.ndarray, np.ndarray]:

@@ -161,7 +161,8 @@ def nees(x: ArrayLike, P: ArrayLike, truth: ArrayLike, components: str = "pose")
         raise ValueError(f"P must hold one ({x.shape[1]}, {x.shape[1]}) covariance per epoch of x; got {P.shape}")
     e = np.column_stack([x[:, :2] - t[:, :2], _wrap(x[:, 2] - t[:, 2])])[:, idx]
     S = P[:, idx][:, :, idx]
-    return np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
+    value: np.ndarray = np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
+    return value
 
 
 def measured_scale(data: RangeDataset, beacon_ids: BeaconIds = None) -> float:
@@ -186,7 +187,7 @@ def measured_scale(data: RangeDataset, beacon_ids: BeaconIds = None) -> float:
     return float(r[ok] @ d[ok] / (d[ok] @ d[ok]))
 
 
-def _with_truth(data: Any, what: str) -> RangeDataset:
+def _with_truth(data: RangeDataset, what: str) -> RangeDataset:
     _truth_of(data, what)
     return data
 

@@ -317,7 +317,8 @@ def _systematic_reference(weights: Any, u: float) -> np.ndarray:
     w = w / w.sum()
     c = np.cumsum(w)
     c[-1] = 1.0
-    return np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
+    indices: np.ndarray = np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
+    return indices
 
 
 def _systematic_cases() -> list[Case]:

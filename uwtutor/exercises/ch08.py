@@ -253,7 +253,8 @@ def pair_jacobian_reference(x_pred: ArrayLike, leader_k: ArrayLike, leader_k1: A
     """
     leader = np.stack([np.asarray(leader_k, float), np.asarray(leader_k1, float)])
     pair = SquaredRangePair(leader, np.asarray(u_k, float)[None], dt, np.eye(10))
-    return pair.H(np.asarray(x_pred, float)[None], 0)[0]
+    H: np.ndarray = pair.H(np.asarray(x_pred, float)[None], 0)[0]
+    return H
 
 
 def _jacobian_cases() -> list[Case]:

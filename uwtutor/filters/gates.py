@@ -242,7 +242,8 @@ class ChiSquareGate(Gate):
         if self.per_component:
             var = np.diagonal(ctx.S, axis1=-2, axis2=-1)
             with np.errstate(invalid="ignore", divide="ignore"):
-                return ctx.y**2 / var <= self.threshold(1)            # NaN (missing): False
+                inside: np.ndarray = ctx.y**2 / var <= self.threshold(1)      # NaN (missing): False
+            return inside
         present = ctx.present
         if present is None or present.all():
             nis = normalized_innovation_squared(ctx.y, ctx.S)
@@ -492,7 +493,8 @@ class SecondMomentGate(Gate):
             D = (np.sum(np.where(present, np.diagonal(ctx.S, axis1=-2, axis2=-1), 0.0), axis=-1)
                  + np.sum(np.where(present, ctx.z_pred, 0.0) ** 2, axis=-1))
         with np.errstate(invalid="ignore"):
-            return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
+            inside: np.ndarray = (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
+        return inside
 
 
 def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,

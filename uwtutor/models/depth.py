@@ -275,7 +275,8 @@ class DepthSpeedPitch(MotionModel):
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         G = _jacobian(np.asarray(self._pre(x), dtype=float), self.T)
-        return G @ self.process_cov @ np.swapaxes(G, -1, -2)
+        Q: np.ndarray = G @ self.process_cov @ np.swapaxes(G, -1, -2)
+        return Q
 
     def sample_rows(self, rows: np.ndarray, rng: Any) -> np.ndarray:
         r"""Draw :math:`x_k = g(x_{k-1} + u_k)` for states stored component-major, ``rows`` of shape (M, 3, N).

@@ -125,7 +125,8 @@ class VMLBLResult:
     @property
     def fix_times(self) -> np.ndarray:
         """Times of the fixes [s], shape ``(J,)``."""
-        return self.times[self.now]
+        fix_times: np.ndarray = self.times[self.now]
+        return fix_times
 
     @property
     def fixes(self) -> np.ndarray:

@@ -118,7 +118,7 @@ def figure_png(fig: Figure) -> bytes:
     return _encode_png(canvas)
 
 
-def keep(fig: Figure, **artists: Any) -> Any:
+def keep(fig: Figure, **artists: Any) -> Figure:
     """Remember the artists a plot function made on ``fig`` by name, for its ``update`` function; returns ``fig``.
 
     Examples

@@ -304,7 +304,8 @@ def _factor_peak(factor: np.ndarray) -> float:
 
 def _factor_top(factor: np.ndarray) -> float:
     """The top of the fading-factor panel: the decade above the largest factor (with its margin), at least 10."""
-    return max(10.0, 10.0 ** float(np.ceil(np.log10(_factor_peak(factor)))))
+    decade: float = 10.0 ** float(np.ceil(np.log10(_factor_peak(factor))))
+    return max(10.0, decade)
 
 
 def _fading_name(weakening: bool) -> str:

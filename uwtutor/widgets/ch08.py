@@ -354,7 +354,7 @@ def cooperative_widget() -> Any:
     # 30 runs per setting rather than the chapter's 100 (the figure's title says how many): the median error and the
     # lost share keep their story and a move costs less than half the time
     view = functools.lru_cache(maxsize=256)(functools.partial(cooperative_view, n_runs=WIDGET_RUNS))
-    full: dict[tuple, CooperativeView] = {}            # the full answers computed, by setting (as view's cache)
+    full: dict[tuple[Any, ...], CooperativeView] = {}   # the full answers computed, by setting (as view's cache)
 
     def answer(coarse: bool, **p: Any) -> CooperativeView:
         key = tuple(p.values())

@@ -393,7 +393,7 @@ def outlier_widget() -> Any:
         "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
     }
     view = functools.lru_cache(maxsize=256)(outlier_view)
-    full: dict[tuple, OutlierView] = {}                 # the views computed, by setting (as view's cache)
+    full: dict[tuple[Any, ...], OutlierView] = {}                 # the views computed, by setting (as view's cache)
 
     def answer(coarse: bool, **p: Any) -> OutlierView:
         key = tuple(p.values())
