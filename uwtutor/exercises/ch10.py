@@ -250,7 +250,8 @@ def check_first_ratio(answer: Any) -> Feedback:
 
 # -- exercise 10.2: reading the table ----------------------------------------------------------------------------------
 def _table_row() -> dict[str, Any]:
-    return methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    row: dict[str, Any] = methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    return row
 
 
 def check_final_efficiency(answer: Any) -> Feedback:

@@ -74,7 +74,7 @@ class Configurable:
     _diagnostics: tuple[str, ...] = ()
 
     #: every name the rule governs (computed per class); an instance may add more (a gate's extra outputs)
-    _ruled: frozenset = frozenset()
+    _ruled: frozenset[str] = frozenset()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -289,17 +289,17 @@ def _measurement_size(z: np.ndarray, batched: bool) -> int:
     return 1 if per_step == 0 else z.shape[-1]
 
 
-def _sequence_times(n_steps: int, times: Any) -> np.ndarray:
+def _sequence_times(n_steps: int, times: ArrayLike | None) -> np.ndarray:
     """Validated time stamps ``(K,)`` of a run of ``n_steps`` steps (``0..K-1`` when ``times`` is None)."""
     as_int("the number of steps K", n_steps, minimum=1)
     if times is None:
         return np.arange(n_steps, dtype=float)
-    times = as_float_array("times", times, ndim=1)
-    if not np.isfinite(times).all():
+    stamps = as_float_array("times", times, ndim=1)
+    if not np.isfinite(stamps).all():
         raise ValueError("times must be finite")
-    if len(times) != n_steps:
-        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    return times
+    if len(stamps) != n_steps:
+        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(stamps)}")
+    return stamps
 
 
 def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:

@@ -322,7 +322,8 @@ def _second_moment(x0: np.ndarray, P0: np.ndarray, second_moment0: Any, M: int) 
     """Initial second moment (M, 2, 2): ``P0 + x0 x0^T`` by default, else the given one (e.g. paper D's ``P0``)."""
     x = np.broadcast_to(x0, (M, 2))
     if second_moment0 is None:
-        return np.broadcast_to(P0, (M, 2, 2)) + x[:, :, None] * x[:, None, :]
+        default: np.ndarray = np.broadcast_to(P0, (M, 2, 2)) + x[:, :, None] * x[:, None, :]
+        return default
     S = as_finite("second_moment0", second_moment0, ndim=(2, 3))
     if S.shape[-2:] != (2, 2) or (S.ndim == 3 and S.shape[0] != M):
         raise ValueError(f"second_moment0 must have shape (2, 2) or (M, 2, 2) with M = {M}; got {S.shape}")
@@ -379,12 +380,14 @@ class FadingResult(FilterResult):
     @property
     def fading_factor(self) -> np.ndarray:
         r"""The fading factor :math:`\lambda_k \ge 1` of every step, shape (K,) or (M, K)."""
-        return self.extras["fading_factor"]
+        factor: np.ndarray = self.extras["fading_factor"]
+        return factor
 
     @property
     def weakening_factor(self) -> np.ndarray:
         r"""The weakening factor :math:`\beta_k` of every step, shape (K,) or (M, K)."""
-        return self.extras["weakening_factor"]
+        factor: np.ndarray = self.extras["weakening_factor"]
+        return factor
 
 
 def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Params, times: np.ndarray,

@@ -93,12 +93,14 @@ class LSFadingResult(FilterResult):
     @property
     def fading_factor(self) -> np.ndarray:
         r""":math:`\lambda_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
-        return self.extras["fading_factor"]
+        factor: np.ndarray = self.extras["fading_factor"]
+        return factor
 
     @property
     def weakening_factor(self) -> np.ndarray:
         r""":math:`\beta_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
-        return self.extras["weakening_factor"]
+        factor: np.ndarray = self.extras["weakening_factor"]
+        return factor
 
     @property
     def accepted(self) -> np.ndarray:

@@ -94,10 +94,10 @@ _NOISE_CHANGE_AT = 13.0
 
 #: The filters' state at the noise change and their results before it, with the readings they ran over, by
 #: filter and settings (the last few): a new change runs them over the readings after it only.
-_BEFORE_CHANGE: dict[tuple, tuple[np.ndarray, Any, Any]] = {}
+_BEFORE_CHANGE: dict[tuple[Any, ...], tuple[np.ndarray, Any, Any]] = {}
 
 
-def _over_the_change(key: tuple, make: Callable[[], Any], z: np.ndarray, split: int) -> tuple[Any, Any]:
+def _over_the_change(key: tuple[Any, ...], make: Callable[[], Any], z: np.ndarray, split: int) -> tuple[Any, Any]:
     """The run of the filter ``make()`` over the readings ``z``, in two parts: its results over the first ``split``
     readings and over the rest. The first part is taken from ``_BEFORE_CHANGE[key]`` when it ran over these same
     readings (a copy of the filter as it stood then runs the rest): a step depends on the steps before it only, so

@@ -89,9 +89,9 @@ class RealDataView:
     scale: np.ndarray
     scale_sigma: np.ndarray
     measured_scale: float
-    beacons: dict
-    all_beacons: dict
-    summary: dict
+    beacons: dict[int, tuple[float, float]]
+    all_beacons: dict[int, tuple[float, float]]
+    summary: dict[str, float]
     rts_rmse: float
 
 

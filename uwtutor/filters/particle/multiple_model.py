@@ -196,7 +196,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     @property
     def modes(self) -> np.ndarray:
         """Mode index of each particle, shape (N,) or (M, N)."""
-        return self._out(self._modes)
+        modes: np.ndarray = self._out(self._modes)
+        return modes
 
     @property
     def n_modes(self) -> int:
@@ -206,7 +207,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     @property
     def mode_probabilities(self) -> np.ndarray:
         r""":math:`\mu^j` of each run: (J,) or (M, J)."""
-        return self._out(self._mu)
+        mu: np.ndarray = self._out(self._mu)
+        return mu
 
     def _set_estimate(self) -> None:
         super()._set_estimate()
