@@ -320,7 +320,8 @@ def initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
-                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                          dict[str, int | None]]:
     """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
     ``_validate.common_runs``, the size of each input's runs axis (None where it has none)."""
@@ -366,7 +367,7 @@ def steps_and_times(n_steps: int, times: Any) -> np.ndarray:
     as_int("the number of steps K", n_steps, minimum=1)
     if times is None:
         return np.arange(n_steps, dtype=float)
-    times = as_finite("times", times, ndim=1)
-    if len(times) != n_steps:
-        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    return times
+    stamps = as_finite("times", times, ndim=1)
+    if len(stamps) != n_steps:
+        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(stamps)}")
+    return stamps

@@ -135,12 +135,14 @@ def psd_sqrt(Q: ArrayLike) -> np.ndarray:
     >>> np.allclose(L @ L.T, Q)
     True
     """
-    Q = np.asarray(Q, dtype=float)
+    Qa = np.asarray(Q, dtype=float)
+    root: np.ndarray
     try:
-        return np.linalg.cholesky(Q)
+        root = np.linalg.cholesky(Qa)
     except np.linalg.LinAlgError:
-        vals, vecs = np.linalg.eigh(Q)
-        return vecs * np.sqrt(np.clip(vals, 0.0, None))[..., None, :]
+        vals, vecs = np.linalg.eigh(Qa)
+        root = vecs * np.sqrt(np.clip(vals, 0.0, None))[..., None, :]
+    return root
 
 
 def gaussian_noise(L: np.ndarray, rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> np.ndarray:
@@ -174,13 +176,17 @@ def gaussian_noise(L: np.ndarray, rngs: Sequence[np.random.Generator], shape: tu
     array([2., 0.])
     """
     eps = standard_normal_per_run(rngs, tuple(shape[1:]))
+    noise: np.ndarray
     if L.ndim == 2:
         if eps.shape[0] == 1:                                  # one run: a plain 2-D product
-            return (eps[0] @ L.T)[None] if eps.ndim == 3 else eps @ L.T
-        return eps @ L.T
-    if L.ndim == 3 and L.shape[0] == len(rngs) and eps.ndim == 3:      # one per run, (M, N, n)
-        return eps @ np.swapaxes(L, -1, -2)
-    return np.einsum("...ij,...j->...i", L, eps)
+            noise = (eps[0] @ L.T)[None] if eps.ndim == 3 else eps @ L.T
+        else:
+            noise = eps @ L.T
+    elif L.ndim == 3 and L.shape[0] == len(rngs) and eps.ndim == 3:    # one per run, (M, N, n)
+        noise = eps @ np.swapaxes(L, -1, -2)
+    else:
+        noise = np.einsum("...ij,...j->...i", L, eps)
+    return noise
 
 
 def _present_patterns(present: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
