@@ -318,7 +318,7 @@ def update_cooperative_view(fig: Figure, view: CooperativeView) -> list[Any] | N
     t_low, t_high = ax_err.get_xlim()
     if not (t_low <= t[0] and t[-1] <= t_high and t[-1] - t[0] >= 0.5 * (t_high - t_low)):
         margins = ax_err.margins()                          # (no argument: it reads them)
-        assert margins is not None
+        assert margins is not None                          # (margins() without arguments returns them)
         margin = margins[0] * (t[-1] - t[0])                 # as autoscaling placed them at the first drawing
         ax_err.set_xlim(t[0] - margin, t[-1] + margin)
     rescale(ax_map)
