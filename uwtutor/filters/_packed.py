@@ -9,9 +9,10 @@ packed and fading back-ends (:mod:`.engine`, :mod:`.ekf`, :mod:`.fading`) are it
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_range_array
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
@@ -255,7 +256,11 @@ def noise_parameters(Q: Any, R: Any, n_steps: int | None = None,
     return Q, R_val, q4
 
 
-def range_variances(R: Any, n_steps: int | None = None) -> Any:
+@overload
+def range_variances(R: ArrayLike, n_steps: None = None) -> float: ...
+@overload
+def range_variances(R: ArrayLike, n_steps: int | None) -> float | np.ndarray: ...
+def range_variances(R: ArrayLike, n_steps: int | None = None) -> float | np.ndarray:
     """The range variance: a float (from a scalar or a 1x1 matrix), or, with ``n_steps``, one per step (K,),
     > 0, NaN allowed at steps without a range."""
     R_arr = as_float_array("R", R)
