@@ -5,12 +5,11 @@ from __future__ import annotations
 import os
 import types
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as_instance, as_int, as_positive,
@@ -18,6 +17,9 @@ from .._validate import (as_choice, as_covariance, as_finite, as_float_array, as
 from ..motion import integrate_odometry
 
 __all__ = ["RangeDataset", "DEFAULT_START_SIGMAS", "square_log"]
+
+#: The beacons a method uses: one beacon id, a sequence of them, or None for every beacon of the log.
+BeaconIds: TypeAlias = "int | Sequence[int] | None"
 
 #: Standard deviations ``(x [m], y [m], heading [rad])`` of the default ``start_cov``: a start known about as
 #: well as a survey-grade GPS fix and a good compass know it (0.1 m, 1 degree).
@@ -270,7 +272,7 @@ class RangeDataset:
     # ------------------------------------------------------------------------------------------------------------
     # beacons
 
-    def _ids(self, beacon_ids: Any) -> list[int]:
+    def _ids(self, beacon_ids: BeaconIds) -> list[int]:
         """Validate a selection of beacons: one id, a sequence of distinct known ids, or None for all."""
         if beacon_ids is None:
             return list(self.beacon_ids)
@@ -289,7 +291,7 @@ class RangeDataset:
             raise ValueError(f"beacon_ids must not repeat an id; got {ids}")
         return ids
 
-    def beacon_positions(self, beacon_ids: Any = None) -> np.ndarray:
+    def beacon_positions(self, beacon_ids: BeaconIds = None) -> np.ndarray:
         """The positions of the beacons, in the order asked.
 
         Parameters
@@ -378,7 +380,7 @@ class RangeDataset:
                 last = t
         return np.asarray(keep, dtype=int)
 
-    def ranges_on_epochs(self, beacon_ids: Any = None, min_period: ArrayLike | None = None, offset: ArrayLike = 0.0,
+    def ranges_on_epochs(self, beacon_ids: BeaconIds = None, min_period: float | None = None, offset: float = 0.0,
                          thinning: str = "per beacon") -> np.ndarray:
         r"""The range log placed on the odometry epochs: one column per beacon, NaN where a beacon was not heard.
 
@@ -496,7 +498,7 @@ class RangeDataset:
             out[k[chosen], col] = rows[chosen, 2]
         return out
 
-    def true_ranges(self, beacon_ids: Any = None) -> np.ndarray:
+    def true_ranges(self, beacon_ids: BeaconIds = None) -> np.ndarray:
         r"""Distances from the true positions at the epochs to the beacons, :math:`\|p_k - b\|` (for studies).
 
         Parameters

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import as_int, as_nonnegative, as_scalar
-from ._core import RangeDataset
+from ._core import BeaconIds, RangeDataset
 
 __all__ = ["BaselineRun", "world_displacements", "displacement_covariance", "position_ekf", "bias_iekf",
            "fading_filter", "vmlbl_filter", "particle_filter", "RANGE_SIGMA", "DISTANCE_SIGMA"]
@@ -96,7 +96,7 @@ def _pos(name: str, value: Any) -> float:
     return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
-def _one_beacon(data: RangeDataset, beacon_ids: Any, method: str) -> int:
+def _one_beacon(data: RangeDataset, beacon_ids: BeaconIds, method: str) -> int:
     ids = list(data.beacons) if beacon_ids is None else list(np.atleast_1d(beacon_ids).tolist())
     if len(ids) != 1:
         raise ValueError(f"{method} ranges to one beacon, as its chapter built it; got beacon_ids={ids}. Pass one "
@@ -159,7 +159,8 @@ def displacement_covariance(data: RangeDataset, distance_sigma: ArrayLike = DIST
     if a <= 0.0:
         raise ValueError(f"distance_sigma[0] must be > 0; got {a}")
     sigma = a + c * np.abs(data.odometry[:, 0])
-    return sigma[:, None, None] ** 2 * np.eye(2)
+    covariances: np.ndarray = sigma[:, None, None] ** 2 * np.eye(2)
+    return covariances
 
 
 def _start(data: RangeDataset) -> tuple[np.ndarray, np.ndarray]:
@@ -169,7 +170,7 @@ def _start(data: RangeDataset) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(start[:2], dtype=float), np.asarray(cov[:2, :2], dtype=float)
 
 
-def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
+def position_ekf(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None,
                  range_sigma: float = RANGE_SIGMA, distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 4's range-only EKF on a log: state :math:`[x, y]`, dead-reckoned displacements, ranges as logged.
 
@@ -223,7 +224,7 @@ def position_ekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     return BaselineRun("EKF", data.times, result.x[:, :2], result)
 
 
-def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None,
+def bias_iekf(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None,
               range_sigma: float = RANGE_SIGMA, distance_sigma: ArrayLike = DISTANCE_SIGMA,
               bias_sigma: float = 5.0) -> BaselineRun:
     r"""Chapter 7's IEKF (paper A) on a log: :math:`[x, y, \upsilon]`, a slowly varying range bias in the state.
@@ -286,8 +287,8 @@ def bias_iekf(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = N
     return BaselineRun("IEKF", data.times, result.x[:, :2], result)
 
 
-def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float = 1.0,
-                  sigma_gamma: float = 5.0 / 1500.0, min_period: Any = None, range_sigma: float = RANGE_SIGMA,
+def fading_filter(data: RangeDataset, beacon_ids: BeaconIds = None, *, mu_gamma: float = 1.0,
+                  sigma_gamma: float = 5.0 / 1500.0, min_period: float | None = None, range_sigma: float = RANGE_SIGMA,
                   distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 5's ISFEKF (paper D) on a log: multiplicative range noise of mean :math:`\mu_\gamma`, fading memory.
 
@@ -338,8 +339,9 @@ def fading_filter(data: RangeDataset, beacon_ids: Any = None, *, mu_gamma: float
     return BaselineRun("ISFEKF", data.times, result.x[:, :2], result)
 
 
-def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, spacing: float = 10.0,
-                 range_q: float = 30.0, fix_q: float = 1.0, range_sigma: float = RANGE_SIGMA) -> BaselineRun:
+def vmlbl_filter(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None,
+                 spacing: float = 10.0, range_q: float = 30.0, fix_q: float = 1.0,
+                 range_sigma: float = RANGE_SIGMA) -> BaselineRun:
     r"""Chapter 9's OR-VMLBL-KF (paper E) on a log: the fixed beacon as the "ship", four-epoch virtual baselines.
 
     :func:`uwtutor.pipelines.vmlbl.or_vmlbl_kf` with the beacon's position at every epoch as the ship's, depth 0, the
@@ -406,8 +408,8 @@ def vmlbl_filter(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any 
     return BaselineRun("OR-VMLBL-KF", data.times, positions, out)
 
 
-def particle_filter(data: RangeDataset, beacon_ids: Any = None, *, rng: np.random.Generator,
-                    n_particles: int = 500, min_period: Any = None, range_sigma: float = RANGE_SIGMA,
+def particle_filter(data: RangeDataset, beacon_ids: BeaconIds = None, *, rng: np.random.Generator,
+                    n_particles: int = 500, min_period: float | None = None, range_sigma: float = RANGE_SIGMA,
                     distance_sigma: ArrayLike = DISTANCE_SIGMA) -> BaselineRun:
     r"""Chapter 6's bootstrap particle filter on chapter 4's model: :math:`[x, y]` relative to the one beacon.
 

@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validate import as_choice, as_finite, as_flag, as_int, as_nonnegative, as_scalar
-from ._core import RangeDataset
+from ._core import BeaconIds, RangeDataset
 
 __all__ = ["GraphSolution", "gtsam_map", "HEADING_NOISE"]
 
@@ -152,11 +152,11 @@ def _scaled_range_error(beacon: np.ndarray, z: float) -> Callable[..., np.ndarra
     return error
 
 
-def gtsam_map(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
+def gtsam_map(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None, offset: float = 0.0,
               thinning: str = "per beacon", model: str = "navigate", gyro_bias: bool = True, scale: bool = True,
               range_sigma: float = 0.6, distance_sigma: ArrayLike = (0.01, 0.02), across_sigma: float = 0.002,
-              heading_noise: Any = None, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
-              scale_prior: Any = 0.1, scale_walk: Any = 1e-5, range_scale: float = 1.0, robust: str | None = None,
+              heading_noise: float | None = None, gyro_bias_prior: float = 0.01, gyro_bias_walk: float = 1e-4,
+              scale_prior: float = 0.1, scale_walk: float = 1e-5, range_scale: float = 1.0, robust: str | None = None,
               solver: str = "lm", initial: ArrayLike | None = None, max_iterations: int = 100,
               pose_interval: float = 2.0) -> GraphSolution:
     r"""GTSAM's MAP solution of a log: by default the graph of navigate's model (module docstring), batch or iSAM2.

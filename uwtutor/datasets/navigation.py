@@ -40,7 +40,7 @@ import numpy as np
 from .._validate import as_finite, as_flag, as_nonnegative, as_scalar
 from ..filters import ChiSquareGate, FilterResult, ReacquiringGate, extended_kalman_filter, rts_smoother
 from ..models import BeaconRanges, OdometryMotion
-from ._core import RangeDataset
+from ._core import BeaconIds, RangeDataset
 
 __all__ = ["navigate", "navigation_models", "NavigationModels", "NavigationResult", "CANDIDATES", "LOST_TRACK_REJECTED"]
 
@@ -50,11 +50,11 @@ def _positive(name: str, value: Any) -> float:
     return as_scalar(name, value, domain="positive", low=1e-9, high=1e6)
 
 
-def navigate(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
+def navigate(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None, offset: float = 0.0,
              thinning: str = "per beacon", smooth: bool = False, gyro_bias: bool | None = None,
-             scale: bool | None = None, range_sigma: Any = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
-             heading_noise: Any = 1e-3, gyro_bias_prior: Any = 0.01, gyro_bias_walk: Any = 1e-4,
-             scale_prior: Any = 0.1, scale_walk: Any = 1e-5, gate: bool = True) -> "NavigationResult":
+             scale: bool | None = None, range_sigma: float = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
+             heading_noise: float = 1e-3, gyro_bias_prior: float = 0.01, gyro_bias_walk: float = 1e-4,
+             scale_prior: float = 0.1, scale_walk: float = 1e-5, gate: bool = True) -> "NavigationResult":
     r"""Navigate a range log from its start pose: odometry, ranges to known beacons, heading, gyro bias and scale.
 
     The state is :math:`[x, y, \theta, b_g, s]` (fewer with ``gyro_bias=False`` or ``scale=False``), the motion
@@ -225,7 +225,7 @@ def _n_extra(name: str) -> int:
     return sum(CANDIDATES[name])
 
 
-def _run_candidates(data: RangeDataset, beacon_ids: Any, candidates: list[tuple[str, tuple[bool, bool]]],
+def _run_candidates(data: RangeDataset, beacon_ids: BeaconIds, candidates: list[tuple[str, tuple[bool, bool]]],
                     gate: bool, options: dict[str, Any]) -> dict[str, tuple["NavigationModels", FilterResult, Any]]:
     """Run every candidate through the gated filter and score it: name -> (its models, its result, its
     ``_log_predictive``).
@@ -288,7 +288,7 @@ def _log_predictive(nav: "NavigationModels", result: FilterResult) -> tuple[floa
         return 0.0, np.empty(0)
     x_prior, P_prior = result.priors()
     predicted, H, _ = nav.measurement.linearize(x_prior[epochs], 0)
-    S = H @ P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(None, 0) * np.eye(z.shape[1])
+    S = H @ P_prior[epochs] @ np.swapaxes(H, -1, -2) + nav.measurement.R(x_prior[epochs], 0) * np.eye(z.shape[1])
     mask = heard[epochs]
     y = np.where(mask, z[epochs] - predicted, 0.0)
     # the missing components decoupled (unit variance, zero innovation): their terms are then 0 and dropped
@@ -408,8 +408,8 @@ class NavigationModels:
     times: np.ndarray
 
 
-def navigation_models(data: RangeDataset, beacon_ids: Any = None, *, min_period: Any = None, offset: Any = 0.0,
-                      thinning: str = "per beacon", gyro_bias: bool = True,
+def navigation_models(data: RangeDataset, beacon_ids: BeaconIds = None, *, min_period: float | None = None,
+                      offset: float = 0.0, thinning: str = "per beacon", gyro_bias: bool = True,
                       scale: bool = True, range_sigma: float = 0.6, distance_sigma: tuple[float, float] = (0.01, 0.02),
                       heading_noise: float = 1e-3, gyro_bias_prior: float = 0.01, gyro_bias_walk: float = 1e-4,
                       scale_prior: float = 0.1, scale_walk: float = 1e-5) -> NavigationModels:

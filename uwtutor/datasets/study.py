@@ -27,17 +27,18 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .._linalg import distances
 from .._validate import as_choice, as_finite, as_scalar
-from ._core import RangeDataset
+from ._core import BeaconIds, RangeDataset
 
 if TYPE_CHECKING:
     from ..filters.base import FilterResult
+    from .baselines import BaselineRun
 
 __all__ = ["ACOUSTIC_PERIOD", "GRID_BEACONS", "GRID_PERIODS", "GRID_STATES", "STATE_FLAGS", "DECIMATION",
            "TABLE_METHODS", "ABLATION_METHODS", "ABLATION_VARIANTS", "SWEEP_HEADING_NOISE", "PF_SEED", "error_summary",
@@ -160,10 +161,11 @@ def nees(x: ArrayLike, P: ArrayLike, truth: ArrayLike, components: str = "pose")
         raise ValueError(f"P must hold one ({x.shape[1]}, {x.shape[1]}) covariance per epoch of x; got {P.shape}")
     e = np.column_stack([x[:, :2] - t[:, :2], _wrap(x[:, 2] - t[:, 2])])[:, idx]
     S = P[:, idx][:, :, idx]
-    return np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
+    value: np.ndarray = np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
+    return value
 
 
-def measured_scale(data: RangeDataset, beacon_ids: Any = None) -> float:
+def measured_scale(data: RangeDataset, beacon_ids: BeaconIds = None) -> float:
     r"""The range scale of a log measured against its truth: the least-squares slope through the origin,
     :math:`\hat s = \sum_j r_j d_j / \sum_j d_j^2`, of the ranges on the epochs on the true distances there.
 
@@ -185,7 +187,7 @@ def measured_scale(data: RangeDataset, beacon_ids: Any = None) -> float:
     return float(r[ok] @ d[ok] / (d[ok] @ d[ok]))
 
 
-def _with_truth(data: Any, what: str) -> RangeDataset:
+def _with_truth(data: RangeDataset, what: str) -> RangeDataset:
     _truth_of(data, what)
     return data
 
@@ -201,7 +203,11 @@ def _truth_of(data: Any, what: str) -> np.ndarray:
 
 def _filter_of(smoothed: FilterResult) -> FilterResult:
     """The filter's own result that ``navigate(smooth=True)`` keeps beside the smoothed one."""
-    return cast("FilterResult", smoothed.extras["filtered"])
+    from ..filters.base import FilterResult
+
+    filtered = smoothed.extras["filtered"]
+    assert isinstance(filtered, FilterResult)           # navigate(smooth=True) keeps it there
+    return filtered
 
 
 def most_heard_beacon(data: RangeDataset) -> int:
@@ -473,7 +479,7 @@ def method_table(data: RangeDataset, progress: Callable[[str], None] | None = No
     return rows
 
 
-def fixes_within(run: Any, truth: Any, beacon: Any, fraction: float = 0.1) -> float:
+def fixes_within(run: BaselineRun, truth: ArrayLike, beacon: ArrayLike, fraction: float = 0.1) -> float:
     r"""Paper E's trial statistic: the fraction of a virtual-baseline run's filtered fixes whose horizontal error is
     at most ``fraction`` of the distance to the beacon (chapter 9's reading of "within 10 % error").
 
@@ -558,7 +564,7 @@ def ablation_table(data: RangeDataset, progress: Callable[[str], None] | None = 
 
                 run = baselines.vmlbl_filter(log, ids)
                 positions = run.positions
-                extra["within_ten_percent"] = fixes_within(run, data.truth, data.beacons[ids[0]])
+                extra["within_ten_percent"] = fixes_within(run, _truth_of(data, "the ablation"), data.beacons[ids[0]])
             else:
                 positions = _ablation_run(log, method, ids, scale)
             rows.append({"set": data.name, "method": method, "variant": variant, "beacon_ids": ids,

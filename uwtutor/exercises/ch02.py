@@ -108,7 +108,8 @@ CURRENT_VELOCITY = np.array([2.0, 0.0])
 # -- exercise 2.1: Fisher information and the bound of three beacons --------------------------------------------------
 def _unit_rows(position: np.ndarray, beacons: np.ndarray) -> np.ndarray:
     d = position - beacons
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
+    directions: np.ndarray = d / np.linalg.norm(d, axis=1, keepdims=True)
+    return directions
 
 
 def check_fisher_information(answer: Any) -> Feedback:

@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq, motion
 from .checks import Case, _answer_shape, check_array, check_function, check_number
@@ -190,8 +191,8 @@ def check_ranges_until_trusted(answer: Any) -> Feedback:
 
 
 # -- exercise 3.3: paper E's linear system -----------------------------------------------------------------------------
-def vmlbl_system_reference(ranges: Any, virtual_beacons: Any, depth: float,
-                           beacon_depths: Any) -> tuple[np.ndarray, np.ndarray]:
+def vmlbl_system_reference(ranges: ArrayLike, virtual_beacons: ArrayLike, depth: float,
+                           beacon_depths: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     r"""The reference answer of exercise 3.3: paper E's pairwise-differenced system :math:`A X = B`.
 
     Rows :math:`i = 1..N` pair epoch :math:`i` with :math:`j = i + 1` (cyclically, the last with the first):
@@ -317,7 +318,7 @@ def check_vmlbl_system(func: Any) -> Feedback:
 
 
 # -- exercise 3.4: paper D's cost of one cell --------------------------------------------------------------------------
-def travel_time_cost_reference(travel_times: Any, dr_offsets: Any, bearing: float, speed_error: float,
+def travel_time_cost_reference(travel_times: ArrayLike, dr_offsets: ArrayLike, bearing: float, speed_error: float,
                                assumed_speed: float) -> float:
     r"""The reference answer of exercise 3.4: paper D's cost :math:`L(\theta, \Delta c)` of one grid cell.
 

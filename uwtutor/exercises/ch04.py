@@ -26,6 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import stats
 
 from .._validate import as_int, as_seed, check_work
@@ -121,7 +122,8 @@ def check_range_jacobian(answer: Any) -> Feedback:
 
 
 # -- exercise 4.2: one EKF update --------------------------------------------------------------------------------------
-def ekf_update_reference(x: Any, P: Any, z: float, R: float, beacon: Any) -> tuple[np.ndarray, np.ndarray]:
+def ekf_update_reference(x: ArrayLike, P: ArrayLike, z: float, R: float,
+                         beacon: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """The reference answer of exercise 4.2: ``RangeOnlyEKF``'s update with one range (no prediction).
 
     Parameters
@@ -518,7 +520,8 @@ def _run_data(seed: int, n: int = 60, beacon: Any = (0.0, 0.0), missing: Any = (
             "Q": np.eye(2) * q**2, "R": sigma_r**2, "beacon": b, "truth": truth}
 
 
-def ekf_run_reference(x0: Any, P0: Any, u: Any, z: Any, Q: Any, R: float, beacon: Any) -> np.ndarray:
+def ekf_run_reference(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: float,
+                      beacon: ArrayLike) -> np.ndarray:
     """The reference answer of exercise 4.6: ``range_only_ekf``'s estimates, one row per epoch.
 
     Parameters

@@ -36,6 +36,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .. import scenarios
 from .._validate import as_scalar
@@ -220,7 +221,8 @@ def check_mean_range_error(answer: Any) -> Feedback:
 
 
 # -- exercise 5.2: the fading factor -----------------------------------------------------------------------------------
-def fading_factors_reference(innovations: Any, predicted: Any, subtracted: Any, rho: float) -> np.ndarray:
+def fading_factors_reference(innovations: ArrayLike, predicted: ArrayLike, subtracted: ArrayLike,
+                             rho: float) -> np.ndarray:
     r"""The fading factors of a sequence of scalar innovations (paper D, eqs. 17-20; Zhou and Xi 1990).
 
     .. math::
@@ -510,7 +512,7 @@ def study() -> dict[str, Any]:
             "Q": np.eye(2) * 0.81, "R": 0.49, "truth": np.array(sc.true_positions), "times": np.array(sc.times)}
 
 
-def final_rmse(estimates: Any, truth: Any) -> float:
+def final_rmse(estimates: ArrayLike, truth: ArrayLike) -> float:
     r"""RMS over the runs of the position error at the last epoch [m].
 
     Parameters
@@ -645,8 +647,10 @@ ISF_STEP_CONSTANTS: dict[str, float] = {"mu_gamma": 0.98, "sigma_gamma": 1.0 / 1
 ISF_STEP_SEED, ISF_STEP_INITIAL_ERROR, ISF_STEP_STEPS = 2019, 150.0, 12
 
 
-def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: float, Q: Any, R: float,
-                          mu_gamma: float, sigma_gamma: float, rho: float) -> tuple[Any, ...]:
+def isfekf_step_reference(x: ArrayLike, P: ArrayLike, m: ArrayLike, Xi: ArrayLike, V: float | None, u: ArrayLike,
+                          z: float, Q: ArrayLike, R: float, mu_gamma: float, sigma_gamma: float,
+                          rho: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                               NDArray[np.float64], float, float]:
     r"""One step of paper D's ISFEKF for a beacon at the origin, in the order of chapter 5's box.
 
     Parameters
@@ -681,15 +685,15 @@ def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: fl
     ((2,), (2, 2), True)
     """
     x, P, m, Xi, u, Q = (np.asarray(a, dtype=float) for a in (x, P, m, Xi, u, Q))
-    Xi = Xi + np.outer(m, u) + np.outer(u, m) + np.outer(u, u) + Q          # 1. moments (old m)
-    m = m + u
+    Xi_k: NDArray[np.float64] = Xi + np.outer(m, u) + np.outer(u, m) + np.outer(u, u) + Q    # 1. moments (old m)
+    m_k: NDArray[np.float64] = m + u
     x_pred = x + u                                                          # 2. predicted mean, linearization
     r = float(np.hypot(*x_pred))
     H = x_pred / r                                                          # d_k = 0 (beacon at the origin)
-    T = max(float(H @ Xi @ H), 0.0)
+    T = max(float(H @ Xi_k @ H), 0.0)
     y = z - mu_gamma * r                                                    # 3. innovation and its power
     V = y * y if V is None else (rho * V + y * y) / (1.0 + rho)
-    beta = float(H @ m)                                                     # 4. fading factor
+    beta = float(H @ m_k)                                                   # 4. fading factor
     num = V - sigma_gamma ** 2 * T - mu_gamma ** 2 * float(H @ Q @ H) - beta * R
     den = mu_gamma ** 2 * float(H @ P @ H)
     lam = max(1.0, num / den) if den > 0.0 else 1.0
@@ -698,7 +702,7 @@ def isfekf_step_reference(x: Any, P: Any, m: Any, Xi: Any, V: Any, u: Any, z: fl
     S = mu_gamma ** 2 * float(H @ P_pred @ H) + noise
     K = (mu_gamma / S) * (P_pred @ H)
     A = np.eye(2) - mu_gamma * np.outer(K, H)
-    return x_pred + K * y, A @ P_pred @ A.T + noise * np.outer(K, K), m, Xi, V, lam
+    return x_pred + K * y, A @ P_pred @ A.T + noise * np.outer(K, K), m_k, Xi_k, V, lam
 
 
 def isfekf_step_run() -> dict[str, Any]:
@@ -767,7 +771,9 @@ def check_isfekf_step(func: Any) -> Feedback:
     Q, R = d["Q"], c["R"]
     lib = FadingEKF(d["x0"], d["P0"], Q, R, mu_gamma=c["mu_gamma"], sigma_gamma=c["sigma_gamma"], rho=c["rho"],
                     beta="range")
-    state = (d["x0"].copy(), d["P0"].copy(), d["x0"].copy(), d["P0"] + np.outer(d["x0"], d["x0"]), None)
+    # (x, P, m, Xi, V): V is None before the first range
+    state: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float | None] = (
+        d["x0"].copy(), d["P0"].copy(), d["x0"].copy(), d["P0"] + np.outer(d["x0"], d["x0"]), None)
     ref_state = state
     hints = {
         "m": "Moments first: m_k = m_{k−1} + u_k, and Ξ_k = Ξ_{k−1} + m_{k−1}u_kᵀ + u_k m_{k−1}ᵀ + u_k u_kᵀ + Q, "
@@ -814,12 +820,12 @@ def check_isfekf_step(func: Any) -> Feedback:
             if refusal is not None:
                 return Feedback(False, f"{refusal.message} (at step {k})", hint=refusal.hint,
                                 details={"step": k, "quantity": name})
+            assert g is not None                   # parse_real_array gives an array where it refuses nothing
             if g.shape != e.shape or not np.allclose(g, e, rtol=1e-4, atol=1e-8 * max(1.0, float(np.max(np.abs(e))))):
                 return Feedback(False, f"Not yet: at step {k} your {name} is {np.round(g, 4).tolist()}, the library's "
                                        f"{np.round(e, 4).tolist()} (steps before it agree).",
                                 hint=hints[name], details={"step": k, "quantity": name})
-        state = tuple(np.array(a) if a is not None and name != "V" else a
-                      for a, name in zip(out[:5], ("x", "P", "m", "Xi", "V")))
+        state = (np.array(out[0]), np.array(out[1]), np.array(out[2]), np.array(out[3]), out[4])   # all real: checked
         ref_state = ref[:5]
     return Feedback(True, f"Correct: your ISFEKF step reproduces uwtutor's FadingEKF (x, P and λ at every step) and "
                           f"the moments m, Ξ and V over {ISF_STEP_STEPS} steps, large early fading factors included.")

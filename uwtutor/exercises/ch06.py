@@ -31,6 +31,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..grey import fit_gm11
 from ..wavelet import MAD_TO_SIGMA, detail_coefficients, noise_sigma
@@ -316,7 +317,8 @@ def _systematic_reference(weights: Any, u: float) -> np.ndarray:
     w = w / w.sum()
     c = np.cumsum(w)
     c[-1] = 1.0
-    return np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
+    indices: np.ndarray = np.searchsorted(c, (np.arange(w.size) + u) / w.size, side="right")
+    return indices
 
 
 def _systematic_cases() -> list[Case]:
@@ -483,7 +485,8 @@ PF_STEP_PARTICLES, PF_STEP_SEED = 200, 606
 PF_STEP_FAR_OFFSET = 10.0
 
 
-def pf_step_reference(particles: Any, z: Any, noise: Any, u: float, T: float, R: Any) -> tuple[Any, Any, Any]:
+def pf_step_reference(particles: ArrayLike, z: ArrayLike, noise: ArrayLike, u: float, T: float,
+                      R: ArrayLike) -> tuple[Any, Any, Any]:
     r"""One bootstrap step on paper C's model, built from ``uwtutor``'s pieces, with the randomness given.
 
     Predict :math:`x^{(i)}_k = g(x^{(i)}_{k-1} + w^{(i)}_k)` (``uwtutor.models.depth.DepthSpeedPitch.f``), weight by

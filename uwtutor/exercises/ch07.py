@@ -101,7 +101,8 @@ def straight_track(n: int = 40) -> np.ndarray:
     s = 10.0 * (np.arange(n) - (n - 1) / 2.0)
     centre = 2000.0 * np.array([np.cos(np.pi / 4), np.sin(np.pi / 4)])
     across = np.array([-np.sin(np.pi / 4), np.cos(np.pi / 4)])
-    return centre + s[:, None] * across
+    line: np.ndarray = centre + s[:, None] * across
+    return line
 
 
 # -- exercise 7.1: Q ---------------------------------------------------------------------------------------------------

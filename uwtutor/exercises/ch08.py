@@ -29,6 +29,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import UnobservableWarning
 from ..filters.cooperative import cooperative_ekf
@@ -111,7 +112,7 @@ def check_clock_range_error(answer: Any) -> Feedback:
 
 
 # -- exercise 8.2: the whole second ------------------------------------------------------------------------------------
-def resolve_reference(wrapped: Any, predicted_range: Any) -> np.ndarray:
+def resolve_reference(wrapped: ArrayLike, predicted_range: ArrayLike) -> np.ndarray:
     r"""The reference for exercise 8.2: ``uwtutor.owtt.resolve_travel_time`` with :math:`c` = 1500 m/s and
     :math:`T_\mathrm{s}` = 1 s.
 
@@ -221,7 +222,8 @@ def check_largest_prediction_error(answer: Any) -> Feedback:
 
 
 # -- exercise 8.3: the consistent Jacobian -----------------------------------------------------------------------------
-def pair_jacobian_reference(x_pred: Any, leader_k: Any, leader_k1: Any, u_k: Any, dt: Any) -> np.ndarray:
+def pair_jacobian_reference(x_pred: ArrayLike, leader_k: ArrayLike, leader_k1: ArrayLike, u_k: ArrayLike,
+                            dt: float) -> np.ndarray:
     r"""The reference for exercise 8.3: the Jacobian of :math:`[r_k^2, r_{k+1}^2]` at the predicted state, from
     ``uwtutor.models.cooperative.SquaredRangePair``.
 
@@ -251,7 +253,8 @@ def pair_jacobian_reference(x_pred: Any, leader_k: Any, leader_k1: Any, u_k: Any
     """
     leader = np.stack([np.asarray(leader_k, float), np.asarray(leader_k1, float)])
     pair = SquaredRangePair(leader, np.asarray(u_k, float)[None], dt, np.eye(10))
-    return pair.H(np.asarray(x_pred, float)[None], 0)[0]
+    H: np.ndarray = pair.H(np.asarray(x_pred, float)[None], 0)[0]
+    return H
 
 
 def _jacobian_cases() -> list[Case]:

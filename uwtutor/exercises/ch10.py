@@ -33,6 +33,7 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import methods
 from ..observability import posterior_crlb, rmse_bound
@@ -249,7 +250,8 @@ def check_first_ratio(answer: Any) -> Feedback:
 
 # -- exercise 10.2: reading the table ----------------------------------------------------------------------------------
 def _table_row() -> dict[str, Any]:
-    return methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    row: dict[str, Any] = methods.load_comparison().row(TABLE_METHOD, TABLE_SCENARIO, TABLE_CONDITION)
+    return row
 
 
 def check_final_efficiency(answer: Any) -> Feedback:
@@ -477,7 +479,7 @@ def check_method_choice(answer: Any) -> Feedback:
 
 
 # -- exercise 10.4: the recursion by hand ------------------------------------------------------------------------------
-def pcrb_reference(positions: Any, beacon: Any, sigma: Any, Q: Any, P0: Any) -> np.ndarray:
+def pcrb_reference(positions: ArrayLike, beacon: ArrayLike, sigma: float, Q: ArrayLike, P0: ArrayLike) -> np.ndarray:
     r"""The reference for exercise 10.4: :math:`\mathbf J_k^{-1}` after each epoch of one track (``F = I``), from
     :func:`uwtutor.observability.posterior_crlb`.
 

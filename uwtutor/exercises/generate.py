@@ -30,7 +30,7 @@ import os
 import re
 import sys
 import tempfile
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -182,7 +182,8 @@ def _read(source_nb: Any) -> tuple[nbformat.NotebookNode, str]:
     return nb, label
 
 
-def make_student_version(source_nb: Any, *, nbgrader: bool = False) -> nbformat.NotebookNode:
+def make_student_version(source_nb: nbformat.NotebookNode | Mapping[str, Any] | str | os.PathLike[str], *,
+                         nbgrader: bool = False) -> nbformat.NotebookNode:
     """Make the student version of an exercise source notebook.
 
     Parameters

@@ -21,6 +21,7 @@ the metadata is for instructors who hand the same sources to nbgrader.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from typing import Any
 
 import nbformat
@@ -40,7 +41,7 @@ def _meta(cell: Any) -> dict[str, Any] | None:
     return dict(meta) if meta is not None else None
 
 
-def nbgrader_problems(nb: Any) -> list[str]:
+def nbgrader_problems(nb: Mapping[str, Any]) -> list[str]:
     """What nbgrader would object to in a source notebook (an empty list when nothing).
 
     Checked: a cell with a solution region is a solution cell; a cell with hidden tests is a grade cell (autograder
@@ -118,7 +119,7 @@ def nbgrader_problems(nb: Any) -> list[str]:
     return problems
 
 
-def total_points(nb: Any) -> tuple[float, float]:
+def total_points(nb: Mapping[str, Any]) -> tuple[float, float]:
     """The points of a notebook: (autograded, manually graded).
 
     Parameters
@@ -158,7 +159,7 @@ def total_points(nb: Any) -> tuple[float, float]:
     return auto, manual
 
 
-def add_nbgrader_metadata(nb: Any, *, prefix: str, points: float = 1.0, written_points: float = 1.0,
+def add_nbgrader_metadata(nb: nbformat.NotebookNode, *, prefix: str, points: float = 1.0, written_points: float = 1.0,
                           overwrite: bool = False) -> nbformat.NotebookNode:
     """Give a source notebook nbgrader's metadata, from its tags and markers (an authoring aid).
 

@@ -9,9 +9,10 @@ packed and fading back-ends (:mod:`.engine`, :mod:`.ekf`, :mod:`.fading`) are it
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validate import MAX_COORDINATE, as_covariance, as_finite, as_float_array, as_int, as_range_array
 from ..errors import BeaconSingularityWarning, IllConditionedError, warn
@@ -255,7 +256,11 @@ def noise_parameters(Q: Any, R: Any, n_steps: int | None = None,
     return Q, R_val, q4
 
 
-def range_variances(R: Any, n_steps: int | None = None) -> Any:
+@overload
+def range_variances(R: ArrayLike, n_steps: None = None) -> float: ...
+@overload
+def range_variances(R: ArrayLike, n_steps: int | None) -> float | np.ndarray: ...
+def range_variances(R: ArrayLike, n_steps: int | None = None) -> float | np.ndarray:
     """The range variance: a float (from a scalar or a 1x1 matrix), or, with ``n_steps``, one per step (K,),
     > 0, NaN allowed at steps without a range."""
     R_arr = as_float_array("R", R)
@@ -320,7 +325,8 @@ def initial_state(x0: Any, P0: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def sequence_inputs(x0: Any, P0: Any, u: Any, z: Any,
-                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+                     times: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                          dict[str, int | None]]:
     """Validate the inputs every functional single-beacon filter takes: the initial state, DR displacements ``u``
     (K, 2) or (M, K, 2) and ranges ``z`` (K,) or (M, K), NaN allowed. Returns them with the times and, for
     ``_validate.common_runs``, the size of each input's runs axis (None where it has none)."""
@@ -366,7 +372,7 @@ def steps_and_times(n_steps: int, times: Any) -> np.ndarray:
     as_int("the number of steps K", n_steps, minimum=1)
     if times is None:
         return np.arange(n_steps, dtype=float)
-    times = as_finite("times", times, ndim=1)
-    if len(times) != n_steps:
-        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    return times
+    stamps = as_finite("times", times, ndim=1)
+    if len(stamps) != n_steps:
+        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(stamps)}")
+    return stamps

@@ -74,7 +74,7 @@ class Configurable:
     _diagnostics: tuple[str, ...] = ()
 
     #: every name the rule governs (computed per class); an instance may add more (a gate's extra outputs)
-    _ruled: frozenset = frozenset()
+    _ruled: frozenset[str] = frozenset()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -141,21 +141,35 @@ class Filter(Protocol):
     (3, 2)
     """
 
-    x: np.ndarray
-    P: np.ndarray
-    x_prior: np.ndarray
-    P_prior: np.ndarray
-    y: np.ndarray
-    S: np.ndarray
+    # read-only in the protocol (a filter shows them read-only; a Kalman-family filter may also accept ``f.x = ...``)
+    @property
+    def x(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def P(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def x_prior(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def P_prior(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def y(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
+    @property
+    def S(self) -> np.ndarray: ...  # pragma: no cover - protocol
+
     extra_outputs: tuple[str, ...]
 
-    def predict(self, u: Any = None) -> None:  # pragma: no cover - protocol
+    def predict(self, u: ArrayLike | None = None) -> None:  # pragma: no cover - protocol
         ...
 
-    def update(self, z: Any) -> None:  # pragma: no cover - protocol
+    def update(self, z: ArrayLike) -> None:  # pragma: no cover - protocol
         ...
 
-    def run(self, z: Any, u: Any = None, times: Any = None) -> "FilterResult":  # pragma: no cover - protocol
+    def run(self, z: ArrayLike, u: ArrayLike | None = None,
+            times: ArrayLike | None = None) -> "FilterResult":  # pragma: no cover - protocol
         ...
 
 
@@ -248,7 +262,7 @@ class FilterResult:
         out[~np.isfinite(self.innovations).all(axis=-1)] = np.nan
         return out
 
-    def nees(self, truth: Any) -> np.ndarray:
+    def nees(self, truth: ArrayLike) -> np.ndarray:
         """Normalized estimation error squared ``e^T P^-1 e`` per step, with ``e = truth - x``.
 
         ``truth`` must broadcast against ``x``; under a consistent filter NEES follows a chi-square
@@ -275,17 +289,17 @@ def _measurement_size(z: np.ndarray, batched: bool) -> int:
     return 1 if per_step == 0 else z.shape[-1]
 
 
-def _sequence_times(n_steps: int, times: Any) -> np.ndarray:
+def _sequence_times(n_steps: int, times: ArrayLike | None) -> np.ndarray:
     """Validated time stamps ``(K,)`` of a run of ``n_steps`` steps (``0..K-1`` when ``times`` is None)."""
     as_int("the number of steps K", n_steps, minimum=1)
     if times is None:
         return np.arange(n_steps, dtype=float)
-    times = as_float_array("times", times, ndim=1)
-    if not np.isfinite(times).all():
+    stamps = as_float_array("times", times, ndim=1)
+    if not np.isfinite(stamps).all():
         raise ValueError("times must be finite")
-    if len(times) != n_steps:
-        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(times)}")
-    return times
+    if len(stamps) != n_steps:
+        raise ValueError(f"times must have one entry per step ({n_steps}); got {len(stamps)}")
+    return stamps
 
 
 def run_filter(filt: Filter, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None) -> FilterResult:

@@ -48,6 +48,7 @@ from ._packed import range_variances
 from ..models import DeadReckoning, RangeToBeacon
 from .base import FilterResult
 from .engine import ExtendedKalmanFilter, extended_kalman_filter
+from .gates import Gate
 
 __all__ = ["bias_ekf", "BiasEKF", "bias_model_pair"]
 
@@ -94,7 +95,7 @@ def bias_model_pair(Q: ArrayLike, R: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
 
 
 def bias_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
-             beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, *, gate: Any = None,
+             beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, *, gate: Gate | None = None,
              keep_priors: bool = True) -> FilterResult:
     r"""Run paper A's IEKF (state ``[x, y, bias]``) over whole sequences, one run or ``M`` at once.
 
@@ -224,7 +225,7 @@ class BiasEKF(ExtendedKalmanFilter):
 
     _parameters = ("Q", "R", "beacon")
 
-    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, beacon: ArrayLike = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: float, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0 = as_finite("x0", x0, max_abs=MAX_COORDINATE)
         motion, measurement = bias_model_pair(Q, R, beacon)
         super().__init__(motion, measurement, x0, P0)

@@ -444,7 +444,7 @@ class CooperativeEKF(ExtendedKalmanFilter):
         b = leader if leader.ndim == 1 else leader[:, None, :]
         return obs[..., 0], RangeToBeacon(b, R=self._variance, n=4)
 
-    def predict(self, u: Any = None) -> None:
+    def predict(self, u: ArrayLike | None = None) -> None:
         """Predict over the next interval with the DR displacement ``u`` (built with the whole run: by default the
         displacement of this step from it)."""
         if u is None:
@@ -460,7 +460,7 @@ class CooperativeEKF(ExtendedKalmanFilter):
         if not self._sequences:
             self._u_step = as_finite("u", u)
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Update with this step's measurement (NaN = predict only): the ranges ``[r_k, r_(k+1)]`` at both ends of
         the interval for the pair formulations, the range ``r_(k+1)`` for ``"single_range"``, followed, for a filter
         built without the whole run, by the leader's positions (:func:`leader_observations`)."""
@@ -468,7 +468,8 @@ class CooperativeEKF(ExtendedKalmanFilter):
             z, self._step_model.model = self._step_inputs(z)
         super().update(self._squared(z))
 
-    def run(self, z: Any, u: Any = None, times: Any = None, *, keep_priors: bool = True) -> FilterResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None, *,
+            keep_priors: bool = True) -> FilterResult:
         """Run every step (``run_filter``): ``z`` the measurements of the steps, ``(K, 2)``/``(M, K, 2)`` range pairs
         (``range_pairs(ranges)``) or, for ``"single_range"``, ``(K,)``/``(M, K)`` ranges, followed by the leader's
         positions for a filter built without the whole run (``leader_observations(ranges, leader)``, which also

@@ -121,9 +121,11 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
     innov_var = np.empty((K, M))
     q_steps = q4.ndim == 3
     R_steps = isinstance(R, np.ndarray)
-    fixed = isinstance(beacon, tuple)
-    if fixed and beacon == (0.0, 0.0):
-        beacon = None                               # the update's shortcut for the origin
+    if isinstance(beacon, tuple):                   # a fixed beacon (None at the origin: the update's shortcut)
+        path = None
+        at: tuple[float, float] | None = None if beacon == (0.0, 0.0) else beacon
+    else:                                           # a path, one position per step
+        path, at = beacon, None
 
     def steps(first: int, end: int, guard: bool) -> None:
         s = s0 if first == 0 else post[first - 1]
@@ -132,7 +134,7 @@ def _run(s0: np.ndarray, u: np.ndarray, z: np.ndarray, q4: np.ndarray, R: Any,
             predict_step(s, u_steps[k], q4[k] if q_steps else q4, p)
             s = post[k]
             applied = update_step(p, z_fill[k], use_k, float(R[k]) if R_steps else R,
-                                  beacon if fixed else (beacon[k, 0], beacon[k, 1]), s, innov[k], innov_var[k],
+                                  at if path is None else (path[k, 0], path[k, 1]), s, innov[k], innov_var[k],
                                   guard)
             if applied is not use_k:                # a prediction fell on the beacon
                 use[k] = applied

@@ -190,7 +190,7 @@ def _masked(H: np.ndarray, R: np.ndarray, present: np.ndarray) -> tuple[np.ndarr
     m = present.shape[1]
     H = np.where(present[:, :, None], H, 0.0)
     both = present[:, :, None] & present[:, None, :]
-    R = np.where(both, R, _EYES.get(m) if m in _EYES else _EYES.setdefault(m, np.eye(m)))
+    R = np.where(both, R, _EYES[m] if m in _EYES else _EYES.setdefault(m, np.eye(m)))
     return H, R
 
 
@@ -214,12 +214,14 @@ def _runs_first(a: np.ndarray) -> np.ndarray:
 
 def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Run by run ``a @ b`` of runs-last arrays (i, k, M) and (k, j, M) (or (k, j, 1))."""
-    return np.einsum("ikm,kjm->ijm", a, b)
+    out: np.ndarray = np.einsum("ikm,kjm->ijm", a, b)
+    return out
 
 
 def _mm_t(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Run by run ``a @ b^T`` of runs-last arrays (i, k, M) and (j, k, M)."""
-    return np.einsum("ikm,jkm->ijm", a, b)
+    out: np.ndarray = np.einsum("ikm,jkm->ijm", a, b)
+    return out
 
 
 def _transposed(a: np.ndarray) -> np.ndarray:
@@ -463,11 +465,11 @@ class ExtendedKalmanFilter(Configurable):
     def _step_input(self, u: Any) -> np.ndarray | None:
         if u is None:
             return None
-        u = as_finite("u", u)
-        if u.ndim == 0 or u.ndim > 2 or (u.ndim == 2 and (not self._batched or u.shape[0] != self._M)):
+        step = as_finite("u", u)
+        if step.ndim == 0 or step.ndim > 2 or (step.ndim == 2 and (not self._batched or step.shape[0] != self._M)):
             want = f"(p,) or ({self._M}, p)" if self._batched else "(p,)"
-            raise ValueError(f"u must be the input of one step, shape {want}; got {u.shape}")
-        return u
+            raise ValueError(f"u must be the input of one step, shape {want}; got {step.shape}")
+        return step
 
     def predict(self, u: ArrayLike | None = None) -> None:
         """Predict one step: ``x- = f(x, u)``, ``P- = F P F^T + Q`` (``u`` of shape (p,) or (M, p), or None)."""
@@ -509,18 +511,18 @@ class ExtendedKalmanFilter(Configurable):
         self._P = self._P_prior = P_new
 
     def _measurement(self, z: Any) -> np.ndarray:
-        z = as_float_array("z", z)
+        given = as_float_array("z", z)
         m, M = self.m, self._M
-        if z.size == m and (z.ndim <= 1 or not self._batched):
-            z = np.broadcast_to(z.reshape(1, m), (M, m))
-        elif self._batched and z.shape in ((M, m),) + (((M,),) if m == 1 else ()):
-            z = z.reshape(M, m)
+        if given.size == m and (given.ndim <= 1 or not self._batched):
+            zm = np.broadcast_to(given.reshape(1, m), (M, m))
+        elif self._batched and given.shape in ((M, m),) + (((M,),) if m == 1 else ()):
+            zm = given.reshape(M, m)
         else:
             want = f"({M}, {m})" + (f" or ({M},)" if m == 1 else "") if self._batched else f"({m},)"
-            raise ValueError(f"z must be one measurement per run, shape {want}; got {z.shape}")
-        if np.isinf(z).any():
+            raise ValueError(f"z must be one measurement per run, shape {want}; got {given.shape}")
+        if np.isinf(zm).any():
             raise ValueError("z must be finite, or NaN for a missing measurement; got an infinite value")
-        return z
+        return zm
 
     def update(self, z: ArrayLike) -> None:
         """Correct the estimate with ``z`` (``(m,)`` or a scalar; ``(M, m)`` or ``(M,)`` batched); NaN: no update
@@ -597,15 +599,16 @@ class ExtendedKalmanFilter(Configurable):
 
     def _usable(self, present: np.ndarray, defined: Any) -> np.ndarray:
         """The components (M, m) measured where the model is defined; a warning where a measured one is not."""
-        defined = _defined_mask(defined, self._M, self.m)
-        if defined.all():
+        mask = _defined_mask(defined, self._M, self.m)
+        if mask.all():
             return present
-        if (present & ~defined).any():
-            per_run = bool((defined == defined[:, :1]).all())
+        if (present & ~mask).any():
+            per_run = bool((mask == mask[:, :1]).all())
             warn("the predicted position is exactly on the beacon, where the range Jacobian is undefined: "
                  + ("the update is skipped for that step (predict only)" if per_run else
                     "that range is skipped at this step (the others are used)"), BeaconSingularityWarning)
-        return present & defined
+        usable: np.ndarray = present & mask
+        return usable
 
     def _gate_verdict(self, gate: Gate, ctx: GateContext, has: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The gate's accept, checked: which runs (M,) and which components (M, m) the update uses."""
@@ -713,7 +716,7 @@ class ExtendedKalmanFilter(Configurable):
         accepted = np.empty((K, M), dtype=bool)
         tested = np.empty((n, n, K, M))                          # the posteriors before a gate, runs-last
         extra = self._gate_outputs
-        extras: dict[str, list] = {name: [] for name in extra}
+        extras: dict[str, list[Any]] = {name: [] for name in extra}
         try:
             # the caller's warning filters stay: a warning they would show is recorded (and the steps are run
             # again by run_filter, which shows it), one they ignore is ignored, one they turn into an error raises
@@ -795,7 +798,7 @@ class ExtendedKalmanFilter(Configurable):
             return None
         return u if u_shared or not batched else np.moveaxis(u, 1, 0)
 
-    def _restore(self, saved: tuple, gate_state: dict[str, Any] | None) -> None:
+    def _restore(self, saved: tuple[Any, ...], gate_state: dict[str, Any] | None) -> None:
         """Put the filter's state and its gate's back as ``_run_steps`` found them."""
         (self._x, self._P, self._x_prior, self._P_prior, self._y, self._S, self._accepted, self.k) = saved
         if gate_state is not None:
@@ -993,7 +996,7 @@ class ExtendedKalmanFilter(Configurable):
 
 def extended_kalman_filter(motion: MotionModel, measurement: MeasurementModel, x0: ArrayLike, P0: ArrayLike,
                            u: ArrayLike | None, z: ArrayLike, *,
-        times: Any = None, gate: Gate | None = None, known_states: ArrayLike | None = None,
+        times: ArrayLike | None = None, gate: Gate | None = None, known_states: ArrayLike | None = None,
         keep_priors: bool = True) -> FilterResult:
     r"""Run the generic extended Kalman filter over whole sequences, one run or ``M`` at once.
 

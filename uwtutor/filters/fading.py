@@ -114,7 +114,7 @@ Zhou D., Xi Y. (1990). Suboptimal fading extended Kalman filtering for nonlinear
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -146,8 +146,8 @@ _EXTRAS = ("fading_factor", "weakening_factor", "innovation_power", "fading_nume
            "multiplicative_variance")
 
 
-def range_factor_moments(assumed_speed: Any = 1470.0, effective_speed: Any = 1500.0,
-                         speed_sigma: Any = 1.0) -> tuple[float, float]:
+def range_factor_moments(assumed_speed: float = 1470.0, effective_speed: float = 1500.0,
+                         speed_sigma: float = 1.0) -> tuple[float, float]:
     r"""Mean and standard deviation of the multiplicative range factor :math:`\gamma` from sound-speed errors.
 
     A vehicle converting the travel time :math:`\tau = r / c'_k` with the speed :math:`c` reports
@@ -322,7 +322,8 @@ def _second_moment(x0: np.ndarray, P0: np.ndarray, second_moment0: Any, M: int) 
     """Initial second moment (M, 2, 2): ``P0 + x0 x0^T`` by default, else the given one (e.g. paper D's ``P0``)."""
     x = np.broadcast_to(x0, (M, 2))
     if second_moment0 is None:
-        return np.broadcast_to(P0, (M, 2, 2)) + x[:, :, None] * x[:, None, :]
+        default: np.ndarray = np.broadcast_to(P0, (M, 2, 2)) + x[:, :, None] * x[:, None, :]
+        return default
     S = as_finite("second_moment0", second_moment0, ndim=(2, 3))
     if S.shape[-2:] != (2, 2) or (S.ndim == 3 and S.shape[0] != M):
         raise ValueError(f"second_moment0 must have shape (2, 2) or (M, 2, 2) with M = {M}; got {S.shape}")
@@ -379,12 +380,14 @@ class FadingResult(FilterResult):
     @property
     def fading_factor(self) -> np.ndarray:
         r"""The fading factor :math:`\lambda_k \ge 1` of every step, shape (K,) or (M, K)."""
-        return self.extras["fading_factor"]
+        factor: np.ndarray = self.extras["fading_factor"]
+        return factor
 
     @property
     def weakening_factor(self) -> np.ndarray:
         r"""The weakening factor :math:`\beta_k` of every step, shape (K,) or (M, K)."""
-        return self.extras["weakening_factor"]
+        factor: np.ndarray = self.extras["weakening_factor"]
+        return factor
 
 
 def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Params, times: np.ndarray,
@@ -433,9 +436,9 @@ def _run(s0: np.ndarray, mem0: np.ndarray, u: np.ndarray, z: np.ndarray, p: _Par
 
 
 def fading_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike, *,
-               mu_gamma: ArrayLike = 1.0, sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range",
-               fading: bool = True, second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0),
-               times: ArrayLike | None = None) -> FadingResult:
+               mu_gamma: ArrayLike = 1.0, sigma_gamma: ArrayLike = 0.0, rho: float = 0.95,
+               beta: Literal["range"] | float = "range", fading: bool = True, second_moment0: ArrayLike | None = None,
+               beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None) -> FadingResult:
     r"""Run the fading EKF for multiplicative range noise (paper D's ISFEKF by default), one run or ``M`` at once.
 
     Each step ``k`` predicts with the DR displacement ``u[..., k, :]``, computes the fading factor
@@ -651,9 +654,9 @@ class FadingEKF(ExtendedKalmanFilter):
     _fixed = ExtendedKalmanFilter._fixed + ("mu_gamma", "sigma_gamma", "rho", "beta", "fading", "second_moment0")
     _diagnostics: tuple[str, ...] = ("y", "S", "accepted") + extra_outputs
 
-    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: Any, *, mu_gamma: ArrayLike = 1.0,
-                 sigma_gamma: ArrayLike = 0.0, rho: Any = 0.95, beta: Any = "range", fading: bool = True,
-                 second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
+    def __init__(self, x0: ArrayLike, P0: ArrayLike, Q: ArrayLike, R: ArrayLike, *, mu_gamma: ArrayLike = 1.0,
+                 sigma_gamma: ArrayLike = 0.0, rho: float = 0.95, beta: Literal["range"] | float = "range",
+                 fading: bool = True, second_moment0: ArrayLike | None = None, beacon: ArrayLike = (0.0, 0.0)) -> None:
         x0, P0 = initial_state(x0, P0)
         p, m_par = _fading_parameters(Q, R, beacon, mu_gamma, sigma_gamma, rho, beta, fading)
         M = common_runs(dict(x0=x0.shape[0] if x0.ndim == 2 else None, P0=P0.shape[0] if P0.ndim == 3 else None,
@@ -788,7 +791,7 @@ class FadingEKF(ExtendedKalmanFilter):
         self._set_diagnostics(diag)
 
     # -- the protocol: the fading back-end's steps on the engine's state --
-    def predict(self, u: Any = None) -> None:
+    def predict(self, u: ArrayLike | None = None) -> None:
         """Move the estimate by the DR displacement ``u`` (shape (2,) or (M, 2); ``None``: no move)."""
         u_col = self._u_column(u)
         if self._pending is not None:               # the previous prediction got no range: predict-only step
@@ -799,7 +802,7 @@ class FadingEKF(ExtendedKalmanFilter):
         self._set_packed_state(shown, shown)
         self.k += 1
 
-    def update(self, z: Any) -> None:
+    def update(self, z: ArrayLike) -> None:
         """Fading factor, then correction with the range ``z`` (scalar, or (M,) when batched; NaN: no range)."""
         if self._pending is None:
             raise RuntimeError("call predict(u) before update(z): the fading factor scales the prediction's "
@@ -813,7 +816,8 @@ class FadingEKF(ExtendedKalmanFilter):
         u_col, self._pending = self._pending, None
         self._step(u_col, np.where(has, z, 0.0), has.astype(float))
 
-    def run(self, z: Any, u: Any = None, times: Any = None, *, keep_priors: bool = True) -> FadingResult:
+    def run(self, z: ArrayLike, u: ArrayLike | None = None, times: ArrayLike | None = None, *,
+            keep_priors: bool = True) -> FadingResult:
         """Predict with ``u[..., k, :]`` and update with ``z[..., k]`` for every step; return the history.
 
         ``z`` has shape (K,) or, batched, (M, K) (NaN: predict only); ``u`` (K, 2) or (M, K, 2) (``None``: no

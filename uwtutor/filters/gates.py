@@ -26,7 +26,7 @@ for any state; paper E's line-fit re-acquisition (``uwtutor.filters.RobustGate``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Literal, Sequence, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -242,7 +242,8 @@ class ChiSquareGate(Gate):
         if self.per_component:
             var = np.diagonal(ctx.S, axis1=-2, axis2=-1)
             with np.errstate(invalid="ignore", divide="ignore"):
-                return ctx.y**2 / var <= self.threshold(1)            # NaN (missing): False
+                inside: np.ndarray = ctx.y**2 / var <= self.threshold(1)      # NaN (missing): False
+            return inside
         present = ctx.present
         if present is None or present.all():
             nis = normalized_innovation_squared(ctx.y, ctx.S)
@@ -353,7 +354,7 @@ class ReacquiringGate(Gate):
     extra_outputs = ("rejected", "inflated", "forced")
 
     def __init__(self, test: Gate | None = None, *, patience: int = 5, factor: ArrayLike = 10.0,
-                 states: Any = None, force: bool = True, max_variance: ArrayLike = 1e10) -> None:
+                 states: Sequence[int] | None = None, force: bool = True, max_variance: ArrayLike = 1e10) -> None:
         if test is None:
             test = ChiSquareGate(0.99)
         if not isinstance(test, Gate):
@@ -365,12 +366,12 @@ class ReacquiringGate(Gate):
         if not lam > 1.0:
             raise ValueError(f"factor must be > 1 (the covariance is multiplied by it); got {lam:g}")
         self.factor = lam
+        self.states: np.ndarray | None = None          # the indices (k,), or None for all
         if states is not None:
             idx = [as_int("states", i, minimum=0) for i in np.atleast_1d(np.asarray(states)).tolist()]
             if not idx or len(set(idx)) != len(idx):
                 raise ValueError(f"states must be distinct state indices; got {idx}")
-            states = np.array(idx)
-        self.states = states
+            self.states = np.array(idx)
         self.force = as_flag("force", force)
         cap = float(as_finite("max_variance", max_variance, ndim=0))
         if not cap > 0:
@@ -492,11 +493,12 @@ class SecondMomentGate(Gate):
             D = (np.sum(np.where(present, np.diagonal(ctx.S, axis1=-2, axis2=-1), 0.0), axis=-1)
                  + np.sum(np.where(present, ctx.z_pred, 0.0) ** 2, axis=-1))
         with np.errstate(invalid="ignore"):
-            return (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
+            inside: np.ndarray = (zz >= (1.0 - self.delta) * D) & (zz <= (1.0 + self.delta) * D)
+        return inside
 
 
 def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
-                         delta: Any = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                         delta: float = 0.03) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     r"""The innovations :math:`y = z - \hat z` that paper E's test accepts for a scalar measurement :math:`z > 0`.
 
     .. math::
@@ -534,7 +536,11 @@ def moment_gate_interval(z_pred: ArrayLike, S: ArrayLike,
     return np.sqrt((1.0 - d) * D) - zp, np.sqrt((1.0 + d) * D) - zp
 
 
-def make_test(test: Any, *, delta: Any = 0.03, probability: Any = 0.99) -> Gate | None:
+#: What :func:`make_test` takes: a test by its name, or a :class:`Gate` itself.
+TestChoice: TypeAlias = 'Literal["paper", "chi2", "none"] | Gate'
+
+
+def make_test(test: TestChoice, *, delta: float = 0.03, probability: float = 0.99) -> Gate | None:
     """The gate named by ``test``: ``"paper"`` (``SecondMomentGate(delta)``), ``"chi2"``
     (``ChiSquareGate(probability)``), ``"none"`` (None: every measurement used), or a ``Gate`` itself.
 

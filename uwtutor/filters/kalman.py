@@ -119,6 +119,8 @@ class KalmanFilter(ExtendedKalmanFilter):
         self._show_models()
 
     _parameters = ("F", "H", "Q", "R", "B")
+    motion: LinearMotion                            # the engine's model pair, linear here
+    measurement: LinearMeasurement
 
     def _show_models(self) -> None:
         shown = dict(F=self.motion._F, Q=self.motion._Q, B=self.motion._B, H=self.measurement._H,
@@ -143,7 +145,7 @@ class KalmanFilter(ExtendedKalmanFilter):
         self._show_models()
 
     @classmethod
-    def constant_velocity(cls, dt: float, q: float, r: float, x0: Any, P0: Any) -> "KalmanFilter":
+    def constant_velocity(cls, dt: float, q: float, r: float, x0: ArrayLike, P0: ArrayLike) -> "KalmanFilter":
         r"""A filter for a scalar that changes at a nearly constant rate, observed directly.
 
         State :math:`[s, \dot s]`; the rate is driven by *continuous* white-noise acceleration of power spectral

@@ -94,6 +94,8 @@ class DepthEKF(ExtendedKalmanFilter):
         self._config = dict(Q=Q, R=R, T=T)
 
     _parameters = ("Q", "R", "T")
+    motion: DepthSpeedPitch                         # the engine's model pair: paper C's
+    measurement: DepthSensors
 
     def _apply(self, name: str, value: Any) -> None:
         """A new ``Q``, ``R`` or ``T`` (base.Configurable): the models are built again with it, checked as in the
@@ -110,12 +112,14 @@ class DepthEKF(ExtendedKalmanFilter):
     @property
     def R(self) -> np.ndarray:
         """Sensor noise covariance (3, 3) (read-only; assign a new one to change it)."""
-        return readonly(self.measurement._R)
+        R = self.measurement._R
+        assert R is not None                        # one (3, 3) covariance: _depth_models refuses any other
+        return readonly(R)
 
     @property
     def T(self) -> float:
         """Sampling interval [s] (assign a new one to change it)."""
-        return float(self._config["T"])
+        return self.motion.T
 
 
 class LinearGaussianModel(ModelPair):
@@ -166,9 +170,10 @@ class LinearGaussianModel(ModelPair):
         if measurement.n != motion.n:
             raise ValueError(f"H must have {motion.n} columns to match F; got shape {measurement._H.shape}")
         super().__init__(motion, measurement)
+        self._linear = measurement
         self.F, self.H, self.Q, self.B = motion._F, measurement._H, motion._Q, motion._B
 
     @property
     def R(self) -> np.ndarray:
         """Measurement noise covariance ``(m, m)``."""
-        return self._measurement.R(None, 0)
+        return self._linear.R(None, 0)

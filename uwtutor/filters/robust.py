@@ -52,7 +52,6 @@ Wiley. Section 5.4 (gating).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -62,7 +61,8 @@ from ..errors import UwtutorWarning, warn
 from ..models.robust import ConstantVelocity, PositionMeasurement, step_lengths
 from .base import FilterResult
 from .engine import ExtendedKalmanFilter
-from .gates import RobustGate, SecondMomentGate, make_test, moment_gate_interval  # the gates live in filters.gates
+from .gates import (RobustGate, SecondMomentGate, TestChoice, make_test,    # the gates live in filters.gates
+                    moment_gate_interval)
 
 __all__ = [
     "SecondMomentGate",
@@ -94,10 +94,10 @@ def _initial_state(z: np.ndarray, var: np.ndarray, rate_sigma: float) -> tuple[n
     return x0, P0
 
 
-def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: Any = "paper", delta: Any = 0.03,
-                    probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = None,
-                    times: ArrayLike | None = None, x0: ArrayLike | None = None, P0: ArrayLike | None = None,
-                    initial_rate_sigma: float = 5.0) -> FilterResult:
+def robust_track_kf(z: ArrayLike, dt: float = 1.0, *, q: float, r: ArrayLike, test: TestChoice = "paper",
+                    delta: float = 0.03, probability: float = 0.99, on_outlier: str = "predict",
+                    reacquire: int | None = None, times: ArrayLike | None = None, x0: ArrayLike | None = None,
+                    P0: ArrayLike | None = None, initial_rate_sigma: float = 5.0) -> FilterResult:
     r"""A constant-velocity Kalman filter on a sequence of ``d``-vectors, with an outlier test (paper E).
 
     The state is :math:`[p, v]` (``models.robust.ConstantVelocity`` with acceleration variance ``q``), the
@@ -212,8 +212,8 @@ def robust_track_kf(z: ArrayLike, dt: Any = 1.0, *, q: Any, r: ArrayLike, test: 
     return FilterResult(times=res.times, extras=extras, **fields)
 
 
-def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: ArrayLike = 2.0, delta: Any = 0.03,
-                    test: Any = "paper", times: ArrayLike | None = None, probability: Any = 0.99,
+def robust_range_kf(ranges: ArrayLike, dt: float = 1.0, *, q: float = 2.0, r: ArrayLike = 2.0, delta: float = 0.03,
+                    test: TestChoice = "paper", times: ArrayLike | None = None, probability: float = 0.99,
                     on_outlier: str = "predict", reacquire: int | None = 20) -> FilterResult:
     r"""Paper E's range preprocessing: a Kalman filter on the range sequence that rejects outliers (sec. 1.1).
 
@@ -282,9 +282,9 @@ def robust_range_kf(ranges: ArrayLike, dt: Any = 1.0, *, q: Any = 2.0, r: ArrayL
                            on_outlier=on_outlier, reacquire=reacquire, times=times)
 
 
-def cascade_kf(fixes: ArrayLike, dt: Any = 1.0, *, q: Any = 1e-4, r: ArrayLike, test: Any = "chi2", delta: Any = 0.03,
-               probability: Any = 0.99, on_outlier: str = "predict", reacquire: int | None = 20,
-               times: Any = None) -> FilterResult:
+def cascade_kf(fixes: ArrayLike, dt: float = 1.0, *, q: float = 1e-4, r: ArrayLike, test: TestChoice = "chi2",
+               delta: float = 0.03, probability: float = 0.99, on_outlier: str = "predict", reacquire: int | None = 20,
+               times: ArrayLike | None = None) -> FilterResult:
     r"""Paper E's cascade Kalman filter on the least-squares fixes (sec. 1.3), with an outlier test.
 
     State :math:`[x, y, v_x, v_y]`, constant velocity with acceleration variance ``q`` (the submersible holds

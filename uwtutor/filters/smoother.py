@@ -153,8 +153,8 @@ def rts_smoother(result: FilterResult, motion: MotionModel, u: ArrayLike | None 
                          "default) to smooth it")
 
     def runs(a: Any) -> np.ndarray:
-        a = np.asarray(a, dtype=float)
-        return a if batched else a[None]
+        arr = np.asarray(a, dtype=float)
+        return arr if batched else arr[None]
 
     P, xp, Pp = runs(result.P), runs(result.x_prior), runs(result.P_prior)
     # the filter's covariances are the smoother's input: symmetric PSD (an indefinite P would come out negative

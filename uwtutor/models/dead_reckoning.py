@@ -19,6 +19,7 @@ caller gives them (``names=("range_bias",)``), so that a measurement model finds
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -125,7 +126,7 @@ class DeadReckoning(BlockMotion):
     difference = MotionModel.difference
     normalize = MotionModel.normalize
 
-    def __init__(self, Q: ArrayLike, *, names: Any = None) -> None:
+    def __init__(self, Q: ArrayLike, *, names: Sequence[str] | Mapping[str, int] | None = None) -> None:
         self._Q = as_covariance("Q", Q, allow_singular=True)
         if self._Q.ndim not in (2, 3) or self._Q.shape[-1] < 2:
             raise ValueError("Q must be one (n, n) matrix with n >= 2 (the position comes first), or one per step "

@@ -275,7 +275,8 @@ class DepthSpeedPitch(MotionModel):
 
     def Q(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         G = _jacobian(np.asarray(self._pre(x), dtype=float), self.T)
-        return G @ self.process_cov @ np.swapaxes(G, -1, -2)
+        Q: np.ndarray = G @ self.process_cov @ np.swapaxes(G, -1, -2)
+        return Q
 
     def sample_rows(self, rows: np.ndarray, rng: Any) -> np.ndarray:
         r"""Draw :math:`x_k = g(x_{k-1} + u_k)` for states stored component-major, ``rows`` of shape (M, 3, N).
@@ -351,7 +352,7 @@ class PitchManeuver(DepthSpeedPitch):
     """
 
     def __init__(self, pitch_target: float = 0.0, time_constant: float = 2.0, T: float = 0.05,
-                 process_std: Any = None, *, process_cov: Any = None) -> None:
+                 process_std: ArrayLike | None = None, *, process_cov: ArrayLike | None = None) -> None:
         super().__init__(T=T, process_std=process_std, process_cov=process_cov)
         self.pitch_target = as_scalar("pitch_target", pitch_target)
         self.time_constant = as_scalar("time_constant", time_constant, domain="positive")
@@ -450,11 +451,14 @@ class DepthSpeedPitchModel(ModelPair):
     True
     """
 
+    motion: DepthSpeedPitch                         # the pair's models: paper C's
+    _measurement: DepthSensors
+
     def __init__(self, T: float = 0.05, process_std: ArrayLike | None = None, R: ArrayLike | None = None) -> None:
         super().__init__(self._motion(T, process_std), DepthSensors(R))
         self._check_R()
 
-    def _motion(self, T: float, process_std: Any) -> DepthSpeedPitch:
+    def _motion(self, T: float, process_std: ArrayLike | None) -> DepthSpeedPitch:
         return DepthSpeedPitch(T=T, process_std=process_std)
 
     def _check_R(self) -> None:
@@ -476,10 +480,12 @@ class DepthSpeedPitchModel(ModelPair):
     @property
     def R(self) -> np.ndarray:
         """Sensor noise covariance ``(3, 3)`` (positive definite)."""
-        return self._measurement._R
+        R = self._measurement._R
+        assert R is not None                        # one (3, 3) covariance: _check_R refuses any other
+        return R
 
     @R.setter
-    def R(self, value: Any) -> None:
+    def R(self, value: ArrayLike | None) -> None:
         self._measurement = DepthSensors(value)
         self._check_R()
 
@@ -514,12 +520,14 @@ class PitchManeuverModel(DepthSpeedPitchModel):
     array([[10.00146,  2.     ,  0.01463]])
     """
 
+    motion: PitchManeuver
+
     def __init__(self, pitch_target: float = 0.0, time_constant: float = 2.0, T: float = 0.05,
-                 process_std: Any = None, R: Any = None) -> None:
+                 process_std: ArrayLike | None = None, R: ArrayLike | None = None) -> None:
         self._maneuver = (pitch_target, time_constant)
         super().__init__(T=T, process_std=process_std, R=R)
 
-    def _motion(self, T: float, process_std: Any) -> PitchManeuver:
+    def _motion(self, T: float, process_std: ArrayLike | None) -> PitchManeuver:
         target, tau = self._maneuver
         return PitchManeuver(pitch_target=target, time_constant=tau, T=T, process_std=process_std)
 

@@ -124,7 +124,7 @@ class LinearMeasurement(MeasurementModel):
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return np.broadcast_to(self._H, x.shape[:-1] + self._H.shape)
 
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+    def R(self, x: np.ndarray | None, k: int) -> np.ndarray:      # x unused (None will do): R is not the state's
         return self._R if self._R is not None else self._noise.at(k)
 
 

@@ -17,7 +17,7 @@ The two Gaussian computations every model shares by default (:mod:`uwtutor.model
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Callable, Sequence, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,7 +27,11 @@ from .._validate import as_flag, as_int, check_work
 __all__ = ["per_run_generators", "standard_normal_per_run", "psd_sqrt", "gaussian_noise", "gaussian_log_likelihood"]
 
 
-def per_run_generators(rng: Any, n_runs: int, *, spawn: bool = True) -> tuple[np.random.Generator, ...]:
+#: One Generator, or one per run: what the particle filters and :func:`per_run_generators` take as ``rng``.
+RunGenerators: TypeAlias = "np.random.Generator | Sequence[np.random.Generator]"
+
+
+def per_run_generators(rng: RunGenerators, n_runs: int, *, spawn: bool = True) -> tuple[np.random.Generator, ...]:
     """One Generator per run from ``rng``: a Generator or a sequence of ``n_runs`` Generators.
 
     Parameters
@@ -131,12 +135,14 @@ def psd_sqrt(Q: ArrayLike) -> np.ndarray:
     >>> np.allclose(L @ L.T, Q)
     True
     """
-    Q = np.asarray(Q, dtype=float)
+    Qa = np.asarray(Q, dtype=float)
+    root: np.ndarray
     try:
-        return np.linalg.cholesky(Q)
+        root = np.linalg.cholesky(Qa)
     except np.linalg.LinAlgError:
-        vals, vecs = np.linalg.eigh(Q)
-        return vecs * np.sqrt(np.clip(vals, 0.0, None))[..., None, :]
+        vals, vecs = np.linalg.eigh(Qa)
+        root = vecs * np.sqrt(np.clip(vals, 0.0, None))[..., None, :]
+    return root
 
 
 def gaussian_noise(L: np.ndarray, rngs: Sequence[np.random.Generator], shape: tuple[int, ...]) -> np.ndarray:
@@ -170,13 +176,17 @@ def gaussian_noise(L: np.ndarray, rngs: Sequence[np.random.Generator], shape: tu
     array([2., 0.])
     """
     eps = standard_normal_per_run(rngs, tuple(shape[1:]))
+    noise: np.ndarray
     if L.ndim == 2:
         if eps.shape[0] == 1:                                  # one run: a plain 2-D product
-            return (eps[0] @ L.T)[None] if eps.ndim == 3 else eps @ L.T
-        return eps @ L.T
-    if L.ndim == 3 and L.shape[0] == len(rngs) and eps.ndim == 3:      # one per run, (M, N, n)
-        return eps @ np.swapaxes(L, -1, -2)
-    return np.einsum("...ij,...j->...i", L, eps)
+            noise = (eps[0] @ L.T)[None] if eps.ndim == 3 else eps @ L.T
+        else:
+            noise = eps @ L.T
+    elif L.ndim == 3 and L.shape[0] == len(rngs) and eps.ndim == 3:    # one per run, (M, N, n)
+        noise = eps @ np.swapaxes(L, -1, -2)
+    else:
+        noise = np.einsum("...ij,...j->...i", L, eps)
+    return noise
 
 
 def _present_patterns(present: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -188,7 +198,8 @@ def _present_patterns(present: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]
     return [(np.flatnonzero(inverse == i), p) for i, p in enumerate(patterns) if p.any()]
 
 
-def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray, residual: Any = None) -> np.ndarray:
+def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray,
+                            residual: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     r"""The log-likelihood of ``z`` under :math:`N(h(x), R)` for many states, missing components marginalised out.
 
     .. math::
@@ -236,8 +247,9 @@ def gaussian_log_likelihood(hx: np.ndarray, z: np.ndarray, R: np.ndarray, residu
     present = ~np.isnan(z)
     per_state = R.ndim == 4
     out = np.zeros((M, N))
+    groups: Sequence[tuple[np.ndarray | None, np.ndarray]]     # (runs, components present); None: every run
     if present.all():
-        groups = [(None, None)]
+        groups = [(None, np.ones(m, dtype=bool))]
     else:
         groups = _present_patterns(present)
     for runs, pattern in groups:

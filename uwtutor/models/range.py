@@ -151,7 +151,8 @@ class RangeToBeacon(BlockMeasurement):
     m = 1
 
     def __init__(self, beacon: ArrayLike, R: ArrayLike, *, n: int | None = None, bias_index: int | None = None,
-                 state: Any = None, bias: str | None = None, position: str = "position") -> None:
+                 state: BlockMotion | StateLayout | None = None, bias: str | None = None,
+                 position: str = "position") -> None:
         if isinstance(beacon, dict):
             raise TypeError("beacon must be one beacon's position [x, y] (or its path); got a dict of beacons. For "
                             "ranges to several beacons at once use uwtutor.models.BeaconRanges(beacons, R)")

@@ -177,7 +177,7 @@ class PositionMeasurement(MeasurementModel):
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
         return np.broadcast_to(self._H, (x.shape[0],) + self._H.shape)
 
-    def R(self, x: np.ndarray, k: int) -> np.ndarray:
+    def R(self, x: np.ndarray | None, k: int) -> np.ndarray:      # x unused (None will do)
         if self._R.ndim == 2:
             return self._R
         if self._R.ndim == 3:

@@ -62,14 +62,16 @@ class DepthStudy:
     def rmse(self, name: str) -> np.ndarray:
         """RMSE over the runs at each step of filter ``name``, per component, shape (K, 3)."""
         err = self.estimates[name] - self.profile.truth
-        return np.sqrt(np.mean(err**2, axis=0))
+        rmse: np.ndarray = np.sqrt(np.mean(err**2, axis=0))
+        return rmse
 
-    def rmse_over(self, name: str, mask: Any = None) -> np.ndarray:
+    def rmse_over(self, name: str, mask: ArrayLike | None = None) -> np.ndarray:
         """RMSE over the runs and the steps selected by ``mask`` (all by default), per component, shape (3,)."""
         err = self.estimates[name] - self.profile.truth
         if mask is not None:
             err = err[:, np.asarray(mask, dtype=bool)]
-        return np.sqrt(np.mean(err**2, axis=(0, 1)))
+        rmse: np.ndarray = np.sqrt(np.mean(err**2, axis=(0, 1)))
+        return rmse
 
 
 def _mmpf_models(process_std: np.ndarray, T: float, targets_deg: np.ndarray,

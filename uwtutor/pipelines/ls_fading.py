@@ -5,7 +5,7 @@ turn, then the fading EKF from it (:func:`ls_fading_ekf`, its result :class:`LSF
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 from .._validate import (MAX_COORDINATE, as_covariance, as_finite, as_per_run_scalar, as_float_array, as_int,
                         as_range_array, as_scalar)
 from ..filters.base import FilterResult
+from ..lsq import Prelocation, PrelocationAcceptance
 from ..filters._packed import steps_and_times
 from ..filters.fading import FadingResult, fading_ekf
 from .staggered import filter_from_start_epochs
@@ -85,19 +86,21 @@ class LSFadingResult(FilterResult):
 
     start_epoch: np.ndarray
     mu_gamma: np.ndarray
-    prelocation: Any
-    acceptance: Any
+    prelocation: Prelocation
+    acceptance: PrelocationAcceptance
     filter_result: FadingResult
 
     @property
     def fading_factor(self) -> np.ndarray:
         r""":math:`\lambda_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
-        return self.extras["fading_factor"]
+        factor: np.ndarray = self.extras["fading_factor"]
+        return factor
 
     @property
     def weakening_factor(self) -> np.ndarray:
         r""":math:`\beta_k` of every epoch, shape (M, K) (NaN up to the start epoch)."""
-        return self.extras["weakening_factor"]
+        factor: np.ndarray = self.extras["weakening_factor"]
+        return factor
 
     @property
     def accepted(self) -> np.ndarray:
@@ -105,12 +108,13 @@ class LSFadingResult(FilterResult):
         return self.start_epoch < len(self.times)
 
 
-def ls_fading_ekf(P0: ArrayLike, dr_displacements: ArrayLike, ranges: ArrayLike, Q: ArrayLike, R: Any, *,
-                  mu_gamma: ArrayLike = "prelocation", sigma_gamma: Any = 0.0, rho: Any = 0.95, beta: Any = "range",
-                  fading: bool = True, assumed_speed: float = 1470.0, beacon: ArrayLike = (0.0, 0.0),
-                  times: ArrayLike | None = None, n_consecutive: int = 10, max_shift: Any = 50.0,
-                  min_heading_change: Any = np.deg2rad(10.0), prelocation: Any = None,
-                  acceptance: Any = None) -> LSFadingResult:
+def ls_fading_ekf(P0: ArrayLike, dr_displacements: ArrayLike, ranges: ArrayLike, Q: ArrayLike, R: float, *,
+                  mu_gamma: ArrayLike = "prelocation", sigma_gamma: float = 0.0, rho: float = 0.95,
+                  beta: Literal["range"] | float = "range", fading: bool = True, assumed_speed: float = 1470.0,
+                  beacon: ArrayLike = (0.0, 0.0), times: ArrayLike | None = None, n_consecutive: int = 10,
+                  max_shift: float = 50.0, min_heading_change: float = np.deg2rad(10.0),
+                  prelocation: Prelocation | None = None,
+                  acceptance: PrelocationAcceptance | None = None) -> LSFadingResult:
     r"""Paper D's LS-ISFEKF (and LS-EKF): grid-search pre-location, then a fading EKF started from it.
 
     1. **Pre-location** (``uwtutor.lsq.grid_prelocation``): at every epoch, the start bearing and sound-speed

@@ -11,7 +11,6 @@ chooses the epoch of the fix, :func:`uwtutor.lsq.prepositioning` computes it, an
 from __future__ import annotations
 
 import warnings
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -57,7 +56,7 @@ def _alpha_on_finite(provisional: np.ndarray, finite: np.ndarray, beacon: np.nda
 
 
 def prepositioned_bias_ekf(provisional_start: ArrayLike, P0: ArrayLike | None, dr_displacements: ArrayLike,
-                           ranges: ArrayLike, Q: ArrayLike, R: Any, *, max_alpha: ArrayLike = 2.0,
+                           ranges: ArrayLike, Q: ArrayLike, R: float, *, max_alpha: ArrayLike = 2.0,
                            beacon: ArrayLike = (0.0, 0.0), iterations: int = 3,
                            times: ArrayLike | None = None) -> FilterResult:
     r"""Paper A's pre-positioning, then its IEKF: every run starts at its first epoch with :math:`\alpha <`

@@ -12,7 +12,7 @@ to the epochs. ``uwtutor.pipelines.ls_fading_ekf`` (paper D) and ``uwtutor.pipel
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable, Generic, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -22,9 +22,12 @@ from ..filters.base import FilterResult
 
 __all__ = ["StaggeredRun", "filter_from_start_epochs"]
 
+#: The result type of the filter that was run (FilterResult or a subclass: FadingResult...)
+ResultT = TypeVar("ResultT", bound=FilterResult)
+
 
 @dataclass(frozen=True)
-class StaggeredRun:
+class StaggeredRun(Generic[ResultT]):
     """A filter started at a different epoch in every run (returned by :func:`filter_from_start_epochs`).
 
     Attributes
@@ -68,7 +71,7 @@ class StaggeredRun:
 
     start: np.ndarray
     runs: np.ndarray
-    filter_result: FilterResult
+    filter_result: ResultT
     n_epochs: int
 
     @property
@@ -76,7 +79,7 @@ class StaggeredRun:
         """``(M, K)``: True at the epochs after each run's start (where the filter's estimate applies)."""
         return np.arange(self.n_epochs)[None, :] > self.start[:, None]
 
-    def at_epochs(self, values: np.ndarray, before: Any) -> np.ndarray:
+    def at_epochs(self, values: ArrayLike, before: ArrayLike) -> np.ndarray:
         """A filter-time array of ``filter_result`` (its runs axis first) in epoch time, ``(M, K, ...)``:
         the filter's value after each run's start epoch and ``before`` (a scalar or an ``(M, K, ...)`` array) up
         to and including it, and in the runs that were not filtered."""
@@ -89,9 +92,10 @@ class StaggeredRun:
         return out
 
 
-def filter_from_start_epochs(filter_fn: Any, start: ArrayLike, x_start: ArrayLike, P_start: ArrayLike, u: ArrayLike,
-                             z: ArrayLike, *, per_run: dict[str, Any] | None = None, trim_padding: bool = False,
-                             **kwargs: Any) -> StaggeredRun:
+def filter_from_start_epochs(filter_fn: Callable[..., ResultT], start: ArrayLike, x_start: ArrayLike,
+                             P_start: ArrayLike, u: ArrayLike, z: ArrayLike, *,
+                             per_run: dict[str, ArrayLike] | None = None, trim_padding: bool = False,
+                             **kwargs: Any) -> StaggeredRun[ResultT]:
     r"""Run a batched filter in every run from its own start epoch, all runs in one call.
 
     Papers A and D start their filters only when a least-squares fix can be trusted (paper A: the precision

@@ -15,6 +15,7 @@ from .._validate import (MAX_COORDINATE, as_finite, as_int, as_nonnegative, as_r
                          as_scalar, check_work)
 from ..errors import IllConditionedWarning, warn as _warn
 from ..filters.base import FilterResult
+from ..filters.gates import TestChoice
 from ..filters.robust import cascade_kf, robust_range_kf
 from ..filters.smoother import SmootherResult, rts_smoother
 from ..models.robust import ConstantVelocity, step_lengths
@@ -124,7 +125,8 @@ class VMLBLResult:
     @property
     def fix_times(self) -> np.ndarray:
         """Times of the fixes [s], shape ``(J,)``."""
-        return self.times[self.now]
+        fix_times: np.ndarray = self.times[self.now]
+        return fix_times
 
     @property
     def fixes(self) -> np.ndarray:
@@ -137,9 +139,9 @@ class VMLBLResult:
         return self.track.x[..., :2]
 
 
-def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: float, dt: Any = 1.0,
+def or_vmlbl_kf(dr_positions: ArrayLike, ranges: ArrayLike, *, ship_positions: ArrayLike, depth: float, dt: float = 1.0,
                 times: ArrayLike | None = None, spacing: int = 100, n_epochs: int = 4, preprocess: bool = True,
-                range_options: dict[str, Any] | None = None, fix_q: Any = 1e-4, fix_test: Any = "chi2",
+                range_options: dict[str, Any] | None = None, fix_q: float = 1e-4, fix_test: TestChoice = "chi2",
                 fix_options: dict[str, Any] | None = None, smooth: bool = False,
                 range_result: FilterResult | None = None) -> VMLBLResult:
     r"""Paper E's OR-VMLBL-KF: ranges + ship positions + dead reckoning -> fixes -> filtered track.

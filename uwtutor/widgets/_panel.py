@@ -37,6 +37,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Sequence
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._cancel import Cancelled, cancel_when
@@ -51,7 +52,7 @@ __all__ = ["slider_panel", "figure_png", "BlitRenderer", "keep", "kept", "rescal
 REFINE_IN_BACKGROUND: bool | None = None
 
 
-def _agg_canvas(fig: Any) -> Any:
+def _agg_canvas(fig: Figure) -> Any:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     return fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
@@ -98,7 +99,7 @@ def _encode_png(canvas: Any) -> bytes:
     ])
 
 
-def figure_png(fig: Any) -> bytes:
+def figure_png(fig: Figure) -> bytes:
     """The figure as PNG bytes at its own resolution (``fig.dpi``), drawn by an Agg canvas kept on the figure.
 
     The canvas (and so its renderer and text caches) is made once per figure rather than once per picture, as
@@ -117,7 +118,7 @@ def figure_png(fig: Any) -> bytes:
     return _encode_png(canvas)
 
 
-def keep(fig: Any, **artists: Any) -> Any:
+def keep(fig: Figure, **artists: Any) -> Figure:
     """Remember the artists a plot function made on ``fig`` by name, for its ``update`` function; returns ``fig``.
 
     Examples
@@ -128,11 +129,11 @@ def keep(fig: Any, **artists: Any) -> Any:
     >>> keep(fig, line=line) is fig
     True
     """
-    fig._uwtutor_artists = artists
+    setattr(fig, "_uwtutor_artists", artists)      # noqa: B010 - an attribute of our own on matplotlib's Figure
     return fig
 
 
-def kept(fig: Any) -> dict[str, Any] | None:
+def kept(fig: Figure) -> dict[str, Any] | None:
     """The artists ``keep`` remembered on ``fig`` (``None`` if it has none).
 
     Examples
@@ -285,7 +286,7 @@ def rescale(*axes: Any, keep_within: float = 0.5, headroom: float = 0.15, decade
             (ax.set_xlim if i == 0 else ax.set_ylim)(*limits, auto=None)
 
 
-def _axes_signature(fig: Any) -> tuple:
+def _axes_signature(fig: Figure) -> tuple:
     """What the background of ``fig`` depends on besides its static artists: each axes' position, limits, scales
     (after the axes' aspect is applied, as drawing does)."""
     for ax in fig.axes:
@@ -358,7 +359,7 @@ class BlitRenderer:
     (True, True)
     """
 
-    def __init__(self, fig: Any) -> None:
+    def __init__(self, fig: Figure) -> None:
         self.fig = fig
         self.canvas = _agg_canvas(fig)
         self.background: Any = None
@@ -492,7 +493,7 @@ def _refine_in_background() -> bool:
     return _in_kernel() if REFINE_IN_BACKGROUND is None else bool(REFINE_IN_BACKGROUND)
 
 
-def _axes_state(fig: Any) -> list[tuple]:
+def _axes_state(fig: Figure) -> list[tuple]:
     """What an ``update`` reads of the axes besides the data (limits, autoscaling, the equal-aspect state kept by
     ``rescale``): taken before a coarse picture and put back before the full one, which ``rescale`` then fits as
     it would have without the coarse picture."""

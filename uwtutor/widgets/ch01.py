@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .. import acoustics, motion, ranging
@@ -92,26 +93,26 @@ def sound_speed_view(temperature: float = 10.0, salinity: float = 35.0, depth: f
     T = as_scalar("temperature", temperature)
     S = as_scalar("salinity", salinity)
     D = as_scalar("depth", depth, domain="nonnegative")
-    c = acoustics.sound_speed(T, S, D)
+    c = float(acoustics.sound_speed(T, S, D))            # scalar arguments: a float already
     steps = {"temperature": 0.01, "salinity": 0.01, "depth": 1.0}
     args = {"temperature": T, "salinity": S, "depth": D}
-    sens = {}
+    sens: dict[str, float] = {}
     for name, h in steps.items():
         lo, hi = dict(args), dict(args)
         lo[name] = max(args[name] - h, 0.0) if name == "depth" else args[name] - h  # no negative depth
         hi[name] = args[name] + h
-        sens[name] = (acoustics.sound_speed(**hi) - acoustics.sound_speed(**lo)) / (hi[name] - lo[name])
+        sens[name] = (float(acoustics.sound_speed(**hi)) - float(acoustics.sound_speed(**lo))) / (hi[name] - lo[name])
     temperatures = np.linspace(2.0, 30.0, 57)
     depths = np.linspace(0.0, 6000.0, 61)
     return SoundSpeedView(
         temperature=T, salinity=S, depth=D, speed=c, sensitivity=sens,
         range_error_per_km=1000.0 * (1500.0 / c - 1.0),
-        temperatures=temperatures, speed_vs_temperature=acoustics.sound_speed(temperatures, S, D),
-        depths=depths, speed_vs_depth=acoustics.sound_speed(T, S, depths),
+        temperatures=temperatures, speed_vs_temperature=np.asarray(acoustics.sound_speed(temperatures, S, D)),
+        depths=depths, speed_vs_depth=np.asarray(acoustics.sound_speed(T, S, depths)),
     )
 
 
-def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
+def plot_sound_speed_view(view: SoundSpeedView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`SoundSpeedView`: speed against temperature and against depth, the chosen point marked.
 
     Examples
@@ -143,7 +144,7 @@ def plot_sound_speed_view(view: SoundSpeedView, fig: Any = None) -> Any:
     return fig
 
 
-def _sound_speed_texts(view: SoundSpeedView, fig: Any, title: Any) -> list[Any]:
+def _sound_speed_texts(view: SoundSpeedView, fig: Figure, title: Any) -> list[Any]:
     ax_t, ax_d = fig.axes[:2]
     ax_t.set_title(f"S = {view.salinity:.1f} PSU, D = {view.depth:.0f} m", fontsize=9)
     ax_d.set_title(f"T = {view.temperature:.1f} °C, S = {view.salinity:.1f} PSU", fontsize=9)
@@ -151,7 +152,7 @@ def _sound_speed_texts(view: SoundSpeedView, fig: Any, title: Any) -> list[Any]:
     return [ax_t.title, ax_d.title, title]
 
 
-def update_sound_speed_view(fig: Any, view: SoundSpeedView) -> list[Any] | None:
+def update_sound_speed_view(fig: Figure, view: SoundSpeedView) -> list[Any] | None:
     """Put another :class:`SoundSpeedView` into a figure drawn by ``plot_sound_speed_view``; returns what changed
     (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)
@@ -255,21 +256,21 @@ def range_error_view(noise_sigma: float = 0.7, assumed_speed: float = 1470.0, bi
     rng = np.random.default_rng(as_seed("seed", seed))    # never OS entropy: the figure is reproducible
     times = np.arange(0.0, 1500.0 + 1e-9, 10.0)
     track = motion.straight_track(times, start=(-3000.0, 400.0), speed=2.0, heading=0.0)
-    true_ranges = ranging.horizontal_range(track.positions, (0.0, 0.0))
+    true_ranges = np.asarray(ranging.horizontal_range(track.positions, (0.0, 0.0)))     # (K,): an array already
     models = {
         "additive": ranging.GaussianNoise(noise_sigma),
         "multiplicative": ranging.SoundSpeedMismatch(true_speed=1500.0, assumed_speed=assumed_speed, speed_sigma=1.0),
         "slow bias": ranging.SlowBias(mean=bias_mean, sigma=bias_sigma, time_constant=bias_time_constant),
-        "outliers": (ranging.Outliers(onset_times=[400.0], count=5, amplitude=outlier_amplitude)
-                     + ranging.Outliers(onset_times=[1000.0], count=8, amplitude=outlier_amplitude,
+        "outliers": (ranging.Outliers(onset_times=(400.0,), count=5, amplitude=outlier_amplitude)
+                     + ranging.Outliers(onset_times=(1000.0,), count=8, amplitude=outlier_amplitude,
                                         two_sided=True)),
     }
     errors = {name: model.sample(true_ranges, times, rng) for name, model in models.items()}
-    errors["total"] = sum(errors.values())
+    errors["total"] = sum(errors.values(), np.zeros(len(times)))
     return RangeErrorView(times=times, true_ranges=true_ranges, errors=errors)
 
 
-def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
+def plot_range_error_view(view: RangeErrorView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`RangeErrorView`: each model's error over time, and their sum against the true range.
 
     Examples
@@ -297,7 +298,7 @@ def plot_range_error_view(view: RangeErrorView, fig: Any = None) -> Any:
     return keep(fig, lines=lines, total=total)
 
 
-def update_range_error_view(fig: Any, view: RangeErrorView) -> list[Any] | None:
+def update_range_error_view(fig: Figure, view: RangeErrorView) -> list[Any] | None:
     """Put another :class:`RangeErrorView` into a figure drawn by ``plot_range_error_view``; returns what changed
     (``None`` for a figure that function did not draw: it is drawn anew)."""
     a = kept(fig)

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 import numpy as np
 
 from .. import motion, observability
@@ -197,15 +199,17 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
     beacon = np.zeros(2)
     p, mirror = _track_and_mirror(track, theta, times, beacon)
     misfit = np.hypot(*(mirror - beacon).T) - np.hypot(*(p - beacon).T)
-    ranks, n_states, rmse = {}, {}, {}
+    ranks: dict[str, np.ndarray] = {}            # per epoch (a track of K positions gives arrays)
+    rmse: dict[str, np.ndarray] = {}
+    n_states: dict[str, int] = {}
     crlb = np.empty((len(times), 2, 2))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", observability.UnobservableWarning)
         for name, flags in _STATE_FLAGS.items():
             bound = observability.track_crlb(p, beacon, s, times=times, **flags)
-            ranks[name] = observability.observability_rank(p, beacon, times=times, **flags)
+            ranks[name] = np.asarray(observability.observability_rank(p, beacon, times=times, **flags))
             n_states[name] = bound.shape[-1]
-            rmse[name] = observability.rmse_bound(bound)
+            rmse[name] = np.asarray(observability.rmse_bound(bound))
             if name == state:
                 crlb = bound[:, :2, :2].copy()
     return ObservabilityView(track=track, turn_angle_deg=theta, sigma=s, state=state, times=times, positions=p,
@@ -213,7 +217,7 @@ def observability_view(track: str = "straight + turn", turn_angle_deg: float = 6
                              n_states=n_states, rmse=rmse, crlb=crlb)
 
 
-def plot_observability_view(view: ObservabilityView, fig: Any = None,
+def plot_observability_view(view: ObservabilityView, fig: Figure | None = None,
                             frame: tuple[float, float, float, float] | None = None) -> Any:
     """Draw an ``ObservabilityView``: the track with its mirror and CRLB ellipses, the mirror's range misfit, the
     rank of the information over time and the RMSE bound of each choice of unknowns.
@@ -321,7 +325,7 @@ def _ellipse_label(view: ObservabilityView, drawn: bool) -> str:
     return f"CRLB 1σ ×{ELLIPSE_SCALE:g} ({view.state})" if drawn else f"{view.state}: no finite bound"
 
 
-def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | None:
+def update_observability_view(fig: Figure, view: ObservabilityView) -> list[Any] | None:
     """Put another ``ObservabilityView`` into a figure drawn by ``plot_observability_view``; returns what changed.
 
     Other unknowns, another track and another number of finite ellipses (none among them) are all put in place:
@@ -344,7 +348,10 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
         line.set_color(color)
     # the map legend is redrawn at every update (so never kept in the background, where its old entry would show)
     map_legend = ax_map.get_legend()
-    map_legend.legend_handles[-1].set_color(color)
+    assert map_legend is not None                   # plot_observability_view draws it
+    ellipse_handle = map_legend.legend_handles[-1]
+    assert isinstance(ellipse_handle, Line2D)       # the handle of a plotted line
+    ellipse_handle.set_color(color)
     map_legend.get_texts()[-1].set_text(_ellipse_label(view, bool(ellipses)))
     a["state"] = view.state
     pts = np.vstack([view.positions, view.mirror_positions, view.beacon[None, :]])
@@ -363,6 +370,7 @@ def update_observability_view(fig: Any, view: ObservabilityView) -> list[Any] | 
     a["misfit"].set_ydata(np.maximum(np.abs(view.mirror_misfit), 0.1))
     a["noise"].set_ydata([view.sigma, view.sigma])
     legend = ax_mis.get_legend()
+    assert legend is not None                       # plot_observability_view draws it
     legend.get_texts()[1].set_text(f"range noise σ = {view.sigma:g} m")
     ax_mis.set_title(f"mirror track: ranges off by {abs(view.mirror_misfit[-1]):.0f} m at the end", fontsize=8)
     for i, (line, r) in enumerate(zip(a["ranks"], view.ranks.values())):

@@ -8,7 +8,9 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .. import lsq, observability, scenarios
 from .._validate import as_int, as_positive, as_scalar, as_seed, check_work
@@ -171,7 +173,7 @@ def precision_view(n_obs: int = 236, turn_deg: float = 90.0, radius: float = 150
                          errors=errors, rmse=rmse, well_conditioned=bool(np.all(fix.well_conditioned)))
 
 
-def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray:
+def covariance_ellipse(cov: ArrayLike, scale: float = 1.0, n: int = 100) -> np.ndarray:
     """Points ``(n, 2)`` of the ellipse of a 2x2 covariance, ``scale`` standard deviations from its centre (0, 0)
     (:func:`uwtutor.observability.error_ellipse`, under the name the chapter uses).
 
@@ -187,7 +189,7 @@ def covariance_ellipse(cov: Any, scale: float = 1.0, n: int = 100) -> np.ndarray
     return observability.error_ellipse(cov, scale=scale, n_points=n)
 
 
-def plot_precision_view(view: PrecisionView, fig: Any = None) -> Any:
+def plot_precision_view(view: PrecisionView, fig: Figure | None = None) -> Figure:
     """Draw a ``PrecisionView``: alpha against the number of ranges, and the scatter of the fixes' errors.
 
     Examples
@@ -237,7 +239,7 @@ def _precision_titles(view: PrecisionView, ax_a: Any, ax_e: Any) -> list[Any]:
     return [ax_a.title, ax_e.title]
 
 
-def update_precision_view(fig: Any, view: PrecisionView) -> list[Any] | None:
+def update_precision_view(fig: Figure, view: PrecisionView) -> list[Any] | None:
     """Put another ``PrecisionView`` into a figure drawn by ``plot_precision_view``; returns what changed, or
     ``None`` when the figure must be drawn anew (a fix or its ellipse appears or disappears)."""
     a = kept(fig)
@@ -444,7 +446,7 @@ def prelocation_view(bearing_step_deg: float = 2.0, speed_step: float = 10.0, ep
         runner_up_track=runner_track, error=float(np.linalg.norm(pre.position[-1] - run.true_positions[k])))
 
 
-def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
+def plot_prelocation_view(view: PrelocationView, fig: Figure | None = None) -> Figure:
     """Draw a ``PrelocationView``: the cost map with its minima, and the pre-located track against the truth.
 
     Examples
@@ -491,7 +493,7 @@ def plot_prelocation_view(view: PrelocationView, fig: Any = None) -> Any:
     return keep(fig, image=im, best=best, runner=runner, track=track, runner_track=runner_track, now=now)
 
 
-def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None:
+def update_prelocation_view(fig: Figure, view: PrelocationView) -> list[Any] | None:
     """Put another ``PrelocationView`` into a figure drawn by ``plot_prelocation_view``; returns what changed, or
     ``None`` when it must be drawn anew (a runner-up appearing or disappearing)."""
     a = kept(fig)
@@ -517,10 +519,12 @@ def update_prelocation_view(fig: Any, view: PrelocationView) -> list[Any] | None
     a["track"].set_data(*view.estimated_track.T)
     a["now"].set_data([view.true_track[view.epoch][0]], [view.true_track[view.epoch][1]])
     changed = [a["image"], a["best"], a["track"], a["now"]]
-    if view.runner_up is not None:
+    if view.runner_up is not None:                  # (the two are None together: drawn as the figure draws them)
         a["runner"].set_data([view.runner_up[0]], [view.runner_up[1]])
+        changed.append(a["runner"])
+    if view.runner_up_track is not None:
         a["runner_track"].set_data(*view.runner_up_track.T)
-        changed += [a["runner"], a["runner_track"]]
+        changed.append(a["runner_track"])
     ax_c.set_title(f"cost after {view.epoch + 1} epochs (t = {view.time:.0f} s)", fontsize=9)
     ax_t.set_title(f"error now {view.error:.0f} m", fontsize=9)
     rescale(ax_t)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .. import scenarios
@@ -155,14 +156,17 @@ def ekf_view(initial_error: float = 30.0, q_scale: float = 1.0, r_scale: float =
                             Q=np.eye(2) * qs * DR_VARIANCE, R=rs * RANGE_VARIANCE)
     if study.mean_nis is None or study.nis_bounds is None:      # pragma: no cover - the EKF reports innovations
         raise RuntimeError("the EKF reported no innovations")
+    nees_lo, nees_hi = study.nees_bounds            # floats (one count of runs at every step)
+    nis_lo, nis_hi = study.nis_bounds               # arrays (K,): the count of ranges per step
     return EKFView(initial_error=p0, q_scale=qs, r_scale=rs, bias=b, times=np.array(sc.times), truth=truth,
                    estimates=np.array(study.x[:min(shown, M)]), rmse=study.rmse, mean_nees=study.mean_nees,
-                   nees_bounds=study.nees_bounds, mean_nis=study.mean_nis, nis_bounds=study.nis_bounds,
+                   nees_bounds=(float(nees_lo), float(nees_hi)), mean_nis=study.mean_nis,
+                   nis_bounds=(np.asarray(nis_lo), np.asarray(nis_hi)),
                    nees_fraction_within=study.nees_fraction_within(),
                    nis_fraction_within=study.nis_fraction_within(), n_runs=M)
 
 
-def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
+def plot_ekf_view(view: EKFView, fig: Figure | None = None) -> Figure:
     """Draw an ``EKFView``: a few estimated tracks, the RMSE over time, and the mean NEES against its bounds.
 
     Examples
@@ -207,7 +211,7 @@ def plot_ekf_view(view: EKFView, fig: Any = None) -> Any:
     return fig
 
 
-def _ekf_texts(view: EKFView, fig: Any, inside: Any) -> list[Any]:
+def _ekf_texts(view: EKFView, fig: Figure, inside: Any) -> list[Any]:
     ax_r = fig.axes[1]
     # rounded as the sliders show them (three significant digits on the log sliders)
     ax_r.set_title(f"P₀ = ({view.initial_error:.0f} m)², Q×{view.q_scale:.3g}, R×{view.r_scale:.3g}, "
@@ -216,7 +220,7 @@ def _ekf_texts(view: EKFView, fig: Any, inside: Any) -> list[Any]:
     return [ax_r.title, inside]
 
 
-def update_ekf_view(fig: Any, view: EKFView) -> list[Any] | None:
+def update_ekf_view(fig: Figure, view: EKFView) -> list[Any] | None:
     """Put another ``EKFView`` into a figure drawn by ``plot_ekf_view``; returns what changed (``None``: draw anew)."""
     a = kept(fig)
     if a is None:                   # not a figure the plot function drew: draw it anew

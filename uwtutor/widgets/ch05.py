@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from ..scenarios import paper_d
@@ -208,7 +209,7 @@ def fading_view(assumed_dc: float = -30.0, rho: float = 0.95, weakening: bool = 
                       steady_rmse={"fading": rf, "ekf": re}, steady_median={"fading": mf, "ekf": me})
 
 
-def plot_fading_view(view: FadingView, fig: Any = None) -> Any:
+def plot_fading_view(view: FadingView, fig: Figure | None = None) -> Figure:
     """Draw a ``FadingView``: the tracks of the displayed run, the error over time (RMS and median over the runs)
     and the fading factor of the displayed run.
 
@@ -259,7 +260,7 @@ def _fading_titles(view: FadingView, ax_err: Any, ax_lam: Any) -> list[Any]:
     return [ax_err.title, ax_lam.title]
 
 
-def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
+def update_fading_view(fig: Figure, view: FadingView) -> list[Any] | None:
     """Put another ``FadingView`` into a figure drawn by ``plot_fading_view``; returns what changed (the
     legends among them: the fading filter's name changes with the weakening factor)."""
     a = kept(fig)
@@ -268,7 +269,9 @@ def update_fading_view(fig: Any, view: FadingView) -> list[Any] | None:
     ax_map, ax_err, ax_lam = fig.axes[:3]
     # both legends are redrawn at every update, so never kept in the background (where the old name would show
     # under the new one)
-    legends = [ax_map.get_legend(), ax_err.get_legend()]
+    map_legend, err_legend = ax_map.get_legend(), ax_err.get_legend()
+    assert map_legend is not None and err_legend is not None     # plot_fading_view draws both
+    legends = [map_legend, err_legend]
     if a["weakening"] != view.weakening:            # the fading filter's name changes in both legends
         old, new = (_fading_name(w) for w in (a["weakening"], view.weakening))
         for legend in legends:
@@ -301,7 +304,8 @@ def _factor_peak(factor: np.ndarray) -> float:
 
 def _factor_top(factor: np.ndarray) -> float:
     """The top of the fading-factor panel: the decade above the largest factor (with its margin), at least 10."""
-    return max(10.0, 10.0 ** float(np.ceil(np.log10(_factor_peak(factor)))))
+    decade: float = 10.0 ** float(np.ceil(np.log10(_factor_peak(factor))))
+    return max(10.0, decade)
 
 
 def _fading_name(weakening: bool) -> str:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_int, as_scalar, check_work, readonly
@@ -93,10 +94,10 @@ _NOISE_CHANGE_AT = 13.0
 
 #: The filters' state at the noise change and their results before it, with the readings they ran over, by
 #: filter and settings (the last few): a new change runs them over the readings after it only.
-_BEFORE_CHANGE: dict[tuple, tuple[np.ndarray, Any, Any]] = {}
+_BEFORE_CHANGE: dict[tuple[Any, ...], tuple[np.ndarray, Any, Any]] = {}
 
 
-def _over_the_change(key: tuple, make: Callable[[], Any], z: np.ndarray, split: int) -> tuple[Any, Any]:
+def _over_the_change(key: tuple[Any, ...], make: Callable[[], Any], z: np.ndarray, split: int) -> tuple[Any, Any]:
     """The run of the filter ``make()`` over the readings ``z``, in two parts: its results over the first ``split``
     readings and over the rest. The first part is taken from ``_BEFORE_CHANGE[key]`` when it ran over these same
     readings (a copy of the filter as it stood then runs the rest): a step depends on the steps before it only, so
@@ -200,7 +201,7 @@ def gpf_view(n_particles: int = 200, grey_fraction: float = 0.1, noise_window: i
                    true_noise_std=profile.sensor_std, n_particles=N, n_grey=int(round(grey_fraction * N)))
 
 
-def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
+def plot_gpf_view(view: GPFView, fig: Figure | None = None) -> Figure:
     """Draw a :class:`GPFView`: pitch estimates, the wavelet noise estimate, the ESS, and the RMSE bars.
 
     Examples
@@ -250,7 +251,7 @@ def plot_gpf_view(view: GPFView, fig: Any = None) -> Any:
 _RMSE_SCALE = np.array([100.0, 100.0, 10 * 180 / np.pi])
 
 
-def update_gpf_view(fig: Any, view: GPFView) -> list[Any] | None:
+def update_gpf_view(fig: Figure, view: GPFView) -> list[Any] | None:
     """Put another :class:`GPFView` into a figure drawn by ``plot_gpf_view``; returns what changed."""
     a = kept(fig)
     if a is None:                   # not a figure the plot function drew: draw it anew

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_int, as_scalar, as_seed, check_work
@@ -98,7 +99,7 @@ def _scenario(M: int, K: int, seed: int) -> tuple[Any, Any, np.ndarray, np.ndarr
 
 
 #: The curves of ``_from_the_start`` computed, by arguments (the last 64).
-_CURVES: dict[tuple, np.ndarray] = {}
+_CURVES: dict[tuple[Any, ...], np.ndarray] = {}
 
 
 def _from_the_start(rate: float, d0: float, M: int, K: int, seed: int, epochs: int | None = None) -> np.ndarray:
@@ -123,7 +124,7 @@ def _run_from_the_start(rate: float, d0: float, M: int, K: int, seed: int, epoch
     start = truth[0] + d0 * direction
     plain = bias_ekf(np.column_stack([start, np.zeros(M)]), np.eye(3), np.asarray(sc.dr_displacements)[:, n], z,
                      paper_a_process_noise(params.dr_sigma), params.noise_variance, times=t, keep_priors=False)
-    rmse = np.sqrt(np.mean(np.sum((plain.x[..., :2] - truth) ** 2, axis=-1), axis=0))
+    rmse: np.ndarray = np.sqrt(np.mean(np.sum((plain.x[..., :2] - truth) ** 2, axis=-1), axis=0))
     rmse.setflags(write=False)
     return rmse
 
@@ -233,7 +234,7 @@ def _view(rate: float, d0: float, a_max: float, M: int, K: int, seed: int,
                             epochs_run=epochs)
 
 
-def plot_bias_tracking_view(view: BiasTrackingView, fig: Any = None) -> Any:
+def plot_bias_tracking_view(view: BiasTrackingView, fig: Figure | None = None) -> Figure:
     """Draw a ``BiasTrackingView``: the track of run 0, its bias estimate with ±2σ, and the RMSE of both starts.
 
     Examples
@@ -289,7 +290,7 @@ def _bias_tracking_title(view: BiasTrackingView, ax_b: Any) -> Any:
     return ax_b.title
 
 
-def update_bias_tracking_view(fig: Any, view: BiasTrackingView) -> list[Any] | None:
+def update_bias_tracking_view(fig: Figure, view: BiasTrackingView) -> list[Any] | None:
     """Put another ``BiasTrackingView`` into a figure drawn by ``plot_bias_tracking_view``; returns what changed
     (``None``, to draw anew, when the pre-positioning fix of run 0 appears or disappears; in a partial view, see
     ``BiasTrackingView.epochs_run``, a fix not reached yet is hidden instead)."""
@@ -347,7 +348,7 @@ def bias_tracking_widget() -> Any:
                                       continuous_update=False, style=style),
     }
     view = functools.lru_cache(maxsize=256)(bias_tracking_view)
-    full: dict[tuple, BiasTrackingView] = {}           # the full answers computed, by setting (as view's cache)
+    full: dict[tuple[Any, ...], BiasTrackingView] = {}  # the full answers computed, by setting (as view's cache)
 
     def answer(coarse: bool, drift_rate: float, initial_error: float, max_alpha: float) -> BiasTrackingView:
         key = (drift_rate, initial_error, max_alpha)

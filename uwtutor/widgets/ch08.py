@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_finite, as_int
@@ -213,7 +214,7 @@ def _view(pattern: str, speed: float, dt: float, loss: float, tuning: str, M: in
                            lost_fraction=lost_fraction, unobservable=unobservable, epochs_run=epochs)
 
 
-def plot_cooperative_view(view: CooperativeView, fig: Any = None) -> Any:
+def plot_cooperative_view(view: CooperativeView, fig: Figure | None = None) -> Figure:
     """Draw a ``CooperativeView``: the tracks of run 0, its current estimate with ±2σ, and the median position
     error over the runs.
 
@@ -292,7 +293,7 @@ def _cooperative_titles(view: CooperativeView, ax_map: Any, ax_err: Any) -> list
     return [ax_map.title, ax_err.title]
 
 
-def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None:
+def update_cooperative_view(fig: Figure, view: CooperativeView) -> list[Any] | None:
     """Put another ``CooperativeView`` into a figure drawn by ``plot_cooperative_view``; returns what changed."""
     a = kept(fig)
     if a is None:                                   # not a figure plot_cooperative_view drew: draw it anew
@@ -316,7 +317,9 @@ def update_cooperative_view(fig: Any, view: CooperativeView) -> list[Any] | None
     a["median"].set_data(t, np.maximum(view.median_error, 1e-2))
     t_low, t_high = ax_err.get_xlim()
     if not (t_low <= t[0] and t[-1] <= t_high and t[-1] - t[0] >= 0.5 * (t_high - t_low)):
-        margin = ax_err.margins()[0] * (t[-1] - t[0])       # as autoscaling placed them at the first drawing
+        margins = ax_err.margins()                          # (no argument: it reads them)
+        assert margins is not None                          # (margins() without arguments returns them)
+        margin = margins[0] * (t[-1] - t[0])                 # as autoscaling placed them at the first drawing
         ax_err.set_xlim(t[0] - margin, t[-1] + margin)
     rescale(ax_map)
     # kept while the median error fits (the widget gives the axis room for most settings), refitted when it does not
@@ -351,7 +354,7 @@ def cooperative_widget() -> Any:
     # 30 runs per setting rather than the chapter's 100 (the figure's title says how many): the median error and the
     # lost share keep their story and a move costs less than half the time
     view = functools.lru_cache(maxsize=256)(functools.partial(cooperative_view, n_runs=WIDGET_RUNS))
-    full: dict[tuple, CooperativeView] = {}            # the full answers computed, by setting (as view's cache)
+    full: dict[tuple[Any, ...], CooperativeView] = {}   # the full answers computed, by setting (as view's cache)
 
     def answer(coarse: bool, **p: Any) -> CooperativeView:
         key = tuple(p.values())
@@ -363,7 +366,7 @@ def cooperative_widget() -> Any:
     def refine(**p: Any) -> Callable[[], Any] | None:
         return None if tuple(p.values()) in full else functools.partial(answer, False, **p)
 
-    def draw(fig: Any, coarse: bool, **p: Any) -> Any:
+    def draw(fig: Figure, coarse: bool, **p: Any) -> Any:
         fig = plot_cooperative_view(answer(coarse, **p), fig)
         _room_for_every_setting(fig, sliders["current"].max)
         return fig
@@ -372,7 +375,7 @@ def cooperative_widget() -> Any:
                         refine=refine)
 
 
-def _room_for_every_setting(fig: Any, max_current: float) -> None:
+def _room_for_every_setting(fig: Figure, max_current: float) -> None:
     """Give the widget's axes limits that most settings fit in, so that a move redraws no axes (their pixels are
     kept, see ``_panel.BlitRenderer``): the map holds, unseen, the tracks of every leader pattern with and without
     the strongest current (``update_cooperative_view`` keeps limits while the data fits them); the current axes the

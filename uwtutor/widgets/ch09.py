@@ -11,16 +11,18 @@ from __future__ import annotations
 import functools
 import warnings
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_finite, as_int
 from ..errors import IllConditionedWarning
+from ..filters.base import FilterResult
 from ..filters.robust import robust_range_kf
 from ..pipelines import or_vmlbl_kf
-from ..ranging import Outliers
+from ..ranging import Outliers, RangeErrorModel
 from ..scenarios import paper_e
 from ._panel import keep, kept, rescale, slider_panel
 
@@ -106,7 +108,7 @@ class OutlierView:
 
 
 @functools.lru_cache(maxsize=4)
-def _dive(seed: int) -> tuple[Any, dict]:
+def _dive(seed: int) -> tuple[paper_e.Dive, Mapping[str, Any]]:
     """Paper E's dive for this seed and the state of the stream after it (no control changes them; kept for the
     widget's next setting, never modified)."""
     rng = np.random.default_rng(seed)
@@ -114,10 +116,10 @@ def _dive(seed: int) -> tuple[Any, dict]:
     return dive, rng.bit_generator.state
 
 
-_PLAIN: dict[tuple, Any] = {}
+_PLAIN: dict[tuple[float, str, int], FilterResult] = {}
 
 
-def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) -> Any:
+def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) -> FilterResult:
     """The standard KF on these ranges, which depend on the outliers alone (not on the test, δ, the spacing or
     re-acquisition): kept for the last few outlier settings."""
     key = (amplitude, pattern, seed)
@@ -128,7 +130,8 @@ def _standard_kf(amplitude: float, pattern: str, seed: int, ranges: np.ndarray) 
     return _PLAIN[key]
 
 
-def _measured(a: float, pattern: str, seed: int) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _measured(a: float, pattern: str, seed: int) -> tuple[paper_e.Dive, np.ndarray, np.ndarray, np.ndarray,
+                                                          np.ndarray]:
     """The dive, its epoch times, true slant ranges, the measured ranges with the outliers, and the outliers' mask
     (checked arguments)."""
     dive, state = _dive(seed)
@@ -136,6 +139,7 @@ def _measured(a: float, pattern: str, seed: int) -> tuple[Any, np.ndarray, np.nd
     rng.bit_generator.state = state                     # where the stream stood after the dive was drawn
     times = np.asarray(dive.times)
     truth_r = np.asarray(dive.true_slant_ranges[0])
+    model: RangeErrorModel
     if pattern == "paper":
         model = Outliers((300.0,), 10, a) + Outliers((700.0,), 20, a, two_sided=True)
     elif pattern == "isolated":
@@ -161,16 +165,16 @@ def _measured_view(amplitude: float, pattern: str, delta: float, spacing: int, t
 
 
 #: The range filter's results, by (amplitude, pattern, seed, range options): the last few.
-_RANGE_RUNS: dict[tuple, Any] = {}
+_RANGE_RUNS: dict[tuple[float, str, int, float, str, bool], FilterResult] = {}
 
 
-def _range_run(key: tuple) -> Any:
+def _range_run(key: tuple[float, str, int, float, str, bool]) -> FilterResult | None:
     """The range filter's result kept for ``key`` (a new spacing reuses it: only the fixes and the cascade filter
     depend on the spacing), or None."""
     return _RANGE_RUNS.get(key)
 
 
-def _keep_range_run(key: tuple, result: Any) -> None:
+def _keep_range_run(key: tuple[float, str, int, float, str, bool], result: FilterResult) -> None:
     if len(_RANGE_RUNS) >= 16:
         _RANGE_RUNS.pop(next(iter(_RANGE_RUNS)), None)
     _RANGE_RUNS[key] = result
@@ -236,12 +240,14 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
         warnings.simplefilter("ignore", IllConditionedWarning)
         out = or_vmlbl_kf(dive.dr_positions[0], ranges, ship_positions=dive.ship_positions[0], depth=dive.depth,
                           spacing=s, range_options=options, range_result=_range_run(key))
-    _keep_range_run(key, out.ranges)
+    range_run = out.ranges
+    assert range_run is not None                    # preprocess=True (the default): the range filter ran
+    _keep_range_run(key, range_run)
     plain = _standard_kf(a, pattern, seed, ranges)
     truth = np.asarray(dive.true_positions[0])[out.now]
     fix_err = np.linalg.norm(out.fixes - truth, axis=-1)
     track_err = np.linalg.norm(out.filtered - truth, axis=-1)
-    flagged = np.asarray(out.ranges.extras["outlier"])
+    flagged = np.asarray(range_run.extras["outlier"])
     slant = truth_r[out.now]
 
     def rms(x: np.ndarray) -> float:
@@ -256,7 +262,7 @@ def outlier_view(amplitude: float = 80.0, pattern: str = "paper", delta: float =
     }
     return OutlierView(amplitude=a, pattern=pattern, delta=d, spacing=s, test=test, reacquire=bool(reacquire),
                        times=times, range_error=ranges - truth_r, plain_error=plain.x[:, 0] - truth_r,
-                       robust_error=out.ranges.x[:, 0] - truth_r, outlier=mask, flagged=flagged,
+                       robust_error=range_run.x[:, 0] - truth_r, outlier=mask, flagged=flagged,
                        fix_times=out.fix_times, fix_error=fix_err, track_error=track_err, summary=summary)
 
 
@@ -268,7 +274,7 @@ def _range_limit(view: OutlierView) -> float:
     return max(10.0, 1.6 * reach)
 
 
-def plot_outlier_view(view: OutlierView, fig: Any = None) -> Any:
+def plot_outlier_view(view: OutlierView, fig: Figure | None = None) -> Figure:
     """Draw an ``OutlierView``: range errors with the flags (top) and position errors of the fixes (bottom).
 
     Examples
@@ -318,7 +324,7 @@ def _outlier_titles(view: OutlierView, ax_r: Any, ax_p: Any) -> list[Any]:
     return [ax_r.title, ax_p.title]
 
 
-def update_outlier_view(fig: Any, view: OutlierView) -> list[Any] | None:
+def update_outlier_view(fig: Figure, view: OutlierView) -> list[Any] | None:
     """Put another ``OutlierView`` into a figure drawn by ``plot_outlier_view``; returns what changed (``None``, to
     draw anew, when the test changes: its name is in the legend; a view of the measured ranges alone, whose
     filter curves are hidden, leaves the legend to the full view that follows)."""
@@ -387,7 +393,7 @@ def outlier_widget() -> Any:
         "reacquire": w.Checkbox(value=True, description="re-acquire", style=style),
     }
     view = functools.lru_cache(maxsize=256)(outlier_view)
-    full: dict[tuple, OutlierView] = {}                 # the views computed, by setting (as view's cache)
+    full: dict[tuple[Any, ...], OutlierView] = {}                 # the views computed, by setting (as view's cache)
 
     def answer(coarse: bool, **p: Any) -> OutlierView:
         key = tuple(p.values())

@@ -11,13 +11,17 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 
 from .._validate import as_instance
 from ._panel import keep, kept, slider_panel
+
+if TYPE_CHECKING:
+    from ..montecarlo import ComparisonTable
 
 __all__ = ["ComparisonView", "comparison_view", "plot_comparison_view", "comparison_widget", "COMPUTE_FUNCTIONS"]
 
@@ -91,7 +95,8 @@ class ComparisonView:
     n_runs: int
 
 
-def comparison_view(scenario: str = "circle", condition: str = "white", table: Any = None) -> ComparisonView:
+def comparison_view(scenario: str = "circle", condition: str = "white",
+                    table: ComparisonTable | None = None) -> ComparisonView:
     """The rows of ``table`` (the committed comparison by default) for one scenario and condition.
 
     Examples
@@ -127,7 +132,7 @@ def comparison_view(scenario: str = "circle", condition: str = "white", table: A
                           n_runs=int(t.n_runs[rows[0]]))
 
 
-def plot_comparison_view(view: ComparisonView, fig: Any = None, method: str = "all") -> Any:
+def plot_comparison_view(view: ComparisonView, fig: Figure | None = None, method: str = "all") -> Figure:
     """RMSE over time of every method with the bound (left); median and 95th percentile final errors (right).
 
     ``method`` (a name of ``view.methods``) draws that method in red and the others in grey; ``"all"`` colours
@@ -195,7 +200,7 @@ def _color_tick_labels(ax_f: Any, colors: list[Any], method: str) -> None:
         label.set_color(color if method == "all" or color == "C3" else "0.45")
 
 
-def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") -> list[Any] | None:
+def update_comparison_view(fig: Figure, view: ComparisonView, method: str = "all") -> list[Any] | None:
     """Put another ``ComparisonView`` (and highlight) into a figure drawn by ``plot_comparison_view``, in place;
     returns the artists that changed (the method names on the right panel's y axis among them), or ``None`` when
     the scenario has other methods."""
@@ -232,7 +237,7 @@ def update_comparison_view(fig: Any, view: ComparisonView, method: str = "all") 
             ax_f.yaxis]
 
 
-def comparison_widget(table: Any = None) -> Any:
+def comparison_widget(table: ComparisonTable | None = None) -> Any:
     """Scenario, error condition and a method to highlight over the view (the committed table, or ``table``); a
     method that does not run on the chosen scenario highlights nothing.
 
@@ -259,7 +264,7 @@ def comparison_widget(table: Any = None) -> Any:
     def view(scenario: str, condition: str) -> ComparisonView:
         return comparison_view(scenario, condition, table=t)
 
-    def draw(fig: Any, scenario: str, condition: str, method: str) -> Any:
+    def draw(fig: Figure, scenario: str, condition: str, method: str) -> Any:
         v = view(scenario, condition)
         return plot_comparison_view(v, fig, method=method if method in v.methods else "all")
 
@@ -267,11 +272,11 @@ def comparison_widget(table: Any = None) -> Any:
     # picture is drawn by then), so that the background kept for the updates fits every scenario's bound
     lowest = max(0.5, 0.5 * float(np.nanmin(t.bound_curves))) if t.bound_curves is not None else None
 
-    def update(fig: Any, scenario: str, condition: str, method: str) -> Any:
+    def update(fig: Figure, scenario: str, condition: str, method: str) -> Any:
         v = view(scenario, condition)
         ax_t = fig.axes[0]
         if lowest is not None and not getattr(ax_t, "_uwtutor_lowest", False):    # once per axes (a redraw makes
-            ax_t._uwtutor_lowest = True                                          # new ones)
+            setattr(ax_t, "_uwtutor_lowest", True)  # noqa: B010  (new ones); an attribute of our own on the Axes
             ax_t.set_ylim(min(lowest, ax_t.get_ylim()[0]), 5e3)
         return update_comparison_view(fig, v, method=method if method in v.methods else "all")
 

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Literal
 
 import matplotlib.pyplot as plt
+from matplotlib.figure import Figure
 import numpy as np
 from matplotlib.ticker import NullLocator
 
@@ -88,9 +89,9 @@ class RealDataView:
     scale: np.ndarray
     scale_sigma: np.ndarray
     measured_scale: float
-    beacons: dict
-    all_beacons: dict
-    summary: dict
+    beacons: dict[int, tuple[float, float]]
+    all_beacons: dict[int, tuple[float, float]]
+    summary: dict[str, float]
     rts_rmse: float
 
 
@@ -139,7 +140,7 @@ def real_data_view(beacon: str = "5", period: float | None = None, states: str =
                         rts_rmse=m["smoother_rmse"])
 
 
-def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
+def plot_real_data_view(view: RealDataView, fig: Figure | None = None) -> Figure:
     """The track against the truth and the odometry (left), the error over time (top right) and the scale estimate
     with its one-sigma band (bottom right).
 
@@ -191,7 +192,7 @@ def plot_real_data_view(view: RealDataView, fig: Any = None) -> Any:
     ax_s.set_ylim(0.95, 1.15)
     ax_s.set_xlabel("time since the start [s]")
     ax_s.set_ylabel("range scale s")
-    style = dict(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
+    style: dict[str, Any] = dict(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0), frameon=False)
     plain = ax_s.legend(handles=[measured], **style)
     ax_s.add_artist(plain)              # kept when the next call makes the full legend the axes' own
     full = ax_s.legend(handles=[scale, measured], **style)
@@ -219,7 +220,7 @@ def _real_data_titles(view: RealDataView, ax_t: Any, ax_e: Any) -> list[Any]:
     return [ax_t.title, ax_e.title]
 
 
-def update_real_data_view(fig: Any, view: RealDataView) -> list[Any] | None:
+def update_real_data_view(fig: Figure, view: RealDataView) -> list[Any] | None:
     """Put another ``RealDataView`` into a figure drawn by ``plot_real_data_view``; returns what changed (the scale
     panel's band, estimate, note and legends among them: the scale starts or stops being estimated in place).
     ``None`` (draw anew) for a study with other beacons."""
@@ -272,8 +273,8 @@ def real_data_widget(study: RealDataStudy | None = None) -> Any:
     }
 
     @functools.lru_cache(maxsize=128)
-    def view(beacon: str, period: float | str, states: str) -> RealDataView:
-        return real_data_view(beacon, None if period == "every" else period, states, study=s)
+    def view(beacon: str, period: float | Literal["every"], states: str) -> RealDataView:
+        return real_data_view(beacon, None if isinstance(period, str) else period, states, study=s)
 
     return slider_panel(controls, lambda fig, **p: plot_real_data_view(view(**p), fig),
                         lambda fig, **p: update_real_data_view(fig, view(**p)))

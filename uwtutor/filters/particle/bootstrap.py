@@ -91,7 +91,7 @@ from ..._validate import (MAX_COORDINATE, CovarianceCheck, as_covariance, as_fin
                           as_model_output, as_nonnegative, as_rng, as_scalar, readonly)
 from ...errors import UwtutorWarning, warn
 from ...models.base import MeasurementModel, ModelPair, MotionModel
-from ...models.noise import gaussian_log_likelihood, per_run_generators, psd_sqrt
+from ...models.noise import RunGenerators, gaussian_log_likelihood, per_run_generators, psd_sqrt
 from ...resampling import WEIGHT_SUM_TOL, Resampler, systematic_resample
 from ..base import Configurable, FilterResult
 
@@ -393,8 +393,16 @@ class BootstrapParticleFilter(Configurable):
     _fixed: tuple[str, ...] = ("motion", "measurement", "rng", "rngs", "n", "m")
     _diagnostics: tuple[str, ...] = ("y", "S")
     result_type = FilterResult
+    resampler: Resampler                            # the parameters, set by _apply
+    ess_threshold: float
+    roughening: float
+    _rows_p: np.ndarray                             # the particles, component-major (M, n, N): set by particles
+    _x: np.ndarray                                  # their weighted moments (M, n), (M, n, n): set by _set_estimate
+    _P: np.ndarray
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+    # measurement: the particles when motion is a ModelPair (the positional arguments after a pair shift one name)
+    def __init__(self, motion: MotionModel | ModelPair, measurement: Any = None, particles: ArrayLike | None = None,
+                 rng: RunGenerators | None = None, *,
                  weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
                  ess_threshold: float = 1.0, roughening: float = 0.0) -> None:
         motion, measurement, (particles, rng) = _split_pair(motion, measurement, (particles, rng))
@@ -475,9 +483,9 @@ class BootstrapParticleFilter(Configurable):
                                  f"the particles are of {M} run(s): give one set of particles per run")
 
     @classmethod
-    def from_gaussian(cls, motion: Any, measurement: Any = None, x0: ArrayLike | None = None,
-                      P0: ArrayLike | None = None,
-                      n_particles: int | None = None, rng: Any = None, *, n_runs: int | None = None,
+    def from_gaussian(cls, motion: Any, measurement: Any = None,       # as cls takes them (a sequence for the MMPF)
+                      x0: ArrayLike | None = None, P0: ArrayLike | None = None,
+                      n_particles: int | None = None, rng: RunGenerators | None = None, *, n_runs: int | None = None,
                       **kwargs: Any) -> "BootstrapParticleFilter":
         """A filter whose ``n_particles`` initial particles of each run are drawn from :math:`N(x_0, P_0)`.
 
@@ -769,9 +777,8 @@ class BootstrapParticleFilter(Configurable):
         else:
             missing = np.isnan(z)
             self._complete = not _any(missing)            # for the likelihood: no component missing
-        if self._complete:
-            none = None
-        else:
+        none: np.ndarray | None = None
+        if missing is not None and not self._complete:
             none = missing.all(axis=1)                       # runs without any measurement: predict only
             if none.all():
                 self._y = np.full((M, m), np.nan)

@@ -34,7 +34,8 @@ from numpy.typing import ArrayLike
 
 from ..._validate import (as_finite, as_flag, as_int, as_model_output, as_nonnegative, as_positive, as_scalar,
                           check_model_covariance, readonly)
-from ...models.base import MeasurementModel, MotionModel
+from ...models.base import MeasurementModel, ModelPair, MotionModel
+from ...models.noise import RunGenerators
 from ...grey import gm11_next
 from ...resampling import Resampler, systematic_resample
 from ...wavelet import as_wavelet, detail_matrix, mad_sigma
@@ -154,7 +155,8 @@ class GreyParticleFilter(BootstrapParticleFilter):
     def _can_split(self) -> bool:
         return self._R_diag and super()._can_split()      # whitening vectors of one shape in every block
 
-    def __init__(self, motion: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+    def __init__(self, motion: MotionModel | ModelPair, measurement: Any = None, particles: ArrayLike | None = None,
+                 rng: RunGenerators | None = None, *,
                  grey_fraction: float = 0.1, grey_window: int = 30, grey_std: ArrayLike | None = None,
                  grey_offset: ArrayLike | None = None, noise_window: int = 50, wavelet: str = "db6",
                  adapt_noise: bool = True, min_noise_std: ArrayLike | None = None,
@@ -166,7 +168,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
         probe = (np.arange(1.0, (n or 0) + 1.0) * 0.37)[None, None, :]
         direct = (isinstance(n, int) and getattr(measurement, "m", None) == n
                   and np.array_equal(np.asarray(measurement.h(probe, 0), dtype=float), probe))
-        if not direct:
+        if not direct or not isinstance(n, int):          # (direct holds only for an int n)
             raise ValueError("GreyParticleFilter needs a measurement model that measures the state directly (h(x) = "
                              f"x, e.g. uwtutor.models.DepthSensors); got {type(measurement).__name__} with "
                              f"{getattr(measurement, 'm', '?')} measurements of {n} states")
@@ -186,9 +188,9 @@ class GreyParticleFilter(BootstrapParticleFilter):
         self.n_grey = int(round(frac * N))
         self.grey_window = as_int("grey_window", grey_window, minimum=4)
         if grey_std is None:
-            if not hasattr(motion, "process_std"):
+            grey_std = getattr(motion, "process_std", None)
+            if grey_std is None:
                 raise ValueError("grey_std must be given for a motion model without a process_std attribute")
-            grey_std = motion.process_std
         self.grey_std = as_nonnegative("grey_std", grey_std, shape=(n,), max_abs=1e75)   # its square stays finite
         self.grey_offset = (np.zeros(n) if grey_offset is None
                             else as_finite("grey_offset", grey_offset, shape=(n,)))
@@ -259,7 +261,7 @@ class GreyParticleFilter(BootstrapParticleFilter):
             else:
                 self._rows_p[plain] = self._sample_runs(self._rows_p[plain], u, plain)
         if every or _any(grey):
-            runs = range(M) if every else np.flatnonzero(grey)
+            runs: range | np.ndarray = range(M) if every else np.flatnonzero(grey)
             unequal = [r for r in runs if not self._uniform[r]]
             if unequal:                       # the subset below must come from equally weighted particles
                 self._resample(unequal)

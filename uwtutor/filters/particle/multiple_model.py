@@ -29,13 +29,14 @@ and Navigation* 150(5), 344-349.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..._validate import as_nonnegative
 from ...models.base import MeasurementModel, ModelPair, MotionModel
+from ...models.noise import RunGenerators
 from ...resampling import Resampler, systematic_resample
 from .bootstrap import BootstrapParticleFilter, _check_model, _shift_for_pair
 
@@ -125,21 +126,24 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     _fixed = BootstrapParticleFilter._fixed + ("motions", "transition")     # base.Configurable
     _run_state = BootstrapParticleFilter._run_state + ("_modes", "_mu")
 
-    def __init__(self, motions: Any, measurement: Any = None, particles: ArrayLike | None = None, rng: Any = None, *,
+    motions: list[MotionModel]                      # the mode models (_split_models makes the list)
+
+    def __init__(self, motions: Sequence[MotionModel] | Sequence[ModelPair], measurement: Any = None,
+                 particles: ArrayLike | None = None, rng: RunGenerators | None = None, *,
                  transition: ArrayLike, modes: ArrayLike | None = None, mode_probabilities: ArrayLike | None = None,
                  weights: ArrayLike | None = None, resampler: Resampler = systematic_resample,
                  ess_threshold: float = 1.0) -> None:
-        motions, measurement, (particles, rng) = self._split_models(motions, measurement, (particles, rng))
-        J = len(motions)
+        models, measurement, (particles, rng) = self._split_models(motions, measurement, (particles, rng))
+        J = len(models)
         Pi = as_nonnegative("transition", transition, shape=(J, J))
         rows = Pi.sum(axis=1)
         if np.abs(rows - 1.0).max() > 1e-9:
             raise ValueError(f"transition must be row-stochastic (each row sums to 1); its rows sum to {rows}")
-        self.motions = motions
+        self.motions = models
         self.transition = Pi / rows[:, None]
         self._cum_transition = np.cumsum(self.transition, axis=1)
         self._modes = np.empty((0, 0), dtype=np.intp)
-        super().__init__(motions[0], measurement, particles, rng, weights=weights, resampler=resampler,
+        super().__init__(models[0], measurement, particles, rng, weights=weights, resampler=resampler,
                          ess_threshold=ess_threshold)
         M, N = self._w.shape
         if modes is not None:
@@ -192,7 +196,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     @property
     def modes(self) -> np.ndarray:
         """Mode index of each particle, shape (N,) or (M, N)."""
-        return self._out(self._modes)
+        modes: np.ndarray = self._out(self._modes)
+        return modes
 
     @property
     def n_modes(self) -> int:
@@ -202,7 +207,8 @@ class MultipleModelParticleFilter(BootstrapParticleFilter):
     @property
     def mode_probabilities(self) -> np.ndarray:
         r""":math:`\mu^j` of each run: (J,) or (M, J)."""
-        return self._out(self._mu)
+        mu: np.ndarray = self._out(self._mu)
+        return mu
 
     def _set_estimate(self) -> None:
         super()._set_estimate()
