@@ -73,7 +73,8 @@ def bias_model_pair(Q: ArrayLike, R: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
     Returns
     -------
     tuple
-        ``(DeadReckoning, RangeToBeacon)``.
+        ``(DeadReckoning, RangeToBeacon)``: the state's slots ``position`` and ``range_bias``, the range reading
+        both by name.
 
     Examples
     --------
@@ -84,6 +85,8 @@ def bias_model_pair(Q: ArrayLike, R: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
     ... )
     >>> measurement.h(np.array([[0.0, 0.0, 2.0]]), 0)
     array([[102.]])
+    >>> motion.slots, measurement.reads
+    (('position', 'range_bias'), ('position', 'bias'))
     """
     Q = as_covariance("Q", Q, 3, allow_singular=True)
     if Q.shape != (3, 3) and not (n_steps is not None and Q.shape == (n_steps, 3, 3)):
@@ -91,7 +94,8 @@ def bias_model_pair(Q: ArrayLike, R: ArrayLike, beacon: ArrayLike = (0.0, 0.0),
         raise ValueError(f"Q must be one 3x3 matrix diag(sigma_x^2, sigma_y^2, sigma_bias^2) for the state "
                          f"[x, y, bias]{per}; got shape {Q.shape}")
     R = range_variances(R, n_steps)
-    return DeadReckoning(Q), RangeToBeacon(beacon, R, n=3, bias_index=2)
+    motion = DeadReckoning(Q, names=("range_bias",))
+    return motion, RangeToBeacon(beacon, R, state=motion, bias="range_bias")
 
 
 def bias_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q: ArrayLike, R: ArrayLike,
