@@ -313,9 +313,9 @@ SPECS_STRUCT: dict[str, Spec] = {
         call=_build("uwtutor.models.odometry.OdometryMotion", x=[1.0, 2.0, 0.3, 1e-3, 1.0],
                     u=np.array([[1.0, 0.1]]))),
     "uwtutor.models.odometry:StateLayout": Spec(
-        lambda: dict(n=5, heading=2, gyro_bias=3, scale=4, range_bias=()),
+        lambda: dict(n=6, heading=2, gyro_bias=3, scale=4, range_bias=(), extra={"clock": (5,)}),
         kinds=dict(n=Int(minimum=2), heading=_OptInt(minimum=2), gyro_bias=_OptInt(minimum=2),
-                   scale=_OptInt(minimum=2)),
+                   scale=_OptInt(minimum=2), extra=Kind()),
         call=lambda **kw: __import__("uwtutor.models.odometry", fromlist=["x"]).StateLayout(**kw)),
     "uwtutor.models.odometry:wrap_angle": Spec(lambda: dict(angle=np.array([0.5, 4.0, -7.0])),
                                                kinds=dict(angle=Real((None,), extra_axis_ok=True))),

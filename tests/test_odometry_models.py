@@ -71,6 +71,40 @@ def test_initial_state_augments_the_start():
         StateLayout.odometry(scale=True).initial_state([1.0, 2.0, 0.3], np.eye(3), scale=(1.0, 0.0))
 
 
+def test_layout_extra_slots_read_as_the_blocks_name_them():
+    """A slot the fields do not name (a clock) given by its indices: a measurement model reads the layout as it reads
+    the motion model built from blocks, to the same numbers."""
+    from uwtutor.models import BlockMotion, OffsetAndRate, OneWayTravelTimeRanges, Position, RandomWalk
+    motion = BlockMotion(Position(np.eye(2)), RandomWalk("scale"), OffsetAndRate("clock", rate_walk=1e-7), dt=1.0)
+    layout = StateLayout(n=5, scale=2, extra={"clock": (3, 4)})
+    assert layout.slots == motion.slots[:2] + ("clock",) and layout == StateLayout(n=5, scale=2,
+                                                                                   extra=[("clock", [3, 4])])
+    np.testing.assert_array_equal(layout.slot("clock"), motion.slot("clock"))
+    hash(layout)                                    # still a frozen value
+    x = np.array([[30.0, 40.0, 1.01, 2e-3, 20e-6], [-5.0, 12.0, 0.99, -1e-3, 0.0]])
+    by_motion = OneWayTravelTimeRanges([[0.0, 0.0], [50.0, 0.0]], 0.25, motion, scale="scale")
+    by_layout = OneWayTravelTimeRanges([[0.0, 0.0], [50.0, 0.0]], 0.25, layout, scale="scale")
+    for a, b in zip(by_motion.linearize(x, 0), by_layout.linearize(x, 0)):
+        np.testing.assert_array_equal(a, b)
+    x0, P0 = layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1), clock=(0.0, 1e-3))
+    np.testing.assert_allclose(np.diag(P0), [1.0, 1.0, 0.01, 1e-6, 1e-6])
+    with pytest.raises(ValueError, match=r"missing \['clock'\]"):
+        layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1))
+
+
+@pytest.mark.parametrize("extra, err, match", [
+    ({"scale": 3}, ValueError, "field of StateLayout"),
+    ({"clock": (2, 3)}, ValueError, "already the index of scale"),
+    ({"clock": (3, 5)}, ValueError, r"extra\['clock'\] must index the state"),
+    ({"clock": ()}, ValueError, "no index"),
+    ({"2clock": 3}, ValueError, "slot name"),
+    (5, TypeError, "extra must map slot names"),
+])
+def test_layout_extra_bad_input_named(extra, err, match):
+    with pytest.raises(err, match=match):
+        StateLayout(n=5, scale=2, extra=extra)
+
+
 def test_layout_bad_input_named():
     with pytest.raises(ValueError, match="already the index of heading"):
         StateLayout(n=4, heading=2, scale=2)

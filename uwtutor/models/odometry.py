@@ -91,14 +91,15 @@ rate; state augmentation with sensor biases and scale factors).
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validate import as_choice, as_covariance, as_finite, as_flag, as_int, as_nonnegative
-from .blocks import (_MAX_STD, ORDERS, BlockMotion, OdometryPose, RandomWalk, StateBlock, _durations, _wrap)
+from .blocks import (_MAX_STD, ORDERS, BlockMotion, OdometryPose, RandomWalk, StateBlock, _durations, _name, _wrap)
 from .noise import per_run_generators, standard_normal_per_run
 
 __all__ = ["StateLayout", "OdometryMotion", "wrap_angle", "ORDERS"]
@@ -124,6 +125,10 @@ def _index(name: str, value: Any, n: int, taken: dict[int, str]) -> int:
         raise ValueError(f"{name} = {i} is already the index of {taken[i]}: give each state its own index")
     taken[i] = name
     return i
+
+
+#: The slots :class:`StateLayout` names by its fields (an ``extra`` slot may not take one of these names).
+_FIELD_SLOTS = frozenset({"position", "heading", "gyro_bias", "scale", "range_bias", "x", "y"})
 
 
 @dataclass(frozen=True)
@@ -153,6 +158,10 @@ class StateLayout:
     range_bias : tuple of int, optional
         Indices of the range biases [m]: one shared by every beacon, or one per beacon (in the order of the
         measurement model's beacons).
+    extra : dict of str to int or tuple of int, optional
+        Any further slot by its name and indices, e.g. ``{"clock": (3, 4)}`` for a clock's offset and rate: the
+        slots of blocks the fields above do not name (a measurement model reads them by name, as it reads a
+        :class:`~uwtutor.models.blocks.BlockMotion`'s).
 
     Examples
     --------
@@ -162,6 +171,12 @@ class StateLayout:
     (5, ('x', 'y', 'heading', 'gyro_bias', 'scale'))
     >>> StateLayout.position(range_bias=True).names
     ('x', 'y', 'range_bias')
+
+    A slot the fields do not name, given by its indices:
+
+    >>> clocked = StateLayout(n=5, scale=2, extra={"clock": (3, 4)})
+    >>> clocked.slots, clocked.slot("clock"), clocked.names
+    (('position', 'scale', 'clock'), array([3, 4]), ('x', 'y', 'scale', 'clock_0', 'clock_1'))
     """
 
     n: int
@@ -169,6 +184,9 @@ class StateLayout:
     gyro_bias: int | None = None
     scale: int | None = None
     range_bias: tuple[int, ...] = ()
+    extra: Mapping[str, int | Sequence[int]] = field(default_factory=dict, compare=False)
+    # extra as ((name, indices), ...), checked: what the layout compares and hashes
+    _extra: tuple[tuple[str, tuple[int, ...]], ...] = field(init=False, repr=False, default=())
 
     def __post_init__(self) -> None:
         n = as_int("n", self.n, minimum=2)
@@ -181,9 +199,32 @@ class StateLayout:
         rb = () if rb is None else (rb,) if isinstance(rb, (int, np.integer)) else tuple(rb)
         object.__setattr__(self, "range_bias", tuple(_index(f"range_bias[{j}]", i, n, taken)
                                                      for j, i in enumerate(rb)))
+        object.__setattr__(self, "_extra", self._extra_slots(self.extra, n, taken))
         if self.gyro_bias is not None and self.heading is None:
             raise ValueError("a gyro_bias state needs a heading state (the bias turns the heading): give heading")
         object.__setattr__(self, "n", n)
+
+    @staticmethod
+    def _extra_slots(extra: Any, n: int, taken: dict[int, str]) -> tuple[tuple[str, tuple[int, ...]], ...]:
+        """``extra`` as ``((name, indices), ...)``: hashable, so that the layout stays a frozen value."""
+        pairs = extra.items() if isinstance(extra, Mapping) else extra
+        try:
+            pairs = [(name, idx) for name, idx in pairs]
+        except (TypeError, ValueError):
+            raise TypeError(f"extra must map slot names to indices, e.g. {{'clock': (3, 4)}}; got {extra!r}") from None
+        out: list[tuple[str, tuple[int, ...]]] = []
+        for name, idx in pairs:
+            name = _name(name, "extra's slot name")
+            if name in _FIELD_SLOTS:
+                raise ValueError(f"extra names the slot {name!r}, which is a field of StateLayout: give it as "
+                                 f"{name}=... instead")
+            if name in {slot for slot, _ in out}:
+                raise ValueError(f"extra names the slot {name!r} twice")
+            idx = (idx,) if isinstance(idx, (int, np.integer)) else tuple(idx)
+            if not idx:
+                raise ValueError(f"extra slot {name!r} has no index: give at least one")
+            out.append((name, tuple(_index(f"extra[{name!r}]", i, n, taken) for i in idx)))
+        return tuple(out)
 
     @classmethod
     def odometry(cls, *, gyro_bias: bool = False, scale: bool = False, range_bias: Any = False) -> "StateLayout":
@@ -215,21 +256,23 @@ class StateLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
-        """The name of each state component, in order (``range_bias`` numbered when there are several)."""
+        """The name of each state component, in order (a slot of several components numbered: ``range_bias_0``)."""
         names = ["x", "y"] + ["?"] * (self.n - 2)
         for name in ("heading", "gyro_bias", "scale"):
             if getattr(self, name) is not None:
                 names[getattr(self, name)] = name
-        for j, i in enumerate(self.range_bias):
-            names[i] = "range_bias" if len(self.range_bias) == 1 else f"range_bias_{j}"
+        for slot, idx in (("range_bias", self.range_bias),) + self._extra:
+            for j, i in enumerate(idx):
+                names[i] = slot if len(idx) == 1 else f"{slot}_{j}"
         return tuple(names)
 
     @property
     def slots(self) -> tuple[str, ...]:
         """The slot names of the state (as :attr:`~uwtutor.models.blocks.BlockMotion.slots`): ``position``, and
-        ``heading``, ``gyro_bias``, ``scale``, ``range_bias`` when the layout has them."""
-        return ("position",) + tuple(name for name in ("heading", "gyro_bias", "scale")
-                                     if getattr(self, name) is not None) + (("range_bias",) if self.range_bias else ())
+        ``heading``, ``gyro_bias``, ``scale``, ``range_bias`` when the layout has them, then the ``extra`` slots."""
+        return (("position",) + tuple(name for name in ("heading", "gyro_bias", "scale")
+                                      if getattr(self, name) is not None)
+                + (("range_bias",) if self.range_bias else ()) + tuple(slot for slot, _ in self._extra))
 
     def slot(self, name: str) -> np.ndarray:
         """The indices of a slot, so that a measurement model reads a layout as it reads a
@@ -243,11 +286,17 @@ class StateLayout:
         """
         if name not in self.slots:
             raise KeyError(f"no slot {name!r} in this layout; its slots are {list(self.slots)}")
-        if name == "position":
-            return np.array([0, 1])
-        return np.array(self.range_bias if name == "range_bias" else [getattr(self, name)])
+        return np.array(self._indices(name))
 
-    def initial_state(self, start: Any, start_cov: Any, **extra: Any) -> tuple[np.ndarray, np.ndarray]:
+    def _indices(self, name: str) -> tuple[int, ...]:
+        if name == "position":
+            return (0, 1)
+        if name == "range_bias":
+            return self.range_bias
+        extra = dict(self._extra)
+        return extra[name] if name in extra else (int(getattr(self, name)),)
+
+    def initial_state(self, start: Any, start_cov: Any, **further: Any) -> tuple[np.ndarray, np.ndarray]:
         r"""The initial state and covariance: a start pose and its covariance, augmented with the extra states.
 
         Parameters
@@ -256,9 +305,10 @@ class StateLayout:
             The first ``q`` components of the state (``[x, y]``, or ``[x, y, heading]`` for an odometry state).
         start_cov : array_like, shape (q, q)
             Their covariance (positive definite).
-        **extra : (mean, std)
-            One pair per further state of the layout: ``gyro_bias=(0.0, 0.01)`` [rad/s], ``scale=(1.0, 0.1)``,
-            ``range_bias=(0.0, 1.0)`` [m] (shared by every range-bias state). Each is uncorrelated with the rest.
+        **further : (mean, std)
+            One pair per further slot of the layout: ``gyro_bias=(0.0, 0.01)`` [rad/s], ``scale=(1.0, 0.1)``,
+            ``range_bias=(0.0, 1.0)`` [m] (shared by every range-bias state), and each ``extra`` slot by its name
+            (shared by its components). Each is uncorrelated with the rest.
 
         Returns
         -------
@@ -284,11 +334,9 @@ class StateLayout:
         C = as_covariance("start_cov", start_cov, lead)
         if C.ndim != 2:
             raise ValueError(f"start_cov must be one ({lead}, {lead}) matrix; got shape {C.shape}")
-        wanted = {name for name in ("gyro_bias", "scale") if getattr(self, name) is not None}
-        if self.range_bias:
-            wanted.add("range_bias")
-        if set(extra) != wanted:
-            missing, unknown = sorted(wanted - set(extra)), sorted(set(extra) - wanted)
+        wanted = set(self.slots) - {"position", "heading"}
+        if set(further) != wanted:
+            missing, unknown = sorted(wanted - set(further)), sorted(set(further) - wanted)
             raise ValueError(f"initial_state needs (mean, std) for each further state of the layout {sorted(wanted)}; "
                              + (f"missing {missing}" if missing else "") + ("; " if missing and unknown else "")
                              + (f"not in the layout: {unknown}" if unknown else ""))
@@ -296,11 +344,11 @@ class StateLayout:
         P0 = np.zeros((self.n, self.n))
         x0[..., :lead] = s
         P0[:lead, :lead] = C
-        for name, pair in extra.items():
+        for name, pair in further.items():
             pair = as_finite(name, pair, shape=(2,))
             if pair[1] <= 0:
                 raise ValueError(f"{name} must be (mean, std) with std > 0; got std {pair[1]:g}")
-            for i in (self.range_bias if name == "range_bias" else (getattr(self, name),)):
+            for i in self._indices(name):
                 x0[..., i] = pair[0]
                 P0[i, i] = pair[1] ** 2
         if lead < self.n and np.any(np.all(P0[lead:, lead:] == 0, axis=1)):
