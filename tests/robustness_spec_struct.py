@@ -326,7 +326,7 @@ SPECS_STRUCT: dict[str, Spec] = {
         call=_build("uwtutor.models.range.BeaconRanges", use=_meas_use, x=[1.0, 2.0, 1.05])),
     "uwtutor.models.range:MultiplicativeRange": Spec(
         lambda: dict(beacon=(0.0, 0.0), R=1.0, mu_gamma=1.02, sigma_gamma=1e-3, n=2),
-        kinds=dict(R=Real((), "pos", vector_ok=True), mu_gamma=_POS, sigma_gamma=_NONNEG, n=Int(minimum=2)),
+        kinds=dict(R=Real((), "pos", vector_ok=True), mu_gamma=_POS, sigma_gamma=_NONNEG, n=_OptInt(minimum=2)),
         call=_build("uwtutor.models.range.MultiplicativeRange", use=_meas_use)),
     "uwtutor.models.range:NoiseSchedule": Spec(
         lambda: dict(name="R", R=np.array([1.0, 2.0, 3.0]), m=1),

@@ -278,7 +278,11 @@ class MultiplicativeRange(RangeToBeacon):
     sigma_gamma : float
         Its standard deviation (>= 0).
     n : int, optional
-        Size of the state (default 2).
+        Size of the state (default 2), without ``state``.
+    state : BlockMotion or StateLayout, optional
+        The state whose ``position`` slot the range reads (as for :class:`RangeToBeacon`).
+    position : str, default "position"
+        The name of the position slot in ``state``.
 
     Examples
     --------
@@ -290,10 +294,21 @@ class MultiplicativeRange(RangeToBeacon):
     >>> x = np.array([[3000.0, 4000.0]])
     >>> model.h(x, 0), model.R(x, 0)
     (array([[4900.]]), array([[[11.60111111]]]))
+
+    The same range on a state built from blocks, the position read by name wherever it sits:
+
+    >>> from uwtutor.models import BlockMotion, Position, RandomWalk
+    >>> motion = BlockMotion(RandomWalk("scale"), Position(np.eye(2)))
+    >>> on_blocks = MultiplicativeRange(
+    ...     (0.0, 0.0), R=0.49, mu_gamma=0.98, sigma_gamma=1 / 1500, state=motion
+    ... )
+    >>> on_blocks.h(np.array([[1.0, 3000.0, 4000.0]]), 0)
+    array([[4900.]])
     """
 
-    def __init__(self, beacon: ArrayLike, R: Any, mu_gamma: Any, sigma_gamma: Any, *, n: int = 2) -> None:
-        super().__init__(beacon, R, n=as_int("n", n, minimum=2))
+    def __init__(self, beacon: ArrayLike, R: ArrayLike, mu_gamma: float, sigma_gamma: float, *, n: int | None = None,
+                 state: BlockMotion | StateLayout | None = None, position: str = "position") -> None:
+        super().__init__(beacon, R, n=n, state=state, position=position)
         # the factor c / c_e is near 1: 1e3 is far beyond any sound-speed error (as for the fading filter's)
         mu = float(as_finite("mu_gamma", mu_gamma, ndim=0, max_abs=1e3))
         sigma = float(as_finite("sigma_gamma", sigma_gamma, ndim=0, max_abs=1e3))
