@@ -25,6 +25,7 @@ for underwater vehicles. *Journal of Field Robotics* 28(1), 121-136 (the OWTT ra
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from .._validate import as_positive
 from .blocks import BlockMotion
+from .odometry import StateLayout
 from .range import BlockRanges
 
 __all__ = ["OneWayTravelTimeRanges"]
@@ -79,7 +81,8 @@ class OneWayTravelTimeRanges(BlockRanges):
     array([[53.]])
     """
 
-    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, sound_speed: Any = 1500.0,
+    def __init__(self, beacons: Mapping[Any, ArrayLike] | ArrayLike, R: ArrayLike, state: BlockMotion | StateLayout,
+                 *, sound_speed: float = 1500.0,
                  slots: dict[str, str] | None = None, scale: str | None = None) -> None:
         renames = dict(slots or {})
         unknown = set(renames) - {"position", "clock"}

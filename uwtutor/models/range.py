@@ -25,6 +25,7 @@ beacon is an ordinary update.
 from __future__ import annotations
 
 import copy
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -495,8 +496,8 @@ class BlockRanges(BlockMeasurement):
     covariances_checked = True      # R goes through NoiseSchedule, checked when the model is made
     nonnegative = True
 
-    def __init__(self, beacons: Any, R: ArrayLike, state: BlockMotion, *, scale: str | None = None,
-                 bias: str | None = None, position: str = "position") -> None:
+    def __init__(self, beacons: Mapping[Any, ArrayLike] | ArrayLike, R: ArrayLike, state: BlockMotion | StateLayout,
+                 *, scale: str | None = None, bias: str | None = None, position: str = "position") -> None:
         self.beacon_ids, self.beacons = _beacon_table(beacons)
         self.m = len(self.beacons)
         self._scale, self._bias = scale is not None, bias is not None
@@ -631,8 +632,9 @@ class BeaconRanges(BlockRanges):
     array([0.642, 0.856, 0.   , 5.   ])
     """
 
-    def __init__(self, beacons: Any, R: ArrayLike, *, layout: Any = None, n: int | None = None,
-                 scale_index: int | None = None, bias_index: Any = None) -> None:
+    def __init__(self, beacons: Mapping[Any, ArrayLike] | ArrayLike, R: ArrayLike, *, layout: StateLayout | None = None,
+                 n: int | None = None, scale_index: int | None = None,
+                 bias_index: int | Sequence[int] | None = None) -> None:
         B = len(_beacon_table(beacons)[1])
         if layout is not None:
             if not isinstance(layout, StateLayout):
