@@ -252,3 +252,16 @@ def test_a_model_that_reuses_its_array_gets_each_step_s_own_F():
         d = p[k] / np.linalg.norm(p[k])
         J = J + np.outer(d, d) / 4.0
         np.testing.assert_allclose(got[k], np.linalg.inv(J), rtol=1e-9)
+
+
+def test_the_position_bound_is_read_from_the_position_slot():
+    """A state whose position is not first (a range scale before it): the bound returned is the position's block,
+    found by the slot's name, not the first two components."""
+    from uwtutor.models import BlockMotion, Position, RandomWalk, RangeToBeacon
+    motion = BlockMotion(RandomWalk("scale"), Position(0.01 * np.eye(2)))
+    ranges = RangeToBeacon((0.0, 0.0), 1.0, state=motion)
+    K = 20
+    truth = np.column_stack([np.ones(K), np.linspace(10.0, 30.0, K), np.full(K, 5.0)])
+    args = (motion, ranges, truth[0], np.diag([0.01, 100.0, 100.0]), truth, np.zeros((K, 2)))
+    whole = model_posterior_crlb(*args, full=True)
+    np.testing.assert_array_equal(model_posterior_crlb(*args), whole[:, 1:, 1:])

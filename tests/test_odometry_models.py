@@ -88,6 +88,12 @@ def test_layout_extra_slots_read_as_the_blocks_name_them():
         np.testing.assert_array_equal(a, b)
     x0, P0 = layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1), clock=(0.0, 1e-3))
     np.testing.assert_allclose(np.diag(P0), [1.0, 1.0, 0.01, 1e-6, 1e-6])
+    # one (mean, std) per component: the clock's offset and rate apart
+    x0, P0 = layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1), clock=([1e-3, 0.0], [1e-3, 1e-4]))
+    np.testing.assert_allclose(x0[3:], [1e-3, 0.0])
+    np.testing.assert_allclose(np.diag(P0)[3:], [1e-6, 1e-8])
+    with pytest.raises(ValueError, match="one per component"):
+        layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1), clock=([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]))
     with pytest.raises(ValueError, match=r"missing \['clock'\]"):
         layout.initial_state([1.0, 2.0], np.eye(2), scale=(1.0, 0.1))
 

@@ -42,7 +42,7 @@ with sensor biases, scale factors and a clock's offset and rate).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -50,6 +50,9 @@ from numpy.typing import ArrayLike
 from .._validate import as_choice, as_covariance, as_finite, as_instance, as_int, as_nonnegative
 from .base import MeasurementModel, MotionModel
 from .noise import per_run_generators, psd_sqrt, standard_normal_per_run
+
+if TYPE_CHECKING:                   # the index form of a state; odometry imports this module
+    from .odometry import StateLayout
 
 __all__ = ["StateBlock", "OdometryPose", "Position", "RandomWalk", "Current", "OffsetAndRate", "BlockMotion",
            "BlockMeasurement"]
@@ -831,9 +834,16 @@ class BlockMeasurement(MeasurementModel):
     r"""A measurement model that reads the slots it names, wherever they are in the state.
 
     A subclass lists the slots it needs in ``reads`` (class attribute, or set before calling this ``__init__``)
-    and reads them through :meth:`read`; ``columns`` gives the state indices of a slot, for the rows of its
+    and reads them through :meth:`read`; ``columns`` gives the state indices of a slot, for the columns of its
     Jacobian. ``slots`` maps a name the model uses to the name of the slot in the state, for a state whose blocks
-    are named otherwise (``slots={"clock": "receiver_clock"}``).
+    are named otherwise (``slots={"clock": "receiver_clock"}``). A subclass of a model that sets ``reads`` itself
+    (:class:`~uwtutor.models.range.BlockRanges`) adds a slot after that model's ``__init__`` with
+    :meth:`add_read`.
+
+    A subclass defines ``m`` (the size of one measurement), ``h`` and ``R``, and either ``H`` or ``linearize``
+    (the prediction, the Jacobian and where it is defined, in one call; the default computes it from ``h`` and
+    ``H``). With ``linearize``, ``h`` must give the same prediction: the particle filters and the model contract
+    call it.
 
     Parameters
     ----------
@@ -880,6 +890,33 @@ class BlockMeasurement(MeasurementModel):
         for name in self.reads:
             self._find(state, name, renames.get(name, name))
 
+    def add_read(self, state: BlockMotion | StateLayout, name: str, target: str | None = None) -> np.ndarray:
+        """Read one more slot: the state's slot ``target`` (default ``name``) becomes ``columns[name]``, and
+        ``name`` joins ``reads``. For a subclass whose base class sets ``reads`` in its own ``__init__``.
+
+        Returns
+        -------
+        ndarray of int
+            The slot's indices in the state.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from uwtutor.models import BlockMotion, BlockRanges, OffsetAndRate, Position
+        >>> state = BlockMotion(
+        ...     Position(np.eye(2)), OffsetAndRate("clock", rate_walk=1e-7), dt=1.0
+        ... )
+        >>> ranges = BlockRanges([[0.0, 0.0]], 0.25, state)
+        >>> ranges.add_read(state, "clock"), ranges.reads
+        (array([2, 3]), ('position', 'clock'))
+        """
+        name = _name(name, "name")
+        target = name if target is None else _name(target, "target")
+        self._find(state, name, target)
+        if name not in self.reads:
+            self.reads = tuple(self.reads) + (name,)
+        return self.columns[name]
+
     def _find(self, state: Any, name: str, target: str) -> None:
         """Put the indices of the state's slot ``target`` in ``columns[name]``, or say which slots there are."""
         if target not in state.slots:
@@ -894,4 +931,7 @@ class BlockMeasurement(MeasurementModel):
         return x[..., self.columns[name]]
 
     def H(self, x: np.ndarray, k: int) -> np.ndarray:
+        if type(self).linearize is MeasurementModel.linearize:     # neither given: the default would call H again
+            raise NotImplementedError(f"{type(self).__name__} must define H(x, k) or linearize(x, k): the "
+                                      "measurement's Jacobian")
         return self.linearize(x, k)[1]

@@ -90,9 +90,11 @@ class OneWayTravelTimeRanges(BlockRanges):
             raise ValueError(f"slots renames {sorted(unknown)}, which this model does not read; it reads "
                              f"['position', 'clock'] (and the scale given by scale=)")
         super().__init__(beacons, R, state, scale=scale, position=renames.get("position", "position"))
-        self.reads = self.reads + ("clock",)
-        self._find(state, "clock", renames.get("clock", "clock"))
-        self._offset = int(self.columns["clock"][0])
+        clock = self.add_read(state, "clock", renames.get("clock", "clock"))
+        if clock.size != 2:
+            raise ValueError(f"the clock slot {renames.get('clock', 'clock')!r} must have 2 components, the offset "
+                             f"[s] then the rate [s/s] (an OffsetAndRate block); it has {clock.size}")
+        self._offset = int(clock[0])
         self.sound_speed = float(as_positive("sound_speed", sound_speed, ndim=0))
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -307,8 +307,9 @@ class StateLayout:
             Their covariance (positive definite).
         **further : (mean, std)
             One pair per further slot of the layout: ``gyro_bias=(0.0, 0.01)`` [rad/s], ``scale=(1.0, 0.1)``,
-            ``range_bias=(0.0, 1.0)`` [m] (shared by every range-bias state), and each ``extra`` slot by its name
-            (shared by its components). Each is uncorrelated with the rest.
+            ``range_bias=(0.0, 1.0)`` [m], and each ``extra`` slot by its name: numbers shared by the slot's
+            components, or one per component (``clock=([0.0, 0.0], [1e-3, 1e-4])``). Each is uncorrelated with the
+            rest.
 
         Returns
         -------
@@ -345,12 +346,15 @@ class StateLayout:
         x0[..., :lead] = s
         P0[:lead, :lead] = C
         for name, pair in further.items():
-            pair = as_finite(name, pair, shape=(2,))
-            if pair[1] <= 0:
-                raise ValueError(f"{name} must be (mean, std) with std > 0; got std {pair[1]:g}")
-            for i in self._indices(name):
-                x0[..., i] = pair[0]
-                P0[i, i] = pair[1] ** 2
+            idx = self._indices(name)
+            pair = as_finite(name, pair)
+            if pair.shape not in ((2,), (2, len(idx))):
+                raise ValueError(f"{name} must be (mean, std), numbers or one per component of the slot "
+                                 f"({len(idx)}); got shape {pair.shape}")
+            if np.any(pair[1] <= 0):
+                raise ValueError(f"{name} must be (mean, std) with std > 0; got std {np.min(pair[1]):g}")
+            x0[..., idx] = pair[0]
+            P0[idx, idx] = pair[1] ** 2
         if lead < self.n and np.any(np.all(P0[lead:, lead:] == 0, axis=1)):
             unnamed = [self.names[i] for i in range(lead, self.n) if P0[i, i] == 0]
             raise ValueError(f"the layout has states without an initial value: {unnamed}")

@@ -140,7 +140,7 @@ class _GivenProcessNoise(MotionModel):
         return self._Q if self._Q.ndim == 2 else self._Q[k]
 
 
-def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> MotionModel:
+def _dead_reckoning_state(bias: bool, current: bool, dt: np.ndarray | None, Q: np.ndarray) -> _GivenProcessNoise:
     """The state ``[x, y, (bias), (Ux, Uy)]`` from the blocks: a position moved by the DR displacement (and carried
     by the current over ``dt``), a range bias and a current, constant but for the per-step noise ``Q``."""
     blocks: list[StateBlock] = [Position(np.zeros((2, 2)), current="current" if current else None)]
@@ -353,7 +353,7 @@ def posterior_crlb(positions: ArrayLike, beacon: ArrayLike, sigma: ArrayLike, Q:
 
     # the models: the state from the blocks, the filters' range model; the bound is the general recursion's
     motion = _dead_reckoning_state(bias, current, dt, Qk)
-    ranges = RangeToBeacon(b, R, n=n, bias_index=2 if bias else None)
+    ranges = RangeToBeacon(b, R, state=motion.motion, bias="range_bias" if bias else None)
     truth = np.zeros((M, K, n))                # the range's H reads the position only (the bias adds a 1)
     truth[..., :2] = p
     bounds, undefined = _posterior_bounds(motion, ranges, truth[:, 0], P0_arr, truth, None, measured[..., None],
@@ -575,7 +575,8 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
         Where a measurement is present: ``(K,)`` per step, ``(K, m)`` per component, or with a runs axis
         ``(M, K)``, ``(M, K, m)``; e.g. ``np.isfinite(z)``. Default: every component at every step.
     full : bool, default False
-        Return the bound of the whole state, not only of the position ``x[..., :2]``.
+        Return the bound of the whole state, not only of the position (the motion model's ``position`` slot
+        when it has one, else ``x[..., :2]``).
     mean_over_runs : bool, default False
         With a runs axis (the sampled true tracks), average the measurement information over the runs and return
         one bound. ``P0`` must then be shared, and the motion's :math:`F_k` and :math:`Q_k` the same in every run.
@@ -685,5 +686,7 @@ def model_posterior_crlb(motion: Any, measurement: Any, x0: ArrayLike, P0: Array
     if undefined.any():
         _warn(f"the Jacobian is undefined for {np.count_nonzero(undefined)} measured component(s) (a position on a "
               "beacon): those measurements add no information")
-    out = bounds if full else bounds[..., :2, :2]
+    # the position: the motion model's slot of that name when its state is built from blocks, else x[..., :2]
+    pos = motion.slot("position") if isinstance(motion, BlockMotion) and "position" in motion.slots else np.arange(2)
+    out = bounds if full else bounds[..., pos[:, None], pos]
     return out if runs is not None and not mean_over_runs else out[0]
