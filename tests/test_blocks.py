@@ -501,3 +501,21 @@ def test_a_layout_and_a_dead_reckoning_named_alike_have_the_same_slots():
                                   else None)
         for a, b in zip(by_layout.linearize(x, 0), by_motion.linearize(x, 0)):
             np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("blocks", [
+    lambda: (Position(np.diag([0.3, 0.2])), RandomWalk("scale", walk=1e-3)),
+    lambda: (Position(np.diag([0.3, 0.2]), current="current"), Current(walk=1e-3)),
+    lambda: (Position(np.eye(2)), OffsetAndRate("clock", rate_walk=1e-7), RandomWalk("bias", walk=0.1, size=2)),
+], ids=["walk", "current", "clock"])
+def test_constant_path_of_linear_blocks_is_the_assembly_to_rounding(blocks):
+    """A stack of linear blocks over steps of one length predicts with F and Q assembled once (x F^T + u): the same
+    as the block-by-block assembly, to rounding (the product sums a row in another order than a block's own f)."""
+    motion = BlockMotion(*blocks(), dt=2.0)
+    assert motion._constant is not None
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(7, motion.n)) * 50.0
+    u = rng.normal(size=(7, 2))
+    for k in (0, 3):
+        for fast, slow in zip(motion.linearize(x, u, k), motion._assemble(x, u, k)):
+            np.testing.assert_allclose(fast, slow, rtol=1e-13, atol=1e-12)

@@ -16,8 +16,9 @@ walk,
 with :math:`\mathbf Q = \operatorname{diag}(\sigma_x^2, \sigma_y^2, q_\upsilon)` and paper A's rule
 :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` (``uwtutor.models.bias.paper_a_process_noise``). The
 beacon :math:`\mathbf b_k` is fixed or moves (one position per epoch). The filter is the generic engine
-(``uwtutor.filters.ExtendedKalmanFilter``) on the model pair ``DeadReckoning(Q)`` +
-``RangeToBeacon(beacon, R, n=3, bias_index=2)``: this module only names it.
+(``uwtutor.filters.ExtendedKalmanFilter``) on the model pair ``DeadReckoning(Q, names=("range_bias",))`` +
+``RangeToBeacon(beacon, R, state=motion, bias="range_bias")`` (:func:`bias_model_pair`): this module only names
+it.
 
 **Start.** The bias makes the filter sensitive to its initial value: paper A first computes a least-squares
 fix of position and bias on the dead-reckoned track (``uwtutor.lsq.prepositioning``) and starts the filter

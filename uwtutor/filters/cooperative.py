@@ -293,7 +293,7 @@ class CooperativeEKF(ExtendedKalmanFilter):
     Q : array_like, shape (6, 6)
         Paper B's :math:`\mathbf{Q}` over :math:`[x, y, \Delta x, \Delta y, U_x, U_y]`.
     R : array_like, shape (10, 10)
-        Paper B's :math:`\mathbf{R}` (unused by ``"single_range"``).
+        Paper B's :math:`\mathbf{R}` (``"single_range"`` uses it only for its default ``range_variance``).
     dt : float
         :math:`\delta t` [s].
     u : array_like, shape (K, 2) or (M, K, 2), optional

@@ -17,8 +17,9 @@ close epochs :math:`\upsilon_k = \upsilon_{k-1}` up to the noise :math:`q_\upsil
 :math:`\sigma_\upsilon^2`), which paper A sets to
 :math:`q_\upsilon = (\sigma_x^2 + \sigma_y^2)/2` (:func:`paper_a_process_noise`).
 
-Paper A's model pair is ``uwtutor.models.DeadReckoning(Q)`` with a 3x3 ``Q`` (the bias is carried as a random
-walk) and ``uwtutor.models.RangeToBeacon(beacon, R, n=3, bias_index=2)``; the filter is the generic engine
+Paper A's model pair is ``uwtutor.models.DeadReckoning(Q, names=("range_bias",))`` with a 3x3 ``Q`` (the bias is
+carried as a random walk) and ``uwtutor.models.RangeToBeacon(beacon, R, state=motion, bias="range_bias")`` (by
+index, ``n=3, bias_index=2``); the filter is the generic engine
 (``uwtutor.filters.bias_ekf``). This module adds paper A's rule for ``Q`` and, beyond the paper,
 :class:`BiasRateDeadReckoning`: a bias *rate* :math:`\dot\upsilon` in the state (a constant-velocity model for
 the bias), for biases that drift faster than a random walk with paper A's :math:`q_\upsilon` can follow.
@@ -136,7 +137,8 @@ class BiasRateDeadReckoning(BlockMotion):
 
     Not in paper A: the book's extension for a bias that changes faster than paper A's random walk allows
     (a sound-speed profile warming through the day, a range that opens steadily under a :math:`\gamma r_k` error).
-    Use with ``RangeToBeacon(beacon, n=4, bias_index=2)`` and :func:`bias_rate_process_noise`.
+    Use with ``RangeToBeacon(beacon, R, state=motion, bias="bias_offset")`` (the offset is the range bias) and
+    :func:`bias_rate_process_noise`.
 
     It is the :class:`~uwtutor.models.blocks.BlockMotion` of a :class:`~uwtutor.models.blocks.Position` and an
     :class:`~uwtutor.models.blocks.OffsetAndRate` named ``bias`` (slots ``position``, ``bias``, ``bias_offset``,

@@ -40,7 +40,7 @@ __all__ = ["OneWayTravelTimeRanges"]
 
 
 class OneWayTravelTimeRanges(BlockRanges):
-    r"""Ranges from one-way travel times timed by a drifting clock: :math:`z_j = \lVert p - b_j\rVert + c\,\delta`.
+    r"""Ranges from one-way travel times timed by a drifting clock: :math:`z_j = s\,\lVert p - b_j\rVert + c\,\delta`.
 
     The ranges of :class:`~uwtutor.models.range.BlockRanges` (position, and scale when given) plus the clock's term
     :math:`c\,\delta`, read from the ``clock`` slot.
@@ -51,8 +51,8 @@ class OneWayTravelTimeRanges(BlockRanges):
         The beacons, one measurement component each.
     R : float or array_like
         The range noise [m²]: a variance, ``(B, B)``, or one per step.
-    state : BlockMotion
-        A state with a ``position`` slot and a ``clock`` slot (an
+    state : BlockMotion or StateLayout
+        A state with a ``position`` slot and a ``clock`` slot of two components, the offset then the rate (an
         :class:`~uwtutor.models.blocks.OffsetAndRate` named ``"clock"``).
     sound_speed : float, default 1500
         :math:`c` [m/s], the speed the receiver turns travel times into ranges with.
@@ -99,7 +99,7 @@ class OneWayTravelTimeRanges(BlockRanges):
 
     def linearize(self, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Predicted ranges ``(M, B)``, Jacobian ``(M, B, n)``, and a mask
-        ``(M, B)``, False on a beacon."""
+        ``(M, B)``, False where the position is exactly on a beacon."""
         z, H, defined = super().linearize(x, k)      # the ranges: s ||p - b||, its H
         c = self.sound_speed
         H[..., self._offset] = c                     # d z / d delta

@@ -7,9 +7,11 @@ Between two ranging epochs the vehicle's horizontal position moves by the dead-r
 
     p_k = p_{k-1} + u_k + w_k, \qquad w_k \sim N(0, Q).
 
-The state may carry more than the position: any further components (a range bias, paper A; a current,
-paper B) are kept by the prediction and get their own rows of :math:`Q` (a random walk when their variance is
-positive, a constant when it is zero). The position is always ``x[..., :2]``.
+The state may carry more than the position: any further components (a range bias, paper A; the ranges' scale)
+are kept by the prediction and get their own rows of :math:`Q` (a random walk when their variance is positive, a
+constant when it is zero). They do not move the position: a current that carries the vehicle is
+:class:`~uwtutor.models.blocks.Position` with ``current=`` (paper B's
+:class:`~uwtutor.models.cooperative.CooperativeMotion`). The position is always ``x[..., :2]``.
 
 The state is made of the blocks of :mod:`uwtutor.models.blocks`: a :class:`~uwtutor.models.blocks.Position`
 (slot ``position``) and, for the further components, one :class:`~uwtutor.models.blocks.RandomWalk` per name the
@@ -82,7 +84,7 @@ class DeadReckoning(BlockMotion):
         per step, ``(K, n, n)``, for a DR whose error changes along the run (step ``k`` uses ``Q[k]``).
     names : sequence of str, or dict of str to int, optional
         The slot names of the ``n - 2`` components after the position, in the order of the state: one name per
-        component (``("range_bias",)``), or a dict of name -> number of components (``{"current": 2}``, a slot of
+        component (``("range_bias",)``), or a dict of name -> number of components (``{"biases": 2}``, a slot of
         two). Default: ``state_2``, ``state_3``, ... (one per component, by its index).
 
     Attributes

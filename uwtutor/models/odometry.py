@@ -135,8 +135,9 @@ _FIELD_SLOTS = frozenset({"position", "heading", "gyro_bias", "scale", "range_bi
 class StateLayout:
     r"""Which component of the state is what: the contract between a motion and a measurement model.
 
-    The position is always ``x[..., :2]`` (the library's convention); the other states are optional and each
-    has one index. Build one with :meth:`odometry` (the state of :class:`OdometryMotion`) or :meth:`position`
+    The position is always ``x[..., :2]`` (the library's convention); the other slots are optional, each at the
+    indices given (one for the heading, the gyro bias and the scale; one or several for the range biases and an
+    ``extra`` slot). Build one with :meth:`odometry` (the state of :class:`OdometryMotion`) or :meth:`position`
     (the dead-reckoning state of :class:`~uwtutor.models.dead_reckoning.DeadReckoning`), or give the indices yourself.
 
     A layout names its slots as a motion model built from blocks does (:attr:`slots`, :meth:`slot`, the

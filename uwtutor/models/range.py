@@ -100,7 +100,7 @@ class RangeToBeacon(BlockMeasurement):
     bias_index : int, optional
         Index of a state component added to the range (a range bias, paper A), without ``state``; ``None`` for
         none.
-    state : BlockMotion, optional
+    state : BlockMotion or StateLayout, optional
         The motion model whose state the range reads (e.g. ``DeadReckoning(Q, names=("range_bias",))``), instead
         of ``n`` and ``bias_index``: the slots are found by name.
     bias : str, optional
@@ -476,7 +476,8 @@ class BlockRanges(BlockMeasurement):
         The beacons, one measurement component each.
     R : float or array_like
         The range noise: a variance, ``(B, B)``, or one per step (as ``BeaconRanges``).
-    state : BlockMotion
+    state : BlockMotion or StateLayout
+        The state whose slots the ranges read (the motion model, or its slots by index).
     scale : str, optional
         The slot of a range scale (e.g. ``"scale"``).
     bias : str, optional
