@@ -257,7 +257,8 @@ class StateLayout:
 
     @property
     def names(self) -> tuple[str, ...]:
-        """The name of each state component, in order (a slot of several components numbered: ``range_bias_0``)."""
+        """The name of each state component, in order; the components of a slot of several are numbered
+        (``range_bias_0``, ``range_bias_1``)."""
         names = ["x", "y"] + ["?"] * (self.n - 2)
         for name in ("heading", "gyro_bias", "scale"):
             if getattr(self, name) is not None:

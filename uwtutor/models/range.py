@@ -114,8 +114,8 @@ class RangeToBeacon(BlockMeasurement):
         Size of the state.
     bias_index : int or None
         The index of the bias in the state (None without one), however it was given.
-    columns : dict of str to ndarray
-        The indices of the slots read: ``position`` and, with a bias, ``bias``.
+    columns : dict
+        The indices (an integer array) of each slot read, by name: ``position`` and, with a bias, ``bias``.
 
     See Also
     --------
