@@ -372,6 +372,7 @@ EXEMPT_CORE: dict[str, str] = {
     "uwtutor.methods:Method": "a registry entry (REGISTRY) the library builds; calling it calls its method, "
                               "specified with the methods",
     "uwtutor.methods:names": "no arguments: the registered method names",
+    "uwtutor.datasets.navigation:navigation_gate": "no arguments: a new gate of navigate's settings",
     "uwtutor.methods:claims": "no arguments: the scenarios each registered method runs on",
     "uwtutor.methods:load_comparison": "no arguments: reads the committed comparison of chapter 10",
     "uwtutor.lsq:LSQFix": "a result container linearized_lsq, nonlinear_lsq and prepositioning build (specified)",

@@ -41,8 +41,8 @@ array([[nan],
 
 from ._core import DEFAULT_START_SIGMAS, RangeDataset, square_log
 from ._plaza import PLAZA_HEADING_OFFSET, plaza
-from .navigation import CANDIDATES, NavigationModels, NavigationResult, navigate, navigation_models
+from .navigation import CANDIDATES, NavigationModels, NavigationResult, navigate, navigation_gate, navigation_models
 
-__all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "NavigationModels", "NavigationResult",
-           "CANDIDATES", "DEFAULT_START_SIGMAS",
+__all__ = ["RangeDataset", "plaza", "navigate", "navigation_models", "navigation_gate", "NavigationModels",
+           "NavigationResult", "CANDIDATES", "DEFAULT_START_SIGMAS",
            "PLAZA_HEADING_OFFSET", "square_log"]

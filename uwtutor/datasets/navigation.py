@@ -42,7 +42,8 @@ from ..filters import ChiSquareGate, FilterResult, ReacquiringGate, extended_kal
 from ..models import BeaconRanges, OdometryMotion
 from ._core import BeaconIds, RangeDataset
 
-__all__ = ["navigate", "navigation_models", "NavigationModels", "NavigationResult", "CANDIDATES", "LOST_TRACK_REJECTED"]
+__all__ = ["navigate", "navigation_models", "navigation_gate", "NavigationModels", "NavigationResult", "CANDIDATES",
+           "LOST_TRACK_REJECTED"]
 
 
 def _positive(name: str, value: Any) -> float:
@@ -225,6 +226,25 @@ def _n_extra(name: str) -> int:
     return sum(CANDIDATES[name])
 
 
+def navigation_gate() -> ReacquiringGate:
+    r"""The gate of :func:`navigate`, new (a gate keeps a count of the rejections in a row, so each run takes its own).
+
+    A chi-square test of each beacon's range at 99.9 % (:class:`~uwtutor.filters.gates.ChiSquareGate` with
+    ``per_component=True``: one outlying beacon does not take the others with it), re-acquiring after 10 rejections
+    in a row (:class:`~uwtutor.filters.gates.ReacquiringGate`: a filter that has lost the track widens its
+    covariance instead of turning every range away for good). For a filter of your own on a log, with the models of
+    :func:`navigation_models`.
+
+    Examples
+    --------
+    >>> from uwtutor.datasets import navigation_gate
+    >>> gate = navigation_gate()
+    >>> type(gate).__name__, gate.patience
+    ('ReacquiringGate', 10)
+    """
+    return ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10)
+
+
 def _run_candidates(data: RangeDataset, beacon_ids: BeaconIds, candidates: list[tuple[str, tuple[bool, bool]]],
                     gate: bool, options: dict[str, Any]) -> dict[str, tuple["NavigationModels", FilterResult, Any]]:
     """Run every candidate through the gated filter and score it: name -> (its models, its result, its
@@ -239,7 +259,7 @@ def _run_candidates(data: RangeDataset, beacon_ids: BeaconIds, candidates: list[
     (tests/test_navigate.py checks it).
     """
     def new_gate() -> ReacquiringGate | None:
-        return ReacquiringGate(ChiSquareGate(0.999, per_component=True), patience=10) if gate else None
+        return navigation_gate() if gate else None
 
     models = {name: navigation_models(data, beacon_ids, gyro_bias=with_bias, scale=with_scale, **options)
               for name, (with_bias, with_scale) in candidates}
