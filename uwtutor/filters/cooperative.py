@@ -93,10 +93,20 @@ def range_pairs(ranges: ArrayLike) -> NDArray[np.float64]:
     array([[100., 110.],
            [110., 120.]])
     """
-    r = as_range_array("ranges", ranges, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
-    if r.shape[-1] < 2:
-        raise ValueError(f"ranges must hold at least two epochs (one interval); got shape {r.shape}")
+    return _pairs(_epoch_ranges("ranges", ranges))
+
+
+def _pairs(r: np.ndarray) -> np.ndarray:
+    """``[r_k, r_(k+1)]`` for each interval of checked epoch ranges."""
     return np.stack([r[..., :-1], r[..., 1:]], axis=-1)
+
+
+def _epoch_ranges(name: str, ranges: Any) -> np.ndarray:
+    """The ranges of the epochs ``(K + 1,)`` or ``(M, K + 1)``, checked under the caller's name for them."""
+    r = as_range_array(name, ranges, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
+    if r.shape[-1] < 2:
+        raise ValueError(f"{name} must hold the ranges of at least two epochs (one interval); got shape {r.shape}")
+    return r
 
 
 def leader_observations(ranges: ArrayLike, leader: ArrayLike, *, single_range: bool = False) -> NDArray[np.float64]:
@@ -555,10 +565,7 @@ def cooperative_ekf(x0: ArrayLike, P0: ArrayLike, u: ArrayLike, z: ArrayLike, Q:
     >>> res.x.shape
     (4, 312, 4)
     """
-    ranges = as_range_array("z", z, allow_nan=True, ndim=(1, 2), max_abs=MAX_COORDINATE)
-    if ranges.shape[-1] < 2:
-        raise ValueError(f"z must hold the ranges of at least two epochs (one interval); got shape {ranges.shape}")
-    pairs = range_pairs(ranges)
+    pairs = _pairs(_epoch_ranges("z", z))
     if u is None or leader is None:
         raise TypeError(f"{'u' if u is None else 'leader'} is required: cooperative_ekf runs the whole run (for one "
                         "step at a time, CooperativeEKF takes each step's displacement and leader positions)")

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from .._validate import as_covariance, as_int
 from .base import MotionModel
-from .blocks import BlockMotion, Position, RandomWalk, StateBlock, _name
+from .blocks import BlockMotion, Position, RandomWalk, StateBlock, _displacement, _name
 
 __all__ = ["DeadReckoning"]
 
@@ -145,12 +145,8 @@ class DeadReckoning(BlockMotion):
     def f(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:
         if u is None:
             return x.copy()
-        u = np.asarray(u, dtype=float)
-        if u.shape[-1:] != (2,):      # [dx, dy]: a (.., 1) displacement would be broadcast onto both axes
-            raise ValueError(f"u must be the DR displacement [dx, dy] of the step (last axis of length 2); got "
-                             f"shape {u.shape}")
         out = x.copy()
-        out[..., :2] += u
+        out[..., :2] += _displacement(u)
         return out
 
     def F(self, x: np.ndarray, u: Any, k: int) -> np.ndarray:

@@ -162,17 +162,16 @@ class RangeToBeacon(BlockMeasurement):
             raise ValueError(f"beacon must hold horizontal positions [x, y]: shape (2,), (K, 2) or (M, K, 2); "
                              f"got {b.shape}")
         self.beacon = b
-        if state is None:
-            if bias is not None:
-                raise ValueError(f"bias={bias!r} names a slot of a state: give the motion model as state=... (or the "
-                                 "bias by its index, bias_index=...)")
-            size = as_int("n", 2 if n is None else n, minimum=2)
-        elif n is not None or bias_index is not None:
+        if state is not None and (n is not None or bias_index is not None):
             raise ValueError("give state (the motion model whose slots the range reads) or the indices n and "
                              "bias_index, not both")
+        if state is None and bias is not None:
+            raise ValueError(f"bias={bias!r} names a slot of a state: give the motion model as state=... (or the "
+                             "bias by its index, bias_index=...)")
         self._noise = NoiseSchedule("R", R, 1)
         self._R = self._noise.constant
         if state is None:
+            size = as_int("n", 2 if n is None else n, minimum=2)
             if bias_index is not None:
                 bias_index = as_int("bias_index", bias_index, minimum=2)
                 if bias_index >= size:
